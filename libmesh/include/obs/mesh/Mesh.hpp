@@ -1,0 +1,89 @@
+#pragma once
+/// \file Mesh.hpp
+/// A flat unstructured mesh: vertices, cells of any of the six types (all of one dimension), and
+/// boundary faces carrying integer ids with optional names. This is the exchange format between
+/// generators, file readers, the hierarchical grid (whose leaf and level views are Meshes) and
+/// the finite element code.
+#include <Eigen/Core>
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "obs/mesh/CellType.hpp"
+
+namespace obs::mesh {
+
+using Index = std::int32_t;
+/// Vertex coordinates; always three components, z = 0 in 2D.
+using Point = Eigen::Vector3d;
+
+class Mesh {
+public:
+  explicit Mesh(int dimension = 2);
+
+  int dimension() const { return dim_; }
+
+  // --- vertices --------------------------------------------------------------------------------
+  Index addVertex(const Point& x);
+  Index numVertices() const { return static_cast<Index>(vertices_.size()); }
+  const Point& vertex(Index v) const { return vertices_[v]; }
+  Point& vertex(Index v) { return vertices_[v]; }
+  const std::vector<Point>& vertices() const { return vertices_; }
+
+  // --- cells -----------------------------------------------------------------------------------
+  /// Adds a cell; its type must have the mesh dimension and `vertices` its vertex count.
+  Index addCell(CellType type, std::span<const Index> vertices);
+  Index addCell(CellType type, std::initializer_list<Index> vertices) {
+    return addCell(type, std::span<const Index>(vertices.begin(), vertices.size()));
+  }
+  Index numCells() const { return static_cast<Index>(cellTypes_.size()); }
+  CellType cellType(Index c) const { return cellTypes_[c]; }
+  std::span<const Index> cellVertices(Index c) const {
+    return {cellConn_.data() + cellOffsets_[c], cellConn_.data() + cellOffsets_[c + 1]};
+  }
+  std::span<Index> cellVertices(Index c) {
+    return {cellConn_.data() + cellOffsets_[c], cellConn_.data() + cellOffsets_[c + 1]};
+  }
+
+  // --- boundary faces --------------------------------------------------------------------------
+  /// Adds a boundary face (segment in 2D, triangle or quadrilateral in 3D) with boundary id `id`.
+  Index addBoundaryFace(std::span<const Index> vertices, int id);
+  Index addBoundaryFace(std::initializer_list<Index> vertices, int id) {
+    return addBoundaryFace(std::span<const Index>(vertices.begin(), vertices.size()), id);
+  }
+  Index numBoundaryFaces() const { return static_cast<Index>(faceIds_.size()); }
+  std::span<const Index> boundaryFaceVertices(Index f) const {
+    return {faceConn_.data() + faceOffsets_[f], faceConn_.data() + faceOffsets_[f + 1]};
+  }
+  CellType boundaryFaceType(Index f) const {
+    return faceTypeFromVertexCount(faceOffsets_[f + 1] - faceOffsets_[f]);
+  }
+  int boundaryFaceId(Index f) const { return faceIds_[f]; }
+
+  // --- boundary names --------------------------------------------------------------------------
+  void setBoundaryName(int id, const std::string& name);
+  /// Id of a named boundary, if the name exists.
+  std::optional<int> boundaryId(const std::string& name) const;
+  const std::map<int, std::string>& boundaryNames() const { return names_; }
+
+  /// Number of cells of each type, indexed by static_cast<int>(CellType).
+  std::array<Index, 7> cellCounts() const;
+
+private:
+  int dim_;
+  std::vector<Point> vertices_;
+  std::vector<CellType> cellTypes_;
+  std::vector<Index> cellOffsets_{0};
+  std::vector<Index> cellConn_;
+  std::vector<int> faceIds_;
+  std::vector<Index> faceOffsets_{0};
+  std::vector<Index> faceConn_;
+  std::map<int, std::string> names_;
+};
+
+}  // namespace obs::mesh

@@ -1,0 +1,60 @@
+#include "obs/mesh/Mesh.hpp"
+
+#include "obs/mesh/Error.hpp"
+
+namespace obs::mesh {
+
+Mesh::Mesh(int dimension) : dim_(dimension) {
+  if (dimension != 2 && dimension != 3) throw Error("Mesh: dimension must be 2 or 3");
+}
+
+Index Mesh::addVertex(const Point& x) {
+  vertices_.push_back(x);
+  return numVertices() - 1;
+}
+
+Index Mesh::addCell(CellType type, std::span<const Index> vertices) {
+  if (mesh::dimension(type) != dim_)
+    throw Error("Mesh::addCell: a " + std::string(name(type)) + " in a " + std::to_string(dim_) +
+                "D mesh");
+  if (static_cast<int>(vertices.size()) != numVertices(type))
+    throw Error("Mesh::addCell: a " + std::string(name(type)) + " needs " +
+                std::to_string(numVertices(type)) + " vertices");
+  for (Index v : vertices)
+    if (v < 0 || v >= numVertices())
+      throw Error("Mesh::addCell: vertex index " + std::to_string(v) + " out of range");
+  cellTypes_.push_back(type);
+  cellConn_.insert(cellConn_.end(), vertices.begin(), vertices.end());
+  cellOffsets_.push_back(static_cast<Index>(cellConn_.size()));
+  return numCells() - 1;
+}
+
+Index Mesh::addBoundaryFace(std::span<const Index> vertices, int id) {
+  const int n = static_cast<int>(vertices.size());
+  if ((dim_ == 2 && n != 2) || (dim_ == 3 && n != 3 && n != 4))
+    throw Error("Mesh::addBoundaryFace: a face of a " + std::to_string(dim_) + "D mesh with " +
+                std::to_string(n) + " vertices");
+  for (Index v : vertices)
+    if (v < 0 || v >= numVertices())
+      throw Error("Mesh::addBoundaryFace: vertex index " + std::to_string(v) + " out of range");
+  faceIds_.push_back(id);
+  faceConn_.insert(faceConn_.end(), vertices.begin(), vertices.end());
+  faceOffsets_.push_back(static_cast<Index>(faceConn_.size()));
+  return numBoundaryFaces() - 1;
+}
+
+void Mesh::setBoundaryName(int id, const std::string& name) { names_[id] = name; }
+
+std::optional<int> Mesh::boundaryId(const std::string& name) const {
+  for (const auto& [id, n] : names_)
+    if (n == name) return id;
+  return std::nullopt;
+}
+
+std::array<Index, 7> Mesh::cellCounts() const {
+  std::array<Index, 7> counts{};
+  for (CellType t : cellTypes_) ++counts[static_cast<int>(t)];
+  return counts;
+}
+
+}  // namespace obs::mesh
