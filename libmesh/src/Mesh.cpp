@@ -17,9 +17,9 @@ Index Mesh::addCell(CellType type, std::span<const Index> vertices) {
   if (mesh::dimension(type) != dim_)
     throw Error("Mesh::addCell: a " + std::string(name(type)) + " in a " + std::to_string(dim_) +
                 "D mesh");
-  if (static_cast<int>(vertices.size()) != numVertices(type))
+  if (static_cast<int>(vertices.size()) != mesh::numVertices(type))
     throw Error("Mesh::addCell: a " + std::string(name(type)) + " needs " +
-                std::to_string(numVertices(type)) + " vertices");
+                std::to_string(mesh::numVertices(type)) + " vertices");
   for (Index v : vertices)
     if (v < 0 || v >= numVertices())
       throw Error("Mesh::addCell: vertex index " + std::to_string(v) + " out of range");

@@ -5,6 +5,7 @@
 /// generators, file readers, the hierarchical grid (whose leaf and level views are Meshes) and
 /// the finite element code.
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 #include <array>
 #include <cstdint>

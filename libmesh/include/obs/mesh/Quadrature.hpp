@@ -7,8 +7,9 @@
 ///   - on quadrilaterals and hexahedra: every polynomial of degree <= degree in each coordinate
 ///     (tensor Gauss-Legendre);
 ///   - on prisms: every polynomial of total degree <= degree in (x, y) times degree <= degree in z;
-///   - on pyramids: every polynomial of total degree <= degree (collapsed Gauss rule), and every
-///     product of `degree` pyramid shape functions' numerators over (1-z)^k up to that degree.
+///   - on pyramids: every polynomial of total degree <= degree; in the collapsed coordinates
+///     u = x/(1-z), v = y/(1-z), w = z it is exact for Q_degree(u, v) x P_degree(w), which holds
+///     the stiffness integrands of the rational pyramid element on affine pyramids for degree 2.
 /// Simplex and pyramid rules are conical-product (Stroud) rules built from Gauss-Jacobi points, so
 /// all weights are positive and all points interior. Rules are computed once and cached.
 #include <vector>
