@@ -1,0 +1,99 @@
+#pragma once
+/// \file BlockSparseMatrix.hpp
+/// Sparse matrix of d x d blocks in compressed-row form: one block row per vertex, columns sorted.
+/// The natural storage for vector-valued P1/Q1 problems (d unknowns per vertex), and the format the
+/// block Gauss-Seidel smoothers of the contact solvers work on.
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <cassert>
+#include <span>
+#include <vector>
+
+#include "obs/mesh/Mesh.hpp"
+
+namespace obs {
+
+using mesh::Index;
+
+template <int d>
+class BlockSparseMatrix {
+public:
+  using Block = Eigen::Matrix<double, d, d>;
+  static constexpr int blockSize = d;
+
+  BlockSparseMatrix() = default;
+
+  /// Pattern from compressed rows: rowStart has n + 1 entries, columns of each row sorted and
+  /// unique. Blocks are zero.
+  BlockSparseMatrix(std::vector<Index> rowStart, std::vector<Index> columns)
+      : rowStart_(std::move(rowStart)), cols_(std::move(columns)), blocks_(cols_.size(), Block::Zero()) {}
+
+  /// Pattern coupling every pair of vertices that share a cell (diagonal included).
+  static BlockSparseMatrix withMeshPattern(const mesh::Mesh& mesh);
+
+  Index rows() const { return static_cast<Index>(rowStart_.size()) - 1; }
+  Index nonZeroBlocks() const { return static_cast<Index>(cols_.size()); }
+
+  Index rowBegin(Index i) const { return rowStart_[i]; }
+  Index rowEnd(Index i) const { return rowStart_[i + 1]; }
+  Index column(Index k) const { return cols_[k]; }
+  Block& blockAt(Index k) { return blocks_[k]; }
+  const Block& blockAt(Index k) const { return blocks_[k]; }
+
+  /// Position of block (i, j) in the storage, or -1 if not in the pattern.
+  Index find(Index i, Index j) const {
+    const auto b = cols_.begin() + rowStart_[i], e = cols_.begin() + rowStart_[i + 1];
+    const auto it = std::lower_bound(b, e, j);
+    return (it != e && *it == j) ? static_cast<Index>(it - cols_.begin()) : -1;
+  }
+  /// Block (i, j); it must be in the pattern.
+  Block& operator()(Index i, Index j) {
+    const Index k = find(i, j);
+    assert(k >= 0);
+    return blocks_[k];
+  }
+  const Block& operator()(Index i, Index j) const {
+    const Index k = find(i, j);
+    assert(k >= 0);
+    return blocks_[k];
+  }
+  /// Position of the diagonal block of row i.
+  Index diagonal(Index i) const { return find(i, i); }
+
+  void setZero() { std::fill(blocks_.begin(), blocks_.end(), Block::Zero()); }
+
+  /// y = A x for vertex-major vectors (x[v*d + c]).
+  void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
+    y.resize(static_cast<Eigen::Index>(rows()) * d);
+    for (Index i = 0; i < rows(); ++i) {
+      Eigen::Matrix<double, d, 1> s = Eigen::Matrix<double, d, 1>::Zero();
+      for (Index k = rowStart_[i]; k < rowStart_[i + 1]; ++k)
+        s.noalias() += blocks_[k] * x.template segment<d>(static_cast<Eigen::Index>(cols_[k]) * d);
+      y.template segment<d>(static_cast<Eigen::Index>(i) * d) = s;
+    }
+  }
+  Eigen::VectorXd operator*(const Eigen::VectorXd& x) const {
+    Eigen::VectorXd y;
+    multiply(x, y);
+    return y;
+  }
+
+  /// Energy product x' A x.
+  double energy(const Eigen::VectorXd& x) const { return x.dot(*this * x); }
+
+  std::size_t memoryBytes() const {
+    return rowStart_.capacity() * sizeof(Index) + cols_.capacity() * sizeof(Index) +
+           blocks_.capacity() * sizeof(Block);
+  }
+
+private:
+  std::vector<Index> rowStart_{0};
+  std::vector<Index> cols_;
+  std::vector<Block> blocks_;
+};
+
+extern template class BlockSparseMatrix<2>;
+extern template class BlockSparseMatrix<3>;
+
+}  // namespace obs

@@ -1,0 +1,43 @@
+#pragma once
+/// \file ElasticityAssembly.hpp
+/// Element-local kernels and global assembly for linear elasticity with first-order Lagrange
+/// elements (vertex-based, d unknowns per vertex, vertex-major numbering u[v*d + c]):
+///   a(u, v) = int lambda div u div v + 2 mu eps(u) : eps(v)
+///   l(v)    = int f . v + int_{Gamma_N} t . v
+/// and the symmetric elimination of Dirichlet values.
+#include <Eigen/Core>
+
+#include <vector>
+
+#include "obs/mesh/Mesh.hpp"
+#include "obs/obs/BlockSparseMatrix.hpp"
+#include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/Material.hpp"
+
+namespace obs {
+
+/// Stiffness matrix on the mesh's vertex-adjacency pattern.
+template <int d>
+BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& material);
+
+/// Load vector from the body force and the Neumann conditions of `bc` (Dirichlet data ignored).
+template <int d>
+Eigen::VectorXd assembleLoad(const mesh::Mesh& mesh, const BoundaryConditions& bc);
+
+/// Prescribed components: constrained[v*d + c] != 0 where a Dirichlet condition fixes component c
+/// at vertex v (the vertices of the boundary faces with the condition's id), with values.
+/// When conditions overlap, later ones in the list win.
+struct DirichletValues {
+  std::vector<char> constrained;
+  Eigen::VectorXd values;
+  long long count() const;
+};
+DirichletValues collectDirichlet(const mesh::Mesh& mesh, const std::vector<DirichletCondition>& dirichlet);
+
+/// Symmetric elimination: b -= A g on free rows, constrained rows and columns of A replaced by
+/// the identity and b = g there. The solution of the modified system satisfies the Dirichlet
+/// values exactly and the matrix stays symmetric positive definite.
+template <int d>
+void applyDirichlet(BlockSparseMatrix<d>& A, Eigen::VectorXd& b, const DirichletValues& g);
+
+}  // namespace obs

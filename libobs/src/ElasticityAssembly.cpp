@@ -1,0 +1,221 @@
+#include "obs/obs/ElasticityAssembly.hpp"
+
+#include <algorithm>
+
+#include "obs/mesh/Error.hpp"
+#include "obs/mesh/Quadrature.hpp"
+#include "obs/mesh/ReferenceElement.hpp"
+#include "obs/obs/CellValues.hpp"
+
+namespace obs {
+namespace {
+
+// Quadrature degrees: stiffness integrands are quadratic on affine cells (exact with degree 2,
+// also for the rational pyramid, see Quadrature.hpp); loads use one degree more for smooth data.
+constexpr int kStiffnessDegree = 2;
+constexpr int kLoadDegree = 3;
+
+/// Quadrature point on a boundary face: physical point, surface weight and unit normal as
+/// oriented by the face's vertex order.
+struct FacePoint {
+  Point x;
+  double weight;
+  Point normal;
+};
+
+std::vector<FacePoint> faceQuadrature(const mesh::Mesh& m, std::span<const Index> fv, int degree,
+                                      std::vector<std::vector<double>>& shape) {
+  const mesh::CellType ft = mesh::faceTypeFromVertexCount(static_cast<int>(fv.size()));
+  const auto& ref = mesh::referenceElement(ft);
+  const auto& rule = mesh::quadratureRule(ft, degree);
+  std::vector<FacePoint> pts;
+  shape.assign(rule.size(), std::vector<double>(fv.size()));
+  double g[8];
+  for (std::size_t q = 0; q < rule.size(); ++q) {
+    ref.values(rule.points[q], shape[q]);
+    ref.gradients(rule.points[q], std::span<double>(g, fv.size() * ref.dim));
+    Point x = Point::Zero(), ds = Point::Zero(), dt = Point::Zero();
+    for (std::size_t i = 0; i < fv.size(); ++i) {
+      const Point& xi = m.vertex(fv[i]);
+      x += shape[q][i] * xi;
+      ds += g[i * ref.dim] * xi;
+      if (ref.dim == 2) dt += g[i * ref.dim + 1] * xi;
+    }
+    Point n = ref.dim == 1 ? Point(ds[1], -ds[0], 0) : Point(ds.cross(dt));
+    const double J = n.norm();
+    if (!(J > 0)) throw Error("boundary face with vertices " + std::to_string(fv[0]) + ", " +
+                              std::to_string(fv[1]) + ", ... is degenerate");
+    pts.push_back({x, J * rule.weights[q], n / J});
+  }
+  return pts;
+}
+
+/// +1 if the face's vertex order gives the outward normal of the adjacent cell, else -1.
+double outwardSign(const mesh::Mesh& m, std::span<const Index> fv, const std::vector<Index>& cellStart,
+                   const std::vector<Index>& cellsOf, const Point& normal) {
+  for (Index k = cellStart[fv[0]]; k < cellStart[fv[0] + 1]; ++k) {
+    const Index c = cellsOf[k];
+    const auto cv = m.cellVertices(c);
+    const bool containsFace = std::all_of(fv.begin(), fv.end(), [&](Index v) {
+      return std::find(cv.begin(), cv.end(), v) != cv.end();
+    });
+    if (!containsFace) continue;
+    Point cc = Point::Zero(), fc = Point::Zero();
+    for (Index v : cv) cc += m.vertex(v);
+    for (Index v : fv) fc += m.vertex(v);
+    cc /= static_cast<double>(cv.size());
+    fc /= static_cast<double>(fv.size());
+    return normal.dot(fc - cc) >= 0 ? 1.0 : -1.0;
+  }
+  throw Error("boundary face with first vertex " + std::to_string(fv[0]) +
+              " is not a face of any cell");
+}
+
+}  // namespace
+
+template <int d>
+BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& material) {
+  if (mesh.dimension() != d) throw Error("assembleStiffness: mesh dimension mismatch");
+  auto A = BlockSparseMatrix<d>::withMeshPattern(mesh);
+  const double lambda = material.lambda(), mu = material.mu();
+  CellValues<d> cv(kStiffnessDegree);
+  using Block = typename BlockSparseMatrix<d>::Block;
+  Block local[8][8];
+  Index pos[8][8];
+  for (Index c = 0; c < mesh.numCells(); ++c) {
+    cv.reinit(mesh, c);
+    const int n = cv.numVertices();
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) local[i][j].setZero();
+    for (int q = 0; q < cv.numPoints(); ++q) {
+      const double w = cv.JxW(q);
+      for (int i = 0; i < n; ++i) {
+        const auto& gi = cv.gradient(q, i);
+        for (int j = 0; j < n; ++j) {
+          const auto& gj = cv.gradient(q, j);
+          // K_ij[a][b] = lambda d_a phi_i d_b phi_j + mu (delta_ab grad phi_i . grad phi_j
+          //              + d_b phi_i d_a phi_j)
+          local[i][j].noalias() += w * (lambda * gi * gj.transpose() + mu * gj * gi.transpose());
+          local[i][j].diagonal().array() += w * mu * gi.dot(gj);
+        }
+      }
+    }
+    const auto verts = mesh.cellVertices(c);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) pos[i][j] = A.find(verts[i], verts[j]);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) A.blockAt(pos[i][j]) += local[i][j];
+  }
+  return A;
+}
+
+template <int d>
+Eigen::VectorXd assembleLoad(const mesh::Mesh& mesh, const BoundaryConditions& bc) {
+  Eigen::VectorXd b = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(mesh.numVertices()) * d);
+  if (bc.bodyForce) {
+    CellValues<d> cv(kLoadDegree);
+    for (Index c = 0; c < mesh.numCells(); ++c) {
+      cv.reinit(mesh, c);
+      const auto verts = mesh.cellVertices(c);
+      for (int q = 0; q < cv.numPoints(); ++q) {
+        Point x = Point::Zero();
+        x.template head<d>() = cv.point(q);
+        const Eigen::Matrix<double, d, 1> f = bc.bodyForce(x).template head<d>();
+        for (int i = 0; i < cv.numVertices(); ++i)
+          b.template segment<d>(static_cast<Eigen::Index>(verts[i]) * d) += cv.JxW(q) * cv.value(q, i) * f;
+      }
+    }
+  }
+  if (bc.neumann.empty()) return b;
+
+  // vertex -> cells, to orient pressure loads along the outward normal
+  std::vector<Index> cellStart(mesh.numVertices() + 1, 0), cellsOf;
+  for (Index c = 0; c < mesh.numCells(); ++c)
+    for (Index v : mesh.cellVertices(c)) ++cellStart[v + 1];
+  for (Index v = 0; v < mesh.numVertices(); ++v) cellStart[v + 1] += cellStart[v];
+  cellsOf.resize(cellStart.back());
+  {
+    std::vector<Index> fill(cellStart.begin(), cellStart.end() - 1);
+    for (Index c = 0; c < mesh.numCells(); ++c)
+      for (Index v : mesh.cellVertices(c)) cellsOf[fill[v]++] = c;
+  }
+
+  std::vector<std::vector<double>> shape;
+  for (const NeumannCondition& nc : bc.neumann) {
+    if (!nc.traction && !nc.pressure) continue;
+    for (Index f = 0; f < mesh.numBoundaryFaces(); ++f) {
+      if (mesh.boundaryFaceId(f) != nc.boundaryId) continue;
+      const auto fv = mesh.boundaryFaceVertices(f);
+      const auto pts = faceQuadrature(mesh, fv, kLoadDegree, shape);
+      const double sign = nc.traction ? 1.0 : outwardSign(mesh, fv, cellStart, cellsOf, pts[0].normal);
+      for (std::size_t q = 0; q < pts.size(); ++q) {
+        const Eigen::Vector3d t =
+            nc.traction ? nc.traction(pts[q].x) : Eigen::Vector3d(-nc.pressure(pts[q].x) * sign * pts[q].normal);
+        for (std::size_t i = 0; i < fv.size(); ++i)
+          b.template segment<d>(static_cast<Eigen::Index>(fv[i]) * d) +=
+              pts[q].weight * shape[q][i] * t.template head<d>();
+      }
+    }
+  }
+  return b;
+}
+
+long long DirichletValues::count() const {
+  return std::count_if(constrained.begin(), constrained.end(), [](char c) { return c != 0; });
+}
+
+DirichletValues collectDirichlet(const mesh::Mesh& mesh, const std::vector<DirichletCondition>& dirichlet) {
+  const int d = mesh.dimension();
+  DirichletValues g;
+  g.constrained.assign(static_cast<std::size_t>(mesh.numVertices()) * d, 0);
+  g.values = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(mesh.numVertices()) * d);
+  std::vector<char> seen(mesh.numVertices());
+  for (const DirichletCondition& dc : dirichlet) {
+    std::fill(seen.begin(), seen.end(), 0);
+    for (Index f = 0; f < mesh.numBoundaryFaces(); ++f) {
+      if (mesh.boundaryFaceId(f) != dc.boundaryId) continue;
+      for (Index v : mesh.boundaryFaceVertices(f)) {
+        if (seen[v]) continue;
+        seen[v] = 1;
+        const Eigen::Vector3d value = dc.value(mesh.vertex(v));
+        for (int c = 0; c < d; ++c)
+          if (dc.fixed[c]) {
+            g.constrained[static_cast<std::size_t>(v) * d + c] = 1;
+            g.values[static_cast<Eigen::Index>(v) * d + c] = value[c];
+          }
+      }
+    }
+  }
+  return g;
+}
+
+template <int d>
+void applyDirichlet(BlockSparseMatrix<d>& A, Eigen::VectorXd& b, const DirichletValues& g) {
+  // b -= A g restricted to free rows (g is zero on free components)
+  Eigen::VectorXd gv = g.values;
+  for (std::size_t k = 0; k < g.constrained.size(); ++k)
+    if (!g.constrained[k]) gv[static_cast<Eigen::Index>(k)] = 0;
+  b -= A * gv;
+  for (Index i = 0; i < A.rows(); ++i)
+    for (Index k = A.rowBegin(i); k < A.rowEnd(i); ++k) {
+      const Index j = A.column(k);
+      auto& B = A.blockAt(k);
+      for (int a = 0; a < d; ++a)
+        for (int c = 0; c < d; ++c) {
+          const bool ra = g.constrained[static_cast<std::size_t>(i) * d + a];
+          const bool cc = g.constrained[static_cast<std::size_t>(j) * d + c];
+          if (ra || cc) B(a, c) = (i == j && a == c) ? 1.0 : 0.0;
+        }
+    }
+  for (std::size_t k = 0; k < g.constrained.size(); ++k)
+    if (g.constrained[k]) b[static_cast<Eigen::Index>(k)] = g.values[static_cast<Eigen::Index>(k)];
+}
+
+template BlockSparseMatrix<2> assembleStiffness<2>(const mesh::Mesh&, const Material&);
+template BlockSparseMatrix<3> assembleStiffness<3>(const mesh::Mesh&, const Material&);
+template Eigen::VectorXd assembleLoad<2>(const mesh::Mesh&, const BoundaryConditions&);
+template Eigen::VectorXd assembleLoad<3>(const mesh::Mesh&, const BoundaryConditions&);
+template void applyDirichlet<2>(BlockSparseMatrix<2>&, Eigen::VectorXd&, const DirichletValues&);
+template void applyDirichlet<3>(BlockSparseMatrix<3>&, Eigen::VectorXd&, const DirichletValues&);
+
+}  // namespace obs

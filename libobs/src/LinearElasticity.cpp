@@ -1,0 +1,92 @@
+#include "obs/obs/LinearElasticity.hpp"
+
+#include <chrono>
+#include <cmath>
+
+#include "obs/mesh/Error.hpp"
+#include "obs/obs/CellValues.hpp"
+#include "obs/obs/CholmodSolver.hpp"
+#include "obs/obs/ElasticityAssembly.hpp"
+
+namespace obs {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+double since(Clock::time_point t0) {
+  return std::chrono::duration<double>(Clock::now() - t0).count();
+}
+
+/// Cell-mean stresses and their volume-weighted average at the vertices.
+template <int d>
+void recoverStresses(const mesh::Mesh& mesh, const Material& mat, ElasticitySolution& s) {
+  const double lambda = mat.lambda(), mu = mat.mu();
+  CellValues<d> cv(2);
+  s.cellStress.assign(mesh.numCells(), Stress::Zero());
+  s.vertexStress.assign(mesh.numVertices(), Stress::Zero());
+  std::vector<double> weight(mesh.numVertices(), 0.0);
+  for (Index c = 0; c < mesh.numCells(); ++c) {
+    cv.reinit(mesh, c);
+    const auto verts = mesh.cellVertices(c);
+    Stress sum = Stress::Zero();
+    double vol = 0;
+    for (int q = 0; q < cv.numPoints(); ++q) {
+      Eigen::Matrix<double, d, d> grad = Eigen::Matrix<double, d, d>::Zero();  // du_a/dx_b
+      for (int i = 0; i < cv.numVertices(); ++i)
+        grad += s.displacement.template segment<d>(static_cast<Eigen::Index>(verts[i]) * d) *
+                cv.gradient(q, i).transpose();
+      const Eigen::Matrix<double, d, d> eps = 0.5 * (grad + grad.transpose());
+      Stress sigma = Stress::Zero();
+      sigma.topLeftCorner<d, d>() = 2 * mu * eps;
+      sigma.diagonal().array() += lambda * eps.trace();  // plane strain: sigma_zz = lambda tr eps
+      sum += cv.JxW(q) * sigma;
+      vol += cv.JxW(q);
+    }
+    s.cellStress[c] = sum / vol;
+    for (Index v : verts) {
+      s.vertexStress[v] += vol * s.cellStress[c];
+      weight[v] += vol;
+    }
+  }
+  for (Index v = 0; v < mesh.numVertices(); ++v)
+    if (weight[v] > 0) s.vertexStress[v] /= weight[v];
+}
+
+template <int d>
+ElasticitySolution solve(const mesh::Mesh& mesh, const Material& material, const BoundaryConditions& bc) {
+  material.validate();
+  ElasticitySolution s;
+  s.dimension = d;
+  auto t0 = Clock::now();
+  auto A = assembleStiffness<d>(mesh, material);
+  Eigen::VectorXd b = assembleLoad<d>(mesh, bc);
+  const DirichletValues g = collectDirichlet(mesh, bc.dirichlet);
+  applyDirichlet(A, b, g);
+  s.assemblySeconds = since(t0);
+  s.dofs = static_cast<long long>(mesh.numVertices()) * d;
+  s.freeDofs = s.dofs - g.count();
+
+  t0 = Clock::now();
+  CholmodSolver solver(A);
+  s.displacement = solver.solve(b);
+  s.solveSeconds = since(t0);
+  s.factorNonZeros = solver.factorNonZeros();
+  if (!s.displacement.allFinite())
+    throw Error("linear elasticity: the solution contains NaN or Inf (ill-posed problem?)");
+  recoverStresses<d>(mesh, material, s);
+  return s;
+}
+
+}  // namespace
+
+ElasticitySolution solveLinearElasticity(const mesh::Mesh& mesh, const Material& material,
+                                         const BoundaryConditions& bc) {
+  return mesh.dimension() == 2 ? solve<2>(mesh, material, bc) : solve<3>(mesh, material, bc);
+}
+
+double vonMises(const Stress& s) {
+  const double a = s(0, 0) - s(1, 1), b = s(1, 1) - s(2, 2), c = s(2, 2) - s(0, 0);
+  const double shear = s(0, 1) * s(0, 1) + s(1, 2) * s(1, 2) + s(0, 2) * s(0, 2);
+  return std::sqrt(0.5 * (a * a + b * b + c * c) + 3 * shear);
+}
+
+}  // namespace obs
