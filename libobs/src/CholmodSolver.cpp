@@ -17,6 +17,9 @@ struct CholmodSolver::Impl {
     cholmod_start(&common);
     common.print = 0;
     common.error_handler = nullptr;
+    // Always a supernodal LL' factorisation: a simplicial LDL' would silently accept indefinite
+    // matrices, and obs wants a clear error for an ill-posed problem.
+    common.supernodal = CHOLMOD_SUPERNODAL;
   }
   ~Impl() {
     if (factor) cholmod_free_factor(&factor, &common);
@@ -67,7 +70,7 @@ CholmodSolver::CholmodSolver(const BlockSparseMatrix<d>& A) : impl_(std::make_un
   }
   cholmod_factorize(S, impl_->factor, &impl_->common);
   cholmod_free_sparse(&S, &impl_->common);
-  if (impl_->common.status == CHOLMOD_NOT_POSDEF)
+  if (impl_->common.status == CHOLMOD_NOT_POSDEF || impl_->factor->minor < n)
     throw Error("CHOLMOD: matrix not positive definite (breakdown at column " +
                 std::to_string(impl_->factor->minor) +
                 "); are all rigid motions fixed by Dirichlet conditions?");

@@ -9,6 +9,7 @@
 
 namespace obs {
 
+using mesh::Index;
 using mesh::Point;
 /// A vector field of the position (components beyond the dimension are ignored).
 using VectorField = std::function<Eigen::Vector3d(const Point&)>;

@@ -1,0 +1,53 @@
+#pragma once
+/// \file Verification.hpp
+/// Tools to verify discretisations: error norms of a finite element displacement against an
+/// exact solution, and a smooth manufactured solution of linear elasticity with its data.
+#include <Eigen/Core>
+
+#include <functional>
+
+#include "obs/mesh/Mesh.hpp"
+#include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/Material.hpp"
+
+namespace obs {
+
+struct ErrorNorms {
+  double l2 = 0;        ///< ||u - u_h||_{L2}
+  double h1 = 0;        ///< |u - u_h|_{H1} (seminorm)
+  double l2Exact = 0;   ///< ||u||_{L2}, for relative errors
+  double h1Exact = 0;   ///< |u|_{H1}
+};
+
+/// Errors of the nodal displacement u_h (vertex-major, mesh.dimension() components per vertex)
+/// computed cell by cell with a quadrature rule of exactness `degree`.
+/// `gradient(x)` returns du_a/dx_b in entry (a, b).
+ErrorNorms computeErrors(const mesh::Mesh& mesh, const Eigen::VectorXd& uh,
+                         const VectorField& exact,
+                         const std::function<Eigen::Matrix3d(const Point&)>& gradient,
+                         int degree = 4);
+
+/// Manufactured solution u_c(x) = sin(k.x + c), c = 0..d-1, with k = (1.3, 0.9, 0.6) pi/2
+/// (restricted to d components): smooth, non-polynomial, all strain components non-zero.
+/// Supplies the body force f = -div sigma(u) and the traction sigma(u) n on a face with outward
+/// normal n, so that any mix of Dirichlet and Neumann boundaries reproduces u.
+class PlaneWaveSolution {
+public:
+  PlaneWaveSolution(int dimension, const Material& material);
+  Eigen::Vector3d value(const Point& x) const;
+  Eigen::Matrix3d gradient(const Point& x) const;
+  Eigen::Matrix3d stress(const Point& x) const;
+  Eigen::Vector3d bodyForce(const Point& x) const;
+  Eigen::Vector3d traction(const Point& x, const Eigen::Vector3d& outwardNormal) const;
+
+private:
+  int d_;
+  double lambda_, mu_;
+  Eigen::Vector3d k_;
+};
+
+/// Smooth interior distortion of the unit box: x_a += amplitude sin(pi x_a) prod_{b != a} sin(pi x_b)
+/// (over the first d coordinates). Boundary vertices stay; cells become non-affine.
+void distortUnitBox(mesh::Mesh& mesh, double amplitude);
+
+}  // namespace obs

@@ -1,0 +1,104 @@
+#include "obs/obs/Verification.hpp"
+
+#include <cmath>
+#include <numbers>
+
+#include "obs/obs/CellValues.hpp"
+
+namespace obs {
+namespace {
+
+template <int d>
+ErrorNorms errors(const mesh::Mesh& mesh, const Eigen::VectorXd& uh, const VectorField& exact,
+                  const std::function<Eigen::Matrix3d(const Point&)>& gradient, int degree) {
+  ErrorNorms e;
+  CellValues<d> cv(degree);
+  for (Index c = 0; c < mesh.numCells(); ++c) {
+    cv.reinit(mesh, c);
+    const auto verts = mesh.cellVertices(c);
+    for (int q = 0; q < cv.numPoints(); ++q) {
+      Eigen::Matrix<double, d, 1> u = Eigen::Matrix<double, d, 1>::Zero();
+      Eigen::Matrix<double, d, d> G = Eigen::Matrix<double, d, d>::Zero();
+      for (int i = 0; i < cv.numVertices(); ++i) {
+        const auto ui = uh.template segment<d>(static_cast<Eigen::Index>(verts[i]) * d);
+        u += cv.value(q, i) * ui;
+        G += ui * cv.gradient(q, i).transpose();
+      }
+      Point x = Point::Zero();
+      x.template head<d>() = cv.point(q);
+      const Eigen::Matrix<double, d, 1> ue = exact(x).template head<d>();
+      const Eigen::Matrix<double, d, d> Ge = gradient(x).template topLeftCorner<d, d>();
+      const double w = cv.JxW(q);
+      e.l2 += w * (u - ue).squaredNorm();
+      e.h1 += w * (G - Ge).squaredNorm();
+      e.l2Exact += w * ue.squaredNorm();
+      e.h1Exact += w * Ge.squaredNorm();
+    }
+  }
+  e.l2 = std::sqrt(e.l2);
+  e.h1 = std::sqrt(e.h1);
+  e.l2Exact = std::sqrt(e.l2Exact);
+  e.h1Exact = std::sqrt(e.h1Exact);
+  return e;
+}
+
+}  // namespace
+
+ErrorNorms computeErrors(const mesh::Mesh& mesh, const Eigen::VectorXd& uh, const VectorField& exact,
+                         const std::function<Eigen::Matrix3d(const Point&)>& gradient, int degree) {
+  return mesh.dimension() == 2 ? errors<2>(mesh, uh, exact, gradient, degree)
+                               : errors<3>(mesh, uh, exact, gradient, degree);
+}
+
+PlaneWaveSolution::PlaneWaveSolution(int dimension, const Material& material)
+    : d_(dimension), lambda_(material.lambda()), mu_(material.mu()) {
+  k_ = 0.5 * std::numbers::pi * Eigen::Vector3d(1.3, 0.9, 0.6);
+  if (d_ == 2) k_[2] = 0;
+}
+
+Eigen::Vector3d PlaneWaveSolution::value(const Point& x) const {
+  Eigen::Vector3d u = Eigen::Vector3d::Zero();
+  for (int c = 0; c < d_; ++c) u[c] = std::sin(k_.dot(x) + c);
+  return u;
+}
+
+Eigen::Matrix3d PlaneWaveSolution::gradient(const Point& x) const {
+  Eigen::Matrix3d G = Eigen::Matrix3d::Zero();
+  for (int c = 0; c < d_; ++c) G.row(c) = std::cos(k_.dot(x) + c) * k_.transpose();
+  return G;
+}
+
+Eigen::Matrix3d PlaneWaveSolution::stress(const Point& x) const {
+  const Eigen::Matrix3d G = gradient(x);
+  const Eigen::Matrix3d eps = 0.5 * (G + G.transpose());
+  return 2 * mu_ * eps + lambda_ * eps.trace() * Eigen::Matrix3d::Identity();
+}
+
+Eigen::Vector3d PlaneWaveSolution::bodyForce(const Point& x) const {
+  // -div sigma = -(mu Laplace u + (lambda + mu) grad div u)
+  //   Laplace u_a = -|k|^2 sin(k.x + a),  (grad div u)_a = -k_a sum_c k_c sin(k.x + c)
+  Eigen::Vector3d s = Eigen::Vector3d::Zero();
+  for (int c = 0; c < d_; ++c) s[c] = std::sin(k_.dot(x) + c);
+  return mu_ * k_.squaredNorm() * s + (lambda_ + mu_) * k_.dot(s) * k_;
+}
+
+Eigen::Vector3d PlaneWaveSolution::traction(const Point& x, const Eigen::Vector3d& n) const {
+  return stress(x) * n;
+}
+
+void distortUnitBox(mesh::Mesh& mesh, double amplitude) {
+  const int d = mesh.dimension();
+  const double pi = std::numbers::pi;
+  for (Index v = 0; v < mesh.numVertices(); ++v) {
+    Point& x = mesh.vertex(v);
+    const Point x0 = x;
+    for (int a = 0; a < d; ++a) {
+      double p = std::sin(pi * x0[a]);
+      for (int b = 0; b < d; ++b)
+        if (b != a) p *= std::sin(pi * x0[b]);
+      x[a] = x0[a] + amplitude * p;
+    }
+  }
+}
+
+}  // namespace obs
