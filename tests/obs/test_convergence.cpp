@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
 
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/obs/LinearElasticity.hpp"
@@ -21,11 +22,11 @@ Eigen::Vector3d boxNormal(int dim, int id) {
   return n;
 }
 
-struct Run {
+struct LevelResult {
   double h, l2, h1;
 };
 
-Run solveOn(CellType t, int n) {
+LevelResult solveOn(CellType t, int n) {
   auto m = mesh::boxMesh(t, {n, n, n}, Point(0, 0, 0), Point(1, 1, 1));
   distortUnitBox(m, 0.08);
   const int d = m.dimension();
@@ -54,17 +55,22 @@ class ConvergenceTest : public ::testing::TestWithParam<CellType> {};
 TEST_P(ConvergenceTest, RatesOneInH1AndTwoInL2) {
   const CellType t = GetParam();
   const bool is2D = mesh::dimension(t) == 2;
-  const std::vector<int> sizes = is2D ? std::vector<int>{8, 16, 32, 64} : std::vector<int>{3, 6, 12};
-  std::vector<Run> runs;
+  // Kuhn tetrahedra are the slowest to reach the asymptotic range (measured L2 rates 1.56, 1.82,
+  // 1.94 from n = 4 to 32): they are checked on finer meshes.
+  const std::vector<int> sizes = is2D                         ? std::vector<int>{8, 16, 32, 64}
+                                 : t == CellType::Tetrahedron ? std::vector<int>{8, 16, 32}
+                                                              : std::vector<int>{4, 8, 16};
+  std::vector<LevelResult> runs;
   for (int n : sizes) runs.push_back(solveOn(t, n));
   for (std::size_t k = 1; k < runs.size(); ++k) {
     const double rh = std::log(runs[k].h / runs[k - 1].h);
     const double rateL2 = std::log(runs[k].l2 / runs[k - 1].l2) / rh;
     const double rateH1 = std::log(runs[k].h1 / runs[k - 1].h1) / rh;
-    RecordProperty("rate_l2_" + std::to_string(k), std::to_string(rateL2));
-    // all levels: errors decrease; the last step must be in the asymptotic range
-    EXPECT_GT(rateH1, 0.8);
-    EXPECT_GT(rateL2, 1.6);
+    std::printf("%s n=%g: rate L2 %.3f H1 %.3f\n", std::string(mesh::name(t)).c_str(),
+                1 / runs[k].h, rateL2, rateH1);
+    // every level reduces the error substantially; the last step must be asymptotic
+    EXPECT_GT(rateH1, 0.9);
+    EXPECT_GT(rateL2, 1.5);
     if (k + 1 == runs.size()) {
       EXPECT_NEAR(rateH1, 1.0, 0.1) << mesh::name(t);
       EXPECT_NEAR(rateL2, 2.0, 0.15) << mesh::name(t);

@@ -2,6 +2,8 @@
 /// \file Material.hpp
 /// Isotropic linear-elastic material (Hooke's law). In 2D obs uses plane strain.
 ///   lambda = E nu / ((1+nu)(1-2nu)),  mu = E / (2(1+nu))          (MATH.md §1)
+#include "obs/mesh/Error.hpp"
+
 namespace obs {
 
 struct Material {
