@@ -3,7 +3,9 @@
 #include <cmath>
 #include <numbers>
 
+#include "obs/mesh/BoxMesh.hpp"
 #include "obs/obs/CellValues.hpp"
+#include "obs/obs/LinearElasticity.hpp"
 
 namespace obs {
 namespace {
@@ -84,6 +86,37 @@ Eigen::Vector3d PlaneWaveSolution::bodyForce(const Point& x) const {
 
 Eigen::Vector3d PlaneWaveSolution::traction(const Point& x, const Eigen::Vector3d& n) const {
   return stress(x) * n;
+}
+
+ManufacturedRun solveManufactured(mesh::CellType type, int n, double distortion,
+                                  const Material& material) {
+  auto m = mesh::boxMesh(type, {n, n, n}, Point(0, 0, 0), Point(1, 1, 1));
+  distortUnitBox(m, distortion);
+  const int d = m.dimension();
+  const PlaneWaveSolution u(d, material);
+  BoundaryConditions bc;
+  bc.bodyForce = [&](const Point& x) { return u.bodyForce(x); };
+  // box face ids: 1/2 = x low/high, 3/4 = last coordinate low/high, 5/6 = y low/high (3D)
+  for (int id = 1; id <= 2 * d; ++id) {
+    Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+    normal[id <= 2 ? 0 : id <= 4 ? d - 1 : 1] = id % 2 == 0 ? 1.0 : -1.0;
+    if (id % 2 == 1)
+      bc.dirichlet.push_back({id, {true, true, true}, [&](const Point& x) { return u.value(x); }});
+    else
+      bc.neumann.push_back({id, [&u, normal](const Point& x) { return u.traction(x, normal); }, {}});
+  }
+  const auto s = solveLinearElasticity(m, material, bc);
+  const auto e = computeErrors(m, s.displacement, [&](const Point& x) { return u.value(x); },
+                               [&](const Point& x) { return u.gradient(x); });
+  ManufacturedRun r;
+  r.type = type;
+  r.cellsPerDirection = n;
+  r.h = 1.0 / n;
+  r.dofs = s.dofs;
+  r.relativeL2 = e.l2 / e.l2Exact;
+  r.relativeH1 = e.h1 / e.h1Exact;
+  r.solveSeconds = s.assemblySeconds + s.solveSeconds;
+  return r;
 }
 
 void distortUnitBox(mesh::Mesh& mesh, double amplitude) {

@@ -46,6 +46,21 @@ private:
   Eigen::Vector3d k_;
 };
 
+/// One run of the manufactured-solution study: the unit box with n cells per direction of `type`
+/// (BoxMesh), distorted by distortUnitBox(mesh, distortion), Dirichlet data u on the left, bottom
+/// (and front) faces and exact tractions sigma(u) n on the others, body force f = -div sigma(u).
+struct ManufacturedRun {
+  mesh::CellType type;
+  int cellsPerDirection = 0;
+  double h = 0;            ///< 1 / cellsPerDirection
+  long long dofs = 0;
+  double relativeL2 = 0;   ///< ||u - u_h|| / ||u||
+  double relativeH1 = 0;   ///< |u - u_h|_1 / |u|_1
+  double solveSeconds = 0; ///< assembly + solve
+};
+ManufacturedRun solveManufactured(mesh::CellType type, int cellsPerDirection,
+                                  double distortion = 0.08, const Material& material = {100.0, 0.3});
+
 /// Smooth interior distortion of the unit box: x_a += amplitude sin(pi x_a) prod_{b != a} sin(pi x_b)
 /// (over the first d coordinates). Boundary vertices stay; cells become non-affine.
 void distortUnitBox(mesh::Mesh& mesh, double amplitude);
