@@ -8,6 +8,16 @@ Mesh::Mesh(int dimension) : dim_(dimension) {
   if (dimension != 2 && dimension != 3) throw Error("Mesh: dimension must be 2 or 3");
 }
 
+void Mesh::reserve(Index vertices, Index cells, std::size_t cellConnectivity, Index boundaryFaces) {
+  vertices_.reserve(vertices);
+  cellTypes_.reserve(cells);
+  cellOffsets_.reserve(static_cast<std::size_t>(cells) + 1);
+  cellConn_.reserve(cellConnectivity);
+  faceIds_.reserve(boundaryFaces);
+  faceOffsets_.reserve(static_cast<std::size_t>(boundaryFaces) + 1);
+  faceConn_.reserve(static_cast<std::size_t>(boundaryFaces) * (dim_ == 2 ? 2 : 4));
+}
+
 Index Mesh::addVertex(const Point& x) {
   vertices_.push_back(x);
   return numVertices() - 1;

@@ -382,6 +382,17 @@ const RefinementRule& redRefinementRule(CellType type, std::span<const Point> x)
 
 Mesh refineUniformly(const Mesh& mesh) {
   Mesh out(mesh.dimension());
+  {
+    // reserve the exact cell storage (all tetrahedron variants have the same sizes)
+    std::size_t cells = 0, connectivity = 0;
+    for (Index c = 0; c < mesh.numCells(); ++c)
+      for (const auto& ch : redRefinementRule(mesh.cellType(c)).children) {
+        ++cells;
+        connectivity += ch.points.size();
+      }
+    out.reserve(mesh.numVertices(), static_cast<Index>(cells), connectivity,
+                mesh.numBoundaryFaces() * 4);
+  }
   RefinedVertices vertices(mesh, out);
 
   std::vector<Index> global, child;

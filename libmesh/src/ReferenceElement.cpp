@@ -4,6 +4,8 @@
 
 #include <algorithm>
 
+#include "obs/mesh/MeshTopology.hpp"
+
 namespace obs::mesh {
 namespace {
 
@@ -187,8 +189,9 @@ void pyrHessians(const Point& p, double* h) {
 }
 
 // ------------------------------------------------------------------------------------------------
+/// One reference element; its edge and face tables are the topology tables of MeshTopology.hpp
+/// (constant-initialised, so safe to read during static initialisation).
 ReferenceElement make(CellType type, double volume, Point centroid, std::vector<Point> vertices,
-                      std::vector<std::array<int, 2>> edges, std::vector<ReferenceFace> faces,
                       ReferenceElement::Kernel v, ReferenceElement::Kernel g,
                       ReferenceElement::Kernel h) {
   ReferenceElement e;
@@ -198,53 +201,36 @@ ReferenceElement make(CellType type, double volume, Point centroid, std::vector<
   e.volume = volume;
   e.centroid = centroid;
   e.vertices = std::move(vertices);
-  e.edges = std::move(edges);
-  e.faces = std::move(faces);
+  for (const auto& edge : localEdges(type)) e.edges.push_back(edge);
+  for (const LocalFace& f : localFaces(type))
+    e.faces.push_back({f.type, std::vector<int>(f.span().begin(), f.span().end())});
   e.values_ = v;
   e.gradients_ = g;
   e.hessians_ = h;
   return e;
 }
 
-constexpr CellType S = CellType::Segment, T = CellType::Triangle, Q = CellType::Quadrilateral;
-
 const ReferenceElement kElements[] = {
-    make(CellType::Segment, 1.0, Point(0.5, 0, 0), {Point(0, 0, 0), Point(1, 0, 0)}, {{0, 1}}, {}, segValues,
-         segGradients, segHessians),
+    make(CellType::Segment, 1.0, Point(0.5, 0, 0), {Point(0, 0, 0), Point(1, 0, 0)},
+         segValues, segGradients, segHessians),
     make(CellType::Triangle, 0.5, Point(1.0 / 3, 1.0 / 3, 0), {Point(0, 0, 0), Point(1, 0, 0), Point(0, 1, 0)},
-         {{0, 1}, {1, 2}, {2, 0}}, {{S, {0, 1}}, {S, {1, 2}}, {S, {2, 0}}}, triValues,
-         triGradients, triHessians),
+         triValues, triGradients, triHessians),
     make(CellType::Quadrilateral, 1.0, Point(0.5, 0.5, 0),
          {Point(0, 0, 0), Point(1, 0, 0), Point(1, 1, 0), Point(0, 1, 0)},
-         {{0, 1}, {1, 2}, {2, 3}, {3, 0}}, {{S, {0, 1}}, {S, {1, 2}}, {S, {2, 3}}, {S, {3, 0}}},
          quadValues, quadGradients, quadHessians),
     make(CellType::Tetrahedron, 1.0 / 6, Point(0.25, 0.25, 0.25),
          {Point(0, 0, 0), Point(1, 0, 0), Point(0, 1, 0), Point(0, 0, 1)},
-         {{0, 1}, {1, 2}, {2, 0}, {0, 3}, {1, 3}, {2, 3}},
-         {{T, {0, 2, 1}}, {T, {0, 1, 3}}, {T, {1, 2, 3}}, {T, {0, 3, 2}}}, tetValues,
-         tetGradients, tetHessians),
+         tetValues, tetGradients, tetHessians),
     make(CellType::Hexahedron, 1.0, Point(0.5, 0.5, 0.5),
          {Point(0, 0, 0), Point(1, 0, 0), Point(1, 1, 0), Point(0, 1, 0), Point(0, 0, 1),
           Point(1, 0, 1), Point(1, 1, 1), Point(0, 1, 1)},
-         {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {4, 5}, {5, 6}, {6, 7}, {7, 4}, {0, 4}, {1, 5},
-          {2, 6}, {3, 7}},
-         {{Q, {0, 3, 2, 1}},
-          {Q, {0, 1, 5, 4}},
-          {Q, {1, 2, 6, 5}},
-          {Q, {2, 3, 7, 6}},
-          {Q, {0, 4, 7, 3}},
-          {Q, {4, 5, 6, 7}}},
          hexValues, hexGradients, hexHessians),
     make(CellType::Prism, 0.5, Point(1.0 / 3, 1.0 / 3, 0.5),
          {Point(0, 0, 0), Point(1, 0, 0), Point(0, 1, 0), Point(0, 0, 1), Point(1, 0, 1),
           Point(0, 1, 1)},
-         {{0, 1}, {1, 2}, {2, 0}, {3, 4}, {4, 5}, {5, 3}, {0, 3}, {1, 4}, {2, 5}},
-         {{T, {0, 2, 1}}, {Q, {0, 1, 4, 3}}, {Q, {1, 2, 5, 4}}, {Q, {2, 0, 3, 5}}, {T, {3, 4, 5}}},
          prismValues, prismGradients, prismHessians),
     make(CellType::Pyramid, 1.0 / 3, Point(0.375, 0.375, 0.25),
          {Point(0, 0, 0), Point(1, 0, 0), Point(1, 1, 0), Point(0, 1, 0), Point(0, 0, 1)},
-         {{0, 1}, {1, 2}, {2, 3}, {3, 0}, {0, 4}, {1, 4}, {2, 4}, {3, 4}},
-         {{Q, {0, 3, 2, 1}}, {T, {0, 1, 4}}, {T, {1, 2, 4}}, {T, {2, 3, 4}}, {T, {3, 0, 4}}},
          pyrValues, pyrGradients, pyrHessians),
 };
 

@@ -29,6 +29,9 @@ public:
 
   int dimension() const { return dim_; }
 
+  /// Reserves storage (a hint; avoids reallocation when the final sizes are known).
+  void reserve(Index vertices, Index cells, std::size_t cellConnectivity, Index boundaryFaces = 0);
+
   // --- vertices --------------------------------------------------------------------------------
   Index addVertex(const Point& x);
   Index numVertices() const { return static_cast<Index>(vertices_.size()); }

@@ -4,9 +4,9 @@
 /// the face table (which cells share a face), a conformity check, cell volumes and orientation,
 /// and a random interior perturbation used to build distorted (non-affine) test meshes.
 ///
-/// The local tables repeat those of ReferenceElement.hpp (same order, same outward orientation:
-/// the right-hand normal of a face's vertex cycle points out of the cell) so that this file does
-/// not depend on the shape-function code; a test checks that both agree.
+/// The local edge and face tables here are the single source of the topology of each cell type
+/// (outward orientation: the right-hand normal of a face's vertex cycle points out of the cell);
+/// ReferenceElement takes its `edges` and `faces` from them.
 #include <array>
 #include <map>
 #include <span>
