@@ -1,0 +1,28 @@
+#pragma once
+/// \file RunScene.hpp
+/// `obs run`: read and validate a scene, build the mesh, solve the linear-elastic problem and
+/// write the outputs (<output>/<scene name>.vtu, <output>/summary.json, optional CSV row).
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "obs/drivers/RunResult.hpp"
+#include "obs/drivers/Scene.hpp"
+
+namespace obs::drivers {
+
+struct RunOptions {
+  std::optional<std::filesystem::path> outputDirectory;  ///< replaces [output] directory
+  std::optional<int> refine;                             ///< replaces [mesh] refine
+  /// Receives one short line per stage ("mesh built: ..."); nothing is printed by runScene itself.
+  std::function<void(const std::string&)> progress;
+};
+
+/// Runs the scene file; throws obs::Error on any problem (invalid scene, solver failure, I/O).
+RunResult runScene(const std::filesystem::path& sceneFile, const RunOptions& options = {});
+
+/// Runs an already parsed scene.
+RunResult runScene(const Scene& scene, const RunOptions& options = {});
+
+}  // namespace obs::drivers

@@ -1,0 +1,26 @@
+#pragma once
+/// \file SolutionFields.hpp
+/// The data arrays that `obs run` writes to its .vtu file:
+///   point data  displacement (3 components, z = 0 in 2D), stress (3x3 tensor, 9 components,
+///               recovered at vertices), von_mises, boundary_id (int: the largest boundary id of
+///               the boundary faces touching the vertex, -1 for interior vertices);
+///   cell data   stress (cell mean, 9 components), von_mises (of the cell mean),
+///               element_type (int: the obs CellType index, 1 triangle, 2 quadrilateral,
+///               3 tetrahedron, 4 hexahedron, 5 prism, 6 pyramid).
+#include <vector>
+
+#include "obs/drivers/VtkWriter.hpp"
+#include "obs/mesh/Mesh.hpp"
+#include "obs/obs/LinearElasticity.hpp"
+
+namespace obs::drivers {
+
+std::vector<Field> pointFields(const mesh::Mesh& mesh, const ElasticitySolution& solution);
+std::vector<Field> cellFields(const mesh::Mesh& mesh, const ElasticitySolution& solution);
+
+/// Point field "boundary_id" (see above).
+Field boundaryIdField(const mesh::Mesh& mesh);
+/// Cell field "element_type" (see above).
+Field elementTypeField(const mesh::Mesh& mesh);
+
+}  // namespace obs::drivers

@@ -1,0 +1,23 @@
+#pragma once
+/// \file Summary.hpp
+/// summary.json of a run (nlohmann_json), e.g.
+///   { "obs_version": "0.1.0", "scene": "data/scenes/cantilever.toml", "dimension": 2,
+///     "vertices": 297, "cells": 256, "cells_per_type": {"quadrilateral": 256}, "refine": 0,
+///     "dofs": 594, "free_dofs": 576,
+///     "times": {"mesh_s": .., "assembly_s": .., "solve_s": .., "output_s": .., "total_s": ..},
+///     "peak_memory_mb": 12.5, "max_displacement": 0.21, "max_von_mises": 4.7,
+///     "output_files": ["out/cantilever/cantilever.vtu", "out/cantilever/summary.json"] }
+#include <filesystem>
+
+#include <nlohmann/json.hpp>
+
+#include "obs/drivers/RunResult.hpp"
+
+namespace obs::drivers {
+
+nlohmann::json summaryJson(const RunResult& result);
+
+/// Writes summaryJson(result) to `path` (indented); throws obs::Error if it cannot be written.
+void writeSummary(const std::filesystem::path& path, const RunResult& result);
+
+}  // namespace obs::drivers

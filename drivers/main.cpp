@@ -1,0 +1,154 @@
+// obs — the command-line program of the obs finite element library.
+//
+// Reads a scene file (TOML, see docs/scenes.md) describing a linear-elastic body — mesh, material,
+// Dirichlet and Neumann data, body force, outputs — solves it and writes a .vtu file for ParaView,
+// summary.json (sizes, times, memory, extremes) and optionally a CSV row per run.
+//
+// Sample run:
+//   build/drivers/obs run data/scenes/cantilever.toml
+//     mesh built: 256 quadrilateral cells / 297 vertices (2D, 0.000443 s)
+//     assembled: 594 dofs (576 free) in 0.000368 s
+//     solved in 0.0111 s: max |u| = 0.244503, max von Mises = 17.4829
+//     written: out/cantilever/cantilever.vtu, out/cantilever/summary.json
+//
+// Exit codes: 0 success, 1 error (invalid scene, solver or I/O failure), 2 command-line misuse.
+// Every error is one line "obs: error: ..." on stderr.
+#include <CLI/CLI.hpp>
+
+#include <filesystem>
+#include <iostream>
+#include <new>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "obs/drivers/RunScene.hpp"
+#include "obs/drivers/SceneParser.hpp"
+#include "obs/drivers/SceneSetup.hpp"
+#include "obs/estimators/Version.hpp"
+#include "obs/mesh/Error.hpp"
+
+namespace {
+
+constexpr int kExitError = 1;
+constexpr int kExitUsage = 2;
+
+void printError(std::string message) {
+  for (char& c : message)
+    if (c == '\n' || c == '\r') c = ' ';
+  std::cerr << "obs: error: " << message << std::endl;
+}
+
+int runCommand(const std::string& scene, const std::optional<std::string>& output,
+               std::optional<int> refine, bool quiet) {
+  obs::drivers::RunOptions options;
+  if (output) options.outputDirectory = *output;
+  options.refine = refine;
+  if (!quiet) options.progress = [](const std::string& line) { std::cout << line << std::endl; };
+  obs::drivers::runScene(std::filesystem::path(scene), options);
+  return 0;
+}
+
+int checkCommand(const std::vector<std::string>& scenes, std::optional<int> refine) {
+  int status = 0;
+  for (const std::string& file : scenes) {
+    try {
+      const obs::drivers::Scene scene = obs::drivers::parseScene(file);
+      const obs::mesh::Mesh mesh = obs::drivers::buildMesh(scene, refine);
+      obs::drivers::validateScene(scene, mesh);
+      std::cout << file << ": valid (" << mesh.dimension() << "D, " << mesh.numCells() << " cells, "
+                << mesh.numVertices() << " vertices)" << std::endl;
+    } catch (const obs::Error& e) {
+      printError(e.what());
+      status = kExitError;
+    }
+  }
+  return status;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "obs — adaptive finite elements for contact in linear elasticity.\n"
+      "Solves the problem described by a scene file (TOML) and writes VTK, JSON and CSV "
+      "output.",
+      "obs"};
+  app.set_version_flag("--version", std::string("obs ") + obs::estimators::version(),
+                       "Print the version and exit");
+  app.require_subcommand(1);
+  app.footer(
+      "Examples:\n"
+      "  obs run data/scenes/cantilever.toml               solve, write out/cantilever/\n"
+      "  obs run data/scenes/cantilever.toml --refine 2    the same on a twice refined mesh\n"
+      "  obs check data/scenes/*.toml                      validate scenes without solving\n"
+      "Run 'obs <command> --help' for the options of a command. Scene files: docs/scenes.md");
+
+  std::string scene;
+  std::optional<std::string> output;
+  std::optional<int> refine;
+  bool quiet = false;
+  CLI::App* run =
+      app.add_subcommand("run", "Solve the scene in a scene file and write the results");
+  run->add_option("scene", scene, "Scene file (TOML), see docs/scenes.md")
+      ->required()
+      ->type_name("SCENE.toml");
+  run->add_option("--output,-o", output,
+                  "Output directory (replaces [output] directory; default out/<scene name>)")
+      ->type_name("DIR");
+  run->add_option("--refine,-r", refine, "Uniform refinements of the mesh (replaces [mesh] refine)")
+      ->type_name("K")
+      ->check(CLI::Range(0, 12));
+  run->add_flag("--quiet,-q", quiet, "Print nothing but errors");
+  run->footer(
+      "Writes <output>/<scene name>.vtu (displacement, stress, von_mises, boundary_id,\n"
+      "element_type; open it in ParaView), <output>/summary.json (sizes, times, memory) and,\n"
+      "if [output] csv is set, one CSV row per run.\n"
+      "Example: obs run data/scenes/cantilever.toml --output out/cantilever --refine 1\n"
+      "The scene file format is documented in docs/scenes.md.");
+
+  std::vector<std::string> checkScenes;
+  std::optional<int> checkRefine;
+  CLI::App* check =
+      app.add_subcommand("check",
+                         "Validate scene files (syntax, keys, values, mesh, boundaries) "
+                         "without solving");
+  check->add_option("scenes", checkScenes, "Scene files (TOML)")
+      ->required()
+      ->type_name("SCENE.toml");
+  check->add_option("--refine,-r", checkRefine, "Uniform refinements (replaces [mesh] refine)")
+      ->type_name("K")
+      ->check(CLI::Range(0, 12));
+  check->footer("Example: obs check data/scenes/*.toml\nScene files: docs/scenes.md");
+
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::CallForVersion& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::string message = e.what();
+    if (message.empty()) message = e.get_name();
+    printError(message + " (run 'obs --help' for usage)");
+    return kExitUsage;
+  }
+
+  try {
+    if (run->parsed()) return runCommand(scene, output, refine, quiet);
+    if (check->parsed()) return checkCommand(checkScenes, checkRefine);
+    printError("no command given (run 'obs --help' for usage)");
+    return kExitUsage;
+  } catch (const obs::Error& e) {
+    printError(e.what());
+  } catch (const std::bad_alloc&) {
+    printError("out of memory");
+  } catch (const std::exception& e) {
+    printError(std::string("internal error: ") + e.what());
+  } catch (...) {
+    printError("internal error: unknown exception");
+  }
+  return kExitError;
+}

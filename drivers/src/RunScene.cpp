@@ -1,0 +1,134 @@
+#include "obs/drivers/RunScene.hpp"
+
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <iomanip>
+#include <sstream>
+
+#include "obs/drivers/CsvWriter.hpp"
+#include "obs/drivers/SceneParser.hpp"
+#include "obs/drivers/SceneSetup.hpp"
+#include "obs/drivers/SolutionFields.hpp"
+#include "obs/drivers/Summary.hpp"
+#include "obs/drivers/VtkWriter.hpp"
+#include "obs/mesh/Error.hpp"
+#include "obs/obs/LinearElasticity.hpp"
+
+namespace obs::drivers {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+double peakMemoryMB() {
+  rusage usage{};
+  if (getrusage(RUSAGE_SELF, &usage) != 0) return 0.0;
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;  // Linux: kilobytes
+}
+
+std::string seconds(double s) {
+  std::ostringstream os;
+  os << std::setprecision(3) << s << " s";
+  return os.str();
+}
+
+std::string describeCells(const RunResult& r) {
+  std::string types;
+  int kinds = 0;
+  for (mesh::CellType t : mesh::kVolumeCellTypes)
+    if (const long long n = r.cellsPerType[static_cast<int>(t)]; n > 0) {
+      types += (types.empty() ? "" : ", ") + std::to_string(n) + " " + std::string(mesh::name(t));
+      ++kinds;
+    }
+  if (kinds == 1) return types + " cells";
+  return std::to_string(r.cells) + " cells (" + types + ")";
+}
+
+}  // namespace
+
+RunResult runScene(const std::filesystem::path& sceneFile, const RunOptions& options) {
+  return runScene(parseScene(sceneFile), options);
+}
+
+RunResult runScene(const Scene& scene, const RunOptions& options) {
+  const auto start = Clock::now();
+  auto progress = [&](const std::string& line) {
+    if (options.progress) options.progress(line);
+  };
+  RunResult r;
+  r.scene = scene.fileName;
+
+  // mesh
+  auto t = Clock::now();
+  const mesh::Mesh mesh = buildMesh(scene, options.refine);
+  validateScene(scene, mesh);
+  const BoundaryConditions bc = makeBoundaryConditions(scene, mesh);
+  r.meshSeconds = secondsSince(t);
+  r.dimension = mesh.dimension();
+  r.vertices = mesh.numVertices();
+  r.cells = mesh.numCells();
+  const auto counts = mesh.cellCounts();
+  for (std::size_t i = 0; i < counts.size(); ++i) r.cellsPerType[i] = counts[i];
+  r.refine = options.refine.value_or(scene.mesh.refine);
+  progress("mesh built: " + describeCells(r) + " / " + std::to_string(r.vertices) + " vertices (" +
+           std::to_string(r.dimension) + "D, " + seconds(r.meshSeconds) + ")");
+
+  // assemble and solve
+  const ElasticitySolution solution = solveLinearElasticity(mesh, scene.material, bc);
+  r.dofs = solution.dofs;
+  r.freeDofs = solution.freeDofs;
+  r.assemblySeconds = solution.assemblySeconds;
+  r.solveSeconds = solution.solveSeconds;
+  for (mesh::Index v = 0; v < mesh.numVertices(); ++v)
+    r.maxDisplacement = std::max(
+        r.maxDisplacement, solution.displacement.segment(v * r.dimension, r.dimension).norm());
+  for (const Stress& s : solution.cellStress) r.maxVonMises = std::max(r.maxVonMises, vonMises(s));
+  progress("assembled: " + std::to_string(r.dofs) + " dofs (" + std::to_string(r.freeDofs) +
+           " free) in " + seconds(r.assemblySeconds));
+  {
+    std::ostringstream os;
+    os << "solved in " << seconds(r.solveSeconds) << ": max |u| = " << std::setprecision(6)
+       << r.maxDisplacement << ", max von Mises = " << r.maxVonMises;
+    progress(os.str());
+  }
+
+  // outputs
+  t = Clock::now();
+  const std::filesystem::path dir = options.outputDirectory.value_or(scene.output.directory);
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
+  if (scene.output.vtk) {
+    const auto path = dir / (scene.name + ".vtu");
+    const auto pf = pointFields(mesh, solution);
+    const auto cf = cellFields(mesh, solution);
+    writeVtu(path, mesh, pf, cf);
+    r.outputFiles.push_back(path);
+  }
+  r.peakMemoryMB = peakMemoryMB();
+  if (!scene.output.csv.empty()) {
+    const auto path = scene.output.csv.is_absolute() ? scene.output.csv : dir / scene.output.csv;
+    r.outputSeconds = secondsSince(t);
+    r.totalSeconds = secondsSince(start);
+    appendCsvRow(path, r);
+    r.outputFiles.push_back(path);
+  }
+  const auto summary = dir / "summary.json";
+  r.outputFiles.push_back(summary);
+  r.outputSeconds = secondsSince(t);
+  r.totalSeconds = secondsSince(start);
+  writeSummary(summary, r);
+
+  std::string written;
+  for (const auto& f : r.outputFiles) written += (written.empty() ? "" : ", ") + f.string();
+  progress("written: " + written);
+  return r;
+}
+
+}  // namespace obs::drivers

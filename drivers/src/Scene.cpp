@@ -1,0 +1,13 @@
+#include "obs/drivers/Scene.hpp"
+
+namespace obs::drivers {
+
+std::string BoundaryRef::describe() const {
+  return name.empty() ? std::to_string(id) : "\"" + name + "\"";
+}
+
+std::string Scene::where(int line) const {
+  return line > 0 ? fileName + ":" + std::to_string(line) + ": " : fileName + ": ";
+}
+
+}  // namespace obs::drivers

@@ -1,0 +1,340 @@
+#include "obs/drivers/SceneParser.hpp"
+
+#include <toml.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "TomlSection.hpp"
+#include "obs/mesh/Error.hpp"
+
+namespace obs::drivers {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kSections = "mesh, material, dirichlet, neumann, body_force, output";
+constexpr int kMaxRefine = 12;
+constexpr long long kMaxBoxCells = 100'000'000;
+
+/// toml11 syntax errors span several lines ("[error] toml::parse_table: invalid line format\n
+/// --> file\n 2 | x = 1 2\n   |   ^--- expected newline"); condense to
+/// "file:2: TOML syntax error: invalid line format (expected newline)".
+std::string condense(const toml::syntax_error& e, const std::string& fileName) {
+  std::istringstream lines(e.what());
+  std::string first, line, detail;
+  std::getline(lines, first);
+  while (std::getline(lines, line)) {
+    for (const char* marker : {"^--- ", "~ "}) {
+      const auto at = line.rfind(marker);
+      if (at != std::string::npos && line.find(" | ") != std::string::npos) {
+        detail = line.substr(at + std::string(marker).size());
+        break;
+      }
+    }
+  }
+  if (first.rfind("[error]", 0) == 0) first.erase(0, 7);
+  if (const auto colon = first.find(": ");
+      first.find("toml::") < colon && colon != std::string::npos)
+    first.erase(0, colon + 2);
+  while (!first.empty() && first.front() == ' ') first.erase(0, 1);
+  std::string msg =
+      fileName + ":" + std::to_string(e.location().line()) + ": TOML syntax error: " + first;
+  if (!detail.empty() && detail != first) msg += " (" + detail + ")";
+  return msg;
+}
+
+std::vector<double> numbers(const TomlSection& s, const std::string& key, int count) {
+  const toml::value& v = s.at(key);
+  if (!v.is_array())
+    s.fail(key, "must be an array of " + std::to_string(count) + " numbers, got " + typeNameOf(v));
+  const auto& a = v.as_array();
+  if (static_cast<int>(a.size()) != count)
+    s.fail(key, "= " + literalOf(v) + " must have " + std::to_string(count) + " entries, got " +
+                    std::to_string(a.size()));
+  std::vector<double> out;
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (a[i].is_integer())
+      out.push_back(static_cast<double>(a[i].as_integer()));
+    else if (a[i].is_floating() && std::isfinite(a[i].as_floating()))
+      out.push_back(a[i].as_floating());
+    else
+      s.failAt(a[i], key + "[" + std::to_string(i) + "]",
+               "must be a finite number, got " + literalOf(a[i]));
+  }
+  return out;
+}
+
+std::optional<mesh::CellType> cellTypeByName(const std::string& name) {
+  for (mesh::CellType t : mesh::kVolumeCellTypes)
+    if (mesh::name(t) == name) return t;
+  return std::nullopt;
+}
+
+void parseBox(const TomlSection& s, MeshSpec& spec) {
+  const std::string generator = s.string("generator");
+  if (generator != "box")
+    s.fail("generator", "= \"" + generator + "\" is unknown (known generators: box)");
+  const std::string type = s.string("type");
+  const auto cellType = cellTypeByName(type);
+  if (!cellType)
+    s.fail("type", "= \"" + type +
+                       "\" is not a cell type (known: triangle, quadrilateral, tetrahedron, "
+                       "hexahedron, prism, pyramid)");
+  spec.cellType = *cellType;
+  const int dim = mesh::dimension(*cellType);
+
+  const toml::value& cells = s.at("cells");
+  if (!cells.is_array())
+    s.fail("cells",
+           "must be an array of " + std::to_string(dim) + " integers, got " + typeNameOf(cells));
+  const auto& a = cells.as_array();
+  if (static_cast<int>(a.size()) != dim)
+    s.fail("cells", "= " + literalOf(cells) + " must have " + std::to_string(dim) +
+                        " entries for " + type + " cells, got " + std::to_string(a.size()));
+  long long total = 1;
+  spec.cells = {1, 1, 1};
+  for (int i = 0; i < dim; ++i) {
+    const std::string label = "cells[" + std::to_string(i) + "]";
+    if (!a[i].is_integer()) s.failAt(a[i], label, "must be an integer, got " + typeNameOf(a[i]));
+    const long long n = a[i].as_integer();
+    if (n < 1 || n > kMaxBoxCells)
+      s.failAt(a[i], label, "= " + literalOf(a[i]) + " must be at least 1");
+    spec.cells[i] = static_cast<int>(n);
+    total *= n;
+    if (total > kMaxBoxCells)
+      s.fail("cells", "= " + literalOf(cells) + " asks for more than " +
+                          std::to_string(kMaxBoxCells) + " boxes");
+  }
+
+  spec.lower = mesh::Point::Zero();
+  spec.upper = mesh::Point::Zero();
+  for (int i = 0; i < dim; ++i) spec.upper[i] = 1.0;
+  if (s.has("lower")) {
+    const auto v = numbers(s, "lower", dim);
+    for (int i = 0; i < dim; ++i) spec.lower[i] = v[i];
+  }
+  if (s.has("upper")) {
+    const auto v = numbers(s, "upper", dim);
+    for (int i = 0; i < dim; ++i) spec.upper[i] = v[i];
+  }
+  for (int i = 0; i < dim; ++i)
+    if (!(spec.lower[i] < spec.upper[i])) {
+      std::ostringstream os;
+      os << "must exceed lower in every coordinate ("
+         << "xyz"[i] << ": lower " << spec.lower[i] << ", upper " << spec.upper[i] << ")";
+      s.fail(s.has("upper") ? "upper" : "lower", os.str());
+    }
+}
+
+MeshSpec parseMesh(const Scene& scene, const toml::value& table) {
+  const TomlSection s(scene.fileName, "[mesh]", table,
+                      {"generator", "type", "cells", "lower", "upper", "file", "refine"});
+  MeshSpec spec;
+  spec.line = s.line();
+  if (s.has("generator") && s.has("file"))
+    s.fail("file", "cannot be combined with generator (give one of them)");
+  if (s.has("file")) {
+    for (const char* key : {"type", "cells", "lower", "upper"})
+      if (s.has(key)) s.fail(key, "only applies to generator = \"box\", not to a mesh file");
+    const std::string file = s.string("file");
+    if (file.empty()) s.fail("file", "must not be empty");
+    fs::path path(file);
+    if (path.is_relative()) path = scene.directory / path;
+    path = path.lexically_normal();
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec))
+      s.fail("file", "= \"" + file + "\": no such file (looked for " + path.string() + ")");
+    spec.source = MeshSpec::Source::File;
+    spec.file = path;
+  } else if (s.has("generator")) {
+    spec.source = MeshSpec::Source::Box;
+    parseBox(s, spec);
+  } else {
+    throw Error(
+        scene.where(spec.line) +
+        "[mesh] needs generator = \"box\" (with type, cells, lower, upper) or file = \"mesh.msh\"");
+  }
+  if (s.has("refine")) {
+    const long long r = s.integer("refine");
+    if (r < 0 || r > kMaxRefine)
+      s.fail("refine", "= " + literalOf(s.at("refine")) + " must lie in [0, " +
+                           std::to_string(kMaxRefine) + "]");
+    spec.refine = static_cast<int>(r);
+    spec.refineLine = s.line("refine");
+  }
+  return spec;
+}
+
+void parseMaterial(Scene& scene, const toml::value& table) {
+  const TomlSection s(scene.fileName, "[material]", table, {"E", "nu"});
+  scene.materialLine = s.line();
+  const double E = s.number("E");
+  if (E <= 0) s.fail("E", "= " + literalOf(s.at("E")) + " must be positive");
+  const double nu = s.number("nu");
+  if (nu < 0 || nu >= 0.5) s.fail("nu", "= " + literalOf(s.at("nu")) + " must lie in [0, 0.5)");
+  scene.material.youngsModulus = E;
+  scene.material.poissonRatio = nu;
+}
+
+/// The entries of an array-of-tables section ([[name]] or name = [{...}, ...]).
+const toml::array& entries(const Scene& scene, const toml::value& v, const std::string& name) {
+  if (!v.is_array())
+    throw Error(whereOf(scene.fileName, v) + "[[" + name +
+                "]] must be an array of tables: write [[" + name +
+                "]] (double brackets) before each condition");
+  return v.as_array();
+}
+
+DirichletSpec parseDirichlet(const Scene& scene, const toml::value& table) {
+  const TomlSection s(scene.fileName, "[[dirichlet]]", table, {"boundary", "value", "components"});
+  DirichletSpec spec;
+  spec.line = s.line();
+  spec.boundary = s.boundary("boundary");
+  if (s.has("components")) {
+    const toml::value& v = s.at("components");
+    if (!v.is_array() || v.as_array().empty())
+      s.fail("components", "must be a non-empty array of \"x\", \"y\", \"z\"");
+    for (const toml::value& c : v.as_array()) {
+      const std::string name = c.is_string() ? c.as_string().str : std::string();
+      const auto at = std::string_view("xyz").find(name);
+      if (name.size() != 1 || at == std::string_view::npos)
+        s.failAt(c, "components", "entry " + literalOf(c) + " must be \"x\", \"y\" or \"z\"");
+      const int comp = static_cast<int>(at);
+      if (std::find(spec.components.begin(), spec.components.end(), comp) != spec.components.end())
+        s.failAt(c, "components", "lists \"" + name + "\" twice");
+      spec.components.push_back(comp);
+    }
+    spec.componentsLine = s.line("components");
+  }
+  if (s.has("value")) {
+    if (s.at("value").is_array()) {
+      spec.value = s.vector("value");
+    } else {
+      spec.value.entries = {s.expression("value")};
+      spec.value.line = s.line("value");
+    }
+  }
+  return spec;
+}
+
+NeumannSpec parseNeumann(const Scene& scene, const toml::value& table) {
+  const TomlSection s(scene.fileName, "[[neumann]]", table, {"boundary", "traction", "pressure"});
+  NeumannSpec spec;
+  spec.line = s.line();
+  spec.boundary = s.boundary("boundary");
+  if (s.has("traction") && s.has("pressure"))
+    s.fail("pressure", "cannot be combined with traction in one [[neumann]] entry");
+  if (s.has("traction")) {
+    spec.traction = s.vector("traction");
+  } else if (s.has("pressure")) {
+    spec.pressure = s.expression("pressure");
+    spec.pressureLine = s.line("pressure");
+  } else {
+    throw Error(scene.where(spec.line) +
+                "[[neumann]] needs traction = [tx, ty(, tz)] or pressure = p");
+  }
+  return spec;
+}
+
+OutputSpec parseOutput(const Scene& scene, const toml::value* table) {
+  OutputSpec out;
+  out.directory = fs::path("out") / scene.name;
+  if (!table) return out;
+  const TomlSection s(scene.fileName, "[output]", *table, {"directory", "vtk", "csv"});
+  if (s.has("directory")) {
+    const std::string d = s.string("directory");
+    if (d.empty()) s.fail("directory", "must not be empty");
+    out.directory = d;
+  }
+  if (s.has("vtk")) out.vtk = s.boolean("vtk");
+  if (s.has("csv")) {
+    const std::string c = s.string("csv");
+    if (c.empty() || c.back() == '/') s.fail("csv", "must name a file, e.g. \"results.csv\"");
+    out.csv = c;
+  }
+  return out;
+}
+
+}  // namespace
+
+Scene parseSceneString(const std::string& text, const std::string& fileName,
+                       const std::filesystem::path& directory) {
+  toml::value root;
+  try {
+    std::istringstream is(text);
+    root = toml::parse(is, fileName);
+  } catch (const toml::syntax_error& e) {
+    throw Error(condense(e, fileName));
+  } catch (const toml::exception& e) {
+    throw Error(fileName + ":" + std::to_string(e.location().line()) + ": " + e.what());
+  } catch (const std::exception& e) {
+    throw Error(fileName + ": " + e.what());
+  }
+
+  Scene scene;
+  scene.fileName = fileName;
+  scene.directory = directory;
+  scene.name = fs::path(fileName).stem().string();
+
+  // Unknown top-level entries, first in file order.
+  const toml::value* unknown = nullptr;
+  std::string unknownKey;
+  for (const auto& [key, value] : root.as_table()) {
+    const bool known = key == "mesh" || key == "material" || key == "dirichlet" ||
+                       key == "neumann" || key == "body_force" || key == "output";
+    if (!known && (!unknown || value.location().line() < unknown->location().line())) {
+      unknown = &value;
+      unknownKey = key;
+    }
+  }
+  if (unknown) {
+    if (unknown->is_table() || unknown->is_array())
+      throw Error(whereOf(fileName, *unknown) + "unknown section [" + unknownKey +
+                  "] (allowed sections: " + kSections + ")");
+    throw Error(whereOf(fileName, *unknown) + "unknown key '" + unknownKey +
+                "' outside any section (allowed sections: " + kSections + ")");
+  }
+
+  const auto& t = root.as_table();
+  auto find = [&](const char* key) -> const toml::value* {
+    const auto it = t.find(key);
+    return it == t.end() ? nullptr : &it->second;
+  };
+  for (const char* required : {"mesh", "material"})
+    if (!find(required))
+      throw Error(fileName + ": [" + std::string(required) + "] section is missing");
+
+  scene.mesh = parseMesh(scene, *find("mesh"));
+  parseMaterial(scene, *find("material"));
+  if (const toml::value* d = find("dirichlet"))
+    for (const toml::value& e : entries(scene, *d, "dirichlet"))
+      scene.dirichlet.push_back(parseDirichlet(scene, e));
+  if (const toml::value* n = find("neumann"))
+    for (const toml::value& e : entries(scene, *n, "neumann"))
+      scene.neumann.push_back(parseNeumann(scene, e));
+  if (const toml::value* b = find("body_force")) {
+    const TomlSection s(fileName, "[body_force]", *b, {"value"});
+    scene.bodyForce = s.vector("value");
+  }
+  scene.output = parseOutput(scene, find("output"));
+  return scene;
+}
+
+Scene parseScene(const std::filesystem::path& file) {
+  const std::string name = file.string();
+  std::error_code ec;
+  if (fs::is_directory(file, ec)) throw Error(name + ": is a directory, not a scene file");
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw Error(name + ": cannot open the scene file");
+  std::ostringstream text;
+  text << in.rdbuf();
+  fs::path dir = file.parent_path();
+  if (dir.empty()) dir = ".";
+  return parseSceneString(text.str(), name, dir);
+}
+
+}  // namespace obs::drivers

@@ -1,0 +1,212 @@
+#include "obs/drivers/SceneSetup.hpp"
+
+#include <cmath>
+#include <set>
+#include <sstream>
+
+#include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/Error.hpp"
+#include "obs/mesh/Gmsh.hpp"
+#include "obs/mesh/RedRefinement.hpp"
+
+namespace obs::drivers {
+
+namespace {
+
+/// Children per cell of one red refinement (pyramids: 6 pyramids + 4 tetrahedra; an upper bound
+/// for later levels, where the tetrahedra give 8).
+double refinementFactor(mesh::CellType t) {
+  switch (t) {
+    case mesh::CellType::Triangle:
+    case mesh::CellType::Quadrilateral:
+      return 4;
+    case mesh::CellType::Pyramid:
+      return 10;
+    default:
+      return 8;
+  }
+}
+
+std::string entries(std::size_t n) { return std::to_string(n) + (n == 1 ? " entry" : " entries"); }
+
+std::string formatPoint(const Point& p, int dim) {
+  std::ostringstream os;
+  os << "(" << p[0] << ", " << p[1];
+  if (dim == 3) os << ", " << p[2];
+  os << ")";
+  return os.str();
+}
+
+std::string availableBoundaries(const mesh::Mesh& mesh) {
+  std::string names;
+  for (const auto& [id, name] : mesh.boundaryNames()) names += (names.empty() ? "" : ", ") + name;
+  std::set<int> ids;
+  for (mesh::Index f = 0; f < mesh.numBoundaryFaces(); ++f) ids.insert(mesh.boundaryFaceId(f));
+  std::string idList;
+  for (int id : ids) idList += (idList.empty() ? "" : ", ") + std::to_string(id);
+  if (!names.empty())
+    return "available boundaries: " + names + (idList.empty() ? "" : "; ids: " + idList);
+  if (!idList.empty()) return "the mesh has no boundary names; boundary ids: " + idList;
+  return "the mesh has no boundary faces";
+}
+
+int resolveBoundary(const Scene& scene, const mesh::Mesh& mesh, const BoundaryRef& ref,
+                    const std::string& title) {
+  if (!ref.name.empty()) {
+    if (const auto id = mesh.boundaryId(ref.name)) return *id;
+  } else {
+    if (mesh.boundaryNames().count(ref.id)) return ref.id;
+    for (mesh::Index f = 0; f < mesh.numBoundaryFaces(); ++f)
+      if (mesh.boundaryFaceId(f) == ref.id) return ref.id;
+  }
+  throw Error(scene.where(ref.line) + title + " boundary = " + ref.describe() +
+              " does not exist in the mesh (" + availableBoundaries(mesh) + ")");
+}
+
+void checkLength(const Scene& scene, const VectorValue& v, int dim, const std::string& what) {
+  if (static_cast<int>(v.entries.size()) != dim)
+    throw Error(scene.where(v.line) + what + " has " + entries(v.entries.size()) + ", expected " +
+                std::to_string(dim) + " (one per coordinate of the " + std::to_string(dim) +
+                "D mesh)");
+}
+
+/// A vector field from three expressions; throws (naming `what`) on non-finite values.
+class ExpressionVectorField {
+public:
+  ExpressionVectorField(std::array<Expression, 3> e, std::string what, int dim)
+      : e_(std::move(e)), what_(std::move(what)), dim_(dim) {}
+  Eigen::Vector3d operator()(const Point& x) const {
+    const Eigen::Vector3d v(e_[0](x), e_[1](x), e_[2](x));
+    if (!v.allFinite()) throw Error(what_ + " is not finite at " + formatPoint(x, dim_));
+    return v;
+  }
+
+private:
+  std::array<Expression, 3> e_;
+  std::string what_;
+  int dim_;
+};
+
+std::array<Expression, 3> padded(const VectorValue& v) {
+  std::array<Expression, 3> e;
+  for (std::size_t i = 0; i < v.entries.size() && i < 3; ++i) e[i] = v.entries[i];
+  return e;
+}
+
+std::vector<DirichletCondition> dirichletConditions(const Scene& scene, const mesh::Mesh& mesh) {
+  const int dim = mesh.dimension();
+  std::vector<DirichletCondition> out;
+  for (const DirichletSpec& spec : scene.dirichlet) {
+    DirichletCondition dc;
+    dc.boundaryId = resolveBoundary(scene, mesh, spec.boundary, "[[dirichlet]]");
+    if (!spec.components.empty()) {
+      dc.fixed = {false, false, false};
+      for (int c : spec.components) dc.fixed[c] = true;
+    }
+    for (int c = dim; c < 3; ++c) dc.fixed[c] = false;
+    std::array<Expression, 3> e;
+    const bool allConstantZero = [&] {
+      for (const Expression& x : spec.value.entries)
+        if (!x.isConstant() || x.value() != 0.0) return false;
+      return true;
+    }();
+    if (!allConstantZero) {
+      if (spec.value.entries.size() == 1) {
+        for (int c = 0; c < dim; ++c)
+          if (dc.fixed[c]) e[c] = spec.value.entries[0];
+      } else {
+        e = padded(spec.value);
+      }
+      for (int c = 0; c < 3; ++c)
+        if (!dc.fixed[c]) e[c] = Expression();
+      dc.value =
+          ExpressionVectorField(e, scene.where(spec.value.line) + "[[dirichlet]] value", dim);
+    }
+    out.push_back(std::move(dc));
+  }
+  return out;
+}
+
+}  // namespace
+
+mesh::Mesh buildMesh(const Scene& scene, std::optional<int> refineOverride) {
+  const MeshSpec& spec = scene.mesh;
+  mesh::Mesh m = spec.source == MeshSpec::Source::Box
+                     ? mesh::boxMesh(spec.cellType, spec.cells, spec.lower, spec.upper)
+                     : mesh::readGmsh(spec.file);
+  const int refine = refineOverride.value_or(spec.refine);
+  const std::string what =
+      refineOverride ? "--refine " + std::to_string(refine)
+                     : scene.where(spec.refineLine) + "[mesh] refine = " + std::to_string(refine);
+  if (refine < 0) throw Error(what + " must not be negative");
+  const auto counts = m.cellCounts();
+  double predicted = 0;
+  for (mesh::CellType t : mesh::kVolumeCellTypes)
+    predicted += counts[static_cast<int>(t)] * std::pow(refinementFactor(t), refine);
+  if (predicted > static_cast<double>(kMaxCells)) {
+    std::ostringstream os;
+    os << what << " would give about " << static_cast<double>(predicted) << " cells (from "
+       << m.numCells() << "; the limit is " << static_cast<double>(kMaxCells) << ")";
+    throw Error(os.str());
+  }
+  for (int k = 0; k < refine; ++k) m = mesh::refineUniformly(m);
+  return m;
+}
+
+void validateScene(const Scene& scene, const mesh::Mesh& mesh) {
+  const int dim = mesh.dimension();
+  for (const DirichletSpec& spec : scene.dirichlet) {
+    resolveBoundary(scene, mesh, spec.boundary, "[[dirichlet]]");
+    for (int c : spec.components)
+      if (c >= dim)
+        throw Error(scene.where(spec.componentsLine) + "[[dirichlet]] components: \"" +
+                    std::string(1, "xyz"[c]) + "\" does not exist in a " + std::to_string(dim) +
+                    "D mesh");
+    const std::size_t n = spec.value.entries.size();
+    if (n > 1 && static_cast<int>(n) != dim)
+      throw Error(scene.where(spec.value.line) + "[[dirichlet]] value has " + entries(n) +
+                  ", expected " + std::to_string(dim) + " (one per coordinate of the " +
+                  std::to_string(dim) + "D mesh) or a single value for every fixed component");
+  }
+  for (const NeumannSpec& spec : scene.neumann) {
+    resolveBoundary(scene, mesh, spec.boundary, "[[neumann]]");
+    if (spec.traction) checkLength(scene, *spec.traction, dim, "[[neumann]] traction");
+  }
+  if (scene.bodyForce) checkLength(scene, *scene.bodyForce, dim, "[body_force] value");
+
+  const int free = countFreeRigidMotions(mesh, dirichletConditions(scene, mesh));
+  if (free > 0)
+    throw Error(scene.fileName + ": [[dirichlet]]: the Dirichlet conditions leave " +
+                std::to_string(free) + " rigid motion(s) free (of " +
+                std::to_string(dim == 2 ? 3 : 6) + " in " + std::to_string(dim) +
+                "D); fix more components or boundaries");
+}
+
+BoundaryConditions makeBoundaryConditions(const Scene& scene, const mesh::Mesh& mesh) {
+  const int dim = mesh.dimension();
+  BoundaryConditions bc;
+  bc.dirichlet = dirichletConditions(scene, mesh);
+  for (const NeumannSpec& spec : scene.neumann) {
+    NeumannCondition nc;
+    nc.boundaryId = resolveBoundary(scene, mesh, spec.boundary, "[[neumann]]");
+    if (spec.traction) {
+      nc.traction = ExpressionVectorField(
+          padded(*spec.traction), scene.where(spec.traction->line) + "[[neumann]] traction", dim);
+    } else if (spec.pressure) {
+      nc.pressure = [p = *spec.pressure,
+                     what = scene.where(spec.pressureLine) + "[[neumann]] pressure",
+                     dim](const Point& x) {
+        const double v = p(x);
+        if (!std::isfinite(v)) throw Error(what + " is not finite at " + formatPoint(x, dim));
+        return v;
+      };
+    }
+    bc.neumann.push_back(std::move(nc));
+  }
+  if (scene.bodyForce)
+    bc.bodyForce = ExpressionVectorField(
+        padded(*scene.bodyForce), scene.where(scene.bodyForce->line) + "[body_force] value", dim);
+  return bc;
+}
+
+}  // namespace obs::drivers

@@ -1,0 +1,201 @@
+#include "TomlSection.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "obs/mesh/Error.hpp"
+
+namespace obs::drivers {
+
+namespace {
+
+int lineOf(const toml::value& v) {
+  const toml::source_location loc = v.location();
+  if (loc.file_name() == "unknown file") return 0;
+  return static_cast<int>(loc.line());
+}
+
+std::string prefix(const std::string& fileName, int line) {
+  return line > 0 ? fileName + ":" + std::to_string(line) + ": " : fileName + ": ";
+}
+
+std::string joined(std::initializer_list<const char*> names) {
+  std::string s;
+  for (const char* n : names) s += (s.empty() ? "" : ", ") + std::string(n);
+  return s;
+}
+
+}  // namespace
+
+std::string whereOf(const std::string& fileName, const toml::value& v) {
+  return prefix(fileName, lineOf(v));
+}
+
+std::string literalOf(const toml::value& v) {
+  const toml::source_location loc = v.location();
+  const std::string& line = loc.line_str();
+  const std::size_t begin = loc.column() - 1, size = loc.region();
+  if (loc.file_name() != "unknown file" && begin + size <= line.size() && size > 0)
+    return line.substr(begin, size);
+  std::ostringstream os;
+  os << v;
+  std::string s = os.str();
+  while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
+  return s;
+}
+
+std::string typeNameOf(const toml::value& v) {
+  switch (v.type()) {
+    case toml::value_t::boolean:
+      return "a boolean";
+    case toml::value_t::integer:
+      return "an integer";
+    case toml::value_t::floating:
+      return "a float";
+    case toml::value_t::string:
+      return "a string";
+    case toml::value_t::array:
+      return "an array";
+    case toml::value_t::table:
+      return "a table";
+    case toml::value_t::empty:
+      return "nothing";
+    default:
+      return "a date/time";
+  }
+}
+
+TomlSection::TomlSection(std::string fileName, std::string title, const toml::value& table,
+                         std::initializer_list<const char*> allowed)
+    : fileName_(std::move(fileName)), title_(std::move(title)), table_(table) {
+  if (!table_.is_table())
+    throw Error(whereOf(fileName_, table_) + title_ + " must be a table, got " +
+                typeNameOf(table_));
+  // Report the first unknown key in file order (the table itself is unordered).
+  const toml::value* first = nullptr;
+  std::string firstKey;
+  for (const auto& [key, value] : table_.as_table()) {
+    const bool known =
+        std::any_of(allowed.begin(), allowed.end(), [&](const char* a) { return key == a; });
+    if (!known && (!first || lineOf(value) < lineOf(*first))) {
+      first = &value;
+      firstKey = key;
+    }
+  }
+  if (first)
+    throw Error(whereOf(fileName_, *first) + title_ + " unknown key '" + firstKey +
+                "' (allowed keys: " + joined(allowed) + ")");
+}
+
+bool TomlSection::has(const std::string& key) const { return table_.as_table().count(key) > 0; }
+
+int TomlSection::line() const { return lineOf(table_); }
+
+int TomlSection::line(const std::string& key) const {
+  return has(key) ? lineOf(table_.as_table().at(key)) : 0;
+}
+
+const toml::value& TomlSection::at(const std::string& key) const {
+  const auto& t = table_.as_table();
+  const auto it = t.find(key);
+  if (it == t.end()) throw Error(whereOf(fileName_, table_) + title_ + " " + key + " is missing");
+  return it->second;
+}
+
+void TomlSection::fail(const std::string& key, const std::string& message) const {
+  throw Error(prefix(fileName_, has(key) ? line(key) : line()) + title_ + " " + key + " " +
+              message);
+}
+
+void TomlSection::failAt(const toml::value& v, const std::string& label,
+                         const std::string& message) const {
+  throw Error(whereOf(fileName_, v) + title_ + " " + label + " " + message);
+}
+
+double TomlSection::number(const std::string& key) const {
+  const toml::value& v = at(key);
+  double x = 0;
+  if (v.is_integer())
+    x = static_cast<double>(v.as_integer());
+  else if (v.is_floating())
+    x = v.as_floating();
+  else
+    fail(key, "must be a number, got " + typeNameOf(v));
+  if (!std::isfinite(x)) fail(key, "= " + literalOf(v) + " must be finite");
+  return x;
+}
+
+long long TomlSection::integer(const std::string& key) const {
+  const toml::value& v = at(key);
+  if (!v.is_integer()) fail(key, "must be an integer, got " + typeNameOf(v));
+  return v.as_integer();
+}
+
+std::string TomlSection::string(const std::string& key) const {
+  const toml::value& v = at(key);
+  if (!v.is_string()) fail(key, "must be a string, got " + typeNameOf(v));
+  return v.as_string().str;
+}
+
+bool TomlSection::boolean(const std::string& key) const {
+  const toml::value& v = at(key);
+  if (!v.is_boolean()) fail(key, "must be true or false, got " + typeNameOf(v));
+  return v.as_boolean();
+}
+
+Expression TomlSection::expressionOf(const toml::value& v, const std::string& label) const {
+  if (v.is_integer()) return Expression(static_cast<double>(v.as_integer()));
+  if (v.is_floating()) {
+    if (!std::isfinite(v.as_floating())) failAt(v, label, "= " + literalOf(v) + " must be finite");
+    return Expression(v.as_floating());
+  }
+  if (v.is_string()) {
+    try {
+      return Expression::parse(v.as_string().str);
+    } catch (const ExpressionError& e) {
+      failAt(
+          v, label,
+          "= \"" + e.text() + "\": " + e.reason() + " at position " + std::to_string(e.position()));
+    }
+  }
+  failAt(v, label, "must be a number or an expression string, got " + typeNameOf(v));
+}
+
+Expression TomlSection::expression(const std::string& key) const {
+  return expressionOf(at(key), key);
+}
+
+VectorValue TomlSection::vector(const std::string& key) const {
+  const toml::value& v = at(key);
+  if (!v.is_array())
+    fail(key, "must be an array of numbers or expression strings, got " + typeNameOf(v));
+  VectorValue out;
+  out.line = lineOf(v);
+  const auto& a = v.as_array();
+  if (a.empty() || a.size() > 3)
+    fail(key, "= " + literalOf(v) + " must have 2 or 3 entries (one per coordinate), got " +
+                  std::to_string(a.size()));
+  for (std::size_t i = 0; i < a.size(); ++i)
+    out.entries.push_back(expressionOf(a[i], key + "[" + std::to_string(i) + "]"));
+  return out;
+}
+
+BoundaryRef TomlSection::boundary(const std::string& key) const {
+  const toml::value& v = at(key);
+  BoundaryRef ref;
+  ref.line = lineOf(v);
+  if (v.is_string()) {
+    ref.name = v.as_string().str;
+    if (ref.name.empty()) fail(key, "must not be empty");
+  } else if (v.is_integer()) {
+    if (v.as_integer() < 0 || v.as_integer() > 1'000'000'000)
+      fail(key, "= " + literalOf(v) + " must be a boundary name or a non-negative boundary id");
+    ref.id = static_cast<int>(v.as_integer());
+  } else {
+    fail(key, "must be a boundary name (string) or id (integer), got " + typeNameOf(v));
+  }
+  return ref;
+}
+
+}  // namespace obs::drivers

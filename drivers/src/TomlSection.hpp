@@ -1,0 +1,65 @@
+#pragma once
+/// \file TomlSection.hpp
+/// Checked access to one table of a scene file (internal to the scene parser): every accessor
+/// checks presence and type and reports problems as one-line obs::Errors naming the file, line,
+/// section and key, e.g. "scene.toml:7: [material] E must be a number, got a string".
+#include <toml.hpp>
+
+#include <initializer_list>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "obs/drivers/Expression.hpp"
+#include "obs/drivers/Scene.hpp"
+
+namespace obs::drivers {
+
+/// "file:line: " for a TOML value (file name as passed to the TOML parser).
+std::string whereOf(const std::string& fileName, const toml::value& v);
+/// The literal text of a value as written in the file (falls back to its TOML serialisation).
+std::string literalOf(const toml::value& v);
+/// "a string", "an integer", ... for messages.
+std::string typeNameOf(const toml::value& v);
+
+class TomlSection {
+public:
+  /// `title` is how the section is written in messages, "[material]" or "[[dirichlet]]".
+  /// Throws if the table holds keys not in `allowed`.
+  TomlSection(std::string fileName, std::string title, const toml::value& table,
+              std::initializer_list<const char*> allowed);
+
+  bool has(const std::string& key) const;
+  int line() const;                                     ///< line of the section header (0: unknown)
+  int line(const std::string& key) const;               ///< line of a key's value (0 if absent)
+  const toml::value& at(const std::string& key) const;  ///< throws "... is missing" if absent
+
+  double number(const std::string& key) const;  ///< integer or float, finite
+  long long integer(const std::string& key) const;
+  std::string string(const std::string& key) const;
+  bool boolean(const std::string& key) const;
+  /// A number or an expression string.
+  Expression expression(const std::string& key) const;
+  /// An array of numbers or expression strings.
+  VectorValue vector(const std::string& key) const;
+  /// A boundary name (string) or id (non-negative integer).
+  BoundaryRef boundary(const std::string& key) const;
+
+  /// An element of an array or the value itself, turned into an expression; `label` names it.
+  Expression expressionOf(const toml::value& v, const std::string& label) const;
+
+  /// Throws "<file>:<line of key>: <title> <key> <message>".
+  [[noreturn]] void fail(const std::string& key, const std::string& message) const;
+  /// Throws "<file>:<line of v>: <title> <label> <message>".
+  [[noreturn]] void failAt(const toml::value& v, const std::string& label,
+                           const std::string& message) const;
+
+  const std::string& title() const { return title_; }
+
+private:
+  std::string fileName_;
+  std::string title_;
+  const toml::value& table_;
+};
+
+}  // namespace obs::drivers
