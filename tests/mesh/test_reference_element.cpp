@@ -119,8 +119,8 @@ TEST_P(ReferenceElementTest, FacesAreOutwardAndOffFaceFunctionsVanish) {
     for (int i = 0; i < e.numVertices; ++i) {
       const bool onFace = std::find(face.vertices.begin(), face.vertices.end(), i) !=
                           face.vertices.end();
-      if (!onFace) EXPECT_NEAR(f[i], 0.0, 1e-14);
-      else EXPECT_NEAR(f[i], 1.0 / face.vertices.size(), 1e-14);
+      const double expected = onFace ? 1.0 / face.vertices.size() : 0.0;
+      EXPECT_NEAR(f[i], expected, 1e-14);
     }
   }
 }

@@ -95,7 +95,9 @@ TEST(CholmodSolver, SolvesDirichletEliminatedSystemLikeDense) {
   const Eigen::VectorXd xf = Aff.ldlt().solve(rhs);
   for (std::size_t i = 0; i < freeIdx.size(); ++i) EXPECT_NEAR(x[freeIdx[i]], xf[i], 1e-12);
   for (int k = 0; k < 14; ++k)
-    if (g.constrained[k]) EXPECT_DOUBLE_EQ(x[k], g.values[k]);
+    if (g.constrained[k]) {
+      EXPECT_DOUBLE_EQ(x[k], g.values[k]);
+    }
   EXPECT_GT(solver.factorNonZeros(), 0);
 }
 
