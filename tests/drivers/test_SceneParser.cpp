@@ -194,7 +194,7 @@ TEST(SceneParser, DefaultsAndOptionalSections) {
   EXPECT_EQ(s.mesh.refine, 0);
   EXPECT_EQ(s.output.directory, fs::path("out") / "valid_minimal");
   EXPECT_TRUE(s.output.vtk);
-  EXPECT_TRUE(s.output.csv.empty());
+  EXPECT_EQ(s.output.csv, fs::path("runs.csv"));  // a CSV row per run by default
   EXPECT_NO_THROW(load(writeScene("valid_minimal", kMesh2D + kMaterial + kClamp)));
 }
 

@@ -73,7 +73,7 @@ struct NeumannSpec {
 struct OutputSpec {
   std::filesystem::path directory;  ///< relative to the working directory; default out/<scene name>
   bool vtk = true;                  ///< write <scene name>.vtu
-  std::filesystem::path csv;        ///< empty: no CSV; relative paths are inside `directory`
+  std::filesystem::path csv = "runs.csv";  ///< empty: no CSV; relative paths are inside `directory`
 };
 
 struct Scene {
