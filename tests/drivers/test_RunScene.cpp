@@ -184,9 +184,11 @@ directory = ")" + out.string() + R"("
 vtk = false
 )");
   const RunResult r = runScene(scene);
-  ASSERT_EQ(r.outputFiles.size(), 1u);
-  EXPECT_EQ(r.outputFiles[0], out / "summary.json");
+  // summary.json and the default runs.csv, no .vtu
+  ASSERT_EQ(r.outputFiles.size(), 2u);
+  for (const auto& f : r.outputFiles) EXPECT_NE(f.extension(), ".vtu");
   EXPECT_TRUE(fs::exists(out / "summary.json"));
+  EXPECT_TRUE(fs::exists(out / "runs.csv"));
   EXPECT_FALSE(fs::exists(out / "novtk.vtu"));
   EXPECT_GT(r.maxDisplacement, 0);
 }
