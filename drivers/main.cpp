@@ -82,7 +82,7 @@ int main(int argc, char** argv) {
       "  obs run data/scenes/cantilever.toml               solve, write out/cantilever/\n"
       "  obs run data/scenes/cantilever.toml --refine 2    the same on a twice refined mesh\n"
       "  obs check data/scenes/*.toml                      validate scenes without solving\n"
-      "Run 'obs <command> --help' for the options of a command. Scene files: docs/scenes.md");
+      "Run 'obs <command> --help' for the options of a command. Scene files: docs/scenes.md\n");
 
   std::string scene;
   std::optional<std::string> output;
@@ -102,10 +102,10 @@ int main(int argc, char** argv) {
   run->add_flag("--quiet,-q", quiet, "Print nothing but errors");
   run->footer(
       "Writes <output>/<scene name>.vtu (displacement, stress, von_mises, boundary_id,\n"
-      "element_type; open it in ParaView), <output>/summary.json (sizes, times, memory) and,\n"
-      "if [output] csv is set, one CSV row per run.\n"
+      "element_type; open it in ParaView), <output>/summary.json (sizes, times, memory) and\n"
+      "appends one row per run to <output>/runs.csv ([output] csv names another file).\n"
       "Example: obs run data/scenes/cantilever.toml --output out/cantilever --refine 1\n"
-      "The scene file format is documented in docs/scenes.md.");
+      "The scene file format is documented in docs/scenes.md.\n");
 
   std::vector<std::string> checkScenes;
   std::optional<int> checkRefine;
@@ -119,7 +119,7 @@ int main(int argc, char** argv) {
   check->add_option("--refine,-r", checkRefine, "Uniform refinements (replaces [mesh] refine)")
       ->type_name("K")
       ->check(CLI::Range(0, 12));
-  check->footer("Example: obs check data/scenes/*.toml\nScene files: docs/scenes.md");
+  check->footer("Example: obs check data/scenes/*.toml\nScene files: docs/scenes.md\n");
 
   try {
     app.parse(argc, argv);
