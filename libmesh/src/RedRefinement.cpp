@@ -1,5 +1,6 @@
 // Red refinement rules (built once from vertex-set descriptions) and uniform refinement of a Mesh.
 #include "obs/mesh/RedRefinement.hpp"
+#include "obs/mesh/ReferenceElement.hpp"
 
 #include <algorithm>
 #include <array>
@@ -17,25 +18,7 @@ namespace {
 using Set = std::vector<int>;  // a refinement point given by the parent corners it averages
 
 /// Reference corner coordinates (ReferenceElement.hpp), used to orient and check the children.
-std::vector<Point> referenceCorners(CellType t) {
-  switch (t) {
-    case CellType::Segment: return {Point(0, 0, 0), Point(1, 0, 0)};
-    case CellType::Triangle: return {Point(0, 0, 0), Point(1, 0, 0), Point(0, 1, 0)};
-    case CellType::Quadrilateral:
-      return {Point(0, 0, 0), Point(1, 0, 0), Point(1, 1, 0), Point(0, 1, 0)};
-    case CellType::Tetrahedron:
-      return {Point(0, 0, 0), Point(1, 0, 0), Point(0, 1, 0), Point(0, 0, 1)};
-    case CellType::Hexahedron:
-      return {Point(0, 0, 0), Point(1, 0, 0), Point(1, 1, 0), Point(0, 1, 0),
-              Point(0, 0, 1), Point(1, 0, 1), Point(1, 1, 1), Point(0, 1, 1)};
-    case CellType::Prism:
-      return {Point(0, 0, 0), Point(1, 0, 0), Point(0, 1, 0),
-              Point(0, 0, 1), Point(1, 0, 1), Point(0, 1, 1)};
-    case CellType::Pyramid:
-      return {Point(0, 0, 0), Point(1, 0, 0), Point(1, 1, 0), Point(0, 1, 0), Point(0, 0, 1)};
-  }
-  return {};
-}
+std::vector<Point> referenceCorners(CellType t) { return referenceElement(t).vertices; }
 
 /// Assembles one rule: points are registered as vertex sets, children as lists of vertex sets.
 class RuleBuilder {

@@ -15,30 +15,13 @@
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/MeshTopology.hpp"
 #include "obs/mesh/RedRefinement.hpp"
+#include "obs/mesh/ReferenceElement.hpp"
 
 using namespace obs::mesh;
 
 namespace {
 
-std::vector<Point> referenceCorners(CellType t) {
-  switch (t) {
-    case CellType::Segment: return {Point(0, 0, 0), Point(1, 0, 0)};
-    case CellType::Triangle: return {Point(0, 0, 0), Point(1, 0, 0), Point(0, 1, 0)};
-    case CellType::Quadrilateral:
-      return {Point(0, 0, 0), Point(1, 0, 0), Point(1, 1, 0), Point(0, 1, 0)};
-    case CellType::Tetrahedron:
-      return {Point(0, 0, 0), Point(1, 0, 0), Point(0, 1, 0), Point(0, 0, 1)};
-    case CellType::Hexahedron:
-      return {Point(0, 0, 0), Point(1, 0, 0), Point(1, 1, 0), Point(0, 1, 0),
-              Point(0, 0, 1), Point(1, 0, 1), Point(1, 1, 1), Point(0, 1, 1)};
-    case CellType::Prism:
-      return {Point(0, 0, 0), Point(1, 0, 0), Point(0, 1, 0),
-              Point(0, 0, 1), Point(1, 0, 1), Point(0, 1, 1)};
-    case CellType::Pyramid:
-      return {Point(0, 0, 0), Point(1, 0, 0), Point(1, 1, 0), Point(0, 1, 0), Point(0, 0, 1)};
-  }
-  return {};
-}
+std::vector<Point> referenceCorners(CellType t) { return referenceElement(t).vertices; }
 
 /// Applies `rule` to a parent with corners x: the children as a Mesh whose boundary faces are the
 /// parent's faces refined by the face rules (points matched through their parent vertex sets).
