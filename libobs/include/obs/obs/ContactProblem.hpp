@@ -1,0 +1,145 @@
+#pragma once
+/// \file ContactProblem.hpp
+/// The algebraic Signorini problem (MATH.md §1, thesis Problem 2.1.1):
+///   minimise J(u) = 1/2 u'Au - b'u   subject to   nu_p' u_p <= g_p  at the potential contact nodes p,
+/// with A, b the stiffness matrix and load after the symmetric elimination of the Dirichlet values
+/// (applyDirichlet: prescribed rows/columns are identity rows with b = u_D, so J is minimised at u_D
+/// there; J differs from the physical energy by a constant for u with the prescribed values).
+///
+/// Dirichlet components at contact nodes. The constraint is restricted to the free components F of
+/// the node: with nu_F (nu with the prescribed components zeroed) and the prescribed part
+/// s = sum_{c prescribed} nu_c u_D,c,
+///   nu'u <= g   <=>   (nu_F/|nu_F|)'u <= (g - s)/|nu_F|           (exact for u with u_D prescribed),
+/// the *effective* constraint stored in Constraint; its rotation keeps prescribed axes as columns, so
+/// the rotated matrix keeps identity rows there. If nu_F = 0 the constraint is decided by the data
+/// alone: s > g throws obs::Error before solving, otherwise the node is unconstrained (gap +inf).
+/// Without prescribed components nothing changes: the effective constraint is (nu_p, g_p, Q_p).
+///
+/// Rotated form (MATH.md §1, §2): with w_p = Q_p' u_p (Q_p = I at vertices without a constraint)
+///   A~_pq = Q_p' A_pq Q_q,  b~_p = Q_p' b_p,  bounds w_{p,1} <= g_p (first local component),
+/// a bound-constrained quadratic problem: the form the Gauss-Seidel smoother, the primal-dual active
+/// set method and TNNMG work on.
+#include <Eigen/Core>
+
+#include <limits>
+#include <vector>
+
+#include "obs/mesh/Mesh.hpp"
+#include "obs/obs/BlockSparseMatrix.hpp"
+#include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/ContactSet.hpp"
+#include "obs/obs/ElasticityAssembly.hpp"
+#include "obs/obs/Material.hpp"
+
+namespace obs {
+
+/// min 1/2 w'Aw - b'w subject to w[p*d] <= upper[p] (upper = +inf: no bound): the rotated problem.
+template <int d>
+struct RotatedProblem {
+  BlockSparseMatrix<d> matrix;   ///< A~ = Q'AQ (block-wise)
+  Eigen::VectorXd rhs;           ///< b~ = Q'b
+  std::vector<double> upper;     ///< bound of the first local component per vertex
+  std::vector<char> prescribed;  ///< Dirichlet components in rotated numbering (identity rows of A~)
+
+  Index numVertices() const { return matrix.rows(); }
+  bool bounded(Index p) const { return upper[p] < std::numeric_limits<double>::infinity(); }
+  double energy(const Eigen::VectorXd& w) const { return 0.5 * matrix.energy(w) - rhs.dot(w); }
+  /// Clamps w[p*d] to upper[p] (the componentwise projection onto the admissible set).
+  void project(Eigen::VectorXd& w) const;
+  /// Number of vertices with w[p*d] >= upper[p] (exactly at the bound, as the solvers set it).
+  Index countActive(const Eigen::VectorXd& w) const;
+};
+
+template <int d>
+class ContactProblem {
+public:
+  using Vec = Eigen::Matrix<double, d, 1>;
+  using Mat = Eigen::Matrix<double, d, d>;
+
+  /// The effective constraint direction' u_vertex <= gap at one contact node (see file comment).
+  struct Constraint {
+    Index vertex = -1;
+    Vec direction;   ///< unit, in the free subspace of the vertex
+    double gap = 0;  ///< +inf: unconstrained
+    double scale = 1;  ///< |nu_F|; the multiplier of nu_p'u <= g_p is (effective multiplier) / scale
+    Mat rotation;    ///< orthogonal, rotation e_1 = direction (identity if unconstrained)
+    bool bounded() const { return gap < std::numeric_limits<double>::infinity(); }
+  };
+
+  /// Assembles A and b on the mesh (assembleStiffness, assembleLoad), eliminates the Dirichlet values
+  /// of bc and builds the constraints of `contact`. Throws obs::Error on invalid material, dimension
+  /// mismatches, or Dirichlet values that violate a contact constraint.
+  ContactProblem(const mesh::Mesh& mesh, const Material& material, const BoundaryConditions& bc,
+                 const ContactSet& contact);
+  /// From an assembled stiffness matrix and load (Dirichlet values not yet eliminated).
+  ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorXd load, DirichletValues dirichlet,
+                 const ContactSet& contact);
+
+  Index numVertices() const { return A_.rows(); }
+  Index numDofs() const { return A_.rows() * d; }
+  const BlockSparseMatrix<d>& matrix() const { return A_; }
+  const Eigen::VectorXd& rhs() const { return b_; }
+  const DirichletValues& dirichlet() const { return dirichlet_; }
+  const ContactSet& contactSet() const { return contact_; }
+  /// Constraint of contact node k (ContactSet numbering).
+  const Constraint& constraint(Index k) const { return constraints_[k]; }
+  const std::vector<Constraint>& constraints() const { return constraints_; }
+
+  double energy(const Eigen::VectorXd& u) const { return 0.5 * A_.energy(u) - b_.dot(u); }
+  /// Gradient A u - b of J.
+  Eigen::VectorXd gradient(const Eigen::VectorXd& u) const { return A_ * u - b_; }
+  /// Energy norm ||x||_A = sqrt(x'Ax).
+  double energyNorm(const Eigen::VectorXd& x) const;
+  /// Largest constraint violation max_p (nu_p'u_p - g_p)^+ (effective constraints).
+  double maxViolation(const Eigen::VectorXd& u) const;
+  /// An admissible start: sets the Dirichlet components to their values and moves every node that
+  /// violates its constraint back onto it along the constraint direction, u_p -= (nu'u_p - g)^+ nu.
+  /// (Resizes a vector of the wrong size to zero first.)
+  void projectToFeasible(Eigen::VectorXd& u) const;
+  /// Nodal contact forces (effective multipliers) mu_k = (b - A u)_p . nu_p (0 if unconstrained).
+  Eigen::VectorXd multipliers(const Eigen::VectorXd& u) const;
+
+  /// The rotated problem (built on each call: one copy of the matrix).
+  RotatedProblem<d> rotated() const;
+  /// w = Q'u and u = Q w.
+  Eigen::VectorXd toRotated(const Eigen::VectorXd& u) const;
+  Eigen::VectorXd fromRotated(const Eigen::VectorXd& w) const;
+
+private:
+  void setup();
+
+  BlockSparseMatrix<d> A_;
+  Eigen::VectorXd b_;
+  DirichletValues dirichlet_;
+  ContactSet contact_;
+  std::vector<Constraint> constraints_;
+};
+
+/// Contact quantities of a solution (MATH.md §1, §3), per contact node k of the ContactSet:
+///   inContact[k]  actual contact: g_p - nu_p'u_p <= relativeTolerance * U, U = max(|u|_inf, |g|_inf)
+///                 over finite gaps (MATH.md §3 N^aC);
+///   multiplier[k] mu_p = (b - A u)_p . nu_p (physical constraint, see Constraint::scale);
+///   pressure[k]   s_p = mu_p / m_p^C  (MATH.md §1, thesis (4.1)), an approximation of -sigma_nu;
+/// totals: force = sum_p mu_p nu_p (the force the obstacle exerts on the body is -force), contact area
+/// = measure of the contact faces all of whose nodes are in contact, and a contact radius estimate:
+/// sqrt(area / pi) in 3D (a disk), area / 2 in 2D (half the contact length, the b of MATH.md §4).
+struct ContactOutputs {
+  std::vector<char> inContact;
+  std::vector<double> multiplier;
+  std::vector<double> pressure;
+  Index contactNodes = 0;
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();
+  double contactArea = 0;
+  double contactRadius = 0;
+};
+
+template <int d>
+ContactOutputs computeContactOutputs(const ContactProblem<d>& problem, const Eigen::VectorXd& u,
+                                     double relativeTolerance = 1e-8);
+
+extern template struct RotatedProblem<2>;
+extern template struct RotatedProblem<3>;
+extern template class ContactProblem<2>;
+extern template class ContactProblem<3>;
+
+}  // namespace obs

@@ -1,0 +1,97 @@
+#pragma once
+/// \file ContactSolver.hpp
+/// The common interface of the contact solvers (DESIGN.md libobs): solve the bound-constrained problem
+/// of a ContactProblem from a start u, return a result value (iterations, convergence, time, KKT
+/// residuals, per-iteration history) in the spirit of DUNE's InverseOperatorResult, never print.
+/// Iterative solvers stop when the relative energy-norm correction (MATH.md §2)
+///   ||u^{k+1} - u^k||_A / ||u^{k+1}||_A < tolerance
+/// (solvers with an exact stopping rule, like the active-set method, say so). Reaching maxIterations
+/// returns converged = false; NaN/Inf, divergence and stagnation throw obs::Error saying what happened.
+///
+/// IterationMonitor is the shared bookkeeping (cf. dune-solvers' LoopSolver with its criteria):
+/// history, tolerance, NaN, divergence, stagnation and energy-monotonicity checks.
+#include <Eigen/Core>
+
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/KktResiduals.hpp"
+
+namespace obs {
+
+struct ContactSolverOptions {
+  /// Relative energy-norm correction at which an iterative solver stops.
+  double tolerance = 1e-10;
+  /// Iteration cap; reaching it without convergence returns converged = false.
+  int maxIterations = 1000;
+  /// Stagnation: obs::Error if in this many consecutive iterations neither the energy decreased by
+  /// more than round-off (1e-14 relative) nor the correction reached a new minimum (by a relative
+  /// 1e-6, so that slow but steady methods like Gauss-Seidel on fine meshes count as progressing).
+  int stagnationIterations = 100;
+  /// Divergence: obs::Error if the energy exceeds J_0 + divergenceFactor * max(|J_0|, |J_min|, 1e-300).
+  double divergenceFactor = 1e6;
+  /// Keep the per-iteration history in the result.
+  bool recordHistory = true;
+};
+
+struct IterationRecord {
+  int iteration = 0;
+  double energy = 0;      ///< J(u^k)
+  double correction = 0;  ///< ||u^k - u^{k-1}||_A / ||u^k||_A
+  Index activeSetSize = 0;
+};
+
+struct ContactResult {
+  std::string solver;
+  int iterations = 0;
+  bool converged = false;
+  double seconds = 0;
+  double correction = 0;       ///< last relative energy-norm correction
+  double convergenceRate = 0;  ///< geometric mean of the correction ratios (0 if < 2 iterations)
+  double energy = 0;           ///< final J(u)
+  Index activeSetSize = 0;     ///< final number of nodes at their bound
+  KktResiduals kkt;            ///< of the returned u
+  std::vector<IterationRecord> history;
+};
+
+template <int d>
+class ContactSolver {
+public:
+  virtual ~ContactSolver() = default;
+  virtual std::string name() const = 0;
+  /// Solves the problem starting from u (any vector of the right size; projected onto the admissible
+  /// set first; a vector of the wrong size starts from zero) and returns the solution in u.
+  virtual ContactResult solve(const ContactProblem<d>& problem, Eigen::VectorXd& u) = 0;
+};
+
+class IterationMonitor {
+public:
+  /// Starts the clock; `initialEnergy` is J of the (projected) start.
+  IterationMonitor(std::string solver, const ContactSolverOptions& options, double initialEnergy);
+
+  /// Records iteration k (1, 2, ...). Returns true if correction < tolerance. Throws obs::Error on
+  /// NaN/Inf, divergence or stagnation.
+  bool record(double energy, double correction, Index activeSetSize);
+  /// For energy-monotone methods: throws obs::Error if the last recorded energy exceeds the one
+  /// before by more than round-off, 1e-10 * scale (scale: magnitude of the energy's terms).
+  void requireMonotone(double scale) const;
+  /// Marks the progress counter as reset (e.g. a solver-specific notion of progress).
+  void progressed() { sinceProgress_ = 0; }
+
+  int iterations() const { return iteration_; }
+  /// Fills the result (time, iterations, correction, rate, energy, history); kkt is left to the solver.
+  ContactResult finish(bool converged, Index activeSetSize);
+
+private:
+  std::string solver_;
+  ContactSolverOptions options_;
+  std::chrono::steady_clock::time_point start_;
+  double initialEnergy_, minEnergy_, previousEnergy_, lastEnergy_;
+  double bestCorrection_, firstCorrection_ = 0, lastCorrection_ = 0;
+  int iteration_ = 0, sinceProgress_ = 0;
+  std::vector<IterationRecord> history_;
+};
+
+}  // namespace obs

@@ -1,0 +1,47 @@
+#pragma once
+/// \file PrimalDualActiveSet.hpp
+/// Primal-dual active set method = semismooth Newton for the complementarity conditions
+/// (Hintermueller, Ito, Kunisch 2002), on the rotated problem of ContactProblem (MATH.md §1):
+///   min 1/2 w'Aw - b'w  s.t.  w_{p,1} <= g_p,   multipliers mu_p = (b - A w)_{p,1}.
+/// Iteration k, from (w^k, mu^k):
+///   1. active set  A_k = { p bounded : mu_p^k + c_p (w^k_{p,1} - g_p) > 0 },  c_p = c * A_pp(1,1)
+///      (scaling c by the diagonal makes the rule independent of the units);
+///   2. if k > 0 and A_k = A_{k-1}: stop, (w^k, mu^k) satisfies the KKT conditions exactly
+///      (inactive: mu = 0, w_1 <= g; active: w_1 = g, mu > 0);
+///   3. w^{k+1} solves A w = b on all components except w_{p,1} = g_p for p in A_k (symmetric
+///      elimination as for Dirichlet values, CHOLMOD);
+///   4. mu^{k+1}_p = (b - A w^{k+1})_{p,1} on A_k, 0 elsewhere.
+/// The start is the projected u with mu^0 = (b - A w^0)_{p,1}. The method converges locally
+/// superlinearly and stops after finitely many steps; the relative energy-norm corrections are
+/// recorded but the stopping rule is step 2 (then converged also requires KKT residuals <=
+/// kktTolerance). If an active set repeats one that is not the previous one, the iteration cycles:
+/// obs::Error. Each iteration factorises anew (the matrix changes with the active set).
+#include "obs/obs/ContactSolver.hpp"
+
+namespace obs {
+
+template <int d>
+class PrimalDualActiveSet : public ContactSolver<d> {
+public:
+  struct Options : ContactSolverOptions {
+    Options() { maxIterations = 100; }
+    double c = 1.0;              ///< complementarity constant, relative to the diagonal entries
+    double kktTolerance = 1e-8;  ///< bound on KktResiduals::max() for converged = true
+  };
+  PrimalDualActiveSet() = default;
+  explicit PrimalDualActiveSet(const Options& options) : options_(options) {}
+  std::string name() const override { return "primal-dual-active-set"; }
+  ContactResult solve(const ContactProblem<d>& problem, Eigen::VectorXd& u) override;
+
+  /// Seconds spent in CHOLMOD factorisations during the last solve.
+  double factorSeconds() const { return factorSeconds_; }
+
+private:
+  Options options_;
+  double factorSeconds_ = 0;
+};
+
+extern template class PrimalDualActiveSet<2>;
+extern template class PrimalDualActiveSet<3>;
+
+}  // namespace obs

@@ -1,0 +1,98 @@
+#pragma once
+/// \file ProjectedGaussSeidel.hpp
+/// Nonsmooth block Gauss-Seidel for the rotated contact problem (MATH.md §2 step 1; Graeser, Sack,
+/// Sander 2009; Kornhuber 1997):  min 1/2 w'Aw - b'w  s.t.  w_{p,1} <= upper_p.
+///
+/// Two reusable parts (the TNNMG smoother is exactly this sweep):
+///  - BlockLocalSolver<d>: exact minimisation of the energy in one block p with the others fixed,
+///      minimise 1/2 v'A_pp v - r'v  s.t. v_1 <= upper_p,   r = b_p - sum_{q != p} A_pq w_q:
+///    v = A_pp^{-1} r; if v_1 > upper_p, fix v_1 = upper_p and solve the trailing (d-1) x (d-1) system
+///      A_pp[2:d, 2:d] v[2:d] = r[2:d] - A_pp[2:d, 1] upper_p.
+///    (A strictly convex function of v restricted to v_1 = upper is minimised there, and because the
+///    unconstrained minimiser violates the bound, the constrained minimiser lies on it.)
+///  - BlockGaussSeidelSweep<d>: one sweep over the vertices in order (forward or backward) with the
+///    local solver. Each local step minimises exactly, so the energy never increases.
+/// ProjectedGaussSeidel<d> iterates sweeps from the projected start as a ContactSolver.
+#include <Eigen/Core>
+
+#include <vector>
+
+#include "obs/obs/BlockSparseMatrix.hpp"
+#include "obs/obs/ContactSolver.hpp"
+
+namespace obs {
+
+/// Exact local block solves, with the inverses of the diagonal blocks (and of their trailing
+/// (d-1) x (d-1) parts at bounded vertices) computed once.
+template <int d>
+class BlockLocalSolver {
+public:
+  using Vec = Eigen::Matrix<double, d, 1>;
+  using Mat = Eigen::Matrix<double, d, d>;
+  using Tail = Eigen::Matrix<double, d - 1, d - 1>;
+
+  BlockLocalSolver() = default;
+  /// Throws obs::Error if a diagonal block is not symmetric positive definite (e.g. a vertex without
+  /// cells, or a zero block). upper has one entry per vertex (+inf: no bound).
+  BlockLocalSolver(const BlockSparseMatrix<d>& A, std::vector<double> upper);
+
+  /// argmin of 1/2 v'A_pp v - r'v subject to v_1 <= upper_p.
+  Vec solve(Index p, const Vec& r) const {
+    Vec v = inverse_[p] * r;
+    if (v[0] > upper_[p]) {
+      v[0] = upper_[p];
+      v.template tail<d - 1>() = tail_[p] * (r.template tail<d - 1>() - coupling_[p] * upper_[p]);
+    }
+    return v;
+  }
+  double upper(Index p) const { return upper_[p]; }
+
+private:
+  std::vector<Mat> inverse_;
+  std::vector<Tail> tail_;                              ///< (A_pp[2:d,2:d])^{-1}
+  std::vector<Eigen::Matrix<double, d - 1, 1>> coupling_;  ///< A_pp[2:d, 1]
+  std::vector<double> upper_;
+};
+
+/// One nonsmooth block Gauss-Seidel sweep, w <- S(w), for the matrix and bounds the local solver was
+/// built for. Works in place on w; `backward` visits the vertices in reverse order. Keeps a reference
+/// to A, which must outlive the sweep object.
+template <int d>
+class BlockGaussSeidelSweep {
+public:
+  BlockGaussSeidelSweep(const BlockSparseMatrix<d>& A, std::vector<double> upper)
+      : A_(A), local_(A, std::move(upper)) {}
+  void sweep(const Eigen::VectorXd& b, Eigen::VectorXd& w, bool backward = false) const;
+  const BlockLocalSolver<d>& localSolver() const { return local_; }
+
+private:
+  const BlockSparseMatrix<d>& A_;
+  BlockLocalSolver<d> local_;
+};
+
+/// Projected (nonsmooth block) Gauss-Seidel as a contact solver. One iteration = one forward sweep
+/// (or a forward + backward sweep if `symmetric`). Slow (the rate tends to 1 like 1 - c h^2) but
+/// robust and monotone; the baseline and the smoother of TNNMG.
+template <int d>
+class ProjectedGaussSeidel : public ContactSolver<d> {
+public:
+  struct Options : ContactSolverOptions {
+    bool symmetric = false;
+  };
+  ProjectedGaussSeidel() = default;
+  explicit ProjectedGaussSeidel(const Options& options) : options_(options) {}
+  std::string name() const override { return "projected-gauss-seidel"; }
+  ContactResult solve(const ContactProblem<d>& problem, Eigen::VectorXd& u) override;
+
+private:
+  Options options_;
+};
+
+extern template class BlockLocalSolver<2>;
+extern template class BlockLocalSolver<3>;
+extern template class BlockGaussSeidelSweep<2>;
+extern template class BlockGaussSeidelSweep<3>;
+extern template class ProjectedGaussSeidel<2>;
+extern template class ProjectedGaussSeidel<3>;
+
+}  // namespace obs

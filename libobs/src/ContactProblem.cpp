@@ -1,0 +1,287 @@
+#include "obs/obs/ContactProblem.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+#include <sstream>
+
+#include "obs/mesh/Error.hpp"
+
+namespace obs {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+/// Orthogonal m x m matrix with first column y (unit): the Householder construction of
+/// householderRotation() in m dimensions.
+Eigen::MatrixXd householder(const Eigen::VectorXd& y) {
+  const Eigen::Index m = y.size();
+  const bool flip = y[0] > 0;
+  Eigen::VectorXd v = flip ? Eigen::VectorXd(y) : Eigen::VectorXd(-y);
+  v[0] += 1;
+  Eigen::MatrixXd H = Eigen::MatrixXd::Identity(m, m) - (2 / v.squaredNorm()) * v * v.transpose();
+  if (flip) H.col(0) = -H.col(0);
+  return H;
+}
+
+std::string num(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+}  // namespace
+
+// --- RotatedProblem ----------------------------------------------------------------------------
+
+template <int d>
+void RotatedProblem<d>::project(Eigen::VectorXd& w) const {
+  for (Index p = 0; p < numVertices(); ++p) w[p * d] = std::min(w[p * d], upper[p]);
+}
+
+template <int d>
+Index RotatedProblem<d>::countActive(const Eigen::VectorXd& w) const {
+  Index n = 0;
+  for (Index p = 0; p < numVertices(); ++p) n += bounded(p) && w[p * d] >= upper[p];
+  return n;
+}
+
+// --- ContactProblem ----------------------------------------------------------------------------
+
+template <int d>
+ContactProblem<d>::ContactProblem(const mesh::Mesh& mesh, const Material& material,
+                                  const BoundaryConditions& bc, const ContactSet& contact)
+    : contact_(contact) {
+  material.validate();
+  if (mesh.dimension() != d)
+    throw Error("contact problem: the mesh has dimension " + std::to_string(mesh.dimension()) +
+                ", the problem " + std::to_string(d));
+  A_ = assembleStiffness<d>(mesh, material);
+  b_ = assembleLoad<d>(mesh, bc);
+  dirichlet_ = collectDirichlet(mesh, bc.dirichlet);
+  setup();
+}
+
+template <int d>
+ContactProblem<d>::ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorXd load,
+                                  DirichletValues dirichlet, const ContactSet& contact)
+    : A_(std::move(stiffness)), b_(std::move(load)), dirichlet_(std::move(dirichlet)), contact_(contact) {
+  setup();
+}
+
+template <int d>
+void ContactProblem<d>::setup() {
+  const Index n = A_.rows();
+  if (b_.size() != static_cast<Eigen::Index>(n) * d ||
+      dirichlet_.constrained.size() != static_cast<std::size_t>(n) * d ||
+      dirichlet_.values.size() != static_cast<Eigen::Index>(n) * d)
+    throw Error("contact problem: matrix, load and Dirichlet data have inconsistent sizes");
+  if (contact_.dimension() != d || contact_.numMeshVertices() != n)
+    throw Error("contact problem: the contact set " + contact_.boundaryLabel() +
+                " was built for another mesh (dimension " + std::to_string(contact_.dimension()) + ", " +
+                std::to_string(contact_.numMeshVertices()) + " vertices; the problem has dimension " +
+                std::to_string(d) + ", " + std::to_string(n) + " vertices)");
+  applyDirichlet(A_, b_, dirichlet_);
+
+  constraints_.resize(contact_.size());
+  for (Index k = 0; k < contact_.size(); ++k) {
+    Constraint& c = constraints_[k];
+    c.vertex = contact_.vertex(k);
+    const Vec nu = contact_.direction(k).template head<d>();
+    const double g = contact_.gap(k);
+    c.direction = nu;
+    c.gap = g;
+    c.scale = 1;
+    c.rotation = Mat::Identity();
+    if (g == kInf) continue;  // unconstrained node: identity rotation keeps the Dirichlet rows intact
+
+    // split the components into free (F) and prescribed (D)
+    std::vector<int> F, D;
+    double shift = 0;
+    for (int a = 0; a < d; ++a) {
+      const std::size_t i = static_cast<std::size_t>(c.vertex) * d + a;
+      if (dirichlet_.constrained[i]) {
+        D.push_back(a);
+        shift += nu[a] * dirichlet_.values[static_cast<Eigen::Index>(i)];
+      } else {
+        F.push_back(a);
+      }
+    }
+    if (D.empty()) {
+      c.rotation = householderRotation(contact_.direction(k)).template topLeftCorner<d, d>();
+    } else {
+      Vec nuF = nu;
+      for (int a : D) nuF[a] = 0;
+      const double norm = nuF.norm();
+      if (norm <= 1e-12) {
+        // the constrained component is prescribed: check the data, then drop the constraint
+        if (shift > g + 1e-12 * std::max({1.0, std::abs(g), std::abs(shift)})) {
+          std::ostringstream at;
+          const Point& x = contact_.position(k);
+          at << "(" << x[0] << ", " << x[1] << (d == 3 ? ", " + num(x[2]) : std::string()) << ")";
+          throw Error("contact boundary " + contact_.boundaryLabel() + ", vertex " + std::to_string(c.vertex) +
+                      " at " + at.str() + ": the Dirichlet values give nu.u = " + num(shift) + " > gap " +
+                      num(g) + " (the prescribed displacement violates the contact constraint)");
+        }
+        c.gap = kInf;
+        continue;
+      }
+      c.direction = nuF / norm;
+      c.gap = (g - shift) / norm;
+      c.scale = norm;
+      // columns: direction, the rest of an orthonormal basis of the free subspace, prescribed axes
+      Eigen::VectorXd y(F.size());
+      for (std::size_t i = 0; i < F.size(); ++i) y[static_cast<Eigen::Index>(i)] = c.direction[F[i]];
+      const Eigen::MatrixXd H = householder(y);
+      c.rotation.setZero();
+      for (std::size_t j = 0; j < F.size(); ++j)
+        for (std::size_t i = 0; i < F.size(); ++i)
+          c.rotation(F[i], static_cast<Eigen::Index>(j)) = H(static_cast<Eigen::Index>(i), static_cast<Eigen::Index>(j));
+      for (std::size_t j = 0; j < D.size(); ++j) c.rotation(D[j], static_cast<Eigen::Index>(F.size() + j)) = 1;
+    }
+  }
+}
+
+template <int d>
+double ContactProblem<d>::energyNorm(const Eigen::VectorXd& x) const {
+  return std::sqrt(std::max(0.0, A_.energy(x)));
+}
+
+template <int d>
+double ContactProblem<d>::maxViolation(const Eigen::VectorXd& u) const {
+  double v = 0;
+  for (const Constraint& c : constraints_)
+    if (c.bounded())
+      v = std::max(v, c.direction.dot(u.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d)) - c.gap);
+  return v;
+}
+
+template <int d>
+void ContactProblem<d>::projectToFeasible(Eigen::VectorXd& u) const {
+  if (u.size() != static_cast<Eigen::Index>(numDofs())) u = Eigen::VectorXd::Zero(numDofs());
+  for (std::size_t i = 0; i < dirichlet_.constrained.size(); ++i)
+    if (dirichlet_.constrained[i]) u[static_cast<Eigen::Index>(i)] = dirichlet_.values[static_cast<Eigen::Index>(i)];
+  for (const Constraint& c : constraints_) {
+    if (!c.bounded()) continue;
+    auto up = u.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d);
+    const double excess = c.direction.dot(up) - c.gap;
+    if (excess > 0) {
+      up -= excess * c.direction;
+      // round-off may leave the node a few ulps outside; put the normal component exactly on the bound
+      Vec w = c.rotation.transpose() * up;
+      w[0] = std::min(w[0], c.gap);
+      up = c.rotation * w;
+    }
+  }
+}
+
+template <int d>
+Eigen::VectorXd ContactProblem<d>::multipliers(const Eigen::VectorXd& u) const {
+  const Eigen::VectorXd r = b_ - A_ * u;
+  Eigen::VectorXd mu = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(constraints_.size()));
+  for (std::size_t k = 0; k < constraints_.size(); ++k) {
+    const Constraint& c = constraints_[k];
+    if (c.bounded())
+      mu[static_cast<Eigen::Index>(k)] = c.direction.dot(r.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d));
+  }
+  return mu;
+}
+
+template <int d>
+Eigen::VectorXd ContactProblem<d>::toRotated(const Eigen::VectorXd& u) const {
+  Eigen::VectorXd w = u;
+  for (const Constraint& c : constraints_) {
+    const auto i = static_cast<Eigen::Index>(c.vertex) * d;
+    w.template segment<d>(i) = c.rotation.transpose() * u.template segment<d>(i);
+  }
+  return w;
+}
+
+template <int d>
+Eigen::VectorXd ContactProblem<d>::fromRotated(const Eigen::VectorXd& w) const {
+  Eigen::VectorXd u = w;
+  for (const Constraint& c : constraints_) {
+    const auto i = static_cast<Eigen::Index>(c.vertex) * d;
+    u.template segment<d>(i) = c.rotation * w.template segment<d>(i);
+  }
+  return u;
+}
+
+template <int d>
+RotatedProblem<d> ContactProblem<d>::rotated() const {
+  RotatedProblem<d> r;
+  r.matrix = A_;
+  r.rhs = toRotated(b_);
+  r.upper.assign(numVertices(), kInf);
+  r.prescribed.assign(dirichlet_.constrained.size(), 0);
+  std::vector<const Mat*> Q(numVertices(), nullptr);
+  for (const Constraint& c : constraints_) {
+    Q[c.vertex] = &c.rotation;
+    if (c.bounded()) r.upper[c.vertex] = c.gap;
+  }
+  for (Index p = 0; p < numVertices(); ++p) {
+    for (Index k = r.matrix.rowBegin(p); k < r.matrix.rowEnd(p); ++k) {
+      const Index q = r.matrix.column(k);
+      auto& B = r.matrix.blockAt(k);
+      if (Q[p]) B = Q[p]->transpose() * B;
+      if (Q[q]) B = B * (*Q[q]);
+    }
+    // prescribed components in rotated numbering: columns of Q_p that are prescribed axes
+    for (int a = 0; a < d; ++a) {
+      const std::size_t i = static_cast<std::size_t>(p) * d + a;
+      if (!dirichlet_.constrained[i]) continue;
+      if (!Q[p]) {
+        r.prescribed[i] = 1;
+        continue;
+      }
+      for (int j = 0; j < d; ++j)
+        if (std::abs((*Q[p])(a, j)) == 1.0) r.prescribed[static_cast<std::size_t>(p) * d + j] = 1;
+    }
+  }
+  return r;
+}
+
+// --- outputs -----------------------------------------------------------------------------------
+
+template <int d>
+ContactOutputs computeContactOutputs(const ContactProblem<d>& problem, const Eigen::VectorXd& u,
+                                     double relativeTolerance) {
+  const ContactSet& cs = problem.contactSet();
+  const Index n = cs.size();
+  if (u.size() != static_cast<Eigen::Index>(problem.numDofs()))
+    throw Error("contact outputs: displacement vector of wrong size");
+  double U = u.lpNorm<Eigen::Infinity>();
+  for (Index k = 0; k < n; ++k)
+    if (std::isfinite(cs.gap(k))) U = std::max(U, std::abs(cs.gap(k)));
+  if (!(U > 0)) U = 1;
+
+  ContactOutputs out;
+  out.inContact.assign(n, 0);
+  out.multiplier.assign(n, 0.0);
+  out.pressure.assign(n, 0.0);
+  const Eigen::VectorXd mu = problem.multipliers(u);
+  for (Index k = 0; k < n; ++k) {
+    const auto& c = problem.constraint(k);
+    const Point& nu = cs.direction(k);
+    const double un = nu.template head<d>().dot(u.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d));
+    out.inContact[k] = std::isfinite(cs.gap(k)) && cs.gap(k) - un <= relativeTolerance * U;
+    out.contactNodes += out.inContact[k];
+    out.multiplier[k] = mu[k] / c.scale;
+    out.pressure[k] = out.multiplier[k] / cs.boundaryMass(k);
+    out.force += out.multiplier[k] * nu;
+  }
+  for (const ContactSet::Face& f : cs.faces())
+    if (std::all_of(f.nodes.begin(), f.nodes.end(), [&](Index k) { return out.inContact[k] != 0; }))
+      out.contactArea += f.measure;
+  out.contactRadius = d == 3 ? std::sqrt(out.contactArea / std::numbers::pi) : out.contactArea / 2;
+  return out;
+}
+
+template struct RotatedProblem<2>;
+template struct RotatedProblem<3>;
+template class ContactProblem<2>;
+template class ContactProblem<3>;
+template ContactOutputs computeContactOutputs<2>(const ContactProblem<2>&, const Eigen::VectorXd&, double);
+template ContactOutputs computeContactOutputs<3>(const ContactProblem<3>&, const Eigen::VectorXd&, double);
+
+}  // namespace obs

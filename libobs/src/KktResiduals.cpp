@@ -1,0 +1,51 @@
+#include "obs/obs/KktResiduals.hpp"
+
+#include <cmath>
+
+#include "obs/mesh/Error.hpp"
+
+namespace obs {
+
+template <int d>
+KktResiduals computeKktResiduals(const ContactProblem<d>& problem, const Eigen::VectorXd& u) {
+  if (u.size() != static_cast<Eigen::Index>(problem.numDofs()))
+    throw Error("KKT residuals: displacement vector of wrong size");
+  const auto& dir = problem.dirichlet();
+  const Eigen::VectorXd Au = problem.matrix() * u;
+  Eigen::VectorXd r = problem.rhs() - Au;
+
+  KktResiduals k;
+  double U = u.lpNorm<Eigen::Infinity>(), F = 0;
+  for (const auto& c : problem.constraints())
+    if (c.bounded()) U = std::max(U, std::abs(c.gap));
+  for (Eigen::Index i = 0; i < u.size(); ++i)
+    if (!dir.constrained[static_cast<std::size_t>(i)])
+      F = std::max({F, std::abs(problem.rhs()[i]), std::abs(Au[i])});
+  k.displacementScale = U > 0 ? U : 1;
+  k.forceScale = F > 0 ? F : 1;
+
+  for (const auto& c : problem.constraints()) {
+    if (!c.bounded()) continue;
+    auto rp = r.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d);
+    const double mu = c.direction.dot(rp);
+    const double slack = c.gap - c.direction.dot(u.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d));
+    k.primalFeasibility = std::max(k.primalFeasibility, -slack / k.displacementScale);
+    k.dualSign = std::max(k.dualSign, -mu / k.forceScale);
+    k.complementarity = std::max(k.complementarity, std::abs(mu * slack) / (k.forceScale * k.displacementScale));
+    rp -= mu * c.direction;  // what is left must vanish (tangential part)
+  }
+  for (Eigen::Index i = 0; i < u.size(); ++i) {
+    if (dir.constrained[static_cast<std::size_t>(i)])
+      k.dirichlet = std::max(k.dirichlet, std::abs(u[i] - dir.values[i]) / k.displacementScale);
+    else
+      k.stationarity = std::max(k.stationarity, std::abs(r[i]) / k.forceScale);
+  }
+  if (!std::isfinite(k.max()))
+    throw Error("KKT residuals: the displacement contains NaN or Inf");
+  return k;
+}
+
+template KktResiduals computeKktResiduals<2>(const ContactProblem<2>&, const Eigen::VectorXd&);
+template KktResiduals computeKktResiduals<3>(const ContactProblem<3>&, const Eigen::VectorXd&);
+
+}  // namespace obs

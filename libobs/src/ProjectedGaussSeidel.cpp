@@ -1,0 +1,94 @@
+#include "obs/obs/ProjectedGaussSeidel.hpp"
+
+#include <Eigen/Cholesky>
+
+#include <cmath>
+
+#include "obs/mesh/Error.hpp"
+
+namespace obs {
+
+template <int d>
+BlockLocalSolver<d>::BlockLocalSolver(const BlockSparseMatrix<d>& A, std::vector<double> upper)
+    : upper_(std::move(upper)) {
+  const Index n = A.rows();
+  if (static_cast<Index>(upper_.size()) != n)
+    throw Error("block Gauss-Seidel: " + std::to_string(upper_.size()) + " bounds for " + std::to_string(n) +
+                " vertices");
+  inverse_.resize(n);
+  tail_.resize(n);
+  coupling_.resize(n);
+  for (Index p = 0; p < n; ++p) {
+    const Index k = A.diagonal(p);
+    const Mat D = k >= 0 ? A.blockAt(k) : Mat::Zero();
+    Eigen::LLT<Mat> llt(D);
+    if (k < 0 || llt.info() != Eigen::Success || !(D.diagonal().minCoeff() > 0))
+      throw Error("block Gauss-Seidel: the diagonal block of vertex " + std::to_string(p) +
+                  " is not positive definite");
+    inverse_[p] = llt.solve(Mat::Identity());
+    if (upper_[p] < std::numeric_limits<double>::infinity()) {
+      const Tail T = D.template bottomRightCorner<d - 1, d - 1>();
+      tail_[p] = Eigen::LLT<Tail>(T).solve(Tail::Identity());
+      coupling_[p] = D.template block<d - 1, 1>(1, 0);
+    } else {
+      tail_[p].setZero();
+      coupling_[p].setZero();
+    }
+  }
+}
+
+template <int d>
+void BlockGaussSeidelSweep<d>::sweep(const Eigen::VectorXd& b, Eigen::VectorXd& w, bool backward) const {
+  using Vec = typename BlockLocalSolver<d>::Vec;
+  const Index n = A_.rows();
+  for (Index step = 0; step < n; ++step) {
+    const Index p = backward ? n - 1 - step : step;
+    // r = b_p - sum_{q != p} A_pq w_q
+    Vec r = b.template segment<d>(static_cast<Eigen::Index>(p) * d);
+    for (Index k = A_.rowBegin(p); k < A_.rowEnd(p); ++k) {
+      const Index q = A_.column(k);
+      if (q != p) r.noalias() -= A_.blockAt(k) * w.template segment<d>(static_cast<Eigen::Index>(q) * d);
+    }
+    w.template segment<d>(static_cast<Eigen::Index>(p) * d) = local_.solve(p, r);
+  }
+}
+
+template <int d>
+ContactResult ProjectedGaussSeidel<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd& u) {
+  const RotatedProblem<d> rot = problem.rotated();
+  problem.projectToFeasible(u);
+  Eigen::VectorXd w = problem.toRotated(u);
+  rot.project(w);
+  const BlockGaussSeidelSweep<d> gs(rot.matrix, rot.upper);
+
+  Eigen::VectorXd Aw = rot.matrix * w;
+  IterationMonitor monitor(name(), options_, 0.5 * w.dot(Aw) - rot.rhs.dot(w));
+  bool converged = false;
+  Eigen::VectorXd previous;
+  for (int k = 0; k < options_.maxIterations && !converged; ++k) {
+    previous = w;
+    gs.sweep(rot.rhs, w);
+    if (options_.symmetric) gs.sweep(rot.rhs, w, true);
+    rot.matrix.multiply(w, Aw);
+    const double wAw = w.dot(Aw), bw = rot.rhs.dot(w);
+    const Eigen::VectorXd delta = w - previous;
+    const double num = std::sqrt(std::max(0.0, rot.matrix.energy(delta)));
+    const double den = std::sqrt(std::max(0.0, wAw));
+    const double correction = den > 0 ? num / den : (num > 0 ? 1.0 : 0.0);
+    converged = monitor.record(0.5 * wAw - bw, correction, rot.countActive(w));
+    monitor.requireMonotone(0.5 * std::abs(wAw) + std::abs(bw));
+  }
+  u = problem.fromRotated(w);
+  ContactResult result = monitor.finish(converged, rot.countActive(w));
+  result.kkt = computeKktResiduals(problem, u);
+  return result;
+}
+
+template class BlockLocalSolver<2>;
+template class BlockLocalSolver<3>;
+template class BlockGaussSeidelSweep<2>;
+template class BlockGaussSeidelSweep<3>;
+template class ProjectedGaussSeidel<2>;
+template class ProjectedGaussSeidel<3>;
+
+}  // namespace obs
