@@ -11,10 +11,13 @@
 //     solved in 0.0111 s: max |u| = 0.244503, max von Mises = 17.4829
 //     written: out/cantilever/cantilever.vtu, out/cantilever/summary.json
 //
+// `obs estimators [--plugin lib.so]...` lists the registered error estimators (after loading plugins).
+//
 // Exit codes: 0 success, 1 error (invalid scene, solver or I/O failure), 2 command-line misuse.
 // Every error is one line "obs: error: ..." on stderr.
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
 #include <new>
@@ -25,6 +28,7 @@
 #include "obs/drivers/RunScene.hpp"
 #include "obs/drivers/SceneParser.hpp"
 #include "obs/drivers/SceneSetup.hpp"
+#include "obs/estimators/EstimatorRegistry.hpp"
 #include "obs/estimators/Version.hpp"
 #include "obs/mesh/Error.hpp"
 
@@ -66,6 +70,19 @@ int checkCommand(const std::vector<std::string>& scenes, std::optional<int> refi
   return status;
 }
 
+/// `obs estimators`: loads the plugins, then prints one line per registered estimator.
+int estimatorsCommand(const std::vector<std::string>& plugins) {
+  auto& registry = obs::estimators::EstimatorRegistry::global();
+  for (const std::string& plugin : plugins) registry.loadPlugin(plugin);
+  const auto entries = registry.entries();
+  std::size_t width = 0;
+  for (const auto& e : entries) width = std::max(width, e.name.size());
+  for (const auto& e : entries)
+    std::cout << e.name << std::string(width + 2 - e.name.size(), ' ') << e.description << "\n";
+  std::cout.flush();
+  return 0;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -82,6 +99,7 @@ int main(int argc, char** argv) {
       "  obs run data/scenes/cantilever.toml               solve, write out/cantilever/\n"
       "  obs run data/scenes/cantilever.toml --refine 2    the same on a twice refined mesh\n"
       "  obs check data/scenes/*.toml                      validate scenes without solving\n"
+      "  obs estimators                                    list the error estimators\n"
       "Run 'obs <command> --help' for the options of a command. Scene files: docs/scenes.md\n");
 
   std::string scene;
@@ -121,6 +139,17 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 12));
   check->footer("Example: obs check data/scenes/*.toml\nScene files: docs/scenes.md\n");
 
+  std::vector<std::string> plugins;
+  CLI::App* estimators = app.add_subcommand(
+      "estimators", "List the registered a posteriori error estimators, one line each");
+  estimators->add_option("--plugin,-p", plugins,
+                         "Load more estimators from a shared library first (repeatable)")
+      ->type_name("LIB.so");
+  estimators->footer(
+      "A plugin is a shared library exporting extern \"C\" void obs_register_estimators(\n"
+      "obs::estimators::EstimatorRegistry&); see libestimators/examples/ExamplePlugin.cpp.\n"
+      "Example: obs estimators --plugin ./libmy_estimators.so\n");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -139,6 +168,7 @@ int main(int argc, char** argv) {
   try {
     if (run->parsed()) return runCommand(scene, output, refine, quiet);
     if (check->parsed()) return checkCommand(checkScenes, checkRefine);
+    if (estimators->parsed()) return estimatorsCommand(plugins);
     printError("no command given (run 'obs --help' for usage)");
     return kExitUsage;
   } catch (const obs::Error& e) {

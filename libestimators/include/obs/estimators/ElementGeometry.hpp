@@ -1,0 +1,134 @@
+#pragma once
+/// \file ElementGeometry.hpp
+/// Geometry needed by residual-type estimators (thesis Sec. 4.1.1, MATH.md §3):
+///  - PointValues: shape functions, physical gradients and physical second derivatives at any
+///    reference point of a cell (also on its faces, where CellValues' quadrature does not reach);
+///  - cellFaceQuadrature: quadrature points on a face of a cell with the outward normal and the
+///    corresponding reference point in the cell, and the matching point in the neighbour cell;
+///  - patchDiameters: h_p = diam omega_p.
+///
+/// Second derivatives. With the multilinear (isoparametric) map x(xi) = sum_i x_i phihat_i(xi),
+/// J_ak = dx_a/dxi_k and phi = phihat o x^{-1}, differentiating dphihat/dxi_k = sum_a dphi/dx_a J_ak
+/// once more in xi_l gives
+///     Hhat_kl = sum_ab (d2phi/dx_a dx_b) J_ak J_bl + sum_m (dphi/dx_m) X^m_kl,
+///     X^m_kl = d2x_m/dxi_k dxi_l = sum_i (x_i)_m Hhat^i_kl,
+/// hence
+///     d2phi/dx2 = J^{-T} ( Hhat - sum_m (dphi/dx_m) X^m ) J^{-1}.
+/// This equals the thesis' chain rule with the second derivatives of x^{-1} (Sec. 4.1.1) without
+/// forming them. On simplices Hhat = X = 0; on non-affine quadrilaterals, hexahedra, prisms and
+/// pyramids both terms matter, and their cancellation makes the Hessian of an interpolated linear
+/// field vanish exactly (the patch test of eta_1).
+#include <Eigen/Dense>
+
+#include <array>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "obs/mesh/Error.hpp"
+#include "obs/mesh/Mesh.hpp"
+#include "obs/mesh/ReferenceElement.hpp"
+
+namespace obs::estimators {
+
+using mesh::Index;
+using mesh::Point;
+
+/// Shape functions of one cell at one reference point.
+template <int d>
+class PointValues {
+public:
+  using Vec = Eigen::Matrix<double, d, 1>;
+  using Mat = Eigen::Matrix<double, d, d>;
+
+  /// Evaluates at reference point xi of cell c; second derivatives only if withHessians.
+  /// Throws obs::Error if the Jacobian determinant is not positive there.
+  void reinit(const mesh::Mesh& m, Index c, const Point& xi, bool withHessians) {
+    const auto& ref = mesh::referenceElement(m.cellType(c));
+    const auto verts = m.cellVertices(c);
+    n_ = ref.numVertices;
+    double g[8 * 3];
+    ref.values(xi, std::span<double>(values_.data(), n_));
+    ref.gradients(xi, std::span<double>(g, n_ * d));
+    J_.setZero();
+    x_.setZero();
+    for (int i = 0; i < n_; ++i) {
+      const Vec xi_i = m.vertex(verts[i]).template head<d>();
+      x_ += values_[i] * xi_i;
+      J_ += xi_i * Eigen::Map<const Vec>(&g[i * d]).transpose();
+    }
+    det_ = J_.determinant();
+    if (!(det_ > 0))
+      throw Error("cell " + std::to_string(c) + " is degenerate or inverted at a reference point: "
+                  "Jacobian determinant " + std::to_string(det_));
+    const Mat Jinv = J_.inverse();
+    for (int i = 0; i < n_; ++i) grads_[i] = Jinv.transpose() * Eigen::Map<const Vec>(&g[i * d]);
+    if (!withHessians) return;
+    double h[8 * 9];
+    ref.hessians(xi, std::span<double>(h, n_ * d * d));
+    std::array<Mat, d> X;  // X^m_kl = d2 x_m / dxi_k dxi_l
+    for (int mm = 0; mm < d; ++mm) X[mm].setZero();
+    for (int i = 0; i < n_; ++i) {
+      const Point& xi_i = m.vertex(verts[i]);
+      const Eigen::Map<const Mat> Hi(&h[i * d * d]);  // symmetric, so storage order is irrelevant
+      for (int mm = 0; mm < d; ++mm) X[mm] += xi_i[mm] * Hi;
+    }
+    for (int i = 0; i < n_; ++i) {
+      Mat M = Eigen::Map<const Mat>(&h[i * d * d]);
+      for (int mm = 0; mm < d; ++mm) M -= grads_[i][mm] * X[mm];
+      hessians_[i] = Jinv.transpose() * M * Jinv;
+    }
+  }
+
+  int numVertices() const { return n_; }
+  double value(int i) const { return values_[i]; }
+  const Vec& gradient(int i) const { return grads_[i]; }
+  /// d2phi_i / dx_a dx_b (valid after reinit with withHessians).
+  const Mat& hessian(int i) const { return hessians_[i]; }
+  const Vec& point() const { return x_; }
+  const Mat& jacobian() const { return J_; }
+  double determinant() const { return det_; }
+
+private:
+  int n_ = 0;
+  std::array<double, 8> values_{};
+  std::array<Vec, 8> grads_;
+  std::array<Mat, 8> hessians_;
+  Vec x_;
+  Mat J_;
+  double det_ = 0;
+};
+
+/// A quadrature point on a face of a cell.
+struct CellFacePoint {
+  Point xi;        ///< reference coordinates in the cell
+  Point x;         ///< physical point
+  double weight;   ///< surface quadrature weight (length / area element included)
+  Point normal;    ///< outward unit normal of the cell (z = 0 in 2D)
+  std::array<double, 4> shape{};  ///< face shape functions at the point, face vertex order
+};
+
+/// Global vertex numbers of local face `localFace` of `cell`, in outward orientation
+/// (MeshTopology localFaces()).
+std::vector<Index> cellFaceVertices(const mesh::Mesh& mesh, Index cell, int localFace);
+
+/// Quadrature of exactness `degree` on local face `localFace` of `cell` (face shape functions
+/// are those of the face's reference element with the face vertices in cellFaceVertices() order;
+/// on every cell type the trace of the cell map is that face map). Throws obs::Error on a
+/// degenerate face.
+std::vector<CellFacePoint> cellFaceQuadrature(const mesh::Mesh& mesh, Index cell, int localFace,
+                                              int degree);
+
+/// Reference coordinates in `cell` of the face point sum_j shape[j] x(faceVertices[j]), where all
+/// faceVertices are vertices of `cell` (the matching point on the neighbour's side of a face:
+/// the reference face map is the same multilinear map in any vertex order). Throws obs::Error if a
+/// face vertex is not a vertex of the cell.
+Point referencePointOnFace(const mesh::Mesh& mesh, Index cell, std::span<const Index> faceVertices,
+                           std::span<const double> shape);
+
+/// h_p = diam omega_p for every vertex p: the largest distance between two vertices of the cells
+/// containing p (exact: first-order cells lie in the convex hull of their vertices). Vertices in
+/// no cell get 0.
+std::vector<double> patchDiameters(const mesh::Mesh& mesh);
+
+}  // namespace obs::estimators

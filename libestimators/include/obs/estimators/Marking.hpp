@@ -1,0 +1,63 @@
+#pragma once
+/// \file Marking.hpp
+/// Marking strategies: which cells to refine given the indicators eta_e of an EstimatorResult
+/// (DESIGN.md "libestimators"). All return the marked cell numbers in increasing order; they are
+/// deterministic (ties are broken by the lower cell number); when every indicator is zero nothing is
+/// marked. Indicators must be finite and non-negative, else obs::Error.
+///
+///   mean      (thesis Sec. 4.1.1, MATH.md §3, the thesis' choice, theta = 1.1):
+///             mark e  iff  eta_e^2 >= theta^2 * (1/N) sum_e' eta_e'^2,             theta >= 0
+///   doerfler  (bulk criterion, Doerfler 1996), theta in [0, 1], default 0.5: the smallest set M with
+///             sum_{e in M} eta_e^2 >= theta * sum_e eta_e^2, taken greedily by decreasing eta_e
+///             (equal indicators in increasing cell order); a set of minimal size.
+///   maximum   mark e  iff  eta_e >= theta * max_e' eta_e',                   theta in [0, 1], 0.5
+///   fraction  the ceil(theta * N) cells with the largest indicators (ties as for doerfler),
+///             theta in [0, 1], default 0.2 (ceil with a relative tolerance of 1e-12, so that
+///             0.3 * 10 marks 3).
+#include <optional>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "obs/mesh/Mesh.hpp"
+
+namespace obs::estimators {
+
+using mesh::Index;
+
+std::vector<Index> markMeanValue(std::span<const double> indicators, double theta = 1.1);
+std::vector<Index> markDoerfler(std::span<const double> indicators, double theta = 0.5);
+std::vector<Index> markMaximum(std::span<const double> indicators, double theta = 0.5);
+std::vector<Index> markFixedFraction(std::span<const double> indicators, double fraction = 0.2);
+
+/// One flag per cell (1 = marked) from a list of marked cells.
+std::vector<char> markedFlags(std::span<const Index> marked, Index numCells);
+
+/// A marking strategy selected by name ("mean", "doerfler", "maximum", "fraction") with its
+/// parameter theta (the strategy's default if not given). Scene files and drivers use this.
+class MarkingStrategy {
+public:
+  struct Info {
+    std::string name;
+    std::string description;
+    double defaultParameter;
+  };
+
+  /// Throws obs::Error "unknown marking strategy '<name>' (known: doerfler, fraction, maximum,
+  /// mean)" for unknown names, and for a parameter outside the strategy's range.
+  explicit MarkingStrategy(const std::string& name, std::optional<double> parameter = {});
+
+  const std::string& name() const { return name_; }
+  double parameter() const { return parameter_; }
+  std::vector<Index> mark(std::span<const double> indicators) const;
+
+  /// The available strategies, sorted by name.
+  static std::vector<Info> available();
+
+private:
+  std::string name_;
+  double parameter_;
+  std::vector<Index> (*mark_)(std::span<const double>, double);
+};
+
+}  // namespace obs::estimators

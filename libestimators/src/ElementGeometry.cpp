@@ -1,0 +1,104 @@
+#include "obs/estimators/ElementGeometry.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "obs/mesh/MeshTopology.hpp"
+#include "obs/mesh/Quadrature.hpp"
+
+namespace obs::estimators {
+
+std::vector<Index> cellFaceVertices(const mesh::Mesh& mesh, Index cell, int localFace) {
+  const auto faces = mesh::localFaces(mesh.cellType(cell));
+  if (localFace < 0 || localFace >= static_cast<int>(faces.size()))
+    throw Error("cell " + std::to_string(cell) + " has no local face " + std::to_string(localFace));
+  const auto verts = mesh.cellVertices(cell);
+  std::vector<Index> fv;
+  for (int lv : faces[localFace].span()) fv.push_back(verts[lv]);
+  return fv;
+}
+
+std::vector<CellFacePoint> cellFaceQuadrature(const mesh::Mesh& mesh, Index cell, int localFace,
+                                              int degree) {
+  const mesh::LocalFace& lf = mesh::localFaces(mesh.cellType(cell))[localFace];
+  const auto& cellRef = mesh::referenceElement(mesh.cellType(cell));
+  const auto& faceRef = mesh::referenceElement(lf.type);
+  const auto& rule = mesh::quadratureRule(lf.type, degree);
+  const auto verts = mesh.cellVertices(cell);
+  const int n = lf.size, fd = faceRef.dim;
+  std::vector<CellFacePoint> pts(rule.size());
+  double g[4 * 2];
+  for (std::size_t q = 0; q < rule.size(); ++q) {
+    CellFacePoint& p = pts[q];
+    faceRef.values(rule.points[q], std::span<double>(p.shape.data(), n));
+    faceRef.gradients(rule.points[q], std::span<double>(g, n * fd));
+    Point x = Point::Zero(), xi = Point::Zero(), ds = Point::Zero(), dt = Point::Zero();
+    for (int j = 0; j < n; ++j) {
+      const Point& xj = mesh.vertex(verts[lf.vertices[j]]);
+      x += p.shape[j] * xj;
+      xi += p.shape[j] * cellRef.vertices[lf.vertices[j]];
+      ds += g[j * fd] * xj;
+      if (fd == 2) dt += g[j * fd + 1] * xj;
+    }
+    // right-hand normal of the face's vertex cycle = outward normal (MeshTopology.hpp)
+    const Point normal = fd == 1 ? Point(ds[1], -ds[0], 0) : Point(ds.cross(dt));
+    const double J = normal.norm();
+    if (!(J > 0))
+      throw Error("face " + std::to_string(localFace) + " of cell " + std::to_string(cell) +
+                  " is degenerate");
+    p.xi = xi;
+    p.x = x;
+    p.weight = J * rule.weights[q];
+    p.normal = normal / J;
+  }
+  return pts;
+}
+
+Point referencePointOnFace(const mesh::Mesh& mesh, Index cell, std::span<const Index> faceVertices,
+                           std::span<const double> shape) {
+  const auto& ref = mesh::referenceElement(mesh.cellType(cell));
+  const auto verts = mesh.cellVertices(cell);
+  Point xi = Point::Zero();
+  for (std::size_t j = 0; j < faceVertices.size(); ++j) {
+    const auto it = std::find(verts.begin(), verts.end(), faceVertices[j]);
+    if (it == verts.end())
+      throw Error("vertex " + std::to_string(faceVertices[j]) + " is not a vertex of cell " +
+                  std::to_string(cell));
+    xi += shape[j] * ref.vertices[static_cast<std::size_t>(it - verts.begin())];
+  }
+  return xi;
+}
+
+std::vector<double> patchDiameters(const mesh::Mesh& mesh) {
+  const Index nv = mesh.numVertices();
+  // vertex -> cells (CSR)
+  std::vector<Index> start(static_cast<std::size_t>(nv) + 1, 0), cells;
+  for (Index c = 0; c < mesh.numCells(); ++c)
+    for (Index v : mesh.cellVertices(c)) ++start[v + 1];
+  for (Index v = 0; v < nv; ++v) start[v + 1] += start[v];
+  cells.resize(start.back());
+  {
+    std::vector<Index> fill(start.begin(), start.end() - 1);
+    for (Index c = 0; c < mesh.numCells(); ++c)
+      for (Index v : mesh.cellVertices(c)) cells[fill[v]++] = c;
+  }
+  std::vector<double> h(nv, 0.0);
+  std::vector<Index> mark(nv, -1), patch;
+  for (Index p = 0; p < nv; ++p) {
+    patch.clear();
+    for (Index k = start[p]; k < start[p + 1]; ++k)
+      for (Index v : mesh.cellVertices(cells[k]))
+        if (mark[v] != p) {
+          mark[v] = p;
+          patch.push_back(v);
+        }
+    double d2 = 0;
+    for (std::size_t a = 0; a < patch.size(); ++a)
+      for (std::size_t b = a + 1; b < patch.size(); ++b)
+        d2 = std::max(d2, (mesh.vertex(patch[a]) - mesh.vertex(patch[b])).squaredNorm());
+    h[p] = std::sqrt(d2);
+  }
+  return h;
+}
+
+}  // namespace obs::estimators

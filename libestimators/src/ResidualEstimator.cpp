@@ -1,0 +1,250 @@
+#include "obs/estimators/ResidualEstimator.hpp"
+
+#include <algorithm>
+#include <map>
+#include <set>
+
+#include "obs/estimators/ElementGeometry.hpp"
+#include "obs/mesh/MeshTopology.hpp"
+#include "obs/mesh/Quadrature.hpp"
+#include "obs/obs/ContactSet.hpp"
+
+namespace obs::estimators {
+namespace {
+
+constexpr int kNoBoundaryId = -2147483647;
+
+/// sigma(u_h) and div sigma(u_h) at one point of one cell.
+template <int d>
+struct LocalField {
+  using Vec = Eigen::Matrix<double, d, 1>;
+  using Mat = Eigen::Matrix<double, d, d>;
+
+  /// sigma = lambda tr(G) I + mu (G + G'), G = grad u_h = sum_i u_i grad phi_i'.
+  static Mat stress(const PointValues<d>& pv, const Eigen::VectorXd& u, std::span<const Index> verts,
+                    double lambda, double mu) {
+    Mat G = Mat::Zero();
+    for (int i = 0; i < pv.numVertices(); ++i)
+      G += u.template segment<d>(static_cast<Eigen::Index>(verts[i]) * d) * pv.gradient(i).transpose();
+    return lambda * G.trace() * Mat::Identity() + mu * (G + G.transpose());
+  }
+  /// div sigma = mu Laplace u + (lambda + mu) grad div u = sum_i (mu tr(H_i) u_i + (lambda+mu) H_i u_i).
+  static Vec divergence(const PointValues<d>& pv, const Eigen::VectorXd& u,
+                        std::span<const Index> verts, double lambda, double mu) {
+    Vec r = Vec::Zero();
+    for (int i = 0; i < pv.numVertices(); ++i) {
+      const Vec ui = u.template segment<d>(static_cast<Eigen::Index>(verts[i]) * d);
+      r += mu * pv.hessian(i).trace() * ui + (lambda + mu) * pv.hessian(i) * ui;
+    }
+    return r;
+  }
+};
+
+Point toPoint(const auto& x) {
+  Point p = Point::Zero();
+  p.head(x.size()) = x;
+  return p;
+}
+
+/// Boundary data by id: Dirichlet-fixed components and Neumann conditions.
+struct BoundaryData {
+  std::map<int, std::array<bool, 3>> fixed;
+  std::map<int, std::vector<const NeumannCondition*>> neumann;
+  std::set<int> contact;
+
+  std::array<bool, 3> fixedComponents(int id) const {
+    const auto it = fixed.find(id);
+    return it == fixed.end() ? std::array<bool, 3>{false, false, false} : it->second;
+  }
+};
+
+BoundaryData boundaryData(const EstimatorInput& in) {
+  BoundaryData b;
+  for (const DirichletCondition& dc : in.boundaryConditions.dirichlet) {
+    auto& f = b.fixed.try_emplace(dc.boundaryId, std::array<bool, 3>{false, false, false}).first->second;
+    for (int c = 0; c < 3; ++c) f[c] = f[c] || dc.fixed[c];
+  }
+  for (const NeumannCondition& nc : in.boundaryConditions.neumann)
+    if (nc.traction || nc.pressure) b.neumann[nc.boundaryId].push_back(&nc);
+  for (int id : contactBoundaryIds(in)) b.contact.insert(id);
+  return b;
+}
+
+}  // namespace
+
+std::vector<int> contactBoundaryIds(const EstimatorInput& input) {
+  std::vector<int> ids = input.contactBoundaryIds;
+  if (input.contact && input.contact->set) ids.push_back(input.contact->set->boundaryId());
+  std::sort(ids.begin(), ids.end());
+  ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+  return ids;
+}
+
+std::string ResidualEstimator::description() const {
+  return "standard residual estimator: element residuals, stress jumps, Neumann residuals "
+         "(contact boundary traction-free)";
+}
+
+std::vector<std::string> ResidualEstimator::contributionNames() const {
+  return {"eta_1", "eta_2", "eta_3", "eta_4", "eta_5"};
+}
+
+void ResidualEstimator::addContactFace(const EstimatorInput& input, const ContactFace& face,
+                                       const std::vector<double>& h,
+                                       ContributionTable& table) const {
+  const int d = input.mesh.dimension();
+  const ContactSet* set = input.contact ? input.contact->set : nullptr;
+  // nodal directions if every face vertex is a contact node of the set
+  std::vector<Point> nodal;
+  if (set && set->numMeshVertices() == input.mesh.numVertices()) {
+    for (Index v : face.vertices) {
+      const Index k = set->nodeOf(v);
+      if (k < 0) break;
+      nodal.push_back(set->direction(k));
+    }
+    if (nodal.size() != face.vertices.size()) nodal.clear();
+  }
+  double tangential = 0, normal = 0;
+  for (const ContactFacePoint& q : face.points) {
+    Eigen::Vector3d w = -q.traction;  // traction-free: J = 0 - sigma n
+    for (int c = 0; c < 3; ++c)
+      if (c >= d || face.fixed[c]) w[c] = 0;
+    Point nu = q.normal;
+    if (!nodal.empty()) {
+      Point s = Point::Zero();
+      for (std::size_t j = 0; j < nodal.size(); ++j) s += q.shape[j] * nodal[j];
+      if (s.norm() > 0) nu = s / s.norm();
+    }
+    const double wn = w.dot(nu);
+    normal += q.weight * wn * wn;
+    tangential += q.weight * (w - wn * nu).squaredNorm();
+  }
+  for (Index p : face.vertices) {
+    table.add(kEta4, p, face.cell, h[p] * tangential);
+    table.add(kEta5, p, face.cell, h[p] * normal);
+  }
+}
+
+void ResidualEstimator::finish(const EstimatorInput&, const std::vector<double>&,
+                               ContributionTable&) const {}
+
+EstimatorResult ResidualEstimator::estimate(const EstimatorInput& input) const {
+  validateInput(input, name());
+  return input.mesh.dimension() == 2 ? run<2>(input) : run<3>(input);
+}
+
+template <int d>
+EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
+  using Vec = Eigen::Matrix<double, d, 1>;
+  using Mat = Eigen::Matrix<double, d, d>;
+  using F = LocalField<d>;
+  const mesh::Mesh& m = in.mesh;
+  const Eigen::VectorXd& u = in.displacement;
+  const double lambda = in.material.lambda(), mu = in.material.mu();
+  const std::vector<double> h = patchDiameters(m);
+  const BoundaryData bd = boundaryData(in);
+  ContributionTable table(contributionNames(), m.numCells(), m.numVertices());
+  if (table.numContributions() < 5)
+    throw Error("estimator '" + name() + "': needs at least the rows eta_1 ... eta_5");
+  PointValues<d> pv, pv1;
+
+  // eta_1: element residuals r = div sigma_h + f, weighted with h_p^2 for each vertex p of e
+  for (Index c = 0; c < m.numCells(); ++c) {
+    const auto& rule = mesh::quadratureRule(m.cellType(c), options_.elementDegree);
+    const auto verts = m.cellVertices(c);
+    double r2 = 0;
+    for (std::size_t q = 0; q < rule.size(); ++q) {
+      pv.reinit(m, c, rule.points[q], true);
+      Vec r = F::divergence(pv, u, verts, lambda, mu);
+      if (in.boundaryConditions.bodyForce)
+        r += in.boundaryConditions.bodyForce(toPoint(pv.point())).template head<d>();
+      r2 += pv.determinant() * rule.weights[q] * r.squaredNorm();
+    }
+    for (Index p : verts) table.add(kEta1, p, c, h[p] * h[p] * r2);
+  }
+
+  // boundary ids of the one-cell faces of the face table
+  const mesh::FaceTable faces(m);
+  std::vector<int> faceId(faces.numFaces(), kNoBoundaryId);
+  for (Index f = 0; f < m.numBoundaryFaces(); ++f) {
+    const Index k = faces.find(m.boundaryFaceVertices(f));
+    if (k >= 0 && faces.numCells(k) == 1) faceId[k] = m.boundaryFaceId(f);
+  }
+
+  // faces: eta_2 (interior jumps), eta_3 (Neumann jumps), contact faces through the hook
+  for (Index f = 0; f < faces.numFaces(); ++f) {
+    if (faces.numCells(f) > 2)
+      throw Error("estimator '" + name() + "': face " + std::to_string(f) + " is shared by " +
+                  std::to_string(faces.numCells(f)) + " cells (non-manifold mesh)");
+    const auto side0 = faces.side(f, 0);
+    const Index c0 = side0.cell;
+    const auto verts0 = m.cellVertices(c0);
+    const std::vector<Index> fv = cellFaceVertices(m, c0, side0.localFace);
+    const auto pts = cellFaceQuadrature(m, c0, side0.localFace, options_.faceDegree);
+
+    if (faces.numCells(f) == 2) {
+      const Index c1 = faces.side(f, 1).cell;
+      const auto verts1 = m.cellVertices(c1);
+      double j2 = 0;
+      for (const CellFacePoint& q : pts) {
+        pv.reinit(m, c0, q.xi, false);
+        const Mat s0 = F::stress(pv, u, verts0, lambda, mu);
+        const Point xi1 = referencePointOnFace(
+            m, c1, fv, std::span<const double>(q.shape.data(), fv.size()));
+        pv1.reinit(m, c1, xi1, false);
+        const Mat s1 = F::stress(pv1, u, verts1, lambda, mu);
+        const Vec n = q.normal.template head<d>();
+        j2 += q.weight * ((s0 - s1) * n).squaredNorm();
+      }
+      for (Index p : fv) {
+        table.add(kEta2, p, c0, 0.5 * h[p] * j2);
+        table.add(kEta2, p, c1, 0.5 * h[p] * j2);
+      }
+      continue;
+    }
+
+    const int id = faceId[f];
+    const std::array<bool, 3> fixed = bd.fixedComponents(id);
+    if (bd.contact.count(id)) {
+      ContactFace cf;
+      cf.cell = c0;
+      cf.localFace = side0.localFace;
+      cf.boundaryId = id;
+      cf.vertices = fv;
+      cf.fixed = fixed;
+      for (const CellFacePoint& q : pts) {
+        pv.reinit(m, c0, q.xi, false);
+        const Vec sn = F::stress(pv, u, verts0, lambda, mu) * q.normal.template head<d>();
+        cf.points.push_back({q.x, q.weight, q.normal, q.shape, toPoint(sn)});
+      }
+      addContactFace(in, cf, h, table);
+      continue;
+    }
+    if (std::all_of(fixed.begin(), fixed.begin() + d, [](bool b) { return b; })) continue;
+    const auto nit = bd.neumann.find(id);
+    double j2 = 0;
+    for (const CellFacePoint& q : pts) {
+      pv.reinit(m, c0, q.xi, false);
+      const Vec n = q.normal.template head<d>();
+      Vec jump = -F::stress(pv, u, verts0, lambda, mu) * n;
+      if (nit != bd.neumann.end())
+        for (const NeumannCondition* nc : nit->second)
+          jump += nc->traction ? Vec(nc->traction(q.x).template head<d>())
+                               : Vec(-nc->pressure(q.x) * n);
+      for (int c = 0; c < d; ++c)
+        if (fixed[c]) jump[c] = 0;
+      j2 += q.weight * jump.squaredNorm();
+    }
+    for (Index p : fv) table.add(kEta3, p, c0, h[p] * j2);
+  }
+
+  finish(in, h, table);
+  EstimatorResult result = table.result(name(), meshStamp(m, in.meshRevision));
+  result.vertexFields["h"] = Eigen::Map<const Eigen::VectorXd>(h.data(), static_cast<Eigen::Index>(h.size()));
+  return result;
+}
+
+template EstimatorResult ResidualEstimator::run<2>(const EstimatorInput&) const;
+template EstimatorResult ResidualEstimator::run<3>(const EstimatorInput&) const;
+
+}  // namespace obs::estimators

@@ -1,0 +1,351 @@
+// The residual estimator (MATH.md §3): second derivatives on non-affine cells, zero estimate for
+// linear fields (patch test on distorted meshes of every cell type, with tractions, pressures,
+// rollers and a contact boundary), hand-computed values on a two-triangle mesh, the sum identity
+// sum_e eta_e^2 = sum_k eta_k^2 = sum_p eta_p^2, and detection of stale results.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <numeric>
+#include <random>
+
+#include "obs/estimators/ElementGeometry.hpp"
+#include "obs/estimators/ResidualEstimator.hpp"
+#include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/MeshTopology.hpp"
+#include "obs/mesh/RedRefinement.hpp"
+#include "obs/mesh/ReferenceElement.hpp"
+#include "obs/obs/ContactSet.hpp"
+#include "obs/obs/Obstacle.hpp"
+
+using namespace obs;
+using namespace obs::estimators;
+using mesh::CellType;
+
+namespace {
+
+/// u(x) = a + B x and its (constant) stress.
+struct LinearField {
+  int dim;
+  Eigen::Vector3d a = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d B = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d operator()(const Point& x) const { return a + B * x; }
+  Eigen::Matrix3d stress(const Material& m) const {
+    const Eigen::Matrix3d eps = 0.5 * (B + B.transpose());
+    return 2 * m.mu() * eps + m.lambda() * eps.trace() * Eigen::Matrix3d::Identity();
+  }
+  Eigen::VectorXd interpolate(const mesh::Mesh& m) const {
+    Eigen::VectorXd u(m.numVertices() * dim);
+    for (Index v = 0; v < m.numVertices(); ++v) u.segment(v * dim, dim) = (*this)(m.vertex(v)).head(dim);
+    return u;
+  }
+};
+
+LinearField randomLinearField(int dim, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> U(-1, 1);
+  LinearField f{dim};
+  for (int i = 0; i < dim; ++i) {
+    f.a[i] = U(rng);
+    for (int j = 0; j < dim; ++j) f.B(i, j) = 0.01 * U(rng);
+  }
+  return f;
+}
+
+Eigen::Vector3d boxNormal(int dim, int id) {
+  Eigen::Vector3d n = Eigen::Vector3d::Zero();
+  n[id <= 2 ? 0 : id <= 4 ? dim - 1 : 1] = id % 2 == 0 ? 1.0 : -1.0;
+  return n;
+}
+
+double sumSquares(const std::vector<double>& v) {
+  return std::accumulate(v.begin(), v.end(), 0.0, [](double s, double x) { return s + x * x; });
+}
+
+/// sum_e eta_e^2 = eta^2 = sum_k eta_k^2 = sum_p eta_p^2, and per contribution over cells / vertices.
+void expectSumIdentity(const EstimatorResult& r) {
+  const double eta2 = r.total * r.total;
+  double byContribution = 0;
+  for (const Contribution& c : r.contributions) {
+    byContribution += c.value * c.value;
+    const double cells = sumSquares(r.cellFields.at(c.name));
+    const double verts = r.vertexFields.at(c.name).squaredNorm();
+    EXPECT_NEAR(cells, c.value * c.value, 1e-12 * std::max(eta2, 1e-300)) << c.name;
+    EXPECT_NEAR(verts, c.value * c.value, 1e-12 * std::max(eta2, 1e-300)) << c.name;
+  }
+  EXPECT_NEAR(sumSquares(r.indicators), eta2, 1e-12 * eta2);
+  EXPECT_NEAR(byContribution, eta2, 1e-12 * eta2);
+  EXPECT_NEAR(r.vertexFields.at("eta").squaredNorm(), eta2, 1e-12 * eta2);
+  for (double e : r.indicators) EXPECT_GE(e, 0.0);
+}
+
+class ResidualPatch : public ::testing::TestWithParam<CellType> {};
+
+// eta_1 needs the Hessians of the physical shape functions on non-affine cells: compare them with
+// central differences of the physical gradients (d grad / dx = (d grad / dxi) J^{-1}).
+TEST_P(ResidualPatch, HessiansMatchFiniteDifferences) {
+  const CellType t = GetParam();
+  const auto& ref = mesh::referenceElement(t);
+  const int d = ref.dim;
+  mesh::Mesh m(d);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> U(-0.12, 0.12);
+  std::vector<Index> verts;
+  for (const Point& x : ref.vertices) {
+    Point y = 2.0 * x;
+    for (int a = 0; a < d; ++a) y[a] += U(rng);
+    verts.push_back(m.addVertex(y));
+  }
+  m.addCell(t, std::span<const Index>(verts));
+  const Point xi = ref.centroid + Point(0.05, -0.03, d == 3 ? 0.04 : 0.0);
+  const double delta = 1e-5;
+  auto check = [&]<int D>() {
+    PointValues<D> pv, plus, minus;
+    pv.reinit(m, 0, xi, true);
+    const Eigen::Matrix<double, D, D> Jinv = pv.jacobian().inverse();
+    double maxError = 0, maxEntry = 0;
+    for (int i = 0; i < pv.numVertices(); ++i) {
+      Eigen::Matrix<double, D, D> dg;  // dg(a, k) = d (grad phi_i)_a / d xi_k
+      for (int k = 0; k < D; ++k) {
+        Point e = Point::Zero();
+        e[k] = delta;
+        plus.reinit(m, 0, xi + e, false);
+        minus.reinit(m, 0, xi - e, false);
+        dg.col(k) = (plus.gradient(i) - minus.gradient(i)) / (2 * delta);
+      }
+      const Eigen::Matrix<double, D, D> H = dg * Jinv;
+      maxError = std::max(maxError, (H - pv.hessian(i)).cwiseAbs().maxCoeff());
+      maxEntry = std::max(maxEntry, pv.hessian(i).cwiseAbs().maxCoeff());
+      EXPECT_LT((pv.hessian(i) - pv.hessian(i).transpose()).norm(), 1e-12);
+    }
+    EXPECT_LT(maxError, 1e-6) << mesh::name(t);
+    if (t != CellType::Triangle && t != CellType::Tetrahedron) {
+      EXPECT_GT(maxEntry, 1e-3) << "cell not distorted enough to test anything";
+    }
+  };
+  if (d == 2)
+    check.template operator()<2>();
+  else
+    check.template operator()<3>();
+}
+
+// A linear field with exact tractions on the Neumann part and Dirichlet values elsewhere: every
+// contribution vanishes, also on distorted (non-affine) cells, where it needs the Hessian terms.
+TEST_P(ResidualPatch, LinearFieldGivesZero) {
+  auto m = mesh::boxMesh(GetParam(), {3, 3, 3}, Point(0, 0, 0), Point(1, 1, 1));
+  mesh::perturbInteriorVertices(m, 0.25, 99);
+  const int d = m.dimension();
+  const Material mat{1000.0, 0.3};
+  const LinearField u = randomLinearField(d, 3);
+  const Eigen::Matrix3d sigma = u.stress(mat);
+  BoundaryConditions bc;
+  bc.dirichlet.push_back({1, {true, true, true}, u});
+  for (int id = 2; id <= 2 * d; ++id) {
+    const Eigen::Vector3d n = boxNormal(d, id);
+    bc.neumann.push_back({id, [sigma, n](const Point&) { return Eigen::Vector3d(sigma * n); }, {}});
+  }
+  const Eigen::VectorXd uh = u.interpolate(m);
+  const EstimatorResult r = ResidualEstimator().estimate(EstimatorInput(m, mat, bc, uh));
+  const double scale = sigma.norm();
+  ASSERT_GT(scale, 0);
+  for (const Contribution& c : r.contributions) EXPECT_LT(c.value, 1e-11 * scale) << c.name;
+  EXPECT_LT(r.total, 1e-11 * scale);
+
+  // the same field with the Neumann faces left free (sigma n != 0 there): eta_3 only
+  BoundaryConditions free;
+  free.dirichlet = bc.dirichlet;
+  const EstimatorResult f = ResidualEstimator().estimate(EstimatorInput(m, mat, free, uh));
+  EXPECT_GT(f.contribution("eta_3"), 1e-3 * scale);
+  EXPECT_LT(f.contribution("eta_1") + f.contribution("eta_2"), 1e-11 * scale);
+  expectSumIdentity(f);
+  EXPECT_TRUE(f.validFor(m));
+}
+
+INSTANTIATE_TEST_SUITE_P(AllCellTypes, ResidualPatch, ::testing::ValuesIn(mesh::kVolumeCellTypes),
+                         [](const auto& info) { return std::string(mesh::name(info.param)); });
+
+// Pressure loads (t = -p n) and rollers (Dirichlet on one component: the other keeps its residual).
+TEST(ResidualEstimator, PressureAndRollerBoundaries) {
+  auto m = mesh::boxMesh(CellType::Quadrilateral, 4);
+  mesh::perturbInteriorVertices(m, 0.2, 5);
+  const Material mat{50.0, 0.25};
+  // uniform compression u = -c x: sigma = -p I with p = 2 (lambda + mu) c in plane strain
+  const double c = 1e-3, p = 2 * (mat.lambda() + mat.mu()) * c;
+  LinearField comp{2};
+  comp.B(0, 0) = comp.B(1, 1) = -c;
+  BoundaryConditions bc;
+  for (int id = 1; id <= 4; ++id) bc.neumann.push_back({id, {}, [p](const Point&) { return p; }});
+  const Eigen::VectorXd uc = comp.interpolate(m);
+  EXPECT_LT(ResidualEstimator().estimate(EstimatorInput(m, mat, bc, uc)).total, 1e-12 * p);
+
+  // uniaxial tension in x: left face a roller (u_x fixed), right face loaded, top/bottom free
+  const double s = 2.0, ex = s * (mat.lambda() + 2 * mat.mu()) /
+                             (4 * mat.mu() * (mat.lambda() + mat.mu()));
+  LinearField ten{2};
+  ten.B(0, 0) = ex;
+  ten.B(1, 1) = -mat.lambda() / (mat.lambda() + 2 * mat.mu()) * ex;  // sigma_yy = 0
+  ASSERT_NEAR(ten.stress(mat)(0, 0), s, 1e-12);
+  BoundaryConditions roller;
+  roller.dirichlet.push_back({mesh::kLeft, {true, false, false}, ten});
+  roller.neumann.push_back({mesh::kRight, [s](const Point&) { return Eigen::Vector3d(s, 0, 0); }, {}});
+  const Eigen::VectorXd ut = ten.interpolate(m);
+  EXPECT_LT(ResidualEstimator().estimate(EstimatorInput(m, mat, roller, ut)).total, 1e-12 * s);
+  roller.dirichlet[0].fixed = {false, true, false};  // now the x residual s on the left face counts
+  const auto r = ResidualEstimator().estimate(EstimatorInput(m, mat, roller, ut));
+  double expected = 0;  // sum over left faces of |F| s^2 sum_{p in F} h_p
+  const auto& h = r.vertexFields.at("h");
+  for (Index f = 0; f < m.numBoundaryFaces(); ++f)
+    if (m.boundaryFaceId(f) == mesh::kLeft)
+      for (Index v : m.boundaryFaceVertices(f))
+        expected += mesh::boundaryFaceMeasure(m, f) * s * s * h[v];
+  EXPECT_NEAR(r.contribution("eta_3"), std::sqrt(expected), 1e-10 * std::sqrt(expected));
+}
+
+// Two triangles T0 = (0,0),(1,0),(1,1) and T1 = (0,0),(1,1),(0,1); u = (a, 0) at (1,0), 0 elsewhere:
+// u_h = (a (x - y), 0) on T0, 0 on T1, so sigma_0 = a [[lambda + 2mu, -mu], [-mu, lambda]], sigma_1 = 0.
+// All h_p = sqrt(2). Diagonal (length sqrt 2, n = (1,-1)/sqrt 2): |J^I|^2 = a^2/2 ((lambda+3mu)^2 +
+// (lambda+mu)^2), eta_2^2 = (h_0 + h_2) sqrt(2) |J^I|^2 = 2 a^2 ((lambda+3mu)^2 + (lambda+mu)^2).
+// Traction-free faces of T0: bottom sigma_0 n = a (mu, -lambda), right a (lambda+2mu, -mu), each
+// weighted with h_p + h_q = 2 sqrt 2.
+TEST(ResidualEstimator, TwoTrianglesByHand) {
+  mesh::Mesh m(2);
+  for (const Point& x : {Point(0, 0, 0), Point(1, 0, 0), Point(1, 1, 0), Point(0, 1, 0)}) m.addVertex(x);
+  m.addCell(CellType::Triangle, {0, 1, 2});
+  m.addCell(CellType::Triangle, {0, 2, 3});
+  m.addBoundaryFace({0, 1}, 3);
+  m.addBoundaryFace({1, 2}, 2);
+  m.addBoundaryFace({2, 3}, 4);
+  m.addBoundaryFace({3, 0}, 1);
+  const Material mat{1.0, 0.25};
+  const double l = mat.lambda(), mu = mat.mu(), a = 0.1;
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(8);
+  u[2] = a;
+  const BoundaryConditions bc;
+  const auto r = ResidualEstimator().estimate(EstimatorInput(m, mat, bc, u));
+
+  const double jump2 = (l + 3 * mu) * (l + 3 * mu) + (l + mu) * (l + mu);
+  const double eta2sq = 2 * a * a * jump2;
+  const double eta3sq = 2 * std::sqrt(2.0) * a * a * (mu * mu + l * l + (l + 2 * mu) * (l + 2 * mu) + mu * mu);
+  EXPECT_NEAR(r.contribution("eta_1"), 0.0, 1e-15);
+  EXPECT_NEAR(r.contribution("eta_2"), std::sqrt(eta2sq), 1e-14);
+  EXPECT_NEAR(r.contribution("eta_3"), std::sqrt(eta3sq), 1e-14);
+  EXPECT_EQ(r.contribution("eta_4"), 0.0);
+  // element indicators: the diagonal half to each triangle, the free faces of T0 to T0
+  EXPECT_NEAR(r.indicators[0], std::sqrt(eta2sq / 2 + eta3sq), 1e-14);
+  EXPECT_NEAR(r.indicators[1], std::sqrt(eta2sq / 2), 1e-14);
+  // patch values: eta_{2,p}^2 = h_p ||J^I||^2 = a^2 jump2 at the diagonal's ends, 0 elsewhere
+  const Eigen::VectorXd& e2 = r.vertexFields.at("eta_2");
+  EXPECT_NEAR(e2[0], a * std::sqrt(jump2), 1e-14);
+  EXPECT_NEAR(e2[2], a * std::sqrt(jump2), 1e-14);
+  EXPECT_EQ(e2[1], 0.0);
+  EXPECT_EQ(e2[3], 0.0);
+  for (int v = 0; v < 4; ++v) EXPECT_NEAR(r.vertexFields.at("h")[v], std::sqrt(2.0), 1e-15);
+  expectSumIdentity(r);
+}
+
+// The potential contact boundary is traction-free Neumann: sigma n splits into eta_4 (tangential)
+// and eta_5 (normal); the faces no longer count in eta_3.
+TEST(ResidualEstimator, ContactBoundaryIsTractionFree) {
+  auto m = mesh::boxMesh(CellType::Quadrilateral, 4);
+  const Material mat{10.0, 0.3};
+  // sigma = s e_y e_y (uniaxial in y): sigma n = s e_y on top and bottom, 0 on the sides
+  const double s = 0.5, ey = s * (mat.lambda() + 2 * mat.mu()) / (4 * mat.mu() * (mat.lambda() + mat.mu()));
+  LinearField u{2};
+  u.B(1, 1) = ey;
+  u.B(0, 0) = -mat.lambda() / (mat.lambda() + 2 * mat.mu()) * ey;
+  ASSERT_NEAR(u.stress(mat)(1, 1), s, 1e-12);
+  ASSERT_NEAR(u.stress(mat)(0, 0), 0, 1e-12);
+  BoundaryConditions bc;
+  bc.dirichlet.push_back({mesh::kBottom, {true, true, true}, u});
+  bc.neumann.push_back({mesh::kTop, [s](const Point&) { return Eigen::Vector3d(0, s, 0); }, {}});
+  const Eigen::VectorXd uh = u.interpolate(m);
+  EstimatorInput in(m, mat, bc, uh);
+  EXPECT_LT(ResidualEstimator().estimate(in).total, 1e-13);
+  in.contactBoundaryIds = {mesh::kTop};  // the Neumann data on the top is now ignored
+  const auto r = ResidualEstimator().estimate(in);
+  double expected = 0;
+  for (Index f = 0; f < m.numBoundaryFaces(); ++f)
+    if (m.boundaryFaceId(f) == mesh::kTop)
+      for (Index v : m.boundaryFaceVertices(f))
+        expected += mesh::boundaryFaceMeasure(m, f) * s * s * r.vertexFields.at("h")[v];
+  EXPECT_NEAR(r.contribution("eta_5"), std::sqrt(expected), 1e-12);
+  EXPECT_LT(r.contribution("eta_4"), 1e-13);
+  EXPECT_LT(r.contribution("eta_3") + r.contribution("eta_2") + r.contribution("eta_1"), 1e-13);
+  expectSumIdentity(r);
+  // sides as contact boundary: sigma n = 0 there, nothing changes
+  in.contactBoundaryIds = {mesh::kLeft, mesh::kRight};
+  EXPECT_LT(ResidualEstimator().estimate(in).total, 1e-13);
+
+  // a contact set on the top with the tilted direction nu = (1,1)/sqrt 2: w = -s e_y splits into
+  // equal normal and tangential parts; the total stays the same
+  const PlaneObstacle obstacle(Point(0, 2, 0), Point(1, 1, 0).normalized());
+  const ContactSet set(m, mesh::kTop, obstacle);
+  const ContactData contact{&set, nullptr, &obstacle};
+  in.contactBoundaryIds.clear();
+  in.contact = &contact;
+  EXPECT_EQ(contactBoundaryIds(in), std::vector<int>{mesh::kTop});
+  const auto tilted = ResidualEstimator().estimate(in);
+  EXPECT_NEAR(tilted.contribution("eta_4"), std::sqrt(expected / 2), 1e-12);
+  EXPECT_NEAR(tilted.contribution("eta_5"), std::sqrt(expected / 2), 1e-12);
+  EXPECT_NEAR(tilted.total, r.total, 1e-12);
+}
+
+// A random displacement on a distorted mixed-type mesh with body force, every kind of boundary and a
+// contact boundary: the decomposition identities hold to round-off.
+TEST(ResidualEstimator, SumIdentityOnMixedMesh) {
+  auto m = mesh::mixedBoxMesh3D({2, 2, 4}, Point(0, 0, 0), Point(1, 1, 2));
+  mesh::perturbInteriorVertices(m, 0.2, 11);
+  const Material mat{3.0, 0.2};
+  std::mt19937 rng(1);
+  std::uniform_real_distribution<double> U(-1, 1);
+  Eigen::VectorXd u(m.numVertices() * 3);
+  for (Eigen::Index i = 0; i < u.size(); ++i) u[i] = 0.01 * U(rng);
+  BoundaryConditions bc;
+  bc.bodyForce = [](const Point& x) { return Eigen::Vector3d(x[1], 1, -x[0]); };
+  bc.dirichlet.push_back({mesh::kBottom, {true, true, true}, {}});
+  bc.dirichlet.push_back({mesh::kLeft, {true, false, false}, {}});
+  bc.neumann.push_back({mesh::kRight, {}, [](const Point& x) { return 1 + x[2]; }});
+  EstimatorInput in(m, mat, bc, u);
+  in.contactBoundaryIds = {mesh::kTop};
+  const auto r = ResidualEstimator().estimate(in);
+  ASSERT_EQ(r.contributions.size(), 5u);
+  for (const Contribution& c : r.contributions) EXPECT_GT(c.value, 0) << c.name;
+  expectSumIdentity(r);
+  EXPECT_EQ(r.estimator, "residual");
+  EXPECT_EQ(r.indicators.size(), static_cast<std::size_t>(m.numCells()));
+}
+
+TEST(ResidualEstimator, StaleResultsAndBadInputAreDetected) {
+  auto m = mesh::boxMesh(CellType::Triangle, 2);
+  const Material mat{1.0, 0.3};
+  const Eigen::VectorXd u = Eigen::VectorXd::Zero(m.numVertices() * 2);
+  const BoundaryConditions bc;
+  EstimatorInput in(m, mat, bc, u);
+  in.meshRevision = 7;
+  const auto r = ResidualEstimator().estimate(in);
+  EXPECT_EQ(r.total, 0.0);
+  EXPECT_TRUE(r.validFor(m));
+  EXPECT_TRUE(r.validFor(m, 7));
+  EXPECT_FALSE(r.validFor(m, 8));
+  EXPECT_NO_THROW(r.requireValidFor(m));
+  const auto fine = mesh::refineUniformly(m);
+  EXPECT_FALSE(r.validFor(fine));
+  EXPECT_THROW(r.requireValidFor(fine), obs::Error);
+  auto moved = m;
+  moved.vertex(4) += Point(0.01, 0, 0);
+  EXPECT_FALSE(r.validFor(moved));
+  try {
+    r.contribution("eta_9");
+    FAIL();
+  } catch (const obs::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("eta_1, eta_2"), std::string::npos) << e.what();
+  }
+  const Eigen::VectorXd wrong = Eigen::VectorXd::Zero(5);
+  try {
+    ResidualEstimator().estimate(EstimatorInput(m, mat, bc, wrong));
+    FAIL();
+  } catch (const obs::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("displacement has 5 entries"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
