@@ -1,0 +1,463 @@
+// Grid::adapt(): marking closure (which elements are refined red), red refinement, and the green
+// closure of the remaining elements with refined edges. The rules are stated in Grid.hpp.
+//
+// Work per adapt() is linear in the number of regular leaves plus the work of the refinement
+// itself: one vertex -> element adjacency of the regular leaves, a work list for the propagation,
+// and flat hash maps keyed on sorted vertex pairs (edge midpoints) and sorted quadrilateral faces
+// (face centres), so shared vertices are created once and found in O(1).
+#include <algorithm>
+#include <bit>
+#include <climits>
+
+#include "obs/mesh/Error.hpp"
+#include "obs/mesh/Grid.hpp"
+#include "obs/mesh/MeshTopology.hpp"
+#include "obs/mesh/RedRefinement.hpp"
+
+namespace obs::mesh {
+namespace {
+
+struct CodedChild {
+  CellType type;
+  std::array<std::uint8_t, 8> points;
+};
+
+/// Per-type tables for the refinement: the red rules in local point codes, the corner supports
+/// of the local points, and which edge or face of a cell contains a given set of corners.
+struct AdaptTables {
+  std::array<std::array<std::vector<CodedChild>, 3>, 7> red;  // [type][variant]
+  std::array<std::array<std::uint32_t, 3>, 7> redUsed{};      // points used by the rule
+  std::array<std::array<std::uint8_t, LocalPoints::kMaxPoints>, 7> support{};  // corner bits
+  /// entity[type][corner bits]: the local edge e (value e) or else face f (value 16 + f) whose
+  /// corners include all the given corners, or -1.
+  std::array<std::array<std::int8_t, 256>, 7> entity{};
+  std::array<std::array<std::uint8_t, 6>, 7> faceCorners{};  // corner bits of each face
+
+  AdaptTables() {
+    for (CellType t : kVolumeCellTypes) {
+      const int ti = static_cast<int>(t);
+      const LocalPoints& lp = LocalPoints::of(t);
+      const auto edges = localEdges(t);
+      const auto faces = localFaces(t);
+      std::array<std::uint8_t, 12> edgeBits{};
+      for (int e = 0; e < lp.numEdges; ++e)
+        edgeBits[e] = static_cast<std::uint8_t>((1u << edges[e][0]) | (1u << edges[e][1]));
+      for (int f = 0; f < lp.numFaces; ++f)
+        for (int v : faces[f].span()) faceCorners[ti][f] |= static_cast<std::uint8_t>(1u << v);
+      for (int i = 0; i < lp.numCorners; ++i) support[ti][i] = static_cast<std::uint8_t>(1u << i);
+      for (int e = 0; e < lp.numEdges; ++e) support[ti][lp.edgePoint(e)] = edgeBits[e];
+      for (int f = 0; f < lp.numFaces; ++f) support[ti][lp.facePoint(f)] = faceCorners[ti][f];
+      support[ti][lp.centroidPoint()] = static_cast<std::uint8_t>((1u << lp.numCorners) - 1);
+      for (int bits = 0; bits < 256; ++bits) {
+        std::int8_t ent = -1;
+        for (int e = 0; e < lp.numEdges && ent < 0; ++e)
+          if ((bits & ~edgeBits[e]) == 0) ent = static_cast<std::int8_t>(e);
+        for (int f = 0; f < lp.numFaces && ent < 0; ++f)
+          if ((bits & ~faceCorners[ti][f]) == 0) ent = static_cast<std::int8_t>(16 + f);
+        entity[ti][bits] = ent;
+      }
+      for (int variant = 0; variant < numRedRuleVariants(t); ++variant) {
+        const RefinementRule& rule = redRefinementRule(t, variant);
+        std::vector<int> code(rule.points.size());
+        for (std::size_t i = 0; i < code.size(); ++i) {
+          const PointSite& s = rule.sites[i];
+          code[i] = s.location == PointLocation::Corner ? s.index
+                    : s.location == PointLocation::Edge ? lp.edgePoint(s.index)
+                    : s.location == PointLocation::Face ? lp.facePoint(s.index)
+                                                        : lp.centroidPoint();
+        }
+        for (const RefinementChild& c : rule.children) {
+          CodedChild cc{c.type, {}};
+          for (std::size_t k = 0; k < c.points.size(); ++k) {
+            cc.points[k] = static_cast<std::uint8_t>(code[c.points[k]]);
+            redUsed[ti][variant] |= 1u << code[c.points[k]];
+          }
+          red[ti][variant].push_back(cc);
+        }
+      }
+    }
+  }
+};
+
+const AdaptTables& tables() {
+  static const AdaptTables t;
+  return t;
+}
+
+int localIndex(std::span<const Index> v, Index g) {
+  for (std::size_t i = 0; i < v.size(); ++i)
+    if (v[i] == g) return static_cast<int>(i);
+  return -1;
+}
+
+}  // namespace
+
+/// Work data of one adapt(), indexed by the elements that existed when it started.
+struct Grid::Context {
+  Index numOld = 0;
+  std::vector<char> regular;         ///< leaves that are not green, and fathers of green leaves
+  std::vector<Index> adjStart, adj;  ///< vertex -> regular elements having it as a corner
+  std::vector<char> red;             ///< to be refined red
+  std::vector<char> touched;         ///< got a newly refined edge
+  std::vector<char> childCheck;      ///< red, and its children may get refined edges
+  std::vector<std::uint32_t> scanned;  ///< red fathers: edges/faces (bits e, 16 + f) done (rule 1)
+  std::vector<Index> queue, touchedList;
+  EdgeMap newEdges{~std::uint64_t{0}};  ///< edges refined by this adapt
+
+  std::span<const Index> around(Index v) const {
+    return {adj.data() + adjStart[v], adj.data() + adjStart[v + 1]};
+  }
+};
+
+// ------------------------------------------------------------------------------------------------
+AdaptResult Grid::adapt() {
+  AdaptResult result;
+  result.firstNewElement = numElements();
+  result.firstNewVertex = numVertices();
+  Context ctx;
+  const Index n = ctx.numOld = numElements();
+  ctx.regular.assign(n, 0);
+  for (Index e = 0; e < n; ++e)
+    ctx.regular[e] = !isRemoved(e) && ((refinement_[e] == Refinement::None && !isGreen(e)) ||
+                                       refinement_[e] == Refinement::Green);
+  // Vertex -> regular element adjacency (CSR, ascending elements).
+  ctx.adjStart.assign(numVertices() + 1, 0);
+  for (Index e = 0; e < n; ++e)
+    if (ctx.regular[e])
+      for (Index v : vertices(e)) ++ctx.adjStart[v + 1];
+  for (Index v = 0; v < numVertices(); ++v) ctx.adjStart[v + 1] += ctx.adjStart[v];
+  ctx.adj.resize(ctx.adjStart.back());
+  {
+    std::vector<Index> fill(ctx.adjStart.begin(), ctx.adjStart.end() - 1);
+    for (Index e = 0; e < n; ++e)
+      if (ctx.regular[e])
+        for (Index v : vertices(e)) ctx.adj[fill[v]++] = e;
+  }
+  ctx.red.assign(n, 0);
+  ctx.touched.assign(n, 0);
+  ctx.childCheck.assign(n, 0);
+  ctx.scanned.assign(n, 0);
+
+  for (Index e = 0; e < n; ++e)
+    if (marks_[e]) {
+      ++result.marked;
+      const Index target = isGreen(e) ? father_[e] : e;
+      if (!ctx.red[target]) {
+        ctx.red[target] = 1;
+        ctx.queue.push_back(target);
+      }
+    }
+  const std::size_t initiallyRed = ctx.queue.size();
+  propagate(ctx);
+  result.propagated = static_cast<Index>(ctx.queue.size() - initiallyRed);
+
+  // Red refinement, in element order (deterministic vertex and element numbering).
+  std::vector<Index> red = ctx.queue;
+  std::sort(red.begin(), red.end());
+  edgeMidpoints_.reserve(edgeMidpoints_.size() + ctx.newEdges.size());
+  for (Index e : red) {
+    if (refinement_[e] == Refinement::Green) {
+      removeChildren(e);
+      ++result.greenRemoved;
+    }
+    refineRed(e);
+  }
+  result.redRefined = static_cast<Index>(red.size());
+
+  // Green closure of the elements whose edge pattern changed.
+  std::vector<Index> candidates;
+  for (Index e : ctx.touchedList)
+    if (!ctx.red[e]) candidates.push_back(e);
+  for (Index e : red)
+    if (ctx.childCheck[e])
+      for (int k = 0; k < numChildren_[e]; ++k) candidates.push_back(firstChild_[e] + k);
+  std::sort(candidates.begin(), candidates.end());
+  for (Index e : candidates) {
+    const unsigned pattern = edgePattern(e);
+    if (pattern == 0) continue;
+    if (refinement_[e] == Refinement::Green) {
+      if (greenPattern_[e] == pattern) continue;
+      removeChildren(e);
+      ++result.greenRemoved;
+    }
+    closeGreen(e, pattern);
+    ++result.greenClosed;
+  }
+
+  std::array<Point, 8> x{};
+  for (Index e = result.firstNewElement; e < numElements(); ++e) {
+    if (isRemoved(e)) continue;
+    const auto v = vertices(e);
+    for (std::size_t i = 0; i < v.size(); ++i) x[i] = x_[v[i]];
+    if (!isPositivelyOriented(type_[e], std::span<const Point>(x.data(), v.size())))
+      ++result.invertedElements;
+  }
+  maxLevel_ = 0;
+  for (Index e = 0; e < numElements(); ++e)
+    if (!isRemoved(e)) maxLevel_ = std::max<int>(maxLevel_, level_[e]);
+  clearMarks();
+  return result;
+}
+
+// ------------------------------------------------------------------------------------------------
+void Grid::propagate(Context& ctx) {
+  const AdaptTables& tab = tables();
+  auto push = [&](Index g) {
+    if (!ctx.red[g]) {
+      ctx.red[g] = 1;
+      ctx.queue.push_back(g);
+    }
+  };
+  auto refinedEdge = [&](std::uint64_t key) {
+    return edgeMidpoints_.find(key) >= 0 || ctx.newEdges.find(key) >= 0;
+  };
+  // Rule 2: more than half of the edges refined.
+  auto mostlyRefined = [&](Index g) {
+    const auto gv = vertices(g);
+    const auto edges = localEdges(type_[g]);
+    int count = 0;
+    for (const auto& le : edges) count += refinedEdge(edgeKey(gv[le[0]], gv[le[1]]));
+    return 2 * count > static_cast<int>(edges.size());
+  };
+  // Does regular element g have the corners vs[0..k-1] as an edge (k = 2) or a face?
+  auto hasEntity = [&](Index g, const std::array<Index, 4>& vs, int k) {
+    const auto gv = vertices(g);
+    unsigned bits = 0;
+    for (int i = 0; i < k; ++i) {
+      const int l = localIndex(gv, vs[i]);
+      if (l < 0) return false;
+      bits |= 1u << l;
+    }
+    const int ti = static_cast<int>(type_[g]);
+    if (k == 2) return LocalPoints::of(type_[g]).edge(std::countr_zero(bits),
+                                                       31 - std::countl_zero(bits)) >= 0;
+    for (int f = 0; f < LocalPoints::of(type_[g]).numFaces; ++f)
+      if (tab.faceCorners[ti][f] == bits) return true;
+    return false;
+  };
+
+  for (std::size_t qi = 0; qi < ctx.queue.size(); ++qi) {
+    const Index e = ctx.queue[qi];
+    const CellType t = type_[e];
+    std::array<Index, 8> ev{};
+    std::copy(vertices(e).begin(), vertices(e).end(), ev.begin());
+    // Its edges become refined; regular leaves containing a newly refined edge get a new pattern.
+    for (const auto& le : localEdges(t)) {
+      const Index a = ev[le[0]], b = ev[le[1]];
+      const std::uint64_t key = edgeKey(a, b);
+      if (edgeMidpoints_.find(key) >= 0 || !ctx.newEdges.insert(key, 0).second) continue;
+      for (Index g : ctx.around(a)) {
+        if (ctx.red[g] || !hasEntity(g, {a, b, -1, -1}, 2)) continue;
+        if (!ctx.touched[g]) {
+          ctx.touched[g] = 1;
+          ctx.touchedList.push_back(g);
+        }
+        if (mostlyRefined(g)) push(g);
+      }
+    }
+    // Rule 1: a red child is refined; the edges and faces of its father on which its edges lie
+    // must be refined in every regular element containing them.
+    if (level_[e] == 0) continue;
+    const Index p = father_[e];
+    const int pt = static_cast<int>(type_[p]);
+    std::uint32_t bits = 0;
+    const auto& sup = tab.support[pt];
+    for (const auto& le : localEdges(t)) {
+      const int ent = tab.entity[pt][sup[inFather_[e][le[0]]] | sup[inFather_[e][le[1]]]];
+      if (ent >= 0) bits |= 1u << ent;
+    }
+    bits &= ~ctx.scanned[p];
+    ctx.scanned[p] |= bits;
+    const auto pv = vertices(p);
+    while (bits) {
+      const int ent = std::countr_zero(bits);
+      bits &= bits - 1;
+      std::array<Index, 4> vs{-1, -1, -1, -1};
+      int k = 0;
+      if (ent < 16) {
+        const auto& le = localEdges(type_[p])[ent];
+        vs = {pv[le[0]], pv[le[1]], -1, -1};
+        k = 2;
+      } else {
+        const LocalFace& f = localFaces(type_[p])[ent - 16];
+        for (k = 0; k < f.size; ++k) vs[k] = pv[f.vertices[k]];
+      }
+      for (Index g : ctx.around(vs[0]))
+        if (hasEntity(g, vs, k)) {
+          ctx.childCheck[g] = 1;
+          push(g);
+        }
+    }
+  }
+}
+
+// ------------------------------------------------------------------------------------------------
+unsigned Grid::edgePattern(Index e) const {
+  const auto ev = vertices(e);
+  unsigned pattern = 0;
+  int k = 0;
+  for (const auto& le : localEdges(type_[e])) {
+    if (edgeMidpoints_.find(edgeKey(ev[le[0]], ev[le[1]])) >= 0) pattern |= 1u << k;
+    ++k;
+  }
+  return pattern;
+}
+
+void Grid::removeChildren(Index e) {
+  for (int k = 0; k < numChildren_[e]; ++k) flags_[firstChild_[e] + k] |= kRemoved;
+  refinement_[e] = Refinement::None;
+  firstChild_[e] = -1;
+  numChildren_[e] = 0;
+  greenPattern_[e] = 0;
+}
+
+void Grid::refineRed(Index e) {
+  const AdaptTables& tab = tables();
+  const CellType t = type_[e];
+  const int ti = static_cast<int>(t);
+  const LocalPoints& lp = LocalPoints::of(t);
+  std::array<Index, 8> ev{};
+  std::array<Point, 8> x{};
+  const int nv = lp.numCorners;
+  for (int i = 0; i < nv; ++i) x[i] = x_[ev[i] = vertices(e)[i]];
+  const int variant = t == CellType::Tetrahedron ? shortestTetDiagonal(std::span(x.data(), 4)) : 0;
+  // Global vertices of the points the rule uses, created in point order.
+  std::array<Index, LocalPoints::kMaxPoints> g{};
+  for (int p = 0; p < lp.size; ++p) {
+    if (!((tab.redUsed[ti][variant] >> p) & 1u)) continue;
+    if (p < nv)
+      g[p] = ev[p];
+    else if (p < nv + lp.numEdges)
+      g[p] = edgeMidpoint(e, p - nv);
+    else if (p < lp.centroidPoint())
+      g[p] = faceCentre(e, p - nv - lp.numEdges);
+    else
+      g[p] = centroid(e);
+  }
+  const auto& children = tab.red[ti][variant];
+  const Index first = numElements();
+  std::array<Index, 8> cv{};
+  for (const CodedChild& c : children) {
+    const int n = mesh::numVertices(c.type);
+    for (int k = 0; k < n; ++k) cv[k] = g[c.points[k]];
+    addElement(c.type, std::span<const Index>(cv.data(), n), e, level_[e] + 1,
+               std::span<const std::uint8_t>(c.points.data(), n), false);
+  }
+  refinement_[e] = Refinement::Red;
+  firstChild_[e] = first;
+  numChildren_[e] = static_cast<std::uint8_t>(children.size());
+}
+
+void Grid::closeGreen(Index e, unsigned pattern) {
+  std::vector<LocalChild> children;
+  closureRule(e, pattern, children);
+  const CellType t = type_[e];
+  const LocalPoints& lp = LocalPoints::of(t);
+  const int nv = lp.numCorners;
+  std::array<Index, LocalPoints::kMaxPoints> g;
+  g.fill(-1);
+  std::array<Index, 8> ev{};
+  std::copy(vertices(e).begin(), vertices(e).end(), ev.begin());
+  const Index first = numElements();
+  std::array<Index, 8> cv{};
+  for (const LocalChild& c : children) {
+    const int n = mesh::numVertices(c.type);
+    for (int k = 0; k < n; ++k) {
+      const int p = c.points[k];
+      if (g[p] < 0) {
+        if (p < nv) {
+          g[p] = ev[p];
+        } else if (p < nv + lp.numEdges) {
+          const auto& le = localEdges(t)[p - nv];
+          g[p] = edgeMidpoints_.find(edgeKey(ev[le[0]], ev[le[1]]));
+        } else if (p < lp.centroidPoint()) {
+          g[p] = faceCentre(e, p - nv - lp.numEdges);
+        } else {
+          g[p] = centroid(e);
+        }
+      }
+      cv[k] = g[p];
+    }
+    addElement(c.type, std::span<const Index>(cv.data(), n), e, level_[e] + 1,
+               std::span<const std::uint8_t>(c.points.data(), n), true);
+  }
+  refinement_[e] = Refinement::Green;
+  firstChild_[e] = first;
+  numChildren_[e] = static_cast<std::uint8_t>(children.size());
+  greenPattern_[e] = static_cast<std::uint16_t>(pattern);
+}
+
+// ------------------------------------------------------------------------------------------------
+// New vertices.
+Index Grid::edgeMidpoint(Index e, int localEdge) {
+  const auto& le = localEdges(type_[e])[localEdge];
+  Index a = vertices(e)[le[0]], b = vertices(e)[le[1]];
+  const std::uint64_t key = edgeKey(a, b);
+  if (const Index m = edgeMidpoints_.find(key); m >= 0) return m;
+  if (a > b) std::swap(a, b);
+  Point x = 0.5 * (x_[a] + x_[b]);
+  std::vector<int> ids;
+  if (boundaryVertex_[a] && boundaryVertex_[b]) edgeBoundaryIds(e, localEdge, ids);
+  if (!ids.empty() && !projections_.empty()) x = project(x, ids);
+  const Index m = addVertex(x, e, LocalPoints::of(type_[e]).edgePoint(localEdge), !ids.empty());
+  edgeMidpoints_.insert(key, m);
+  return m;
+}
+
+/// Boundary ids of the boundary faces containing an edge, found through the hierarchy (the
+/// neighbours around the edge may not exist yet): an edge of a child lies inside its father, in
+/// the interior of one of its faces (boundary iff that face is), or on one of its edges (recurse);
+/// coarse edges have their ids from the coarse boundary faces.
+void Grid::edgeBoundaryIds(Index e, int localEdge, std::vector<int>& ids) const {
+  const AdaptTables& tab = tables();
+  while (level_[e] > 0) {
+    const auto& le = localEdges(type_[e])[localEdge];
+    const Index p = father_[e];
+    const int pt = static_cast<int>(type_[p]);
+    const int ent = tab.entity[pt][tab.support[pt][inFather_[e][le[0]]] |
+                                   tab.support[pt][inFather_[e][le[1]]]];
+    if (ent < 0) return;
+    if (ent >= 16) {
+      if (const int id = boundaryId(p, ent - 16); id >= 0) ids.push_back(id);
+      return;
+    }
+    localEdge = ent;
+    e = p;
+  }
+  const auto& le = localEdges(type_[e])[localEdge];
+  const std::uint64_t key = edgeKey(vertices(e)[le[0]], vertices(e)[le[1]]);
+  for (auto it = std::lower_bound(coarseEdgeIds_.begin(), coarseEdgeIds_.end(),
+                                  std::pair<std::uint64_t, int>{key, INT_MIN});
+       it != coarseEdgeIds_.end() && it->first == key; ++it)
+    ids.push_back(it->second);
+}
+
+Index Grid::faceCentre(Index e, int localFace) {
+  const LocalFace& f = localFaces(type_[e])[localFace];
+  std::array<Index, 4> key{};
+  for (int k = 0; k < 4; ++k) key[k] = vertices(e)[f.vertices[k]];
+  std::sort(key.begin(), key.end());
+  if (const Index c = faceCentres_.find(key); c >= 0) return c;
+  Point x = 0.25 * (((x_[key[0]] + x_[key[1]]) + x_[key[2]]) + x_[key[3]]);
+  bool boundary = false;
+  if (boundaryVertex_[key[0]] && boundaryVertex_[key[1]] && boundaryVertex_[key[2]] &&
+      boundaryVertex_[key[3]]) {
+    const int id = boundaryId(e, localFace);
+    boundary = id >= 0;
+    if (boundary && !projections_.empty()) x = project(x, {id});
+  }
+  const Index c = addVertex(x, e, LocalPoints::of(type_[e]).facePoint(localFace), boundary);
+  faceCentres_.insert(key, c);
+  return c;
+}
+
+Index Grid::centroid(Index e) {
+  const std::uint64_t key = static_cast<std::uint64_t>(e);
+  if (const Index c = centroids_.find(key); c >= 0) return c;
+  const int p = LocalPoints::of(type_[e]).centroidPoint();
+  const Index c = addVertex(pointPosition(e, p), e, p, false);
+  centroids_.insert(key, c);
+  return c;
+}
+
+}  // namespace obs::mesh

@@ -1,0 +1,387 @@
+// Hierarchical grid: uniform refinement (counts and cells equal to refineUniformly), random local
+// refinement with green closure (conformity of leaf and level views, volume, orientation, boundary
+// ids and measures, hierarchy and geometry in father), shape regularity under repeated refinement
+// at a corner, determinism, marking of green elements and boundary projection; parameterised over
+// all six cell types and the mixed 3D mesh.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <functional>
+#include <random>
+
+#include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/Error.hpp"
+#include "obs/mesh/Grid.hpp"
+#include "obs/mesh/MeshTopology.hpp"
+#include "obs/mesh/Prolongation.hpp"
+#include "obs/mesh/RedRefinement.hpp"
+#include "obs/mesh/ReferenceElement.hpp"
+
+using namespace obs::mesh;
+
+namespace {
+
+struct GridCase {
+  std::string name;
+  std::function<Mesh()> make;
+};
+
+std::vector<GridCase> gridCases() {
+  std::vector<GridCase> out;
+  for (CellType t : kVolumeCellTypes)
+    out.push_back({std::string(name(t)), [t] {
+                     return boxMesh(t, {2, 2, 2}, Point(0, 0, 0), Point(2, 1.5, 1));
+                   }});
+  out.push_back({"mixed", [] { return mixedBoxMesh3D({2, 2, 4}, Point::Zero(), Point(1, 1, 2)); }});
+  return out;
+}
+
+std::vector<Point> corners(const Grid& g, Index e) {
+  std::vector<Point> x;
+  for (Index v : g.vertices(e)) x.push_back(g.vertex(v));
+  return x;
+}
+
+double volume(const Grid& g, Index e) { return signedMeasure(g.type(e), corners(g, e)); }
+
+/// Geometry map of element e at reference coordinates xi.
+Point mapPoint(const Grid& g, Index e, const Point& xi) {
+  const ReferenceElement& ref = referenceElement(g.type(e));
+  std::vector<double> phi(ref.numVertices);
+  ref.values(xi, phi);
+  Point x = Point::Zero();
+  for (int i = 0; i < ref.numVertices; ++i) x += phi[i] * g.vertex(g.vertices(e)[i]);
+  return x;
+}
+
+/// A view is a valid conforming mesh of the domain with the original boundary.
+void checkView(const Mesh& m, double vol, const std::map<int, double>& area, const std::string& what) {
+  const ConformityReport r = checkConformity(m);
+  EXPECT_TRUE(r.conforming()) << what << ": hanging " << r.hangingFaces << " nonmanifold "
+                              << r.nonManifoldFaces << " misoriented " << r.misorientedFaces
+                              << " unmatched " << r.unmatchedBoundaryFaces;
+  Index inverted = 0;
+  for (Index c = 0; c < m.numCells(); ++c) inverted += !isPositivelyOriented(m, c);
+  EXPECT_EQ(inverted, 0) << what;
+  EXPECT_NEAR(totalVolume(m), vol, 1e-12 * vol) << what;
+  const auto a = boundaryMeasureById(m);
+  ASSERT_EQ(a.size(), area.size()) << what;
+  for (const auto& [id, value] : area) EXPECT_NEAR(a.at(id), value, 1e-12 * value) << what << " id " << id;
+}
+
+/// Every invariant of the grid: views, hierarchy, children inside their fathers (corners at the
+/// father's geometry map of geometryInFather) and tiling them (green children only if the father
+/// has planar faces: `planar`).
+void checkGrid(const Grid& g, double vol, const std::map<int, double>& area, bool planar = true) {
+  checkView(g.leafMesh(), vol, area, "leaf view");
+  for (int l = 0; l <= g.maxLevel(); ++l) checkView(g.levelMesh(l), vol, area, "level " + std::to_string(l));
+  for (Index e = 0; e < g.numElements(); ++e) {
+    if (g.isRemoved(e)) continue;
+    if (g.level(e) > 0) {
+      const Index f = g.father(e);
+      EXPECT_EQ(g.level(e), g.level(f) + 1);
+      EXPECT_EQ(g.isGreen(e), g.refinement(f) == Refinement::Green);
+      const auto xi = g.geometryInFather(e);
+      for (std::size_t i = 0; i < xi.size(); ++i) {
+        EXPECT_TRUE(insideReferenceElement(g.type(f), xi[i], 1e-14)) << e;
+        EXPECT_NEAR((mapPoint(g, f, xi[i]) - g.vertex(g.vertices(e)[i])).norm(), 0, 1e-12) << e;
+      }
+    }
+    if (g.numChildren(e) > 0) {
+      EXPECT_NE(g.refinement(e), Refinement::None);
+      EXPECT_FALSE(g.isGreen(e)) << "green elements are never refined";
+      double sum = 0;
+      for (int k = 0; k < g.numChildren(e); ++k) {
+        EXPECT_EQ(g.father(g.child(e, k)), e);
+        EXPECT_FALSE(g.isRemoved(g.child(e, k)));
+        sum += volume(g, g.child(e, k));
+      }
+      if (planar || g.refinement(e) == Refinement::Red) {
+        EXPECT_NEAR(sum, volume(g, e), 1e-12 * volume(g, e)) << e;
+      }
+    }
+  }
+}
+
+}  // namespace
+
+class GridTest : public ::testing::TestWithParam<GridCase> {};
+
+TEST_P(GridTest, UniformRefinementMatchesRefineUniformly) {
+  const Mesh coarse = GetParam().make();
+  Grid g(coarse);
+  const double vol = totalVolume(coarse);
+  const auto area = boundaryMeasureById(coarse);
+  Mesh flat = coarse;
+  const int levels = coarse.dimension() == 2 ? 3 : 2;
+  for (int k = 1; k <= levels; ++k) {
+    const AdaptResult r = g.refineUniformly();
+    flat = refineUniformly(flat);
+    EXPECT_EQ(r.propagated, 0);
+    EXPECT_EQ(r.greenClosed, 0);
+    EXPECT_EQ(g.maxLevel(), k);
+    const Mesh leaf = g.leafMesh();
+    EXPECT_EQ(leaf.cellCounts(), flat.cellCounts());
+    EXPECT_EQ(leaf.numVertices(), flat.numVertices());
+    EXPECT_EQ(leaf.numBoundaryFaces(), flat.numBoundaryFaces());
+    // Same cells: compare the sorted cell centroids.
+    auto centroids = [](const Mesh& m) {
+      std::vector<std::array<double, 4>> c;
+      for (Index i = 0; i < m.numCells(); ++i) {
+        Point s = Point::Zero();
+        for (Index v : m.cellVertices(i)) s += m.vertex(v);
+        s /= static_cast<double>(m.cellVertices(i).size());
+        c.push_back({std::round(s[0] * 1e9), std::round(s[1] * 1e9), std::round(s[2] * 1e9),
+                     static_cast<double>(m.cellType(i))});
+      }
+      std::sort(c.begin(), c.end());
+      return c;
+    };
+    EXPECT_EQ(centroids(leaf), centroids(flat));
+    checkGrid(g, vol, area);
+  }
+}
+
+TEST_P(GridTest, ElementCountsAfterUniformRefinement) {
+  const Mesh coarse = GetParam().make();
+  Grid g(coarse);
+  // Children per red refinement: 4 in 2D, 8 in 3D except the pyramid (6 pyramids + 4 tets).
+  auto counts = coarse.cellCounts();
+  const int levels = coarse.dimension() == 2 ? 4 : 2;
+  for (int k = 1; k <= levels; ++k) {
+    g.refineUniformly();
+    std::array<Index, 7> next{};
+    const int tri = 1, quad = 2, tet = 3, hex = 4, prism = 5, pyr = 6;
+    next[tri] = 4 * counts[tri];
+    next[quad] = 4 * counts[quad];
+    next[tet] = 8 * counts[tet] + 4 * counts[pyr];
+    next[hex] = 8 * counts[hex];
+    next[prism] = 8 * counts[prism];
+    next[pyr] = 6 * counts[pyr];
+    counts = next;
+    EXPECT_EQ(g.leafMesh().cellCounts(), counts) << "after " << k << " refinements";
+  }
+}
+
+// Each cycle marks a random 10% of the leaves (every level, green leaves included). In 3D a
+// closure touches many neighbours and 10% of all leaves multiplies the grid by 3-5 per cycle, so
+// there at most 15 marks are kept per cycle (the first ones drawn) to keep the test fast.
+TEST_P(GridTest, RandomLocalRefinementStaysConforming) {
+  const Mesh coarse = GetParam().make();
+  Grid g(coarse);
+  const double vol = totalVolume(coarse);
+  const auto area = boundaryMeasureById(coarse);
+  const int cap = coarse.dimension() == 2 ? 1 << 30 : 15;
+  std::mt19937 gen(2024);
+  Index greenSeen = 0, removedSeen = 0, propagated = 0;
+  for (int cycle = 0; cycle < 12; ++cycle) {
+    int marked = 0;
+    for (Index e : g.leafElements())
+      if (gen() % 10 == 0 && marked < cap) {
+        g.mark(e);
+        ++marked;
+      }
+    const AdaptResult r = g.adapt();
+    EXPECT_EQ(r.marked, marked);
+    greenSeen += r.greenClosed;
+    removedSeen += r.greenRemoved;
+    propagated += r.propagated;
+    EXPECT_EQ(r.invertedElements, 0);
+    SCOPED_TRACE("cycle " + std::to_string(cycle));
+    if (cycle % 4 == 3 || cycle == 11)
+      checkGrid(g, vol, area);
+    else
+      checkView(g.leafMesh(), vol, area, "leaf view");
+    if (::testing::Test::HasFailure()) break;
+  }
+  EXPECT_GT(greenSeen, 0);
+  EXPECT_GT(removedSeen, 0);
+  EXPECT_GT(propagated, 0);
+}
+
+// The same on distorted meshes (random interior vertex moves: non-planar faces, non-affine cells).
+TEST_P(GridTest, RandomLocalRefinementOfDistortedMeshes) {
+  Mesh coarse = GetParam().name == "mixed"
+                    ? mixedBoxMesh3D({3, 3, 5}, Point::Zero(), Point(1, 1, 2))
+                    : boxMesh(GetParam().make().cellType(0), {3, 3, 3}, Point::Zero(), Point(2, 1.5, 1));
+  perturbInteriorVertices(coarse, 0.3, 17);
+  Grid g(coarse);
+  const double vol = totalVolume(coarse);
+  const auto area = boundaryMeasureById(coarse);
+  std::mt19937 gen(99);
+  for (int cycle = 0; cycle < 8; ++cycle) {
+    int marked = 0;
+    for (Index e : g.leafElements())
+      if (gen() % 10 == 0 && marked < 10) {
+        g.mark(e);
+        ++marked;
+      }
+    EXPECT_EQ(g.adapt().invertedElements, 0);
+  }
+  checkGrid(g, vol, area, false);
+}
+
+TEST_P(GridTest, ShapeRegularityUnderCornerRefinement) {
+  const Mesh coarse = GetParam().make();
+  Grid g(coarse);
+  auto minQuality = [&] {
+    double q = 1;
+    for (Index e : g.leafElements()) q = std::min(q, shapeQuality(g.type(e), corners(g, e)));
+    return q;
+  };
+  const double q0 = minQuality();
+  for (int cycle = 0; cycle < 10; ++cycle) {
+    for (Index e : g.leafElements())
+      for (Index v : g.vertices(e))
+        if (g.vertex(v).norm() < 1e-12) g.mark(e);
+    g.adapt();
+  }
+  const double q = minQuality();
+  std::printf("[ quality ] %-13s coarse %.4f  after 10 corner refinements %.4f  factor %.3f  "
+              "(leaves %d, levels %d)\n",
+              GetParam().name.c_str(), q0, q, q / q0, g.numLeafElements(), g.maxLevel());
+  EXPECT_GE(g.maxLevel(), 10);
+  EXPECT_GT(q / q0, 0.1);
+  checkView(g.leafMesh(), totalVolume(coarse), boundaryMeasureById(coarse), "leaf view");
+}
+
+TEST_P(GridTest, DeterministicForEqualMarks) {
+  auto run = [&] {
+    Grid g(GetParam().make());
+    std::mt19937 gen(7);
+    for (int cycle = 0; cycle < 5; ++cycle) {
+      for (Index e : g.leafElements())
+        if (gen() % 5 == 0) g.mark(e);
+      g.adapt();
+    }
+    return g.leafMesh();
+  };
+  const Mesh a = run(), b = run();
+  ASSERT_EQ(a.numVertices(), b.numVertices());
+  ASSERT_EQ(a.numCells(), b.numCells());
+  for (Index v = 0; v < a.numVertices(); ++v) EXPECT_EQ(a.vertex(v), b.vertex(v));
+  for (Index c = 0; c < a.numCells(); ++c) {
+    const auto x = a.cellVertices(c), y = b.cellVertices(c);
+    EXPECT_TRUE(std::equal(x.begin(), x.end(), y.begin(), y.end()));
+  }
+}
+
+TEST_P(GridTest, MarkingAGreenLeafRefinesItsFatherRed) {
+  Grid g(GetParam().make());
+  g.mark(0);
+  g.adapt();
+  Index green = -1;
+  for (Index e : g.leafElements())
+    if (g.isGreen(e)) {
+      green = e;
+      break;
+    }
+  ASSERT_GE(green, 0) << "refining one cell must create a green closure";
+  const Index father = g.father(green);
+  g.mark(green);
+  const AdaptResult r = g.adapt();
+  EXPECT_TRUE(g.isRemoved(green));
+  EXPECT_EQ(g.refinement(father), Refinement::Red);
+  EXPECT_GE(r.greenRemoved, 1);
+  EXPECT_THROW(g.mark(green), obs::Error);
+  EXPECT_THROW(g.mark(father), obs::Error);
+}
+
+TEST_P(GridTest, BoundaryIdsAreInherited) {
+  const Mesh coarse = GetParam().make();
+  Grid g(coarse);
+  g.mark(0);
+  g.adapt();
+  g.refineUniformly();
+  const Mesh leaf = g.leafMesh();
+  EXPECT_EQ(leaf.boundaryNames(), coarse.boundaryNames());
+  // Every leaf boundary face lies in a coarse boundary face with the same id: on the box sides.
+  const Point lo = GetParam().name == "mixed" ? Point(0, 0, 0) : Point(0, 0, 0);
+  const Point hi = GetParam().name == "mixed" ? Point(1, 1, 2) : Point(2, 1.5, 1);
+  for (Index f = 0; f < leaf.numBoundaryFaces(); ++f) {
+    const int id = leaf.boundaryFaceId(f);
+    const int axis = id <= 2 ? 0 : id <= 4 ? (leaf.dimension() == 2 ? 1 : 2) : 1;
+    const double value = (id % 2 == 1) ? lo[axis] : hi[axis];
+    for (Index v : leaf.boundaryFaceVertices(f)) EXPECT_NEAR(leaf.vertex(v)[axis], value, 1e-14);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(AllTypes, GridTest, ::testing::ValuesIn(gridCases()),
+                         [](const auto& info) { return info.param.name; });
+
+// --- boundary projection -----------------------------------------------------------------------
+
+TEST(GridProjection, NewTopVerticesFollowTheProjection) {
+  for (CellType t : {CellType::Quadrilateral, CellType::Tetrahedron, CellType::Hexahedron}) {
+    const Mesh coarse = boxMesh(t, {2, 2, 2}, Point(0, 0, 0), Point(1, 1, 1));
+    Grid g(coarse);
+    const int top = coarse.dimension() == 2 ? kTop : kTop;
+    const int axis = coarse.dimension() == 2 ? 1 : 2;
+    auto bump = [axis](const Point& x) {
+      Point y = x;
+      y[axis] = 1 + 0.05 * std::sin(M_PI * x[0]);
+      return y;
+    };
+    g.setBoundaryProjection(top, bump);
+    g.refineUniformly();
+    g.mark(g.leafElements().front());
+    g.adapt();
+    const Mesh leaf = g.leafMesh();
+    EXPECT_TRUE(checkConformity(leaf).conforming());
+    for (Index c = 0; c < leaf.numCells(); ++c) EXPECT_TRUE(isPositivelyOriented(leaf, c));
+    Index moved = 0;
+    for (Index f = 0; f < leaf.numBoundaryFaces(); ++f) {
+      if (leaf.boundaryFaceId(f) != top) continue;
+      for (Index v : leaf.boundaryFaceVertices(f)) {
+        const Point& x = leaf.vertex(v);
+        if (x[0] > 1e-14 && x[0] < 1 - 1e-14 && std::abs(x[0] - 0.5) > 1e-14) {
+          EXPECT_NEAR(x[axis], 1 + 0.05 * std::sin(M_PI * x[0]), 1e-14) << name(t);
+          ++moved;
+        }
+      }
+    }
+    EXPECT_GT(moved, 0) << name(t);
+    // The other sides are untouched.
+    for (Index f = 0; f < leaf.numBoundaryFaces(); ++f) {
+      if (leaf.boundaryFaceId(f) != kBottom) continue;
+      for (Index v : leaf.boundaryFaceVertices(f)) EXPECT_EQ(leaf.vertex(v)[axis], 0.0);
+    }
+  }
+}
+
+TEST(GridViews, LevelViewOutOfRangeThrows) {
+  Grid g(boxMesh(CellType::Triangle, 2));
+  EXPECT_THROW(g.levelView(1), obs::Error);
+  EXPECT_THROW(g.levelView(-1), obs::Error);
+  EXPECT_THROW(g.geometryInFather(0), obs::Error);
+  EXPECT_THROW(g.mark(100), obs::Error);
+}
+
+TEST(GridViews, FaceNeighboursAreSymmetric) {
+  Grid g(mixedBoxMesh3D({2, 2, 4}, Point::Zero(), Point(1, 1, 2)));
+  g.mark(3);
+  g.adapt();
+  const GridView view = g.leafView();
+  const auto nb = view.faceNeighbours();
+  Index boundary = 0;
+  for (Index c = 0; c < view.mesh.numCells(); ++c)
+    for (int f = 0; f < static_cast<int>(localFaces(view.mesh.cellType(c)).size()); ++f) {
+      const Index d = nb(c, f);
+      if (d < 0) {
+        ++boundary;
+        continue;
+      }
+      bool back = false;
+      for (int h = 0; h < static_cast<int>(localFaces(view.mesh.cellType(d)).size()); ++h)
+        back = back || nb(d, h) == c;
+      EXPECT_TRUE(back);
+    }
+  EXPECT_EQ(boundary, view.mesh.numBoundaryFaces());
+  // The maps between view and grid.
+  for (std::size_t i = 0; i < view.vertices.size(); ++i) {
+    EXPECT_EQ(view.vertexIndex[view.vertices[i]], static_cast<Index>(i));
+    EXPECT_EQ(view.mesh.vertex(static_cast<Index>(i)), g.vertex(view.vertices[i]));
+  }
+}
