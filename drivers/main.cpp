@@ -11,6 +11,8 @@
 //     solved in 0.0111 s: max |u| = 0.244503, max von Mises = 17.4829
 //     written: out/cantilever/cantilever.vtu, out/cantilever/summary.json
 //
+// `obs mesh SCENE.toml [--uniform K] [--random-cycles N --fraction F --seed S] [--output DIR]`
+// builds the scene's mesh as a hierarchical grid, refines it, checks it and prints a JSON report.
 // `obs estimators [--plugin lib.so]...` lists the registered error estimators (after loading plugins).
 //
 // Exit codes: 0 success, 1 error (invalid scene, solver or I/O failure), 2 command-line misuse.
@@ -25,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "obs/drivers/MeshCommand.hpp"
 #include "obs/drivers/RunScene.hpp"
 #include "obs/drivers/SceneParser.hpp"
 #include "obs/drivers/SceneSetup.hpp"
@@ -70,6 +73,12 @@ int checkCommand(const std::vector<std::string>& scenes, std::optional<int> refi
   return status;
 }
 
+/// `obs mesh`: refine and check the grid of a scene, print the JSON report.
+int meshCommand(const obs::drivers::MeshCommandOptions& options) {
+  std::cout << obs::drivers::runMeshCommand(options).dump(2) << "\n";
+  return 0;
+}
+
 /// `obs estimators`: loads the plugins, then prints one line per registered estimator.
 int estimatorsCommand(const std::vector<std::string>& plugins) {
   auto& registry = obs::estimators::EstimatorRegistry::global();
@@ -99,6 +108,7 @@ int main(int argc, char** argv) {
       "  obs run data/scenes/cantilever.toml               solve, write out/cantilever/\n"
       "  obs run data/scenes/cantilever.toml --refine 2    the same on a twice refined mesh\n"
       "  obs check data/scenes/*.toml                      validate scenes without solving\n"
+      "  obs mesh data/scenes/cantilever.toml --random-cycles 10  refine, check a grid\n"
       "  obs estimators                                    list the error estimators\n"
       "Run 'obs <command> --help' for the options of a command. Scene files: docs/scenes.md\n");
 
@@ -140,6 +150,31 @@ int main(int argc, char** argv) {
   check->footer("Example: obs check data/scenes/*.toml\nScene files: docs/scenes.md\n");
 
   std::vector<std::string> plugins;
+  obs::drivers::MeshCommandOptions meshOptions;
+  std::string meshScene, meshOutput;
+  CLI::App* meshCmd = app.add_subcommand(
+      "mesh", "Build, refine (uniformly and/or randomly) and check the grid of a scene; JSON report");
+  meshCmd->add_option("scene", meshScene, "Scene file (TOML); its [mesh] section is used")
+      ->required()
+      ->type_name("SCENE.toml");
+  meshCmd->add_option("--uniform,-u", meshOptions.uniform, "Uniform refinements (default: [mesh] refine)")
+      ->type_name("K")
+      ->check(CLI::Range(0, 12));
+  meshCmd->add_option("--random-cycles", meshOptions.randomCycles,
+                      "Cycles of random local refinement after the uniform ones (default 0)")
+      ->check(CLI::Range(0, 40));
+  meshCmd->add_option("--fraction", meshOptions.fraction,
+                      "Share of the leaves marked in each random cycle (default 0.1)")
+      ->check(CLI::Range(1e-9, 1.0));
+  meshCmd->add_option("--seed", meshOptions.seed, "Seed of the random marking (default 1)");
+  meshCmd->add_option("--output,-o", meshOutput, "Write <scene name>_leaf.vtu (level, quality, boundary ids) here")
+      ->type_name("DIR");
+  meshCmd->add_flag("--levels", meshOptions.levels, "With --output: also write every level view");
+  meshCmd->footer(
+      "Prints leaf elements per type and level, conformity violations, total volume, the shape\n"
+      "quality range (minimum corner mean ratio, 1 for a cube corner) and times as JSON.\n"
+      "Example: obs mesh data/scenes/mixed_bar.toml --uniform 1 --random-cycles 4 --seed 7\n");
+
   CLI::App* estimators = app.add_subcommand(
       "estimators", "List the registered a posteriori error estimators, one line each");
   estimators->add_option("--plugin,-p", plugins,
@@ -168,6 +203,11 @@ int main(int argc, char** argv) {
   try {
     if (run->parsed()) return runCommand(scene, output, refine, quiet);
     if (check->parsed()) return checkCommand(checkScenes, checkRefine);
+    if (meshCmd->parsed()) {
+      meshOptions.scene = meshScene;
+      if (!meshOutput.empty()) meshOptions.output = meshOutput;
+      return meshCommand(meshOptions);
+    }
     if (estimators->parsed()) return estimatorsCommand(plugins);
     printError("no command given (run 'obs --help' for usage)");
     return kExitUsage;
