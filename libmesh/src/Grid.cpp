@@ -113,6 +113,30 @@ Index Grid::addVertex(const Point& x, Index creator, int point, bool boundary) {
   return numVertices() - 1;
 }
 
+void Grid::reserve(Index elements, std::size_t connectivity, Index vertices) {
+  // Geometric growth, so that many small adapt() calls do not copy the arrays each time.
+  auto grow = [](auto& v, std::size_t n) {
+    if (n > v.capacity()) v.reserve(std::max(n, v.capacity() + v.capacity() / 2));
+  };
+  const auto ne = static_cast<std::size_t>(elements), nv = static_cast<std::size_t>(vertices);
+  grow(type_, ne);
+  grow(level_, ne);
+  grow(flags_, ne);
+  grow(refinement_, ne);
+  grow(father_, ne);
+  grow(firstChild_, ne);
+  grow(numChildren_, ne);
+  grow(connOffset_, ne);
+  grow(conn_, connectivity);
+  grow(inFather_, ne);
+  grow(greenPattern_, ne);
+  grow(marks_, ne);
+  grow(x_, nv);
+  grow(vertexCreator_, nv);
+  grow(vertexPoint_, nv);
+  grow(boundaryVertex_, nv);
+}
+
 Point Grid::pointPosition(Index e, int point) const {
   const auto w = LocalPoints::of(type_[e]).weights(point);
   const auto v = vertices(e);
@@ -120,6 +144,26 @@ Point Grid::pointPosition(Index e, int point) const {
   for (std::size_t i = 0; i < v.size(); ++i)
     if (w[i] != 0) x += w[i] * x_[v[i]];
   return x;
+}
+
+void Grid::interpolateNewVertices(std::vector<double>& values, Index firstNewVertex,
+                                  int components) const {
+  if (components < 1 || firstNewVertex < 0 || firstNewVertex > numVertices() ||
+      values.size() < static_cast<std::size_t>(firstNewVertex) * components)
+    throw Error("Grid::interpolateNewVertices: need " + std::to_string(components) +
+                " values for each of the first " + std::to_string(firstNewVertex) + " vertices");
+  values.resize(static_cast<std::size_t>(numVertices()) * components);
+  for (Index v = firstNewVertex; v < numVertices(); ++v) {
+    const Index e = vertexCreator_[v];
+    const auto w = LocalPoints::of(type_[e]).weights(vertexPoint_[v]);
+    const auto ev = vertices(e);
+    for (int c = 0; c < components; ++c) {
+      double s = 0;
+      for (std::size_t i = 0; i < ev.size(); ++i)
+        if (w[i] != 0) s += w[i] * values[static_cast<std::size_t>(ev[i]) * components + c];
+      values[static_cast<std::size_t>(v) * components + c] = s;
+    }
+  }
 }
 
 std::vector<Point> Grid::geometryInFather(Index e) const {

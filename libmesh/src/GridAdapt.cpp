@@ -148,13 +148,30 @@ AdaptResult Grid::adapt() {
       }
     }
   const std::size_t initiallyRed = ctx.queue.size();
+  ctx.newEdges.reserve(3 * initiallyRed);  // about the new edges per refined cell (grows if needed)
   propagate(ctx);
   result.propagated = static_cast<Index>(ctx.queue.size() - initiallyRed);
 
   // Red refinement, in element order (deterministic vertex and element numbering).
   std::vector<Index> red = ctx.queue;
   std::sort(red.begin(), red.end());
-  edgeMidpoints_.reserve(edgeMidpoints_.size() + ctx.newEdges.size());
+  {  // Room for the red children and their new vertices (and some closures), no reallocation.
+    std::size_t children = 0, connectivity = 0, quadFaces = 0;
+    for (Index e : red) {
+      for (const CodedChild& c : tables().red[static_cast<int>(type_[e])][0]) {
+        ++children;
+        connectivity += mesh::numVertices(c.type);
+      }
+      for (const LocalFace& f : localFaces(type_[e])) quadFaces += f.size == 4;
+    }
+    const std::size_t closures = 6 * ctx.touchedList.size();
+    reserve(static_cast<Index>(numElements() + children + closures),
+            conn_.size() + connectivity + 4 * closures,
+            static_cast<Index>(numVertices() + ctx.newEdges.size() + quadFaces + red.size() +
+                               ctx.touchedList.size()));
+    edgeMidpoints_.reserve(edgeMidpoints_.size() + ctx.newEdges.size());
+    faceCentres_.reserve(faceCentres_.size() + quadFaces);
+  }
   for (Index e : red) {
     if (refinement_[e] == Refinement::Green) {
       removeChildren(e);
@@ -172,6 +189,7 @@ AdaptResult Grid::adapt() {
     if (ctx.childCheck[e])
       for (int k = 0; k < numChildren_[e]; ++k) candidates.push_back(firstChild_[e] + k);
   std::sort(candidates.begin(), candidates.end());
+  std::vector<LocalChild> closure;
   for (Index e : candidates) {
     const unsigned pattern = edgePattern(e);
     if (pattern == 0) continue;
@@ -180,13 +198,16 @@ AdaptResult Grid::adapt() {
       removeChildren(e);
       ++result.greenRemoved;
     }
-    closeGreen(e, pattern);
+    closeGreen(e, pattern, closure);
     ++result.greenClosed;
   }
 
+  // Orientation check of the new elements that can be inverted: green children of distorted
+  // elements and (with projections) children with moved vertices. Red children of a valid element
+  // are valid for the cell types here.
   std::array<Point, 8> x{};
   for (Index e = result.firstNewElement; e < numElements(); ++e) {
-    if (isRemoved(e)) continue;
+    if (isRemoved(e) || (!isGreen(e) && projections_.empty())) continue;
     const auto v = vertices(e);
     for (std::size_t i = 0; i < v.size(); ++i) x[i] = x_[v[i]];
     if (!isPositivelyOriented(type_[e], std::span<const Point>(x.data(), v.size())))
@@ -348,8 +369,7 @@ void Grid::refineRed(Index e) {
   numChildren_[e] = static_cast<std::uint8_t>(children.size());
 }
 
-void Grid::closeGreen(Index e, unsigned pattern) {
-  std::vector<LocalChild> children;
+void Grid::closeGreen(Index e, unsigned pattern, std::vector<LocalChild>& children) {
   closureRule(e, pattern, children);
   const CellType t = type_[e];
   const LocalPoints& lp = LocalPoints::of(t);
@@ -436,7 +456,8 @@ Index Grid::faceCentre(Index e, int localFace) {
   const LocalFace& f = localFaces(type_[e])[localFace];
   std::array<Index, 4> key{};
   for (int k = 0; k < 4; ++k) key[k] = vertices(e)[f.vertices[k]];
-  std::sort(key.begin(), key.end());
+  for (int i = 1; i < 4; ++i)  // insertion sort of 4
+    for (int j = i; j > 0 && key[j - 1] > key[j]; --j) std::swap(key[j - 1], key[j]);
   if (const Index c = faceCentres_.find(key); c >= 0) return c;
   Point x = 0.25 * (((x_[key[0]] + x_[key[1]]) + x_[key[2]]) + x_[key[3]]);
   bool boundary = false;

@@ -21,13 +21,23 @@ struct Piece {
   std::array<std::uint8_t, 4> p;
 };
 
+/// The pieces of one face (at most 7: a quadrilateral fan over three halved edges).
+struct Pieces {
+  std::array<Piece, 8> items;
+  int count = 0;
+  void push_back(const Piece& p) { items[count++] = p; }
+  void clear() { count = 0; }
+  const Piece* begin() const { return items.data(); }
+  const Piece* end() const { return items.data() + count; }
+};
+
 /// Splits a face with corners c[0..n-1] (cell codes, in face orientation); mid[j] is the code of
 /// the midpoint of face edge j (corners j, j+1) or -1 if that edge is not refined; centre is the
 /// code of the face centre. `atA(a, m2, m1, c)` decides the diagonal of the quadrilateral
 /// a, m1, m2, c left over by a triangle with two refined edges: true for a-m2, false for m1-c.
 template <class Choose>
 void splitFace(int n, const std::uint8_t* c, const int* mid, std::uint8_t centre, Choose&& atA,
-               std::vector<Piece>& out) {
+               Pieces& out) {
   int k = 0;
   for (int j = 0; j < n; ++j) k += mid[j] >= 0;
   auto tri = [&](int a, int b, int d) {
@@ -111,7 +121,7 @@ void Grid::closureRule(Index e, unsigned pattern, std::vector<LocalChild>& out) 
     return ga < gc;
   };
   auto refined = [&](int edge) { return ((pattern >> edge) & 1u) != 0; };
-  std::vector<Piece> pieces;
+  Pieces pieces;
   std::array<std::uint8_t, 4> corners{};
   std::array<int, 4> mid{};
   auto faceSplit = [&](std::span<const int> fv, std::uint8_t centre) {

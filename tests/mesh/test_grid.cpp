@@ -1,8 +1,9 @@
 // Hierarchical grid: uniform refinement (counts and cells equal to refineUniformly), random local
-// refinement with green closure (conformity of leaf and level views, volume, orientation, boundary
-// ids and measures, hierarchy and geometry in father), shape regularity under repeated refinement
-// at a corner, determinism, marking of green elements and boundary projection; parameterised over
-// all six cell types and the mixed 3D mesh.
+// refinement with green closure, also of distorted meshes (conformity of leaf and level views, no
+// hanging vertices, volume, orientation, boundary ids and measures, hierarchy and geometry in
+// father), shape regularity under repeated refinement at a corner, determinism, marking of green
+// elements, boundary projection and face neighbours; parameterised over all six cell types and the
+// mixed 3D mesh.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -10,6 +11,7 @@
 #include <cstdio>
 #include <functional>
 #include <random>
+#include <set>
 
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Error.hpp"
@@ -65,6 +67,28 @@ void checkView(const Mesh& m, double vol, const std::map<int, double>& area, con
   Index inverted = 0;
   for (Index c = 0; c < m.numCells(); ++c) inverted += !isPositivelyOriented(m, c);
   EXPECT_EQ(inverted, 0) << what;
+  // No hanging vertices, checked geometrically: no vertex at the midpoint of a cell edge or at the
+  // centre of a quadrilateral face.
+  std::set<std::array<long long, 3>> at;
+  auto key = [](const Point& x) {
+    return std::array<long long, 3>{std::llround(x[0] * 1e9), std::llround(x[1] * 1e9),
+                                    std::llround(x[2] * 1e9)};
+  };
+  for (const Point& x : m.vertices()) at.insert(key(x));
+  Index hanging = 0;
+  for (Index c = 0; c < m.numCells(); ++c) {
+    const auto cv = m.cellVertices(c);
+    for (const auto& e : localEdges(m.cellType(c)))
+      hanging += at.count(key(0.5 * (m.vertex(cv[e[0]]) + m.vertex(cv[e[1]]))));
+    if (m.dimension() == 3)
+      for (const LocalFace& f : localFaces(m.cellType(c)))
+        if (f.size == 4) {
+          Point s = Point::Zero();
+          for (int k = 0; k < 4; ++k) s += 0.25 * m.vertex(cv[f.vertices[k]]);
+          hanging += at.count(key(s));
+        }
+  }
+  EXPECT_EQ(hanging, 0) << what;
   EXPECT_NEAR(totalVolume(m), vol, 1e-12 * vol) << what;
   const auto a = boundaryMeasureById(m);
   ASSERT_EQ(a.size(), area.size()) << what;
@@ -243,7 +267,9 @@ TEST_P(GridTest, ShapeRegularityUnderCornerRefinement) {
               "(leaves %d, levels %d)\n",
               GetParam().name.c_str(), q0, q, q / q0, g.numLeafElements(), g.maxLevel());
   EXPECT_GE(g.maxLevel(), 10);
-  EXPECT_GT(q / q0, 0.1);
+  // Measured factors (min quality after / before): triangle 0.474, quadrilateral 0.562,
+  // tetrahedron 0.374, hexahedron 0.390, prism 0.329, pyramid 0.329, mixed 0.511.
+  EXPECT_GT(q / q0, 0.25);
   checkView(g.leafMesh(), totalVolume(coarse), boundaryMeasureById(coarse), "leaf view");
 }
 
@@ -252,8 +278,12 @@ TEST_P(GridTest, DeterministicForEqualMarks) {
     Grid g(GetParam().make());
     std::mt19937 gen(7);
     for (int cycle = 0; cycle < 5; ++cycle) {
+      int marked = 0;
       for (Index e : g.leafElements())
-        if (gen() % 5 == 0) g.mark(e);
+        if (gen() % 5 == 0 && marked < 25) {
+          g.mark(e);
+          ++marked;
+        }
       g.adapt();
     }
     return g.leafMesh();
@@ -298,7 +328,7 @@ TEST_P(GridTest, BoundaryIdsAreInherited) {
   const Mesh leaf = g.leafMesh();
   EXPECT_EQ(leaf.boundaryNames(), coarse.boundaryNames());
   // Every leaf boundary face lies in a coarse boundary face with the same id: on the box sides.
-  const Point lo = GetParam().name == "mixed" ? Point(0, 0, 0) : Point(0, 0, 0);
+  const Point lo = Point::Zero();
   const Point hi = GetParam().name == "mixed" ? Point(1, 1, 2) : Point(2, 1.5, 1);
   for (Index f = 0; f < leaf.numBoundaryFaces(); ++f) {
     const int id = leaf.boundaryFaceId(f);
@@ -317,7 +347,7 @@ TEST(GridProjection, NewTopVerticesFollowTheProjection) {
   for (CellType t : {CellType::Quadrilateral, CellType::Tetrahedron, CellType::Hexahedron}) {
     const Mesh coarse = boxMesh(t, {2, 2, 2}, Point(0, 0, 0), Point(1, 1, 1));
     Grid g(coarse);
-    const int top = coarse.dimension() == 2 ? kTop : kTop;
+    const int top = kTop;  // y = 1 in 2D, z = 1 in 3D
     const int axis = coarse.dimension() == 2 ? 1 : 2;
     auto bump = [axis](const Point& x) {
       Point y = x;

@@ -2,7 +2,7 @@
 // reproduce linear functions exactly (uniform and local refinement with green closure, all cell
 // types and the mixed mesh), have unit row sums, and the leaf-to-leaf transfer across an adapt()
 // that removes green elements interpolates the old leaf function (checked against a brute-force
-// point location); Newton inversion of the reference maps.
+// point location); new-vertex data from vertex origins; Newton inversion of the reference maps.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -174,6 +174,34 @@ TEST_P(TransferTest, MultiLevelTransferToTheLeafView) {
   g.adapt();
   checkTransfer(transferMatrix(g, g.levelView(0), g.leafView()), g.levelView(0), g.leafView(),
                 "level 0 to leaf");
+}
+
+TEST_P(TransferTest, NewVertexDataFromOrigins) {
+  Grid g(GetParam().make());
+  std::mt19937 gen(5);
+  for (int cycle = 0; cycle < 4; ++cycle) {
+    // Two components per grid vertex: a linear field and its negative.
+    std::vector<double> values;
+    for (const Point& x : g.vertices()) {
+      values.push_back(linear(x));
+      values.push_back(-linear(x));
+    }
+    int marked = 0;
+    for (Index e : g.leafElements())
+      if (gen() % 6 == 0 && marked < 10) {
+        g.mark(e);
+        ++marked;
+      }
+    const AdaptResult r = g.adapt();
+    g.interpolateNewVertices(values, r.firstNewVertex, 2);
+    ASSERT_EQ(values.size(), 2u * g.numVertices());
+    for (Index v = r.firstNewVertex; v < g.numVertices(); ++v) {
+      EXPECT_NEAR(values[2 * v], linear(g.vertex(v)), 1e-12);
+      EXPECT_NEAR(values[2 * v + 1], -linear(g.vertex(v)), 1e-12);
+    }
+  }
+  std::vector<double> tooShort(3);
+  EXPECT_THROW(g.interpolateNewVertices(tooShort, g.numVertices()), obs::Error);
 }
 
 INSTANTIATE_TEST_SUITE_P(AllTypes, TransferTest, ::testing::ValuesIn(cases()),

@@ -19,17 +19,21 @@
 /// data are transferred either by transferMatrix() (Prolongation.hpp) between the leaf views before
 /// and after, or directly from vertexOrigin().
 ///
-/// Marking closure (adapt()). Let the "regular leaves" be the leaves that are not green plus the
-/// fathers of green leaves. Marked regular leaves (fathers of marked green leaves) are refined red,
-/// and refinement propagates until stable by two rules:
-///   1. irregularity: if a red child F of P is refined, every unrefined regular leaf that contains
-///      an edge or face of P on which an edge of F lies is refined red (a leaf edge carries at most
-///      its own midpoint; this keeps neighbours within one level and all level views conforming);
-///   2. closure economy (as UG): a regular leaf with more than half of its edges refined is refined
-///      red.
-/// Every other regular leaf with refined edges gets the green closure of its edge pattern (below).
-/// The least fixed point is computed with a work list; it does not depend on the processing order,
-/// so the result is deterministic (same grid and marks => same output).
+/// Marking closure (adapt()). Call "regular" the elements that are leaves and not green, or
+/// fathers of green leaves. Marked regular leaves and the fathers of marked green leaves are
+/// refined red (so markAll() refines the fathers of green leaves, not the green leaves), and
+/// refinement propagates until stable by two rules:
+///   1. irregularity: if a red child F of P is refined, every regular element that contains an edge
+///      or face of P on which an edge of F lies is refined red. So an edge of a regular element
+///      carries at most its own midpoint, neighbours differ by at most one level, and the level
+///      views are conforming (Bank et al.: 1-irregular red refinement plus green closure);
+///   2. closure economy (as in UG): a regular element with more than half of its edges refined is
+///      refined red (in 2D the classical rule: a triangle with two refined edges is refined red).
+/// Every other regular element with refined edges gets the green closure of its edge pattern
+/// (below), as do red children created by this adapt() that already have refined edges (from finer
+/// neighbours refined at the same time). The least fixed point of the rules is computed with a work
+/// list; it does not depend on the processing order, and vertices and elements are created in
+/// element order, so the result is deterministic (same grid and marks => same output).
 ///
 /// Green closure rules (local point codes of LocalPoints; a face rule depends only on the face's
 /// refined edges and global data, so both cells sharing a face split it identically):
@@ -53,9 +57,11 @@
 /// grid vertices.
 ///
 /// Boundary projection. setBoundaryProjection(id, f) moves every vertex created later on a
-/// boundary face with that id (edge midpoints, quadrilateral face centres, red and green) to f(x).
-/// The hierarchy then stops being geometrically nested there; transfer operators still use the
-/// combinatorial position (interpolation at the unprojected point).
+/// boundary face with that id (edge midpoints, quadrilateral face centres, red and green) to f(x);
+/// a vertex on faces of several such ids gets each projection, in increasing id order (e.g. a
+/// curved side and a flat cap whose projection keeps the cap plane). The hierarchy then stops
+/// being geometrically nested there; transfer operators interpolate at the unprojected position.
+/// New elements that a projection inverts are counted in AdaptResult::invertedElements.
 ///
 /// Coarse-mesh checks (constructor): cells whose vertex order is mirrored are reoriented and
 /// reported (inputReport()); repeated vertices, zero-volume or inverted cells (Jacobian changing
@@ -159,7 +165,7 @@ struct GridView {
 namespace detail {
 /// Open-addressing hash map (linear probing, power-of-two capacity, load <= 1/2) from a trivially
 /// copyable key to an Index: no allocation per entry. The key `empty` marks free slots.
-template <class Key, class Hash>
+template <class Key, class Hash, class Equal = std::equal_to<Key>>
 class FlatIndexMap {
 public:
   explicit FlatIndexMap(Key empty) : empty_(empty) {}
@@ -168,8 +174,8 @@ public:
     if (keys_.empty()) return -1;
     const std::size_t mask = keys_.size() - 1;
     for (std::size_t i = Hash{}(key)&mask;; i = (i + 1) & mask) {
-      if (keys_[i] == key) return values_[i];
-      if (keys_[i] == empty_) return -1;
+      if (Equal{}(keys_[i], key)) return values_[i];
+      if (Equal{}(keys_[i], empty_)) return -1;
     }
   }
   /// Inserts (key, value) unless key is present; returns the stored value and whether it inserted.
@@ -177,8 +183,8 @@ public:
     if (2 * (size_ + 1) > keys_.size()) rehash(keys_.empty() ? 64 : 2 * keys_.size());
     const std::size_t mask = keys_.size() - 1;
     for (std::size_t i = Hash{}(key)&mask;; i = (i + 1) & mask) {
-      if (keys_[i] == key) return {values_[i], false};
-      if (keys_[i] == empty_) {
+      if (Equal{}(keys_[i], key)) return {values_[i], false};
+      if (Equal{}(keys_[i], empty_)) {
         keys_[i] = key;
         values_[i] = value;
         ++size_;
@@ -200,7 +206,7 @@ private:
     values.swap(values_);
     size_ = 0;
     for (std::size_t i = 0; i < keys.size(); ++i)
-      if (keys[i] != empty_) insert(keys[i], values[i]);
+      if (!Equal{}(keys[i], empty_)) insert(keys[i], values[i]);
   }
   Key empty_;
   std::vector<Key> keys_;
@@ -217,6 +223,11 @@ struct U64Hash {
     return static_cast<std::size_t>(h ^ (h >> 31));
   }
 };
+struct Key4Equal {
+  bool operator()(const std::array<Index, 4>& a, const std::array<Index, 4>& b) const noexcept {
+    return a[0] == b[0] && a[1] == b[1] && a[2] == b[2] && a[3] == b[3];
+  }
+};
 struct Key4Hash {
   std::size_t operator()(const std::array<Index, 4>& k) const noexcept {
     std::uint64_t a = (static_cast<std::uint64_t>(static_cast<std::uint32_t>(k[0])) << 32) |
@@ -228,6 +239,7 @@ struct Key4Hash {
 };
 }  // namespace detail
 
+/// The hierarchical grid (see the file comment).
 class Grid {
 public:
   using Projection = std::function<Point(const Point&)>;
@@ -252,7 +264,17 @@ public:
     Index element = -1;
     int point = -1;
   };
-  Origin vertexOrigin(Index v) const { return {vertexCreator_[v], vertexPoint_[v]}; }
+  Origin vertexOrigin(Index v) const {
+    return {vertexCreator_[v], vertexCreator_[v] < 0 ? -1 : vertexPoint_[v]};
+  }
+  /// Data transfer without views: `values` holds `components` numbers per grid vertex for the
+  /// vertices [0, firstNewVertex); it is resized to numVertices() and the new vertices get
+  /// sum_i weights(point)[i] * value(corner i) of their origin (in index order, so origins that
+  /// are new themselves come first). This interpolates the data of the creating element; where a
+  /// green closure was replaced, transferMatrix() of the old and new leaf views interpolates the
+  /// old leaf function instead.
+  void interpolateNewVertices(std::vector<double>& values, Index firstNewVertex,
+                              int components = 1) const;
 
   // --- elements ----------------------------------------------------------------------------------
   /// All elements ever created, including removed green ones.
@@ -310,7 +332,7 @@ public:
 private:
   static constexpr std::uint8_t kGreen = 1, kRemoved = 2;
   using EdgeMap = detail::FlatIndexMap<std::uint64_t, detail::U64Hash>;
-  using FaceMap = detail::FlatIndexMap<std::array<Index, 4>, detail::Key4Hash>;
+  using FaceMap = detail::FlatIndexMap<std::array<Index, 4>, detail::Key4Hash, detail::Key4Equal>;
   struct Context;  // work data of one adapt() (GridAdapt.cpp)
   static std::uint64_t edgeKey(Index a, Index b) {
     if (a > b) std::swap(a, b);
@@ -328,12 +350,13 @@ private:
   Index addElement(CellType type, std::span<const Index> vertices, Index father, int level,
                    std::span<const std::uint8_t> pointsInFather, bool green);
   Index addVertex(const Point& x, Index creator, int point, bool boundary);
+  void reserve(Index elements, std::size_t connectivity, Index vertices);
   Point pointPosition(Index e, int point) const;
   GridView makeView(int level) const;
   // GridAdapt.cpp
   void propagate(Context& ctx);
   void refineRed(Index e);
-  void closeGreen(Index e, unsigned pattern);
+  void closeGreen(Index e, unsigned pattern, std::vector<LocalChild>& scratch);
   void removeChildren(Index e);
   unsigned edgePattern(Index e) const;
   Index edgeMidpoint(Index e, int localEdge);

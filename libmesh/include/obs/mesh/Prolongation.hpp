@@ -4,16 +4,18 @@
 ///
 /// transferMatrix(grid, coarse, fine) maps vertex values of the first-order Lagrange space on the
 /// coarse view to the fine view: row i (fine vertex) holds the values of the coarse basis
-/// functions at that vertex, so P u_H = I_h u_H, the interpolant of the coarse function. A fine
-/// vertex that is also a coarse vertex gets the identity row. Every other fine vertex was created
-/// by refining some element E at a known local point (Grid::vertexOrigin), i.e. at known reference
-/// coordinates xi in E; it is located in the coarse view by mapping xi up the hierarchy (father
-/// maps, geometryInFather) or down into the children of E that belong to the coarse view (inverse
-/// child maps by Newton's method, referenceCoordinates()), and the coarse cell's shape functions
-/// are evaluated there. So the operator is exact for nested elements (red children, and green
-/// children inside their father) and an interpolation where the coarse view contains green
-/// elements that the fine view replaced (the leaf views before and after an adapt()).
-/// With boundary projections the fine vertex is interpolated at its unprojected position.
+/// functions at that vertex, so P u_H = I_h u_H, the fine interpolant of the coarse function. A
+/// fine vertex that is also a coarse vertex gets the identity row. Every other fine vertex was
+/// created by refining some element E at a known local point (Grid::vertexOrigin):
+///  - if E is in the coarse view (always so between consecutive level views), the row holds E's
+///    shape functions at that point's reference coordinates (LocalPoints::weights): exact;
+///  - otherwise the vertex position (the local point of E, before any boundary projection) is
+///    located in a coarse ancestor of E or, going down, among the descendants of E in the coarse
+///    view, e.g. green elements that the fine view replaced (leaf views before and after an
+///    adapt()); its reference coordinates there come from Newton's method on that cell's geometry
+///    map (referenceCoordinates()) and the row holds that cell's shape functions there.
+/// So P reproduces every function of the coarse space exactly where the spaces are nested and
+/// interpolates it otherwise; linear functions are always reproduced exactly.
 ///
 /// Typical uses:
 ///   CsrMatrix P = prolongation(grid, l);                   // level l -> level l + 1 (multigrid)
