@@ -30,6 +30,8 @@ struct Case {
   std::function<Mesh()> make;
   Expected expected;
 };
+/// Prints the case by name (otherwise GoogleTest dumps its bytes into every test's listing).
+void PrintTo(const Case& c, std::ostream* os) { *os << c.name; }
 
 Expected expectedBox(CellType t, std::array<int, 3> n) {
   const Index nx = n[0], ny = n[1], nz = n[2];

@@ -29,6 +29,8 @@ struct GridCase {
   std::string name;
   std::function<Mesh()> make;
 };
+/// Prints the case by name (otherwise GoogleTest dumps its bytes into every test's listing).
+void PrintTo(const GridCase& c, std::ostream* os) { *os << c.name; }
 
 std::vector<GridCase> gridCases() {
   std::vector<GridCase> out;

@@ -24,6 +24,8 @@ struct TransferCase {
   std::string name;
   std::function<Mesh()> make;
 };
+/// Prints the case by name (otherwise GoogleTest dumps its bytes into every test's listing).
+void PrintTo(const TransferCase& c, std::ostream* os) { *os << c.name; }
 
 std::vector<TransferCase> cases() {
   std::vector<TransferCase> out;

@@ -329,6 +329,8 @@ struct PerturbCase {
   std::string name;
   std::function<Mesh()> make;
 };
+/// Prints the case by name (otherwise GoogleTest dumps its bytes into every test's listing).
+void PrintTo(const PerturbCase& c, std::ostream* os) { *os << c.name; }
 
 std::vector<PerturbCase> perturbCases() {
   std::vector<PerturbCase> out;

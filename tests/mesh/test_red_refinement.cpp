@@ -57,6 +57,8 @@ struct RuleCase {
   CellType type;
   int variant;
 };
+/// Prints the case by name (otherwise GoogleTest dumps its bytes into every test's listing).
+void PrintTo(const RuleCase& c, std::ostream* os) { *os << name(c.type) << " variant " << c.variant; }
 
 std::vector<RuleCase> ruleCases() {
   std::vector<RuleCase> out;
@@ -174,6 +176,8 @@ struct MeshCase {
   std::string name;
   std::function<Mesh()> make;
 };
+/// Prints the case by name (otherwise GoogleTest dumps its bytes into every test's listing).
+void PrintTo(const MeshCase& c, std::ostream* os) { *os << c.name; }
 
 std::vector<MeshCase> meshCases() {
   std::vector<MeshCase> out;
