@@ -91,10 +91,7 @@ TEST(Quadrature, RejectsBadDegree) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllTypes, QuadratureTest,
-                         ::testing::Values(CellType::Segment, CellType::Triangle,
-                                           CellType::Quadrilateral, CellType::Tetrahedron,
-                                           CellType::Hexahedron, CellType::Prism,
-                                           CellType::Pyramid),
+                         ::testing::ValuesIn(kAllCellTypes),
                          [](const auto& info) { return std::string(name(info.param)); });
 
 }  // namespace

@@ -171,10 +171,7 @@ TEST(PyramidElement, RestrictionsToFacesAreP1AndQ1) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllTypes, ReferenceElementTest,
-                         ::testing::Values(CellType::Segment, CellType::Triangle,
-                                           CellType::Quadrilateral, CellType::Tetrahedron,
-                                           CellType::Hexahedron, CellType::Prism,
-                                           CellType::Pyramid),
+                         ::testing::ValuesIn(kAllCellTypes),
                          [](const auto& info) { return std::string(name(info.param)); });
 
 }  // namespace

@@ -22,6 +22,12 @@ inline constexpr CellType kVolumeCellTypes[] = {CellType::Triangle,    CellType:
                                                CellType::Tetrahedron, CellType::Hexahedron,
                                                CellType::Prism,       CellType::Pyramid};
 
+/// Every type including the segment (the face type of 2D cells).
+inline constexpr CellType kAllCellTypes[] = {CellType::Segment,     CellType::Triangle,
+                                            CellType::Quadrilateral, CellType::Tetrahedron,
+                                            CellType::Hexahedron,  CellType::Prism,
+                                            CellType::Pyramid};
+
 constexpr int dimension(CellType t) {
   switch (t) {
     case CellType::Segment: return 1;
