@@ -32,7 +32,7 @@ IterationMonitor::IterationMonitor(std::string solver, const ContactSolverOption
                 "divergenceFactor > 0 required)");
 }
 
-bool IterationMonitor::record(double energy, double correction, Index activeSetSize) {
+bool IterationMonitor::record(double energy, double correction, Index activeSetSize, Index truncationChanges) {
   ++iteration_;
   const std::string at = solver_ + ", iteration " + std::to_string(iteration_) + ": ";
   if (!std::isfinite(energy) || !std::isfinite(correction))
@@ -61,7 +61,7 @@ bool IterationMonitor::record(double energy, double correction, Index activeSetS
   previousEnergy_ = lastEnergy_;
   lastEnergy_ = energy;
   lastCorrection_ = correction;
-  if (options_.recordHistory) history_.push_back({iteration_, energy, correction, activeSetSize});
+  if (options_.recordHistory) history_.push_back({iteration_, energy, correction, activeSetSize, truncationChanges});
   return converged;
 }
 

@@ -41,6 +41,7 @@ struct IterationRecord {
   double energy = 0;      ///< J(u^k)
   double correction = 0;  ///< ||u^k - u^{k-1}||_A / ||u^k||_A
   Index activeSetSize = 0;
+  Index truncationChanges = 0;  ///< components whose truncation changed in this iteration (TNNMG; else 0)
 };
 
 struct ContactResult {
@@ -73,7 +74,7 @@ public:
 
   /// Records iteration k (1, 2, ...). Returns true if correction < tolerance. Throws obs::Error on
   /// NaN/Inf, divergence or stagnation.
-  bool record(double energy, double correction, Index activeSetSize);
+  bool record(double energy, double correction, Index activeSetSize, Index truncationChanges = 0);
   /// For energy-monotone methods: throws obs::Error if the last recorded energy exceeds the one
   /// before by more than round-off, 1e-10 * scale (scale: magnitude of the energy's terms).
   void requireMonotone(double scale) const;

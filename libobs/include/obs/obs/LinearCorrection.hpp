@@ -1,0 +1,63 @@
+#pragma once
+/// \file LinearCorrection.hpp
+/// The linear correction of TNNMG (MATH.md §2 step 3) as an exchangeable part (dune-tnnmg style):
+/// an approximate solver for the truncated defect problem A_T c = r, where A_T is the fine operator
+/// with the truncated components replaced by identity rows and columns, r is zero there and the
+/// correction c must be zero there. Implementations: LinearMultigrid (V-cycles on the grid
+/// hierarchy, the TNNMG default) and DirectCorrection (CHOLMOD on A_T: an exact truncated Newton
+/// step, for tests and small problems).
+#include <Eigen/Core>
+
+#include <memory>
+#include <vector>
+
+#include "obs/obs/BlockSparseMatrix.hpp"
+#include "obs/obs/MultigridHierarchy.hpp"
+
+namespace obs {
+
+class CholmodSolver;
+
+template <int d>
+class LinearCorrection {
+public:
+  virtual ~LinearCorrection() = default;
+  /// The fine operator (kept by reference, must outlive its use) in the frame of the rotations
+  /// (vertex unknowns w = Q'u), with an initial truncation mask (empty: none).
+  virtual void setOperator(const BlockSparseMatrix<d>& A, std::vector<VertexRotation<d>> rotations,
+                           const std::vector<char>& mask) = 0;
+  /// Truncation mask, one entry per component (non-zero = truncated). Returns the number of
+  /// components whose truncation changed (the operators are updated only then).
+  virtual Index truncate(const std::vector<char>& mask) = 0;
+  /// c ~= A_T^{-1} r (c resized; zero at truncated components).
+  virtual void apply(const Eigen::VectorXd& r, Eigen::VectorXd& c) = 0;
+  /// Number of operator updates (factorisations / coarse recomputations) since setOperator.
+  virtual int operatorUpdates() const = 0;
+};
+
+/// Exact correction c = A_T^{-1} r with CHOLMOD (refactorised with the same pattern when the
+/// truncation changes). Rotations are irrelevant: A_T is formed in the frame of A.
+template <int d>
+class DirectCorrection : public LinearCorrection<d> {
+public:
+  DirectCorrection();
+  ~DirectCorrection() override;
+  void setOperator(const BlockSparseMatrix<d>& A, std::vector<VertexRotation<d>> rotations,
+                   const std::vector<char>& mask) override;
+  Index truncate(const std::vector<char>& mask) override;
+  void apply(const Eigen::VectorXd& r, Eigen::VectorXd& c) override;
+  int operatorUpdates() const override { return updates_; }
+
+private:
+  void factorize();
+  const BlockSparseMatrix<d>* A_ = nullptr;
+  BlockSparseMatrix<d> truncated_;
+  std::vector<char> mask_;
+  std::unique_ptr<CholmodSolver> solver_;
+  int updates_ = 0;
+};
+
+extern template class DirectCorrection<2>;
+extern template class DirectCorrection<3>;
+
+}  // namespace obs

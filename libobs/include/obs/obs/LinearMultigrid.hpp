@@ -1,0 +1,108 @@
+#pragma once
+/// \file LinearMultigrid.hpp
+/// Geometric multigrid V-cycle for A_T x = r on a MultigridHierarchy (MATH.md §2 step 3):
+/// symmetric block Gauss-Seidel smoothing (nu1 forward sweeps before, nu2 backward sweeps after the
+/// coarse correction, TruncatedGaussSeidel), Galerkin coarse operators with truncated and rotated
+/// transfers on the finest level, and CHOLMOD on level 0 (factorised once per coarse-operator
+/// update, refactorised with the same pattern; truncated coarse operators can be singular, see
+/// below). One cycle from x = 0 on level l:
+///   x = S_l^{nu1}(0; r);  d = r - A_l x;  x += P_{l-1} V_{l-1}(P_{l-1}' d);  x = S'_l^{nu2}(x; r)
+/// with V_0 = A_0^{-1}. With nu1 = nu2 the cycle is a symmetric positive definite operator.
+///
+/// Singular coarse operators. The truncated prolongation P~_T = T Q' P need not have full column
+/// rank (e.g. a coarse function that vanishes at every untruncated fine vertex), so the Galerkin
+/// operators are only positive semidefinite. Their null space is prolongated to zero and the
+/// restricted defects are orthogonal to it, so any solution of the coarse problem gives the same
+/// correction: level 0 is factorised with a relative diagonal shift, A_0 + 1e-10 diag(A_0) (when
+/// L > 0), and the smoothers use pseudo-inverses of semidefinite diagonal blocks.
+///
+/// Two uses:
+///  - the linear correction inside TNNMG (LinearCorrection: `cycles` V-cycles per apply());
+///  - a solver for linear problems: setOperator(A) with A after applyDirichlet, truncate(mask of the
+///    Dirichlet components), solve(b, x): V-cycle iteration x += V(b - A x) until the relative
+///    energy-norm correction ||x^{k+1} - x^k||_A / ||x^{k+1}||_A < tolerance, returning a result
+///    value (iterations, rate, residual reduction) instead of printing. Truncated components keep
+///    their start values (a start of the wrong size is zero with x_i = b_i on truncated components,
+///    the Dirichlet values of an applyDirichlet system).
+#include <Eigen/Core>
+
+#include <memory>
+#include <vector>
+
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/LinearCorrection.hpp"
+#include "obs/obs/MultigridHierarchy.hpp"
+#include "obs/obs/TruncatedGaussSeidel.hpp"
+
+namespace obs {
+
+struct LinearMultigridOptions {
+  int preSmoothing = 3;      ///< nu1 forward block Gauss-Seidel sweeps
+  int postSmoothing = 3;     ///< nu2 backward sweeps
+  int cycles = 1;            ///< V-cycles per apply() (the TNNMG correction)
+  int cycleIndex = 1;        ///< coarse corrections per level: 1 = V-cycle, 2 = W-cycle
+  double tolerance = 1e-10;  ///< solve(): relative energy-norm correction
+  int maxIterations = 100;   ///< solve(): iteration cap (converged = false when reached)
+};
+
+/// Result of LinearMultigrid::solve (cf. DUNE's InverseOperatorResult).
+struct LinearSolverResult {
+  int iterations = 0;
+  bool converged = false;
+  double seconds = 0;
+  double correction = 0;         ///< last ||x^{k+1} - x^k||_A / ||x^{k+1}||_A
+  double convergenceRate = 0;    ///< geometric mean of the ratios of successive corrections
+  double residualReduction = 0;  ///< ||r_k||_2 / ||r_0||_2 (truncated residuals)
+  std::vector<double> history;   ///< relative corrections per iteration
+};
+
+template <int d>
+class LinearMultigrid : public LinearCorrection<d> {
+public:
+  using Options = LinearMultigridOptions;
+
+  /// Hierarchy of the grid's current state (the operator must live on grid.leafView().mesh).
+  /// Throws obs::Error on negative smoothing counts or cycles < 1.
+  explicit LinearMultigrid(const mesh::Grid& grid, const Options& options = {});
+  ~LinearMultigrid() override;
+
+  void setOperator(const BlockSparseMatrix<d>& A, std::vector<VertexRotation<d>> rotations = {},
+                   const std::vector<char>& mask = {}) override;
+  Index truncate(const std::vector<char>& mask) override;
+  void apply(const Eigen::VectorXd& r, Eigen::VectorXd& c) override;
+  int operatorUpdates() const override { return hierarchy_.coarseUpdates(); }
+
+  /// One V-cycle from zero: c = V r (c zero at truncated components).
+  void vcycle(const Eigen::VectorXd& r, Eigen::VectorXd& c);
+  /// Iterates V-cycles on A_T x = b (see the file comment).
+  LinearSolverResult solve(const Eigen::VectorXd& b, Eigen::VectorXd& x);
+
+  const MultigridHierarchy<d>& hierarchy() const { return hierarchy_; }
+  const Options& options() const { return options_; }
+  /// Seconds spent in coarse-grid factorisations since construction.
+  double coarseFactorSeconds() const { return factorSeconds_; }
+
+private:
+  void cycle(int level, const Eigen::VectorXd& r, Eigen::VectorXd& x);
+  void updateCoarse();
+  const BlockSparseMatrix<d>& levelOperator(int l) const {
+    return l == hierarchy_.maxLevel() ? hierarchy_.fineOperator() : hierarchy_.coarseOperator(l);
+  }
+  /// Defect out = r - A_l x (on the finest level x is zero at truncated components, so this is
+  /// r - A_T x off the truncated rows; those are removed by the restriction).
+  void defect(int level, const Eigen::VectorXd& r, const Eigen::VectorXd& x, Eigen::VectorXd& out) const;
+
+  Options options_;
+  MultigridHierarchy<d> hierarchy_;
+  std::vector<TruncatedGaussSeidel<d>> smoothers_;
+  std::vector<Eigen::VectorXd> rhs_, sol_, work_;  ///< per level
+  static constexpr double kCoarseShift = 1e-10;  ///< relative diagonal shift of A_0 (L > 0)
+  BlockSparseMatrix<d> shifted_;
+  std::unique_ptr<CholmodSolver> coarseSolver_;
+  double factorSeconds_ = 0;
+};
+
+extern template class LinearMultigrid<2>;
+extern template class LinearMultigrid<3>;
+
+}  // namespace obs

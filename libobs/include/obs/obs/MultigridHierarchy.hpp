@@ -1,0 +1,133 @@
+#pragma once
+/// \file MultigridHierarchy.hpp
+/// The level hierarchy of the geometric multigrid methods (MATH.md §2, "Level hierarchy"): the
+/// spaces of vector-valued P1/Q1 functions on the level views 0 .. L-1 of a Grid and on its leaf
+/// view (level L, where the problem lives), the block prolongations P_l = P^s_l (x) I_d from level l
+/// to l + 1 (P^s_l the scalar interpolation of Prolongation.hpp), and the Galerkin operators
+///   A_l = P_l' A_{l+1} P_l,   l = L-1, ..., 0.
+///
+/// Finest level: rotations and truncation (MATH.md §2 steps 2-3). The fine operator is given in
+/// the rotated unknowns w_p = Q_p' u_p of the contact problem (A~ = Q'AQ), so the last prolongation
+/// is P~ = Q' P_{L-1} (rotations live on the finest level only). A truncation mask marks fine
+/// components (Dirichlet components and active bounds, rotated numbering); with T = diag(1 - mask)
+///   P~_T = T Q' P_{L-1}   (truncated fine rows zeroed),
+///   A~_T = A~ with truncated rows and columns replaced by the identity,
+///   A_{L-1} = P~_T' A~_T P~_T = P_{L-1}' B P_{L-1},   B_pq = E_p A~_pq E_q',  E_p = Q_p T_p.
+/// Transfers use E_p per fine vertex: restriction r_c = P_{L-1}' (E r), prolongation c += E' P_{L-1} c_c.
+/// The coarse operators are recomputed only when the mask changes (coarseUpdates() counts it), and
+/// then locally: only the entries (I, J) of A_{L-1} with I or J in the support R of the changed fine
+/// vertices change, i.e. the rows of R and of its neighbours; R is the changed set of the next level
+/// down. A level whose changed rows exceed a quarter of its rows is recomputed completely.
+///
+/// Galerkin products: the block pattern of each A_l is computed once per fine operator (symbolic
+/// triple product); the full numerical product runs over fine rows, C_p = sum_q B_pq P_q (a sparse
+/// accumulator), then A_l(I, J) += P_pI C_pJ; local updates run over the coarse rows to recompute,
+/// A_l(I, :) = sum_p P_pI sum_q B_pq P_q. A coarse component whose column of P~_T is zero (all of
+/// its fine support truncated) has a zero row and column; its diagonal entry is set to the largest
+/// diagonal entry of the level so that the diagonal blocks stay invertible (the restricted defect
+/// is zero there).
+///
+/// If L = 0 (a grid without refinement) level 0 is the fine level and coarseOperator(0) is the
+/// explicit truncated fine matrix A~_T (for the direct coarse solver).
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <vector>
+
+#include "obs/mesh/Grid.hpp"
+#include "obs/mesh/Prolongation.hpp"
+#include "obs/obs/BlockSparseMatrix.hpp"
+#include "obs/obs/ContactProblem.hpp"
+
+namespace obs {
+
+/// A local rotation of the fine level: the unknowns of `vertex` are w = Q' u, Q = rotation.
+template <int d>
+struct VertexRotation {
+  Index vertex = -1;
+  Eigen::Matrix<double, d, d> rotation;
+};
+
+/// The rotations of a contact problem's rotated form (the constraints' Q_p, identities skipped).
+template <int d>
+std::vector<VertexRotation<d>> problemRotations(const ContactProblem<d>& problem);
+
+template <int d>
+class MultigridHierarchy {
+public:
+  using Mat = Eigen::Matrix<double, d, d>;
+
+  /// The hierarchy of the grid's current state: L = grid.maxLevel(), level views 0 .. L-1 and the
+  /// leaf view; builds the scalar prolongations. Throws obs::Error if the grid dimension is not d.
+  explicit MultigridHierarchy(const mesh::Grid& grid);
+
+  int maxLevel() const { return static_cast<int>(prolongations_.size()); }
+  int numLevels() const { return maxLevel() + 1; }
+  Index numVertices(int level) const { return vertices_[level]; }
+  /// Scalar prolongation from level l to level l + 1.
+  const mesh::CsrMatrix& prolongation(int l) const { return prolongations_[l]; }
+
+  /// Sets the fine operator (kept by reference, must outlive its use) in the frame given by the
+  /// rotations and the initial truncation mask (empty: none; see truncate()), computes the coarse
+  /// patterns and operators. Throws obs::Error if A has not numVertices(L) rows.
+  void setFineOperator(const BlockSparseMatrix<d>& A, std::vector<VertexRotation<d>> rotations = {},
+                       const std::vector<char>& mask = {});
+  bool hasFineOperator() const { return fine_ != nullptr; }
+  const BlockSparseMatrix<d>& fineOperator() const { return *fine_; }
+
+  /// Sets the fine truncation mask (one entry per fine component, non-zero = truncated). Returns
+  /// the number of components whose truncation changed; if non-zero, the coarse operators are
+  /// recomputed. changedVertices() lists the fine vertices whose bits changed.
+  Index truncate(const std::vector<char>& mask);
+  /// Truncation bits per fine vertex (bit c: component c truncated).
+  const std::vector<std::uint8_t>& truncationBits() const { return bits_; }
+  const std::vector<Index>& changedVertices() const { return changed_; }
+  Index truncatedComponents() const;
+
+  /// Galerkin operator of level l < L (level 0 if L = 0: the explicit truncated fine operator).
+  const BlockSparseMatrix<d>& coarseOperator(int l) const { return coarse_[l]; }
+  /// Coarse recomputations since setFineOperator (including the one it does).
+  int coarseUpdates() const { return updates_; }
+  /// Which rows of coarseOperator(l) the last update recomputed: all (fullUpdate) or updatedRows.
+  bool fullUpdate(int l) const { return fullUpdate_[l] != 0; }
+  const std::vector<Index>& updatedRows(int l) const { return updatedRows_[l]; }
+  /// Coarse block rows recomputed since construction (a measure of the update work).
+  long long coarseRowsRecomputed() const { return rowsRecomputed_; }
+  /// Time spent in symbolic and numerical Galerkin products since construction.
+  double galerkinSeconds() const { return galerkinSeconds_; }
+
+  /// coarse = P~_l' fine: level l + 1 -> level l (truncated and rotated if l + 1 = L).
+  void restrict(int l, const Eigen::VectorXd& fine, Eigen::VectorXd& coarse) const;
+  /// fine += P~_l coarse: level l -> level l + 1.
+  void prolongateAdd(int l, const Eigen::VectorXd& coarse, Eigen::VectorXd& fine) const;
+
+  /// Bytes held by prolongations and coarse operators.
+  std::size_t memoryBytes() const;
+
+private:
+  Index setBits(const std::vector<char>& mask);
+  void updateTransforms();
+  void computeCoarse(bool local);
+
+  std::vector<Index> vertices_;
+  std::vector<mesh::CsrMatrix> prolongations_, transposed_;
+  const BlockSparseMatrix<d>* fine_ = nullptr;
+  std::vector<BlockSparseMatrix<d>> coarse_;
+  std::vector<Mat> rotation_;        ///< per rotated fine vertex
+  std::vector<Index> rotationSlot_;  ///< fine vertex -> index into rotation_ or -1
+  std::vector<Mat> transform_;       ///< E_p = Q_p T_p per special fine vertex
+  std::vector<Index> transformSlot_;  ///< fine vertex -> index into transform_ or -1 (E_p = I)
+  std::vector<std::uint8_t> bits_;
+  std::vector<Index> changed_;
+  std::vector<std::vector<Index>> updatedRows_;
+  std::vector<char> fullUpdate_;
+  std::vector<Index> position_;  ///< work array of the row-wise product
+  long long rowsRecomputed_ = 0;
+  int updates_ = 0;
+  double galerkinSeconds_ = 0;
+};
+
+extern template class MultigridHierarchy<2>;
+extern template class MultigridHierarchy<3>;
+
+}  // namespace obs

@@ -1,0 +1,75 @@
+#pragma once
+/// \file TNNMG.hpp
+/// Truncated nonsmooth Newton multigrid (Graeser, Sack, Sander 2009; MATH.md §2) for the contact
+/// problem min 1/2 w'Aw - b'w s.t. w_{p,1} <= g_p in the rotated unknowns of a ContactProblem.
+/// One iteration from w^k, composed of the parts of dune-tnnmg:
+///   1. pre-smoothing: nu1 nonsmooth block Gauss-Seidel sweeps (BlockGaussSeidelSweep with the exact
+///      local solver BlockLocalSolver) -> w^{k+1/2};
+///   2. truncated linearization at w^{k+1/2} (TruncatedLinearization): mask = Dirichlet components
+///      and active bounds, defect r = b - A w^{k+1/2} zeroed there;
+///   3. linear correction c ~= A_T^{-1} r (LinearCorrection: one V-cycle of LinearMultigrid on the
+///      grid hierarchy with truncated transfers, P~ = T Q' P on the finest level; coarse operators
+///      recomputed only when the mask changed);
+///   4. defect projection: c_{p,1} <- min(c_{p,1}, g_p - w_{p,1}) (projectCorrection);
+///   5. exact line search alpha = min(alpha_max, c'r / c'Ac) (exactLineSearch, alpha_max >= 1);
+///      w^{k+1} = w^{k+1/2} + alpha c; optional nu2 post-smoothing sweeps.
+/// Every part minimises J exactly in a subspace or along a line inside the admissible set, so the
+/// energy never increases (checked each iteration by IterationMonitor::requireMonotone). Stopping:
+/// ||w^{k+1} - w^k||_A / ||w^{k+1}||_A < tolerance (ContactSolverOptions), then KKT residuals of the
+/// result are reported. History records energy, correction, active-set size and the number of
+/// components whose truncation changed.
+///
+/// The solver is built for one grid: the problem must be assembled on grid.leafView().mesh (the
+/// vertex count is checked; obs::Error otherwise). After the grid is adapted, build a new TNNMG.
+#include <Eigen/Core>
+
+#include <memory>
+
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/ContactSolver.hpp"
+#include "obs/obs/LinearCorrection.hpp"
+#include "obs/obs/LinearMultigrid.hpp"
+
+namespace obs {
+
+template <int d>
+class TNNMG : public ContactSolver<d> {
+public:
+  struct Options : ContactSolverOptions {
+    int preSmoothing = 3;   ///< nu1 nonsmooth Gauss-Seidel sweeps before the correction
+    int postSmoothing = 0;  ///< nu2 nonsmooth sweeps after the line search (backward)
+    LinearMultigridOptions multigrid;  ///< the V-cycle of the linear correction
+  };
+  /// Where the time of the last solve went, and how often the linear operators were updated.
+  struct Statistics {
+    int operatorUpdates = 0;      ///< coarse-operator recomputations (truncation changed)
+    Index truncationChanges = 0;  ///< total number of components whose truncation changed
+    double setupSeconds = 0;      ///< rotated problem, smoother, hierarchy patterns
+    double smoothingSeconds = 0;  ///< nonsmooth Gauss-Seidel
+    double updateSeconds = 0;     ///< truncation: Galerkin products, coarse factorisation
+    double correctionSeconds = 0; ///< V-cycles
+    double otherSeconds = 0;      ///< residuals, projection, line search, norms
+  };
+
+  /// TNNMG with the multigrid correction on the grid's hierarchy.
+  explicit TNNMG(const mesh::Grid& grid, const Options& options = {});
+  /// TNNMG with another linear correction (e.g. DirectCorrection).
+  TNNMG(const mesh::Grid& grid, const Options& options, std::unique_ptr<LinearCorrection<d>> correction);
+
+  std::string name() const override { return "tnnmg"; }
+  ContactResult solve(const ContactProblem<d>& problem, Eigen::VectorXd& u) override;
+
+  const Statistics& statistics() const { return statistics_; }
+  const Options& options() const { return options_; }
+
+private:
+  Options options_;
+  Index fineVertices_ = 0;
+  std::unique_ptr<LinearCorrection<d>> correction_;
+  Statistics statistics_;
+};
+
+extern template class TNNMG<2>;
+extern template class TNNMG<3>;
+
+}  // namespace obs

@@ -1,0 +1,117 @@
+#pragma once
+/// \file TruncatedGaussSeidel.hpp
+/// Linear block Gauss-Seidel for A_T x = r, the smoother of the linear multigrid V-cycle (MATH.md §2
+/// step 3). A_T is the matrix A with the *truncated* components (a bit mask per vertex: Dirichlet
+/// components and active bounds on the finest level, nothing on coarse levels) replaced by identity
+/// rows and columns, without forming it: with T_p = diag(1 - bit_c) and D_p = A_pp the block step is
+///   x_p = W_p (r_p - sum_{q != p} A_pq x_q),   W_p = T_p (T_p D_p T_p + I - T_p)^{-1} T_p,
+/// so truncated components stay exactly zero and the right-hand side there is ignored (the
+/// solution of the truncated defect problem is zero at truncated components).
+/// The W_p are precomputed (Cholesky of the free part; a pseudo-inverse if the block is only
+/// semidefinite, as truncated coarse operators can be) and recomputed only for vertices whose mask
+/// changed; a sweep does no allocation.
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "obs/mesh/Error.hpp"
+#include "obs/obs/BlockSparseMatrix.hpp"
+
+namespace obs {
+
+template <int d>
+class TruncatedGaussSeidel {
+public:
+  using Vec = Eigen::Matrix<double, d, 1>;
+  using Mat = Eigen::Matrix<double, d, d>;
+  static constexpr std::uint8_t kAll = (1u << d) - 1;
+
+  TruncatedGaussSeidel() = default;
+
+  /// Smoother for A (kept by reference) with the per-vertex truncation bits (nullptr: none; kept by
+  /// pointer, must outlive the smoother). Throws obs::Error if a free part of a diagonal block is
+  /// zero or not positive semidefinite; `what` names the matrix in the message.
+  void setMatrix(const BlockSparseMatrix<d>& A, const std::vector<std::uint8_t>* bits = nullptr,
+                 std::string what = "matrix") {
+    A_ = &A;
+    bits_ = bits;
+    what_ = std::move(what);
+    inverse_.resize(A.rows());
+    diagonal_.resize(A.rows());
+    for (Index p = 0; p < A.rows(); ++p) {
+      diagonal_[p] = A.diagonal(p);
+      if (diagonal_[p] < 0) throw Error("Gauss-Seidel smoother: " + what_ + " has no diagonal block in row " + std::to_string(p));
+      update(p);
+    }
+  }
+  bool hasMatrix() const { return A_ != nullptr; }
+  /// Recomputes W_p for vertices whose truncation bits (or diagonal blocks) changed.
+  void updateVertices(std::span<const Index> vertices) {
+    for (Index p : vertices) update(p);
+  }
+
+  /// nu sweeps on A_T x = r in place (forward, or backward if `backward`).
+  void sweep(const Eigen::VectorXd& r, Eigen::VectorXd& x, bool backward = false) const {
+    const BlockSparseMatrix<d>& A = *A_;
+    const Index n = A.rows();
+    for (Index step = 0; step < n; ++step) {
+      const Index p = backward ? n - 1 - step : step;
+      if (bits_ && (*bits_)[p] == kAll) continue;  // fully truncated: x_p = 0
+      Vec s = r.template segment<d>(static_cast<Eigen::Index>(p) * d);
+      const Index dp = diagonal_[p];
+      for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k)
+        if (k != dp) s.noalias() -= A.blockAt(k) * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
+      x.template segment<d>(static_cast<Eigen::Index>(p) * d).noalias() = inverse_[p] * s;
+    }
+  }
+
+private:
+  void update(Index p) {
+    const std::uint8_t bits = bits_ ? (*bits_)[p] : 0;
+    Mat D = A_->blockAt(diagonal_[p]);
+    if (bits) {
+      for (int c = 0; c < d; ++c)
+        if (bits & (1u << c)) {
+          D.row(c).setZero();
+          D.col(c).setZero();
+          D(c, c) = 1;
+        }
+    }
+    Mat W;
+    const Eigen::LLT<Mat> llt(D);
+    if (llt.info() == Eigen::Success && D.diagonal().minCoeff() > 0) {
+      W = llt.solve(Mat::Identity());
+    } else {
+      // a positive semidefinite block (possible on truncated coarse levels: a combination of the
+      // vertex's components with a zero fine prolongation): pseudo-inverse
+      const Eigen::SelfAdjointEigenSolver<Mat> eig(D);
+      const double top = eig.eigenvalues().cwiseAbs().maxCoeff();
+      if (!(top > 0) || eig.eigenvalues().minCoeff() < -1e-10 * top)
+        throw Error("Gauss-Seidel smoother: the diagonal block of vertex " + std::to_string(p) + " of " + what_ +
+                    " is not positive semidefinite");
+      W.setZero();
+      for (int c = 0; c < d; ++c)
+        if (eig.eigenvalues()[c] > 1e-12 * top)
+          W += eig.eigenvectors().col(c) * eig.eigenvectors().col(c).transpose() / eig.eigenvalues()[c];
+    }
+    for (int c = 0; c < d; ++c)
+      if (bits & (1u << c)) {
+        W.row(c).setZero();
+        W.col(c).setZero();
+      }
+    inverse_[p] = W;
+  }
+
+  const BlockSparseMatrix<d>* A_ = nullptr;
+  const std::vector<std::uint8_t>* bits_ = nullptr;
+  std::string what_;
+  std::vector<Mat> inverse_;
+  std::vector<Index> diagonal_;
+};
+
+}  // namespace obs

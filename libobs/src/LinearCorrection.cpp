@@ -1,0 +1,73 @@
+#include "obs/obs/LinearCorrection.hpp"
+
+#include <string>
+
+#include "obs/mesh/Error.hpp"
+#include "obs/obs/CholmodSolver.hpp"
+
+namespace obs {
+
+template <int d>
+DirectCorrection<d>::DirectCorrection() = default;
+template <int d>
+DirectCorrection<d>::~DirectCorrection() = default;
+
+template <int d>
+void DirectCorrection<d>::setOperator(const BlockSparseMatrix<d>& A, std::vector<VertexRotation<d>>,
+                                      const std::vector<char>& mask) {
+  A_ = &A;
+  mask_.assign(static_cast<std::size_t>(A.rows()) * d, 0);
+  if (!mask.empty()) {
+    if (mask.size() != mask_.size()) throw Error("direct correction: truncation mask of wrong size");
+    for (std::size_t i = 0; i < mask.size(); ++i) mask_[i] = mask[i] != 0;
+  }
+  solver_.reset();
+  updates_ = 0;
+  factorize();
+}
+
+template <int d>
+Index DirectCorrection<d>::truncate(const std::vector<char>& mask) {
+  if (!A_) throw Error("direct correction: truncate() before setOperator()");
+  if (mask.size() != mask_.size()) throw Error("direct correction: truncation mask of wrong size");
+  Index changes = 0;
+  for (std::size_t i = 0; i < mask.size(); ++i) changes += (mask[i] != 0) != (mask_[i] != 0);
+  if (changes > 0) {
+    for (std::size_t i = 0; i < mask.size(); ++i) mask_[i] = mask[i] != 0;
+    factorize();
+  }
+  return changes;
+}
+
+template <int d>
+void DirectCorrection<d>::factorize() {
+  truncated_ = *A_;
+  for (Index p = 0; p < truncated_.rows(); ++p)
+    for (Index k = truncated_.rowBegin(p); k < truncated_.rowEnd(p); ++k) {
+      const Index q = truncated_.column(k);
+      auto& B = truncated_.blockAt(k);
+      for (int c = 0; c < d; ++c) {
+        if (mask_[static_cast<std::size_t>(p) * d + c]) B.row(c).setZero();
+        if (mask_[static_cast<std::size_t>(q) * d + c]) B.col(c).setZero();
+        if (p == q && mask_[static_cast<std::size_t>(p) * d + c]) B(c, c) = 1;
+      }
+    }
+  if (solver_) solver_->refactorize(truncated_);
+  else solver_ = std::make_unique<CholmodSolver>(truncated_);
+  ++updates_;
+}
+
+template <int d>
+void DirectCorrection<d>::apply(const Eigen::VectorXd& r, Eigen::VectorXd& c) {
+  Eigen::VectorXd rt = r;
+  for (std::size_t i = 0; i < mask_.size(); ++i)
+    if (mask_[i]) rt[static_cast<Eigen::Index>(i)] = 0;
+  solver_->solve(rt, c);
+  for (std::size_t i = 0; i < mask_.size(); ++i)
+    if (mask_[i]) c[static_cast<Eigen::Index>(i)] = 0;
+}
+
+template class DirectCorrection<2>;
+template class DirectCorrection<3>;
+
+}  // namespace obs

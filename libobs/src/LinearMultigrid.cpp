@@ -1,0 +1,195 @@
+#include "obs/obs/LinearMultigrid.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <string>
+
+#include "obs/mesh/Error.hpp"
+#include "obs/obs/CholmodSolver.hpp"
+
+namespace obs {
+
+template <int d>
+LinearMultigrid<d>::LinearMultigrid(const mesh::Grid& grid, const Options& options)
+    : options_(options), hierarchy_(grid) {
+  if (options.preSmoothing < 0 || options.postSmoothing < 0 || options.cycles < 1 || options.cycleIndex < 1 || options.maxIterations < 0 ||
+      !(options.tolerance >= 0))
+    throw Error("linear multigrid: invalid options (smoothing steps >= 0, cycles >= 1, maxIterations >= 0, "
+                "tolerance >= 0 required)");
+}
+
+template <int d>
+LinearMultigrid<d>::~LinearMultigrid() = default;
+
+template <int d>
+void LinearMultigrid<d>::setOperator(const BlockSparseMatrix<d>& A, std::vector<VertexRotation<d>> rotations,
+                                     const std::vector<char>& mask) {
+  hierarchy_.setFineOperator(A, std::move(rotations), mask);
+  const int L = hierarchy_.maxLevel();
+  smoothers_.assign(L + 1, TruncatedGaussSeidel<d>());
+  rhs_.assign(L + 1, Eigen::VectorXd());
+  sol_.assign(L + 1, Eigen::VectorXd());
+  work_.assign(L + 1, Eigen::VectorXd());
+  for (int l = 0; l <= L; ++l) {
+    const auto n = static_cast<Eigen::Index>(hierarchy_.numVertices(l)) * d;
+    rhs_[l].setZero(n);
+    sol_[l].setZero(n);
+    work_[l].setZero(n);
+  }
+  if (L > 0) smoothers_[L].setMatrix(A, &hierarchy_.truncationBits(), "the fine operator");
+  coarseSolver_.reset();
+  updateCoarse();
+}
+
+template <int d>
+void LinearMultigrid<d>::updateCoarse() {
+  const int L = hierarchy_.maxLevel();
+  for (int l = 1; l < L; ++l)
+    if (hierarchy_.fullUpdate(l) || !smoothers_[l].hasMatrix())
+      smoothers_[l].setMatrix(hierarchy_.coarseOperator(l), nullptr, "the level " + std::to_string(l) + " operator");
+    else
+      smoothers_[l].updateVertices(hierarchy_.updatedRows(l));
+  const auto t0 = std::chrono::steady_clock::now();
+  const BlockSparseMatrix<d>* A0 = &hierarchy_.coarseOperator(0);
+  if (L > 0) {
+    // Truncated Galerkin operators may be singular (positive semidefinite): P~_T need not have full
+    // column rank. Its null space is prolongated to zero and the restricted defects are orthogonal
+    // to it, so any solution serves; a relative diagonal shift makes the factorisation safe.
+    shifted_ = *A0;
+    for (Index i = 0; i < shifted_.rows(); ++i) {
+      auto& D = shifted_.blockAt(shifted_.diagonal(i));
+      D.diagonal() *= 1 + kCoarseShift;
+    }
+    A0 = &shifted_;
+  }
+  if (coarseSolver_) coarseSolver_->refactorize(*A0);
+  else coarseSolver_ = std::make_unique<CholmodSolver>(*A0);
+  factorSeconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+template <int d>
+Index LinearMultigrid<d>::truncate(const std::vector<char>& mask) {
+  const Index changes = hierarchy_.truncate(mask);
+  if (changes > 0) {
+    const int L = hierarchy_.maxLevel();
+    if (L > 0) smoothers_[L].updateVertices(hierarchy_.changedVertices());
+    updateCoarse();
+  }
+  return changes;
+}
+
+template <int d>
+void LinearMultigrid<d>::defect(int level, const Eigen::VectorXd& r, const Eigen::VectorXd& x,
+                                Eigen::VectorXd& out) const {
+  // On the finest level x is zero at truncated components, so A x = A_T x off the truncated rows;
+  // the truncated rows of the defect are removed by the restriction (E_p = Q_p T_p).
+  levelOperator(level).multiply(x, out);
+  out = r - out;
+}
+
+template <int d>
+void LinearMultigrid<d>::cycle(int l, const Eigen::VectorXd& r, Eigen::VectorXd& x) {
+  const int L = hierarchy_.maxLevel();
+  if (l == 0) {
+    if (L == 0) {  // the explicit truncated fine operator: zero right-hand side at truncated rows
+      work_[0] = r;
+      const auto& bits = hierarchy_.truncationBits();
+      for (std::size_t p = 0; p < bits.size(); ++p)
+        for (int c = 0; c < d; ++c)
+          if (bits[p] & (1u << c)) work_[0][static_cast<Eigen::Index>(p) * d + c] = 0;
+      coarseSolver_->solve(work_[0], x);
+    } else {
+      coarseSolver_->solve(r, x);
+    }
+    return;
+  }
+  x.setZero(r.size());
+  for (int s = 0; s < options_.preSmoothing; ++s) smoothers_[l].sweep(r, x, false);
+  // coarse-grid correction, gamma times below the finest level (gamma = 1: V-cycle, 2: W-cycle)
+  const int gamma = l == 1 ? 1 : options_.cycleIndex;
+  for (int g = 0; g < gamma; ++g) {
+    defect(l, r, x, work_[l]);
+    hierarchy_.restrict(l - 1, work_[l], rhs_[l - 1]);
+    cycle(l - 1, rhs_[l - 1], sol_[l - 1]);
+    hierarchy_.prolongateAdd(l - 1, sol_[l - 1], x);
+  }
+  for (int s = 0; s < options_.postSmoothing; ++s) smoothers_[l].sweep(r, x, true);
+}
+
+template <int d>
+void LinearMultigrid<d>::vcycle(const Eigen::VectorXd& r, Eigen::VectorXd& c) {
+  if (!hierarchy_.hasFineOperator()) throw Error("linear multigrid: vcycle() before setOperator()");
+  const int L = hierarchy_.maxLevel();
+  if (r.size() != static_cast<Eigen::Index>(hierarchy_.numVertices(L)) * d)
+    throw Error("linear multigrid: right-hand side of wrong size");
+  cycle(L, r, c);
+}
+
+template <int d>
+void LinearMultigrid<d>::apply(const Eigen::VectorXd& r, Eigen::VectorXd& c) {
+  vcycle(r, c);
+  const int L = hierarchy_.maxLevel();
+  for (int k = 1; k < options_.cycles; ++k) {
+    // c += V(r - A_T c): the defect is truncated by the next cycle's smoother and restriction
+    Eigen::VectorXd& dr = rhs_[L];
+    defect(L, r, c, dr);
+    vcycle(dr, sol_[L]);
+    c += sol_[L];
+  }
+}
+
+template <int d>
+LinearSolverResult LinearMultigrid<d>::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) {
+  const auto t0 = std::chrono::steady_clock::now();
+  if (!hierarchy_.hasFineOperator()) throw Error("linear multigrid: solve() before setOperator()");
+  const BlockSparseMatrix<d>& A = hierarchy_.fineOperator();
+  const auto n = static_cast<Eigen::Index>(A.rows()) * d;
+  if (b.size() != n) throw Error("linear multigrid: right-hand side of wrong size");
+  const auto& bits = hierarchy_.truncationBits();
+  auto truncateVector = [&](Eigen::VectorXd& v) {
+    for (std::size_t p = 0; p < bits.size(); ++p)
+      if (bits[p])
+        for (int c = 0; c < d; ++c)
+          if (bits[p] & (1u << c)) v[static_cast<Eigen::Index>(p) * d + c] = 0;
+  };
+  if (x.size() != n) {
+    x = Eigen::VectorXd::Zero(n);
+    for (std::size_t p = 0; p < bits.size(); ++p)
+      for (int c = 0; c < d; ++c)
+        if (bits[p] & (1u << c)) x[static_cast<Eigen::Index>(p) * d + c] = b[static_cast<Eigen::Index>(p) * d + c];
+  }
+  LinearSolverResult result;
+  Eigen::VectorXd Ax = A * x, r = b - Ax, c(n), Ac(n);
+  truncateVector(r);
+  const double r0 = r.norm();
+  double first = 0;
+  for (int k = 0; k < options_.maxIterations; ++k) {
+    vcycle(r, c);
+    A.multiply(c, Ac);
+    x += c;
+    Ax += Ac;
+    r -= Ac;  // recursive residual, truncated rows stay zero (c is zero there, Ac is not)
+    truncateVector(r);
+    const double num = std::sqrt(std::max(0.0, c.dot(Ac))), den = std::sqrt(std::max(0.0, x.dot(Ax)));
+    const double correction = den > 0 ? num / den : (num > 0 ? 1.0 : 0.0);
+    if (!std::isfinite(correction)) throw Error("linear multigrid: NaN or Inf in iteration " + std::to_string(k + 1));
+    result.history.push_back(correction);
+    ++result.iterations;
+    if (k == 0) first = correction;
+    result.correction = correction;
+    if (correction < options_.tolerance) {
+      result.converged = true;
+      break;
+    }
+  }
+  if (result.iterations >= 2 && first > 0 && result.correction > 0)
+    result.convergenceRate = std::pow(result.correction / first, 1.0 / (result.iterations - 1));
+  result.residualReduction = r0 > 0 ? r.norm() / r0 : 0.0;
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  return result;
+}
+
+template class LinearMultigrid<2>;
+template class LinearMultigrid<3>;
+
+}  // namespace obs

@@ -1,0 +1,391 @@
+#include "obs/obs/MultigridHierarchy.hpp"
+
+#include <algorithm>
+#include <bit>
+#include <chrono>
+#include <span>
+#include <string>
+
+#include "obs/mesh/Error.hpp"
+
+namespace obs {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+/// The transpose of a scalar CSR matrix (columns ascending within each row).
+mesh::CsrMatrix transpose(const mesh::CsrMatrix& P) {
+  mesh::CsrMatrix T;
+  T.rows = P.cols;
+  T.cols = P.rows;
+  T.rowStart.assign(T.rows + 1, 0);
+  for (Index c : P.columns) ++T.rowStart[c + 1];
+  for (Index i = 0; i < T.rows; ++i) T.rowStart[i + 1] += T.rowStart[i];
+  T.columns.resize(P.columns.size());
+  T.values.resize(P.values.size());
+  std::vector<Index> next(T.rowStart.begin(), T.rowStart.end() - 1);
+  for (Index r = 0; r < P.rows; ++r)
+    for (Index k = P.rowStart[r]; k < P.rowStart[r + 1]; ++k) {
+      const Index pos = next[P.columns[k]]++;
+      T.columns[pos] = r;
+      T.values[pos] = P.values[k];
+    }
+  return T;
+}
+
+/// Block pattern of P' F P (P scalar n_f x n_c, Pt its transpose), row by coarse row with a marker.
+template <int d>
+BlockSparseMatrix<d> galerkinPattern(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P,
+                                     const mesh::CsrMatrix& Pt) {
+  const Index nc = P.cols;
+  std::vector<Index> rowStart{0}, columns, mark(nc, -1), row;
+  rowStart.reserve(nc + 1);
+  for (Index I = 0; I < nc; ++I) {
+    row.clear();
+    for (Index a = Pt.rowStart[I]; a < Pt.rowStart[I + 1]; ++a) {
+      const Index p = Pt.columns[a];
+      for (Index k = F.rowBegin(p); k < F.rowEnd(p); ++k) {
+        const Index q = F.column(k);
+        for (Index b = P.rowStart[q]; b < P.rowStart[q + 1]; ++b) {
+          const Index J = P.columns[b];
+          if (mark[J] != I) {
+            mark[J] = I;
+            row.push_back(J);
+          }
+        }
+      }
+    }
+    if (std::find(row.begin(), row.end(), I) == row.end()) row.push_back(I);  // always a diagonal
+    std::sort(row.begin(), row.end());
+    columns.insert(columns.end(), row.begin(), row.end());
+    rowStart.push_back(static_cast<Index>(columns.size()));
+  }
+  return BlockSparseMatrix<d>(std::move(rowStart), std::move(columns));
+}
+
+/// C = P' B P with B_pq = E_p F_pq E_q' (E_p = I where slot[p] < 0; no transforms if slot is null),
+/// into the precomputed pattern of C. Runs over fine rows: acc_J = sum_q B_pq P_qJ, then
+/// C(I, J) += P_pI acc_J.
+template <int d>
+void galerkinProduct(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P, const std::vector<Index>* slot,
+                     const std::vector<Eigen::Matrix<double, d, d>>* E, BlockSparseMatrix<d>& C) {
+  using Mat = Eigen::Matrix<double, d, d>;
+  C.setZero();
+  std::vector<Index> marker(P.cols, -1), cols;
+  std::vector<Mat> acc;
+  cols.reserve(256);
+  acc.reserve(256);
+  for (Index p = 0; p < F.rows(); ++p) {
+    const Index sp = slot ? (*slot)[p] : -1;
+    if (sp >= 0 && (*E)[sp].isZero(0)) continue;  // all components of p truncated
+    cols.clear();
+    for (Index k = F.rowBegin(p); k < F.rowEnd(p); ++k) {
+      const Index q = F.column(k);
+      const Index sq = slot ? (*slot)[q] : -1;
+      Mat B = F.blockAt(k);
+      if (sp >= 0) B = (*E)[sp] * B;
+      if (sq >= 0) B = B * (*E)[sq].transpose();
+      for (Index b = P.rowStart[q]; b < P.rowStart[q + 1]; ++b) {
+        const Index J = P.columns[b];
+        const double w = P.values[b];
+        if (marker[J] < 0) {
+          marker[J] = static_cast<Index>(cols.size());
+          cols.push_back(J);
+          if (acc.size() < cols.size()) acc.emplace_back();
+          acc[cols.size() - 1] = w * B;
+        } else {
+          acc[marker[J]] += w * B;
+        }
+      }
+    }
+    for (Index a = P.rowStart[p]; a < P.rowStart[p + 1]; ++a) {
+      const Index I = P.columns[a];
+      const double w = P.values[a];
+      for (std::size_t s = 0; s < cols.size(); ++s) C.blockAt(C.find(I, cols[s])) += w * acc[s];
+    }
+    for (Index J : cols) marker[J] = -1;
+  }
+}
+
+/// Recomputes the rows `rows` of C = P' B P (as galerkinProduct) coarse row by coarse row:
+/// C(I, :) = sum_{p in supp I} P_pI sum_q B_pq P_q. `position` is a work array of size C.rows()
+/// filled with -1 (restored on return).
+template <int d>
+void galerkinRows(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P, const mesh::CsrMatrix& Pt,
+                  const std::vector<Index>* slot, const std::vector<Eigen::Matrix<double, d, d>>* E,
+                  std::span<const Index> rows, std::vector<Index>& position, BlockSparseMatrix<d>& C) {
+  using Mat = Eigen::Matrix<double, d, d>;
+  for (Index I : rows) {
+    for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) {
+      position[C.column(k)] = k;
+      C.blockAt(k).setZero();
+    }
+    for (Index a = Pt.rowStart[I]; a < Pt.rowStart[I + 1]; ++a) {
+      const Index p = Pt.columns[a];
+      const double wI = Pt.values[a];
+      const Index sp = slot ? (*slot)[p] : -1;
+      if (sp >= 0 && (*E)[sp].isZero(0)) continue;
+      for (Index k = F.rowBegin(p); k < F.rowEnd(p); ++k) {
+        const Index q = F.column(k);
+        const Index sq = slot ? (*slot)[q] : -1;
+        Mat B = wI * F.blockAt(k);
+        if (sp >= 0) B = (*E)[sp] * B;
+        if (sq >= 0) B = B * (*E)[sq].transpose();
+        for (Index b = P.rowStart[q]; b < P.rowStart[q + 1]; ++b) C.blockAt(position[P.columns[b]]) += P.values[b] * B;
+      }
+    }
+    for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) position[C.column(k)] = -1;
+  }
+}
+
+/// Diagonal entries that vanish (a coarse component without untruncated fine support: zero row
+/// and column) are set to 1, keeping the operator positive definite.
+template <int d>
+double largestDiagonal(const BlockSparseMatrix<d>& C) {
+  double scale = 0;
+  for (Index I = 0; I < C.rows(); ++I) scale = std::max(scale, C.blockAt(C.diagonal(I)).diagonal().maxCoeff());
+  return scale;
+}
+
+template <int d>
+void fixVanishingDiagonal(BlockSparseMatrix<d>& C, Index I, double scale) {
+  auto& D = C.blockAt(C.diagonal(I));
+  for (int c = 0; c < d; ++c)
+    if (D(c, c) <= 1e-12 * scale) D(c, c) = scale > 0 ? scale : 1.0;
+}
+
+}  // namespace
+
+template <int d>
+std::vector<VertexRotation<d>> problemRotations(const ContactProblem<d>& problem) {
+  std::vector<VertexRotation<d>> out;
+  for (const auto& c : problem.constraints())
+    if (!c.rotation.isIdentity(0)) out.push_back({c.vertex, c.rotation});
+  return out;
+}
+
+template <int d>
+MultigridHierarchy<d>::MultigridHierarchy(const mesh::Grid& grid) {
+  if (grid.dimension() != d)
+    throw Error("multigrid hierarchy: the grid has dimension " + std::to_string(grid.dimension()) +
+                ", the solver " + std::to_string(d));
+  const int L = grid.maxLevel();
+  mesh::GridView coarse = L > 0 ? grid.levelView(0) : grid.leafView();
+  vertices_.push_back(static_cast<Index>(coarse.vertices.size()));
+  for (int l = 0; l < L; ++l) {
+    mesh::GridView fine = l + 1 == L ? grid.leafView() : grid.levelView(l + 1);
+    prolongations_.push_back(mesh::transferMatrix(grid, coarse, fine));
+    transposed_.push_back(transpose(prolongations_.back()));
+    vertices_.push_back(static_cast<Index>(fine.vertices.size()));
+    coarse = std::move(fine);
+  }
+}
+
+template <int d>
+void MultigridHierarchy<d>::setFineOperator(const BlockSparseMatrix<d>& A, std::vector<VertexRotation<d>> rotations,
+                                            const std::vector<char>& mask) {
+  const int L = maxLevel();
+  const Index n = numVertices(L);
+  if (A.rows() != n)
+    throw Error("multigrid hierarchy: the fine operator has " + std::to_string(A.rows()) +
+                " block rows, the leaf view of the grid " + std::to_string(n) +
+                " vertices (is the problem assembled on grid.leafView().mesh?)");
+  fine_ = &A;
+  rotation_.clear();
+  rotationSlot_.assign(n, -1);
+  for (const auto& r : rotations) {
+    if (r.vertex < 0 || r.vertex >= n) throw Error("multigrid hierarchy: rotation of a vertex out of range");
+    rotationSlot_[r.vertex] = static_cast<Index>(rotation_.size());
+    rotation_.push_back(r.rotation);
+  }
+  bits_.assign(n, 0);
+  if (!mask.empty()) setBits(mask);
+  changed_.clear();
+  updates_ = 0;
+  updateTransforms();
+
+  const auto t0 = Clock::now();
+  coarse_.assign(std::max(L, 1), BlockSparseMatrix<d>());
+  for (int l = L - 1; l >= 0; --l)
+    coarse_[l] = galerkinPattern(l == L - 1 ? A : coarse_[l + 1], prolongations_[l], transposed_[l]);
+  galerkinSeconds_ += since(t0);
+  computeCoarse(false);
+}
+
+template <int d>
+Index MultigridHierarchy<d>::truncate(const std::vector<char>& mask) {
+  if (!fine_) throw Error("multigrid hierarchy: truncate() before setFineOperator()");
+  const Index changes = setBits(mask);
+  if (changes > 0) {
+    updateTransforms();
+    computeCoarse(true);
+  }
+  return changes;
+}
+
+template <int d>
+Index MultigridHierarchy<d>::setBits(const std::vector<char>& mask) {
+  const Index n = numVertices(maxLevel());
+  if (mask.size() != static_cast<std::size_t>(n) * d)
+    throw Error("multigrid hierarchy: truncation mask of size " + std::to_string(mask.size()) + " for " +
+                std::to_string(static_cast<std::size_t>(n) * d) + " fine components");
+  changed_.clear();
+  Index changes = 0;
+  for (Index p = 0; p < n; ++p) {
+    std::uint8_t b = 0;
+    for (int c = 0; c < d; ++c)
+      if (mask[static_cast<std::size_t>(p) * d + c]) b |= static_cast<std::uint8_t>(1u << c);
+    if (b != bits_[p]) {
+      changes += std::popcount(static_cast<unsigned>(b ^ bits_[p]));
+      bits_[p] = b;
+      changed_.push_back(p);
+    }
+  }
+  return changes;
+}
+
+template <int d>
+Index MultigridHierarchy<d>::truncatedComponents() const {
+  Index n = 0;
+  for (std::uint8_t b : bits_) n += std::popcount(static_cast<unsigned>(b));
+  return n;
+}
+
+template <int d>
+void MultigridHierarchy<d>::updateTransforms() {
+  const Index n = static_cast<Index>(bits_.size());
+  transform_.clear();
+  transformSlot_.assign(n, -1);
+  for (Index p = 0; p < n; ++p) {
+    if (rotationSlot_[p] < 0 && bits_[p] == 0) continue;
+    Mat E = rotationSlot_[p] >= 0 ? rotation_[rotationSlot_[p]] : Mat::Identity();
+    for (int c = 0; c < d; ++c)
+      if (bits_[p] & (1u << c)) E.col(c).setZero();  // E_p = Q_p T_p
+    transformSlot_[p] = static_cast<Index>(transform_.size());
+    transform_.push_back(E);
+  }
+}
+
+template <int d>
+void MultigridHierarchy<d>::computeCoarse(bool local) {
+  const auto t0 = Clock::now();
+  const int L = maxLevel();
+  ++updates_;
+  updatedRows_.assign(std::max(L, 1), {});
+  fullUpdate_.assign(std::max(L, 1), 1);
+  if (L == 0) {
+    // explicit A~_T: truncated rows and columns -> identity
+    BlockSparseMatrix<d>& C = coarse_[0];
+    C = *fine_;
+    for (Index p = 0; p < C.rows(); ++p)
+      for (Index k = C.rowBegin(p); k < C.rowEnd(p); ++k) {
+        const Index q = C.column(k);
+        auto& B = C.blockAt(k);
+        for (int c = 0; c < d; ++c) {
+          if (bits_[p] & (1u << c)) B.row(c).setZero();
+          if (bits_[q] & (1u << c)) B.col(c).setZero();
+          if (p == q && (bits_[p] & (1u << c))) B(c, c) = 1;
+        }
+      }
+  }
+  // Local update: the entries of A_l that change are those (I, J) with I or J in
+  // R_l = { I : P_pI != 0 for a changed vertex p of level l + 1 }; they lie in the rows of R_l and
+  // of its neighbours, and R_l is the changed set for level l - 1.
+  std::vector<Index> changed = changed_, touched, rows;
+  std::vector<char> mark;
+  for (int l = L - 1; l >= 0; --l) {
+    BlockSparseMatrix<d>& C = coarse_[l];
+    const bool top = l == L - 1;
+    const mesh::CsrMatrix& P = prolongations_[l];
+    const BlockSparseMatrix<d>& F = top ? *fine_ : coarse_[l + 1];
+    const std::vector<Index>* slot = top ? &transformSlot_ : nullptr;
+    const std::vector<Mat>* E = top ? &transform_ : nullptr;
+    bool partial = local;
+    if (partial) {
+      mark.assign(C.rows(), 0);
+      touched.clear();
+      for (Index p : changed)
+        for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k)
+          if (!mark[P.columns[k]]) {
+            mark[P.columns[k]] = 1;
+            touched.push_back(P.columns[k]);
+          }
+      rows = touched;
+      for (Index I : touched)
+        for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k)
+          if (!mark[C.column(k)]) {
+            mark[C.column(k)] = 1;
+            rows.push_back(C.column(k));
+          }
+      partial = 4 * rows.size() < static_cast<std::size_t>(C.rows());  // else a full product is cheaper
+    }
+    if (partial) {
+      std::sort(rows.begin(), rows.end());
+      position_.assign(C.rows(), -1);
+      galerkinRows(F, P, transposed_[l], slot, E, rows, position_, C);
+      const double scale = largestDiagonal(C);
+      for (Index I : rows) fixVanishingDiagonal(C, I, scale);
+      updatedRows_[l] = rows;
+      fullUpdate_[l] = 0;
+      changed.swap(touched);
+      rowsRecomputed_ += static_cast<long long>(rows.size());
+    } else {
+      galerkinProduct(F, P, slot, E, C);
+      const double scale = largestDiagonal(C);
+      for (Index I = 0; I < C.rows(); ++I) fixVanishingDiagonal(C, I, scale);
+      rowsRecomputed_ += C.rows();
+      local = false;  // all entries of this level may have changed
+    }
+  }
+  galerkinSeconds_ += since(t0);
+}
+
+template <int d>
+void MultigridHierarchy<d>::restrict(int l, const Eigen::VectorXd& fine, Eigen::VectorXd& coarse) const {
+  using Vec = Eigen::Matrix<double, d, 1>;
+  const mesh::CsrMatrix& P = prolongations_[l];
+  const bool top = l + 1 == maxLevel();
+  coarse.setZero(static_cast<Eigen::Index>(P.cols) * d);
+  for (Index p = 0; p < P.rows; ++p) {
+    Vec r = fine.template segment<d>(static_cast<Eigen::Index>(p) * d);
+    if (top && transformSlot_[p] >= 0) r = transform_[transformSlot_[p]] * r;
+    for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k)
+      coarse.template segment<d>(static_cast<Eigen::Index>(P.columns[k]) * d) += P.values[k] * r;
+  }
+}
+
+template <int d>
+void MultigridHierarchy<d>::prolongateAdd(int l, const Eigen::VectorXd& coarse, Eigen::VectorXd& fine) const {
+  using Vec = Eigen::Matrix<double, d, 1>;
+  const mesh::CsrMatrix& P = prolongations_[l];
+  const bool top = l + 1 == maxLevel();
+  for (Index p = 0; p < P.rows; ++p) {
+    Vec s = Vec::Zero();
+    for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k)
+      s += P.values[k] * coarse.template segment<d>(static_cast<Eigen::Index>(P.columns[k]) * d);
+    if (top && transformSlot_[p] >= 0) s = transform_[transformSlot_[p]].transpose() * s;
+    fine.template segment<d>(static_cast<Eigen::Index>(p) * d) += s;
+  }
+}
+
+template <int d>
+std::size_t MultigridHierarchy<d>::memoryBytes() const {
+  std::size_t b = 0;
+  for (const auto* list : {&prolongations_, &transposed_})
+    for (const auto& P : *list)
+      b += P.rowStart.capacity() * sizeof(Index) + P.columns.capacity() * sizeof(Index) +
+           P.values.capacity() * sizeof(double);
+  for (const auto& C : coarse_) b += C.memoryBytes();
+  b += (rotation_.capacity() + transform_.capacity()) * sizeof(Mat) +
+       (rotationSlot_.capacity() + transformSlot_.capacity()) * sizeof(Index) + bits_.capacity();
+  return b;
+}
+
+template std::vector<VertexRotation<2>> problemRotations(const ContactProblem<2>&);
+template std::vector<VertexRotation<3>> problemRotations(const ContactProblem<3>&);
+template class MultigridHierarchy<2>;
+template class MultigridHierarchy<3>;
+
+}  // namespace obs

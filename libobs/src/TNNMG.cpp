@@ -1,0 +1,124 @@
+#include "obs/obs/TNNMG.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <string>
+
+#include "obs/mesh/Error.hpp"
+#include "obs/obs/LineSearch.hpp"
+#include "obs/obs/ProjectedGaussSeidel.hpp"
+#include "obs/obs/TruncatedLinearization.hpp"
+
+namespace obs {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+/// Adds the seconds since t to s and restarts t.
+void lap(Clock::time_point& t, double& s) {
+  const auto now = Clock::now();
+  s += std::chrono::duration<double>(now - t).count();
+  t = now;
+}
+
+template <class Options>
+void checkOptions(const Options& o) {
+  if (o.preSmoothing < 0 || o.postSmoothing < 0 || o.preSmoothing + o.postSmoothing < 1)
+    throw Error("TNNMG: invalid options (smoothing steps >= 0, at least one nonsmooth sweep per iteration)");
+}
+
+}  // namespace
+
+template <int d>
+TNNMG<d>::TNNMG(const mesh::Grid& grid, const Options& options) : options_(options) {
+  checkOptions(options);
+  auto mg = std::make_unique<LinearMultigrid<d>>(grid, options.multigrid);
+  fineVertices_ = mg->hierarchy().numVertices(mg->hierarchy().maxLevel());
+  correction_ = std::move(mg);
+}
+
+template <int d>
+TNNMG<d>::TNNMG(const mesh::Grid& grid, const Options& options, std::unique_ptr<LinearCorrection<d>> correction)
+    : options_(options), correction_(std::move(correction)) {
+  checkOptions(options);
+  if (grid.dimension() != d)
+    throw Error("TNNMG: the grid has dimension " + std::to_string(grid.dimension()) + ", the solver " +
+                std::to_string(d));
+  if (!correction_) throw Error("TNNMG: no linear correction given");
+  fineVertices_ = grid.leafView().mesh.numVertices();
+}
+
+template <int d>
+ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd& u) {
+  statistics_ = Statistics();
+  auto t = Clock::now();
+  if (problem.numVertices() != fineVertices_)
+    throw Error("TNNMG: the problem has " + std::to_string(problem.numVertices()) +
+                " vertices, the leaf view of the solver's grid " + std::to_string(fineVertices_) +
+                " (the problem must be assembled on grid.leafView().mesh of the current grid)");
+  const RotatedProblem<d> rot = problem.rotated();
+  const BlockSparseMatrix<d>& A = rot.matrix;
+  problem.projectToFeasible(u);
+  Eigen::VectorXd w = problem.toRotated(u);
+  rot.project(w);
+  const BlockGaussSeidelSweep<d> smoother(A, rot.upper);
+  correction_->setOperator(A, problemRotations(problem), rot.prescribed);
+  const int baseUpdates = correction_->operatorUpdates();
+
+  const auto n = static_cast<Eigen::Index>(problem.numDofs());
+  Eigen::VectorXd Aw(n), r(n), c(n), Ac(n), previous(n), delta(n), Adelta(n);
+  A.multiply(w, Aw);
+  IterationMonitor monitor(name(), options_, 0.5 * w.dot(Aw) - rot.rhs.dot(w));
+  TruncatedLinearization<d> linearization;
+  lap(t, statistics_.setupSeconds);
+
+  bool converged = false;
+  for (int k = 0; k < options_.maxIterations && !converged; ++k) {
+    previous = w;
+    // 1. nonsmooth pre-smoothing
+    for (int s = 0; s < options_.preSmoothing; ++s) smoother.sweep(rot.rhs, w);
+    lap(t, statistics_.smoothingSeconds);
+    // 2. truncation (operators updated only if the mask changed)
+    linearization.truncate(rot, w);
+    const Index changes = correction_->truncate(linearization.mask);
+    statistics_.truncationChanges += changes;
+    lap(t, statistics_.updateSeconds);
+    A.multiply(w, Aw);
+    linearization.truncatedResidual(rot, Aw, r);
+    lap(t, statistics_.otherSeconds);
+    // 3. linear correction on the truncated defect problem
+    correction_->apply(r, c);
+    lap(t, statistics_.correctionSeconds);
+    // 4. projection onto the admissible set, 5. exact line search
+    projectCorrection(rot, w, c);
+    A.multiply(c, Ac);
+    const LineSearchResult step = exactLineSearch(rot, w, c, c.dot(r), c.dot(Ac));
+    takeStep(rot, step, c, w);
+    Aw += step.alpha * Ac;
+    lap(t, statistics_.otherSeconds);
+    if (options_.postSmoothing > 0) {
+      for (int s = 0; s < options_.postSmoothing; ++s) smoother.sweep(rot.rhs, w, true);
+      lap(t, statistics_.smoothingSeconds);
+      A.multiply(w, Aw);
+    }
+    // monitoring: ||w^{k+1} - w^k||_A / ||w^{k+1}||_A, energy, active set
+    delta = w - previous;
+    A.multiply(delta, Adelta);
+    const double wAw = w.dot(Aw), bw = rot.rhs.dot(w);
+    const double num = std::sqrt(std::max(0.0, delta.dot(Adelta))), den = std::sqrt(std::max(0.0, wAw));
+    const double correction = den > 0 ? num / den : (num > 0 ? 1.0 : 0.0);
+    converged = monitor.record(0.5 * wAw - bw, correction, rot.countActive(w), changes);
+    monitor.requireMonotone(0.5 * std::abs(wAw) + std::abs(bw));
+    lap(t, statistics_.otherSeconds);
+  }
+  statistics_.operatorUpdates = correction_->operatorUpdates() - baseUpdates;
+  u = problem.fromRotated(w);
+  ContactResult result = monitor.finish(converged, rot.countActive(w));
+  result.kkt = computeKktResiduals(problem, u);
+  return result;
+}
+
+template class TNNMG<2>;
+template class TNNMG<3>;
+
+}  // namespace obs

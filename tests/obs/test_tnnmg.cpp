@@ -1,0 +1,426 @@
+// TNNMG: its parts (truncation, defect projection, exact line search), agreement with the primal-dual
+// active set method for every element type (2D punch on a strip, 3D Hertz ball), KKT residuals,
+// monotone energy, mesh-independent iteration counts on uniformly and locally refined grids, curved
+// obstacles with varying normals, the linear limit, Dirichlet data on the contact boundary,
+// penetrating starts, an exchangeable linear correction and bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <memory>
+
+#include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/Error.hpp"
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/LineSearch.hpp"
+#include "obs/obs/LinearElasticity.hpp"
+#include "obs/obs/PrimalDualActiveSet.hpp"
+#include "obs/obs/TNNMG.hpp"
+#include "obs/obs/TruncatedLinearization.hpp"
+
+using namespace obs;
+using mesh::CellType;
+
+namespace {
+
+const Material kMaterial{3e5, 0.25};  // MATH.md §4
+
+bool verbose() { return std::getenv("OBS_TEST_VERBOSE") != nullptr; }
+
+Point P(double x, double y, double z = 0) { return Point(x, y, z); }
+
+BoundaryConditions pressedFromTop(const Eigen::Vector3d& top) {
+  BoundaryConditions bc;
+  bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [top](const Point&) { return top; }});
+  return bc;
+}
+
+mesh::Grid uniformGrid(CellType type, int coarseCells, int levels) {
+  mesh::Grid grid(mesh::boxMesh(type, coarseCells));
+  for (int l = 0; l < levels; ++l) grid.refineUniformly();
+  return grid;
+}
+
+/// Refines the leaves whose centre lies within `radius` of `centre`, `cycles` times.
+void refineNear(mesh::Grid& grid, const Point& centre, double radius, int cycles) {
+  for (int c = 0; c < cycles; ++c) {
+    for (Index e : grid.leafElements()) {
+      Point x = Point::Zero();
+      for (Index v : grid.vertices(e)) x += grid.vertex(v) / static_cast<double>(grid.vertices(e).size());
+      if ((x - centre).norm() < radius) grid.mark(e);
+    }
+    grid.adapt();
+  }
+}
+
+/// The punch of MATH.md §4 (strip g = 0 on [0.4375, 0.5625]) or the Hertz ball with a deeper push.
+template <int d>
+std::unique_ptr<Obstacle> standardObstacle() {
+  if constexpr (d == 2) return std::make_unique<StripObstacle>(P(0.5, 0), 0.0625, P(0, -1));
+  else return std::make_unique<BallObstacle>(P(0.5, 0.5, -0.75), 0.75);
+}
+template <int d>
+BoundaryConditions standardLoad() {
+  return pressedFromTop(d == 2 ? P(0, -0.01) : P(0, 0, -0.03));
+}
+
+template <int d>
+struct Outcome {
+  Eigen::VectorXd u, uPdas;
+  ContactResult tnnmg, pdas;
+  typename TNNMG<d>::Statistics statistics;
+};
+
+template <int d>
+typename TNNMG<d>::Options tightOptions() {
+  typename TNNMG<d>::Options o;
+  o.tolerance = 1e-10;
+  o.maxIterations = 100;
+  return o;
+}
+
+/// TNNMG (and PDAS unless `withPdas` is false) on one problem on the grid's leaf view.
+template <int d>
+Outcome<d> solve(const mesh::Grid& grid, const ContactProblem<d>& problem, bool withPdas = true,
+             const typename TNNMG<d>::Options& options = tightOptions<d>(), const std::string& label = "") {
+  Outcome<d> r;
+  TNNMG<d> tnnmg(grid, options);
+  r.tnnmg = tnnmg.solve(problem, r.u);
+  r.statistics = tnnmg.statistics();
+  if (withPdas) {
+    PrimalDualActiveSet<d> pdas;
+    r.pdas = pdas.solve(problem, r.uPdas);
+  }
+  if (verbose())
+    std::cout << "  " << label << ": " << problem.numDofs() << " dofs, " << grid.maxLevel() << " levels, TNNMG "
+              << r.tnnmg.iterations << " it (rate " << r.tnnmg.convergenceRate << ", " << r.tnnmg.seconds
+              << " s, kkt " << r.tnnmg.kkt.max() << ", updates " << r.statistics.operatorUpdates << "), active "
+              << r.tnnmg.activeSetSize
+              << (withPdas ? ", PDAS " + std::to_string(r.pdas.iterations) + " it, " + std::to_string(r.pdas.seconds) + " s"
+                           : std::string())
+              << "\n";
+  return r;
+}
+
+/// The checks every scenario must pass: convergence, agreement with PDAS (displacements, identical
+/// active sets), KKT residuals, feasibility, non-increasing energy.
+template <int d>
+void expectAgreement(const ContactProblem<d>& problem, const Outcome<d>& r, bool expectContact = true) {
+  EXPECT_TRUE(r.tnnmg.converged);
+  EXPECT_TRUE(r.pdas.converged);
+  EXPECT_LT((r.u - r.uPdas).norm(), 1e-8 * r.uPdas.norm());
+  const ContactOutputs a = computeContactOutputs(problem, r.u, 1e-6), b = computeContactOutputs(problem, r.uPdas, 1e-6);
+  EXPECT_EQ(a.inContact, b.inContact);
+  if (expectContact) {
+    EXPECT_GT(a.contactNodes, 0);
+  }
+  EXPECT_EQ(r.tnnmg.activeSetSize, r.pdas.activeSetSize);
+  EXPECT_LT(r.tnnmg.kkt.max(), 1e-8);
+  // admissible up to the round-off of u = Q w (exact zero for constant directions)
+  EXPECT_LE(problem.maxViolation(r.u), 1e-15 * r.u.template lpNorm<Eigen::Infinity>());
+  const auto& h = r.tnnmg.history;
+  ASSERT_FALSE(h.empty());
+  for (std::size_t k = 1; k < h.size(); ++k)
+    ASSERT_LE(h[k].energy, h[k - 1].energy + 1e-13 * std::abs(h[k - 1].energy)) << "iteration " << k + 1;
+}
+
+}  // namespace
+
+// --- parts ----------------------------------------------------------------------------------------
+
+TEST(TnnmgParts, TruncationProjectionAndLineSearch) {
+  // two vertices in 2D: A = 2 I, b = (4, 0, 1, 0); bounds w_{0,1} <= 1, w_{1,1} <= 0.5; w_{1,2} prescribed
+  RotatedProblem<2> rot;
+  rot.matrix = BlockSparseMatrix<2>({0, 1, 2}, {0, 1});
+  rot.matrix.blockAt(0) = 2 * Eigen::Matrix2d::Identity();
+  rot.matrix.blockAt(1) = 2 * Eigen::Matrix2d::Identity();
+  rot.rhs = Eigen::Vector4d(4, 0, 1, 0);
+  rot.upper = {1.0, 0.5};
+  rot.prescribed = {0, 0, 0, 1};
+  const Eigen::VectorXd w = Eigen::Vector4d(1.0, 0.2, 0.1, 0.0);  // vertex 0 active
+
+  TruncatedLinearization<2> lin;
+  lin.truncate(rot, w);
+  EXPECT_EQ(lin.mask, (std::vector<char>{1, 0, 0, 1}));
+  EXPECT_EQ(lin.active, 1);
+  Eigen::VectorXd r;
+  lin.truncatedResidual(rot, rot.matrix * w, r);
+  EXPECT_TRUE(r.isApprox(Eigen::Vector4d(0, -0.4, 0.8, 0)));
+
+  Eigen::VectorXd c = Eigen::Vector4d(0, -0.2, 0.8, 0);  // would take w_{1,1} to 0.9 > 0.5
+  projectCorrection(rot, w, c);
+  EXPECT_DOUBLE_EQ(c[2], 0.4);
+  const Eigen::VectorXd Ac = rot.matrix * c;
+  const LineSearchResult s = exactLineSearch(rot, w, c, c.dot(r), c.dot(Ac));
+  EXPECT_DOUBLE_EQ(s.alphaMax, 1.0);
+  EXPECT_EQ(s.limiting, 1);
+  // unconstrained minimiser c'r / c'Ac = (0.08 + 0.32) / (2 * 0.2) = 1 -> alpha = min(1, 1)
+  EXPECT_NEAR(s.alpha, 1.0, 1e-15);
+  Eigen::VectorXd next = w;
+  takeStep(rot, s, c, next);
+  EXPECT_EQ(next[2], 0.5);  // exactly on the bound
+  EXPECT_LE(rot.energy(next), rot.energy(w));
+
+  // a correction that increases the energy along its direction gives alpha = 0
+  const Eigen::VectorXd bad = -c;
+  const LineSearchResult z = exactLineSearch(rot, w, bad, bad.dot(r), bad.dot(rot.matrix * bad));
+  EXPECT_EQ(z.alpha, 0.0);
+}
+
+// --- agreement with PDAS for every element type ---------------------------------------------------
+
+class TnnmgElementTypes : public ::testing::TestWithParam<CellType> {};
+
+TEST_P(TnnmgElementTypes, AgreesWithThePrimalDualActiveSetMethod) {
+  const CellType type = GetParam();
+  auto check = [&]<int d>(std::integral_constant<int, d>) {
+    const mesh::Grid grid = uniformGrid(type, 2, d == 2 ? 3 : 2);
+    const mesh::Mesh m = grid.leafView().mesh;
+    const auto obstacle = standardObstacle<d>();
+    const ContactSet cs(m, mesh::kBottom, *obstacle);
+    const ContactProblem<d> problem(m, kMaterial, standardLoad<d>(), cs);
+    const Outcome<d> r = solve(grid, problem, true, tightOptions<d>(), std::string(mesh::name(type)));
+    expectAgreement(problem, r);
+    EXPECT_LT(computeContactOutputs(problem, r.u, 1e-6).contactNodes, cs.size());
+    if (d == 2) {
+      EXPECT_EQ(r.tnnmg.activeSetSize, 3);  // the three nodes on the punch face (h = 1/16)
+    }
+  };
+  if (mesh::dimension(type) == 2) check(std::integral_constant<int, 2>{});
+  else check(std::integral_constant<int, 3>{});
+}
+
+INSTANTIATE_TEST_SUITE_P(AllTypes, TnnmgElementTypes,
+                         ::testing::Values(CellType::Triangle, CellType::Quadrilateral, CellType::Tetrahedron,
+                                           CellType::Hexahedron, CellType::Prism, CellType::Pyramid),
+                         [](const auto& info) { return std::string(mesh::name(info.param)); });
+
+TEST(Tnnmg, HexahedraFlatOnAPlane) {
+  const mesh::Grid grid = uniformGrid(CellType::Hexahedron, 2, 2);
+  const mesh::Mesh m = grid.leafView().mesh;
+  const ContactSet cs(m, mesh::kBottom, PlaneObstacle(P(0, 0, 0), P(0, 0, -1)));
+  const ContactProblem<3> problem(m, kMaterial, pressedFromTop(P(0, 0, -0.01)), cs);
+  const Outcome<3> r = solve(grid, problem, true, tightOptions<3>(), "hex plane");
+  expectAgreement(problem, r);
+  EXPECT_EQ(r.tnnmg.activeSetSize, cs.size());
+}
+
+// --- mesh independence ------------------------------------------------------------------------------
+
+// Iterations to a relative energy-norm correction of 1e-10 over uniform levels. Asserted bound: at
+// most 20 iterations on every level and no growth by more than 3 from one level to the next.
+// Measured (docs/performance.md): quadrilaterals 6 8 9 9, triangles 8 11 13 14, hexahedra 6 7 8,
+// tetrahedra 10 13 16.
+class TnnmgMeshIndependence : public ::testing::TestWithParam<CellType> {};
+
+TEST_P(TnnmgMeshIndependence, IterationsStayBoundedOverUniformLevels) {
+  const CellType type = GetParam();
+  const int dim = mesh::dimension(type);
+  mesh::Grid grid(mesh::boxMesh(type, 2));
+  std::vector<int> iterations;
+  for (int level = 1; level <= (dim == 2 ? 4 : 3); ++level) {
+    grid.refineUniformly();
+    const mesh::Mesh m = grid.leafView().mesh;
+    auto run = [&]<int d>(std::integral_constant<int, d>) {
+      const auto obstacle = standardObstacle<d>();
+      const ContactSet cs(m, mesh::kBottom, *obstacle);
+      const ContactProblem<d> problem(m, kMaterial, standardLoad<d>(), cs);
+      const Outcome<d> r = solve(grid, problem, false, tightOptions<d>(), std::string(mesh::name(type)));
+      EXPECT_TRUE(r.tnnmg.converged);
+      EXPECT_LT(r.tnnmg.kkt.max(), 1e-8);
+      EXPECT_LE(r.statistics.operatorUpdates, r.tnnmg.iterations);
+      iterations.push_back(r.tnnmg.iterations);
+    };
+    if (dim == 2) run(std::integral_constant<int, 2>{});
+    else run(std::integral_constant<int, 3>{});
+  }
+  for (std::size_t l = 0; l < iterations.size(); ++l) {
+    EXPECT_LE(iterations[l], 20) << "level " << l + 1;
+    if (l > 0) {
+      EXPECT_LE(iterations[l], iterations[l - 1] + 3) << "level " << l + 1;
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Types, TnnmgMeshIndependence,
+                         ::testing::Values(CellType::Quadrilateral, CellType::Triangle, CellType::Hexahedron,
+                                           CellType::Tetrahedron),
+                         [](const auto& info) { return std::string(mesh::name(info.param)); });
+
+// Local refinement near the contact zone (red refinement with green closures, level views that
+// contain coarser leaves). Asserted: at most 20 iterations after every adaptation cycle and
+// agreement with PDAS on the final grid.
+class TnnmgLocalRefinement : public ::testing::TestWithParam<CellType> {};
+
+TEST_P(TnnmgLocalRefinement, IterationsStayBoundedAndAgreeWithPdas) {
+  const CellType type = GetParam();
+  const int dim = mesh::dimension(type);
+  mesh::Grid grid = uniformGrid(type, 2, 1);
+  const int cycles = dim == 2 ? 5 : 3;
+  for (int cycle = 0; cycle < cycles; ++cycle) {
+    refineNear(grid, dim == 2 ? P(0.5, 0) : P(0.5, 0.5, 0), dim == 2 ? 0.3 : 0.35, 1);
+    const mesh::Mesh m = grid.leafView().mesh;
+    auto run = [&]<int d>(std::integral_constant<int, d>) {
+      const auto obstacle = standardObstacle<d>();
+      const ContactSet cs(m, mesh::kBottom, *obstacle);
+      const ContactProblem<d> problem(m, kMaterial, standardLoad<d>(), cs);
+      const bool last = cycle + 1 == cycles;
+      const Outcome<d> r = solve(grid, problem, last, tightOptions<d>(), "local " + std::string(mesh::name(type)));
+      EXPECT_TRUE(r.tnnmg.converged);
+      EXPECT_LE(r.tnnmg.iterations, 20) << "cycle " << cycle;
+      EXPECT_LT(r.tnnmg.kkt.max(), 1e-8);
+      if (last) expectAgreement(problem, r);
+    };
+    if (dim == 2) run(std::integral_constant<int, 2>{});
+    else run(std::integral_constant<int, 3>{});
+  }
+  EXPECT_GE(grid.maxLevel(), cycles);
+}
+
+INSTANTIATE_TEST_SUITE_P(Types, TnnmgLocalRefinement,
+                         ::testing::Values(CellType::Quadrilateral, CellType::Triangle, CellType::Hexahedron,
+                                           CellType::Tetrahedron),
+                         [](const auto& info) { return std::string(mesh::name(info.param)); });
+
+// --- obstacles, boundary data, starts -------------------------------------------------------------
+
+TEST(Tnnmg, BallObstaclesWithNormalDirections) {
+  {  // 2D disk, nu_p = normal of the disk at the closest point
+    const mesh::Grid grid = uniformGrid(CellType::Quadrilateral, 2, 3);
+    const mesh::Mesh m = grid.leafView().mesh;
+    const ContactSet cs(m, mesh::kBottom, DiskObstacle(P(0.5, -0.5), 0.5, -Point::UnitY(), BallObstacle::Direction::Normal));
+    const ContactProblem<2> problem(m, kMaterial, pressedFromTop(P(0, -0.03)), cs);
+    const Outcome<2> r = solve(grid, problem, true, tightOptions<2>(), "disk normal");
+    expectAgreement(problem, r);
+  }
+  {  // 3D ball, normal directions
+    const mesh::Grid grid = uniformGrid(CellType::Hexahedron, 2, 2);
+    const mesh::Mesh m = grid.leafView().mesh;
+    const ContactSet cs(m, mesh::kBottom,
+                        BallObstacle(P(0.5, 0.5, -0.75), 0.75, -Point::UnitZ(), BallObstacle::Direction::Normal));
+    const ContactProblem<3> problem(m, kMaterial, pressedFromTop(P(0, 0, -0.04)), cs);
+    const Outcome<3> r = solve(grid, problem, true, tightOptions<3>(), "ball normal");
+    expectAgreement(problem, r);
+  }
+}
+
+TEST(Tnnmg, FarObstacleGivesTheLinearSolution) {
+  const mesh::Grid grid = uniformGrid(CellType::Triangle, 2, 3);
+  const mesh::Mesh m = grid.leafView().mesh;
+  BoundaryConditions bc = pressedFromTop(P(0.002, -0.01));
+  bc.bodyForce = [](const Point&) { return Eigen::Vector3d(0, -1e3, 0); };
+  const ContactSet cs(m, mesh::kBottom, PlaneObstacle(P(0, -10), P(0.3, -1)));  // oblique: rotations
+  const ContactProblem<2> problem(m, kMaterial, bc, cs);
+  const Eigen::VectorXd linear = solveLinearElasticity(m, kMaterial, bc).displacement;
+  auto o = tightOptions<2>();
+  o.tolerance = 1e-12;
+  const Outcome<2> r = solve(grid, problem, false, o, "far");
+  EXPECT_TRUE(r.tnnmg.converged);
+  EXPECT_EQ(r.tnnmg.activeSetSize, 0);
+  EXPECT_LT((r.u - linear).norm(), 1e-9 * linear.norm());
+  EXPECT_EQ(r.statistics.operatorUpdates, 0);  // the truncation never changes (Dirichlet only)
+}
+
+TEST(Tnnmg, RollerAndObliqueConstraintOnTheContactBoundary) {
+  // symmetry roller u_x = 0 on the left side, whose bottom vertex is a contact node of an oblique
+  // plane: the effective constraint of that node acts on u_y alone
+  mesh::Grid refined(mesh::boxMesh(CellType::Quadrilateral, {4, 4, 1}, P(0, 0), P(0.5, 1)));
+  refined.refineUniformly();
+  refined.refineUniformly();
+  const mesh::Mesh m = refined.leafView().mesh;
+  BoundaryConditions bc = pressedFromTop(P(0, -0.01));
+  bc.dirichlet.push_back({mesh::kLeft, {true, false, false}, [](const Point&) { return P(0.001, 0); }});
+  const ContactSet cs(m, mesh::kBottom, PlaneObstacle(P(0, -0.004), P(1, -1)));
+  const ContactProblem<2> problem(m, kMaterial, bc, cs);
+  const Outcome<2> r = solve(refined, problem, true, tightOptions<2>(), "roller");
+  expectAgreement(problem, r);
+  EXPECT_EQ(r.u[cs.vertex(0) * 2], 0.001);  // the prescribed value is kept exactly
+}
+
+TEST(Tnnmg, PenetratingStartIsPushedOut) {
+  const mesh::Grid grid = uniformGrid(CellType::Quadrilateral, 2, 3);
+  const mesh::Mesh m = grid.leafView().mesh;
+  const ContactSet cs(m, mesh::kBottom, PlaneObstacle(P(0, 0.005), P(0, -1)));
+  const ContactProblem<2> problem(m, kMaterial, pressedFromTop(P(0, 0)), cs);
+  const Outcome<2> r = solve(grid, problem, true, tightOptions<2>(), "penetrating");
+  expectAgreement(problem, r);
+  EXPECT_EQ(r.tnnmg.activeSetSize, cs.size());
+}
+
+TEST(Tnnmg, PostSmoothingAndDirectCorrection) {
+  const mesh::Grid grid = uniformGrid(CellType::Triangle, 2, 3);
+  const mesh::Mesh m = grid.leafView().mesh;
+  const ContactSet cs(m, mesh::kBottom, DiskObstacle(P(0.5, -0.5), 0.5));
+  const ContactProblem<2> problem(m, kMaterial, pressedFromTop(P(0, -0.03)), cs);
+  PrimalDualActiveSet<2> pdas;
+  Eigen::VectorXd ref;
+  pdas.solve(problem, ref);
+
+  auto o = tightOptions<2>();
+  o.preSmoothing = 1;
+  o.postSmoothing = 1;
+  Outcome<2> r = solve(grid, problem, false, o, "post-smoothing");
+  EXPECT_TRUE(r.tnnmg.converged);
+  EXPECT_LT((r.u - ref).norm(), 1e-8 * ref.norm());
+
+  // the exact truncated Newton step as linear correction: few iterations, same solution
+  TNNMG<2> direct(grid, tightOptions<2>(), std::make_unique<DirectCorrection<2>>());
+  Eigen::VectorXd u;
+  const ContactResult rd = direct.solve(problem, u);
+  EXPECT_TRUE(rd.converged);
+  EXPECT_LE(rd.iterations, 8);
+  EXPECT_LT((u - ref).norm(), 1e-8 * ref.norm());
+  if (verbose()) std::cout << "  direct correction: " << rd.iterations << " it\n";
+}
+
+TEST(Tnnmg, HistoryRecordsTruncationChanges) {
+  const mesh::Grid grid = uniformGrid(CellType::Quadrilateral, 2, 3);
+  const mesh::Mesh m = grid.leafView().mesh;
+  const ContactSet cs(m, mesh::kBottom, DiskObstacle(P(0.5, -0.5), 0.5));
+  const ContactProblem<2> problem(m, kMaterial, pressedFromTop(P(0, -0.03)), cs);
+  const Outcome<2> r = solve(grid, problem, false);
+  Index total = 0;
+  int changed = 0;
+  for (const IterationRecord& h : r.tnnmg.history) {
+    total += h.truncationChanges;
+    changed += h.truncationChanges > 0;
+  }
+  EXPECT_EQ(total, r.statistics.truncationChanges);
+  EXPECT_EQ(changed, r.statistics.operatorUpdates);  // coarse operators recomputed exactly then
+  EXPECT_GT(total, 0);
+  EXPECT_EQ(r.tnnmg.history.back().truncationChanges, 0);  // the active set has settled
+}
+
+TEST(Tnnmg, IterationCapReturnsNotConvergedAndFeasible) {
+  const mesh::Grid grid = uniformGrid(CellType::Quadrilateral, 2, 3);
+  const mesh::Mesh m = grid.leafView().mesh;
+  const ContactSet cs(m, mesh::kBottom, DiskObstacle(P(0.5, -0.5), 0.5));
+  const ContactProblem<2> problem(m, kMaterial, pressedFromTop(P(0, -0.03)), cs);
+  auto o = tightOptions<2>();
+  o.maxIterations = 2;
+  const Outcome<2> r = solve(grid, problem, false, o);
+  EXPECT_FALSE(r.tnnmg.converged);
+  EXPECT_EQ(r.tnnmg.iterations, 2);
+  EXPECT_LE(problem.maxViolation(r.u), 0.0);
+}
+
+TEST(Tnnmg, ProblemOnAnotherMeshIsAnError) {
+  const mesh::Grid grid = uniformGrid(CellType::Quadrilateral, 2, 2);
+  const mesh::Mesh other = mesh::boxMesh(CellType::Quadrilateral, 5);
+  const ContactSet cs(other, mesh::kBottom, PlaneObstacle(P(0, 0), P(0, -1)));
+  const ContactProblem<2> problem(other, kMaterial, pressedFromTop(P(0, -0.01)), cs);
+  TNNMG<2> tnnmg(grid);
+  Eigen::VectorXd u;
+  try {
+    tnnmg.solve(problem, u);
+    ADD_FAILURE() << "no obs::Error";
+  } catch (const obs::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("leaf view"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(TNNMG<3>{grid}, obs::Error);
+  typename TNNMG<2>::Options bad;
+  bad.preSmoothing = 0;
+  EXPECT_THROW((TNNMG<2>{grid, bad}), obs::Error);
+}
