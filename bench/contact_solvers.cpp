@@ -1,7 +1,8 @@
 // Contact solver comparison: TNNMG, the primal-dual active set method with CHOLMOD (PDAS) and
 // projected Gauss-Seidel (PGS) on the thesis' punch (Example 1, 2D quadrilaterals) and Hertz problem
 // (Example 3, 3D hexahedra and tetrahedra) at increasing uniform refinement, plus one linear
-// multigrid solve of the same size without contact (the contact boundary clamped instead). Per run:
+// multigrid solve of the same size without contact (punch, Hertz: the contact boundary clamped instead;
+// step-42: the ball's indentation profile min(g, 0) prescribed as the vertical displacement). Per run:
 // unknowns, iterations, wall time, peak memory. Each run is a child process (fork), so the peak
 // resident set size (getrusage ru_maxrss) is that of the run alone: problem assembly plus solver.
 // Writes a markdown table (docs/performance.md keeps the figures); progress goes to stderr.
@@ -12,7 +13,11 @@
 // Options:
 //   --punch-levels a-b     uniform levels of the punch (coarse grid 4 x 4 quadrilaterals), default 2-5
 //   --hertz-levels a-b     uniform levels of the Hertz problem (coarse 2 x 2 x 2 cubes), default 1-3
+//   --hertz-coarse n       coarse Hertz grid n x n x n cubes (default 2; n = 3 with level 4 gives the
+//                          352,947 unknowns of the dolfinx reference run)
 //   --hertz-types list     hexahedron,tetrahedron (default both)
+//   --step42-levels a-b    the linear-elastic step-42 peer case (unit cube, ball R = 0.6 at
+//                          (0.5, 0.5, 1.59), E = 2e5, nu = 0.3; coarse 2^3 hexahedra), default: not run
 //   --solvers list         tnnmg,pdas,pgs,mg (default all)
 //   --pdas-max-dofs-2d N   skip PDAS above N unknowns in 2D (default 2500000)
 //   --pdas-max-dofs-3d N   skip PDAS above N unknowns in 3D (default 200000)
@@ -54,7 +59,8 @@ namespace {
 const Material kMaterial{3e5, 0.25};  // MATH.md §4
 
 struct Settings {
-  int punchFrom = 2, punchTo = 5, hertzFrom = 1, hertzTo = 3;
+  int punchFrom = 2, punchTo = 5, hertzFrom = 1, hertzTo = 3, hertzCoarse = 2;
+  int step42From = 1, step42To = 0;  // not run by default
   std::vector<CellType> hertzTypes{CellType::Hexahedron, CellType::Tetrahedron};
   std::vector<std::string> solvers{"tnnmg", "pdas", "pgs", "mg"};
   long long pdasMax2D = 2500000, pdasMax3D = 200000;
@@ -68,7 +74,7 @@ struct Measurement {
   bool ran = false, converged = false, failed = false;
   int iterations = 0;
   long long dofs = 0, active = 0;
-  double seconds = 0, setupSeconds = 0, energy = 0, kkt = 0;
+  double seconds = 0, setupSeconds = 0, totalSeconds = 0, energy = 0, kkt = 0;
   double rssBeforeMB = 0, peakMB = 0;
   int operatorUpdates = 0;
   char message[160] = {};
@@ -95,6 +101,7 @@ Measurement isolated(F f) {
   const pid_t pid = fork();
   if (pid == 0) {
     close(fd[0]);
+    const auto start = Clock::now();
     Measurement m;
     try {
       m = f();
@@ -103,6 +110,7 @@ Measurement isolated(F f) {
       std::snprintf(m.message, sizeof m.message, "%s", e.what());
     }
     m.ran = true;
+    m.totalSeconds = since(start);
     m.peakMB = rssMB();
     if (write(fd[1], &m, sizeof m) != static_cast<ssize_t>(sizeof m)) _exit(1);
     _exit(0);
@@ -121,41 +129,62 @@ Measurement isolated(F f) {
   return m;
 }
 
-/// The problems: punch (d = 2) and Hertz (d = 3) on the leaf view of a uniformly refined grid.
+/// The problems, on the leaf view of a uniformly refined grid: the punch (d = 2), the Hertz problem and
+/// the linear-elastic step-42 peer case (d = 3).
+enum class Problem { Punch, Hertz, Step42 };
+
 template <int d>
 struct Setup {
   mesh::Grid grid;
   mesh::Mesh mesh;
+  Material material = kMaterial;
   std::unique_ptr<Obstacle> obstacle;
   BoundaryConditions bc;
   std::optional<ContactSet> contact;
   std::optional<ContactProblem<d>> problem;
+  int contactBoundary = mesh::kBottom;
 
-  Setup(CellType type, int level) : grid(mesh::boxMesh(type, d == 2 ? 4 : 2)) {
+  Setup(Problem which, CellType type, int coarse, int level) : grid(mesh::boxMesh(type, coarse)) {
     for (int l = 0; l < level; ++l) grid.refineUniformly();
     mesh = grid.leafView().mesh;
-    const Point top = d == 2 ? Point(0, -0.01, 0) : Point(0, 0, -0.005);
-    bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [top](const Point&) { return top; }});
-    if constexpr (d == 2)  // g = 0 on x in [0.4375, 0.5625], direction -e_y
+    const auto fixed = [](const Point&) { return Point::Zero(); };
+    if (which == Problem::Punch) {  // g = 0 on x in [0.4375, 0.5625], direction -e_y (MATH.md §4)
+      bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Point(0, -0.01, 0); }});
       obstacle = std::make_unique<StripObstacle>(Point(0.5, 0, 0), 0.0625, Point(0, -1, 0));
-    else  // rigid ball R = 0.75 touching (0.5, 0.5, 0)
+    } else if (which == Problem::Hertz) {  // rigid ball R = 0.75 touching (0.5, 0.5, 0) (MATH.md §4)
+      bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Point(0, 0, -0.005); }});
       obstacle = std::make_unique<BallObstacle>(Point(0.5, 0.5, -0.75), 0.75);
+    } else {  // step-42, linear elastic: ball R = 0.6 at (0.5, 0.5, 1.59) pressed 0.01 into the top face
+      material = Material{2e5, 0.3};
+      bc.dirichlet.push_back({mesh::kBottom, {true, true, true}, fixed});
+      for (int side : {mesh::kLeft, mesh::kRight, mesh::kFront, mesh::kBack})
+        bc.dirichlet.push_back({side, {true, true, false}, fixed});
+      obstacle = std::make_unique<BallObstacle>(Point(0.5, 0.5, 1.59), 0.6, Point::UnitZ());
+      contactBoundary = mesh::kTop;
+    }
   }
   void assemble() {
-    contact.emplace(mesh, mesh::kBottom, *obstacle);
-    problem.emplace(mesh, kMaterial, bc, *contact);
+    contact.emplace(mesh, contactBoundary, *obstacle);
+    problem.emplace(mesh, material, bc, *contact);
   }
 };
 
 template <int d>
-Measurement runSolver(CellType type, int level, const std::string& solver, const Settings& s) {
-  Setup<d> setup(type, level);
+Measurement runSolver(Problem which, CellType type, int coarse, int level, const std::string& solver,
+                      const Settings& s) {
+  Setup<d> setup(which, type, coarse, level);
   Measurement m;
   if (solver == "mg") {
     // the same mesh and data, the contact boundary clamped instead of the obstacle
     BoundaryConditions bc = setup.bc;
-    bc.dirichlet.push_back({mesh::kBottom, {true, true, true}, [](const Point&) { return Point::Zero(); }});
-    BlockSparseMatrix<d> A = assembleStiffness<d>(setup.mesh, kMaterial);
+    if (which == Problem::Step42) {  // the ball's indentation profile prescribed on the top face
+      const Obstacle* ball = setup.obstacle.get();
+      bc.dirichlet.push_back({mesh::kTop, {false, false, true},
+                              [ball](const Point& x) { return Point(0, 0, std::min(ball->gap(x), 0.0)); }});
+    } else {
+      bc.dirichlet.push_back({setup.contactBoundary, {true, true, true}, [](const Point&) { return Point::Zero(); }});
+    }
+    BlockSparseMatrix<d> A = assembleStiffness<d>(setup.mesh, setup.material);
     Eigen::VectorXd b = assembleLoad<d>(setup.mesh, bc);
     const DirichletValues g = collectDirichlet(setup.mesh, bc.dirichlet);
     applyDirichlet(A, b, g);
@@ -254,11 +283,12 @@ bool has(const std::vector<std::string>& list, const std::string& s) {
 }
 
 template <int d>
-void study(const std::string& title, CellType type, int from, int to, const Settings& s, std::ostream& md) {
+void study(const std::string& title, Problem which, CellType type, int coarse, int from, int to, const Settings& s,
+           std::ostream& md) {
   md << "### " << title << "\n\n"
-     << "| level | unknowns | active | TNNMG it | TNNMG s | TNNMG MB | updates | PDAS it | PDAS s | PDAS MB "
+     << "| level | unknowns | active | TNNMG it | TNNMG s | TNNMG MB | TNNMG run s | updates | PDAS it | PDAS s | PDAS MB "
         "| PGS it | PGS s | PGS MB | MG it | MG s | MG MB | TNNMG / MG | PDAS / TNNMG | energy diff |\n"
-     << "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+     << "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   for (int level = from; level <= to; ++level) {
     std::map<std::string, Measurement> res;
     const long long pdasMax = d == 2 ? s.pdasMax2D : s.pdasMax3D;
@@ -267,7 +297,7 @@ void study(const std::string& title, CellType type, int from, int to, const Sett
       if (!has(s.solvers, solver)) continue;
       if (solver == "pdas" && dofs > pdasMax) continue;
       std::cerr << title << " level " << level << ": " << solver << " ..." << std::flush;
-      res[solver] = isolated([&] { return runSolver<d>(type, level, solver, s); });
+      res[solver] = isolated([&] { return runSolver<d>(which, type, coarse, level, solver, s); });
       const Measurement& m = res[solver];
       if (m.dofs > 0) dofs = m.dofs;
       std::cerr << " " << (m.failed ? std::string("failed: ") + m.message
@@ -285,7 +315,8 @@ void study(const std::string& title, CellType type, int from, int to, const Sett
     if (t.ran && p.ran && !t.failed && !p.failed)
       ediff = fmt("%.1e", std::abs(t.energy - p.energy) / std::max(std::abs(p.energy), 1e-300));
     md << "| " << level << " | " << dofs << " | " << (t.ran ? std::to_string(t.active) : std::string("–")) << " | "
-       << cell(t) << " | " << (t.ran ? std::to_string(t.operatorUpdates) : std::string("–")) << " | " << cell(p)
+       << cell(t) << " | " << (t.ran && !t.failed ? fmt("%.3g", t.totalSeconds) : std::string("–")) << " | "
+       << (t.ran ? std::to_string(t.operatorUpdates) : std::string("–")) << " | " << cell(p)
        << " | " << cell(g) << " | " << cell(mg) << " | " << ratio(t, mg) << " | " << ratio(p, t) << " | " << ediff
        << " |\n";
   }
@@ -323,6 +354,8 @@ int main(int argc, char** argv) {
       };
       if (a == "--punch-levels") std::tie(s.punchFrom, s.punchTo) = parseRange(value());
       else if (a == "--hertz-levels") std::tie(s.hertzFrom, s.hertzTo) = parseRange(value());
+      else if (a == "--hertz-coarse") s.hertzCoarse = std::stoi(value());
+      else if (a == "--step42-levels") std::tie(s.step42From, s.step42To) = parseRange(value());
       else if (a == "--hertz-types") {
         s.hertzTypes.clear();
         for (const auto& t : parseList(value()))
@@ -350,14 +383,22 @@ int main(int argc, char** argv) {
      << " (relative energy-norm correction) for TNNMG, PGS and MG; PDAS stops at a repeated active set. Time: "
         "wall seconds of the solve (TNNMG: the whole solve() including its setup; MG: setOperator, "
         "truncate and solve; neither includes building the grid hierarchy; fastest of 3 runs below 5e4 "
+        "unknowns); TNNMG run s: the whole TNNMG run from nothing (grid refinement, assembly, contact set, "
+        "hierarchy, solve; all 3 repeats below 5e4 "
         "unknowns); MB: peak resident "
         "memory of the run (assembly + solver, one process per run); updates: coarse-operator "
         "recomputations; energy diff: |J(TNNMG) - J(PDAS)| / |J(PDAS)|; –: not run.\n\n";
   if (s.punchFrom <= s.punchTo)
-    study<2>("Punch (2D, quadrilaterals, coarse 4 x 4)", CellType::Quadrilateral, s.punchFrom, s.punchTo, s, md);
+    study<2>("Punch (2D, quadrilaterals, coarse 4 x 4)", Problem::Punch, CellType::Quadrilateral, 4, s.punchFrom,
+             s.punchTo, s, md);
+  const std::string c = std::to_string(s.hertzCoarse);
   for (CellType t : s.hertzTypes)
     if (s.hertzFrom <= s.hertzTo)
-      study<3>("Hertz (3D, " + std::string(mesh::name(t)) + ", coarse 2 x 2 x 2)", t, s.hertzFrom, s.hertzTo, s, md);
+      study<3>("Hertz (3D, " + std::string(mesh::name(t)) + ", coarse " + c + " x " + c + " x " + c + ")",
+               Problem::Hertz, t, s.hertzCoarse, s.hertzFrom, s.hertzTo, s, md);
+  if (s.step42From <= s.step42To)
+    study<3>("step-42 peer case (3D, hexahedron, coarse 2 x 2 x 2; level 5 = 64^3)", Problem::Step42,
+             CellType::Hexahedron, 2, s.step42From, s.step42To, s, md);
   std::ofstream out(output);
   out << md.str();
   if (!out) {

@@ -1,6 +1,7 @@
 #include "obs/obs/PrimalDualActiveSet.hpp"
 
 #include <cmath>
+#include <optional>
 #include <set>
 
 #include "obs/mesh/Error.hpp"
@@ -35,6 +36,9 @@ ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Ei
   std::vector<char> active(bounded.size()), previous;
   std::set<std::vector<char>> seen;
   bool setRepeated = false;
+  // The active set only changes values (Dirichlet rows/columns), never the pattern: the ordering and
+  // symbolic analysis of the first step are reused by every later factorisation.
+  std::optional<CholmodSolver> cholmod;
   for (int k = 0;; ++k) {
     Index activeCount = 0;
     for (std::size_t i = 0; i < bounded.size(); ++i) {
@@ -65,9 +69,12 @@ ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Ei
         fixed.values[bounded[i] * d] = rot.upper[bounded[i]];
       }
     applyDirichlet(Ak, bk, fixed);
-    const CholmodSolver cholmod(Ak);
-    factorSeconds_ += cholmod.factorSeconds();
-    Eigen::VectorXd next = cholmod.solve(bk);
+    if (cholmod)
+      cholmod->refactorize(Ak);
+    else
+      cholmod.emplace(Ak);
+    factorSeconds_ += cholmod->factorSeconds();
+    Eigen::VectorXd next = cholmod->solve(bk);
     for (std::size_t i = 0; i < bounded.size(); ++i)
       if (active[i]) next[bounded[i] * d] = rot.upper[bounded[i]];  // exactly on the bound
 
