@@ -1,8 +1,10 @@
 // obs — the command-line program of the obs finite element library.
 //
 // Reads a scene file (TOML, see docs/scenes.md) describing a linear-elastic body — mesh, material,
-// Dirichlet and Neumann data, body force, outputs — solves it and writes a .vtu file for ParaView,
-// summary.json (sizes, times, memory, extremes) and optionally a CSV row per run.
+// Dirichlet and Neumann data, body force, optionally a rigid obstacle ([contact], Signorini
+// problem solved by TNNMG, PDAS or PGS) and the solver, outputs — solves it and writes a .vtu file
+// for ParaView, summary.json (sizes, times, memory, extremes, solver and contact figures) and a CSV
+// row per run. Contact example: build/drivers/obs run data/scenes/punch.toml --verbose
 //
 // Sample run:
 //   build/drivers/obs run data/scenes/cantilever.toml
@@ -47,11 +49,13 @@ void printError(std::string message) {
 }
 
 int runCommand(const std::string& scene, const std::optional<std::string>& output,
-               std::optional<int> refine, bool quiet) {
+               std::optional<int> refine, bool quiet, bool verbose) {
   obs::drivers::RunOptions options;
   if (output) options.outputDirectory = *output;
   options.refine = refine;
   if (!quiet) options.progress = [](const std::string& line) { std::cout << line << std::endl; };
+  if (verbose)
+    options.iterationProgress = [](const std::string& line) { std::cerr << line << std::endl; };
   obs::drivers::runScene(std::filesystem::path(scene), options);
   return 0;
 }
@@ -115,7 +119,7 @@ int main(int argc, char** argv) {
   std::string scene;
   std::optional<std::string> output;
   std::optional<int> refine;
-  bool quiet = false;
+  bool quiet = false, verbose = false;
   CLI::App* run =
       app.add_subcommand("run", "Solve the scene in a scene file and write the results");
   run->add_option("scene", scene, "Scene file (TOML), see docs/scenes.md")
@@ -128,9 +132,14 @@ int main(int argc, char** argv) {
       ->type_name("K")
       ->check(CLI::Range(0, 12));
   run->add_flag("--quiet,-q", quiet, "Print nothing but errors");
+  run->add_flag("--verbose,-v", verbose,
+                "Contact solvers: one line per block of iterations on stderr (1-10, 20, 30, ..., "
+                "100, 200, ...)");
   run->footer(
       "Writes <output>/<scene name>.vtu (displacement, stress, von_mises, boundary_id,\n"
-      "element_type; open it in ParaView), <output>/summary.json (sizes, times, memory) and\n"
+      "element_type; contact scenes also gap, normal_displacement, contact_pressure,\n"
+      "contact_state, constraint_direction; open it in ParaView), <output>/summary.json (sizes,\n"
+      "times, memory, solver, contact) and\n"
       "appends one row per run to <output>/runs.csv ([output] csv names another file).\n"
       "Example: obs run data/scenes/cantilever.toml --output out/cantilever --refine 1\n"
       "The scene file format is documented in docs/scenes.md.\n");
@@ -201,7 +210,7 @@ int main(int argc, char** argv) {
   }
 
   try {
-    if (run->parsed()) return runCommand(scene, output, refine, quiet);
+    if (run->parsed()) return runCommand(scene, output, refine, quiet, verbose);
     if (check->parsed()) return checkCommand(checkScenes, checkRefine);
     if (meshCmd->parsed()) {
       meshOptions.scene = meshScene;

@@ -10,6 +10,7 @@
 #include "obs/drivers/CsvWriter.hpp"
 #include "obs/drivers/SceneParser.hpp"
 #include "obs/drivers/SceneSetup.hpp"
+#include "obs/drivers/SceneSolver.hpp"
 #include "obs/drivers/SolutionFields.hpp"
 #include "obs/drivers/Summary.hpp"
 #include "obs/drivers/VtkWriter.hpp"
@@ -66,7 +67,8 @@ RunResult runScene(const Scene& scene, const RunOptions& options) {
 
   // mesh
   auto t = Clock::now();
-  const mesh::Mesh mesh = buildMesh(scene, options.refine);
+  const mesh::Grid grid = buildGrid(scene, options.refine);
+  const mesh::Mesh mesh = grid.leafView().mesh;
   validateScene(scene, mesh);
   const BoundaryConditions bc = makeBoundaryConditions(scene, mesh);
   r.meshSeconds = secondsSince(t);
@@ -80,21 +82,35 @@ RunResult runScene(const Scene& scene, const RunOptions& options) {
            std::to_string(r.dimension) + "D, " + seconds(r.meshSeconds) + ")");
 
   // assemble and solve
-  const ElasticitySolution solution = solveLinearElasticity(mesh, scene.material, bc);
+  auto assembled = [&](const ElasticitySolution& e) {
+    progress("assembled: " + std::to_string(e.dofs) + " dofs (" + std::to_string(e.freeDofs) +
+             " free) in " + seconds(e.assemblySeconds));
+  };
+  const SceneSolution solved =
+      solveScene(scene, grid, mesh, bc, options.iterationProgress, assembled);
+  const ElasticitySolution& solution = solved.elasticity;
   r.dofs = solution.dofs;
   r.freeDofs = solution.freeDofs;
   r.assemblySeconds = solution.assemblySeconds;
   r.solveSeconds = solution.solveSeconds;
+  r.solver = solved.solver;
+  r.contact = solved.contact;
   for (mesh::Index v = 0; v < mesh.numVertices(); ++v)
     r.maxDisplacement = std::max(
         r.maxDisplacement, solution.displacement.segment(v * r.dimension, r.dimension).norm());
   for (const Stress& s : solution.cellStress) r.maxVonMises = std::max(r.maxVonMises, vonMises(s));
-  progress("assembled: " + std::to_string(r.dofs) + " dofs (" + std::to_string(r.freeDofs) +
-           " free) in " + seconds(r.assemblySeconds));
   {
     std::ostringstream os;
-    os << "solved in " << seconds(r.solveSeconds) << ": max |u| = " << std::setprecision(6)
-       << r.maxDisplacement << ", max von Mises = " << r.maxVonMises;
+    os << "solved in " << seconds(r.solveSeconds);
+    if (r.solver.type != "direct")
+      os << " (" << r.solver.type << ", " << r.solver.iterations
+         << (r.solver.iterations == 1 ? " iteration" : " iterations")
+         << (r.solver.converged ? "" : ", NOT converged") << ")";
+    os << ": max |u| = " << std::setprecision(6) << r.maxDisplacement
+       << ", max von Mises = " << r.maxVonMises;
+    if (r.contact)
+      os << "; contact: " << r.contact->actualVertices << " of " << r.contact->potentialVertices
+         << " vertices, P = " << r.contact->load;
     progress(os.str());
   }
 
@@ -106,7 +122,8 @@ RunResult runScene(const Scene& scene, const RunOptions& options) {
   if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
   if (scene.output.vtk) {
     const auto path = dir / (scene.name + ".vtu");
-    const auto pf = pointFields(mesh, solution);
+    auto pf = pointFields(mesh, solution);
+    pf.insert(pf.end(), solved.contactFields.begin(), solved.contactFields.end());
     const auto cf = cellFields(mesh, solution);
     writeVtu(path, mesh, pf, cf);
     r.outputFiles.push_back(path);
@@ -128,6 +145,15 @@ RunResult runScene(const Scene& scene, const RunOptions& options) {
   std::string written;
   for (const auto& f : r.outputFiles) written += (written.empty() ? "" : ", ") + f.string();
   progress("written: " + written);
+  if (!r.solver.converged) {
+    std::ostringstream os;
+    os << scene.where(scene.solver.line) << "[solver] " << r.solver.type << " did not converge in "
+       << r.solver.iterations << " iterations (correction " << std::setprecision(3)
+       << r.solver.correction << ", tolerance " << r.solver.tolerance;
+    if (r.solver.kkt) os << ", KKT residual " << r.solver.kkt->max();
+    os << "); raise [solver] max_iterations or tolerance (outputs written to " << dir.string() << ")";
+    throw Error(os.str());
+  }
   return r;
 }
 

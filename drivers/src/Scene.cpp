@@ -10,4 +10,9 @@ std::string Scene::where(int line) const {
   return line > 0 ? fileName + ":" + std::to_string(line) + ": " : fileName + ": ";
 }
 
+std::string Scene::solverType() const {
+  if (!solver.type.empty()) return solver.type;
+  return contact ? "tnnmg" : "direct";
+}
+
 }  // namespace obs::drivers

@@ -8,6 +8,7 @@
 #include <sstream>
 
 #include "TomlSection.hpp"
+#include "obs/drivers/ObstacleFactory.hpp"
 #include "obs/mesh/Error.hpp"
 
 namespace obs::drivers {
@@ -16,7 +17,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr const char* kSections = "mesh, material, dirichlet, neumann, body_force, output";
+constexpr const char* kSections =
+    "mesh, material, dirichlet, neumann, body_force, contact, solver, output";
 constexpr int kMaxRefine = 12;
 constexpr long long kMaxBoxCells = 100'000'000;
 
@@ -240,6 +242,160 @@ NeumannSpec parseNeumann(const Scene& scene, const toml::value& table) {
   return spec;
 }
 
+/// An array of 2 or 3 finite numbers (a point or a direction; its length is checked against the
+/// mesh dimension by makeObstacle).
+ContactSpec::Vector contactVector(const TomlSection& s, const std::string& key) {
+  const toml::value& v = s.at(key);
+  if (!v.is_array())
+    s.fail(key, "must be an array of 2 or 3 numbers, got " + typeNameOf(v));
+  const auto& a = v.as_array();
+  if (a.size() < 2 || a.size() > 3)
+    s.fail(key, "= " + literalOf(v) + " must have 2 or 3 entries (one per coordinate), got " +
+                    std::to_string(a.size()));
+  ContactSpec::Vector out;
+  out.line = s.line(key);
+  out.values = numbers(s, key, static_cast<int>(a.size()));
+  return out;
+}
+
+ContactSpec parseContact(const Scene& scene, const toml::value& table) {
+  const TomlSection s(scene.fileName, "[contact]", table, contactKeys());
+  ContactSpec spec;
+  spec.line = s.line();
+  spec.boundary = s.boundary("boundary");
+  spec.obstacle = s.string("obstacle");
+  spec.obstacleLine = s.line("obstacle");
+  const ObstacleType* type = findObstacleType(spec.obstacle);
+  if (!type)
+    s.fail("obstacle", "= \"" + spec.obstacle + "\" is unknown (known obstacles: " +
+                           obstacleTypeNames() + ")");
+  std::string keys;
+  for (const ObstacleParameter& p : type->parameters)
+    keys += (keys.empty() ? "" : ", ") + std::string(p.key);
+  // keys of other obstacle types, first in file order
+  std::string stray;
+  int strayLine = 0;
+  for (const std::string& key : contactKeys()) {
+    if (key == "boundary" || key == "obstacle" || !s.has(key)) continue;
+    const bool own = std::any_of(type->parameters.begin(), type->parameters.end(),
+                                 [&](const ObstacleParameter& p) { return key == p.key; });
+    if (!own && (stray.empty() || s.line(key) < strayLine)) {
+      stray = key;
+      strayLine = s.line(key);
+    }
+  }
+  if (!stray.empty())
+    s.fail(stray, "does not apply to obstacle = \"" + spec.obstacle + "\" (its parameters: " +
+                      keys + ")");
+
+  for (const ObstacleParameter& p : type->parameters) {
+    const std::string key = p.key;
+    if (!s.has(key)) {
+      if (p.required)
+        throw Error(scene.where(spec.line) + "[contact] obstacle = \"" + spec.obstacle +
+                    "\" needs " + key + " (its parameters: " + keys + ")");
+      continue;
+    }
+    switch (p.kind) {
+      case ObstacleParameter::Kind::Number: {
+        const double v = s.number(key);
+        if (p.range == ObstacleParameter::Range::Positive && !(v > 0))
+          s.fail(key, "= " + literalOf(s.at(key)) + " must be positive");
+        if (p.range == ObstacleParameter::Range::NonNegative && !(v >= 0))
+          s.fail(key, "= " + literalOf(s.at(key)) + " must not be negative");
+        spec.numbers[key] = {v, s.line(key)};
+        break;
+      }
+      case ObstacleParameter::Kind::Point:
+        spec.vectors[key] = contactVector(s, key);
+        break;
+      case ObstacleParameter::Kind::Direction: {
+        spec.directionLine = s.line(key);
+        const toml::value& v = s.at(key);
+        if (v.is_string()) {
+          if (v.as_string().str != "normal")
+            s.fail(key, "= " + literalOf(v) + " must be \"normal\" or a vector");
+          if (!type->normalDirection)
+            s.fail(key, "= \"normal\" is not available for obstacle = \"" + spec.obstacle +
+                            "\" (only ball and disk); give a vector");
+          spec.normalDirection = true;
+        } else {
+          spec.vectors[key] = contactVector(s, key);
+          const auto& d = spec.vectors[key].values;
+          if (std::all_of(d.begin(), d.end(), [](double x) { return x == 0.0; }))
+            s.fail(key, "= " + literalOf(v) + " must be a non-zero vector");
+        }
+        break;
+      }
+      case ObstacleParameter::Kind::Expression:
+        spec.gap = s.expression(key);
+        spec.gapLine = s.line(key);
+        break;
+    }
+  }
+  return spec;
+}
+
+SolverSpec parseSolver(const Scene& scene, const toml::value& table, bool contact) {
+  const TomlSection s(scene.fileName, "[solver]", table,
+                      {"type", "tolerance", "max_iterations", "pre_smoothing", "post_smoothing"});
+  SolverSpec spec;
+  spec.line = s.line();
+  if (s.has("type")) {
+    spec.type = s.string("type");
+    const bool contactType = spec.type == "tnnmg" || spec.type == "pdas" || spec.type == "pgs";
+    const bool linearType = spec.type == "direct" || spec.type == "multigrid";
+    if (!contactType && !linearType)
+      s.fail("type", "= \"" + spec.type +
+                         "\" is unknown (known solvers: tnnmg, pdas, pgs for scenes with [contact]; "
+                         "direct, multigrid for scenes without)");
+    if (contact && linearType)
+      s.fail("type", "= \"" + spec.type +
+                         "\" solves linear problems only; a scene with [contact] needs tnnmg, pdas "
+                         "or pgs");
+    if (!contact && contactType)
+      s.fail("type", "= \"" + spec.type +
+                         "\" is a contact solver and needs a [contact] section (without it: direct "
+                         "or multigrid)");
+  }
+  const std::string type = spec.type.empty() ? (contact ? "tnnmg" : "direct") : spec.type;
+  auto notFor = [&](const char* key, const std::string& why) {
+    if (s.has(key)) s.fail(key, "does not apply to type = \"" + type + "\" (" + why + ")");
+  };
+  if (type == "direct") {
+    notFor("tolerance", "a direct solve");
+    notFor("max_iterations", "a direct solve");
+  }
+  if (type == "pdas")
+    notFor("tolerance", "the active set method stops when the active set repeats");
+  if (type != "tnnmg") {
+    notFor("pre_smoothing", "only tnnmg has smoothing steps");
+    notFor("post_smoothing", "only tnnmg has smoothing steps");
+  }
+  if (s.has("tolerance")) {
+    const double t = s.number("tolerance");
+    if (!(t > 0 && t < 1)) s.fail("tolerance", "= " + literalOf(s.at("tolerance")) + " must lie in (0, 1)");
+    spec.tolerance = t;
+  }
+  if (s.has("max_iterations")) {
+    const long long n = s.integer("max_iterations");
+    if (n < 1 || n > 100'000'000)
+      s.fail("max_iterations",
+             "= " + literalOf(s.at("max_iterations")) + " must lie in [1, 100000000]");
+    spec.maxIterations = static_cast<int>(n);
+  }
+  for (const char* key : {"pre_smoothing", "post_smoothing"}) {
+    if (!s.has(key)) continue;
+    const long long n = s.integer(key);
+    if (n < 0 || n > 100) s.fail(key, "= " + literalOf(s.at(key)) + " must lie in [0, 100]");
+    (std::string(key) == "pre_smoothing" ? spec.preSmoothing : spec.postSmoothing) = static_cast<int>(n);
+  }
+  if (spec.preSmoothing.value_or(3) + spec.postSmoothing.value_or(0) < 1)
+    s.fail(s.has("pre_smoothing") ? "pre_smoothing" : "post_smoothing",
+           "leaves no smoothing step: pre_smoothing + post_smoothing must be at least 1");
+  return spec;
+}
+
 OutputSpec parseOutput(const Scene& scene, const toml::value* table) {
   OutputSpec out;
   out.directory = fs::path("out") / scene.name;
@@ -285,7 +441,8 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
   std::string unknownKey;
   for (const auto& [key, value] : root.as_table()) {
     const bool known = key == "mesh" || key == "material" || key == "dirichlet" ||
-                       key == "neumann" || key == "body_force" || key == "output";
+                       key == "neumann" || key == "body_force" || key == "contact" ||
+                       key == "solver" || key == "output";
     if (!known && (!unknown || value.location().line() < unknown->location().line())) {
       unknown = &value;
       unknownKey = key;
@@ -320,6 +477,9 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
     const TomlSection s(fileName, "[body_force]", *b, {"value"});
     scene.bodyForce = s.vector("value");
   }
+  if (const toml::value* c = find("contact")) scene.contact = parseContact(scene, *c);
+  if (const toml::value* sv = find("solver"))
+    scene.solver = parseSolver(scene, *sv, scene.contact.has_value());
   scene.output = parseOutput(scene, find("output"));
   return scene;
 }

@@ -1,13 +1,15 @@
 #include "obs/drivers/SceneSetup.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <set>
 #include <sstream>
 
+#include "obs/drivers/ObstacleFactory.hpp"
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Gmsh.hpp"
-#include "obs/mesh/RedRefinement.hpp"
+#include "obs/obs/ElasticityAssembly.hpp"
 
 namespace obs::drivers {
 
@@ -129,7 +131,7 @@ std::vector<DirichletCondition> dirichletConditions(const Scene& scene, const me
 
 }  // namespace
 
-mesh::Mesh buildMesh(const Scene& scene, std::optional<int> refineOverride) {
+mesh::Grid buildGrid(const Scene& scene, std::optional<int> refineOverride) {
   const MeshSpec& spec = scene.mesh;
   mesh::Mesh m = spec.source == MeshSpec::Source::Box
                      ? mesh::boxMesh(spec.cellType, spec.cells, spec.lower, spec.upper)
@@ -149,8 +151,80 @@ mesh::Mesh buildMesh(const Scene& scene, std::optional<int> refineOverride) {
        << m.numCells() << "; the limit is " << static_cast<double>(kMaxCells) << ")";
     throw Error(os.str());
   }
-  for (int k = 0; k < refine; ++k) m = mesh::refineUniformly(m);
-  return m;
+  mesh::Grid grid(m);
+  for (int k = 0; k < refine; ++k) grid.refineUniformly();
+  return grid;
+}
+
+mesh::Mesh buildMesh(const Scene& scene, std::optional<int> refineOverride) {
+  return buildGrid(scene, refineOverride).leafMesh();
+}
+
+int contactBoundaryId(const Scene& scene, const mesh::Mesh& mesh) {
+  const ContactSpec& c = *scene.contact;
+  const int id = resolveBoundary(scene, mesh, c.boundary, "[contact]");
+  for (mesh::Index f = 0; f < mesh.numBoundaryFaces(); ++f)
+    if (mesh.boundaryFaceId(f) == id) return id;
+  throw Error(scene.where(c.boundary.line) + "[contact] boundary = " + c.boundary.describe() +
+              " has no boundary faces: the contact boundary is empty (" +
+              availableBoundaries(mesh) + ")");
+}
+
+ContactSet makeContactSet(const Scene& scene, const mesh::Mesh& mesh, const Obstacle& obstacle) {
+  const int id = contactBoundaryId(scene, mesh);
+  try {
+    return ContactSet(mesh, id, obstacle);
+  } catch (const Error& e) {
+    if (std::string(e.what()).rfind(scene.fileName, 0) == 0) throw;  // names its scene line already
+    throw Error(scene.where(scene.contact->line) + "[contact] obstacle = \"" +
+                scene.contact->obstacle + "\" on boundary " + scene.contact->boundary.describe() +
+                ": " + e.what());
+  }
+}
+
+void checkDirichletContact(const Scene& scene, const mesh::Mesh& mesh, const ContactSet& contact) {
+  const int dim = mesh.dimension();
+  const std::vector<DirichletCondition> conditions = dirichletConditions(scene, mesh);
+  const DirichletValues g = collectDirichlet(mesh, conditions);
+  for (Index k = 0; k < contact.size(); ++k) {
+    const double gap = contact.gap(k);
+    if (!std::isfinite(gap)) continue;
+    const Index v = contact.vertex(k);
+    const Point& nu = contact.direction(k);
+    double free = 0, shift = 0;
+    Point uD = Point::Zero();
+    for (int a = 0; a < dim; ++a) {
+      const std::size_t i = static_cast<std::size_t>(v) * dim + a;
+      if (g.constrained[i]) {
+        uD[a] = g.values[static_cast<Eigen::Index>(i)];
+        shift += nu[a] * uD[a];
+      } else {
+        free += nu[a] * nu[a];
+      }
+    }
+    // A free component along nu lets the solution satisfy the constraint (ContactProblem.hpp).
+    if (std::sqrt(free) > 1e-12) continue;
+    if (shift <= gap + 1e-12 * std::max({1.0, std::abs(gap), std::abs(shift)})) continue;
+    // the [[dirichlet]] entry that prescribes the vertex (later entries win, as in collectDirichlet)
+    std::string entry;
+    for (std::size_t e = 0; e < scene.dirichlet.size(); ++e)
+      for (mesh::Index f = 0; f < mesh.numBoundaryFaces(); ++f) {
+        if (mesh.boundaryFaceId(f) != conditions[e].boundaryId) continue;
+        const auto fv = mesh.boundaryFaceVertices(f);
+        if (std::find(fv.begin(), fv.end(), v) != fv.end()) {
+          entry = "[[dirichlet]] boundary = " + scene.dirichlet[e].boundary.describe() + " (line " +
+                  std::to_string(scene.dirichlet[e].line) + ")";
+          break;
+        }
+      }
+    std::ostringstream os;
+    os << scene.where(scene.contact->boundary.line) << "[contact] boundary = "
+       << scene.contact->boundary.describe() << ": vertex " << v << " at "
+       << formatPoint(mesh.vertex(v), dim) << " has the displacement " << formatPoint(uD, dim)
+       << " prescribed by " << entry << ", so u.nu = " << shift << " exceeds the gap " << gap + 0.0  // no "-0"
+       << ": the Dirichlet data violate the obstacle constraint u.nu <= g";
+    throw Error(os.str());
+  }
 }
 
 void validateScene(const Scene& scene, const mesh::Mesh& mesh) {
@@ -180,6 +254,12 @@ void validateScene(const Scene& scene, const mesh::Mesh& mesh) {
                 std::to_string(free) + " rigid motion(s) free (of " +
                 std::to_string(dim == 2 ? 3 : 6) + " in " + std::to_string(dim) +
                 "D); fix more components or boundaries");
+
+  if (scene.contact) {
+    contactBoundaryId(scene, mesh);
+    const auto obstacle = makeObstacle(scene, dim);
+    checkDirichletContact(scene, mesh, makeContactSet(scene, mesh, *obstacle));
+  }
 }
 
 BoundaryConditions makeBoundaryConditions(const Scene& scene, const mesh::Mesh& mesh) {

@@ -15,7 +15,24 @@ nlohmann::json summaryJson(const RunResult& r) {
       perType[std::string(mesh::name(t))] = n;
   nlohmann::json files = nlohmann::json::array();
   for (const auto& f : r.outputFiles) files.push_back(f.string());
-  return {
+  nlohmann::json solver = {
+      {"type", r.solver.type},
+      {"iterations", r.solver.iterations},
+      {"converged", r.solver.converged},
+      {"time_s", r.solver.seconds},
+  };
+  if (r.solver.type != "direct") {
+    solver["tolerance"] = r.solver.tolerance;
+    solver["correction"] = r.solver.correction;
+    solver["convergence_rate"] = r.solver.convergenceRate;
+  }
+  if (r.solver.kkt)
+    solver["kkt"] = {{"feasibility", r.solver.kkt->primalFeasibility},
+                     {"multiplier_sign", r.solver.kkt->dualSign},
+                     {"complementarity", r.solver.kkt->complementarity},
+                     {"stationarity", r.solver.kkt->stationarity},
+                     {"dirichlet", r.solver.kkt->dirichlet}};
+  nlohmann::json j = {
       {"obs_version", estimators::version()},
       {"scene", r.scene},
       {"dimension", r.dimension},
@@ -34,8 +51,28 @@ nlohmann::json summaryJson(const RunResult& r) {
       {"peak_memory_mb", r.peakMemoryMB},
       {"max_displacement", r.maxDisplacement},
       {"max_von_mises", r.maxVonMises},
+      {"solver", solver},
       {"output_files", files},
   };
+  if (r.contact) {
+    const ContactReport& c = *r.contact;
+    nlohmann::json force = nlohmann::json::array();
+    for (int i = 0; i < r.dimension; ++i) force.push_back(c.force[i]);
+    j["contact"] = {
+        {"obstacle", c.obstacle},
+        {"boundary", c.boundary},
+        {"boundary_vertices", c.boundaryVertices},
+        {"potential_vertices", c.potentialVertices},
+        {"actual_vertices", c.actualVertices},
+        {"force", force},
+        {"load_P", c.load},
+        {r.dimension == 3 ? "area" : "width", c.area},
+        {"radius", c.radius},
+        {"radius_nodes", c.radiusNodes},
+        {"max_violation", c.maxViolation},
+    };
+  }
+  return j;
 }
 
 void writeSummary(const std::filesystem::path& path, const RunResult& result) {

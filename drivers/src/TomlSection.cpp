@@ -20,9 +20,9 @@ std::string prefix(const std::string& fileName, int line) {
   return line > 0 ? fileName + ":" + std::to_string(line) + ": " : fileName + ": ";
 }
 
-std::string joined(std::initializer_list<const char*> names) {
+std::string joined(const std::vector<std::string>& names) {
   std::string s;
-  for (const char* n : names) s += (s.empty() ? "" : ", ") + std::string(n);
+  for (const std::string& n : names) s += (s.empty() ? "" : ", ") + n;
   return s;
 }
 
@@ -67,7 +67,7 @@ std::string typeNameOf(const toml::value& v) {
 }
 
 TomlSection::TomlSection(std::string fileName, std::string title, const toml::value& table,
-                         std::initializer_list<const char*> allowed)
+                         const std::vector<std::string>& allowed)
     : fileName_(std::move(fileName)), title_(std::move(title)), table_(table) {
   if (!table_.is_table())
     throw Error(whereOf(fileName_, table_) + title_ + " must be a table, got " +
@@ -77,7 +77,7 @@ TomlSection::TomlSection(std::string fileName, std::string title, const toml::va
   std::string firstKey;
   for (const auto& [key, value] : table_.as_table()) {
     const bool known =
-        std::any_of(allowed.begin(), allowed.end(), [&](const char* a) { return key == a; });
+        std::any_of(allowed.begin(), allowed.end(), [&](const std::string& a) { return key == a; });
     if (!known && (!first || lineOf(value) < lineOf(*first))) {
       first = &value;
       firstKey = key;

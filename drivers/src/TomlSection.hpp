@@ -27,7 +27,7 @@ public:
   /// `title` is how the section is written in messages, "[material]" or "[[dirichlet]]".
   /// Throws if the table holds keys not in `allowed`.
   TomlSection(std::string fileName, std::string title, const toml::value& table,
-              std::initializer_list<const char*> allowed);
+              const std::vector<std::string>& allowed);
 
   bool has(const std::string& key) const;
   int line() const;                                     ///< line of the section header (0: unknown)

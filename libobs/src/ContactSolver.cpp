@@ -61,7 +61,9 @@ bool IterationMonitor::record(double energy, double correction, Index activeSetS
   previousEnergy_ = lastEnergy_;
   lastEnergy_ = energy;
   lastCorrection_ = correction;
-  if (options_.recordHistory) history_.push_back({iteration_, energy, correction, activeSetSize, truncationChanges});
+  const IterationRecord record{iteration_, energy, correction, activeSetSize, truncationChanges};
+  if (options_.recordHistory) history_.push_back(record);
+  if (options_.onIteration) options_.onIteration(record);
   return converged;
 }
 

@@ -18,7 +18,7 @@ double since(Clock::time_point t0) {
 
 /// Cell-mean stresses and their volume-weighted average at the vertices.
 template <int d>
-void recoverStresses(const mesh::Mesh& mesh, const Material& mat, ElasticitySolution& s) {
+void recoverStressesOf(const mesh::Mesh& mesh, const Material& mat, ElasticitySolution& s) {
   const double lambda = mat.lambda(), mu = mat.mu();
   CellValues<d> cv(2);
   s.cellStress.assign(mesh.numCells(), Stress::Zero());
@@ -72,7 +72,7 @@ ElasticitySolution solve(const mesh::Mesh& mesh, const Material& material, const
   s.factorNonZeros = solver.factorNonZeros();
   if (!s.displacement.allFinite())
     throw Error("linear elasticity: the solution contains NaN or Inf (ill-posed problem?)");
-  recoverStresses<d>(mesh, material, s);
+  recoverStressesOf<d>(mesh, material, s);
   return s;
 }
 
@@ -81,6 +81,18 @@ ElasticitySolution solve(const mesh::Mesh& mesh, const Material& material, const
 ElasticitySolution solveLinearElasticity(const mesh::Mesh& mesh, const Material& material,
                                          const BoundaryConditions& bc) {
   return mesh.dimension() == 2 ? solve<2>(mesh, material, bc) : solve<3>(mesh, material, bc);
+}
+
+void recoverStresses(const mesh::Mesh& mesh, const Material& material, ElasticitySolution& solution) {
+  if (solution.displacement.size() != static_cast<Eigen::Index>(mesh.numVertices()) * mesh.dimension())
+    throw Error("recoverStresses: the displacement has " + std::to_string(solution.displacement.size()) +
+                " entries, the mesh " + std::to_string(mesh.numVertices()) + " vertices in " +
+                std::to_string(mesh.dimension()) + "D");
+  solution.dimension = mesh.dimension();
+  if (mesh.dimension() == 2)
+    recoverStressesOf<2>(mesh, material, solution);
+  else
+    recoverStressesOf<3>(mesh, material, solution);
 }
 
 double vonMises(const Stress& s) {

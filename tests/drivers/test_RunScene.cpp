@@ -139,6 +139,10 @@ TEST(RunScene, WritesVtuSummaryAndCsv) {
   EXPECT_EQ(j["free_dofs"], 22);
   EXPECT_DOUBLE_EQ(j["max_displacement"].get<double>(), r.maxDisplacement);
   EXPECT_EQ(j["output_files"].size(), 3u);
+  EXPECT_EQ(j["solver"]["type"], "direct");
+  EXPECT_EQ(j["solver"]["iterations"], 1);
+  EXPECT_EQ(j["solver"]["converged"], true);
+  EXPECT_FALSE(j.contains("contact"));
   EXPECT_EQ(j["output_files"][2], (out / "summary.json").string());
 
   // CSV: header once, one row per run
@@ -146,7 +150,12 @@ TEST(RunScene, WritesVtuSummaryAndCsv) {
   ASSERT_EQ(csv.size(), 2u);
   EXPECT_EQ(csv[0],
             "scene,cells,vertices,dofs,assembly_s,solve_s,total_s,peak_mb,max_displacement,max_von_"
-            "mises");
+            "mises,solver,iterations,converged,potential_contact,actual_contact,contact_force_x,"
+            "contact_force_y,contact_force_z,load_P,contact_area,contact_radius,max_violation,"
+            "kkt_feasibility,kkt_multiplier_sign,kkt_complementarity,kkt_stationarity");
+  // a linear run: direct solver, one "iteration", empty contact and KKT columns
+  EXPECT_NE(csv[1].find(",direct,1,1,,,,,,,,,,,,,"), std::string::npos) << csv[1];
+  EXPECT_EQ(std::count(csv[1].begin(), csv[1].end(), ','), 25) << csv[1];
   EXPECT_EQ(csv[1].rfind(scene.string() + ",16,15,30,", 0), 0u) << csv[1];
   runScene(scene, RunOptions{out, 1, {}});
   csv = lines(out / "runs.csv");
@@ -210,7 +219,14 @@ TEST(RunScene, CsvRowQuotesAndHeader) {
   r.cells = 2;
   EXPECT_EQ(csvRow(r).rfind("\"a,b.toml\",2,", 0), 0u) << csvRow(r);
   const std::string header = csvHeader();
-  EXPECT_EQ(std::count(header.begin(), header.end(), ','), 9);
+  EXPECT_EQ(std::count(header.begin(), header.end(), ','), 25);
+  // the first ten columns keep their names and order
+  EXPECT_EQ(header.rfind("scene,cells,vertices,dofs,assembly_s,solve_s,total_s,peak_mb,"
+                         "max_displacement,max_von_mises,",
+                         0),
+            0u);
+  const std::string row = csvRow(r);
+  EXPECT_EQ(std::count(row.begin(), row.end(), ','), 25 + 1) << row;  // + the quoted one
 }
 
 TEST(RunScene, EveryDataSceneRuns) {

@@ -233,8 +233,10 @@ TEST(SceneParser, EveryDataSceneParsesAndValidates) {
 // --- structure: sections, keys, types, missing entries -------------------------------------------
 
 TEST(SceneValidation, UnknownSection) {
-  EXPECT_SCENE_ERROR("bad_section", kMesh2D + kMaterial + kClamp + "\n[solver]\ntype = \"cg\"\n",
-                     "unknown section [solver]", "allowed sections");
+  EXPECT_SCENE_ERROR("bad_section", kMesh2D + kMaterial + kClamp + "\n[solvers]\ntype = \"cg\"\n",
+                     "unknown section [solvers]",
+                     "allowed sections: mesh, material, dirichlet, neumann, body_force, contact, "
+                     "solver, output");
 }
 
 TEST(SceneValidation, UnknownTopLevelKey) {

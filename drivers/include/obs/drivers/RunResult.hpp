@@ -1,13 +1,44 @@
 #pragma once
 /// \file RunResult.hpp
-/// Figures of one `obs run`: problem size, cost (times, memory) and solution extremes. Written to
-/// summary.json (Summary.hpp) and as a CSV row (CsvWriter.hpp).
+/// Figures of one `obs run`: problem size, cost (times, memory), solution extremes, the solver's
+/// report and, for contact scenes, the contact quantities. Written to summary.json (Summary.hpp)
+/// and as a CSV row (CsvWriter.hpp).
 #include <array>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "obs/obs/KktResiduals.hpp"
+
 namespace obs::drivers {
+
+/// How the discrete problem was solved.
+struct SolverReport {
+  std::string type;         ///< "direct", "multigrid", "tnnmg", "pdas" or "pgs"
+  int iterations = 0;       ///< 1 for a direct solve; V-cycles of multigrid; contact iterations
+  bool converged = true;
+  double seconds = 0;       ///< solve time (the same as RunResult::solveSeconds)
+  double tolerance = 0;     ///< stopping tolerance (0: direct, or pdas' exact stopping rule)
+  double correction = 0;    ///< last relative energy-norm correction (iterative solvers)
+  double convergenceRate = 0;  ///< geometric mean of the correction ratios (iterative solvers)
+  std::optional<KktResiduals> kkt;  ///< contact solvers: KKT residuals of the solution
+};
+
+/// Contact quantities of a solution (MATH.md §1, computeContactOutputs in ContactProblem.hpp).
+struct ContactReport {
+  std::string obstacle;           ///< obstacle type
+  std::string boundary;           ///< the contact boundary as written in the scene
+  long long boundaryVertices = 0; ///< vertices of the contact boundary
+  long long potentialVertices = 0;///< of these, with a finite gap (constrained)
+  long long actualVertices = 0;   ///< in actual contact (g - u.nu <= 1e-8 relative)
+  std::array<double, 3> force{};  ///< sum_p mu_p nu_p: the force of the body on the obstacle
+  double load = 0;                ///< P = sum_p mu_p = integral of s_m over Gamma_C
+  double area = 0;  ///< measure of the contact faces with all vertices in contact (2D: width)
+  double radius = 0;       ///< 3D: sqrt(area / pi) (disc of the same area); 2D: width / 2
+  double radiusNodes = 0;  ///< max tangential distance of a contact vertex from the force centre
+  double maxViolation = 0; ///< max_p (nu_p.u_p - g_p)^+
+};
 
 struct RunResult {
   std::string scene;  ///< scene file as given
@@ -29,6 +60,9 @@ struct RunResult {
   double peakMemoryMB = 0;     ///< getrusage ru_maxrss of the process
   double maxDisplacement = 0;  ///< max over vertices of |u|
   double maxVonMises = 0;      ///< max over cells of the von Mises stress of the cell mean
+
+  SolverReport solver;
+  std::optional<ContactReport> contact;  ///< scenes with [contact] only
 
   std::vector<std::filesystem::path> outputFiles;  ///< everything written, summary.json last
 };

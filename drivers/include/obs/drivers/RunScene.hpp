@@ -1,7 +1,10 @@
 #pragma once
 /// \file RunScene.hpp
-/// `obs run`: read and validate a scene, build the mesh, solve the linear-elastic problem and
-/// write the outputs (<output>/<scene name>.vtu, <output>/summary.json, optional CSV row).
+/// `obs run`: read and validate a scene, build the grid (coarse mesh + uniform refinements as a
+/// mesh::Grid), solve the linear-elastic or contact problem (SceneSolver.hpp) and write the outputs
+/// (<output>/<scene name>.vtu, <output>/summary.json, optional CSV row). A solver that stops at
+/// max_iterations without converging writes the outputs (summary.json says converged: false) and
+/// then throws obs::Error.
 #include <filesystem>
 #include <functional>
 #include <optional>
@@ -17,6 +20,8 @@ struct RunOptions {
   std::optional<int> refine;                             ///< replaces [mesh] refine
   /// Receives one short line per stage ("mesh built: ..."); nothing is printed by runScene itself.
   std::function<void(const std::string&)> progress;
+  /// Receives one line per block of solver iterations (`obs run --verbose`); see SceneSolver.hpp.
+  std::function<void(const std::string&)> iterationProgress = {};
 };
 
 /// Runs the scene file; throws obs::Error on any problem (invalid scene, solver failure, I/O).

@@ -1,11 +1,12 @@
 #pragma once
 /// \file Scene.hpp
-/// A scene: everything a static linear-elastic run needs, as read from a scene file (TOML, see
+/// A scene: everything a static run (linear elasticity or Signorini contact) needs, as read from a scene file (TOML, see
 /// docs/scenes.md). The structs mirror the file's sections; every entry remembers the line it came
 /// from so that checks needing the mesh (boundary names, vector lengths, rigid motions) can still
 /// name the file, line and key.
 #include <array>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -69,6 +70,42 @@ struct NeumannSpec {
   int line = 0;  ///< line of [[neumann]]
 };
 
+/// [contact]: the potential contact boundary Gamma_C and the rigid obstacle (MATH.md §1). The
+/// obstacle's parameters are kept as written; ObstacleFactory.hpp lists them per obstacle type,
+/// checks them against the mesh dimension and builds the obs::Obstacle.
+struct ContactSpec {
+  struct Number {
+    double value = 0;
+    int line = 0;
+  };
+  struct Vector {
+    std::vector<double> values;  ///< 2 or 3 finite numbers as written
+    int line = 0;
+  };
+  BoundaryRef boundary;
+  std::string obstacle;  ///< obstacle type, one of obstacleTypeNames()
+  int obstacleLine = 0;
+  std::map<std::string, Number> numbers;  ///< scalar parameters given (radius, slope, ...)
+  std::map<std::string, Vector> vectors;  ///< points and directions given
+  bool normalDirection = false;           ///< direction = "normal"
+  int directionLine = 0;                  ///< 0: direction not given (the type's default)
+  std::optional<Expression> gap;          ///< obstacle = "expression": g(x)
+  int gapLine = 0;
+  int line = 0;  ///< line of [contact]
+};
+
+/// [solver]: how the problem is solved. Contact scenes: "tnnmg" (default), "pdas", "pgs"; scenes
+/// without [contact]: "direct" (default, CHOLMOD) or "multigrid". Unset options take the
+/// defaults of the solver type (see docs/scenes.md).
+struct SolverSpec {
+  std::string type;  ///< empty: the default of the scene kind
+  std::optional<double> tolerance;
+  std::optional<int> maxIterations;
+  std::optional<int> preSmoothing;
+  std::optional<int> postSmoothing;
+  int line = 0;  ///< line of [solver] (0: section absent)
+};
+
 /// [output]
 struct OutputSpec {
   std::filesystem::path directory;  ///< relative to the working directory; default out/<scene name>
@@ -87,7 +124,12 @@ struct Scene {
   std::vector<DirichletSpec> dirichlet;
   std::vector<NeumannSpec> neumann;
   std::optional<VectorValue> bodyForce;
+  std::optional<ContactSpec> contact;
+  SolverSpec solver;
   OutputSpec output;
+
+  /// The solver type to use: solver.type, or "tnnmg" with [contact] and "direct" without.
+  std::string solverType() const;
 
   /// "file:line: " (or "file: " when line is 0), the prefix of every message about this scene.
   std::string where(int line) const;

@@ -5,23 +5,45 @@
 #include <optional>
 
 #include "obs/drivers/Scene.hpp"
+#include "obs/mesh/Grid.hpp"
 #include "obs/mesh/Mesh.hpp"
 #include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/ContactSet.hpp"
 
 namespace obs::drivers {
 
 /// Upper bound on the number of cells after refinement (a guard against typos like refine = 9).
 inline constexpr long long kMaxCells = 50'000'000;
 
-/// Builds the coarse mesh ([mesh] generator or file) and refines it uniformly `refine` times,
+/// Builds the coarse mesh ([mesh] generator or file) as level 0 of a hierarchical mesh::Grid and
+/// refines it uniformly `refine` times (Grid::refineUniformly, so the levels exist for multigrid),
 /// where `refineOverride` (the --refine option) replaces [mesh] refine when given. Throws if the
-/// refined mesh would have more than kMaxCells cells.
+/// refined mesh would have more than kMaxCells cells. The run's mesh is grid.leafView().mesh.
+mesh::Grid buildGrid(const Scene& scene, std::optional<int> refineOverride = std::nullopt);
+
+/// The leaf mesh of buildGrid (the mesh `obs run` solves on).
 mesh::Mesh buildMesh(const Scene& scene, std::optional<int> refineOverride = std::nullopt);
 
 /// Checks the scene against its mesh: boundaries exist, vectors have one entry per coordinate,
 /// Dirichlet components exist in the dimension, and the Dirichlet conditions fix every rigid
-/// motion (obs::countFreeRigidMotions == 0).
+/// motion (obs::countFreeRigidMotions == 0). With [contact]: the contact boundary exists and has
+/// faces, the obstacle fits the dimension (makeObstacle), its gap and direction are valid at every
+/// contact vertex, and no Dirichlet vertex of the contact boundary has prescribed values that
+/// violate the constraint (checkDirichletContact).
 void validateScene(const Scene& scene, const mesh::Mesh& mesh);
+
+/// Boundary id of [contact] boundary; throws (naming the file, line and the available boundaries)
+/// if it does not exist or has no boundary faces.
+int contactBoundaryId(const Scene& scene, const mesh::Mesh& mesh);
+
+/// The potential contact nodes of [contact] on the mesh for the given obstacle; errors of the
+/// obstacle at a vertex (NaN gap, zero direction) name the scene line.
+ContactSet makeContactSet(const Scene& scene, const mesh::Mesh& mesh, const Obstacle& obstacle);
+
+/// Throws if a contact vertex whose constrained displacement component nu.u is fully prescribed
+/// by [[dirichlet]] has nu.u_D > g (the data violate the constraint); the message names the vertex,
+/// its coordinates, nu.u_D, the gap and the [[dirichlet]] entry.
+void checkDirichletContact(const Scene& scene, const mesh::Mesh& mesh, const ContactSet& contact);
 
 /// The boundary conditions of a validated scene at time t = 0. The fields evaluate the scene's
 /// expressions and throw obs::Error (naming the key) if a value is not finite.

@@ -6,7 +6,13 @@
 ///     "dofs": 594, "free_dofs": 576,
 ///     "times": {"mesh_s": .., "assembly_s": .., "solve_s": .., "output_s": .., "total_s": ..},
 ///     "peak_memory_mb": 12.5, "max_displacement": 0.21, "max_von_mises": 4.7,
+///     "solver": {"type": "direct", "iterations": 1, "converged": true, "time_s": ..},
 ///     "output_files": ["out/cantilever/cantilever.vtu", "out/cantilever/summary.json"] }
+/// Iterative solvers add tolerance, correction and convergence_rate to "solver", contact solvers
+/// also "kkt" (feasibility, multiplier_sign, complementarity, stationarity, dirichlet). Contact
+/// scenes add "contact": obstacle, boundary, boundary_vertices, potential_vertices,
+/// actual_vertices, force, load_P, area (3D) or width (2D), radius, radius_nodes, max_violation
+/// (RunResult.hpp, docs/scenes.md).
 #include <filesystem>
 
 #include <nlohmann/json.hpp>

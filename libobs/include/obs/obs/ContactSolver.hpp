@@ -13,6 +13,7 @@
 #include <Eigen/Core>
 
 #include <chrono>
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,14 @@
 #include "obs/obs/KktResiduals.hpp"
 
 namespace obs {
+
+struct IterationRecord {
+  int iteration = 0;
+  double energy = 0;      ///< J(u^k)
+  double correction = 0;  ///< ||u^k - u^{k-1}||_A / ||u^k||_A
+  Index activeSetSize = 0;
+  Index truncationChanges = 0;  ///< components whose truncation changed in this iteration (TNNMG; else 0)
+};
 
 struct ContactSolverOptions {
   /// Relative energy-norm correction at which an iterative solver stops.
@@ -34,14 +43,9 @@ struct ContactSolverOptions {
   double divergenceFactor = 1e6;
   /// Keep the per-iteration history in the result.
   bool recordHistory = true;
-};
-
-struct IterationRecord {
-  int iteration = 0;
-  double energy = 0;      ///< J(u^k)
-  double correction = 0;  ///< ||u^k - u^{k-1}||_A / ||u^k||_A
-  Index activeSetSize = 0;
-  Index truncationChanges = 0;  ///< components whose truncation changed in this iteration (TNNMG; else 0)
+  /// Called with the record of every iteration as soon as it is recorded (e.g. progress output of a
+  /// driver); unset: nothing is called. The solvers themselves never print.
+  std::function<void(const IterationRecord&)> onIteration;
 };
 
 struct ContactResult {

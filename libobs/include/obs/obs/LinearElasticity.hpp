@@ -37,6 +37,11 @@ struct ElasticitySolution {
 ElasticitySolution solveLinearElasticity(const mesh::Mesh& mesh, const Material& material,
                                          const BoundaryConditions& bc);
 
+/// Fills solution.cellStress and solution.vertexStress from solution.displacement (cell means of
+/// sigma(u_h) and their volume-weighted vertex averages, as solveLinearElasticity does), e.g. for a
+/// displacement computed by a contact solver.
+void recoverStresses(const mesh::Mesh& mesh, const Material& material, ElasticitySolution& solution);
+
 /// von Mises equivalent stress of a (3x3) stress tensor.
 double vonMises(const Stress& s);
 

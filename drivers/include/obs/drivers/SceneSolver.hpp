@@ -1,0 +1,54 @@
+#pragma once
+/// \file SceneSolver.hpp
+/// Solving a validated scene on its grid (the solve step of `obs run`):
+///  - without [contact]: linear elasticity, [solver] type "direct" (CHOLMOD, default) or
+///    "multigrid" (V-cycle iteration of LinearMultigrid on the grid's levels);
+///  - with [contact]: the Signorini problem min 1/2 u'Au - b'u s.t. nu_p.u_p <= g_p (MATH.md §1)
+///    with "tnnmg" (default; MATH.md §2, on the grid hierarchy), "pdas" (primal-dual active set with
+///    CHOLMOD) or "pgs" (projected block Gauss-Seidel), then the contact quantities
+///    (computeContactOutputs) and the contact point fields of the .vtu.
+/// Solver failures (NaN, divergence, stagnation) are obs::Errors naming the scene and solver; an
+/// iteration that reaches max_iterations returns converged = false (the caller decides).
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "obs/drivers/RunResult.hpp"
+#include "obs/drivers/Scene.hpp"
+#include "obs/drivers/VtkWriter.hpp"
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/LinearElasticity.hpp"
+
+namespace obs::drivers {
+
+struct SceneSolution {
+  /// Displacement, recovered stresses, dofs and the assembly / solve times.
+  ElasticitySolution elasticity;
+  SolverReport solver;
+  std::optional<ContactReport> contact;
+  /// Contact scenes: the point fields gap, normal_displacement, contact_pressure, contact_state,
+  /// constraint_direction (SolutionFields.hpp documents them).
+  std::vector<Field> contactFields;
+};
+
+/// Receives one line per block of solver iterations: every iteration up to 10, then every 10th up
+/// to 100, every 100th up to 1000, ... (the `obs run --verbose` lines).
+using IterationProgress = std::function<void(const std::string&)>;
+
+/// True for the iterations that iterationProgress reports (1..10, 20, 30, ..., 100, 200, ...).
+bool reportsIteration(int iteration);
+
+/// Called once the system is assembled (before an iterative solve starts; after the solve for
+/// "direct", which assembles and factorises in one call) with the solution's dofs, freeDofs and
+/// assemblySeconds filled in.
+using AssembledCallback = std::function<void(const ElasticitySolution&)>;
+
+/// Solves the scene on `mesh` = grid.leafView().mesh with boundary conditions `bc`
+/// (makeBoundaryConditions); the scene must have passed validateScene.
+SceneSolution solveScene(const Scene& scene, const mesh::Grid& grid, const mesh::Mesh& mesh,
+                         const BoundaryConditions& bc, const IterationProgress& progress = {},
+                         const AssembledCallback& assembled = {});
+
+}  // namespace obs::drivers

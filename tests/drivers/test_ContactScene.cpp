@@ -1,0 +1,631 @@
+// Contact scenes through runScene (`obs run`): the data scenes punch, wedge, hertz and step42 run
+// and give sensible contact outputs; the punch's contact force equals the Dirichlet reaction at
+// the top (computed here independently from the stiffness matrix); tnnmg, pdas and pgs agree; a far
+// obstacle reproduces the linear solution; linear multigrid agrees with the direct solve; the
+// summary.json / CSV / .vtu fields; every bad input of [contact] and [solver] gives its one-line
+// message (file:line, key); solver failures are errors after the outputs are written; --verbose.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+#include <vtkDataArray.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkUnstructuredGrid.h>
+#include <vtkXMLUnstructuredGridReader.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "obs/drivers/CsvWriter.hpp"
+#include "obs/drivers/ObstacleFactory.hpp"
+#include "obs/drivers/RunScene.hpp"
+#include "obs/drivers/SceneParser.hpp"
+#include "obs/drivers/SceneSetup.hpp"
+#include "obs/drivers/SceneSolver.hpp"
+#include "obs/mesh/Error.hpp"
+#include "obs/obs/ElasticityAssembly.hpp"
+
+namespace fs = std::filesystem;
+using namespace obs::drivers;
+
+namespace {
+
+const fs::path kTmp = fs::path(OBS_TEST_TMP_DIR) / "contact_scene";
+const fs::path kScenes = fs::path(OBS_DATA_DIR) / "scenes";
+
+fs::path writeScene(const std::string& name, const std::string& text) {
+  fs::create_directories(kTmp);
+  const fs::path p = kTmp / (name + ".toml");
+  std::ofstream(p) << text;
+  return p;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+nlohmann::json summaryOf(const fs::path& dir) {
+  std::ifstream in(dir / "summary.json");
+  return nlohmann::json::parse(in);
+}
+
+struct Vtu {
+  std::vector<std::array<double, 3>> points;
+  /// point array by name (components interleaved), empty if absent
+  std::vector<double> array(const std::string& name) const {
+    const auto it = std::find(names.begin(), names.end(), name);
+    return it == names.end() ? std::vector<double>{} : arrays[it - names.begin()];
+  }
+  std::vector<std::string> names;
+  std::vector<std::vector<double>> arrays;
+};
+
+Vtu readVtu(const fs::path& p) {
+  vtkNew<vtkXMLUnstructuredGridReader> reader;
+  reader->SetFileName(p.string().c_str());
+  reader->Update();
+  vtkUnstructuredGrid* g = reader->GetOutput();
+  Vtu v;
+  for (vtkIdType i = 0; i < g->GetNumberOfPoints(); ++i) {
+    double x[3];
+    g->GetPoint(i, x);
+    v.points.push_back({x[0], x[1], x[2]});
+  }
+  vtkPointData* pd = g->GetPointData();
+  for (int a = 0; a < pd->GetNumberOfArrays(); ++a) {
+    vtkDataArray* arr = pd->GetArray(a);
+    v.names.push_back(arr->GetName());
+    std::vector<double> values;
+    for (vtkIdType i = 0; i < arr->GetNumberOfTuples(); ++i)
+      for (int k = 0; k < arr->GetNumberOfComponents(); ++k) values.push_back(arr->GetComponent(i, k));
+    v.arrays.push_back(std::move(values));
+  }
+  return v;
+}
+
+/// The punch of MATH.md §4 with a replaceable [contact] body and [solver] section.
+std::string punchScene(int refine, const std::string& contact, const std::string& solver = "") {
+  return R"([mesh]
+generator = "box"
+type = "quadrilateral"
+cells = [4, 4]
+refine = )" + std::to_string(refine) + R"(
+
+[material]
+E = 3e5
+nu = 0.25
+
+[[dirichlet]]
+boundary = "top"
+value = [0, -0.01]
+)" + contact + "\n" + solver;
+}
+
+const std::string kStrip = R"(
+[contact]
+boundary = "bottom"
+obstacle = "strip"
+point = [0.5, 0]
+half_width = 0.0625
+direction = [0, -1]
+)";
+
+RunResult runIn(const fs::path& scene, const fs::path& out, std::optional<int> refine = {}) {
+  fs::remove_all(out);
+  RunOptions o;
+  o.outputDirectory = out;
+  o.refine = refine;
+  return runScene(scene, o);
+}
+
+std::string errorOf(const std::string& name, const std::string& text) {
+  try {
+    const Scene scene = parseScene(writeScene(name, text));
+    validateScene(scene, buildMesh(scene));
+  } catch (const obs::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
+
+#define EXPECT_ERROR_PARTS(msg, ...)                                                \
+  do {                                                                              \
+    const std::string m_ = (msg);                                                   \
+    ASSERT_FALSE(m_.empty()) << "no error";                                         \
+    EXPECT_FALSE(contains(m_, "\n")) << m_;                                         \
+    for (const char* part : {__VA_ARGS__}) EXPECT_TRUE(contains(m_, part)) << m_;   \
+  } while (false)
+
+}  // namespace
+
+// --- the data scenes ----------------------------------------------------------------------------
+
+TEST(ContactScene, DataScenesRunWithSensibleContact) {
+  struct Case {
+    const char* name;
+    int dim;
+  };
+  for (const Case c : {Case{"punch", 2}, Case{"wedge", 2}, Case{"hertz", 3}, Case{"step42", 3}}) {
+    SCOPED_TRACE(c.name);
+    const fs::path out = kTmp / "data" / c.name;
+    const RunResult r = runIn(kScenes / (std::string(c.name) + ".toml"), out);
+    ASSERT_TRUE(r.contact.has_value());
+    EXPECT_EQ(r.solver.type, "tnnmg");
+    EXPECT_TRUE(r.solver.converged);
+    EXPECT_LT(r.solver.iterations, 30);
+    ASSERT_TRUE(r.solver.kkt.has_value());
+    EXPECT_LT(r.solver.kkt->max(), 1e-8);
+    EXPECT_GT(r.contact->actualVertices, 0);
+    EXPECT_LE(r.contact->actualVertices, r.contact->potentialVertices);
+    EXPECT_LE(r.contact->potentialVertices, r.contact->boundaryVertices);
+    EXPECT_GT(r.contact->load, 0);
+    EXPECT_LE(r.contact->maxViolation, 1e-14);
+    // the obstacle pushes against nu: the force on it points along nu (here +-e_vertical) with
+    // magnitude P, and the symmetric setting has no tangential force
+    const double vertical = r.contact->force[c.dim - 1];
+    EXPECT_NEAR(std::abs(vertical), r.contact->load, 1e-10 * r.contact->load);
+    for (int i = 0; i < c.dim - 1; ++i) EXPECT_LT(std::abs(r.contact->force[i]), 1e-8 * r.contact->load);
+    EXPECT_LT(r.totalSeconds, 5);
+    // half-space theory (MATH.md §4) with the computed load P: the contact radius b(P); the
+    // node-based estimate can only resolve it to a mesh size h (wedge h = 1/128, hertz h = 1/16)
+    const double E = 3e5, nu = 0.25, P = r.contact->load;
+    if (std::string(c.name) == "wedge") {
+      const double b = P * (1 - nu * nu) / (E * 0.2);
+      EXPECT_NEAR(b, 0.0136, 0.0003);  // P close to the thesis' 872.19 (b = 0.013628)
+      EXPECT_NEAR(r.contact->radiusNodes, b, 1.0 / 128);
+    }
+    if (std::string(c.name) == "hertz") {
+      const double b = std::cbrt(3 * P * 0.75 * (1 - nu * nu) / (4 * E));
+      EXPECT_NEAR(r.contact->radiusNodes, b, 1.0 / 16);
+    }
+  }
+}
+
+TEST(ContactScene, PunchActiveSetAndForceEqualsTopReaction) {
+  const fs::path out = kTmp / "punch_reaction";
+  const fs::path scenePath = kScenes / "punch.toml";
+  const RunResult r = runIn(scenePath, out, 3);  // 32 x 32 cells
+  ASSERT_TRUE(r.contact);
+  // every vertex of the strip [0.4375, 0.5625] (5 at h = 1/32) touches the punch, nothing else is
+  // constrained: width 0.125, radius b = 0.0625 (both estimates)
+  EXPECT_EQ(r.contact->potentialVertices, 5);
+  EXPECT_EQ(r.contact->actualVertices, 5);
+  EXPECT_NEAR(r.contact->area, 0.125, 1e-14);
+  EXPECT_NEAR(r.contact->radius, 0.0625, 1e-14);
+  EXPECT_NEAR(r.contact->radiusNodes, 0.0625, 1e-12);
+
+  const Vtu vtu = readVtu(out / "punch.vtu");
+  const auto state = vtu.array("contact_state"), gap = vtu.array("gap"),
+             pressure = vtu.array("contact_pressure"), un = vtu.array("normal_displacement"),
+             nu = vtu.array("constraint_direction"), u = vtu.array("displacement");
+  ASSERT_EQ(state.size(), vtu.points.size());
+  ASSERT_EQ(nu.size(), 3 * vtu.points.size());
+  int inContact = 0;
+  for (std::size_t v = 0; v < vtu.points.size(); ++v) {
+    const auto& x = vtu.points[v];
+    const bool bottom = x[1] == 0.0, strip = bottom && std::abs(x[0] - 0.5) <= 0.0625 + 1e-12;
+    EXPECT_EQ(state[v], strip ? 2.0 : 0.0) << x[0] << " " << x[1];
+    if (strip) {
+      ++inContact;
+      EXPECT_EQ(gap[v], 0.0);
+      EXPECT_NEAR(un[v], 0.0, 1e-15);
+      EXPECT_GT(pressure[v], 0.0);
+    } else {
+      EXPECT_EQ(pressure[v], 0.0);
+    }
+    if (bottom) {
+      EXPECT_EQ(nu[3 * v + 1], -1.0);
+      EXPECT_NEAR(un[v], -u[3 * v + 1], 1e-15);
+    }
+  }
+  EXPECT_EQ(inContact, 5);
+
+  // reaction at the top: sum over top vertices of (K u)_p with the unreduced stiffness matrix K
+  // (no loads), assembled here on the same grid; by equilibrium it equals sum_p mu_p nu_p
+  const Scene scene = parseScene(scenePath);
+  const obs::mesh::Mesh mesh = buildMesh(scene, 3);
+  ASSERT_EQ(static_cast<std::size_t>(mesh.numVertices()), vtu.points.size());
+  Eigen::VectorXd uh(2 * mesh.numVertices());
+  for (obs::mesh::Index v = 0; v < mesh.numVertices(); ++v) {
+    ASSERT_EQ(mesh.vertex(v)[0], vtu.points[v][0]);
+    ASSERT_EQ(mesh.vertex(v)[1], vtu.points[v][1]);
+    uh[2 * v] = u[3 * v];
+    uh[2 * v + 1] = u[3 * v + 1];
+  }
+  const auto K = obs::assembleStiffness<2>(mesh, scene.material);
+  const Eigen::VectorXd Ku = K * uh;
+  Eigen::Vector2d reaction = Eigen::Vector2d::Zero();
+  for (obs::mesh::Index v = 0; v < mesh.numVertices(); ++v)
+    if (mesh.vertex(v)[1] == 1.0) reaction += Ku.segment<2>(2 * v);
+  EXPECT_NEAR(reaction[1], r.contact->force[1], 1e-8 * r.contact->load);
+  EXPECT_NEAR(reaction[0], r.contact->force[0], 1e-8 * r.contact->load);
+  // P = sum_p mu_p = sum_p s_p m_p^C with the lumped mass m_p^C = h = 1/32 of the bottom edge at
+  // the (inner) strip vertices
+  double P = 0;
+  for (std::size_t v = 0; v < vtu.points.size(); ++v) P += pressure[v] / 32.0;
+  EXPECT_NEAR(P, r.contact->load, 1e-10 * r.contact->load);
+}
+
+TEST(ContactScene, SolversAgree) {
+  Eigen::VectorXd reference;
+  for (const char* solver : {"pdas", "tnnmg", "pgs"}) {
+    SCOPED_TRACE(solver);
+    const std::string name = std::string("agree_") + solver;
+    const std::string extra = std::string(solver) == "pgs" ? "max_iterations = 100000\ntolerance = 1e-12\n" : "";
+    const fs::path scene =
+        writeScene(name, punchScene(2, kStrip, "[solver]\ntype = \"" + std::string(solver) + "\"\n" + extra));
+    const RunResult r = runIn(scene, kTmp / name);
+    EXPECT_EQ(r.solver.type, solver);
+    EXPECT_TRUE(r.solver.converged);
+    const auto u = readVtu(kTmp / name / (name + ".vtu")).array("displacement");
+    const Eigen::VectorXd uv = Eigen::Map<const Eigen::VectorXd>(u.data(), static_cast<Eigen::Index>(u.size()));
+    if (reference.size() == 0) {
+      reference = uv;
+      continue;
+    }
+    const double tol = std::string(solver) == "pgs" ? 1e-6 : 1e-8;
+    EXPECT_LT((uv - reference).norm(), tol * reference.norm());
+  }
+}
+
+TEST(ContactScene, FarObstacleReproducesLinearSolution) {
+  const std::string far = R"(
+[contact]
+boundary = "bottom"
+obstacle = "plane"
+point = [0, -1]
+direction = [0, -1]
+)";
+  const fs::path contact =
+      writeScene("far_contact", punchScene(3, far, "[solver]\ntolerance = 1e-12\n"));
+  const fs::path linear = writeScene("far_linear", punchScene(3, ""));
+  const RunResult rc = runIn(contact, kTmp / "far_contact");
+  const RunResult rl = runIn(linear, kTmp / "far_linear");
+  ASSERT_TRUE(rc.contact);
+  EXPECT_EQ(rc.contact->potentialVertices, 33);
+  EXPECT_EQ(rc.contact->actualVertices, 0);
+  // no vertex at its bound: the multipliers are residuals of the converged solve
+  EXPECT_LT(std::abs(rc.contact->load), 1e-6);
+  EXPECT_EQ(rl.solver.type, "direct");
+  const auto uc = readVtu(kTmp / "far_contact" / "far_contact.vtu").array("displacement");
+  const auto ul = readVtu(kTmp / "far_linear" / "far_linear.vtu").array("displacement");
+  ASSERT_EQ(uc.size(), ul.size());
+  double diff = 0, norm = 0;
+  for (std::size_t i = 0; i < uc.size(); ++i) {
+    diff = std::max(diff, std::abs(uc[i] - ul[i]));
+    norm = std::max(norm, std::abs(ul[i]));
+  }
+  EXPECT_LT(diff, 1e-9 * norm);
+}
+
+TEST(ContactScene, LinearMultigridMatchesDirect) {
+  const fs::path mg = writeScene("linear_mg", punchScene(3, "", "[solver]\ntype = \"multigrid\"\ntolerance = 1e-12\n"));
+  const fs::path direct = writeScene("linear_direct", punchScene(3, ""));
+  const RunResult a = runIn(mg, kTmp / "linear_mg");
+  runIn(direct, kTmp / "linear_direct");
+  EXPECT_EQ(a.solver.type, "multigrid");
+  EXPECT_TRUE(a.solver.converged);
+  EXPECT_GT(a.solver.iterations, 1);
+  EXPECT_LT(a.solver.iterations, 30);
+  const auto u1 = readVtu(kTmp / "linear_mg" / "linear_mg.vtu").array("displacement");
+  const auto u2 = readVtu(kTmp / "linear_direct" / "linear_direct.vtu").array("displacement");
+  ASSERT_EQ(u1.size(), u2.size());
+  for (std::size_t i = 0; i < u1.size(); ++i) EXPECT_NEAR(u1[i], u2[i], 1e-11) << i;
+}
+
+// --- outputs ------------------------------------------------------------------------------------
+
+TEST(ContactScene, SummaryAndCsvHoldContactAndSolver) {
+  const fs::path out = kTmp / "outputs";
+  const fs::path scene = writeScene("outputs", punchScene(2, kStrip, "[output]\ncsv = \"runs.csv\"\n"));
+  const RunResult r = runIn(scene, out);
+  const nlohmann::json j = summaryOf(out);
+  ASSERT_TRUE(j.contains("contact"));
+  ASSERT_TRUE(j.contains("solver"));
+  const auto& c = j["contact"];
+  for (const char* key : {"obstacle", "boundary", "boundary_vertices", "potential_vertices",
+                          "actual_vertices", "force", "load_P", "width", "radius", "radius_nodes",
+                          "max_violation"})
+    EXPECT_TRUE(c.contains(key)) << key;
+  EXPECT_FALSE(c.contains("area"));  // 2D: width
+  EXPECT_EQ(c["obstacle"], "strip");
+  EXPECT_EQ(c["boundary"], "bottom");
+  EXPECT_EQ(c["boundary_vertices"], 17);
+  EXPECT_EQ(c["potential_vertices"], 3);
+  EXPECT_EQ(c["actual_vertices"], r.contact->actualVertices);
+  EXPECT_EQ(c["force"].size(), 2u);
+  EXPECT_DOUBLE_EQ(c["load_P"].get<double>(), r.contact->load);
+  const auto& s = j["solver"];
+  EXPECT_EQ(s["type"], "tnnmg");
+  EXPECT_EQ(s["converged"], true);
+  EXPECT_EQ(s["iterations"], r.solver.iterations);
+  EXPECT_DOUBLE_EQ(s["tolerance"].get<double>(), 1e-10);
+  for (const char* key : {"feasibility", "multiplier_sign", "complementarity", "stationarity"}) {
+    ASSERT_TRUE(s["kkt"].contains(key)) << key;
+    EXPECT_LT(s["kkt"][key].get<double>(), 1e-8) << key;
+  }
+  for (const char* key : {"time_s", "correction", "convergence_rate"}) EXPECT_TRUE(s.contains(key)) << key;
+
+  // CSV: the header and one row with the contact columns filled (contact_force_z empty in 2D)
+  std::ifstream in(out / "runs.csv");
+  std::string header, row;
+  std::getline(in, header);
+  std::getline(in, row);
+  EXPECT_EQ(header, csvHeader());
+  std::vector<std::string> fields;
+  std::stringstream ss(row);
+  for (std::string f; std::getline(ss, f, ',');) fields.push_back(f);
+  if (row.back() == ',') fields.push_back("");
+  ASSERT_EQ(fields.size(), 26u) << row;
+  EXPECT_EQ(fields[10], "tnnmg");
+  EXPECT_EQ(fields[11], std::to_string(r.solver.iterations));
+  EXPECT_EQ(fields[12], "1");
+  EXPECT_EQ(fields[13], "3");
+  EXPECT_EQ(fields[14], std::to_string(r.contact->actualVertices));
+  EXPECT_EQ(std::stod(fields[16]), r.contact->force[1]);
+  EXPECT_EQ(fields[17], "");
+  EXPECT_EQ(std::stod(fields[18]), r.contact->load);
+  EXPECT_EQ(std::stod(fields[19]), r.contact->area);
+
+  // an older table with other columns is refused instead of getting misaligned rows
+  std::ofstream(out / "old.csv") << "scene,cells\nx,1\n";
+  RunResult copy = r;
+  EXPECT_THROW(appendCsvRow(out / "old.csv", copy), obs::Error);
+}
+
+TEST(ContactScene, IterationProgressBlocks) {
+  std::vector<int> reported;
+  for (int k = 1; k <= 2500; ++k)
+    if (reportsIteration(k)) reported.push_back(k);
+  const std::vector<int> expected{1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 20, 30, 40, 50, 60, 70, 80, 90, 100,
+                                  200, 300, 400, 500, 600, 700, 800, 900, 1000, 2000};
+  EXPECT_EQ(reported, expected);
+
+  std::vector<std::string> lines;
+  RunOptions o;
+  o.outputDirectory = kTmp / "progress";
+  o.iterationProgress = [&](const std::string& l) { lines.push_back(l); };
+  const RunResult r = runScene(writeScene("progress", punchScene(2, kStrip)), o);
+  ASSERT_EQ(static_cast<int>(lines.size()), std::min(r.solver.iterations, 10));
+  EXPECT_EQ(lines[0].rfind("tnnmg iteration 1: energy ", 0), 0u) << lines[0];
+}
+
+// --- bad input ----------------------------------------------------------------------------------
+
+TEST(ContactSceneErrors, ObstacleTypeAndParameters) {
+  EXPECT_ERROR_PARTS(errorOf("cone", punchScene(0, "\n[contact]\nboundary = \"bottom\"\nobstacle = \"cone\"\n")),
+                     "cone.toml:17: [contact] obstacle = \"cone\" is unknown",
+                     "known obstacles: plane, strip, wedge, pyramid, hat, sine-wave, ball, disk, expression");
+  EXPECT_ERROR_PARTS(
+      errorOf("neg_radius", punchScene(0, "\n[contact]\nboundary = \"bottom\"\nobstacle = \"disk\"\n"
+                                          "centre = [0.5, -1]\nradius = -1\n")),
+      "neg_radius.toml:19: [contact] radius = -1 must be positive");
+  EXPECT_ERROR_PARTS(
+      errorOf("zero_width", punchScene(0, "\n[contact]\nboundary = \"bottom\"\nobstacle = \"strip\"\n"
+                                          "point = [0.5, 0]\nhalf_width = 0\n")),
+      "zero_width.toml:19: [contact] half_width = 0 must be positive");
+  EXPECT_ERROR_PARTS(
+      errorOf("nan_width", punchScene(0, "\n[contact]\nboundary = \"bottom\"\nobstacle = \"strip\"\n"
+                                         "point = [0.5, 0]\nhalf_width = nan\n")),
+      "nan_width.toml:19: [contact] half_width = nan must be finite");
+  EXPECT_ERROR_PARTS(
+      errorOf("inf_point", punchScene(0, "\n[contact]\nboundary = \"bottom\"\nobstacle = \"plane\"\n"
+                                         "point = [0.5, inf]\n")),
+      "inf_point.toml:18: [contact] point[1] must be a finite number, got inf");
+  EXPECT_ERROR_PARTS(
+      errorOf("neg_slope", punchScene(0, "\n[contact]\nboundary = \"bottom\"\nobstacle = \"wedge\"\n"
+                                         "apex = [0.5, 0]\nslope = -0.2\n")),
+      "neg_slope.toml:19: [contact] slope = -0.2 must not be negative");
+  EXPECT_ERROR_PARTS(
+      errorOf("missing", punchScene(0, "\n[contact]\nboundary = \"bottom\"\nobstacle = \"strip\"\n"
+                                       "point = [0.5, 0]\n")),
+      "missing.toml:15: [contact] obstacle = \"strip\" needs half_width",
+      "its parameters: point, half_width, direction, across, outside_gap");
+  EXPECT_ERROR_PARTS(
+      errorOf("foreign", punchScene(0, "\n[contact]\nboundary = \"bottom\"\nobstacle = \"strip\"\n"
+                                       "point = [0.5, 0]\nhalf_width = 0.1\nradius = 2\n")),
+      "foreign.toml:20: [contact] radius does not apply to obstacle = \"strip\"");
+  EXPECT_ERROR_PARTS(
+      errorOf("unknown_key", punchScene(0, "\n[contact]\nboundary = \"bottom\"\nobstacle = \"plane\"\n"
+                                           "point = [0.5, 0]\nradius_x = 2\n")),
+      "unknown_key.toml:19: [contact] unknown key 'radius_x'");
+  EXPECT_ERROR_PARTS(
+      errorOf("normal_strip", punchScene(0, "\n[contact]\nboundary = \"bottom\"\nobstacle = \"strip\"\n"
+                                            "point = [0.5, 0]\nhalf_width = 0.1\ndirection = \"normal\"\n")),
+      "normal_strip.toml:20: [contact] direction = \"normal\" is not available for obstacle = \"strip\"");
+  EXPECT_ERROR_PARTS(
+      errorOf("zero_dir", punchScene(0, "\n[contact]\nboundary = \"bottom\"\nobstacle = \"plane\"\n"
+                                        "point = [0.5, 0]\ndirection = [0, 0]\n")),
+      "zero_dir.toml:19: [contact] direction = [0, 0] must be a non-zero vector");
+  EXPECT_ERROR_PARTS(
+      errorOf("gap_syntax", punchScene(0, "\n[contact]\nboundary = \"bottom\"\nobstacle = \"expression\"\n"
+                                          "gap = \"0.1 * (x - \"\n")),
+      "gap_syntax.toml:18: [contact] gap = \"0.1 * (x - \"");
+}
+
+TEST(ContactSceneErrors, DimensionMismatches) {
+  EXPECT_ERROR_PARTS(
+      errorOf("ball2d", punchScene(0, "\n[contact]\nboundary = \"bottom\"\nobstacle = \"ball\"\n"
+                                      "centre = [0.5, -1]\nradius = 1\n")),
+      "ball2d.toml:17: [contact] obstacle = \"ball\" is a 3D obstacle, the mesh is 2D (use \"disk\" in 2D)");
+  const std::string cube = R"([mesh]
+generator = "box"
+type = "hexahedron"
+cells = [2, 2, 2]
+[material]
+E = 1
+nu = 0.3
+[[dirichlet]]
+boundary = "top"
+value = [0, 0, -0.01]
+[contact]
+boundary = "bottom"
+)";
+  EXPECT_ERROR_PARTS(errorOf("disk3d", cube + "obstacle = \"disk\"\ncentre = [0.5, 0.5, -1]\nradius = 1\n"),
+                     "disk3d.toml:13: [contact] obstacle = \"disk\" is a 2D obstacle, the mesh is 3D");
+  EXPECT_ERROR_PARTS(errorOf("wedge3d", cube + "obstacle = \"wedge\"\napex = [0.5, 0.5, 0]\nslope = 1\n"),
+                     "wedge3d.toml:13: [contact] obstacle = \"wedge\" is a 2D obstacle");
+  EXPECT_ERROR_PARTS(errorOf("pyramid2d", punchScene(0, "\n[contact]\nboundary = \"bottom\"\nobstacle = "
+                                                        "\"pyramid\"\napex = [0.5, 0]\nslope = 1\n")),
+                     "pyramid2d.toml:17: [contact] obstacle = \"pyramid\" is a 3D obstacle");
+  EXPECT_ERROR_PARTS(errorOf("point3", punchScene(0, "\n[contact]\nboundary = \"bottom\"\nobstacle = "
+                                                     "\"plane\"\npoint = [0.5, 0, 0]\n")),
+                     "point3.toml:18: [contact] point = [0.5, 0, 0] has 3 entries, expected 2");
+  // ball in 3D with a 2-entry centre
+  EXPECT_ERROR_PARTS(errorOf("centre2", cube + "obstacle = \"ball\"\ncentre = [0.5, 0.5]\nradius = 1\n"),
+                     "centre2.toml:14: [contact] centre = [0.5, 0.5] has 2 entries, expected 3");
+  // a ball in 3D and a disk in 2D are fine, also with the normal direction
+  EXPECT_EQ(errorOf("ball3d", cube + "obstacle = \"ball\"\ncentre = [0.5, 0.5, -1]\nradius = 1\ndirection = \"normal\"\n"), "");
+  EXPECT_EQ(errorOf("disk2d", punchScene(0, "\n[contact]\nboundary = \"bottom\"\nobstacle = \"disk\"\n"
+                                            "centre = [0.5, -1]\nradius = 1\n")),
+            "");
+}
+
+TEST(ContactSceneErrors, BoundaryProblems) {
+  EXPECT_ERROR_PARTS(errorOf("no_boundary", punchScene(0, "\n[contact]\nboundary = \"bottm\"\nobstacle = "
+                                                          "\"plane\"\npoint = [0, 0]\n")),
+                     "no_boundary.toml:16: [contact] boundary = \"bottm\" does not exist in the mesh",
+                     "available boundaries: left, right, bottom, top");
+  // a named boundary without faces (a Gmsh physical group of no elements)
+  fs::create_directories(kTmp);
+  std::ofstream(kTmp / "empty_group.msh") << R"($MeshFormat
+2.2 0 8
+$EndMeshFormat
+$PhysicalNames
+3
+1 1 "outer"
+1 2 "unused"
+2 3 "body"
+$EndPhysicalNames
+$Nodes
+4
+1 0 0 0
+2 1 0 0
+3 1 1 0
+4 0 1 0
+$EndNodes
+$Elements
+6
+1 1 2 1 1 1 2
+2 1 2 1 1 2 3
+3 1 2 1 1 3 4
+4 1 2 1 1 4 1
+5 2 2 3 1 1 2 3
+6 2 2 3 1 1 3 4
+$EndElements
+)";
+  const std::string msg = errorOf("empty_boundary", R"([mesh]
+file = "empty_group.msh"
+[material]
+E = 1
+nu = 0.3
+[[dirichlet]]
+boundary = "outer"
+[contact]
+boundary = "unused"
+obstacle = "plane"
+point = [0, 0]
+)");
+  EXPECT_ERROR_PARTS(msg, "empty_boundary.toml:9: [contact] boundary = \"unused\"",
+                     "the contact boundary is empty");
+}
+
+TEST(ContactSceneErrors, DirichletVertexViolatesTheBound) {
+  // the bottom is also clamped at u = (0, -0.02): the strip vertices would end 0.02 inside the punch
+  const std::string msg =
+      errorOf("violation", punchScene(0, kStrip + "\n[[dirichlet]]\nboundary = \"bottom\"\nvalue = [0, -0.02]\n"));
+  EXPECT_ERROR_PARTS(msg, "violation.toml:16: [contact] boundary = \"bottom\": vertex ", " at (0.5, 0)",
+                     "has the displacement (0, -0.02) prescribed by [[dirichlet]] boundary = \"bottom\" (line 22)",
+                     "u.nu = 0.02 exceeds the gap 0");
+  // prescribing only the tangential component leaves u.nu free: no error
+  EXPECT_EQ(errorOf("tangential", punchScene(0, kStrip + "\n[[dirichlet]]\nboundary = \"bottom\"\n"
+                                                         "components = [\"x\"]\nvalue = [0.3, 0]\n")),
+            "");
+  // prescribed values that respect the bound are fine
+  EXPECT_EQ(errorOf("respects", punchScene(0, kStrip + "\n[[dirichlet]]\nboundary = \"bottom\"\nvalue = [0, 0.01]\n")), "");
+}
+
+TEST(ContactSceneErrors, GapExpressionNotFinite) {
+  const std::string msg = errorOf(
+      "log_gap", punchScene(0, "\n[contact]\nboundary = \"bottom\"\nobstacle = \"expression\"\ngap = \"log(x)\"\n"));
+  EXPECT_ERROR_PARTS(msg, "log_gap.toml:18: [contact] gap = \"log(x)\" is not finite at (0, 0)");
+}
+
+TEST(ContactSceneErrors, SolverSection) {
+  EXPECT_ERROR_PARTS(errorOf("cg", punchScene(0, kStrip, "[solver]\ntype = \"cg\"\n")),
+                     "cg.toml:23: [solver] type = \"cg\" is unknown",
+                     "known solvers: tnnmg, pdas, pgs for scenes with [contact]; direct, multigrid for scenes without");
+  EXPECT_ERROR_PARTS(errorOf("direct_contact", punchScene(0, kStrip, "[solver]\ntype = \"direct\"\n")),
+                     "direct_contact.toml:23: [solver] type = \"direct\" solves linear problems only");
+  EXPECT_ERROR_PARTS(errorOf("tnnmg_linear", punchScene(0, "", "[solver]\ntype = \"tnnmg\"\n")),
+                     "tnnmg_linear.toml:16: [solver] type = \"tnnmg\" is a contact solver and needs a [contact] section");
+  EXPECT_ERROR_PARTS(errorOf("tol", punchScene(0, kStrip, "[solver]\ntolerance = 2\n")),
+                     "tol.toml:23: [solver] tolerance = 2 must lie in (0, 1)");
+  EXPECT_ERROR_PARTS(errorOf("maxit", punchScene(0, kStrip, "[solver]\nmax_iterations = 0\n")),
+                     "maxit.toml:23: [solver] max_iterations = 0 must lie in [1, 100000000]");
+  EXPECT_ERROR_PARTS(errorOf("smooth_pdas", punchScene(0, kStrip, "[solver]\ntype = \"pdas\"\npre_smoothing = 2\n")),
+                     "smooth_pdas.toml:24: [solver] pre_smoothing does not apply to type = \"pdas\"");
+  EXPECT_ERROR_PARTS(errorOf("tol_direct", punchScene(0, "", "[solver]\ntolerance = 1e-8\n")),
+                     "tol_direct.toml:16: [solver] tolerance does not apply to type = \"direct\"");
+  EXPECT_ERROR_PARTS(errorOf("no_smoothing", punchScene(0, kStrip, "[solver]\npre_smoothing = 0\n")),
+                     "no_smoothing.toml:23: [solver] pre_smoothing leaves no smoothing step");
+}
+
+TEST(ContactSceneErrors, NonConvergenceIsAnErrorAfterTheOutputs) {
+  const fs::path out = kTmp / "not_converged";
+  fs::remove_all(out);
+  const fs::path scene =
+      writeScene("not_converged", punchScene(3, kStrip, "[solver]\ntype = \"pgs\"\nmax_iterations = 3\n"));
+  RunOptions o;
+  o.outputDirectory = out;
+  try {
+    runScene(scene, o);
+    ADD_FAILURE() << "no error";
+  } catch (const obs::Error& e) {
+    EXPECT_ERROR_PARTS(e.what(), "not_converged.toml:22: [solver] pgs did not converge in 3 iterations",
+                       "raise [solver] max_iterations");
+  }
+  const nlohmann::json j = summaryOf(out);
+  EXPECT_EQ(j["solver"]["converged"], false);
+  EXPECT_EQ(j["solver"]["iterations"], 3);
+}
+
+// --- the program --------------------------------------------------------------------------------
+
+TEST(ContactSceneCli, VerboseProgressOnStderrAndOneLineErrors) {
+  if (!fs::exists(OBS_BINARY)) GTEST_SKIP() << "obs not built: " << OBS_BINARY;
+  auto run = [](const std::string& args, const std::string& tag) {
+    const fs::path o = kTmp / (tag + ".out"), e = kTmp / (tag + ".err");
+    const std::string cmd = "'" + std::string(OBS_BINARY) + "' " + args + " >'" + o.string() + "' 2>'" + e.string() + "'";
+    const int status = std::system(cmd.c_str());
+    return std::make_tuple(WIFEXITED(status) ? WEXITSTATUS(status) : -1, slurp(o), slurp(e));
+  };
+  const fs::path scene = writeScene("cli_punch", punchScene(2, kStrip));
+  const auto [code, out, err] = run("run '" + scene.string() + "' -o '" + (kTmp / "cli_punch").string() + "' --quiet --verbose", "verbose");
+  EXPECT_EQ(code, 0) << err;
+  EXPECT_EQ(out, "");
+  EXPECT_EQ(err.rfind("tnnmg iteration 1: energy ", 0), 0u) << err;
+  const auto [code2, out2, err2] = run("run '" + scene.string() + "' -o '" + (kTmp / "cli_punch").string() + "' --quiet", "quiet");
+  EXPECT_EQ(code2, 0);
+  EXPECT_EQ(err2, "");
+
+  const fs::path bad = writeScene("cli_bad", punchScene(2, kStrip, "[solver]\ntype = \"pgs\"\nmax_iterations = 2\n"));
+  const auto [code3, out3, err3] = run("run '" + bad.string() + "' -o '" + (kTmp / "cli_bad").string() + "'", "bad");
+  EXPECT_EQ(code3, 1);
+  EXPECT_EQ(std::count(err3.begin(), err3.end(), '\n'), 1) << err3;
+  EXPECT_EQ(err3.rfind("obs: error: ", 0), 0u) << err3;
+  EXPECT_TRUE(contains(err3, "did not converge in 2 iterations")) << err3;
+}
