@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cctype>
 
+#include "obs/estimators/ContactResidualEstimator.hpp"
 #include "obs/estimators/ResidualEstimator.hpp"
 #include "obs/mesh/Error.hpp"
 
@@ -41,6 +42,8 @@ void registerBuiltinEstimators(EstimatorRegistry& registry) {
   OriginGuard origin(registry.origin_, EstimatorRegistry::kBuiltin);
   registry.add("residual", ResidualEstimator().description(),
                [] { return std::make_unique<ResidualEstimator>(); });
+  registry.add("contact-residual", ContactResidualEstimator().description(),
+               [] { return std::make_unique<ContactResidualEstimator>(); });
 }
 
 void EstimatorRegistry::add(const std::string& name, const std::string& description,

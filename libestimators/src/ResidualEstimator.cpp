@@ -89,9 +89,8 @@ std::vector<std::string> ResidualEstimator::contributionNames() const {
   return {"eta_1", "eta_2", "eta_3", "eta_4", "eta_5"};
 }
 
-void ResidualEstimator::addContactFace(const EstimatorInput& input, const ContactFace& face,
-                                       const std::vector<double>& h,
-                                       ContributionTable& table) const {
+void ResidualEstimator::boundaryStressSquares(const EstimatorInput& input, const ContactFace& face,
+                                              double& tangential, double& normal) {
   const int d = input.mesh.dimension();
   const ContactSet* set = input.contact ? input.contact->set : nullptr;
   // nodal directions if every face vertex is a contact node of the set
@@ -104,7 +103,8 @@ void ResidualEstimator::addContactFace(const EstimatorInput& input, const Contac
     }
     if (nodal.size() != face.vertices.size()) nodal.clear();
   }
-  double tangential = 0, normal = 0;
+  tangential = 0;
+  normal = 0;
   for (const ContactFacePoint& q : face.points) {
     Eigen::Vector3d w = -q.traction;  // traction-free: J = 0 - sigma n
     for (int c = 0; c < 3; ++c)
@@ -119,11 +119,27 @@ void ResidualEstimator::addContactFace(const EstimatorInput& input, const Contac
     normal += q.weight * wn * wn;
     tangential += q.weight * (w - wn * nu).squaredNorm();
   }
+}
+
+void ResidualEstimator::addContactFace(const EstimatorInput& input, const ContactFace& face,
+                                       const std::vector<double>& h,
+                                       ContributionTable& table) const {
+  double tangential = 0, normal = 0;
+  boundaryStressSquares(input, face, tangential, normal);
   for (Index p : face.vertices) {
     table.add(kEta4, p, face.cell, h[p] * tangential);
     table.add(kEta5, p, face.cell, h[p] * normal);
   }
 }
+
+void ResidualEstimator::addContactFaces(const EstimatorInput& input,
+                                        const std::vector<ContactFace>& faces,
+                                        const std::vector<double>& h,
+                                        ContributionTable& table) const {
+  for (const ContactFace& face : faces) addContactFace(input, face, h, table);
+}
+
+void ResidualEstimator::decorate(const EstimatorInput&, EstimatorResult&) const {}
 
 void ResidualEstimator::finish(const EstimatorInput&, const std::vector<double>&,
                                ContributionTable&) const {}
@@ -172,6 +188,7 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
   }
 
   // faces: eta_2 (interior jumps), eta_3 (Neumann jumps), contact faces through the hook
+  std::vector<ContactFace> contactFaces;
   for (Index f = 0; f < faces.numFaces(); ++f) {
     if (faces.numCells(f) > 2)
       throw Error("estimator '" + name() + "': face " + std::to_string(f) + " is shared by " +
@@ -217,7 +234,7 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
         const Vec sn = F::stress(pv, u, verts0, lambda, mu) * q.normal.template head<d>();
         cf.points.push_back({q.x, q.weight, q.normal, q.shape, toPoint(sn)});
       }
-      addContactFace(in, cf, h, table);
+      contactFaces.push_back(std::move(cf));
       continue;
     }
     if (std::all_of(fixed.begin(), fixed.begin() + d, [](bool b) { return b; })) continue;
@@ -238,9 +255,11 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
     for (Index p : fv) table.add(kEta3, p, c0, h[p] * j2);
   }
 
+  addContactFaces(in, contactFaces, h, table);
   finish(in, h, table);
   EstimatorResult result = table.result(name(), meshStamp(m, in.meshRevision));
   result.vertexFields["h"] = Eigen::Map<const Eigen::VectorXd>(h.data(), static_cast<Eigen::Index>(h.size()));
+  decorate(in, result);
   return result;
 }
 

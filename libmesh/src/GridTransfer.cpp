@@ -134,8 +134,10 @@ CsrMatrix transferMatrix(const Grid& grid, const GridView& coarse, const GridVie
     kids.clear();
     auto it = std::lower_bound(byFather.begin(), byFather.end(), std::pair<Index, Index>{e, -1});
     for (; it != byFather.end() && it->first == e; ++it) kids.push_back(it->second);
-    if (kids.empty())
-      for (int k = 0; k < grid.numChildren(e); ++k) kids.push_back(grid.child(e, k));
+    // then the current children not in the coarse view (a red child created after the coarse view
+    // was taken may cover x while its father's old green children are in the coarse view)
+    for (int k = 0; k < grid.numChildren(e); ++k)
+      if (!inCoarse[grid.child(e, k)]) kids.push_back(grid.child(e, k));
   };
 
   CsrMatrix P;
@@ -172,6 +174,8 @@ CsrMatrix transferMatrix(const Grid& grid, const GridView& coarse, const GridVie
         if (!eta) throw Error("transferMatrix: cannot locate fine vertex " + std::to_string(v));
         e = a;
         xi = *eta;
+      } else {
+        e = a;  // no coarse ancestor: descend from the level-0 ancestor (e itself may be new)
       }
       while (!inCoarse[e]) {
         coarseChildren(e);

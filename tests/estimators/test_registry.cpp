@@ -11,6 +11,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "obs/estimators/ContactResidualEstimator.hpp"
 #include "obs/estimators/EstimatorRegistry.hpp"
 #include "obs/estimators/PluginPaths.hpp"
 #include "obs/estimators/ResidualEstimator.hpp"
@@ -41,8 +42,10 @@ TEST(EstimatorRegistry, GlobalHoldsTheBuiltins) {
   EXPECT_EQ(estimator->name(), "residual");
   EXPECT_EQ(registry.description("residual"), estimator->description());
   EXPECT_NE(dynamic_cast<ResidualEstimator*>(estimator.get()), nullptr);
+  ASSERT_TRUE(registry.contains("contact-residual"));
+  EXPECT_NE(dynamic_cast<ContactResidualEstimator*>(registry.create("contact-residual").get()), nullptr);
   for (const auto& e : registry.entries())
-    if (e.name == "residual") {
+    if (e.name == "residual" || e.name == "contact-residual") {
       EXPECT_EQ(e.origin, EstimatorRegistry::kBuiltin);
     }
 }
@@ -60,7 +63,7 @@ TEST(EstimatorRegistry, UnknownNameListsTheRegisteredOnes) {
 TEST(EstimatorRegistry, AddChecksNamesAndFactories) {
   EstimatorRegistry r;
   registerBuiltinEstimators(r);
-  EXPECT_EQ(r.names(), std::vector<std::string>{"residual"});
+  EXPECT_EQ(r.names(), (std::vector<std::string>{"contact-residual", "residual"}));
   const auto factory = [] { return std::make_unique<ResidualEstimator>(); };
   EXPECT_TRUE(contains(errorOf([&] { r.add("residual", "again", factory); }),
                        "estimator 'residual' is already registered (built-in)"));
@@ -70,7 +73,7 @@ TEST(EstimatorRegistry, AddChecksNamesAndFactories) {
   r.add("null", "returns nothing", [] { return std::unique_ptr<Estimator>(); });
   EXPECT_TRUE(contains(errorOf([&] { r.create("null"); }), "returned no estimator"));
   r.add("another", "embedding code may add its own", factory);
-  EXPECT_EQ(r.names(), (std::vector<std::string>{"another", "null", "residual"}));
+  EXPECT_EQ(r.names(), (std::vector<std::string>{"another", "contact-residual", "null", "residual"}));
 }
 
 TEST(EstimatorRegistry, LoadsThePluginOnce) {
@@ -171,7 +174,8 @@ TEST_F(EstimatorsCommand, ListsTheBuiltinsWithDescriptions) {
   const Output o = runObs("estimators", "list");
   EXPECT_EQ(o.code, 0) << o.err;
   EXPECT_TRUE(o.err.empty()) << o.err;
-  EXPECT_EQ(o.out.rfind("residual  standard residual estimator", 0), 0u) << o.out;
+  EXPECT_EQ(o.out.rfind("contact-residual  residual-type estimator for contact", 0), 0u) << o.out;
+  EXPECT_TRUE(contains(o.out, "\nresidual          standard residual estimator")) << o.out;
   const Output h = runObs("--help", "help");
   EXPECT_TRUE(contains(h.out, "estimators")) << h.out;
 }
@@ -180,8 +184,8 @@ TEST_F(EstimatorsCommand, LoadsPlugins) {
   const Output o = runObs("estimators --plugin '" + std::string(OBS_EXAMPLE_ESTIMATOR_PLUGIN) + "'",
                           "plugin");
   EXPECT_EQ(o.code, 0) << o.err;
-  EXPECT_TRUE(contains(o.out, "example-uniform  equal indicators on every cell")) << o.out;
-  EXPECT_TRUE(contains(o.out, "residual         standard residual")) << o.out;
+  EXPECT_TRUE(contains(o.out, "example-uniform   equal indicators on every cell")) << o.out;
+  EXPECT_TRUE(contains(o.out, "\nresidual          standard residual")) << o.out;
 
   // a file name in the current directory is found without "./"
   const fs::path plugin(OBS_EXAMPLE_ESTIMATOR_PLUGIN);

@@ -85,7 +85,7 @@ inline constexpr const char* kPluginEntryPoint = "obs_register_estimators";
 /// Signature of the entry point.
 using PluginEntryPoint = void (*)(EstimatorRegistry&);
 
-/// Adds the built-in estimators ("residual") to a registry.
+/// Adds the built-in estimators ("contact-residual", "residual") to a registry.
 void registerBuiltinEstimators(EstimatorRegistry& registry);
 
 }  // namespace obs::estimators

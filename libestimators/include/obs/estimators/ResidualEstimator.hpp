@@ -43,8 +43,10 @@
 /// ("eta_1" ... "eta_5") and "eta" = (sum_k eta_{k,p}^2)^{1/2}, plus "h" = h_p.
 ///
 /// Extension (thesis Fig. 4.1, a class hierarchy of residual-type estimators): the contact
-/// estimator derives from this class, overrides contributionNames(), addContactFace() (eta_4,
-/// eta_5 with node classes) and finish() (node terms eta_6 ... eta_8).
+/// estimator (ContactResidualEstimator.hpp) derives from this class and overrides
+/// contributionNames(), addContactFaces() (eta_4, eta_5 with node classes, the node terms eta_6,
+/// eta_7 and the face terms eta_8, which need all contact faces at once) and decorate() (extra
+/// vertex fields).
 #include <array>
 #include <string>
 #include <vector>
@@ -98,9 +100,22 @@ protected:
   /// h_p ||sigma_T||_F^2 to kEta4 and h_p ||sigma_nu||_F^2 to kEta5 for every vertex p of F.
   virtual void addContactFace(const EstimatorInput& input, const ContactFace& face,
                               const std::vector<double>& h, ContributionTable& table) const;
+  /// Adds the terms of all potential-contact faces (called once, after the interior and Neumann
+  /// faces, with the faces in face-table order). Default: addContactFace() for each face.
+  virtual void addContactFaces(const EstimatorInput& input, const std::vector<ContactFace>& faces,
+                               const std::vector<double>& h, ContributionTable& table) const;
   /// Called after all cells and faces (node terms of derived estimators). Default: nothing.
   virtual void finish(const EstimatorInput& input, const std::vector<double>& h,
                       ContributionTable& table) const;
+  /// Called on the finished result (extra vertex or cell fields). Default: nothing.
+  virtual void decorate(const EstimatorInput& input, EstimatorResult& result) const;
+
+  /// The squared norms over the face of the tangential and normal parts of the boundary stress
+  /// w = -sigma_h n (Dirichlet-fixed components dropped), split with nu = the normalised
+  /// interpolation of the nodal directions nu_p of contact->set if every face vertex is a node of
+  /// the set, else the outward normal n:  normal = ||w.nu||_F^2, tangential = ||w - (w.nu) nu||_F^2.
+  static void boundaryStressSquares(const EstimatorInput& input, const ContactFace& face,
+                                    double& tangential, double& normal);
 
 private:
   template <int d>

@@ -1,0 +1,174 @@
+#pragma once
+/// \file AdaptiveLoop.hpp
+/// The adaptive loop solve -> estimate -> mark -> refine (thesis Sec. 4.1, 4.2; MATH.md §3, §4;
+/// DESIGN.md "libestimators") on a mesh::Grid, for a Signorini problem (an obstacle on one
+/// boundary id) or plain linear elasticity (no obstacle), with a per-step record and an optional
+/// callback. No printing: drivers report through the callback.
+///
+/// Step k (k = 0, 1, ...):
+///  1. assemble on the leaf view: ContactSet, ContactProblem (A, b with Dirichlet values);
+///  2. solve: TNNMG (default) or the primal-dual active set method; without an obstacle a direct
+///     CHOLMOD solve. Warm start (default): the start is the previous solution interpolated to the
+///     new leaf view (mesh::transferMatrix, exact where the grids are nested), which the solvers
+///     project onto the admissible set; a cold start begins at 0;
+///  3. contact outputs (computeContactOutputs: actual contact, s_p, load), node classes
+///     (classifyContactNodes: actual / semi / full), optional reference errors;
+///  4. estimate with the registry estimator `estimator` (EstimatorInput with the contact data);
+///     in Uniform mode only if `estimateUniform`;
+///  5. record + callback; stop if k + 1 = maxSteps, the leaf view has >= targetVertices vertices,
+///     eta <= etaTolerance, or (adaptive) nothing was marked;
+///  6. refine: Adaptive: mark the cells chosen by the marking strategy (MarkingStrategy, default
+///     "mean" with theta = 1.1) and Grid::adapt() (boundary projections of the grid apply);
+///     Uniform: Grid::refineUniformly().
+/// eoc (MATH.md (4.2), on the vertex count N): eoc_k = (ln eta_{k-1} - ln eta_k) /
+/// (ln N_k - ln N_{k-1}), NaN at k = 0 or without estimates.
+///
+/// Reference errors (MATH.md §4, (4.4)) with a ContactReference (AnalyticContact.hpp) and the
+/// computed load P = sum_p mu_p = int_{Gamma_C} s_m (s_m = sum_p s_p phi_p, m_p^C = int phi_p):
+///  - pressureError = ||s_m - p(., P)||_{Gamma_C} / ||p(., P)||_{Gamma_C} by face quadrature of
+///    degree reference.quadratureDegree (for the punch, p is not square integrable at the strip
+///    edges; Gauss points never hit them, so the value is a quadrature approximation as in the thesis);
+///  - radius = max over actual contact vertices of |x_p - centre|, radiusError = |radius - b(P)| / b(P);
+///  - centreError = |s_c - p(x_c, P)| / p(x_c, P) at the potential contact vertex c nearest to the centre.
+///
+/// Sample use:
+///   mesh::Grid grid(mesh::boxMesh(mesh::CellType::Quadrilateral, 4));
+///   StripObstacle punch(Point(0.5, 0, 0), 0.0625, -Point::UnitY());
+///   AdaptiveLoopOptions o;  o.maxSteps = 6;
+///   AdaptiveLoop loop(grid, material, bc, o);
+///   loop.setContact(punch, mesh::kBottom);
+///   loop.setReference(punchReference());
+///   loop.setCallback([](const AdaptiveStepView& s) { writeVtk(s.view.mesh, s.displacement); });
+///   const std::vector<AdaptiveStep> steps = loop.run();
+#include <Eigen/Core>
+
+#include <functional>
+#include <limits>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "obs/estimators/AnalyticContact.hpp"
+#include "obs/estimators/ContactResidualEstimator.hpp"
+#include "obs/estimators/Estimator.hpp"
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/Material.hpp"
+
+namespace obs::estimators {
+
+class EstimatorRegistry;
+
+enum class RefinementMode { Adaptive, Uniform };
+enum class ContactSolverKind { TNNMG, PrimalDualActiveSet };
+
+struct AdaptiveLoopOptions {
+  RefinementMode mode = RefinementMode::Adaptive;
+  std::string estimator = "contact-residual";  ///< registry name
+  std::string marking = "mean";                ///< MarkingStrategy name
+  std::optional<double> markingParameter;      ///< theta (the strategy's default if unset)
+  bool estimateUniform = false;  ///< Uniform mode: run the estimator anyway (for eta and eoc)
+  int maxSteps = 5;              ///< number of solves (>= 1); refinements = solves - 1 at most
+  Index targetVertices = 0;      ///< stop once the leaf view has at least this many vertices (0: off)
+  double etaTolerance = 0;       ///< stop once eta <= etaTolerance (0: off)
+  ContactSolverKind solver = ContactSolverKind::TNNMG;
+  double solverTolerance = 1e-10;  ///< relative energy-norm correction (ContactSolverOptions)
+  int maxSolverIterations = 500;
+  bool warmStart = true;           ///< start from the prolonged previous solution
+  double contactTolerance = 1e-8;  ///< relative tolerance of actual contact
+  /// Registry to create the estimator from (null: EstimatorRegistry::global()).
+  const EstimatorRegistry* registry = nullptr;
+};
+
+struct ReferenceErrors {
+  double load = 0;               ///< computed P = sum_p mu_p
+  double pressureError = 0;      ///< relative L2 error of s_m (MATH.md (4.4))
+  double radius = 0;             ///< measured contact radius
+  double exactRadius = 0;        ///< b(P)
+  double radiusError = 0;        ///< |radius - b| / b
+  Index centreVertex = -1;       ///< leaf-view vertex nearest to the centre
+  double centrePressure = 0;     ///< s_c
+  double exactCentrePressure = 0;
+  double centreError = 0;        ///< |s_c - p(x_c)| / p(x_c)
+};
+
+/// The record of one step.
+struct AdaptiveStep {
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+  int step = 0;
+  Index cells = 0, vertices = 0, unknowns = 0;
+  Index potentialContact = 0, actualContact = 0, semiContact = 0, fullContact = 0;
+  double eta = kNaN;                       ///< NaN if not estimated
+  std::vector<Contribution> contributions; ///< eta_k (empty if not estimated)
+  double eoc = kNaN;
+  std::string solver;
+  int solverIterations = 0;
+  bool converged = false;
+  double kkt = 0;                          ///< max KKT residual of the solution (contact only)
+  double load = 0;                         ///< sum_p mu_p (0 without contact)
+  double assemblySeconds = 0, solverSeconds = 0, estimatorSeconds = 0;
+  double refinementSeconds = 0;            ///< marking + adapt after this step (0 for the last;
+                                           ///< filled after the callback of the step)
+  double transferSeconds = 0;              ///< building the start vector of this step
+  Index marked = 0;                        ///< cells marked after this step
+  std::optional<ReferenceErrors> reference;
+};
+
+/// What the callback sees after step k, before the grid is refined (valid during the call only).
+struct AdaptiveStepView {
+  const AdaptiveStep& record;
+  const mesh::Grid& grid;
+  const mesh::GridView& view;               ///< the leaf view the step was computed on
+  const Eigen::VectorXd& displacement;      ///< on view.mesh, vertex-major
+  const ContactSet* contactSet;             ///< null without contact
+  const ContactOutputs* outputs;            ///< null without contact
+  const ContactNodeClasses& classes;
+  const EstimatorResult* estimate;          ///< null if not estimated
+};
+
+class AdaptiveLoop {
+public:
+  using Callback = std::function<void(const AdaptiveStepView&)>;
+
+  /// The grid is refined in place; material and bc must outlive the loop. Throws obs::Error for
+  /// maxSteps < 1, an unknown estimator or marking name (listing the known ones) or a bad marking
+  /// parameter.
+  AdaptiveLoop(mesh::Grid& grid, const Material& material, const BoundaryConditions& bc,
+               AdaptiveLoopOptions options = {});
+
+  /// Contact with a rigid obstacle on the boundary faces with this id (the obstacle must outlive
+  /// the loop). Without it the loop solves linear elasticity.
+  void setContact(const Obstacle& obstacle, int boundaryId);
+  void setReference(ContactReference reference);
+  void setCallback(Callback callback);
+
+  /// Runs the loop (see the file comment) and returns the records.
+  std::vector<AdaptiveStep> run();
+  /// The solution on the final leaf view (after run()).
+  const Eigen::VectorXd& displacement() const { return u_; }
+  const AdaptiveLoopOptions& options() const { return options_; }
+
+private:
+  template <int d>
+  std::vector<AdaptiveStep> runDim();
+
+  mesh::Grid& grid_;
+  const Material& material_;
+  const BoundaryConditions& bc_;
+  AdaptiveLoopOptions options_;
+  const Obstacle* obstacle_ = nullptr;
+  int contactId_ = 0;
+  std::optional<ContactReference> reference_;
+  Callback callback_;
+  Eigen::VectorXd u_;
+};
+
+/// eoc = (ln eta0 - ln eta1) / (ln n1 - ln n0) (MATH.md (4.2)); NaN if undefined.
+double experimentalOrder(double eta0, double n0, double eta1, double n1);
+
+/// The reference errors of a solution (see the file comment).
+ReferenceErrors referenceErrors(const mesh::Mesh& mesh, const ContactSet& set, const ContactOutputs& outputs,
+                                const ContactReference& reference);
+
+}  // namespace obs::estimators

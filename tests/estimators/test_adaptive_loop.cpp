@@ -1,0 +1,271 @@
+// AdaptiveLoop on the 2D punch (MATH.md §4): refinement concentrates at the strip edges, vertices
+// grow, the estimator decreases (eoc about 1/2 against 1/4 for uniform refinement, thesis Fig.
+// 4.4), warm starts save TNNMG iterations, contact-residual beats uniform refinement in the
+// pressure errors; the analytic references integrate to their load; input errors.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <numbers>
+
+#include "obs/estimators/AdaptiveLoop.hpp"
+#include "obs/estimators/AnalyticContact.hpp"
+#include "obs/estimators/EstimatorRegistry.hpp"
+#include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/Error.hpp"
+#include "obs/obs/Obstacle.hpp"
+
+using namespace obs;
+using namespace obs::estimators;
+using mesh::CellType;
+
+namespace {
+
+constexpr double kPi = std::numbers::pi;
+const Material kMaterial{3e5, 0.25};
+bool verbose() { return std::getenv("OBS_TEST_VERBOSE") != nullptr; }
+
+/// Composite 5-point Gauss-Legendre on [a, b] with n panels.
+double integrate(const std::function<double(double)>& f, double a, double b, int n = 200) {
+  static const double x[5] = {-0.9061798459386640, -0.5384693101056831, 0.0, 0.5384693101056831,
+                              0.9061798459386640};
+  static const double w[5] = {0.2369268850561891, 0.4786286704993665, 0.5688888888888889,
+                              0.4786286704993665, 0.2369268850561891};
+  double s = 0, h = (b - a) / n;
+  for (int i = 0; i < n; ++i)
+    for (int k = 0; k < 5; ++k) s += 0.5 * h * w[k] * f(a + h * (i + 0.5 + 0.5 * x[k]));
+  return s;
+}
+
+std::string errorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const obs::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(AnalyticContact, PressuresIntegrateToTheLoad) {
+  const double P = 872.19, E = 3e5, nu = 0.25;
+  // punch: s = b sin t removes the edge singularities
+  const double b = 0.0625;
+  EXPECT_NEAR(integrate([&](double t) { return punchPressure(b * std::sin(t), P, b) * b * std::cos(t); },
+                        -kPi / 2, kPi / 2),
+              P, 1e-10 * P);
+  EXPECT_NEAR(punchPressure(0, P, b), P / (kPi * b), 1e-12 * P);
+  EXPECT_EQ(punchPressure(0.07, P, b), 0.0);
+  // wedge: b(872.19) = 0.013628 (MATH.md §4); s = b/2 t^4 tames the logarithm at the apex,
+  // s = b cos t the square root at the edge
+  const double bw = wedgeContactRadius(P, E, nu, 0.2);
+  EXPECT_NEAR(bw, 0.013628, 5e-7);
+  auto pw = [&](double s) { return wedgePressure(s, P, E, nu, 0.2); };
+  const double inner = integrate([&](double t) { return pw(bw / 2 * std::pow(t, 4)) * 2 * bw * std::pow(t, 3); }, 0, 1);
+  const double outer = integrate([&](double t) { return pw(bw * std::cos(t)) * bw * std::sin(t); }, 0, kPi / 3);
+  EXPECT_NEAR(2 * (inner + outer), P, 1e-8 * P);
+  EXPECT_EQ(wedgePressure(bw * 1.01, P, E, nu, 0.2), 0.0);
+  // Hertz: b(88.28) = 0.0537 (MATH.md §4), int 2 pi r p(r) dr = P
+  const double Ph = 88.28, R = 0.75;
+  const double bh = hertzContactRadius(Ph, E, nu, R);
+  EXPECT_NEAR(bh, 0.0537, 5e-5);
+  EXPECT_NEAR(integrate([&](double r) { return 2 * kPi * r * hertzPressure(r, Ph, E, nu, R); }, 0, bh, 400), Ph,
+              1e-6 * Ph);
+  EXPECT_NEAR(hertzPressure(0, Ph, E, nu, R), 3 * Ph / (2 * kPi * bh * bh), 1e-12 * Ph);
+  // the reference objects use the centre of MATH.md §4
+  const ContactReference h = hertzReference();
+  EXPECT_DOUBLE_EQ(h.pressure(Point(0.5 + bh / 2, 0.5, 0), Ph), hertzPressure(bh / 2, Ph, E, nu, R));
+  EXPECT_NEAR(h.radius(Ph), bh, 1e-15);
+  EXPECT_EQ(punchReference().radius(123.0), 0.0625);
+  // bad parameters
+  EXPECT_NE(errorOf([] { punchPressure(0, -1, 0.1); }).find("punch reference: the load"), std::string::npos);
+  EXPECT_NE(errorOf([] { wedgeContactRadius(1, 3e5, 0.5, 0.2); }).find("Poisson ratio"), std::string::npos);
+  EXPECT_NE(errorOf([] { hertzReference(3e5, 0.25, 0); }).find("ball radius"), std::string::npos);
+}
+
+BoundaryConditions punchLoad() {
+  BoundaryConditions bc;
+  bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Eigen::Vector3d(0, -0.01, 0); }});
+  return bc;
+}
+
+void print(const std::string& label, const std::vector<AdaptiveStep>& steps) {
+  if (!verbose()) return;
+  for (const AdaptiveStep& s : steps)
+    std::cout << label << " step " << s.step << ": N " << s.vertices << " aC " << s.actualContact << " sC "
+              << s.semiContact << " fC " << s.fullContact << " eta " << s.eta << " eoc " << s.eoc << " it "
+              << s.solverIterations << " P " << s.load << " perr " << s.reference->pressureError << " rerr "
+              << s.reference->radiusError << " cerr " << s.reference->centreError << " t " << s.solverSeconds
+              << "/" << s.estimatorSeconds << "/" << s.refinementSeconds << "\n";
+}
+
+struct PunchRun {
+  std::vector<AdaptiveStep> steps;
+  int maxLevel = 0;
+  std::vector<std::pair<Point, int>> leaves;  ///< centroid, level of the final leaves
+  int callbacks = 0;
+};
+
+PunchRun runPunch(AdaptiveLoopOptions o) {
+  mesh::Grid grid(mesh::boxMesh(CellType::Quadrilateral, 4));
+  const StripObstacle punch(Point(0.5, 0, 0), 0.0625, Point(0, -1, 0));
+  const BoundaryConditions bc = punchLoad();
+  AdaptiveLoop loop(grid, kMaterial, bc, o);
+  loop.setContact(punch, mesh::kBottom);
+  loop.setReference(punchReference());
+  PunchRun r;
+  loop.setCallback([&](const AdaptiveStepView& s) {
+    EXPECT_EQ(s.record.step, r.callbacks++);
+    EXPECT_EQ(s.view.mesh.numVertices(), s.record.vertices);
+    EXPECT_EQ(s.displacement.size(), s.record.unknowns);
+    ASSERT_NE(s.outputs, nullptr);
+    EXPECT_EQ(s.outputs->contactNodes, s.record.actualContact);
+    EXPECT_EQ(s.estimate != nullptr, o.mode == RefinementMode::Adaptive || o.estimateUniform);
+    if (s.estimate) {
+      EXPECT_TRUE(s.estimate->validFor(s.view.mesh));
+    }
+  });
+  r.steps = loop.run();
+  EXPECT_EQ(loop.displacement().size(), r.steps.back().unknowns);
+  r.maxLevel = grid.maxLevel();
+  for (Index e : grid.leafElements()) {
+    Point x = Point::Zero();
+    for (Index v : grid.vertices(e)) x += grid.vertex(v) / static_cast<double>(grid.vertices(e).size());
+    r.leaves.push_back({x, grid.level(e)});
+  }
+  return r;
+}
+
+TEST(AdaptiveLoop, PunchRefinesAtTheStripEdgesAndBeatsUniform) {
+  AdaptiveLoopOptions o;
+  o.maxSteps = 8;
+  const PunchRun a = runPunch(o);
+  print("contact-residual", a.steps);
+  ASSERT_EQ(a.steps.size(), 8u);
+  EXPECT_EQ(a.callbacks, 8);
+  for (std::size_t k = 1; k < a.steps.size(); ++k) {
+    EXPECT_GT(a.steps[k].vertices, a.steps[k - 1].vertices) << k;
+    EXPECT_LT(a.steps[k].eta, a.steps[k - 1].eta) << k;
+    EXPECT_TRUE(a.steps[k].converged) << k;
+    EXPECT_GT(a.steps[k].marked, -1);
+  }
+  EXPECT_TRUE(std::isnan(a.steps[0].eoc));
+  EXPECT_EQ(a.steps[0].contributions.size(), 8u);
+  // the finest leaves sit at the strip edges x = 0.4375 and 0.5625 on the contact boundary
+  int nearLeft = 0, nearRight = 0;
+  for (const auto& [x, level] : a.leaves) {
+    if (level < a.maxLevel) continue;
+    const double dl = std::hypot(x[0] - 0.4375, x[1]), dr = std::hypot(x[0] - 0.5625, x[1]);
+    EXPECT_LT(std::min(dl, dr), 0.05) << x.transpose();
+    nearLeft += dl < 0.05;
+    nearRight += dr < 0.05;
+  }
+  EXPECT_GT(nearLeft, 0);
+  EXPECT_GT(nearRight, 0);
+  EXPECT_GE(a.maxLevel, 6);
+
+  // uniform refinement (with the estimator for eta)
+  AdaptiveLoopOptions u = o;
+  u.mode = RefinementMode::Uniform;
+  u.estimateUniform = true;
+  u.maxSteps = 5;
+  const PunchRun uni = runPunch(u);
+  print("uniform", uni.steps);
+  const AdaptiveStep& uf = uni.steps.back();
+  const AdaptiveStep& af = a.steps.back();
+  // overall eoc: about 1/2 adaptively, 1/4 uniformly (thesis Fig. 4.4)
+  const double eocA = experimentalOrder(a.steps[0].eta, a.steps[0].vertices, af.eta, af.vertices);
+  const double eocU = experimentalOrder(uni.steps[0].eta, uni.steps[0].vertices, uf.eta, uf.vertices);
+  EXPECT_GT(eocA, 0.42);
+  EXPECT_LT(eocU, 0.32);
+  // fewer vertices, smaller errors in the pressure (MATH.md (4.4)) and at the centre node
+  EXPECT_LT(af.vertices, uf.vertices);
+  EXPECT_LT(af.reference->pressureError, 0.95 * uf.reference->pressureError);
+  EXPECT_LT(af.reference->centreError, 0.2 * uf.reference->centreError);
+  // at a comparable number of actual contact vertices (the last adaptive step with at most as
+  // many as the finest uniform grid) the pressure error is smaller too, with far fewer vertices
+  const AdaptiveStep* comparable = nullptr;
+  for (const AdaptiveStep& s : a.steps)
+    if (s.actualContact <= uf.actualContact) comparable = &s;
+  ASSERT_NE(comparable, nullptr);
+  EXPECT_GE(comparable->actualContact, uf.actualContact - 2);
+  EXPECT_LT(comparable->reference->pressureError, uf.reference->pressureError);
+  EXPECT_LT(comparable->reference->centreError, uf.reference->centreError);
+  EXPECT_LT(comparable->vertices, uf.vertices / 4);
+  // the load converges towards the thesis' fine-grid value 1549.10
+  EXPECT_NEAR(af.load, 1549.10, 0.01 * 1549.10);
+  EXPECT_EQ(af.reference->radiusError, 0.0);  // the strip edges are vertices and in contact
+}
+
+TEST(AdaptiveLoop, WarmStartSavesIterations) {
+  AdaptiveLoopOptions o;
+  o.maxSteps = 6;
+  const PunchRun warm = runPunch(o);
+  o.warmStart = false;
+  const PunchRun cold = runPunch(o);
+  int iw = 0, ic = 0;
+  for (std::size_t k = 1; k < warm.steps.size(); ++k) {
+    ASSERT_EQ(warm.steps[k].vertices, cold.steps[k].vertices);  // the same grids
+    iw += warm.steps[k].solverIterations;
+    ic += cold.steps[k].solverIterations;
+  }
+  if (verbose()) std::cout << "TNNMG iterations, steps 1..5: warm " << iw << ", cold " << ic << "\n";
+  EXPECT_LT(iw, ic);
+}
+
+TEST(AdaptiveLoop, StoppingRulesSolversAndErrors) {
+  // PDAS, a target number of vertices, uniform refinement without an estimator
+  AdaptiveLoopOptions o;
+  o.solver = ContactSolverKind::PrimalDualActiveSet;
+  o.maxSteps = 10;
+  o.targetVertices = 100;
+  const PunchRun p = runPunch(o);
+  EXPECT_GE(p.steps.back().vertices, 100);
+  EXPECT_LT(p.steps[p.steps.size() - 2].vertices, 100);
+  EXPECT_EQ(p.steps.back().solver, "primal-dual-active-set");
+  AdaptiveLoopOptions u;
+  u.mode = RefinementMode::Uniform;
+  u.maxSteps = 2;
+  u.estimator = "no-such-estimator";  // not needed, so not an error
+  const PunchRun uni = runPunch(u);
+  EXPECT_TRUE(std::isnan(uni.steps[1].eta));
+  EXPECT_EQ(uni.steps[1].vertices, 81);
+  // eta tolerance
+  AdaptiveLoopOptions t;
+  t.maxSteps = 10;
+  t.etaTolerance = 8000;
+  const PunchRun tol = runPunch(t);
+  EXPECT_LE(tol.steps.back().eta, 8000);
+  EXPECT_GT(tol.steps[tol.steps.size() - 2].eta, 8000);
+
+  // linear elasticity without contact (direct solves), residual estimator
+  mesh::Grid grid(mesh::boxMesh(CellType::Triangle, 2));
+  const BoundaryConditions bc = punchLoad();
+  AdaptiveLoopOptions l;
+  l.estimator = "residual";
+  l.maxSteps = 3;
+  AdaptiveLoop plain(grid, kMaterial, bc, l);
+  const auto steps = plain.run();
+  ASSERT_EQ(steps.size(), 3u);
+  EXPECT_EQ(steps[0].solver, "cholmod");
+  EXPECT_EQ(steps[2].actualContact, 0);
+  EXPECT_EQ(steps[2].potentialContact, 0);
+  EXPECT_FALSE(steps[2].reference.has_value());
+
+  // bad names and parameters are errors that list what exists
+  AdaptiveLoopOptions bad;
+  bad.estimator = "contact";
+  EXPECT_NE(errorOf([&] { AdaptiveLoop(grid, kMaterial, bc, bad); })
+                .find("unknown estimator 'contact' (registered: contact-residual, residual"),
+            std::string::npos);
+  bad = {};
+  bad.marking = "median";
+  EXPECT_NE(errorOf([&] { AdaptiveLoop(grid, kMaterial, bc, bad); })
+                .find("unknown marking strategy 'median' (known: doerfler, fraction, maximum, mean)"),
+            std::string::npos);
+  bad = {};
+  bad.maxSteps = 0;
+  EXPECT_NE(errorOf([&] { AdaptiveLoop(grid, kMaterial, bc, bad); }).find("maxSteps"), std::string::npos);
+}
+
+}  // namespace
