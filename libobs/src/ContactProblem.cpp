@@ -1,6 +1,7 @@
 #include "obs/obs/ContactProblem.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <numbers>
 #include <sstream>
@@ -81,7 +82,20 @@ void ContactProblem<d>::setup() {
                 " was built for another mesh (dimension " + std::to_string(contact_.dimension()) + ", " +
                 std::to_string(contact_.numMeshVertices()) + " vertices; the problem has dimension " +
                 std::to_string(d) + ", " + std::to_string(n) + " vertices)");
+  {
+    static std::atomic<std::uint64_t> counter{0};
+    operatorId_ = ++counter;
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(b_.size());
+    bool any = false;
+    for (std::size_t i = 0; i < dirichlet_.constrained.size(); ++i)
+      if (dirichlet_.constrained[i]) {
+        g[static_cast<Eigen::Index>(i)] = dirichlet_.values[static_cast<Eigen::Index>(i)];
+        any = any || g[static_cast<Eigen::Index>(i)] != 0;
+      }
+    dirichletLift_ = any ? Eigen::VectorXd(A_ * g) : Eigen::VectorXd::Zero(b_.size());
+  }
   applyDirichlet(A_, b_, dirichlet_);
+  rotated_.assign(contact_.size(), 0);
 
   constraints_.resize(contact_.size());
   for (Index k = 0; k < contact_.size(); ++k) {
@@ -107,6 +121,8 @@ void ContactProblem<d>::setup() {
         F.push_back(a);
       }
     }
+    rotated_[k] = 1;
+    c.shift = shift;
     if (D.empty()) {
       c.rotation = householderRotation(contact_.direction(k)).template topLeftCorner<d, d>();
     } else {
@@ -124,6 +140,7 @@ void ContactProblem<d>::setup() {
                       num(g) + " (the prescribed displacement violates the contact constraint)");
         }
         c.gap = kInf;
+        rotated_[k] = 2;  // constraint decided by the Dirichlet data (identity rotation)
         continue;
       }
       c.direction = nuF / norm;
@@ -185,6 +202,45 @@ Eigen::VectorXd ContactProblem<d>::multipliers(const Eigen::VectorXd& u) const {
       mu[static_cast<Eigen::Index>(k)] = c.direction.dot(r.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d));
   }
   return mu;
+}
+
+template <int d>
+void ContactProblem<d>::setLoad(const Eigen::VectorXd& load) {
+  if (load.size() != b_.size())
+    throw Error("contact problem: setLoad with " + std::to_string(load.size()) + " entries, the problem has " +
+                std::to_string(b_.size()) + " unknowns");
+  b_ = load - dirichletLift_;
+  for (std::size_t i = 0; i < dirichlet_.constrained.size(); ++i)
+    if (dirichlet_.constrained[i]) b_[static_cast<Eigen::Index>(i)] = dirichlet_.values[static_cast<Eigen::Index>(i)];
+}
+
+template <int d>
+void ContactProblem<d>::setGaps(const std::vector<double>& gaps) {
+  if (gaps.size() != constraints_.size())
+    throw Error("contact problem: setGaps with " + std::to_string(gaps.size()) + " gaps, the contact boundary " +
+                contact_.boundaryLabel() + " has " + std::to_string(constraints_.size()) + " nodes");
+  for (std::size_t k = 0; k < gaps.size(); ++k) {
+    const double g = gaps[k];
+    Constraint& c = constraints_[k];
+    if (std::isnan(g) || g == -kInf)
+      throw Error("contact problem: setGaps: gap " + num(g) + " at contact node " + std::to_string(k) + " (vertex " +
+                  std::to_string(c.vertex) + ")");
+    if (g == kInf) {
+      c.gap = kInf;
+      continue;
+    }
+    if (rotated_[k] == 0)
+      throw Error("contact problem: setGaps: finite gap at contact node " + std::to_string(k) + " (vertex " +
+                  std::to_string(c.vertex) + "), which had no constraint (infinite gap) at construction");
+    if (rotated_[k] == 2) {  // normal component prescribed: the data decide
+      if (c.shift > g + 1e-12 * std::max({1.0, std::abs(g), std::abs(c.shift)}))
+        throw Error("contact boundary " + contact_.boundaryLabel() + ", vertex " + std::to_string(c.vertex) +
+                    ": the Dirichlet values give nu.u = " + num(c.shift) + " > gap " + num(g) +
+                    " (the prescribed displacement violates the contact constraint)");
+      continue;
+    }
+    c.gap = (g - c.shift) / c.scale;
+  }
 }
 
 template <int d>

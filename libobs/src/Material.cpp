@@ -14,8 +14,8 @@ void Material::validate() const {
   if (!std::isfinite(poissonRatio) || poissonRatio < 0 || poissonRatio >= 0.5)
     throw Error("material: Poisson's ratio nu must lie in [0, 0.5), got " +
                 std::to_string(poissonRatio));
-  if (!std::isfinite(density) || density < 0)
-    throw Error("material: density must be non-negative and finite, got " + std::to_string(density));
+  if (!std::isfinite(density) || density <= 0)
+    throw Error("material: density rho must be positive and finite, got " + std::to_string(density));
 }
 
 }  // namespace obs

@@ -21,6 +21,7 @@
 /// set method and TNNMG work on.
 #include <Eigen/Core>
 
+#include <cstdint>
 #include <limits>
 #include <vector>
 
@@ -63,6 +64,7 @@ public:
     double gap = 0;  ///< +inf: unconstrained
     double scale = 1;  ///< |nu_F|; the multiplier of nu_p'u <= g_p is (effective multiplier) / scale
     Mat rotation;    ///< orthogonal, rotation e_1 = direction (identity if unconstrained)
+    double shift = 0;  ///< s = sum of nu_c u_D,c over prescribed components c (gap = (g_p - s) / scale)
     bool bounded() const { return gap < std::numeric_limits<double>::infinity(); }
   };
 
@@ -99,6 +101,21 @@ public:
   /// Nodal contact forces (effective multipliers) mu_k = (b - A u)_p . nu_p (0 if unconstrained).
   Eigen::VectorXd multipliers(const Eigen::VectorXd& u) const;
 
+  // --- changing the data of a fixed operator (time stepping: one matrix, many right-hand sides) ---
+  /// Identifies the rotated operator A~ = Q'AQ and its prescribed components: a new id for every
+  /// constructed problem, kept by copies and by setLoad()/setGaps() (which change neither A nor
+  /// the rotations). Solvers may keep operator data (e.g. multigrid hierarchies) for one id.
+  std::uint64_t operatorId() const { return operatorId_; }
+  /// Replaces the load b by `load` (before Dirichlet elimination, like the constructor's load; the
+  /// Dirichlet values of construction are eliminated again). Throws obs::Error on a wrong size.
+  void setLoad(const Eigen::VectorXd& load);
+  /// Replaces the gaps g_p of the physical constraints nu_p'u_p <= g_p (ContactSet numbering;
+  /// +infinity: no constraint at that node). Directions and rotations stay those of construction,
+  /// so operatorId() is unchanged. Throws obs::Error on a wrong size, a NaN or -infinity gap, a
+  /// finite gap at a node that had no constraint at construction (no rotation), or Dirichlet
+  /// values that violate a new gap (as the constructor).
+  void setGaps(const std::vector<double>& gaps);
+
   /// The rotated problem (built on each call: one copy of the matrix).
   RotatedProblem<d> rotated() const;
   /// w = Q'u and u = Q w.
@@ -113,6 +130,9 @@ private:
   DirichletValues dirichlet_;
   ContactSet contact_;
   std::vector<Constraint> constraints_;
+  Eigen::VectorXd dirichletLift_;  ///< A g (original A) on free rows, to eliminate the values in setLoad
+  std::vector<char> rotated_;      ///< per contact node: a rotation was built at construction
+  std::uint64_t operatorId_ = 0;
 };
 
 /// Contact quantities of a solution (MATH.md §1, §3), per contact node k of the ContactSet:

@@ -9,7 +9,7 @@ namespace obs {
 struct Material {
   double youngsModulus = 1.0;  ///< E > 0
   double poissonRatio = 0.0;   ///< 0 <= nu < 0.5 (obs does not accept auxetic materials)
-  double density = 0.0;        ///< rho, used by dynamic scenes only
+  double density = 1.0;        ///< rho > 0 (mass per volume), used by the mass matrices (MATH.md §5)
 
   double lambda() const {
     const double E = youngsModulus, nu = poissonRatio;
@@ -17,7 +17,7 @@ struct Material {
   }
   double mu() const { return youngsModulus / (2 * (1 + poissonRatio)); }
 
-  /// Throws obs::Error unless E > 0 (finite) and 0 <= nu < 0.5.
+  /// Throws obs::Error unless E > 0 (finite), 0 <= nu < 0.5 and rho > 0 (finite).
   void validate() const;
 };
 

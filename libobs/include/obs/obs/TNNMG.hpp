@@ -21,8 +21,15 @@
 ///
 /// The solver is built for one grid: the problem must be assembled on grid.leafView().mesh (the
 /// vertex count is checked; obs::Error otherwise). After the grid is adapted, build a new TNNMG.
+///
+/// Operator reuse: the rotated matrix and the linear correction's operators (multigrid hierarchy,
+/// coarse patterns and Galerkin products) are kept after a solve. A following solve of a problem
+/// with the same ContactProblem::operatorId() (the same problem, a copy, or one changed only by
+/// setLoad()/setGaps(), as in time stepping) only rebuilds the right-hand side and the bounds; the
+/// truncation of the previous solve is the starting point of the operator updates.
 #include <Eigen/Core>
 
+#include <cstdint>
 #include <memory>
 
 #include "obs/mesh/Grid.hpp"
@@ -66,6 +73,9 @@ private:
   Options options_;
   Index fineVertices_ = 0;
   std::unique_ptr<LinearCorrection<d>> correction_;
+  std::unique_ptr<RotatedProblem<d>> rotated_;  ///< operator of the last solve (see "Operator reuse")
+  std::uint64_t operatorId_ = 0;                ///< its ContactProblem::operatorId(), 0: none
+  double rowSumBound_ = 0;  ///< max_p sum_q ||A~_pq||_F >= ||A~||_2 (round-off scale of w'A~w)
   Statistics statistics_;
 };
 

@@ -1,0 +1,229 @@
+#pragma once
+/// \file Newmark.hpp
+/// Time stepping for dynamic frictionless contact of one linear-elastic body with a rigid obstacle:
+/// the Newmark family of the reference thesis (Sec. 5.2, 5.3; MATH.md §5), behind the TimeStepper
+/// interface. Equation of motion M u'' + A u = f + contact forces, f the constant load of the
+/// BoundaryConditions (body force, Neumann), Dirichlet values constant in time, time step tau.
+/// Every step solves one variational inequality
+///   S u^{n+1} = rhs + lambda,  u^{n+1} in K^{n+1},  S = M_s + c tau^2 A  (constant for fixed tau),
+/// with TNNMG on the grid hierarchy (operators reused across steps, see TNNMG.hpp "Operator reuse");
+/// lambda, the multiplier of the bounds, is c' tau^2 M F_con (c' below). K^{n+1} is the
+/// non-penetration set nu_p'u_p <= g_p, or the discrete persistency set (Laursen-Chawla, HHW):
+/// nu_p'(u^{n+1} - u^n)_p <= 0 at the nodes in contact or penetrated at t^n, no bound elsewhere.
+///
+/// Predictor (5.43), lumped M: u_pred = node-wise projection of u^n + tau v^n onto K; local impact
+/// time tau*(p) from nu'u_pred = nu'u^n + tau* nu'v^n (tau* = tau where the predictor is inactive);
+/// delta_p = (tau*(p) - tau) nu_p'v^n_p <= 0 is the normal predictor correction.
+///
+/// Schemes (name in scene files; all nodal parameters act on the normal component only):
+///  - "contact-implicit" (Alg. 5.2.1; alpha = beta = 0), "contact-stabilized" (Alg. 5.2.2; alpha = 0,
+///    beta = 1), "improved-contact-stabilized" (Alg. 5.3.2; alpha(p) = tau/(2(tau - tau*)) if
+///    tau* <= tau/2, else 1, at nodes active in predictor and solution, 0 elsewhere; beta = 1 - alpha),
+///    "alpha-half" (alpha = beta = 1/2 at every potential contact node), "alpha-one-zero" (alpha = 1 at
+///    nodes active in predictor and solution, else 0; beta = 1 - alpha), the family of Alg. 5.3.1:
+///      (M + tau^2/4 A) u^{n+1} = M(u^n + tau v^n + (alpha+beta) delta nu) - tau^2/4 A u^n + tau^2/2 f
+///                                + tau^2/2 M F_con,   u^{n+1} in K,
+///      v^{n+1} = (2/tau)(u^{n+1} - u^n - beta delta nu) - v^n.
+///    With alpha + beta = 1 the displacement system is the contact-stabilized one (alpha chosen after
+///    the solve).
+///  - "classical" (5.21-5.22): (M + tau^2/4 A) u^{n+1} = M(u^n + tau v^n) - tau^2/4 A u^n + tau^2/2 f
+///    + tau^2/4 (M F_con^n + M F_con^{n+1}), u^{n+1} in K; v^{n+1} = (2/tau)(u^{n+1} - u^n) - v^n.
+///  - "laursen-chawla" (Alg. 5.2.3): contact-implicit with the persistency set.
+///  - "khenous-laborde-renard" (Alg. 5.2.4), redistributed mass M~ (MassRedistribution.hpp):
+///    (M~ + tau^2/2 A) u^{n+1} = M~(u^n + tau v^n) + tau^2/2 (f + M F_con), u^{n+1} in K;
+///    a^{n+1} = (2/tau^2)(u^{n+1} - u^n - tau v^n), v^{n+1} = v^n + tau/2 (a^n + a^{n+1});
+///    a^0 solves M~ a^0 = f - A u^0 on the vertices with mass (0 at massless vertices, which never
+///    influence the displacements).
+///  - "hager-huebner-wohlmuth" (Alg. 5.2.5): (M~ + tau^2/4 A) u^{n+1} = M~(u^n + tau v^n)
+///    - tau^2/4 A u^n + tau^2/2 (f + M F_con) with the persistency set, v^{n+1} = (2/tau)(u^{n+1} - u^n)
+///    - v^n; "hager-huebner-wohlmuth-nonpenetration": the same with the non-penetration set.
+/// The mass M is lumped by default; MassKind::Consistent is accepted by the schemes without a
+/// predictor (classical, contact-implicit, laursen-chawla); the redistributed schemes start from the
+/// consistent matrix (their M in the energy E is the lumped or consistent one as chosen).
+///
+/// Diagnostics per step (StepRecord): E = 1/2 v'Mv + 1/2 u'Au - f'u, E~ with M~, linear momentum M v
+/// (and M~ v), the total contact force sum_p F_p nu_p with F_p the nodal multiplier divided by c'
+/// tau^2 (c' = 1/2, 1/4 for classical), node counts active for solution / predictor / only one of
+/// them, max penetration max_p (nu_p'u_p - g_p)^+, tracked vertices, solver iterations and time.
+#include <Eigen/Core>
+
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/ContactSet.hpp"
+#include "obs/obs/MassMatrix.hpp"
+#include "obs/obs/MassRedistribution.hpp"
+#include "obs/obs/Material.hpp"
+#include "obs/obs/TNNMG.hpp"
+
+namespace obs {
+
+enum class NewmarkScheme {
+  Classical,
+  ContactImplicit,
+  ContactStabilized,
+  ImprovedContactStabilized,
+  AlphaHalf,
+  AlphaOneZero,
+  LaursenChawla,
+  KhenousLabordeRenard,
+  HagerHuebnerWohlmuth,
+  HagerHuebnerWohlmuthNonPenetration,
+};
+
+/// Every scheme, in the order of the enum.
+const std::vector<NewmarkScheme>& allNewmarkSchemes();
+/// Scene-file name ("contact-stabilized", ...).
+std::string_view name(NewmarkScheme scheme);
+/// The scheme of a name; throws obs::Error listing the valid names for an unknown one.
+NewmarkScheme newmarkSchemeFromName(std::string_view name);
+/// Uses the redistributed mass matrix M~.
+bool usesRedistributedMass(NewmarkScheme scheme);
+/// Enforces the persistency set instead of the non-penetration set (penetration can occur).
+bool usesPersistency(NewmarkScheme scheme);
+
+enum class MassKind { Lumped, Consistent };
+
+struct NewmarkOptions {
+  NewmarkScheme scheme = NewmarkScheme::ImprovedContactStabilized;
+  double timeStep = 0;  ///< tau > 0
+  MassKind mass = MassKind::Lumped;
+  /// TNNMG (relative energy-norm correction; iteration cap: obs::Error if reached).
+  double solverTolerance = 1e-11;
+  int maxSolverIterations = 200;
+  int preSmoothing = 3;
+  int postSmoothing = 0;
+  /// A node counts as active (in contact) if g_p - nu_p'u_p <= activeTolerance * U, U = max(|u|_inf,
+  /// finite |g_p|, 1e-300).
+  double activeTolerance = 1e-8;
+  /// Vertices whose displacement and velocity are reported in every record.
+  std::vector<Index> trackedVertices;
+  MassRedistributionOptions redistribution;
+};
+
+struct DynamicState {
+  int step = 0;
+  double time = 0;
+  Eigen::VectorXd u, v;  ///< displacement, velocity (vertex-major)
+  Eigen::VectorXd a;     ///< acceleration (khenous-laborde-renard only; empty otherwise)
+};
+
+struct TrackedVertex {
+  Index vertex = -1;
+  bool contactNode = false;  ///< normal values are defined (ContactSet direction) only then (else 0)
+  Eigen::Vector3d displacement = Eigen::Vector3d::Zero(), velocity = Eigen::Vector3d::Zero();
+  double normalDisplacement = 0, normalVelocity = 0;
+  double gap = 0;  ///< g_p - nu'u_p (contact nodes)
+};
+
+struct StepRecord {
+  int step = 0;
+  double time = 0;
+  double kineticEnergy = 0;  ///< 1/2 v'Mv
+  double elasticEnergy = 0;  ///< 1/2 u'Au
+  double loadPotential = 0;  ///< -f'u
+  double energy = 0;         ///< sum of the three
+  bool hasRedistributed = false;
+  double kineticEnergyRedistributed = 0;  ///< 1/2 v'M~v (hasRedistributed)
+  double energyRedistributed = 0;         ///< E~ (hasRedistributed)
+  Eigen::Vector3d momentum = Eigen::Vector3d::Zero();              ///< M v (summed per component)
+  Eigen::Vector3d momentumRedistributed = Eigen::Vector3d::Zero();  ///< M~ v (hasRedistributed)
+  Eigen::Vector3d contactForce = Eigen::Vector3d::Zero();  ///< sum_p F_p nu_p (force on the obstacle)
+  Index activeSolution = 0, activePredictor = 0, predictorOnly = 0, solutionOnly = 0;
+  double maxPenetration = 0;
+  std::vector<TrackedVertex> tracked;
+  int solverIterations = 0;
+  double solverSeconds = 0;
+  double stepSeconds = 0;
+};
+
+/// A time integrator for dynamic contact: initialise with u^0, v^0, then step().
+template <int d>
+class TimeStepper {
+public:
+  virtual ~TimeStepper() = default;
+  virtual std::string name() const = 0;
+  /// Sets the initial state. Throws obs::Error on wrong sizes, non-finite values, Dirichlet
+  /// components that differ from the prescribed values (u) or zero (v), or u^0 violating a contact
+  /// constraint (beyond the active tolerance).
+  virtual void initialize(const Eigen::VectorXd& u0, const Eigen::VectorXd& v0) = 0;
+  /// Advances by one time step and returns its record. Throws obs::Error if not initialised, if the
+  /// solver fails or a value becomes non-finite.
+  virtual StepRecord step() = 0;
+  virtual const DynamicState& state() const = 0;
+  /// Diagnostics of the current state (solver fields of the last step).
+  virtual StepRecord record() const = 0;
+};
+
+template <int d>
+class NewmarkFamily : public TimeStepper<d> {
+public:
+  /// The body is the leaf mesh of `grid` (the multigrid hierarchy of TNNMG is the grid's); the
+  /// contact set must be built on grid.leafView().mesh. Assembles A, M (and M~), f, the system
+  /// matrix and the solver. Throws obs::Error for tau <= 0 (or non-finite), an invalid material
+  /// (density rho > 0), dimension/size mismatches, a mass kind the scheme does not support.
+  NewmarkFamily(const mesh::Grid& grid, const Material& material, const BoundaryConditions& bc,
+                const ContactSet& contact, const NewmarkOptions& options);
+  ~NewmarkFamily() override;
+
+  std::string name() const override { return std::string(obs::name(options_.scheme)); }
+  void initialize(const Eigen::VectorXd& u0, const Eigen::VectorXd& v0) override;
+  StepRecord step() override;
+  const DynamicState& state() const override { return state_; }
+  StepRecord record() const override;
+
+  const NewmarkOptions& options() const { return options_; }
+  const BlockSparseMatrix<d>& stiffness() const { return A_; }
+  /// The standard mass matrix M (lumped or consistent) as a block matrix.
+  const BlockSparseMatrix<d>& mass() const { return M_; }
+  /// M~ (redistributed schemes; throws obs::Error otherwise).
+  const RedistributedMass& redistributedMass() const;
+  const Eigen::VectorXd& load() const { return f_; }
+  const ContactProblem<d>& problem() const { return *problem_; }
+  /// Energy E(u, v) = 1/2 v'Mv + 1/2 u'Au - f'u.
+  double energy(const Eigen::VectorXd& u, const Eigen::VectorXd& v) const;
+
+private:
+  struct Predictor;
+  void checkInitialized() const;
+  void computePredictor(Predictor& p) const;
+  /// M x with the standard (redistributed: false) or the system's mass (redistributed: true).
+  Eigen::VectorXd applyMass(const Eigen::VectorXd& x, bool redistributed) const;
+  double activeTolerance(const Eigen::VectorXd& u) const;
+  StepRecord makeRecord() const;
+
+  NewmarkOptions options_;
+  Index numVertices_ = 0;
+  BlockSparseMatrix<d> A_, M_, Mr_, S_;  ///< stiffness, standard mass, M~, system matrix
+  Eigen::VectorXd lumped_;  ///< lumped masses (scalar per vertex)
+  std::unique_ptr<RedistributedMass> redistributed_;
+  Eigen::VectorXd f_;
+  DirichletValues dirichlet_;
+  std::unique_ptr<ContactSet> contact_;
+  std::unique_ptr<ContactProblem<d>> problem_;  ///< system matrix S, rhs and bounds of a step
+  std::vector<typename ContactProblem<d>::Constraint> constraints_;  ///< effective, non-penetration
+  std::vector<double> gaps_;                     ///< physical gaps of the ContactSet
+  std::unique_ptr<TNNMG<d>> solver_;
+  DynamicState state_;
+  bool initialized_ = false;
+  Eigen::VectorXd previousMultiplier_;  ///< classical: tau^2/4 M F_con^n as a nodal vector
+  Eigen::VectorXd multiplier_;          ///< nodal multiplier vector of the last step
+  double multiplierFactor_ = 0.5;       ///< c' (lambda = c' tau^2 M F_con)
+  StepRecord last_;
+};
+
+/// A stepper by scheme (the factory of scene files).
+template <int d>
+std::unique_ptr<TimeStepper<d>> makeTimeStepper(const mesh::Grid& grid, const Material& material,
+                                                const BoundaryConditions& bc, const ContactSet& contact,
+                                                const NewmarkOptions& options);
+
+extern template class NewmarkFamily<2>;
+extern template class NewmarkFamily<3>;
+
+}  // namespace obs

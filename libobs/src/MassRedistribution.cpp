@@ -1,0 +1,120 @@
+#include "obs/obs/MassRedistribution.hpp"
+
+#include <Eigen/Dense>
+
+#include <cmath>
+#include <limits>
+#include <sstream>
+#include <string>
+
+#include "obs/mesh/Error.hpp"
+
+namespace obs {
+
+RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vector<mesh::Point>& vertices,
+                                   int dimension, const std::vector<char>& massless,
+                                   const MassRedistributionOptions& options) {
+  const Eigen::Index n = M.rows();
+  if (M.cols() != n || static_cast<Eigen::Index>(vertices.size()) != n ||
+      static_cast<Eigen::Index>(massless.size()) != n)
+    throw Error("mass redistribution: matrix (" + std::to_string(M.rows()) + " x " + std::to_string(M.cols()) +
+                "), " + std::to_string(vertices.size()) + " vertices and " + std::to_string(massless.size()) +
+                " flags do not match");
+  if (dimension != 2 && dimension != 3)
+    throw Error("mass redistribution: dimension " + std::to_string(dimension) + " (2 or 3 expected)");
+  const int m = dimension + 1;
+
+  // centre of the kept vertices (shift of the coordinates in the constraint weights)
+  Eigen::Vector3d xbar = Eigen::Vector3d::Zero();
+  Eigen::Index kept = 0;
+  for (Eigen::Index i = 0; i < n; ++i)
+    if (!massless[i]) xbar += vertices[i], ++kept;
+  if (kept == 0) throw Error("mass redistribution: every vertex is massless (no vertex keeps mass)");
+  xbar /= static_cast<double>(kept);
+  double diam = 0;
+  for (Eigen::Index i = 0; i < n; ++i) diam = std::max(diam, (vertices[i] - xbar).norm());
+
+  auto weights = [&](Eigen::Index i, Eigen::Index j) {
+    Eigen::VectorXd w(m);
+    w[0] = 1;
+    for (int c = 0; c < dimension; ++c) w[c + 1] = 0.5 * (vertices[i][c] + vertices[j][c]) - xbar[c];
+    return w;
+  };
+
+  // targets c = C(M), the Gram matrix G and the restricted matrix M0
+  RedistributedMass out;
+  out.massless = massless;
+  out.matrix = M;
+  Eigen::VectorXd target = Eigen::VectorXd::Zero(m);
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(m, m);
+  Eigen::Index keptEntries = 0;
+  for (Eigen::Index i = 0; i < n; ++i)
+    for (ScalarSparseMatrix::InnerIterator it(out.matrix, i); it; ++it) {
+      const Eigen::Index j = it.col();
+      const Eigen::VectorXd w = weights(i, j);
+      target += it.value() * w;
+      if (massless[i] || massless[j]) {
+        out.movedMass += it.value();
+        it.valueRef() = 0;
+      } else {
+        G += w * w.transpose();
+        ++keptEntries;
+      }
+    }
+  if (keptEntries == 0) throw Error("mass redistribution: no matrix entry couples two vertices that keep mass");
+  const Eigen::LDLT<Eigen::MatrixXd> Gfac(G);
+  const ScalarSparseMatrix M0 = out.matrix;
+  const double scale = std::max(std::abs(target[0]), 1e-300) * std::max(1.0, diam);
+
+  // Uzawa: lambda <- lambda + G^{-1} (c - C(M0 + sum lambda_k W^k))
+  Eigen::VectorXd lambda = Eigen::VectorXd::Zero(m);
+  double previous = std::numeric_limits<double>::infinity();
+  for (int k = 0; k <= options.maxIterations; ++k) {
+    Eigen::VectorXd current = Eigen::VectorXd::Zero(m);
+    for (Eigen::Index i = 0; i < n; ++i) {
+      if (massless[i]) continue;
+      for (ScalarSparseMatrix::InnerIterator it(out.matrix, i), it0(M0, i); it; ++it, ++it0) {
+        const Eigen::Index j = it.col();
+        if (massless[j]) continue;
+        const Eigen::VectorXd w = weights(i, j);
+        it.valueRef() = it0.value() + lambda.dot(w);
+        current += it.value() * w;
+      }
+    }
+    out.residual = (target - current).norm() / scale;
+    out.iterations = k;
+    if (out.residual <= options.tolerance) break;
+    // round-off floor of the sums over many entries: stop when a sweep no longer halves a residual
+    // that is already at round-off level
+    if (k >= 1 && out.residual <= 1e-11 && out.residual > 0.5 * previous) break;
+    if (k == options.maxIterations) {
+      std::ostringstream msg;
+      msg << "mass redistribution: the Uzawa iteration did not reach the tolerance " << options.tolerance << " in "
+          << options.maxIterations << " iterations (relative constraint residual " << out.residual << ")";
+      throw Error(msg.str());
+    }
+    previous = out.residual;
+    lambda += Gfac.solve(target - current);
+  }
+  out.multipliers = lambda;
+  return out;
+}
+
+double smallestEigenvalue(const ScalarSparseMatrix& M, const std::vector<char>& mask) {
+  std::vector<Eigen::Index> index(static_cast<std::size_t>(M.rows()), -1);
+  Eigen::Index n = 0;
+  for (Eigen::Index i = 0; i < M.rows(); ++i)
+    if (!mask[static_cast<std::size_t>(i)]) index[static_cast<std::size_t>(i)] = n++;
+  if (n > 4000) throw Error("smallestEigenvalue: " + std::to_string(n) + " rows (dense, at most 4000)");
+  if (n == 0) throw Error("smallestEigenvalue: every row is masked");
+  Eigen::MatrixXd D = Eigen::MatrixXd::Zero(n, n);
+  for (Eigen::Index i = 0; i < M.outerSize(); ++i)
+    for (ScalarSparseMatrix::InnerIterator it(M, i); it; ++it) {
+      const Eigen::Index a = index[static_cast<std::size_t>(i)], b = index[static_cast<std::size_t>(it.col())];
+      if (a >= 0 && b >= 0) D(a, b) = it.value();
+    }
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(D, Eigen::EigenvaluesOnly);
+  return es.eigenvalues().minCoeff();
+}
+
+}  // namespace obs

@@ -1,0 +1,510 @@
+#include "obs/obs/Newmark.hpp"
+
+#include <Eigen/IterativeLinearSolvers>
+#include <Eigen/SparseCore>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <sstream>
+
+#include "obs/mesh/Error.hpp"
+#include "obs/obs/ElasticityAssembly.hpp"
+
+namespace obs {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr double kInf = std::numeric_limits<double>::infinity();
+
+double seconds(Clock::time_point since) {
+  return std::chrono::duration<double>(Clock::now() - since).count();
+}
+
+std::string num(double v) {
+  std::ostringstream os;
+  os << v;
+  return os.str();
+}
+
+bool hasPredictorInDisplacement(NewmarkScheme s) {  // alpha + beta = 1
+  return s == NewmarkScheme::ContactStabilized || s == NewmarkScheme::ImprovedContactStabilized ||
+         s == NewmarkScheme::AlphaHalf || s == NewmarkScheme::AlphaOneZero;
+}
+
+}  // namespace
+
+const std::vector<NewmarkScheme>& allNewmarkSchemes() {
+  static const std::vector<NewmarkScheme> all{
+      NewmarkScheme::Classical,          NewmarkScheme::ContactImplicit,
+      NewmarkScheme::ContactStabilized,  NewmarkScheme::ImprovedContactStabilized,
+      NewmarkScheme::AlphaHalf,          NewmarkScheme::AlphaOneZero,
+      NewmarkScheme::LaursenChawla,      NewmarkScheme::KhenousLabordeRenard,
+      NewmarkScheme::HagerHuebnerWohlmuth, NewmarkScheme::HagerHuebnerWohlmuthNonPenetration};
+  return all;
+}
+
+std::string_view name(NewmarkScheme scheme) {
+  switch (scheme) {
+    case NewmarkScheme::Classical: return "classical";
+    case NewmarkScheme::ContactImplicit: return "contact-implicit";
+    case NewmarkScheme::ContactStabilized: return "contact-stabilized";
+    case NewmarkScheme::ImprovedContactStabilized: return "improved-contact-stabilized";
+    case NewmarkScheme::AlphaHalf: return "alpha-half";
+    case NewmarkScheme::AlphaOneZero: return "alpha-one-zero";
+    case NewmarkScheme::LaursenChawla: return "laursen-chawla";
+    case NewmarkScheme::KhenousLabordeRenard: return "khenous-laborde-renard";
+    case NewmarkScheme::HagerHuebnerWohlmuth: return "hager-huebner-wohlmuth";
+    case NewmarkScheme::HagerHuebnerWohlmuthNonPenetration: return "hager-huebner-wohlmuth-nonpenetration";
+  }
+  return "?";
+}
+
+NewmarkScheme newmarkSchemeFromName(std::string_view n) {
+  std::string valid;
+  for (NewmarkScheme s : allNewmarkSchemes()) {
+    if (name(s) == n) return s;
+    valid += (valid.empty() ? "" : ", ") + std::string(name(s));
+  }
+  throw Error("unknown time stepping scheme '" + std::string(n) + "' (valid: " + valid + ")");
+}
+
+bool usesRedistributedMass(NewmarkScheme s) {
+  return s == NewmarkScheme::KhenousLabordeRenard || s == NewmarkScheme::HagerHuebnerWohlmuth ||
+         s == NewmarkScheme::HagerHuebnerWohlmuthNonPenetration;
+}
+
+bool usesPersistency(NewmarkScheme s) {
+  return s == NewmarkScheme::LaursenChawla || s == NewmarkScheme::HagerHuebnerWohlmuth;
+}
+
+// --- NewmarkFamily -------------------------------------------------------------------------------
+
+template <int d>
+struct NewmarkFamily<d>::Predictor {
+  std::vector<char> active;     ///< per contact node
+  std::vector<double> tauStar;  ///< local impact time
+  std::vector<double> delta;    ///< (tau* - tau) nu'v^n = normal predictor correction (<= 0)
+};
+
+template <int d>
+NewmarkFamily<d>::NewmarkFamily(const mesh::Grid& grid, const Material& material, const BoundaryConditions& bc,
+                                const ContactSet& contact, const NewmarkOptions& options)
+    : options_(options) {
+  const double tau = options.timeStep;
+  if (!std::isfinite(tau) || tau <= 0)
+    throw Error("time stepping: the time step tau must be positive and finite, got " + num(tau));
+  material.validate();
+  if (grid.dimension() != d)
+    throw Error("time stepping: the grid has dimension " + std::to_string(grid.dimension()) + ", the stepper " +
+                std::to_string(d));
+  const NewmarkScheme scheme = options.scheme;
+  if (options.mass == MassKind::Consistent && hasPredictorInDisplacement(scheme))
+    throw Error("time stepping: scheme '" + std::string(obs::name(scheme)) +
+                "' needs the lumped mass matrix (its predictor is a node-wise projection); use mass = lumped");
+  if (options.activeTolerance < 0 || !std::isfinite(options.activeTolerance))
+    throw Error("time stepping: active tolerance must be non-negative and finite");
+
+  const mesh::Mesh mesh = grid.leafView().mesh;
+  numVertices_ = mesh.numVertices();
+  if (contact.dimension() != d || contact.numMeshVertices() != numVertices_)
+    throw Error("time stepping: the contact set " + contact.boundaryLabel() + " was built for another mesh (" +
+                std::to_string(contact.numMeshVertices()) + " vertices; the leaf mesh of the grid has " +
+                std::to_string(numVertices_) + ")");
+  for (Index v : options.trackedVertices)
+    if (v < 0 || v >= numVertices_)
+      throw Error("time stepping: tracked vertex " + std::to_string(v) + " is not a vertex of the mesh (0.." +
+                  std::to_string(numVertices_ - 1) + ")");
+
+  A_ = assembleStiffness<d>(mesh, material);
+  f_ = assembleLoad<d>(mesh, bc);
+  dirichlet_ = collectDirichlet(mesh, bc.dirichlet);
+  lumped_ = assembleLumpedMass(mesh, material);
+  const bool redistributed = usesRedistributedMass(scheme);
+  ScalarSparseMatrix consistent;
+  if (options.mass == MassKind::Consistent || redistributed) consistent = assembleConsistentMass(mesh, material);
+  M_ = options.mass == MassKind::Lumped ? expandLumpedMass<d>(lumped_, A_) : expandMass<d>(consistent, A_);
+  if (redistributed) {
+    std::vector<char> massless(static_cast<std::size_t>(numVertices_), 0);
+    for (Index v : contact.vertices()) massless[static_cast<std::size_t>(v)] = 1;
+    redistributed_ = std::make_unique<RedistributedMass>(
+        redistributeMass(consistent, mesh.vertices(), d, massless, options.redistribution));
+    Mr_ = expandMass<d>(redistributed_->matrix, A_);
+    const ScalarSparseMatrix& Mt = redistributed_->matrix;
+    for (Eigen::Index i = 0; i < Mt.outerSize(); ++i) {
+      if (massless[static_cast<std::size_t>(i)]) continue;
+      if (!(Mt.coeff(i, i) > 0))
+        throw Error("time stepping: the redistributed mass matrix has the non-positive diagonal entry " +
+                    num(Mt.coeff(i, i)) + " at vertex " + std::to_string(i) +
+                    " (too much mass on the contact boundary: refine the mesh near it)");
+    }
+  }
+
+  // system matrix S = M_s + c tau^2 A (same block pattern)
+  const double c = scheme == NewmarkScheme::KhenousLabordeRenard ? 0.5 : 0.25;
+  BlockSparseMatrix<d> S = A_;
+  const BlockSparseMatrix<d>& Ms = redistributed ? Mr_ : M_;
+  for (Index k = 0; k < S.nonZeroBlocks(); ++k) S.blockAt(k) = Ms.blockAt(k) + c * tau * tau * A_.blockAt(k);
+  contact_ = std::make_unique<ContactSet>(contact);
+  S_ = S;
+  // the step problem is posed for the increment u^{n+1} - base (base = u^n + tau v^n, see step()):
+  // its Dirichlet values are zero
+  DirichletValues zero = dirichlet_;
+  zero.values.setZero();
+  problem_ = std::make_unique<ContactProblem<d>>(std::move(S), Eigen::VectorXd::Zero(numVertices_ * d), zero,
+                                                 *contact_);
+  constraints_ = problem_->constraints();
+  for (auto& c : constraints_) {  // effective constraints for u (the problem's are for increments)
+    if (!c.bounded()) continue;
+    const Index k = contact_->nodeOf(c.vertex);
+    double shift = 0;
+    for (int a = 0; a < d; ++a) {
+      const std::size_t i = static_cast<std::size_t>(c.vertex) * d + a;
+      if (dirichlet_.constrained[i]) shift += contact_->direction(k)[a] * dirichlet_.values[static_cast<Eigen::Index>(i)];
+    }
+    c.shift = shift;
+    c.gap = (contact_->gap(k) - shift) / c.scale;
+  }
+  gaps_.resize(static_cast<std::size_t>(contact.size()));
+  for (Index k = 0; k < contact.size(); ++k) gaps_[static_cast<std::size_t>(k)] = contact.gap(k);
+  multiplierFactor_ = scheme == NewmarkScheme::Classical ? 0.25 : 0.5;
+
+  typename TNNMG<d>::Options so;
+  so.tolerance = options.solverTolerance;
+  so.maxIterations = options.maxSolverIterations;
+  so.preSmoothing = options.preSmoothing;
+  so.postSmoothing = options.postSmoothing;
+  so.recordHistory = false;
+  solver_ = std::make_unique<TNNMG<d>>(grid, so);
+}
+
+template <int d>
+NewmarkFamily<d>::~NewmarkFamily() = default;
+
+template <int d>
+const RedistributedMass& NewmarkFamily<d>::redistributedMass() const {
+  if (!redistributed_)
+    throw Error("time stepping: scheme '" + std::string(obs::name(options_.scheme)) + "' has no redistributed mass");
+  return *redistributed_;
+}
+
+template <int d>
+Eigen::VectorXd NewmarkFamily<d>::applyMass(const Eigen::VectorXd& x, bool redistributed) const {
+  if (redistributed) return Mr_ * x;
+  if (options_.mass == MassKind::Consistent) return M_ * x;
+  Eigen::VectorXd y(x.size());
+  for (Index p = 0; p < numVertices_; ++p)
+    y.template segment<d>(static_cast<Eigen::Index>(p) * d) = lumped_[p] * x.template segment<d>(static_cast<Eigen::Index>(p) * d);
+  return y;
+}
+
+template <int d>
+double NewmarkFamily<d>::energy(const Eigen::VectorXd& u, const Eigen::VectorXd& v) const {
+  return 0.5 * v.dot(applyMass(v, false)) + 0.5 * A_.energy(u) - f_.dot(u);
+}
+
+template <int d>
+double NewmarkFamily<d>::activeTolerance(const Eigen::VectorXd& u) const {
+  double U = u.size() ? u.template lpNorm<Eigen::Infinity>() : 0.0;
+  for (double g : gaps_)
+    if (std::isfinite(g)) U = std::max(U, std::abs(g));
+  return options_.activeTolerance * std::max(U, 1e-300);
+}
+
+template <int d>
+void NewmarkFamily<d>::checkInitialized() const {
+  if (!initialized_) throw Error("time stepping: step() before initialize() (no initial state)");
+}
+
+template <int d>
+void NewmarkFamily<d>::initialize(const Eigen::VectorXd& u0, const Eigen::VectorXd& v0) {
+  const Eigen::Index n = static_cast<Eigen::Index>(numVertices_) * d;
+  if (u0.size() != n || v0.size() != n)
+    throw Error("time stepping: initial state with " + std::to_string(u0.size()) + " / " + std::to_string(v0.size()) +
+                " entries, the problem has " + std::to_string(n) + " unknowns");
+  if (!u0.allFinite() || !v0.allFinite()) throw Error("time stepping: the initial state has non-finite values");
+  const double vs = std::max(1.0, v0.template lpNorm<Eigen::Infinity>());
+  for (Eigen::Index i = 0; i < n; ++i) {
+    if (!dirichlet_.constrained[static_cast<std::size_t>(i)]) continue;
+    const double g = dirichlet_.values[i];
+    if (std::abs(u0[i] - g) > 1e-12 * std::max(1.0, std::abs(g)) || std::abs(v0[i]) > 1e-14 * vs)
+      throw Error("time stepping: the initial state at vertex " + std::to_string(i / d) + ", component " +
+                  std::to_string(i % d) + " does not match the Dirichlet condition (u = " + num(u0[i]) +
+                  ", prescribed " + num(g) + "; v = " + num(v0[i]) + ", must be 0)");
+  }
+  const double tol = activeTolerance(u0);
+  for (Index k = 0; k < contact_->size(); ++k) {
+    const double g = gaps_[static_cast<std::size_t>(k)];
+    if (!std::isfinite(g)) continue;
+    const Index p = contact_->vertex(k);
+    const double un = contact_->direction(k).template head<d>().dot(u0.template segment<d>(static_cast<Eigen::Index>(p) * d));
+    if (un - g > tol) {
+      const Point& x = contact_->position(k);
+      throw Error("time stepping: the initial displacement violates the contact constraint at vertex " +
+                  std::to_string(p) + " (" + num(x[0]) + ", " + num(x[1]) + (d == 3 ? ", " + num(x[2]) : "") +
+                  "): nu.u = " + num(un) + " > gap " + num(g));
+    }
+  }
+  state_ = DynamicState{0, 0.0, u0, v0, Eigen::VectorXd()};
+  previousMultiplier_ = Eigen::VectorXd::Zero(n);
+  multiplier_ = Eigen::VectorXd::Zero(n);
+  if (options_.scheme == NewmarkScheme::KhenousLabordeRenard) {
+    // a^0: M~ a^0 = f - A u^0 on the vertices with mass, per component (Dirichlet components 0)
+    state_.a = Eigen::VectorXd::Zero(n);
+    const Eigen::VectorXd r = f_ - A_ * u0;
+    const ScalarSparseMatrix& Mt = redistributed_->matrix;
+    for (int c = 0; c < d; ++c) {
+      auto fixed = [&](Eigen::Index v) {
+        return redistributed_->massless[static_cast<std::size_t>(v)] ||
+               dirichlet_.constrained[static_cast<std::size_t>(v * d + c)];
+      };
+      std::vector<Eigen::Triplet<double>> t;
+      Eigen::VectorXd b = Eigen::VectorXd::Zero(numVertices_);
+      for (Eigen::Index i = 0; i < Mt.outerSize(); ++i) {
+        if (fixed(i)) {
+          t.emplace_back(i, i, 1.0);
+          continue;
+        }
+        b[i] = r[i * d + c];
+        for (ScalarSparseMatrix::InnerIterator it(Mt, i); it; ++it)
+          if (!fixed(it.col())) t.emplace_back(i, it.col(), it.value());
+      }
+      Eigen::SparseMatrix<double> K(numVertices_, numVertices_);
+      K.setFromTriplets(t.begin(), t.end());
+      Eigen::ConjugateGradient<Eigen::SparseMatrix<double>, Eigen::Lower | Eigen::Upper> cg;
+      cg.setTolerance(1e-14);
+      cg.setMaxIterations(10 * numVertices_ + 100);
+      cg.compute(K);
+      const Eigen::VectorXd x = cg.solve(b);
+      if (!x.allFinite())
+        throw Error("time stepping: the initial acceleration (M~ a = f - A u^0) could not be computed");
+      for (Index v = 0; v < numVertices_; ++v) state_.a[static_cast<Eigen::Index>(v) * d + c] = x[v];
+    }
+  }
+  initialized_ = true;
+  last_ = makeRecord();
+}
+
+template <int d>
+void NewmarkFamily<d>::computePredictor(Predictor& P) const {
+  const double tau = options_.timeStep;
+  const auto nc = constraints_.size();
+  P.active.assign(nc, 0);
+  P.tauStar.assign(nc, tau);
+  P.delta.assign(nc, 0.0);
+  for (std::size_t k = 0; k < nc; ++k) {
+    const auto& c = constraints_[k];
+    if (!c.bounded()) continue;
+    const auto i = static_cast<Eigen::Index>(c.vertex) * d;
+    const double un = c.direction.dot(state_.u.template segment<d>(i));
+    const double vn = c.direction.dot(state_.v.template segment<d>(i));
+    const double excess = un + tau * vn - c.gap;
+    if (excess <= 0) continue;
+    P.active[k] = 1;
+    P.delta[k] = -excess;  // = (tau* - tau) vn
+    P.tauStar[k] = vn > 0 ? std::clamp(tau - excess / vn, 0.0, tau) : 0.0;
+  }
+}
+
+template <int d>
+StepRecord NewmarkFamily<d>::step() {
+  checkInitialized();
+  const auto start = Clock::now();
+  const double tau = options_.timeStep;
+  const NewmarkScheme scheme = options_.scheme;
+  const bool redistributed = usesRedistributedMass(scheme);
+  const Eigen::VectorXd& u = state_.u;
+  const Eigen::VectorXd& v = state_.v;
+  const Eigen::Index n = u.size();
+
+  Predictor P;
+  computePredictor(P);
+
+  // right-hand side
+  Eigen::VectorXd base = u + tau * v;
+  if (hasPredictorInDisplacement(scheme))
+    for (std::size_t k = 0; k < constraints_.size(); ++k)
+      if (P.active[k])
+        base.template segment<d>(static_cast<Eigen::Index>(constraints_[k].vertex) * d) += P.delta[k] * constraints_[k].direction;
+  Eigen::VectorXd rhs = applyMass(base, redistributed) + (0.5 * tau * tau) * f_;
+  if (scheme != NewmarkScheme::KhenousLabordeRenard) rhs -= (0.25 * tau * tau) * (A_ * u);
+  if (scheme == NewmarkScheme::Classical) rhs += previousMultiplier_;
+
+  // The variational inequality is solved for the increment w = u^{n+1} - base (S w = rhs - S base,
+  // bounds shifted by nu'base): the iterate and the energy are small, which keeps the solver's
+  // round-off small also for very stiff S (large E tau^2).
+  // Bounds: non-penetration nu'u^{n+1} <= g, or persistency nu'u^{n+1} <= nu'u^n at the nodes in
+  // contact or penetrated at t^n (no bound elsewhere).
+  {
+    const double tol = activeTolerance(u);
+    const bool persistency = usesPersistency(scheme);
+    std::vector<double> g(gaps_.size(), kInf);
+    for (Index k = 0; k < contact_->size(); ++k) {
+      const double gk = gaps_[static_cast<std::size_t>(k)];
+      if (!std::isfinite(gk)) continue;
+      const auto i = static_cast<Eigen::Index>(contact_->vertex(k)) * d;
+      const auto nu = contact_->direction(k).template head<d>();
+      const double un = nu.dot(u.template segment<d>(i)), bn = nu.dot(base.template segment<d>(i));
+      if (!persistency)
+        g[static_cast<std::size_t>(k)] = gk - bn;
+      else if (un >= gk - tol)
+        g[static_cast<std::size_t>(k)] = un - bn;
+    }
+    problem_->setGaps(g);
+  }
+  problem_->setLoad(rhs - S_ * base);
+
+  Eigen::VectorXd increment = Eigen::VectorXd::Zero(n);
+  const ContactResult result = solver_->solve(*problem_, increment);
+  const Eigen::VectorXd unew = base + increment;
+  if (!result.converged)
+    throw Error("time stepping: step " + std::to_string(state_.step + 1) + " (t = " + num(state_.time + tau) +
+                "): TNNMG did not converge in " + std::to_string(result.iterations) + " iterations (correction " +
+                num(result.correction) + ")");
+  if (!unew.allFinite())
+    throw Error("time stepping: step " + std::to_string(state_.step + 1) + ": non-finite displacement");
+
+  // nodal multipliers lambda = c' tau^2 M F_con
+  const Eigen::VectorXd mu = problem_->multipliers(increment);
+  multiplier_.setZero(n);
+  for (std::size_t k = 0; k < constraints_.size(); ++k) {
+    const auto& c = problem_->constraint(static_cast<Index>(k));
+    if (c.bounded())
+      multiplier_.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d) += mu[static_cast<Eigen::Index>(k)] * c.direction;
+  }
+
+  // velocity
+  Eigen::VectorXd vnew;
+  Eigen::VectorXd anew;
+  const double solTol = activeTolerance(unew);
+  std::vector<char> solActive(constraints_.size(), 0);
+  for (std::size_t k = 0; k < constraints_.size(); ++k) {
+    const auto& c = constraints_[k];
+    if (!c.bounded()) continue;
+    solActive[k] = c.gap - c.direction.dot(unew.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d)) <= solTol;
+  }
+  if (scheme == NewmarkScheme::KhenousLabordeRenard) {
+    anew = (2 / (tau * tau)) * (unew - u - tau * v);
+    vnew = v + (0.5 * tau) * (state_.a + anew);
+  } else {
+    vnew = (2 / tau) * (unew - u) - v;
+    if (hasPredictorInDisplacement(scheme)) {
+      for (std::size_t k = 0; k < constraints_.size(); ++k) {
+        if (!P.active[k]) continue;
+        double beta = 1;
+        if (scheme == NewmarkScheme::AlphaHalf) {
+          beta = 0.5;
+        } else if (solActive[k] && scheme == NewmarkScheme::ImprovedContactStabilized) {
+          const double ts = P.tauStar[k];
+          const double alpha = ts <= 0.5 * tau ? tau / (2 * (tau - ts)) : 1.0;
+          beta = 1 - alpha;
+        } else if (solActive[k] && scheme == NewmarkScheme::AlphaOneZero) {
+          beta = 0;
+        }
+        vnew.template segment<d>(static_cast<Eigen::Index>(constraints_[k].vertex) * d) -=
+            (2 / tau) * beta * P.delta[k] * constraints_[k].direction;
+      }
+    }
+  }
+  if (!vnew.allFinite())
+    throw Error("time stepping: step " + std::to_string(state_.step + 1) + ": non-finite velocity");
+  if (scheme == NewmarkScheme::Classical) previousMultiplier_ = multiplier_;
+
+  state_.u = unew;
+  state_.v = vnew;
+  if (scheme == NewmarkScheme::KhenousLabordeRenard) state_.a = anew;
+  state_.step += 1;
+  state_.time += tau;
+
+  StepRecord r = makeRecord();
+  for (std::size_t k = 0; k < constraints_.size(); ++k) {
+    r.activePredictor += P.active[k];
+    r.predictorOnly += P.active[k] && !solActive[k];
+    r.solutionOnly += !P.active[k] && solActive[k];
+  }
+  r.solverIterations = result.iterations;
+  r.solverSeconds = result.seconds;
+  r.stepSeconds = seconds(start);
+  last_ = r;
+  return r;
+}
+
+template <int d>
+StepRecord NewmarkFamily<d>::record() const {
+  checkInitialized();
+  return last_;
+}
+
+template <int d>
+StepRecord NewmarkFamily<d>::makeRecord() const {
+  const Eigen::VectorXd& u = state_.u;
+  const Eigen::VectorXd& v = state_.v;
+  StepRecord r;
+  r.step = state_.step;
+  r.time = state_.time;
+  const Eigen::VectorXd Mv = applyMass(v, false);
+  r.kineticEnergy = 0.5 * v.dot(Mv);
+  r.elasticEnergy = 0.5 * A_.energy(u);
+  r.loadPotential = -f_.dot(u);
+  r.energy = r.kineticEnergy + r.elasticEnergy + r.loadPotential;
+  for (Index p = 0; p < numVertices_; ++p)
+    r.momentum.template head<d>() += Mv.template segment<d>(static_cast<Eigen::Index>(p) * d);
+  if (redistributed_) {
+    const Eigen::VectorXd Mrv = Mr_ * v;
+    r.hasRedistributed = true;
+    r.kineticEnergyRedistributed = 0.5 * v.dot(Mrv);
+    r.energyRedistributed = r.kineticEnergyRedistributed + r.elasticEnergy + r.loadPotential;
+    for (Index p = 0; p < numVertices_; ++p)
+      r.momentumRedistributed.template head<d>() += Mrv.template segment<d>(static_cast<Eigen::Index>(p) * d);
+  }
+  const double tau = options_.timeStep;
+  for (Index p = 0; p < numVertices_; ++p)
+    r.contactForce.template head<d>() += multiplier_.template segment<d>(static_cast<Eigen::Index>(p) * d);
+  r.contactForce /= multiplierFactor_ * tau * tau;
+
+  const double tol = activeTolerance(u);
+  for (Index k = 0; k < contact_->size(); ++k) {
+    const double g = gaps_[static_cast<std::size_t>(k)];
+    if (!std::isfinite(g)) continue;
+    const double un = contact_->direction(k).template head<d>().dot(
+        u.template segment<d>(static_cast<Eigen::Index>(contact_->vertex(k)) * d));
+    r.activeSolution += g - un <= tol;
+    r.maxPenetration = std::max(r.maxPenetration, un - g);
+  }
+  for (Index vtx : options_.trackedVertices) {
+    TrackedVertex t;
+    t.vertex = vtx;
+    const auto i = static_cast<Eigen::Index>(vtx) * d;
+    t.displacement.template head<d>() = u.template segment<d>(i);
+    t.velocity.template head<d>() = v.template segment<d>(i);
+    const Index k = contact_->nodeOf(vtx);
+    if (k >= 0) {
+      t.contactNode = true;
+      const Point& nu = contact_->direction(k);
+      t.normalDisplacement = nu.dot(t.displacement);
+      t.normalVelocity = nu.dot(t.velocity);
+      t.gap = gaps_[static_cast<std::size_t>(k)] - t.normalDisplacement;
+    }
+    r.tracked.push_back(t);
+  }
+  return r;
+}
+
+template <int d>
+std::unique_ptr<TimeStepper<d>> makeTimeStepper(const mesh::Grid& grid, const Material& material,
+                                                const BoundaryConditions& bc, const ContactSet& contact,
+                                                const NewmarkOptions& options) {
+  return std::make_unique<NewmarkFamily<d>>(grid, material, bc, contact, options);
+}
+
+template class NewmarkFamily<2>;
+template class NewmarkFamily<3>;
+template std::unique_ptr<TimeStepper<2>> makeTimeStepper<2>(const mesh::Grid&, const Material&,
+                                                            const BoundaryConditions&, const ContactSet&,
+                                                            const NewmarkOptions&);
+template std::unique_ptr<TimeStepper<3>> makeTimeStepper<3>(const mesh::Grid&, const Material&,
+                                                            const BoundaryConditions&, const ContactSet&,
+                                                            const NewmarkOptions&);
+
+}  // namespace obs

@@ -1,0 +1,187 @@
+// Mass matrices (consistent, lumped with the HRZ fallback) for all six element types and the mass
+// redistribution of Khenous-Laborde-Renard (MATH.md §5): total mass rho |Omega|, first moments,
+// zero rows/columns at the contact vertices, optimality of the constrained least squares, and the
+// smallest eigenvalue of M~ on the remaining vertices.
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <random>
+
+#include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/Error.hpp"
+#include "obs/obs/MassMatrix.hpp"
+#include "obs/obs/MassRedistribution.hpp"
+
+using namespace obs;
+using mesh::CellType;
+
+namespace {
+
+bool verbose() { return std::getenv("OBS_TEST_VERBOSE") != nullptr; }
+
+mesh::Mesh unitBox(CellType t) { return mesh::boxMesh(t, mesh::dimension(t) == 2 ? 4 : 3); }
+
+/// sum_ij M_ij w_j for a vertex weight w (1: total mass, x_c: first moment).
+double moment(const ScalarSparseMatrix& M, const mesh::Mesh& m, int c) {
+  double s = 0;
+  for (Eigen::Index i = 0; i < M.outerSize(); ++i)
+    for (ScalarSparseMatrix::InnerIterator it(M, i); it; ++it)
+      s += it.value() * (c < 0 ? 1.0 : m.vertex(static_cast<Index>(it.col()))[c]);
+  return s;
+}
+
+class MassTest : public ::testing::TestWithParam<CellType> {};
+
+TEST_P(MassTest, TotalMassAndFirstMomentsOfConsistentAndLumped) {
+  const CellType t = GetParam();
+  const mesh::Mesh m = unitBox(t);
+  Material mat{1.0, 0.3};
+  mat.density = 2.5;
+  const int dim = mesh::dimension(t);
+  const ScalarSparseMatrix M = assembleConsistentMass(m, mat);
+  int hrz = -1;
+  const Eigen::VectorXd ml = assembleLumpedMass(m, mat, &hrz);
+  // |Omega| = 1, centroid (1/2, 1/2, 1/2): exact up to round-off
+  EXPECT_NEAR(moment(M, m, -1), 2.5, 1e-13);
+  EXPECT_NEAR(ml.sum(), 2.5, 1e-13);
+  for (int c = 0; c < dim; ++c) {
+    EXPECT_NEAR(moment(M, m, c), 2.5 * 0.5, 1e-13) << "coordinate " << c;
+    double s = 0;
+    for (Index v = 0; v < m.numVertices(); ++v) s += ml[v] * m.vertex(v)[c];
+    EXPECT_NEAR(s, 2.5 * 0.5, 1e-13) << "coordinate " << c;
+  }
+  // non-negative basis functions: positive row sums everywhere, no HRZ fallback needed
+  EXPECT_EQ(hrz, 0);
+  EXPECT_GT(ml.minCoeff(), 0);
+  // symmetric, positive definite
+  const Eigen::MatrixXd D(M);
+  EXPECT_LT((D - D.transpose()).norm(), 1e-15 * D.norm());
+  const double lmin = smallestEigenvalue(M, std::vector<char>(m.numVertices(), 0));
+  EXPECT_GT(lmin, 0);
+  // block expansion: M (x) I_d agrees with M on the stiffness pattern
+  if (dim == 2) {
+    const auto pattern = BlockSparseMatrix<2>::withMeshPattern(m);
+    const auto B = expandMass<2>(M, pattern);
+    Eigen::VectorXd one = Eigen::VectorXd::Zero(2 * m.numVertices());
+    for (Index v = 0; v < m.numVertices(); ++v) one[2 * v + 1] = 1;
+    EXPECT_NEAR(one.dot(B * one), 2.5, 1e-13);
+  }
+}
+
+TEST_P(MassTest, RedistributionKeepsMassAndCentreOfGravity) {
+  const CellType t = GetParam();
+  const int dim = mesh::dimension(t);
+  // 6 (2D) / 4 (3D) cells per direction; tetrahedra 6: on the 4^3 tetrahedral mesh the bottom layer
+  // carries 1/6 of the mass and M~ is indefinite (smallest eigenvalue -7.7e-5, see docs/dynamics.md)
+  const mesh::Mesh m = mesh::boxMesh(t, dim == 2 ? 6 : (t == CellType::Tetrahedron ? 6 : 4));
+  const ScalarSparseMatrix M = assembleConsistentMass(m, Material{});
+  // contact vertices: the bottom face (y = 0 in 2D, z = 0 in 3D)
+  std::vector<char> contact(m.numVertices(), 0);
+  for (Index v = 0; v < m.numVertices(); ++v) contact[v] = m.vertex(v)[dim - 1] == 0.0;
+  const RedistributedMass R = redistributeMass(M, m.vertices(), dim, contact);
+  const ScalarSparseMatrix& Mt = R.matrix;
+  EXPECT_LE(R.residual, 1e-14);
+  EXPECT_GT(R.movedMass, 0);
+  EXPECT_NEAR(moment(Mt, m, -1), moment(M, m, -1), 1e-13);
+  for (int c = 0; c < dim; ++c) EXPECT_NEAR(moment(Mt, m, c), moment(M, m, c), 1e-13) << "coordinate " << c;
+  // zero rows/columns at the contact vertices, pattern of M kept, symmetric
+  const Eigen::MatrixXd D(Mt), D0(M);
+  for (Index i = 0; i < m.numVertices(); ++i)
+    for (Index j = 0; j < m.numVertices(); ++j) {
+      if (contact[i] || contact[j]) { EXPECT_EQ(D(i, j), 0.0); }
+      if (D0(i, j) == 0.0) { EXPECT_EQ(D(i, j), 0.0); }
+    }
+  EXPECT_LT((D - D.transpose()).norm(), 1e-15 * D.norm());
+  // positive semidefinite on the remaining vertices
+  const double lmin = smallestEigenvalue(Mt, contact);
+  const double lminM = smallestEigenvalue(M, contact);
+  if (verbose())
+    std::cout << mesh::name(t) << ": moved mass " << R.movedMass << ", Uzawa sweeps " << R.iterations
+              << ", smallest eigenvalue of M~ (remaining vertices) " << lmin << " (of M restricted: " << lminM << ")\n";
+  EXPECT_GT(lmin, 0) << "smallest eigenvalue " << lmin;
+  EXPECT_LE(R.iterations, 3);
+}
+
+INSTANTIATE_TEST_SUITE_P(AllTypes, MassTest, ::testing::ValuesIn(mesh::kVolumeCellTypes),
+                         [](const auto& info) { return std::string(mesh::name(info.param)); });
+
+TEST(MassRedistribution, IsTheClosestMatrixWithTheConstraints) {
+  const mesh::Mesh m = mesh::boxMesh(CellType::Quadrilateral, 5);
+  const ScalarSparseMatrix M = assembleConsistentMass(m, Material{});
+  std::vector<char> contact(m.numVertices(), 0);
+  for (Index v = 0; v < m.numVertices(); ++v) contact[v] = m.vertex(v)[1] == 0.0;
+  const RedistributedMass R = redistributeMass(M, m.vertices(), 2, contact);
+  const Eigen::MatrixXd D(R.matrix), D0(M);
+  double dist = 0;
+  for (Index i = 0; i < m.numVertices(); ++i)
+    for (Index j = 0; j < m.numVertices(); ++j)
+      if (!contact[i] && !contact[j]) dist += std::pow(D(i, j) - D0(i, j), 2);
+  // admissible competitors: M~ + P with P symmetric on the kept pattern and C(P) = 0
+  std::mt19937 gen(7);
+  std::normal_distribution<double> N(0, 1e-3);
+  for (int trial = 0; trial < 5; ++trial) {
+    Eigen::MatrixXd P = Eigen::MatrixXd::Zero(D.rows(), D.cols());
+    for (Index i = 0; i < m.numVertices(); ++i)
+      for (Index j = i; j < m.numVertices(); ++j)
+        if (!contact[i] && !contact[j] && D0(i, j) != 0) P(i, j) = P(j, i) = N(gen);
+    // project P onto {C(P) = 0} in the Frobenius inner product (constraints: weights 1, x, y)
+    std::vector<Eigen::MatrixXd> W(3, Eigen::MatrixXd::Zero(D.rows(), D.cols()));
+    for (Index i = 0; i < m.numVertices(); ++i)
+      for (Index j = 0; j < m.numVertices(); ++j)
+        if (P(i, j) != 0 || (!contact[i] && !contact[j] && D0(i, j) != 0)) {
+          W[0](i, j) = 1;
+          W[1](i, j) = 0.5 * (m.vertex(i)[0] + m.vertex(j)[0]);
+          W[2](i, j) = 0.5 * (m.vertex(i)[1] + m.vertex(j)[1]);
+        }
+    Eigen::Matrix3d G;
+    Eigen::Vector3d r;
+    for (int a = 0; a < 3; ++a) {
+      r[a] = (W[a].array() * P.array()).sum();
+      for (int b = 0; b < 3; ++b) G(a, b) = (W[a].array() * W[b].array()).sum();
+    }
+    const Eigen::Vector3d l = G.ldlt().solve(r);
+    for (int a = 0; a < 3; ++a) P -= l[a] * W[a];
+    double other = 0;
+    for (Index i = 0; i < m.numVertices(); ++i)
+      for (Index j = 0; j < m.numVertices(); ++j)
+        if (!contact[i] && !contact[j]) other += std::pow(D(i, j) + P(i, j) - D0(i, j), 2);
+    EXPECT_GT(other, dist) << "trial " << trial;
+    EXPECT_NEAR(other, dist + P.squaredNorm(), 1e-12 * other);  // orthogonality of the optimum
+  }
+}
+
+TEST(MassLumping, HrzFallbackForNonPositiveRowSums) {
+  Eigen::MatrixXd local(2, 2);
+  local << 1.0, -1.2, -1.2, 3.0;  // row sums -0.2, 1.8
+  bool hrz = false;
+  const Eigen::VectorXd l = lumpCellMass(local, &hrz);
+  EXPECT_TRUE(hrz);
+  EXPECT_NEAR(l.sum(), local.sum(), 1e-15);  // keeps the cell mass
+  EXPECT_NEAR(l[0], 0.4, 1e-15);             // M_ii * total / trace
+  EXPECT_NEAR(l[1], 1.2, 1e-15);
+  local << 2.0, 1.0, 1.0, 2.0;
+  EXPECT_EQ(lumpCellMass(local, &hrz), Eigen::Vector2d(3.0, 3.0));
+  EXPECT_FALSE(hrz);
+  local << -1.0, 0.0, 0.0, 1.0;
+  EXPECT_THROW(lumpCellMass(local), obs::Error);
+}
+
+TEST(MassMatrix, BadInput) {
+  const mesh::Mesh m = mesh::boxMesh(CellType::Triangle, 2);
+  Material bad{1.0, 0.3};
+  bad.density = 0;
+  EXPECT_THROW(assembleConsistentMass(m, bad), obs::Error);
+  bad.density = -1;
+  EXPECT_THROW(assembleLumpedMass(m, bad), obs::Error);
+  bad.density = std::nan("");
+  EXPECT_THROW(assembleLumpedMass(m, bad), obs::Error);
+  const ScalarSparseMatrix M = assembleConsistentMass(m, Material{});
+  EXPECT_THROW(redistributeMass(M, m.vertices(), 2, std::vector<char>(m.numVertices(), 1)), obs::Error);
+  EXPECT_THROW(redistributeMass(M, m.vertices(), 2, std::vector<char>(3, 0)), obs::Error);
+}
+
+}  // namespace

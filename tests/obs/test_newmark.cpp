@@ -1,0 +1,346 @@
+// The Newmark family for dynamic contact (MATH.md §5, thesis Sec. 5.2-5.3): conservation without
+// contact, dissipativity of the contact-implicit / contact-stabilized / alpha(p) / alpha = 1/2 schemes
+// on a one-vertex and a multi-vertex impact, the normal-velocity laws (thesis (5.29), (5.48)),
+// energy conservation of the persistency schemes, non-penetration, the exact 1D bar of MATH.md §5,
+// extreme time steps and stiffnesses, and bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <limits>
+#include <memory>
+
+#include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/Error.hpp"
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/Newmark.hpp"
+
+using namespace obs;
+using mesh::CellType;
+
+namespace {
+
+bool verbose() { return std::getenv("OBS_TEST_VERBOSE") != nullptr; }
+Point P(double x, double y, double z = 0) { return Point(x, y, z); }
+
+Material material(double E, double nu = 0.3, double rho = 1) {
+  Material m{E, nu};
+  m.density = rho;
+  return m;
+}
+
+/// A 2D block [0, w] x [y0, y0 + h] above the obstacle {y <= 0} (plane through the origin,
+/// constraint direction -y, gap = y), contact boundary = bottom.
+struct Block {
+  mesh::Grid grid;
+  std::unique_ptr<PlaneObstacle> obstacle;
+  std::unique_ptr<ContactSet> contact;
+  Block(CellType t, std::array<int, 3> cells, double w, double h, double y0, Point normal = P(0, -1), int levels = 0)
+      : grid(mesh::boxMesh(t, cells, P(0, y0), P(w, y0 + h))) {
+    for (int l = 0; l < levels; ++l) grid.refineUniformly();
+    obstacle = std::make_unique<PlaneObstacle>(P(0, 0), normal.normalized());
+    contact = std::make_unique<ContactSet>(grid.leafView().mesh, mesh::kBottom, *obstacle);
+  }
+  Index vertices() const { return contact->numMeshVertices(); }
+};
+
+NewmarkOptions opts(NewmarkScheme s, double tau) {
+  NewmarkOptions o;
+  o.scheme = s;
+  o.timeStep = tau;
+  return o;
+}
+
+Eigen::VectorXd uniform(Index n, double vx, double vy) {
+  Eigen::VectorXd v(2 * n);
+  for (Index p = 0; p < n; ++p) v[2 * p] = vx, v[2 * p + 1] = vy;
+  return v;
+}
+
+std::vector<StepRecord> runSteps(NewmarkFamily<2>& s, const Eigen::VectorXd& u0, const Eigen::VectorXd& v0, int steps) {
+  s.initialize(u0, v0);
+  std::vector<StepRecord> out{s.record()};
+  for (int k = 0; k < steps; ++k) out.push_back(s.step());
+  return out;
+}
+
+const std::vector<NewmarkScheme> kDissipative{NewmarkScheme::ContactImplicit, NewmarkScheme::ContactStabilized,
+                                              NewmarkScheme::ImprovedContactStabilized, NewmarkScheme::AlphaHalf};
+
+TEST(Newmark, WithoutContactClassicalConservesEnergyAndAllConserveMomentum) {
+  Block b(CellType::Quadrilateral, {4, 4, 1}, 1, 1, 100);  // obstacle far away
+  const Index n = b.vertices();
+  const mesh::Mesh m = b.grid.leafView().mesh;
+  // translation plus a deformation mode (shear and stretch velocities)
+  Eigen::VectorXd v0 = uniform(n, 1.0, -0.5);
+  for (Index p = 0; p < n; ++p) v0[2 * p] += 0.3 * (m.vertex(p)[1] - 100), v0[2 * p + 1] += 0.2 * m.vertex(p)[0];
+  for (NewmarkScheme s : allNewmarkSchemes()) {
+    NewmarkFamily<2> st(b.grid, material(100), {}, *b.contact, opts(s, 0.01));
+    const auto rec = runSteps(st, Eigen::VectorXd::Zero(2 * n), v0, 40);
+    const StepRecord& r0 = rec.front();
+    double drift = 0, momentum = 0;
+    for (const StepRecord& r : rec) {
+      drift = std::max(drift, std::abs(r.energy - r0.energy) / r0.energy);
+      const Eigen::Vector3d p = usesRedistributedMass(s) ? r.momentumRedistributed : r.momentum;
+      const Eigen::Vector3d p0 = usesRedistributedMass(s) ? r0.momentumRedistributed : r0.momentum;
+      momentum = std::max(momentum, (p - p0).norm() / p0.norm());
+      EXPECT_EQ(r.activeSolution, 0);
+    }
+    if (verbose()) std::cout << name(s) << ": energy drift " << drift << ", momentum drift " << momentum << "\n";
+    EXPECT_LT(momentum, 1e-12) << name(s);
+    if (s == NewmarkScheme::Classical) { EXPECT_LT(drift, 1e-12); }
+  }
+}
+
+/// Energy never increases (beyond round-off) and no penetration, for a block dropped flat
+/// (multi-vertex) and onto a tilted plane so that one corner hits (one vertex).
+void checkDissipative(bool oneVertex) {
+  Block b = oneVertex ? Block(CellType::Quadrilateral, {4, 4, 1}, 1, 0.5, 0.02, P(-0.5, -1))
+                      : Block(CellType::Triangle, {6, 3, 1}, 1, 0.5, 0.02);
+  const Index n = b.vertices();
+  for (NewmarkScheme s : kDissipative) {
+    NewmarkFamily<2> st(b.grid, material(200), {}, *b.contact, opts(s, 0.005));
+    const auto rec = runSteps(st, Eigen::VectorXd::Zero(2 * n), uniform(n, 0.1, -1.0), 80);
+    const double E0 = rec.front().energy;
+    Index maxActive = 0;
+    int contactSteps = 0;
+    for (std::size_t k = 1; k < rec.size(); ++k) {
+      EXPECT_LE(rec[k].energy, rec[k - 1].energy + 1e-10 * E0) << name(s) << " step " << k;
+      EXPECT_LE(rec[k].maxPenetration, 1e-9) << name(s) << " step " << k;
+      maxActive = std::max(maxActive, rec[k].activeSolution);
+      contactSteps += rec[k].activeSolution > 0;
+    }
+    if (verbose())
+      std::cout << name(s) << (oneVertex ? " (one vertex)" : " (multi-vertex)") << ": E_end/E_0 = "
+                << rec.back().energy / E0 << ", contact steps " << contactSteps << ", max active " << maxActive << "\n";
+    EXPECT_GT(contactSteps, 0) << name(s);
+    if (oneVertex) {
+      EXPECT_EQ(maxActive, 1) << name(s);
+    } else {
+      EXPECT_GE(maxActive, 3) << name(s);
+    }
+    EXPECT_LT(rec.back().energy, E0) << name(s);  // the impact dissipates
+  }
+}
+
+TEST(Newmark, DissipativeSchemesOneVertexImpact) { checkDissipative(true); }
+TEST(Newmark, DissipativeSchemesMultiVertexImpact) { checkDissipative(false); }
+
+/// The bar of MATH.md §5 as a 2D column of quadrilaterals (nu = 0): every bottom vertex moves
+/// like the contact node of the 1D bar.
+struct Bar {
+  Block block{CellType::Quadrilateral, {1, 20, 1}, 1, 10, 5};
+  Index bottom = 0;  // vertex (0, 5)
+  Bar() {
+    const mesh::Mesh m = block.grid.leafView().mesh;
+    for (Index p = 0; p < m.numVertices(); ++p)
+      if (m.vertex(p)[0] == 0 && m.vertex(p)[1] == 5) bottom = p;
+  }
+  std::vector<StepRecord> run(NewmarkScheme s, double tau, int steps, const BoundaryConditions& bc = {}) {
+    NewmarkOptions o = opts(s, tau);
+    o.trackedVertices = {bottom};
+    NewmarkFamily<2> st(block.grid, material(900, 0.0, 1.0), bc, *block.contact, o);
+    const Index n = block.vertices();
+    return runSteps(st, Eigen::VectorXd::Zero(2 * n), uniform(n, 0, -10), steps);
+  }
+};
+
+
+TEST(Newmark, NormalVelocityLawsDuringContact) {
+  Bar bar;
+  for (NewmarkScheme s : {NewmarkScheme::ContactImplicit, NewmarkScheme::ContactStabilized,
+                          NewmarkScheme::ImprovedContactStabilized}) {
+    const auto rec = bar.run(s, 0.01, 100);
+    int checked = 0;
+    for (std::size_t k = 1; k < rec.size(); ++k) {
+      const TrackedVertex& a = rec[k - 1].tracked[0];
+      const TrackedVertex& b = rec[k].tracked[0];
+      if (std::abs(a.gap) > 1e-9 || std::abs(b.gap) > 1e-9) continue;  // in contact at t^n and t^{n+1}
+      ++checked;
+      if (s == NewmarkScheme::ContactImplicit) { EXPECT_NEAR(b.normalVelocity, -a.normalVelocity, 1e-8) << k; }
+      if (s == NewmarkScheme::ContactStabilized && a.normalVelocity > 0) {
+        EXPECT_NEAR(b.normalVelocity, a.normalVelocity, 1e-8) << k;
+      }
+      if (s == NewmarkScheme::ImprovedContactStabilized) { EXPECT_NEAR(b.normalVelocity, 0.0, 1e-8) << k; }
+    }
+    if (verbose()) std::cout << name(s) << ": " << checked << " step pairs in contact\n";
+    EXPECT_GE(checked, 20) << name(s);
+  }
+}
+
+TEST(Newmark, BarMatchesTheExactSolutionBeforeImpactAndAlphaDetachesCloser) {
+  const double tImpact = 0.5, tDetach = 0.5 + 2 * 10 / 30.0;
+  const double tau = 0.003;  // the impact t = 0.5 falls inside a step (tau* = tau/3)
+  for (bool clamped : {false, true}) {
+    BoundaryConditions bc;
+    if (clamped) {  // lateral faces with u_x = 0
+      bc.dirichlet.push_back({mesh::kLeft, {true, false, false}, nullptr});
+      bc.dirichlet.push_back({mesh::kRight, {true, false, false}, nullptr});
+      for (auto& c : bc.dirichlet) c.value = [](const Point&) { return Eigen::Vector3d::Zero(); };
+    }
+    Bar bar;
+    // Both schemes solve the same displacement system (alpha + beta = 1) and the contact node sits on
+    // the bound during contact either way, so their positions agree and the last contact step is the
+    // same (`lastContact`). They differ in the velocity: detachment = first time after the impact at
+    // which the node moves away from the obstacle (nu'v < 0); exactly: 0 during contact, -v0 after.
+    double detach[2] = {0, 0}, lastContact[2] = {0, 0};
+    int idx = 0;
+    for (NewmarkScheme s : {NewmarkScheme::ImprovedContactStabilized, NewmarkScheme::ContactStabilized}) {
+      const auto rec = bar.run(s, tau, 534, bc);
+      bool touched = false;
+      for (const StepRecord& r : rec) {
+        const double h = 5 + r.tracked[0].displacement[1];
+        if (r.time <= tImpact + 1e-12) { EXPECT_NEAR(h, 5 - 10 * r.time, 1e-9) << name(s) << " t = " << r.time; }
+        if (r.tracked[0].gap <= 1e-9) touched = true, lastContact[idx] = r.time;
+        if (touched && detach[idx] == 0 && r.tracked[0].normalVelocity < -1e-9) detach[idx] = r.time;
+      }
+      EXPECT_GT(detach[idx], 0) << name(s) << " never detached";
+      ++idx;
+    }
+    if (verbose())
+      std::cout << (clamped ? "u_x = 0: " : "free: ") << "detach alpha(p) " << detach[0] << ", contact-stabilized "
+                << detach[1] << ", exact " << tDetach << "; last contact step " << lastContact[0] << " / "
+                << lastContact[1] << "\n";
+    EXPECT_EQ(lastContact[0], lastContact[1]);
+    EXPECT_LT(std::abs(detach[0] - tDetach), std::abs(detach[1] - tDetach));
+    EXPECT_LT(std::abs(detach[0] - tDetach), 0.05);
+  }
+}
+
+TEST(Newmark, PersistencySchemesConserveEnergy) {
+  // (a finer mesh than for the lumped schemes: M~ needs several cells across, see test_mass)
+  Block b(CellType::Triangle, {8, 4, 1}, 1, 0.5, 0.02);
+  const Index n = b.vertices();
+  for (NewmarkScheme s : {NewmarkScheme::LaursenChawla, NewmarkScheme::HagerHuebnerWohlmuth}) {
+    NewmarkFamily<2> st(b.grid, material(200), {}, *b.contact, opts(s, 0.005));
+    const auto rec = runSteps(st, Eigen::VectorXd::Zero(2 * n), uniform(n, 0.1, -1.0), 80);
+    const bool hhw = s == NewmarkScheme::HagerHuebnerWohlmuth;
+    const double E0 = hhw ? rec.front().energyRedistributed : rec.front().energy;
+    double drift = 0, penetration = 0;
+    int contact = 0;
+    for (const StepRecord& r : rec) {
+      drift = std::max(drift, std::abs((hhw ? r.energyRedistributed : r.energy) - E0) / E0);
+      penetration = std::max(penetration, r.maxPenetration);
+      contact += r.activeSolution > 0;
+    }
+    if (verbose()) std::cout << name(s) << ": energy drift " << drift << ", max penetration " << penetration << "\n";
+    EXPECT_GT(contact, 0);
+    EXPECT_LT(drift, 1e-9) << name(s);
+  }
+}
+
+TEST(Newmark, NonPenetrationSchemesNeverPenetrate) {
+  Block b(CellType::Quadrilateral, {8, 4, 1}, 1, 0.5, 0.02);
+  const Index n = b.vertices();
+  for (NewmarkScheme s : allNewmarkSchemes()) {
+    if (usesPersistency(s)) continue;
+    NewmarkFamily<2> st(b.grid, material(200), {}, *b.contact, opts(s, 0.005));
+    const auto rec = runSteps(st, Eigen::VectorXd::Zero(2 * n), uniform(n, 0.0, -1.0), 60);
+    int contact = 0;
+    for (const StepRecord& r : rec) {
+      EXPECT_LE(r.maxPenetration, 1e-9) << name(s) << " step " << r.step;
+      contact += r.activeSolution > 0;
+      EXPECT_TRUE(std::isfinite(r.energy));
+    }
+    EXPECT_GT(contact, 0) << name(s);
+  }
+}
+
+TEST(Newmark, ExtremeTimeStepsAndStiffnesses) {
+  Block b(CellType::Quadrilateral, {2, 2, 1}, 1, 1, 0.0);  // starts touching
+  const Index n = b.vertices();
+  for (double tau : {5e-6, 5e-2})
+    for (double E : {1.0, 1e3, 1e6, 1e9})
+      for (NewmarkScheme s : kDissipative) {
+        SCOPED_TRACE(std::string(name(s)) + " tau " + std::to_string(tau) + " E " + std::to_string(E));
+        NewmarkFamily<2> st(b.grid, material(E), {}, *b.contact, opts(s, tau));
+        std::vector<StepRecord> rec;
+        ASSERT_NO_THROW(rec = runSteps(st, Eigen::VectorXd::Zero(2 * n), uniform(n, 0.3, -1.0), 10));
+        const double E0 = rec.front().energy;
+        // round-off of evaluating 1/2 u'Au for the (nearly rigid) u: eps |u|'|A||u| <= eps ||A|| ||u||^2,
+        // ||u||^2 <= n (10 tau |v0|)^2; 1e-9 E0 for the solver tolerance
+        double rowSum = 0;
+        for (Index p = 0; p < st.stiffness().rows(); ++p) {
+          double r = 0;
+          for (Index k = st.stiffness().rowBegin(p); k < st.stiffness().rowEnd(p); ++k) r += st.stiffness().blockAt(k).norm();
+          rowSum = std::max(rowSum, r);
+        }
+        const double allowed = 1e-9 * E0 + 1e-14 * rowSum * n * std::pow(10 * tau * 1.1, 2);
+        for (std::size_t k = 1; k < rec.size(); ++k) {
+          ASSERT_TRUE(std::isfinite(rec[k].energy)) << name(s) << " tau " << tau << " E " << E;
+          EXPECT_LE(rec[k].energy, rec[k - 1].energy + allowed) << name(s) << " tau " << tau << " E " << E;
+          EXPECT_LE(rec[k].maxPenetration, 1e-9);
+        }
+      }
+}
+
+TEST(Newmark, OperatorReuseAcrossLoadsAndGaps) {
+  // ContactProblem::setLoad/setGaps keep the operator id; a TNNMG that reuses its operators gives the
+  // solution of a fresh solver, with Dirichlet values on the top (eliminated again by setLoad)
+  Block b(CellType::Quadrilateral, {4, 4, 1}, 1, 1, 0.0, P(0, -1), 1);
+  const mesh::Mesh m = b.grid.leafView().mesh;
+  BoundaryConditions bc;
+  bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Eigen::Vector3d(0, -0.05, 0); }});
+  ContactProblem<2> problem(m, material(100), bc, *b.contact);
+  const auto id = problem.operatorId();
+  TNNMG<2> reused(b.grid);
+  Eigen::VectorXd u0;
+  reused.solve(problem, u0);
+  Eigen::VectorXd load = Eigen::VectorXd::Zero(2 * m.numVertices());
+  for (Index p = 0; p < m.numVertices(); ++p) load[2 * p] = 0.5, load[2 * p + 1] = -1;
+  std::vector<double> gaps(b.contact->size());
+  for (Index k = 0; k < b.contact->size(); ++k) gaps[k] = k % 3 == 0 ? std::numeric_limits<double>::infinity() : -0.01;
+  problem.setLoad(load);
+  problem.setGaps(gaps);
+  EXPECT_EQ(problem.operatorId(), id);
+  Eigen::VectorXd u1, u2;
+  const ContactResult r1 = reused.solve(problem, u1);
+  TNNMG<2> fresh(b.grid);
+  const ContactResult r2 = fresh.solve(problem, u2);
+  EXPECT_TRUE(r1.converged && r2.converged);
+  EXPECT_LT((u1 - u2).norm(), 1e-8 * u2.norm());
+  EXPECT_LT(r1.kkt.primalFeasibility, 1e-10);
+  EXPECT_LT(r1.kkt.dirichlet, 1e-14);
+  // every constructed problem gets a new id
+  ContactSet moved(m, mesh::kBottom, *b.obstacle);
+  EXPECT_NE(ContactProblem<2>(m, material(100), bc, moved).operatorId(), id);
+  EXPECT_THROW(problem.setGaps(std::vector<double>(2, 0.0)), obs::Error);
+  EXPECT_THROW(problem.setLoad(Eigen::VectorXd::Zero(3)), obs::Error);
+}
+
+TEST(Newmark, BadInput) {
+  Block b(CellType::Quadrilateral, {2, 2, 1}, 1, 1, 0.1);
+  const Index n = b.vertices();
+  EXPECT_THROW(NewmarkFamily<2>(b.grid, material(1), {}, *b.contact, opts(NewmarkScheme::Classical, 0)), obs::Error);
+  EXPECT_THROW(NewmarkFamily<2>(b.grid, material(1), {}, *b.contact, opts(NewmarkScheme::Classical, -1)), obs::Error);
+  EXPECT_THROW(NewmarkFamily<2>(b.grid, material(1, 0.3, 0.0), {}, *b.contact, opts(NewmarkScheme::Classical, 0.1)),
+               obs::Error);
+  NewmarkOptions consistent = opts(NewmarkScheme::ContactStabilized, 0.1);
+  consistent.mass = MassKind::Consistent;
+  EXPECT_THROW(NewmarkFamily<2>(b.grid, material(1), {}, *b.contact, consistent), obs::Error);
+  try {
+    newmarkSchemeFromName("newmark-xyz");
+    ADD_FAILURE() << "no error";
+  } catch (const obs::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("newmark-xyz"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("improved-contact-stabilized"), std::string::npos);
+  }
+  for (NewmarkScheme s : allNewmarkSchemes()) EXPECT_EQ(newmarkSchemeFromName(name(s)), s);
+  NewmarkFamily<2> st(b.grid, material(1), {}, *b.contact, opts(NewmarkScheme::ContactStabilized, 0.1));
+  EXPECT_THROW(st.step(), obs::Error);  // not initialised
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(2 * n);
+  u[2 * b.contact->vertex(0) + 1] = -0.2;  // below the plane (gap 0.1)
+  try {
+    st.initialize(u, Eigen::VectorXd::Zero(2 * n));
+    ADD_FAILURE() << "no error";
+  } catch (const obs::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("violates the contact constraint"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(st.initialize(Eigen::VectorXd::Zero(3), Eigen::VectorXd::Zero(3)), obs::Error);
+  NewmarkOptions tracked = opts(NewmarkScheme::ContactStabilized, 0.1);
+  tracked.trackedVertices = {n + 5};
+  EXPECT_THROW(NewmarkFamily<2>(b.grid, material(1), {}, *b.contact, tracked), obs::Error);
+}
+
+}  // namespace
