@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <string>
 
 #include "obs/mesh/Error.hpp"
@@ -140,6 +141,46 @@ CsrMatrix transferMatrix(const Grid& grid, const GridView& coarse, const GridVie
       if (!inCoarse[grid.child(e, k)]) kids.push_back(grid.child(e, k));
   };
 
+  // The coarse element below e (inclusive) that contains x, with the reference coordinates of x.
+  std::function<std::optional<std::pair<Index, Point>>(Index, const Point&)> descend =
+      [&](Index e, const Point& x) -> std::optional<std::pair<Index, Point>> {
+    if (inCoarse[e]) {
+      const auto eta = locate(grid, e, x);
+      if (!eta || outside(grid.type(e), *eta) > 1e-6) return std::nullopt;
+      return std::make_pair(e, *eta);
+    }
+    coarseChildren(e);
+    std::vector<std::pair<double, Index>> candidates;  // (distance outside, child), nearest first
+    for (Index c : kids) {
+      const auto eta = locate(grid, c, x);
+      if (!eta) continue;
+      const double out = outside(grid.type(c), *eta);
+      if (out <= 1e-6) candidates.push_back({std::max(out, 0.0), c});
+    }
+    std::stable_sort(candidates.begin(), candidates.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (const auto& [out, c] : candidates)
+      if (auto r = descend(c, x)) return r;
+    return std::nullopt;
+  };
+  // Level-0 elements sharing a vertex with a level-0 element (built on first use). Green closures
+  // of non-affine cells approximate curved faces by flat pieces, so a vertex created on a face of
+  // one level-0 cell can lie in a coarse element below the neighbouring level-0 cell.
+  std::vector<std::vector<Index>> rootsAtVertex;
+  auto neighbourRoots = [&](Index root) {
+    if (rootsAtVertex.empty()) {
+      rootsAtVertex.resize(grid.numVertices());
+      for (Index e = 0; e < ne; ++e)
+        if (grid.level(e) == 0)
+          for (Index w : grid.vertices(e)) rootsAtVertex[w].push_back(e);
+    }
+    std::vector<Index> out;
+    for (Index w : grid.vertices(root))
+      for (Index r : rootsAtVertex[w])
+        if (r != root && std::find(out.begin(), out.end(), r) == out.end()) out.push_back(r);
+    return out;
+  };
+
   CsrMatrix P;
   P.rows = static_cast<Index>(fine.vertices.size());
   P.cols = static_cast<Index>(coarse.vertices.size());
@@ -177,25 +218,19 @@ CsrMatrix transferMatrix(const Grid& grid, const GridView& coarse, const GridVie
       } else {
         e = a;  // no coarse ancestor: descend from the level-0 ancestor (e itself may be new)
       }
-      while (!inCoarse[e]) {
-        coarseChildren(e);
-        Index best = -1;
-        double bestOut = 0;
-        for (Index c : kids) {
-          const auto eta = locate(grid, c, x);
-          if (!eta) continue;
-          const double out = outside(grid.type(c), *eta);
-          if (best < 0 || out < bestOut) {
-            best = c;
-            bestOut = out;
-            xi = *eta;
-          }
-          if (out <= 1e-12) break;
-        }
-        if (best < 0 || bestOut > 1e-6)
+      // Depth-first descent to the coarse element containing x. Several children may contain x
+      // (x on a shared face, old green and new red children of one father); a branch can end in
+      // new leaves that are not in the coarse view, so the search backtracks.
+      if (!inCoarse[e]) {
+        auto found = descend(e, x);
+        if (!found && grid.level(e) == 0)
+          for (Index r : neighbourRoots(e))
+            if ((found = descend(r, x))) break;
+        if (!found)
           throw Error("transferMatrix: fine vertex " + std::to_string(v) +
                       " is not covered by the coarse view (views not nested)");
-        e = best;
+        e = found->first;
+        xi = found->second;
       }
     }
     const ReferenceElement& ref = referenceElement(grid.type(e));

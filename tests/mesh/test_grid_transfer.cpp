@@ -2,7 +2,8 @@
 // reproduce linear functions exactly (uniform and local refinement with green closure, all cell
 // types and the mixed mesh), have unit row sums, and the leaf-to-leaf transfer across an adapt()
 // that removes green elements interpolates the old leaf function (checked against a brute-force
-// point location); new-vertex data from vertex origins; Newton inversion of the reference maps.
+// point location), also over many random adapt cycles; new-vertex data from vertex origins;
+// Newton inversion of the reference maps.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -167,6 +168,26 @@ TEST_P(TransferTest, LeafTransferAcrossAdaptInterpolatesTheOldLeafFunction) {
     ++located;
   }
   EXPECT_GT(located, 0);
+}
+
+// Repeated adapt cycles with random marks (red children created below fathers whose old green
+// children are in the previous leaf view, new vertices in cells without a coarse ancestor): each
+// leaf-to-leaf transfer is an interpolation, exact for linear functions.
+TEST_P(TransferTest, LeafTransferOverManyAdaptCycles) {
+  Grid g(GetParam().make());
+  std::mt19937 gen(23);
+  for (int cycle = 0; cycle < 6; ++cycle) {
+    const GridView before = g.leafView();
+    int marked = 0;
+    for (Index e : before.elements)
+      if (gen() % 5 == 0 && marked < 10) {
+        g.mark(e);
+        ++marked;
+      }
+    g.adapt();
+    const GridView after = g.leafView();
+    checkTransfer(transferMatrix(g, before, after), before, after, "cycle " + std::to_string(cycle));
+  }
 }
 
 TEST_P(TransferTest, MultiLevelTransferToTheLeafView) {
