@@ -1,7 +1,9 @@
 #include "obs/obs/MassRedistribution.hpp"
 
 #include <Eigen/Dense>
+#include <Eigen/SparseCholesky>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <sstream>
@@ -97,6 +99,44 @@ RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vecto
     lambda += Gfac.solve(target - current);
   }
   out.multipliers = lambda;
+  return out;
+}
+
+DefinitenessCheck checkPositiveDefinite(const ScalarSparseMatrix& M, const std::vector<char>& mask) {
+  if (M.rows() != M.cols() || static_cast<Eigen::Index>(mask.size()) != M.rows())
+    throw Error("checkPositiveDefinite: matrix (" + std::to_string(M.rows()) + " x " + std::to_string(M.cols()) +
+                ") and " + std::to_string(mask.size()) + " mask flags do not match");
+  std::vector<Eigen::Index> index(static_cast<std::size_t>(M.rows()), -1);
+  Eigen::Index n = 0;
+  for (Eigen::Index i = 0; i < M.rows(); ++i)
+    if (!mask[static_cast<std::size_t>(i)]) index[static_cast<std::size_t>(i)] = n++;
+  if (n == 0) throw Error("checkPositiveDefinite: every row is masked");
+  std::vector<Eigen::Triplet<double>> t;
+  t.reserve(static_cast<std::size_t>(M.nonZeros()));
+  double maxDiagonal = 0;
+  for (Eigen::Index i = 0; i < M.outerSize(); ++i) {
+    const Eigen::Index a = index[static_cast<std::size_t>(i)];
+    if (a < 0) continue;
+    for (ScalarSparseMatrix::InnerIterator it(M, i); it; ++it) {
+      const Eigen::Index b = index[static_cast<std::size_t>(it.col())];
+      if (b < 0) continue;
+      t.emplace_back(a, b, it.value());
+      if (a == b) maxDiagonal = std::max(maxDiagonal, std::abs(it.value()));
+    }
+  }
+  Eigen::SparseMatrix<double> R(n, n);
+  R.setFromTriplets(t.begin(), t.end());
+  DefinitenessCheck out;
+  out.size = n;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>, Eigen::Lower, Eigen::AMDOrdering<int>> ldlt(R);
+  if (ldlt.info() != Eigen::Success) {  // zero pivot
+    out.nonPositivePivots = 1;
+    return out;
+  }
+  const double floor = 1e-12 * maxDiagonal;
+  const Eigen::VectorXd D = ldlt.vectorD();
+  for (Eigen::Index k = 0; k < D.size(); ++k) out.nonPositivePivots += !(D[k] > floor);
+  out.positiveDefinite = out.nonPositivePivots == 0;
   return out;
 }
 

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "obs/mesh/Error.hpp"
+#include "obs/obs/CholmodSolver.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
 
 namespace obs {
@@ -139,6 +140,19 @@ NewmarkFamily<d>::NewmarkFamily(const mesh::Grid& grid, const Material& material
                     num(Mt.coeff(i, i)) + " at vertex " + std::to_string(i) +
                     " (too much mass on the contact boundary: refine the mesh near it)");
     }
+    // An indefinite M~ gives modes with x'M~x < 0 < x'Ax, which grow (weakly for large tau^2 A);
+    // checked once on the vertices that keep mass and are not fully Dirichlet-constrained (one scalar
+    // sparse LDL'). If it is indefinite, S = M~ + c tau^2 A is checked below.
+    std::vector<char> mask = massless;
+    for (Index v = 0; v < numVertices_; ++v) {
+      bool fixed = true;
+      for (int a = 0; a < d; ++a) fixed = fixed && dirichlet_.constrained[static_cast<std::size_t>(v) * d + a];
+      if (fixed) mask[static_cast<std::size_t>(v)] = 1;
+    }
+    if (std::find(mask.begin(), mask.end(), 0) != mask.end())
+      redistributedCheck_ = checkPositiveDefinite(Mt, mask);
+    else
+      redistributedCheck_.positiveDefinite = true;
   }
 
   // system matrix S = M_s + c tau^2 A (same block pattern)
@@ -146,6 +160,30 @@ NewmarkFamily<d>::NewmarkFamily(const mesh::Grid& grid, const Material& material
   BlockSparseMatrix<d> S = A_;
   const BlockSparseMatrix<d>& Ms = redistributed ? Mr_ : M_;
   for (Index k = 0; k < S.nonZeroBlocks(); ++k) S.blockAt(k) = Ms.blockAt(k) + c * tau * tau * A_.blockAt(k);
+  if (redistributed && !redistributedCheck_.positiveDefinite) {
+    // M~ indefinite: the step problem is well posed only if S is positive definite on the free
+    // components; an indefinite S would surface as a CHOLMOD error of TNNMG's coarse solve
+    // (supernodal CHOLMOD on S with the Dirichlet components replaced by identity rows/columns)
+    BlockSparseMatrix<d> Sfree = S;
+    for (Index i = 0; i < Sfree.rows(); ++i)
+      for (Index k = Sfree.rowBegin(i); k < Sfree.rowEnd(i); ++k)
+        for (int a = 0; a < d; ++a)
+          for (int b = 0; b < d; ++b) {
+            const bool ci = dirichlet_.constrained[static_cast<std::size_t>(i) * d + a];
+            const bool cj = dirichlet_.constrained[static_cast<std::size_t>(Sfree.column(k)) * d + b];
+            if (ci || cj) Sfree.blockAt(k)(a, b) = (ci && cj && i == Sfree.column(k) && a == b) ? 1.0 : 0.0;
+          }
+    try {
+      CholmodSolver check(Sfree);
+    } catch (const Error& e) {
+      throw Error("time stepping: scheme '" + std::string(obs::name(scheme)) + "': the step matrix S = M~ + " + num(c) +
+                  " tau^2 A is not positive definite (" + e.what() + "), because the redistributed mass matrix M~ is "
+                  "indefinite on the vertices that keep mass (" + std::to_string(redistributedCheck_.nonPositivePivots) +
+                  " negative eigenvalues): the contact boundary " + contact.boundaryLabel() +
+                  " carries too much of the mass of this mesh. Refine the mesh near the contact boundary (several "
+                  "cells across the body), or use a scheme without mass redistribution (e.g. improved-contact-stabilized)");
+    }
+  }
   contact_ = std::make_unique<ContactSet>(contact);
   S_ = S;
   // the step problem is posed for the increment u^{n+1} - base (base = u^n + tau v^n, see step()):
@@ -187,6 +225,12 @@ const RedistributedMass& NewmarkFamily<d>::redistributedMass() const {
   if (!redistributed_)
     throw Error("time stepping: scheme '" + std::string(obs::name(options_.scheme)) + "' has no redistributed mass");
   return *redistributed_;
+}
+
+template <int d>
+const DefinitenessCheck& NewmarkFamily<d>::redistributedMassDefiniteness() const {
+  redistributedMass();  // throws for the schemes without M~
+  return redistributedCheck_;
 }
 
 template <int d>
@@ -457,6 +501,12 @@ StepRecord NewmarkFamily<d>::makeRecord() const {
     r.energyRedistributed = r.kineticEnergyRedistributed + r.elasticEnergy + r.loadPotential;
     for (Index p = 0; p < numVertices_; ++p)
       r.momentumRedistributed.template head<d>() += Mrv.template segment<d>(static_cast<Eigen::Index>(p) * d);
+  }
+  if (options_.scheme == NewmarkScheme::KhenousLabordeRenard && state_.a.size() == v.size()) {
+    const double tau = options_.timeStep;
+    r.hasAcceleration = true;
+    r.accelerationEnergy = 0.125 * tau * tau * state_.a.dot(Mr_ * state_.a);
+    r.energyModified = r.energyRedistributed + r.accelerationEnergy;
   }
   const double tau = options_.timeStep;
   for (Index p = 0; p < numVertices_; ++p)

@@ -6,6 +6,7 @@
 
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
@@ -104,6 +105,47 @@ TEST_P(MassTest, RedistributionKeepsMassAndCentreOfGravity) {
               << ", smallest eigenvalue of M~ (remaining vertices) " << lmin << " (of M restricted: " << lminM << ")\n";
   EXPECT_GT(lmin, 0) << "smallest eigenvalue " << lmin;
   EXPECT_LE(R.iterations, 3);
+  // the sparse LDL' inertia check agrees with the dense eigenvalue
+  const DefinitenessCheck pd = checkPositiveDefinite(Mt, contact);
+  EXPECT_TRUE(pd.positiveDefinite);
+  EXPECT_EQ(pd.nonPositivePivots, 0);
+  EXPECT_EQ(pd.size, static_cast<Eigen::Index>(std::count(contact.begin(), contact.end(), 0)));
+}
+
+TEST(MassRedistribution, DefinitenessCheckCountsNegativeEigenvalues) {
+  // 4^3 tetrahedral unit cube without mass at the bottom: M~ indefinite (dense smallest eigenvalue
+  // -7.7e-5); the LDL' inertia (negative pivots = negative eigenvalues) must agree with the dense count
+  const mesh::Mesh m = mesh::boxMesh(CellType::Tetrahedron, 4);
+  const ScalarSparseMatrix M = assembleConsistentMass(m, Material{});
+  std::vector<char> contact(m.numVertices(), 0);
+  for (Index v = 0; v < m.numVertices(); ++v) contact[v] = m.vertex(v)[2] == 0.0;
+  const RedistributedMass R = redistributeMass(M, m.vertices(), 3, contact);
+  const double lmin = smallestEigenvalue(R.matrix, contact);
+  EXPECT_LT(lmin, -1e-5);
+  // dense count of negative eigenvalues
+  Eigen::Index negative = 0;
+  {
+    std::vector<Eigen::Index> idx;
+    for (Index v = 0; v < m.numVertices(); ++v)
+      if (!contact[v]) idx.push_back(v);
+    Eigen::MatrixXd D0(R.matrix), D(idx.size(), idx.size());
+    for (std::size_t a = 0; a < idx.size(); ++a)
+      for (std::size_t b = 0; b < idx.size(); ++b) D(a, b) = D0(idx[a], idx[b]);
+    const Eigen::VectorXd ev = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(D).eigenvalues();
+    negative = (ev.array() < 0).count();
+  }
+  const DefinitenessCheck pd = checkPositiveDefinite(R.matrix, contact);
+  if (verbose()) std::cout << "4^3 tetrahedra: " << negative << " negative eigenvalues, LDL' " << pd.nonPositivePivots << "\n";
+  EXPECT_FALSE(pd.positiveDefinite);
+  EXPECT_GE(negative, 1);
+  EXPECT_EQ(pd.nonPositivePivots, negative);
+  // the full consistent matrix is positive definite; a zero matrix breaks down (not positive definite)
+  EXPECT_TRUE(checkPositiveDefinite(M, std::vector<char>(m.numVertices(), 0)).positiveDefinite);
+  ScalarSparseMatrix Z = M;
+  Z *= 0.0;
+  EXPECT_FALSE(checkPositiveDefinite(Z, std::vector<char>(m.numVertices(), 0)).positiveDefinite);
+  EXPECT_THROW(checkPositiveDefinite(M, std::vector<char>(3, 0)), obs::Error);
+  EXPECT_THROW(checkPositiveDefinite(M, std::vector<char>(m.numVertices(), 1)), obs::Error);
 }
 
 INSTANTIATE_TEST_SUITE_P(AllTypes, MassTest, ::testing::ValuesIn(mesh::kVolumeCellTypes),

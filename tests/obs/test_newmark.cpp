@@ -184,7 +184,9 @@ TEST(Newmark, BarMatchesTheExactSolutionBeforeImpactAndAlphaDetachesCloser) {
     // the bound during contact either way, so their positions agree and the last contact step is the
     // same (`lastContact`). They differ in the velocity: detachment = first time after the impact at
     // which the node moves away from the obstacle (nu'v < 0); exactly: 0 during contact, -v0 after.
-    double detach[2] = {0, 0}, lastContact[2] = {0, 0};
+    // The thesis (Sec. 5.3.3, Fig. 5.13) compares the displacements around detachment: `liftOff` = first
+    // time after the impact at which the gap exceeds v0 tau (the exact lift-off of one step after t_d).
+    double detach[2] = {0, 0}, lastContact[2] = {0, 0}, liftOff[2] = {0, 0};
     int idx = 0;
     for (NewmarkScheme s : {NewmarkScheme::ImprovedContactStabilized, NewmarkScheme::ContactStabilized}) {
       const auto rec = bar.run(s, tau, 534, bc);
@@ -194,6 +196,7 @@ TEST(Newmark, BarMatchesTheExactSolutionBeforeImpactAndAlphaDetachesCloser) {
         if (r.time <= tImpact + 1e-12) { EXPECT_NEAR(h, 5 - 10 * r.time, 1e-9) << name(s) << " t = " << r.time; }
         if (r.tracked[0].gap <= 1e-9) touched = true, lastContact[idx] = r.time;
         if (touched && detach[idx] == 0 && r.tracked[0].normalVelocity < -1e-9) detach[idx] = r.time;
+        if (touched && liftOff[idx] == 0 && r.tracked[0].gap > 10 * tau) liftOff[idx] = r.time;  // 10 tau = v0 tau
       }
       EXPECT_GT(detach[idx], 0) << name(s) << " never detached";
       ++idx;
@@ -201,10 +204,15 @@ TEST(Newmark, BarMatchesTheExactSolutionBeforeImpactAndAlphaDetachesCloser) {
     if (verbose())
       std::cout << (clamped ? "u_x = 0: " : "free: ") << "detach alpha(p) " << detach[0] << ", contact-stabilized "
                 << detach[1] << ", exact " << tDetach << "; last contact step " << lastContact[0] << " / "
-                << lastContact[1] << "\n";
+                << lastContact[1] << "; gap > v0 tau at " << liftOff[0] << " / " << liftOff[1] << " (exact "
+                << tDetach + tau << ")\n";
     EXPECT_EQ(lastContact[0], lastContact[1]);
     EXPECT_LT(std::abs(detach[0] - tDetach), std::abs(detach[1] - tDetach));
     EXPECT_LT(std::abs(detach[0] - tDetach), 0.05);
+    // after the last contact step the displacements differ (v^n enters the next predictor): alpha(p)
+    // also lifts off closer to the exact solution, as in the thesis' Fig. 5.13
+    EXPECT_GT(liftOff[0], 0);
+    EXPECT_LT(std::abs(liftOff[0] - (tDetach + tau)), std::abs(liftOff[1] - (tDetach + tau)));
   }
 }
 
@@ -228,6 +236,144 @@ TEST(Newmark, PersistencySchemesConserveEnergy) {
     EXPECT_GT(contact, 0);
     EXPECT_LT(drift, 1e-9) << name(s);
   }
+}
+
+TEST(Newmark, KhenousLabordeRenardConservesTheModifiedEnergyWithoutContact) {
+  // Newmark beta = gamma = 1/2 with M~: M~ a^n = f - A u^n at every level (massless rows: 0 = 0 without
+  // contact), u^{n+1} - u^n = tau/2 (v^n + v^{n+1}) + tau^2/4 (a^{n+1} - a^n), v^{n+1} - v^n = tau/2 (a^n +
+  // a^{n+1}) give E~^{n+1} - E~^n = -tau^2/8 (a^{n+1}'M~a^{n+1} - a^n'M~a^n): E~ + tau^2/8 a'M~a is
+  // conserved exactly, E~ (and E with the standard mass) only up to O(tau^2).
+  Block b(CellType::Quadrilateral, {6, 6, 1}, 1, 1, 100);  // obstacle far away
+  const Index n = b.vertices();
+  const mesh::Mesh m = b.grid.leafView().mesh;
+  Eigen::VectorXd v0 = uniform(n, 1.0, -0.5);
+  for (Index p = 0; p < n; ++p) v0[2 * p] += 0.3 * (m.vertex(p)[1] - 100), v0[2 * p + 1] += 0.2 * m.vertex(p)[0];
+  NewmarkFamily<2> st(b.grid, material(100), {}, *b.contact, opts(NewmarkScheme::KhenousLabordeRenard, 0.01));
+  const auto rec = runSteps(st, Eigen::VectorXd::Zero(2 * n), v0, 40);
+  const StepRecord& r0 = rec.front();
+  ASSERT_TRUE(r0.hasAcceleration && r0.hasRedistributed);
+  EXPECT_EQ(r0.accelerationEnergy, 0.0);  // u^0 = 0, f = 0: a^0 = 0
+  double modified = 0, redistributed = 0, standard = 0;
+  for (const StepRecord& r : rec) {
+    ASSERT_TRUE(r.hasAcceleration);
+    EXPECT_NEAR(r.energyModified, r.energyRedistributed + r.accelerationEnergy, 1e-15 * r0.energyModified);
+    modified = std::max(modified, std::abs(r.energyModified - r0.energyModified) / r0.energyModified);
+    redistributed = std::max(redistributed, std::abs(r.energyRedistributed - r0.energyRedistributed) / r0.energyRedistributed);
+    standard = std::max(standard, std::abs(r.energy - r0.energy) / r0.energy);
+    EXPECT_EQ(r.activeSolution, 0);
+  }
+  if (verbose())
+    std::cout << "KLR without contact, 40 steps: drift of E~ + tau^2/8 a'M~a " << modified << ", of E~ " << redistributed
+              << ", of E (standard mass) " << standard << "\n";
+  EXPECT_LT(modified, 1e-11);
+  EXPECT_GT(redistributed, 1e3 * modified);  // the acceleration term is what makes the difference
+  // the other schemes have no acceleration term
+  NewmarkFamily<2> hhw(b.grid, material(100), {}, *b.contact, opts(NewmarkScheme::HagerHuebnerWohlmuth, 0.01));
+  hhw.initialize(Eigen::VectorXd::Zero(2 * n), v0);
+  EXPECT_FALSE(hhw.step().hasAcceleration);
+}
+
+/// Hager-Huebner-Wohlmuth (both constraint sets) over a long multi-vertex impact with release: E~
+/// (kinetic energy with M~) is conserved exactly with the persistency set (no such statement holds for
+/// the non-penetration set: only the update algebra is checked there). The rows of the
+/// massless contact vertices read tau^2/4 (A(u^{n+1} + u^n) - 2f)_C = lambda_C: without contact their
+/// residual r^n = (A u^n - f)_C alternates, r^{n+1} = -r^n, so u_C keeps an undamped oscillation of
+/// period 2 tau after release, which the velocity recursion v^{n+1} = -v^n + 2/tau (u^{n+1} - u^n)
+/// integrates resonantly: the velocities of the massless vertices grow linearly, and with them the
+/// energy E with the standard mass (which weights them with the mass that M~ moved away). They do
+/// not feed back into the motion (M~ has zero columns there).
+template <int d>
+void checkHagerHuebnerWohlmuthLongRun(const mesh::Grid& grid, const ContactSet& contact, const Eigen::VectorXd& v0,
+                                      double tau, int steps) {
+  const Index n = contact.numMeshVertices();
+  for (NewmarkScheme s : {NewmarkScheme::HagerHuebnerWohlmuth, NewmarkScheme::HagerHuebnerWohlmuthNonPenetration}) {
+    NewmarkFamily<d> st(grid, material(200), {}, contact, opts(s, tau));
+    st.initialize(Eigen::VectorXd::Zero(d * n), v0);
+    const StepRecord r0 = st.record();
+    std::vector<char> massless(static_cast<std::size_t>(n), 0);
+    for (Index p : contact.vertices()) massless[static_cast<std::size_t>(p)] = 1;
+    double drift = 0, maxIdentity = 0, releaseVelocity = 0, finalVelocity = 0;
+    int contactSteps = 0, freeSteps = 0;
+    Index previousActive = 0;
+    Eigen::VectorXd u = st.state().u, v = st.state().v;
+    for (int k = 1; k <= steps; ++k) {
+      const StepRecord r = st.step();
+      const Eigen::VectorXd& un = st.state().u;
+      const Eigen::VectorXd& vn = st.state().v;
+      drift = std::max(drift, std::abs(r.energyRedistributed - r0.energyRedistributed) / r0.energyRedistributed);
+      contactSteps += r.activeSolution > 0;
+      // velocity update (all vertices) and the massless rows after release (no bound at t^n and t^{n+1})
+      EXPECT_LT((vn + v - (2 / tau) * (un - u)).norm(), 1e-10 * (vn.norm() + v.norm() + 1)) << name(s) << " step " << k;
+      if (contactSteps > 0 && r.activeSolution == 0 && previousActive == 0 && r.maxPenetration == 0) {
+        const Eigen::VectorXd r1 = st.stiffness() * un, r2 = st.stiffness() * u;
+        double scale = 0, mismatch = 0;
+        for (Index p = 0; p < n; ++p)
+          if (massless[static_cast<std::size_t>(p)]) {
+            const auto i = static_cast<Eigen::Index>(p) * d;
+            scale = std::max(scale, r2.template segment<d>(i).norm());
+            mismatch = std::max(mismatch, (r1.template segment<d>(i) + r2.template segment<d>(i)).norm());
+          }
+        if (scale > 0) maxIdentity = std::max(maxIdentity, mismatch / scale);
+        double vc = 0;
+        for (Index p = 0; p < n; ++p)
+          if (massless[static_cast<std::size_t>(p)]) vc = std::max(vc, vn.template segment<d>(static_cast<Eigen::Index>(p) * d).norm());
+        if (freeSteps++ == 0) releaseVelocity = vc;
+        finalVelocity = vc;
+      }
+      previousActive = r.activeSolution;
+      u = un;
+      v = vn;
+    }
+    if (verbose())
+      std::cout << d << "D " << name(s) << ": E~ drift " << drift << ", contact steps " << contactSteps << ", free steps "
+                << freeSteps << ", massless-row identity " << maxIdentity << ", max |v_C| at release " << releaseVelocity
+                << ", at the end " << finalVelocity << ", E_end/E_0 " << st.record().energy / r0.energy << "\n";
+    EXPECT_GT(contactSteps, 0) << name(s);
+    ASSERT_GT(freeSteps, 10) << name(s) << ": the body must leave the obstacle";
+    EXPECT_LT(maxIdentity, 1e-8) << name(s);
+    if (s == NewmarkScheme::HagerHuebnerWohlmuth) { EXPECT_LT(drift, 1e-9) << name(s); }
+  }
+}
+
+TEST(Newmark, HagerHuebnerWohlmuthLongMultiVertexImpact2D) {
+  Block b(CellType::Triangle, {8, 4, 1}, 1, 0.5, 0.01);
+  const Index n = b.vertices();
+  checkHagerHuebnerWohlmuthLongRun<2>(b.grid, *b.contact, uniform(n, 0.1, -1.0), 0.005, 300);
+}
+
+TEST(Newmark, RedistributedSchemesRejectAnIndefiniteStepMatrix) {
+  // 4^3 tetrahedral unit cube without mass at the bottom: M~ has three negative eigenvalues (test_mass).
+  // With a small c tau^2 A the step matrix S = M~ + c tau^2 A is indefinite too: clear error before
+  // stepping (formerly a CHOLMOD error of the coarse solve); with a large one S is positive definite,
+  // the stepper is built and reports the indefinite M~.
+  mesh::Grid grid(mesh::boxMesh(CellType::Tetrahedron, 4));
+  PlaneObstacle plane(P(0, 0, -0.1), P(0, 0, -1));
+  ContactSet contact(grid.leafView().mesh, mesh::kBottom, plane);
+  for (NewmarkScheme s : allNewmarkSchemes()) {
+    if (!usesRedistributedMass(s)) {
+      NewmarkFamily<3> st(grid, material(1), {}, contact, opts(s, 1e-4));
+      EXPECT_THROW(st.redistributedMassDefiniteness(), obs::Error);
+      continue;
+    }
+    try {
+      NewmarkFamily<3>(grid, material(1), {}, contact, opts(s, 1e-4));
+      ADD_FAILURE() << name(s) << ": no error";
+    } catch (const obs::Error& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("is not positive definite"), std::string::npos) << what;
+      EXPECT_NE(what.find("3 negative eigenvalues"), std::string::npos) << what;
+      EXPECT_NE(what.find("Refine the mesh near the contact boundary"), std::string::npos) << what;
+      EXPECT_NE(what.find(std::string(name(s))), std::string::npos) << what;
+    }
+    NewmarkFamily<3> stiff(grid, material(100), {}, contact, opts(s, 0.01));
+    EXPECT_FALSE(stiff.redistributedMassDefiniteness().positiveDefinite) << name(s);
+    EXPECT_EQ(stiff.redistributedMassDefiniteness().nonPositivePivots, 3) << name(s);
+  }
+  // one refinement: M~ positive definite, accepted for any tau
+  grid.refineUniformly();
+  ContactSet fine(grid.leafView().mesh, mesh::kBottom, plane);
+  NewmarkFamily<3> st(grid, material(1), {}, fine, opts(NewmarkScheme::HagerHuebnerWohlmuth, 1e-4));
+  EXPECT_TRUE(st.redistributedMassDefiniteness().positiveDefinite);
 }
 
 TEST(Newmark, NonPenetrationSchemesNeverPenetrate) {

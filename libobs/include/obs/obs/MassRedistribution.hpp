@@ -17,8 +17,10 @@
 /// in one or two sweeps, the extra sweeps only remove round-off). The moment of inertia is not kept.
 ///
 /// M~ is symmetric; it is positive semidefinite on the remaining vertices when the removed mass is
-/// small against the smallest eigenvalue of M (a boundary layer of a mesh with several cells across),
-/// which smallestEigenvalue() lets callers check on small problems (tests report it).
+/// small against the smallest eigenvalue of M (a boundary layer of a mesh with several cells across).
+/// On coarse meshes it can be indefinite (4^3 tetrahedral unit cube with the bottom removed: smallest
+/// eigenvalue -7.7e-5); checkPositiveDefinite() decides this with one sparse factorisation (any size),
+/// smallestEigenvalue() computes the eigenvalue densely (small problems, tests).
 #include <Eigen/Core>
 
 #include <vector>
@@ -51,6 +53,22 @@ struct RedistributedMass {
 RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vector<mesh::Point>& vertices,
                                    int dimension, const std::vector<char>& massless,
                                    const MassRedistributionOptions& options = {});
+
+/// Result of checkPositiveDefinite.
+struct DefinitenessCheck {
+  bool positiveDefinite = false;
+  Eigen::Index size = 0;               ///< rows of the restricted matrix
+  Eigen::Index nonPositivePivots = 0;  ///< = number of eigenvalues <= 0 (up to the pivot tolerance)
+};
+
+/// Positive definiteness of M restricted to the vertices with mask[v] == 0, by a sparse LDL'
+/// factorisation (fill-reducing AMD ordering, no pivoting). By Sylvester's law of inertia the
+/// number of negative pivots D_kk equals the number of negative eigenvalues; a pivot
+/// D_kk <= 1e-12 max_i |M_ii| counts as non-positive, and so does a breakdown (zero pivot: the
+/// remaining pivots are then not known, nonPositivePivots >= 1). Cost: one scalar sparse
+/// factorisation (one row per vertex, not per unknown). Throws obs::Error on a size mismatch or if
+/// every row is masked.
+DefinitenessCheck checkPositiveDefinite(const ScalarSparseMatrix& M, const std::vector<char>& mask);
 
 /// Smallest eigenvalue of M restricted to the vertices with mask[v] == 0 (dense; small problems only:
 /// throws obs::Error above 4000 vertices).

@@ -131,6 +131,12 @@ struct StepRecord {
   bool hasRedistributed = false;
   double kineticEnergyRedistributed = 0;  ///< 1/2 v'M~v (hasRedistributed)
   double energyRedistributed = 0;         ///< E~ (hasRedistributed)
+  /// khenous-laborde-renard (Newmark beta = gamma = 1/2): accelerationEnergy = tau^2/8 a'M~a and
+  /// energyModified = E~ + tau^2/8 a'M~a, the quantity the scheme conserves exactly without contact
+  /// (E and E~ alone drift by O(tau^2); MATH.md §5, docs/dynamics.md "Energies").
+  bool hasAcceleration = false;
+  double accelerationEnergy = 0;
+  double energyModified = 0;
   Eigen::Vector3d momentum = Eigen::Vector3d::Zero();              ///< M v (summed per component)
   Eigen::Vector3d momentumRedistributed = Eigen::Vector3d::Zero();  ///< M~ v (hasRedistributed)
   Eigen::Vector3d contactForce = Eigen::Vector3d::Zero();  ///< sum_p F_p nu_p (force on the obstacle)
@@ -166,7 +172,13 @@ public:
   /// The body is the leaf mesh of `grid` (the multigrid hierarchy of TNNMG is the grid's); the
   /// contact set must be built on grid.leafView().mesh. Assembles A, M (and M~), f, the system
   /// matrix and the solver. Throws obs::Error for tau <= 0 (or non-finite), an invalid material
-  /// (density rho > 0), dimension/size mismatches, a mass kind the scheme does not support.
+  /// (density rho > 0), dimension/size mismatches, a mass kind the scheme does not support, and (schemes
+  /// with M~) a step matrix S = M~ + c tau^2 A that is not positive definite: M~ is checked on the
+  /// vertices that keep mass by one scalar sparse LDL' (checkPositiveDefinite); only if M~ is indefinite
+  /// (coarse meshes whose contact layer carries much of the mass) S is factorised by CHOLMOD. The message
+  /// says to refine near the contact boundary or to use a scheme without redistribution. An indefinite M~
+  /// with a positive definite S is accepted (redistributedMassDefiniteness() reports it): its modes with
+  /// x'M~x < 0 grow, slowly when c tau^2 A dominates, so callers should warn.
   NewmarkFamily(const mesh::Grid& grid, const Material& material, const BoundaryConditions& bc,
                 const ContactSet& contact, const NewmarkOptions& options);
   ~NewmarkFamily() override;
@@ -183,6 +195,9 @@ public:
   const BlockSparseMatrix<d>& mass() const { return M_; }
   /// M~ (redistributed schemes; throws obs::Error otherwise).
   const RedistributedMass& redistributedMass() const;
+  /// Inertia check of M~ on the vertices that keep mass (redistributed schemes; throws obs::Error
+  /// otherwise): positiveDefinite false means M~ is indefinite but S was positive definite.
+  const DefinitenessCheck& redistributedMassDefiniteness() const;
   const Eigen::VectorXd& load() const { return f_; }
   const ContactProblem<d>& problem() const { return *problem_; }
   /// Energy E(u, v) = 1/2 v'Mv + 1/2 u'Au - f'u.
@@ -202,6 +217,7 @@ private:
   BlockSparseMatrix<d> A_, M_, Mr_, S_;  ///< stiffness, standard mass, M~, system matrix
   Eigen::VectorXd lumped_;  ///< lumped masses (scalar per vertex)
   std::unique_ptr<RedistributedMass> redistributed_;
+  DefinitenessCheck redistributedCheck_;
   Eigen::VectorXd f_;
   DirichletValues dirichlet_;
   std::unique_ptr<ContactSet> contact_;
