@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <string>
 
 #include "obs/mesh/Error.hpp"
@@ -42,6 +43,7 @@ std::optional<Point> referenceCoordinates(CellType type, std::span<const Point> 
   std::array<double, 8> phi{};
   std::array<double, 24> grad{};
   Point xi = ref.centroid;
+  double previousStep = std::numeric_limits<double>::infinity();
   for (int it = 0; it < maxIterations; ++it) {
     ref.values(xi, std::span<double>(phi.data(), n));
     ref.gradients(xi, std::span<double>(grad.data(), n * d));
@@ -62,7 +64,13 @@ std::optional<Point> referenceCoordinates(CellType type, std::span<const Point> 
     }
     xi -= step;
     if (!xi.allFinite()) return std::nullopt;
-    if (step.norm() <= tol) return xi;
+    const double size = step.norm();
+    if (size <= tol) return xi;
+    // Converged to round-off: on small cells (|x| / diameter large) the attainable accuracy in
+    // reference coordinates is about eps |x| / diameter, which can exceed tol; Newton then stops
+    // contracting at a tiny step.
+    if (size < 1e-8 && size > 0.5 * previousStep) return xi;
+    previousStep = size;
   }
   return std::nullopt;
 }

@@ -265,3 +265,28 @@ TEST(ReferenceCoordinates, InvertTheGeometryMapOfDistortedCells) {
     EXPECT_FALSE(insideReferenceElement(t, Point(-0.1, 0.2, 0.2)));
   }
 }
+
+// Cells of diameter 1e-7 far from the origin (deep local refinement): round-off bounds the
+// attainable accuracy in reference coordinates by about eps |x| / diameter = 1e-9 here, far above
+// the default tolerance; the inversion must still succeed (it once failed at level 9 of the punch).
+TEST(ReferenceCoordinates, TinyCellsFarFromTheOrigin) {
+  const double h = 1e-7;
+  const Point offset(0.5656, 0.3, 0.7);
+  for (CellType t : kVolumeCellTypes) {
+    const ReferenceElement& ref = referenceElement(t);
+    std::vector<Point> x(ref.vertices);
+    for (auto& p : x) {
+      const Point q = p;
+      p = offset;
+      for (int k = 0; k < ref.dim; ++k) p[k] += h * (q[k] + 0.1 * q[(k + 1) % ref.dim]);
+    }
+    const Point xi = ref.centroid;
+    std::vector<double> phi(ref.numVertices);
+    ref.values(xi, phi);
+    Point y = Point::Zero();
+    for (int k = 0; k < ref.numVertices; ++k) y += phi[k] * x[k];
+    const auto back = referenceCoordinates(t, x, y);
+    ASSERT_TRUE(back.has_value()) << name(t);
+    EXPECT_NEAR((*back - xi).norm(), 0, 1e-7) << name(t);
+  }
+}

@@ -53,7 +53,8 @@ CsrMatrix prolongation(const Grid& grid, int coarseLevel);
 
 /// Reference coordinates xi of the point x in the cell with the given corners (the inverse of the
 /// first-order geometry map sum_i phi_i(xi) corners[i]), by Newton's method from the reference
-/// centroid; nullopt if it does not converge to |step| < tol within maxIterations. For 2D cells
+/// centroid; nullopt if it does not converge to |step| < tol (or to round-off: a step below 1e-8
+/// that no longer halves, as on very small cells) within maxIterations. For 2D cells
 /// only the x and y components are used. One step suffices for affine cells.
 std::optional<Point> referenceCoordinates(CellType type, std::span<const Point> corners,
                                           const Point& x, double tol = 1e-13,
