@@ -129,6 +129,32 @@ double SineWaveObstacle::height(double s1, double) const {
   return amplitude_ * std::cos(2 * std::numbers::pi * s1 / wavelength_);
 }
 
+SmileyObstacle::SmileyObstacle(const Point& centre, double radius, double slope, const Point& direction)
+    : HeightFieldObstacle("smiley", centre, direction), radius_(radius), slope_(slope) {
+  requirePositive("smiley", "radius", radius);
+  requireNonNegative("smiley", "slope", slope);
+}
+
+double SmileyObstacle::distance(double s1, double s2) const {
+  const double R = radius_;
+  const double r = std::hypot(s1, s2);
+  double d = std::abs(r - R);  // the outline
+  for (const double side : {-1.0, 1.0})  // the eyes: discs of radius R/10
+    d = std::min(d, std::max(0.0, std::hypot(s1 - side * 0.35 * R, s2 - 0.3 * R) - 0.1 * R));
+  // the mouth: arc of radius 0.6 R between the polar angles 210 and 330 degrees
+  constexpr double deg = std::numbers::pi / 180;
+  const double rm = 0.6 * R, a0 = 210 * deg, a1 = 330 * deg;
+  double angle = std::atan2(s2, s1);
+  if (angle < 0) angle += 2 * std::numbers::pi;
+  if (r > 0 && angle >= a0 && angle <= a1) {
+    d = std::min(d, std::abs(r - rm));
+  } else {
+    for (const double a : {a0, a1})
+      d = std::min(d, std::hypot(s1 - rm * std::cos(a), s2 - rm * std::sin(a)));
+  }
+  return d;
+}
+
 // --- ball / disk -------------------------------------------------------------------------------
 
 BallObstacle::BallObstacle(const Point& centre, double radius, const Point& direction, Direction mode)

@@ -115,6 +115,37 @@ TEST(Obstacle, PyramidHatAndSineWaveHeights) {
   EXPECT_NEAR(wave.gap(P(0.5, 0)), 0.0, 1e-15);
 }
 
+TEST(Obstacle, SmileyTouchesAlongOutlineEyesAndMouth) {
+  // face of radius R = 0.4 centred under the bottom of the unit cube, ridges of slope 1/2, nu = -e_z
+  // (t1 = e_x, t2 = e_y): eyes at (0.5 -+ 0.14, 0.62) of radius 0.04, mouth |s| = 0.24 at 210..330 deg
+  const SmileyObstacle smiley(P(0.5, 0.5, 0), 0.4, 0.5);
+  EXPECT_EQ(smiley.name(), "smiley");
+  EXPECT_EQ(smiley.dimension(), 3);
+  EXPECT_TRUE(smiley.direction(P(0.1, 0.2, 0)).isApprox(P(0, 0, -1)));
+  // on the curves the gap is the height above the face plane
+  EXPECT_NEAR(smiley.gap(P(0.9, 0.5, 0)), 0.0, 1e-15);                // outline, east
+  EXPECT_NEAR(smiley.gap(P(0.5, 0.1, 0)), 0.0, 1e-15);                // outline, south
+  EXPECT_NEAR(smiley.gap(P(0.64, 0.62, 0)), 0.0, 1e-15);              // right eye centre
+  EXPECT_NEAR(smiley.gap(P(0.36 + 0.03, 0.62, 0)), 0.0, 1e-15);       // inside the left eye
+  EXPECT_NEAR(smiley.gap(P(0.5, 0.26, 0)), 0.0, 1e-15);               // bottom of the mouth
+  EXPECT_NEAR(smiley.gap(P(0.5, 0.26, 0.1)), 0.1, 1e-15);             // 0.1 above it
+  // off the curves: slope times the distance to the nearest one
+  EXPECT_NEAR(smiley.gap(P(0.5, 0.2, 0)), 0.5 * 0.06, 1e-15);         // mouth 0.06 away, outline 0.1
+  EXPECT_NEAR(smiley.gap(P(0.5, 0.5, 0)), 0.5 * (std::hypot(0.14, 0.12) - 0.04), 1e-15);  // centre: eyes
+  EXPECT_NEAR(smiley.gap(P(1.0, 1.0, 0)), 0.5 * (std::sqrt(0.5) - 0.4), 1e-15);  // corner: outline
+  // beyond the mouth's right end (330 deg, at (0.5 + 0.24 cos 30, 0.5 - 0.12)): distance to the end
+  const Point end(0.5 + 0.24 * std::cos(std::numbers::pi / 6), 0.38, 0);
+  EXPECT_NEAR(smiley.gap(end + P(0.02, 0.02, 0)), 0.5 * std::hypot(0.02, 0.02), 1e-14);
+  EXPECT_NEAR(smiley.distance(0.0, 0.0), std::hypot(0.14, 0.12) - 0.04, 1e-15);
+
+  // another direction: contact on the right face x = 1, nu = +e_x; the frame is t1 = e_y (e_x is
+  // parallel to nu), t2 = t1 x nu = -e_z, so "up" on the face (the eyes) is -z
+  const SmileyObstacle side(P(1, 0.5, 0.5), 0.4, 2.0, P(2, 0, 0));
+  EXPECT_TRUE(side.direction(P(1, 0, 0)).isApprox(P(1, 0, 0)));
+  EXPECT_NEAR(side.gap(P(1, 0.64, 0.38)), 0.0, 1e-15);                // right eye (s = (0.14, 0.12))
+  EXPECT_NEAR(side.gap(P(0.9, 0.5, 0.74)), 0.1, 1e-15);               // mouth bottom, 0.1 inside the body
+}
+
 TEST(Obstacle, FunctionObstacleCallsTheUserFunctions) {
   const FunctionObstacle f([](const Point& x) { return x[1] - x[0] * x[0]; },
                            [](const Point&) { return Point(0, -1, 0); }, "parabola", 2);
@@ -136,6 +167,8 @@ TEST(Obstacle, InvalidParametersNameTheParameter) {
   expectErrorMentioning([] { PyramidObstacle(P(0.5, 0.5, 0), std::nan("")); }, "slope");
   expectErrorMentioning([] { HatObstacle(P(0, 0, 0), 0.1, -1.0, P(0, 0, -1)); }, "radius");
   expectErrorMentioning([] { SineWaveObstacle(P(0, 0), 0.1, 0.0, P(0, -1)); }, "wavelength");
+  expectErrorMentioning([] { SmileyObstacle(P(0.5, 0.5, 0), 0.0, 1.0); }, "radius");
+  expectErrorMentioning([] { SmileyObstacle(P(0.5, 0.5, 0), 0.4, -1.0); }, "slope");
   expectErrorMentioning([] { FunctionObstacle({}, [](const Point&) { return Point(0, -1, 0); }); }, "gap");
 }
 

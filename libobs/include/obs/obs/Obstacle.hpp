@@ -145,6 +145,29 @@ private:
   double amplitude_, wavelength_;
 };
 
+/// A "smiley" (thesis Example 9, whose obstacle the thesis only shows through the refined grids;
+/// obs' design): sharp ridges of side slope m whose crests, at the height of the reference point a
+/// (the face centre), draw a face of radius R in the tangential plane:
+///   the outline  |s| = R,
+///   two eyes     discs of radius R/10 centred at s = (-0.35 R, 0.3 R) and (0.35 R, 0.3 R),
+///   a mouth      the arc |s| = 0.6 R for polar angles atan2(s2, s1) in [210, 330] degrees.
+/// With d(s) the Euclidean distance of s = (s1, s2) to the union S of these curves and discs,
+///   h(s) = -m d(s),   g(x) = (a - x) . nu + m d(s),
+/// so g = 0 exactly on S (x in the tangential plane through a) and grows linearly away from it: a
+/// body pressed against the obstacle touches it along the smiley only (for small enough loads).
+/// A 3D obstacle (a 2D body would see a cross-section only).
+class SmileyObstacle : public HeightFieldObstacle {
+public:
+  SmileyObstacle(const Point& centre, double radius, double slope, const Point& direction = -Point::UnitZ());
+  double height(double s1, double s2) const override { return -slope_ * distance(s1, s2); }
+  /// d(s): distance of (s1, s2) to the smiley's curves and discs (0 on them).
+  double distance(double s1, double s2) const;
+  int dimension() const override { return 3; }
+
+private:
+  double radius_, slope_;
+};
+
 /// Rigid ball (3D) with centre c and radius R. Two choices of direction:
 ///  - Fixed (default, nu = -e_z, thesis Sec. 1.2.2 / 4.2.2 Hertz): g is the distance along nu from x to
 ///    the near cap of the sphere. With x - c = a nu + w, w . nu = 0, r = |w|:
