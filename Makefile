@@ -1,12 +1,12 @@
 # Convenience entry points for obs. Everything real is in CMake; this file only chains the steps.
-#   make demo   install dependencies, build, run the cantilever example
+#   make demo   install dependencies, build, run the main example (thesis Example 1A: adaptive punch)
 #   make test   install dependencies, build, run the whole test suite
 # Variables: BUILD_DIR (default build), JOBS (default: number of cores).
 
 BUILD_DIR ?= build
 JOBS ?= $(shell nproc)
-DEMO_SCENE ?= data/scenes/cantilever.toml
-DEMO_OUT ?= out/cantilever
+DEMO_SCENE ?= data/scenes/example1a.toml
+DEMO_OUT ?= out/example1a
 
 # cmake --build runs make again; keep its output free of "Entering directory" lines.
 MAKEFLAGS += --no-print-directory
@@ -31,14 +31,16 @@ build: configure
 	cmake --build $(BUILD_DIR) -j$(JOBS)
 
 demo: build
-	$(BUILD_DIR)/drivers/obs run $(DEMO_SCENE) --output $(DEMO_OUT)
+	$(BUILD_DIR)/drivers/obs run $(DEMO_SCENE) --output $(DEMO_OUT) --plots
 	@echo
 	@echo "Output of $(DEMO_SCENE) is in $(DEMO_OUT)/:"
-	@ls -1 $(DEMO_OUT)/*.vtu $(DEMO_OUT)/summary.json 2>/dev/null | sed 's/^/  /' || true
-	@echo "  *.vtu         mesh and solution fields, e.g. displacement, stress (VTK XML, for ParaView)"
+	@ls -1 $(DEMO_OUT)/*.vtu $(DEMO_OUT)/*.png $(DEMO_OUT)/steps.csv $(DEMO_OUT)/summary.json 2>/dev/null | sed 's/^/  /' || true
+	@echo "  *.vtu, *.pvd  mesh and fields of the last step: displacement, stress, contact pressure s_p,"
+	@echo "                contact node class, estimator contributions (VTK XML, for ParaView)"
+	@echo "  *.png         estimator vs vertices, s_p vs the exact pressure, pressure errors"
+	@echo "  steps.csv     one row per adaptive step: unknowns, contact vertices, eta_1..eta_8, errors, times"
 	@echo "  summary.json  summary of the run: problem size, results, times, peak memory"
-	@echo "To view it: paraview $(DEMO_OUT)/*.vtu (or File > Open in ParaView), press Apply,"
-	@echo "colour by a field and add Filters > Warp By Vector (displacement) to see the deformed body."
+	@echo "To view it: paraview $(DEMO_OUT)/*.pvd, press Apply, colour by contact_pressure or eta_5."
 
 test: build
 	ctest --test-dir $(BUILD_DIR) --output-on-failure -j$(JOBS)

@@ -49,8 +49,17 @@ void printError(std::string message) {
 }
 
 int runCommand(const std::string& scene, const std::optional<std::string>& output,
-               std::optional<int> refine, bool quiet, bool verbose) {
+               std::optional<int> refine, bool quiet, bool verbose,
+               const std::vector<std::string>& plugins, const std::vector<std::string>& overrides,
+               bool plots, bool compareSchemes) {
+  // plugins first, so that their estimators are valid names in [adaptivity]
+  for (const std::string& plugin : plugins)
+    obs::estimators::EstimatorRegistry::global().loadPlugin(plugin);
   obs::drivers::RunOptions options;
+  options.overrides = overrides;
+  options.plots = plots;
+  options.compareSchemes = compareSchemes;
+  if (!quiet) options.stepProgress = [](const std::string& line) { std::cerr << line << std::endl; };
   if (output) options.outputDirectory = *output;
   options.refine = refine;
   if (!quiet) options.progress = [](const std::string& line) { std::cout << line << std::endl; };
@@ -119,7 +128,9 @@ int main(int argc, char** argv) {
   std::string scene;
   std::optional<std::string> output;
   std::optional<int> refine;
-  bool quiet = false, verbose = false;
+  bool quiet = false, verbose = false, runPlots = false;
+  bool compareSchemes = false;  // [dynamics]: run every scheme
+  std::vector<std::string> runPlugins, overrides;
   CLI::App* run =
       app.add_subcommand("run", "Solve the scene in a scene file and write the results");
   run->add_option("scene", scene, "Scene file (TOML), see docs/scenes.md")
@@ -131,6 +142,18 @@ int main(int argc, char** argv) {
   run->add_option("--refine,-r", refine, "Uniform refinements of the mesh (replaces [mesh] refine)")
       ->type_name("K")
       ->check(CLI::Range(0, 12));
+  run->add_option("--set,-s", overrides,
+                  "Override a scene key before the checks, TOML value syntax (repeatable), e.g. "
+                  "--set adaptivity.steps=3 --set 'adaptivity.estimator=\"residual\"'")
+      ->type_name("SECTION.KEY=VALUE");
+  run->add_option("--plugin,-p", runPlugins,
+                  "Load estimators from a shared library before the scene is read (repeatable)")
+      ->type_name("LIB.so");
+  run->add_flag("--plots", runPlots,
+                "[adaptivity] runs: PNG plots by scripts/plot_adaptivity.py, [dynamics] runs: by "
+                "scripts/plot_dynamics.py (as [output] plots = true)");
+  run->add_flag("--compare-schemes", compareSchemes,
+                "[dynamics] scenes: also run every other Newmark scheme (timeseries_<scheme>.csv each)");
   run->add_flag("--quiet,-q", quiet, "Print nothing but errors");
   run->add_flag("--verbose,-v", verbose,
                 "Contact solvers: one line per block of iterations on stderr (1-10, 20, 30, ..., "
@@ -142,6 +165,13 @@ int main(int argc, char** argv) {
       "times, memory, solver, contact) and\n"
       "appends one row per run to <output>/runs.csv ([output] csv names another file).\n"
       "Example: obs run data/scenes/cantilever.toml --output out/cantilever --refine 1\n"
+      "With [adaptivity] the adaptive loop runs instead (one line per step on stderr) and writes\n"
+      "steps.csv, pressure.csv, step_NNN.vtu + <scene name>.pvd and summary.json \"adaptivity\".\n"
+      "Example: obs run data/scenes/example1a.toml --set adaptivity.steps=12 --set\n"
+      "  'adaptivity.refinement=\"uniform\"' --plugin ./libmy_estimators.so --plots\n"
+      "With [dynamics] the time steppers run (progress on stderr) and write timeseries.csv,\n"
+      "<scene name>_NNNNNN.vtu + <scene name>.pvd and summary.json \"dynamics\".\n"
+      "Example: obs run data/scenes/dynamics_ball.toml --compare-schemes --plots\n"
       "The scene file format is documented in docs/scenes.md.\n");
 
   std::vector<std::string> checkScenes;
@@ -210,7 +240,9 @@ int main(int argc, char** argv) {
   }
 
   try {
-    if (run->parsed()) return runCommand(scene, output, refine, quiet, verbose);
+    if (run->parsed())
+      return runCommand(scene, output, refine, quiet, verbose, runPlugins, overrides, runPlots,
+                        compareSchemes);
     if (check->parsed()) return checkCommand(checkScenes, checkRefine);
     if (meshCmd->parsed()) {
       meshOptions.scene = meshScene;

@@ -58,6 +58,13 @@ std::vector<ObstacleType> makeTypes() {
        true,
        {{"centre", Kind::Point, true}, {"radius", Kind::Number, true, Range::Positive}, kDirection}},
       {"expression", 0, false, {{"gap", Kind::Expression, true}, kDirection}},
+      {"smiley",
+       3,
+       false,
+       {{"centre", Kind::Point, true},
+        {"radius", Kind::Number, true, Range::Positive},
+        {"slope", Kind::Number, true, Range::NonNegative},
+        kDirection}},
   };
 }
 
@@ -179,6 +186,8 @@ std::unique_ptr<Obstacle> makeObstacle(const Scene& scene, int dim) {
     if (name == "sine-wave")
       return std::make_unique<SineWaveObstacle>(p.point("point"), p.number("amplitude"),
                                                 p.number("wavelength"), nu);
+    if (name == "smiley")
+      return std::make_unique<SmileyObstacle>(p.point("centre"), p.number("radius"), p.number("slope"), nu);
     const auto mode = c.normalDirection ? BallObstacle::Direction::Normal : BallObstacle::Direction::Fixed;
     if (name == "ball")
       return std::make_unique<BallObstacle>(p.point("centre"), p.number("radius"), nu, mode);

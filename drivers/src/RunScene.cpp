@@ -7,7 +7,9 @@
 #include <iomanip>
 #include <sstream>
 
+#include "obs/drivers/AdaptiveScene.hpp"
 #include "obs/drivers/CsvWriter.hpp"
+#include "obs/drivers/DynamicScene.hpp"
 #include "obs/drivers/SceneParser.hpp"
 #include "obs/drivers/SceneSetup.hpp"
 #include "obs/drivers/SceneSolver.hpp"
@@ -54,10 +56,11 @@ std::string describeCells(const RunResult& r) {
 }  // namespace
 
 RunResult runScene(const std::filesystem::path& sceneFile, const RunOptions& options) {
-  return runScene(parseScene(sceneFile), options);
+  return runScene(parseScene(sceneFile, options.overrides), options);
 }
 
 RunResult runScene(const Scene& scene, const RunOptions& options) {
+  if (scene.adaptivity) return runAdaptiveScene(scene, options);
   const auto start = Clock::now();
   auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
@@ -80,6 +83,7 @@ RunResult runScene(const Scene& scene, const RunOptions& options) {
   r.refine = options.refine.value_or(scene.mesh.refine);
   progress("mesh built: " + describeCells(r) + " / " + std::to_string(r.vertices) + " vertices (" +
            std::to_string(r.dimension) + "D, " + seconds(r.meshSeconds) + ")");
+  if (scene.dynamics) return runDynamicScene(scene, grid, mesh, bc, options, std::move(r), start);
 
   // assemble and solve
   auto assembled = [&](const ElasticitySolution& e) {

@@ -7,6 +7,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "DynamicsParser.hpp"
+#include "SceneExtensions.hpp"
 #include "TomlSection.hpp"
 #include "obs/drivers/ObstacleFactory.hpp"
 #include "obs/mesh/Error.hpp"
@@ -18,7 +20,7 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kSections =
-    "mesh, material, dirichlet, neumann, body_force, contact, solver, output";
+    "mesh, material, dirichlet, neumann, body_force, contact, solver, output, adaptivity, dynamics";
 constexpr int kMaxRefine = 12;
 constexpr long long kMaxBoxCells = 100'000'000;
 
@@ -79,7 +81,7 @@ std::optional<mesh::CellType> cellTypeByName(const std::string& name) {
 void parseBox(const TomlSection& s, MeshSpec& spec) {
   const std::string generator = s.string("generator");
   if (generator != "box")
-    s.fail("generator", "= \"" + generator + "\" is unknown (known generators: box)");
+    s.fail("generator", "= \"" + generator + "\" is unknown (known generators: box, ball, rounded_block)");
   const std::string type = s.string("type");
   const auto cellType = cellTypeByName(type);
   if (!cellType)
@@ -133,8 +135,9 @@ void parseBox(const TomlSection& s, MeshSpec& spec) {
 }
 
 MeshSpec parseMesh(const Scene& scene, const toml::value& table) {
-  const TomlSection s(scene.fileName, "[mesh]", table,
-                      {"generator", "type", "cells", "lower", "upper", "file", "refine"});
+  std::vector<std::string> keys = {"generator", "type", "cells", "lower", "upper", "file", "refine"};
+  keys.insert(keys.end(), curvedMeshKeys().begin(), curvedMeshKeys().end());
+  const TomlSection s(scene.fileName, "[mesh]", table, keys);
   MeshSpec spec;
   spec.line = s.line();
   if (s.has("generator") && s.has("file"))
@@ -142,6 +145,8 @@ MeshSpec parseMesh(const Scene& scene, const toml::value& table) {
   if (s.has("file")) {
     for (const char* key : {"type", "cells", "lower", "upper"})
       if (s.has(key)) s.fail(key, "only applies to generator = \"box\", not to a mesh file");
+    for (const std::string& key : curvedMeshKeys())
+      if (s.has(key)) s.fail(key, "only applies to a mesh generator, not to a mesh file");
     const std::string file = s.string("file");
     if (file.empty()) s.fail("file", "must not be empty");
     fs::path path(file);
@@ -152,7 +157,11 @@ MeshSpec parseMesh(const Scene& scene, const toml::value& table) {
       s.fail("file", "= \"" + file + "\": no such file (looked for " + path.string() + ")");
     spec.source = MeshSpec::Source::File;
     spec.file = path;
+  } else if (s.has("generator") && isCurvedGenerator(s.string("generator"))) {
+    parseCurvedMesh(s, spec);
   } else if (s.has("generator")) {
+    for (const std::string& key : curvedMeshKeys())
+      if (s.has(key)) s.fail(key, "does not apply to generator = \"box\" (only ball, rounded_block)");
     spec.source = MeshSpec::Source::Box;
     parseBox(s, spec);
   } else {
@@ -172,7 +181,7 @@ MeshSpec parseMesh(const Scene& scene, const toml::value& table) {
 }
 
 void parseMaterial(Scene& scene, const toml::value& table) {
-  const TomlSection s(scene.fileName, "[material]", table, {"E", "nu"});
+  const TomlSection s(scene.fileName, "[material]", table, {"E", "nu", "density"});
   scene.materialLine = s.line();
   const double E = s.number("E");
   if (E <= 0) s.fail("E", "= " + literalOf(s.at("E")) + " must be positive");
@@ -180,6 +189,12 @@ void parseMaterial(Scene& scene, const toml::value& table) {
   if (nu < 0 || nu >= 0.5) s.fail("nu", "= " + literalOf(s.at("nu")) + " must lie in [0, 0.5)");
   scene.material.youngsModulus = E;
   scene.material.poissonRatio = nu;
+  if (s.has("density")) {
+    const double rho = s.number("density");
+    if (!(rho > 0)) s.fail("density", "= " + literalOf(s.at("density")) + " must be positive");
+    scene.material.density = rho;
+    scene.densityLine = s.line("density");
+  }
 }
 
 /// The entries of an array-of-tables section ([[name]] or name = [{...}, ...]).
@@ -400,13 +415,14 @@ OutputSpec parseOutput(const Scene& scene, const toml::value* table) {
   OutputSpec out;
   out.directory = fs::path("out") / scene.name;
   if (!table) return out;
-  const TomlSection s(scene.fileName, "[output]", *table, {"directory", "vtk", "csv"});
+  const TomlSection s(scene.fileName, "[output]", *table, {"directory", "vtk", "csv", "plots"});
   if (s.has("directory")) {
     const std::string d = s.string("directory");
     if (d.empty()) s.fail("directory", "must not be empty");
     out.directory = d;
   }
   if (s.has("vtk")) out.vtk = s.boolean("vtk");
+  if (s.has("plots")) out.plots = s.boolean("plots");
   if (s.has("csv")) {
     const std::string c = s.string("csv");
     if (c.empty() || c.back() == '/') s.fail("csv", "must name a file, e.g. \"results.csv\"");
@@ -418,7 +434,8 @@ OutputSpec parseOutput(const Scene& scene, const toml::value* table) {
 }  // namespace
 
 Scene parseSceneString(const std::string& text, const std::string& fileName,
-                       const std::filesystem::path& directory) {
+                       const std::filesystem::path& directory,
+                       const std::vector<std::string>& overrides) {
   toml::value root;
   try {
     std::istringstream is(text);
@@ -429,6 +446,13 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
     throw Error(fileName + ":" + std::to_string(e.location().line()) + ": " + e.what());
   } catch (const std::exception& e) {
     throw Error(fileName + ": " + e.what());
+  }
+
+  {  // --set overrides may address every section of kSections
+    std::vector<std::string> sections;
+    std::istringstream names(kSections);
+    for (std::string n; std::getline(names >> std::ws, n, ',');) sections.push_back(n);
+    applyOverrides(root, overrides, fileName, sections);
   }
 
   Scene scene;
@@ -442,7 +466,8 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
   for (const auto& [key, value] : root.as_table()) {
     const bool known = key == "mesh" || key == "material" || key == "dirichlet" ||
                        key == "neumann" || key == "body_force" || key == "contact" ||
-                       key == "solver" || key == "output";
+                       key == "solver" || key == "output" || key == "adaptivity" ||
+                       key == "dynamics";
     if (!known && (!unknown || value.location().line() < unknown->location().line())) {
       unknown = &value;
       unknownKey = key;
@@ -481,10 +506,16 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
   if (const toml::value* sv = find("solver"))
     scene.solver = parseSolver(scene, *sv, scene.contact.has_value());
   scene.output = parseOutput(scene, find("output"));
+  if (const toml::value* a = find("adaptivity"))
+    scene.adaptivity = parseAdaptivity(scene, *a, scene.contact.has_value());
+  if (const toml::value* dy = find("dynamics")) {
+    scene.dynamics = parseDynamics(scene, *dy);
+    checkDynamicScene(scene);
+  }
   return scene;
 }
 
-Scene parseScene(const std::filesystem::path& file) {
+Scene parseScene(const std::filesystem::path& file, const std::vector<std::string>& overrides) {
   const std::string name = file.string();
   std::error_code ec;
   if (fs::is_directory(file, ec)) throw Error(name + ": is a directory, not a scene file");
@@ -494,7 +525,7 @@ Scene parseScene(const std::filesystem::path& file) {
   text << in.rdbuf();
   fs::path dir = file.parent_path();
   if (dir.empty()) dir = ".";
-  return parseSceneString(text.str(), name, dir);
+  return parseSceneString(text.str(), name, dir, overrides);
 }
 
 }  // namespace obs::drivers

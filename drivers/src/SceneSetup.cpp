@@ -7,6 +7,7 @@
 
 #include "obs/drivers/ObstacleFactory.hpp"
 #include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/CurvedMeshes.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Gmsh.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
@@ -133,9 +134,22 @@ std::vector<DirichletCondition> dirichletConditions(const Scene& scene, const me
 
 mesh::Grid buildGrid(const Scene& scene, std::optional<int> refineOverride) {
   const MeshSpec& spec = scene.mesh;
+  mesh::CurvedMesh curved;  // generator = "ball" / "rounded_block": mesh + boundary projections
+  if (spec.source == MeshSpec::Source::Ball || spec.source == MeshSpec::Source::RoundedBlock) {
+    try {
+      curved = spec.source == MeshSpec::Source::Ball
+                   ? mesh::ballMesh(spec.centre, spec.radius, spec.cellType, spec.cells[0])
+                   : mesh::roundedBlockMesh(spec.width, spec.height, spec.depth, spec.arcRadius,
+                                            spec.cellType, spec.cells);
+    } catch (const Error& e) {
+      throw Error(scene.where(spec.line) + "[mesh] generator = \"" +
+                  (spec.source == MeshSpec::Source::Ball ? "ball" : "rounded_block") + "\": " + e.what());
+    }
+  }
   mesh::Mesh m = spec.source == MeshSpec::Source::Box
                      ? mesh::boxMesh(spec.cellType, spec.cells, spec.lower, spec.upper)
-                     : mesh::readGmsh(spec.file);
+                 : spec.source == MeshSpec::Source::File ? mesh::readGmsh(spec.file)
+                                                         : curved.mesh;
   const int refine = refineOverride.value_or(spec.refine);
   const std::string what =
       refineOverride ? "--refine " + std::to_string(refine)
@@ -152,6 +166,7 @@ mesh::Grid buildGrid(const Scene& scene, std::optional<int> refineOverride) {
     throw Error(os.str());
   }
   mesh::Grid grid(m);
+  for (const auto& [id, projection] : curved.projections) grid.setBoundaryProjection(id, projection);
   for (int k = 0; k < refine; ++k) grid.refineUniformly();
   return grid;
 }
@@ -249,7 +264,7 @@ void validateScene(const Scene& scene, const mesh::Mesh& mesh) {
   if (scene.bodyForce) checkLength(scene, *scene.bodyForce, dim, "[body_force] value");
 
   const int free = countFreeRigidMotions(mesh, dirichletConditions(scene, mesh));
-  if (free > 0)
+  if (free > 0 && !scene.dynamics)  // a dynamic body may move freely (its mass matrix is regular)
     throw Error(scene.fileName + ": [[dirichlet]]: the Dirichlet conditions leave " +
                 std::to_string(free) + " rigid motion(s) free (of " +
                 std::to_string(dim == 2 ? 3 : 6) + " in " + std::to_string(dim) +

@@ -52,6 +52,7 @@ nlohmann::json summaryJson(const RunResult& r) {
       {"max_displacement", r.maxDisplacement},
       {"max_von_mises", r.maxVonMises},
       {"solver", solver},
+      {"mass_assemblies", r.massAssemblies},
       {"output_files", files},
   };
   if (r.contact) {

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <sstream>
 
+#include "SceneExtensions.hpp"
 #include "obs/mesh/Error.hpp"
 
 namespace obs::drivers {
@@ -12,7 +13,7 @@ namespace {
 
 int lineOf(const toml::value& v) {
   const toml::source_location loc = v.location();
-  if (loc.file_name() == "unknown file") return 0;
+  if (loc.file_name() == "unknown file" || loc.file_name() == kOverrideSource) return 0;
   return static_cast<int>(loc.line());
 }
 
@@ -29,6 +30,7 @@ std::string joined(const std::vector<std::string>& names) {
 }  // namespace
 
 std::string whereOf(const std::string& fileName, const toml::value& v) {
+  if (v.location().file_name() == kOverrideSource) return fileName + " " + kOverrideSource + ": ";
   return prefix(fileName, lineOf(v));
 }
 
@@ -104,8 +106,8 @@ const toml::value& TomlSection::at(const std::string& key) const {
 }
 
 void TomlSection::fail(const std::string& key, const std::string& message) const {
-  throw Error(prefix(fileName_, has(key) ? line(key) : line()) + title_ + " " + key + " " +
-              message);
+  throw Error((has(key) ? whereOf(fileName_, table_.as_table().at(key)) : prefix(fileName_, line())) +
+              title_ + " " + key + " " + message);
 }
 
 void TomlSection::failAt(const toml::value& v, const std::string& label,

@@ -22,6 +22,7 @@
 
 #include "obs/drivers/CsvWriter.hpp"
 #include "obs/drivers/RunScene.hpp"
+#include "obs/drivers/SceneParser.hpp"
 #include "obs/drivers/Summary.hpp"
 #include "obs/mesh/Error.hpp"
 
@@ -237,7 +238,10 @@ TEST(RunScene, EveryDataSceneRuns) {
     const fs::path out = kTmp / "scenes" / entry.path().stem();
     fs::remove_all(out);
     RunResult r;
-    ASSERT_NO_THROW(r = runScene(entry.path(), RunOptions{out, {}, {}}));
+    RunOptions options{out, {}, {}};
+    // adaptive scenes ([adaptivity]) run two steps here; tests/drivers/test_Adaptivity.cpp has more
+    if (parseScene(entry.path()).adaptivity) options.overrides = {"adaptivity.steps=2"};
+    ASSERT_NO_THROW(r = runScene(entry.path(), options));
     EXPECT_TRUE(fs::exists(out / "summary.json"));
     EXPECT_GT(r.maxDisplacement, 0);
     EXPECT_TRUE(std::isfinite(r.maxVonMises));

@@ -355,8 +355,8 @@ TEST(SceneValidation, MeshValues) {
       "bad_cell_type",
       "[mesh]\ngenerator = \"box\"\ntype = \"hexa\"\ncells = [2, 2, 2]\n" + kMaterial,
       "bad_cell_type.toml:3:", "[mesh] type = \"hexa\" is not a cell type", "hexahedron");
-  EXPECT_SCENE_ERROR("bad_generator", "[mesh]\ngenerator = \"ball\"\n" + kMaterial,
-                     "[mesh] generator = \"ball\" is unknown");
+  EXPECT_SCENE_ERROR("bad_generator", "[mesh]\ngenerator = \"sphere\"\n" + kMaterial,
+                     "[mesh] generator = \"sphere\" is unknown", "box, ball, rounded_block");
   EXPECT_SCENE_ERROR(
       "bad_cells_length",
       "[mesh]\ngenerator = \"box\"\ntype = \"hexahedron\"\ncells = [2, 2]\n" + kMaterial,

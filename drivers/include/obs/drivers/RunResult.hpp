@@ -63,6 +63,9 @@ struct RunResult {
 
   SolverReport solver;
   std::optional<ContactReport> contact;  ///< scenes with [contact] only
+  /// Mass matrices assembled (one per time stepper of a [dynamics] scene; 0 for static scenes,
+  /// which never build one — DESIGN.md "the library builds only what that scene needs").
+  int massAssemblies = 0;
 
   std::vector<std::filesystem::path> outputFiles;  ///< everything written, summary.json last
 };

@@ -9,6 +9,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "obs/drivers/RunResult.hpp"
 #include "obs/drivers/Scene.hpp"
@@ -22,6 +23,13 @@ struct RunOptions {
   std::function<void(const std::string&)> progress;
   /// Receives one line per block of solver iterations (`obs run --verbose`); see SceneSolver.hpp.
   std::function<void(const std::string&)> iterationProgress = {};
+  /// `obs run --set section.key=value` overrides (SceneParser.hpp), applied when the file is read.
+  std::vector<std::string> overrides = {};
+  /// [adaptivity] runs: one line per step (AdaptiveScene.hpp; `obs run` prints them on stderr).
+  std::function<void(const std::string&)> stepProgress = {};
+  bool plots = false;  ///< `--plots`: as [output] plots = true
+  /// `--compare-schemes`: a [dynamics] scene also runs every other scheme (DynamicScene.hpp).
+  bool compareSchemes = false;
 };
 
 /// Runs the scene file; throws obs::Error on any problem (invalid scene, solver failure, I/O).

@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "obs/drivers/DynamicsSpec.hpp"
+#include "obs/drivers/AdaptivitySpec.hpp"
 #include "obs/drivers/Expression.hpp"
 #include "obs/mesh/CellType.hpp"
 #include "obs/mesh/Mesh.hpp"
@@ -33,15 +35,20 @@ struct BoundaryRef {
   std::string describe() const;  ///< "\"left\"" or "3", as written in the scene
 };
 
-/// [mesh]: a generated box or a Gmsh file, then `refine` uniform refinements.
+/// [mesh]: a generated box, ball or rounded block, or a Gmsh file, then `refine` uniform
+/// refinements (new vertices on curved boundaries are projected onto the exact surface).
 struct MeshSpec {
-  enum class Source { Box, File };
+  enum class Source { Box, File, Ball, RoundedBlock };
   Source source = Source::Box;
   // generator = "box"
   mesh::CellType cellType = mesh::CellType::Quadrilateral;
   std::array<int, 3> cells{1, 1, 1};
   mesh::Point lower = mesh::Point::Zero();
   mesh::Point upper = mesh::Point::Ones();
+  // generator = "ball" (mesh::ballMesh: centre, radius, cells = cells[0] per direction of the
+  // inner cube) and "rounded_block" (mesh::roundedBlockMesh: width, height, depth, arc_radius, cells)
+  mesh::Point centre = mesh::Point::Zero();
+  double radius = 1, width = 1, height = 1, depth = 1, arcRadius = 1;
   // file = "..."
   std::filesystem::path file;  ///< resolved against the scene file's directory
   int refine = 0;
@@ -111,6 +118,8 @@ struct OutputSpec {
   std::filesystem::path directory;  ///< relative to the working directory; default out/<scene name>
   bool vtk = true;                  ///< write <scene name>.vtu
   std::filesystem::path csv = "runs.csv";  ///< empty: no CSV; relative paths are inside `directory`
+  bool plots = false;  ///< dynamic scenes: PNG plots by scripts/plot_dynamics.py; [adaptivity]
+                       ///< runs: by scripts/plot_adaptivity.py
 };
 
 struct Scene {
@@ -121,12 +130,15 @@ struct Scene {
   MeshSpec mesh;
   Material material;
   int materialLine = 0;
+  int densityLine = 0;  ///< line of [material] density (0: not given; required by [dynamics])
   std::vector<DirichletSpec> dirichlet;
   std::vector<NeumannSpec> neumann;
   std::optional<VectorValue> bodyForce;
   std::optional<ContactSpec> contact;
   SolverSpec solver;
   OutputSpec output;
+  std::optional<AdaptivitySpec> adaptivity;  ///< [adaptivity]: run the adaptive loop
+  std::optional<DynamicsSpec> dynamics;  ///< [dynamics]: time-dependent contact (DynamicScene.hpp)
 
   /// The solver type to use: solver.type, or "tnnmg" with [contact] and "direct" without.
   std::string solverType() const;

@@ -11,17 +11,21 @@
 ///   [0, 0.5)".
 #include <filesystem>
 #include <string>
+#include <vector>
 
 #include "obs/drivers/Scene.hpp"
 
 namespace obs::drivers {
 
 /// Parses the scene file at `file`; relative mesh paths are resolved against its directory.
-Scene parseScene(const std::filesystem::path& file);
+/// `overrides` ("section.key=value", `obs run --set`) replace or add keys before the checks;
+/// messages about such a value say "<file> (from --set): " instead of a line.
+Scene parseScene(const std::filesystem::path& file, const std::vector<std::string>& overrides = {});
 
 /// Parses scene text held in memory. `fileName` names it in messages (and gives the scene name),
 /// `directory` resolves relative mesh paths.
 Scene parseSceneString(const std::string& text, const std::string& fileName,
-                       const std::filesystem::path& directory);
+                       const std::filesystem::path& directory,
+                       const std::vector<std::string>& overrides = {});
 
 }  // namespace obs::drivers

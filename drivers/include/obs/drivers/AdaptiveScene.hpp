@@ -1,0 +1,46 @@
+#pragma once
+/// \file AdaptiveScene.hpp
+/// `obs run` for a scene with [adaptivity] (AdaptivitySpec.hpp, docs/scenes.md): the adaptive loop
+/// solve -> estimate -> mark -> refine of libestimators (AdaptiveLoop.hpp; thesis Sec. 4.1, 4.2;
+/// MATH.md §3, §4) on the grid of [mesh], with TNNMG or the primal-dual active set method from
+/// [solver] (contact scenes; scenes without [contact] are solved directly with CHOLMOD), the
+/// estimator, marking and stopping rules of [adaptivity] and an optional analytic reference
+/// (punch, wedge, Hertz: AnalyticContact.hpp, parameters taken from [contact] and [material]).
+///
+/// Outputs in the output directory:
+///   steps.csv      one row per step: step, cells, vertices, unknowns, potential/actual/semi/full
+///                  contact vertices, eta, each eta_k (the estimator's contributions), eoc (MATH.md
+///                  (4.2), on the vertex count), solver, iterations, converged, solver/estimator/
+///                  refinement/transfer seconds, marked cells, and the reference columns load,
+///                  pressure_error (MATH.md (4.4)), radius, exact_radius, radius_error,
+///                  centre_pressure, exact_centre_pressure, centre_error, nodal_pressure_error (the
+///                  discrete variant sqrt(sum m_p (s_p - p(x_p))^2 / sum m_p p(x_p)^2) over the potential
+///                  contact vertices with 0 < p < inf; empty where not applicable);
+///   pressure.csv   contact scenes, last step: one row per potential contact vertex sorted by s
+///                  (x, y, z, s, s_p, exact_p): s the signed tangential coordinate from the reference
+///                  centre in 2D, the radial distance in 3D (centre: the reference's, else the mean
+///                  of the potential contact vertices); exact_p empty without a reference;
+///   step_NNN.vtu + <scene name>.pvd   vtk = "every" (all steps) or "last": displacement, stress,
+///                  von_mises, boundary_id, contact_pressure (s_p), node_class (0 none, 1 potential,
+///                  2 semi, 3 full contact), the estimator's vertex fields (eta_k as eta_{k,p}, eta,
+///                  ...), cell data stress, von_mises, indicator (eta_e), marked (1 if refined after
+///                  the step), cell_<eta_k> (eta_{k,e});
+///   summary.json   as for a static run, describing the final step, plus "adaptivity": the options
+///                  and "steps" (the step records as in steps.csv);
+///   runs.csv       ([output] csv) one row describing the final step;
+///   PNG plots      with [output] plots = true or RunOptions::plots: scripts/plot_adaptivity.py
+///                  (python3 + matplotlib; if either is missing a warning line, not an error).
+/// Progress: RunOptions::progress gets the usual lines, RunOptions::stepProgress one line per step.
+#include "obs/drivers/RunResult.hpp"
+#include "obs/drivers/RunScene.hpp"
+#include "obs/drivers/Scene.hpp"
+
+namespace obs::drivers {
+
+/// Runs a scene with [adaptivity] (see the file comment); throws obs::Error like runScene.
+RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options);
+
+/// The header of steps.csv for the given contribution names (without newline).
+std::string stepsCsvHeader(const std::vector<std::string>& contributions);
+
+}  // namespace obs::drivers

@@ -1,0 +1,53 @@
+#pragma once
+/// \file DynamicScene.hpp
+/// `obs run` for scenes with [dynamics]: dynamic frictionless contact of one linear-elastic body
+/// with a rigid obstacle, integrated by a scheme of the Newmark family (libobs Newmark.hpp,
+/// MATH.md §5; thesis Sec. 5.2, 5.3), optionally compared with other schemes on the same scene.
+///
+/// Per scheme: M u'' + A u = f + contact forces from u^0, v^0 ([dynamics] initial_displacement,
+/// initial_velocity; Dirichlet components take the prescribed value and velocity 0) with time step
+/// tau for `steps` (or ceil(end_time / tau)) steps; every step is a variational inequality solved
+/// by TNNMG ([solver] tolerance, max_iterations, pre_smoothing, post_smoothing). The initial state
+/// is checked (obs::Error naming the scene line) before the first step.
+///
+/// Outputs in the output directory:
+///  - timeseries.csv (one scheme) or timeseries_<scheme>.csv (comparison): one row per time
+///    level n = 0..N with t, step, energy E = 1/2 v'Mv + 1/2 u'Au - f'u, energy_redistributed (E~,
+///    schemes with M~; empty otherwise), kinetic/elastic energy, momentum M v, total contact force
+///    sum_p F_p nu_p, node counts active for solution / predictor / predictor only / solution only,
+///    max penetration, TNNMG iterations, solver and step seconds, and per tracked point k the nearest
+///    vertex's normal displacement nu'u, normal velocity nu'v and gap g - nu'u (trackedK_...);
+///  - <scene>_NNNNNN.vtu every output_stride steps (and the last) with displacement, velocity,
+///    stress, von_mises, boundary_id, gap, normal_displacement, contact_state, and <scene>.pvd, the
+///    collection over time (first scheme only);
+///  - summary.json as for static scenes plus "dynamics" (scheme, tau, steps, end time, initial /
+///    final energy and their ratio, max penetration, contact-force total variation, mean TNNMG
+///    iterations per step, times, tracked vertices with first contact, detachment (gap open again)
+///    and release (normal velocity pointing away) times) and, with a comparison,
+///    "dynamics_comparison" (the same object per scheme); "mass_assemblies" counts the mass matrices;
+///  - a runs.csv row as for static scenes, for the final state of the first scheme;
+///  - with [output] plots = true or --plots: PNG figures by scripts/plot_dynamics.py (a missing
+///    python3 / matplotlib is a warning).
+#include <chrono>
+#include <string>
+#include <vector>
+
+#include "obs/drivers/RunResult.hpp"
+#include "obs/drivers/RunScene.hpp"
+#include "obs/drivers/Scene.hpp"
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/BoundaryConditions.hpp"
+
+namespace obs::drivers {
+
+/// The schemes a dynamic scene runs: [dynamics] scheme first, then the ones of compare (all
+/// schemes with `compareAll`, the --compare-schemes option), without repetitions.
+std::vector<std::string> dynamicSchemes(const Scene& scene, bool compareAll);
+
+/// Runs the scene (scene.dynamics set, validateScene passed) on `mesh` = grid.leafView().mesh.
+/// `result` holds the mesh figures of runScene, `start` the time the run began.
+RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh::Mesh& mesh,
+                          const BoundaryConditions& bc, const RunOptions& options, RunResult result,
+                          std::chrono::steady_clock::time_point start);
+
+}  // namespace obs::drivers

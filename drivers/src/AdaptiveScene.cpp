@@ -1,0 +1,569 @@
+#include "obs/drivers/AdaptiveScene.hpp"
+
+#include <sys/resource.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+#include "obs/drivers/CsvWriter.hpp"
+#include "obs/drivers/ObstacleFactory.hpp"
+#include "obs/drivers/SceneSetup.hpp"
+#include "obs/drivers/SolutionFields.hpp"
+#include "obs/drivers/Summary.hpp"
+#include "obs/drivers/VtkWriter.hpp"
+#include "obs/estimators/AdaptiveLoop.hpp"
+#include "obs/estimators/Marking.hpp"
+#include "obs/mesh/Error.hpp"
+#include "obs/obs/LinearElasticity.hpp"
+
+namespace obs::drivers {
+
+namespace {
+
+namespace fs = std::filesystem;
+namespace est = obs::estimators;
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+/// A number for CSV/JSON text: empty for NaN.
+std::string num(double x) {
+  if (!std::isfinite(x)) return "";
+  std::ostringstream os;
+  os << std::setprecision(10) << x;
+  return os.str();
+}
+
+nlohmann::json jnum(double x) { return std::isfinite(x) ? nlohmann::json(x) : nlohmann::json(nullptr); }
+
+std::vector<double> sceneVector(const ContactSpec& c, const std::string& key, std::vector<double> fallback) {
+  const auto it = c.vectors.find(key);
+  return it == c.vectors.end() ? fallback : it->second.values;
+}
+
+Point toPoint(const std::vector<double>& v) {
+  Point p = Point::Zero();
+  for (std::size_t i = 0; i < v.size() && i < 3; ++i) p[static_cast<Eigen::Index>(i)] = v[i];
+  return p;
+}
+
+/// The analytic reference of [adaptivity] reference, with the parameters of [contact] and
+/// [material]; the obstacle type must match.
+std::optional<est::ContactReference> makeReference(const Scene& scene, int dim) {
+  const AdaptivitySpec& a = *scene.adaptivity;
+  if (a.reference.empty() || !scene.contact) return std::nullopt;
+  const ContactSpec& c = *scene.contact;
+  auto need = [&](const char* obstacle, int d) {
+    if (c.obstacle != obstacle || dim != d)
+      throw Error(scene.where(a.referenceLine) + "[adaptivity] reference = \"" + a.reference + "\" needs obstacle = \"" +
+                  obstacle + "\" in " + std::to_string(d) + "D (the scene has obstacle = \"" + c.obstacle +
+                  "\" in " + std::to_string(dim) + "D)");
+  };
+  const double E = scene.material.youngsModulus, nu = scene.material.poissonRatio;
+  if (a.reference == "punch") {
+    need("strip", 2);
+    return est::punchReference(c.numbers.at("half_width").value, toPoint(sceneVector(c, "point", {0, 0})));
+  }
+  if (a.reference == "wedge") {
+    need("wedge", 2);
+    return est::wedgeReference(E, nu, c.numbers.at("slope").value, toPoint(sceneVector(c, "apex", {0, 0})));
+  }
+  need("ball", 3);
+  if (c.normalDirection)
+    throw Error(scene.where(a.referenceLine) +
+                "[adaptivity] reference = \"hertz\" needs a fixed [contact] direction, not \"normal\"");
+  const double R = c.numbers.at("radius").value;
+  Point dir = toPoint(sceneVector(c, "direction", {0, 0, -1}));
+  dir.normalize();
+  // the point of the ball nearest to the body (dir points from the body into the obstacle)
+  return est::hertzReference(E, nu, R, toPoint(sceneVector(c, "centre", {0, 0, 0})) - R * dir);
+}
+
+/// Everything written for one step's .vtu (kept for vtk = "last" until the loop ends).
+struct StepSnapshot {
+  int step = 0;
+  mesh::Mesh mesh;
+  std::vector<Field> points, cells;
+};
+
+struct PressureRow {
+  Point x;
+  double s = 0, sp = 0, exact = std::numeric_limits<double>::quiet_NaN();
+};
+
+/// Nodal relative pressure error of a step (docs/examples.md): sqrt(sum_p m_p (s_p - p(x_p))^2 /
+/// sum_p m_p p(x_p)^2) over the potential contact vertices inside the exact contact zone (0 < p <
+/// inf: the punch edges themselves, where the formula is singular, are left out), m_p = m_p^C.
+double nodalPressureError(const ContactSet& set, const ContactOutputs& out, const est::ContactReference& ref,
+                          double load) {
+  double num = 0, den = 0;
+  for (Index k = 0; k < set.size(); ++k) {
+    if (!std::isfinite(set.gap(k))) continue;
+    const double p = ref.pressure(set.position(k), load);
+    if (!std::isfinite(p) || !(p > 0)) continue;  // inside the exact contact zone only
+    num += set.boundaryMass(k) * (out.pressure[k] - p) * (out.pressure[k] - p);
+    den += set.boundaryMass(k) * p * p;
+  }
+  return den > 0 ? std::sqrt(num / den) : std::numeric_limits<double>::quiet_NaN();
+}
+
+struct FinalState {
+  double maxDisplacement = 0, maxVonMises = 0;
+  std::array<long long, 7> cellsPerType{};
+  std::optional<ContactReport> contact;
+  std::vector<PressureRow> pressure;
+};
+
+std::vector<std::string> contributionNames(const std::vector<est::AdaptiveStep>& steps) {
+  std::vector<std::string> names;
+  for (const auto& s : steps)
+    for (const auto& c : s.contributions)
+      if (std::find(names.begin(), names.end(), c.name) == names.end()) names.push_back(c.name);
+  return names;
+}
+
+double contributionOf(const est::AdaptiveStep& s, const std::string& name) {
+  for (const auto& c : s.contributions)
+    if (c.name == name) return c.value;
+  return std::numeric_limits<double>::quiet_NaN();
+}
+
+void writeStepsCsv(const fs::path& path, const std::vector<est::AdaptiveStep>& steps,
+                   const std::vector<double>& nodalErrors) {
+  const auto names = contributionNames(steps);
+  std::ofstream out(path);
+  if (!out) throw Error(path.string() + ": cannot write the steps table");
+  out << stepsCsvHeader(names) << "\n";
+  for (const auto& s : steps) {
+    out << s.step << "," << s.cells << "," << s.vertices << "," << s.unknowns << "," << s.potentialContact << ","
+        << s.actualContact << "," << s.semiContact << "," << s.fullContact << "," << num(s.eta);
+    for (const auto& n : names) out << "," << num(contributionOf(s, n));
+    out << "," << num(s.eoc) << "," << s.solver << "," << s.solverIterations << "," << (s.converged ? 1 : 0) << ","
+        << num(s.solverSeconds) << "," << num(s.estimatorSeconds) << "," << num(s.refinementSeconds) << ","
+        << num(s.transferSeconds) << "," << s.marked;
+    if (s.reference) {
+      const auto& r = *s.reference;
+      out << "," << num(r.load) << "," << num(r.pressureError) << "," << num(r.radius) << "," << num(r.exactRadius)
+          << "," << num(r.radiusError) << "," << num(r.centrePressure) << "," << num(r.exactCentrePressure) << ","
+          << num(r.centreError) << ","
+          << num(static_cast<std::size_t>(s.step) < nodalErrors.size() ? nodalErrors[s.step] : std::nan(""));
+    } else {
+      out << "," << (s.potentialContact > 0 ? num(s.load) : "") << ",,,,,,,,";
+    }
+    out << "\n";
+  }
+  if (!out) throw Error(path.string() + ": cannot write the steps table");
+}
+
+nlohmann::json stepJson(const est::AdaptiveStep& s, double nodalError) {
+  nlohmann::json j;
+  j["step"] = s.step;
+  j["cells"] = s.cells;
+  j["vertices"] = s.vertices;
+  j["unknowns"] = s.unknowns;
+  j["potential_contact"] = s.potentialContact;
+  j["actual_contact"] = s.actualContact;
+  j["semi_contact"] = s.semiContact;
+  j["full_contact"] = s.fullContact;
+  j["eta"] = jnum(s.eta);
+  nlohmann::json c = nlohmann::json::object();
+  for (const auto& k : s.contributions) c[k.name] = jnum(k.value);
+  j["contributions"] = c;
+  j["eoc"] = jnum(s.eoc);
+  j["solver"] = s.solver;
+  j["iterations"] = s.solverIterations;
+  j["converged"] = s.converged;
+  j["kkt"] = jnum(s.kkt);
+  j["load"] = s.load;
+  j["times"] = {{"assembly_s", s.assemblySeconds}, {"solver_s", s.solverSeconds},
+                {"estimator_s", s.estimatorSeconds}, {"refinement_s", s.refinementSeconds},
+                {"transfer_s", s.transferSeconds}};
+  j["marked"] = s.marked;
+  if (s.reference) {
+    const auto& r = *s.reference;
+    j["reference"] = {{"load", jnum(r.load)},
+                      {"pressure_error", jnum(r.pressureError)},
+                      {"radius", jnum(r.radius)},
+                      {"exact_radius", jnum(r.exactRadius)},
+                      {"radius_error", jnum(r.radiusError)},
+                      {"centre_pressure", jnum(r.centrePressure)},
+                      {"exact_centre_pressure", jnum(r.exactCentrePressure)},
+                      {"centre_error", jnum(r.centreError)},
+                      {"nodal_pressure_error", jnum(nodalError)}};
+  }
+  return j;
+}
+
+void writePvd(const fs::path& path, const std::vector<std::pair<int, std::string>>& files) {
+  std::ofstream out(path);
+  if (!out) throw Error(path.string() + ": cannot write the VTK collection");
+  out << "<?xml version=\"1.0\"?>\n"
+      << "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n";
+  for (const auto& [step, file] : files)
+    out << "    <DataSet timestep=\"" << step << "\" group=\"\" part=\"0\" file=\"" << file << "\"/>\n";
+  out << "  </Collection>\n</VTKFile>\n";
+  if (!out) throw Error(path.string() + ": cannot write the VTK collection");
+}
+
+void writePressureCsv(const fs::path& path, const std::vector<PressureRow>& rows) {
+  std::ofstream out(path);
+  if (!out) throw Error(path.string() + ": cannot write the pressure table");
+  out << "x,y,z,s,s_p,exact_p\n";
+  for (const auto& r : rows)
+    out << num(r.x[0]) << "," << num(r.x[1]) << "," << num(r.x[2]) << "," << num(r.s) << "," << num(r.sp) << ","
+        << num(r.exact) << "\n";
+}
+
+/// The path of scripts/plot_adaptivity.py: $OBS_PLOT_ADAPTIVITY_SCRIPT, else the source tree's.
+fs::path plotScript() {
+  if (const char* env = std::getenv("OBS_PLOT_ADAPTIVITY_SCRIPT"); env && *env) return env;
+#ifdef OBS_PLOT_ADAPTIVITY_SCRIPT
+  return OBS_PLOT_ADAPTIVITY_SCRIPT;
+#else
+  return "scripts/plot_adaptivity.py";
+#endif
+}
+
+std::string quoted(const std::string& s) {
+  std::string q = "'";
+  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return q + "'";
+}
+
+template <int d>
+void snapshotStep(const Scene& scene, const est::AdaptiveStepView& v, const std::vector<Index>& marked,
+                  bool allMarked, StepSnapshot& snap, FinalState& fin, const std::optional<est::ContactReference>& ref) {
+  const mesh::Mesh& m = v.view.mesh;
+  const auto nv = static_cast<std::size_t>(m.numVertices());
+  const auto nc = static_cast<std::size_t>(m.numCells());
+  ElasticitySolution e;
+  e.dimension = d;
+  e.displacement = v.displacement;
+  recoverStresses(m, scene.material, e);
+  snap.step = v.record.step;
+  snap.mesh = m;
+  snap.points = pointFields(m, e);
+  snap.cells = cellFields(m, e);
+  Field sp{"contact_pressure", 1, std::vector<double>(nv, 0.0), false};
+  Field cls{"node_class", 1, std::vector<double>(nv, 0.0), true};
+  for (std::size_t i = 0; i < nv && i < v.classes.ofVertex.size(); ++i)
+    cls.values[i] = static_cast<double>(static_cast<int>(v.classes.ofVertex[i]));
+  if (v.contactSet && v.outputs)
+    for (Index k = 0; k < v.contactSet->size(); ++k)
+      if (std::isfinite(v.contactSet->gap(k)))
+        sp.values[static_cast<std::size_t>(v.contactSet->vertex(k))] = v.outputs->pressure[k];
+  snap.points.push_back(std::move(sp));
+  snap.points.push_back(std::move(cls));
+  auto taken = [&](const std::vector<Field>& fs, const std::string& n) {
+    return std::any_of(fs.begin(), fs.end(), [&](const Field& f) { return f.name == n; });
+  };
+  Field marks{"marked", 1, std::vector<double>(nc, allMarked ? 1.0 : 0.0), true};
+  for (Index c : marked) marks.values[static_cast<std::size_t>(c)] = 1;
+  if (v.estimate) {
+    for (const auto& [name, values] : v.estimate->vertexFields) {
+      if (taken(snap.points, name) || values.size() != static_cast<Eigen::Index>(nv)) continue;
+      snap.points.push_back(Field{name, 1, std::vector<double>(values.data(), values.data() + values.size()), false});
+    }
+    snap.cells.push_back(Field{"indicator", 1, v.estimate->indicators, false});
+    for (const auto& [name, values] : v.estimate->cellFields)
+      if (values.size() == nc) snap.cells.push_back(Field{"cell_" + name, 1, values, false});
+  }
+  snap.cells.push_back(std::move(marks));
+
+  // final-step figures (overwritten each step)
+  fin = FinalState{};
+  for (mesh::Index p = 0; p < m.numVertices(); ++p)
+    fin.maxDisplacement = std::max(fin.maxDisplacement, v.displacement.template segment<d>(p * d).norm());
+  for (const Stress& s : e.cellStress) fin.maxVonMises = std::max(fin.maxVonMises, vonMises(s));
+  const auto counts = m.cellCounts();
+  for (std::size_t i = 0; i < counts.size() && i < fin.cellsPerType.size(); ++i) fin.cellsPerType[i] = counts[i];
+  if (!v.contactSet || !v.outputs) return;
+  const ContactSet& set = *v.contactSet;
+  const ContactOutputs& out = *v.outputs;
+  ContactReport c;
+  c.obstacle = scene.contact->obstacle;
+  c.boundary = scene.contact->boundary.name.empty() ? std::to_string(scene.contact->boundary.id)
+                                                    : scene.contact->boundary.name;
+  c.boundaryVertices = set.size();
+  c.actualVertices = out.contactNodes;
+  for (int i = 0; i < 3; ++i) c.force[i] = out.force[i];
+  c.area = out.contactArea;
+  c.radius = out.contactRadius;
+  Point centre = Point::Zero(), normal = Point::Zero();
+  Index bounded = 0;
+  for (Index k = 0; k < set.size(); ++k) {
+    if (!std::isfinite(set.gap(k))) continue;
+    ++bounded;
+    c.load += out.multiplier[k];
+    centre += set.position(k);
+    normal += set.direction(k);
+    const Point& nu = set.direction(k);
+    const double un = nu.template head<d>().dot(v.displacement.template segment<d>(set.vertex(k) * d));
+    c.maxViolation = std::max(c.maxViolation, un - set.gap(k));
+  }
+  c.potentialVertices = bounded;
+  if (bounded > 0) centre /= static_cast<double>(bounded);
+  if (normal.norm() > 0) normal.normalize();
+  if (ref) centre = ref->centre;
+  for (Index k = 0; k < set.size(); ++k) {
+    if (!std::isfinite(set.gap(k))) continue;
+    const Point r = set.position(k) - centre;
+    const Point tangential = r - r.dot(normal) * normal;
+    if (out.inContact[k]) c.radiusNodes = std::max(c.radiusNodes, tangential.norm());
+    PressureRow row;
+    row.x = set.position(k);
+    if (d == 2) {
+      const Point t(-normal[1], normal[0], 0);
+      row.s = tangential.dot(t);
+    } else {
+      row.s = tangential.norm();
+    }
+    row.sp = out.pressure[k];
+    if (ref) row.exact = ref->pressure(set.position(k), c.load);
+    fin.pressure.push_back(row);
+  }
+  std::sort(fin.pressure.begin(), fin.pressure.end(), [](const PressureRow& a, const PressureRow& b) { return a.s < b.s; });
+  fin.contact = c;
+}
+
+std::string stepLine(const est::AdaptiveStep& s, int steps) {
+  std::ostringstream os;
+  os << "step " << s.step << "/" << steps - 1 << ": " << s.vertices << " vertices, " << s.cells << " cells";
+  if (s.potentialContact > 0) os << ", contact " << s.actualContact << " of " << s.potentialContact;
+  os << std::setprecision(4);
+  if (std::isfinite(s.eta)) os << ", eta " << s.eta;
+  if (std::isfinite(s.eoc)) os << ", eoc " << std::setprecision(3) << s.eoc;
+  os << ", " << s.solver << " " << s.solverIterations << (s.converged ? " it" : " it NOT converged");
+  if (s.reference) os << std::setprecision(4) << ", pressure error " << s.reference->pressureError;
+  if (s.marked > 0) os << ", marked " << s.marked;
+  os << std::setprecision(3) << " (" << s.solverSeconds + s.estimatorSeconds + s.assemblySeconds << " s)";
+  return os.str();
+}
+
+double peakMemoryMB() {
+  rusage usage{};
+  if (getrusage(RUSAGE_SELF, &usage) != 0) return 0.0;
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;
+}
+
+}  // namespace
+
+std::string stepsCsvHeader(const std::vector<std::string>& contributions) {
+  std::string h =
+      "step,cells,vertices,unknowns,potential_contact,actual_contact,semi_contact,full_contact,eta";
+  for (const auto& n : contributions) h += "," + n;
+  h += ",eoc,solver,iterations,converged,solver_s,estimator_s,refinement_s,transfer_s,marked,"
+       "load,pressure_error,radius,exact_radius,radius_error,centre_pressure,exact_centre_pressure,centre_error,"
+       "nodal_pressure_error";
+  return h;
+}
+
+RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
+  const auto start = Clock::now();
+  const AdaptivitySpec& spec = *scene.adaptivity;
+  auto progress = [&](const std::string& line) {
+    if (options.progress) options.progress(line);
+  };
+  RunResult r;
+  r.scene = scene.fileName;
+
+  // grid, checks, boundary conditions
+  auto t = Clock::now();
+  mesh::Grid grid = buildGrid(scene, options.refine);
+  const mesh::Mesh coarse = grid.leafView().mesh;
+  validateScene(scene, coarse);
+  const BoundaryConditions bc = makeBoundaryConditions(scene, coarse);
+  const int dim = coarse.dimension();
+  r.meshSeconds = secondsSince(t);
+  r.dimension = dim;
+  r.refine = options.refine.value_or(scene.mesh.refine);
+
+  est::AdaptiveLoopOptions o;
+  o.mode = spec.uniform ? est::RefinementMode::Uniform : est::RefinementMode::Adaptive;
+  o.estimator = spec.estimator;
+  o.marking = spec.marking;
+  o.markingParameter = spec.theta;
+  o.estimateUniform = true;
+  o.maxSteps = spec.steps;
+  o.targetVertices = static_cast<Index>(spec.maxVertices);
+  o.etaTolerance = spec.etaTolerance;
+  o.warmStart = spec.warmStart;
+  const std::string type = scene.solverType();
+  if (scene.contact) {
+    if (type == "tnnmg")
+      o.solver = est::ContactSolverKind::TNNMG;
+    else if (type == "pdas")
+      o.solver = est::ContactSolverKind::PrimalDualActiveSet;
+    else
+      throw Error(scene.where(scene.solver.line) + "[solver] type = \"" + type +
+                  "\" is not available with [adaptivity] (use tnnmg or pdas)");
+  }
+  o.solverTolerance = scene.solver.tolerance.value_or(o.solverTolerance);
+  o.maxSolverIterations = scene.solver.maxIterations.value_or(o.maxSolverIterations);
+
+  std::unique_ptr<Obstacle> obstacle;
+  std::optional<est::ContactReference> reference;
+  est::AdaptiveLoop loop(grid, scene.material, bc, o);
+  if (scene.contact) {
+    obstacle = makeObstacle(scene, dim);
+    loop.setContact(*obstacle, contactBoundaryId(scene, coarse));
+    reference = makeReference(scene, dim);
+    if (reference) loop.setReference(*reference);
+  }
+  progress("adaptive loop: " + std::string(spec.uniform ? "uniform" : "adaptive") + " refinement, estimator " +
+           spec.estimator + (spec.uniform ? "" : ", marking " + spec.marking) + ", up to " +
+           std::to_string(spec.steps) + " steps from " + std::to_string(coarse.numVertices()) + " vertices");
+
+  const fs::path dir = options.outputDirectory.value_or(scene.output.directory);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
+
+  std::vector<std::pair<int, std::string>> vtkFiles;
+  std::vector<double> nodalErrors;
+  FinalState fin;
+  const est::MarkingStrategy marking(spec.marking, spec.theta);
+  loop.setCallback([&](const est::AdaptiveStepView& v) {
+    const bool isLast = v.record.marked == 0;
+    std::vector<Index> marked;
+    if (!isLast && !spec.uniform && v.estimate) marked = marking.mark(v.estimate->indicators);
+    const bool write = spec.vtk == AdaptivitySpec::Vtk::Every || (spec.vtk == AdaptivitySpec::Vtk::Last && isLast);
+    StepSnapshot snap;
+    if (dim == 2)
+      snapshotStep<2>(scene, v, marked, !isLast && spec.uniform, snap, fin, reference);
+    else
+      snapshotStep<3>(scene, v, marked, !isLast && spec.uniform, snap, fin, reference);
+    if (write) {
+      char name[32];
+      std::snprintf(name, sizeof name, "step_%03d.vtu", v.record.step);
+      writeVtu(dir / name, snap.mesh, snap.points, snap.cells);
+      vtkFiles.emplace_back(v.record.step, name);
+    }
+    if (reference && v.contactSet && v.outputs && v.record.reference) {
+      nodalErrors.resize(static_cast<std::size_t>(v.record.step) + 1, std::nan(""));
+      nodalErrors[v.record.step] = nodalPressureError(*v.contactSet, *v.outputs, *reference, v.record.reference->load);
+    }
+    if (options.stepProgress) options.stepProgress(stepLine(v.record, spec.steps));
+  });
+  const std::vector<est::AdaptiveStep> steps = loop.run();
+  const est::AdaptiveStep& final = steps.back();
+
+  // outputs
+  t = Clock::now();
+  if (!vtkFiles.empty()) {
+    const fs::path pvd = dir / (scene.name + ".pvd");
+    writePvd(pvd, vtkFiles);
+    for (const auto& [step, file] : vtkFiles) r.outputFiles.push_back(dir / file);
+    r.outputFiles.push_back(pvd);
+  }
+  const fs::path stepsCsv = dir / "steps.csv";
+  writeStepsCsv(stepsCsv, steps, nodalErrors);
+  r.outputFiles.push_back(stepsCsv);
+  if (scene.contact) {
+    const fs::path p = dir / "pressure.csv";
+    writePressureCsv(p, fin.pressure);
+    r.outputFiles.push_back(p);
+  }
+
+  r.vertices = final.vertices;
+  r.cells = final.cells;
+  r.cellsPerType = fin.cellsPerType;
+  r.dofs = final.unknowns;
+  r.freeDofs = final.unknowns;
+  for (const auto& s : steps) {
+    r.assemblySeconds += s.assemblySeconds;
+    r.solveSeconds += s.solverSeconds;
+  }
+  r.maxDisplacement = fin.maxDisplacement;
+  r.maxVonMises = fin.maxVonMises;
+  r.solver.type = scene.contact ? type : "direct";
+  r.solver.iterations = final.solverIterations;
+  r.solver.converged = final.converged;
+  r.solver.seconds = final.solverSeconds;
+  r.solver.tolerance = scene.contact && type == "tnnmg" ? o.solverTolerance : 0.0;
+  r.contact = fin.contact;
+
+  if (scene.output.plots || options.plots) {
+    const fs::path script = plotScript();
+    const std::string args = " " + quoted(script.string()) + " --output " + quoted(dir.string()) + " --label " +
+                             quoted(scene.name) +
+                             (scene.contact ? " --pressure " + quoted((dir / "pressure.csv").string()) : "") + " " +
+                             quoted(stepsCsv.string()) + " >/dev/null 2>" + quoted((dir / "plots.log").string());
+    // $OBS_PYTHON, else python3 on the PATH, else the system's (which may have matplotlib when a
+    // PATH python, e.g. of pyenv, does not)
+    std::vector<std::string> pythons;
+    if (const char* env = std::getenv("OBS_PYTHON"); env && *env) pythons.emplace_back(env);
+    pythons.emplace_back("python3");
+    if (fs::exists("/usr/bin/python3")) pythons.emplace_back("/usr/bin/python3");
+    int status = -1;
+    for (const std::string& python : pythons) {
+      status = std::system((quoted(python) + args).c_str());
+      if (status == 0) break;
+    }
+    if (status != 0) {
+      if (options.stepProgress)
+        options.stepProgress("warning: no plots (python3 with matplotlib needed to run " + script.string() +
+                             "; see " + (dir / "plots.log").string() + ")");
+    } else {
+      for (const char* png : {"estimator.png", "pressure.png", "pressure_error.png"})
+        if (fs::exists(dir / png)) r.outputFiles.push_back(dir / png);
+    }
+  }
+
+  r.peakMemoryMB = peakMemoryMB();
+  if (!scene.output.csv.empty()) {
+    const auto path = scene.output.csv.is_absolute() ? scene.output.csv : dir / scene.output.csv;
+    r.outputSeconds = secondsSince(t);
+    r.totalSeconds = secondsSince(start);
+    appendCsvRow(path, r);
+    r.outputFiles.push_back(path);
+  }
+  const fs::path summary = dir / "summary.json";
+  r.outputFiles.push_back(summary);
+  r.outputSeconds = secondsSince(t);
+  r.totalSeconds = secondsSince(start);
+  nlohmann::json j = summaryJson(r);
+  nlohmann::json a;
+  a["refinement"] = spec.uniform ? "uniform" : "adaptive";
+  a["estimator"] = spec.estimator;
+  a["marking"] = spec.marking;
+  a["theta"] = marking.parameter();
+  a["max_steps"] = spec.steps;
+  a["max_vertices"] = spec.maxVertices;
+  a["eta_tolerance"] = spec.etaTolerance;
+  a["reference"] = spec.reference.empty() ? nlohmann::json(nullptr) : nlohmann::json(spec.reference);
+  a["steps"] = nlohmann::json::array();
+  for (const auto& s : steps)
+    a["steps"].push_back(
+        stepJson(s, static_cast<std::size_t>(s.step) < nodalErrors.size() ? nodalErrors[s.step] : std::nan("")));
+  j["adaptivity"] = a;
+  {
+    std::ofstream out(summary);
+    out << j.dump(2) << "\n";
+    if (!out) throw Error(summary.string() + ": cannot write the summary");
+  }
+
+  std::string written;
+  for (const auto& f : r.outputFiles) written += (written.empty() ? "" : ", ") + f.string();
+  progress("written: " + written);
+  if (!final.converged) {
+    std::ostringstream os;
+    os << scene.where(scene.solver.line) << "[solver] " << final.solver << " did not converge in step "
+       << final.step << " (" << final.solverIterations
+       << " iterations); raise [solver] max_iterations or tolerance (outputs written to " << dir.string() << ")";
+    throw Error(os.str());
+  }
+  return r;
+}
+
+}  // namespace obs::drivers

@@ -1,0 +1,593 @@
+#include "obs/drivers/DynamicScene.hpp"
+
+#include <sys/resource.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <iomanip>
+#include <limits>
+#include <memory>
+#include <sstream>
+#include <utility>
+
+#include <nlohmann/json.hpp>
+
+#include "obs/drivers/CsvWriter.hpp"
+#include "obs/drivers/ObstacleFactory.hpp"
+#include "obs/drivers/SceneSetup.hpp"
+#include "obs/drivers/SolutionFields.hpp"
+#include "obs/drivers/Summary.hpp"
+#include "obs/drivers/VtkWriter.hpp"
+#include "obs/mesh/Error.hpp"
+#include "obs/obs/ElasticityAssembly.hpp"
+#include "obs/obs/LinearElasticity.hpp"
+#include "obs/obs/Newmark.hpp"
+
+#ifndef OBS_DYNAMICS_PLOT_SCRIPT
+#define OBS_DYNAMICS_PLOT_SCRIPT "scripts/plot_dynamics.py"
+#endif
+
+namespace obs::drivers {
+
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+
+double peakMemoryMB() {
+  rusage usage{};
+  if (getrusage(RUSAGE_SELF, &usage) != 0) return 0.0;
+  return static_cast<double>(usage.ru_maxrss) / 1024.0;
+}
+
+std::string fmt(double x, int precision = 6) {
+  std::ostringstream os;
+  os << std::setprecision(precision) << x;
+  return os.str();
+}
+
+/// Contact times of one tracked vertex (NaN: did not happen).
+struct TrackedTimes {
+  double firstContact = std::numeric_limits<double>::quiet_NaN();
+  double detachment = std::numeric_limits<double>::quiet_NaN();  ///< gap open again
+  double release = std::numeric_limits<double>::quiet_NaN();     ///< nu'v < 0 after contact
+  double velocityScale = 1e-300;                                  ///< max |nu'v| so far
+};
+
+struct TrackedInfo {
+  mesh::Point requested = mesh::Point::Zero();
+  mesh::Index vertex = -1;
+  mesh::Point position = mesh::Point::Zero();
+  bool contactNode = false;
+  double distance = 0;
+};
+
+/// Figures of one scheme's run.
+struct SchemeRun {
+  std::string scheme;
+  int steps = 0;
+  double setupSeconds = 0, stepSeconds = 0, solverSeconds = 0;
+  long long iterations = 0;
+  int maxIterations = 0;
+  double initialEnergy = 0, finalEnergy = 0;
+  bool hasRedistributed = false;
+  double initialEnergyRedistributed = 0, finalEnergyRedistributed = 0;
+  double maxPenetration = 0;
+  double forceVariation = 0;  ///< sum_n |F^{n+1} - F^n| (total variation of the contact force)
+  double maxForce = 0;        ///< max_n |F^n|
+  long long maxActive = 0;
+  std::vector<TrackedTimes> times;
+  StepRecord last;
+  Eigen::VectorXd u, v;
+  fs::path timeseries;
+  std::vector<fs::path> vtuFiles;
+  std::vector<double> vtuTimes;
+};
+
+struct Context {
+  const Scene& scene;
+  const mesh::Grid& grid;
+  const mesh::Mesh& mesh;
+  const BoundaryConditions& bc;
+  const RunOptions& options;
+  const ContactSet& contact;
+  const std::vector<TrackedInfo>& tracked;
+  Eigen::VectorXd u0, v0;
+  int steps = 0;
+  fs::path dir;
+};
+
+std::string csvHeaderLine(std::size_t tracked) {
+  std::string h =
+      "t,step,energy,energy_redistributed,kinetic_energy,elastic_energy,momentum_x,momentum_y,"
+      "momentum_z,contact_force_x,contact_force_y,contact_force_z,active_solution,active_predictor,"
+      "predictor_only,solution_only,max_penetration,solver_iterations,solver_seconds,step_seconds";
+  for (std::size_t k = 0; k < tracked; ++k) {
+    const std::string p = ",tracked" + std::to_string(k) + "_";
+    h += p + "normal_displacement" + p + "normal_velocity" + p + "gap";
+  }
+  return h;
+}
+
+std::string csvLine(const StepRecord& r) {
+  std::ostringstream os;
+  os << std::setprecision(17) << r.time << "," << r.step << "," << r.energy << ",";
+  if (r.hasRedistributed) os << r.energyRedistributed;
+  os << "," << r.kineticEnergy << "," << r.elasticEnergy;
+  for (int i = 0; i < 3; ++i) os << "," << r.momentum[i];
+  for (int i = 0; i < 3; ++i) os << "," << r.contactForce[i];
+  os << "," << r.activeSolution << "," << r.activePredictor << "," << r.predictorOnly << ","
+     << r.solutionOnly << "," << r.maxPenetration << "," << r.solverIterations << ","
+     << r.solverSeconds << "," << r.stepSeconds;
+  for (const TrackedVertex& t : r.tracked)
+    os << "," << t.normalDisplacement << "," << t.normalVelocity << "," << t.gap;
+  return os.str();
+}
+
+/// The .vtu fields of a state: displacement, stress, von_mises, boundary_id, velocity and the
+/// contact fields (gap g - nu'u, normal_displacement nu'u, contact_state 0 / 1 potential / 2 active).
+std::vector<Field> stateFields(const Context& c, const Eigen::VectorXd& u, const Eigen::VectorXd& v,
+                               std::vector<Field>* cells) {
+  const int dim = c.mesh.dimension();
+  ElasticitySolution s;
+  s.dimension = dim;
+  s.displacement = u;
+  recoverStresses(c.mesh, c.scene.material, s);
+  std::vector<Field> pf = pointFields(c.mesh, s);
+  *cells = cellFields(c.mesh, s);
+  const mesh::Index n = c.mesh.numVertices();
+  Field vel{"velocity", 3, std::vector<double>(3 * n, 0.0), false};
+  for (mesh::Index p = 0; p < n; ++p)
+    for (int a = 0; a < dim; ++a) vel.values[3 * p + a] = v[p * dim + a];
+  Field gap{"gap", 1, std::vector<double>(n, 0.0), false};
+  Field nd{"normal_displacement", 1, std::vector<double>(n, 0.0), false};
+  Field state{"contact_state", 1, std::vector<double>(n, 0.0), true};
+  double scale = 1e-300;
+  for (Eigen::Index i = 0; i < u.size(); ++i) scale = std::max(scale, std::abs(u[i]));
+  for (Index k = 0; k < c.contact.size(); ++k) {
+    const double g = c.contact.gap(k);
+    if (!std::isfinite(g)) continue;
+    const Index p = c.contact.vertex(k);
+    double nu_u = 0;
+    for (int a = 0; a < dim; ++a) nu_u += c.contact.direction(k)[a] * u[p * dim + a];
+    nd.values[p] = nu_u;
+    gap.values[p] = g - nu_u;
+    state.values[p] = g - nu_u <= 1e-8 * std::max({scale, std::abs(g), 1e-300}) ? 2 : 1;
+  }
+  pf.push_back(std::move(vel));
+  pf.push_back(std::move(gap));
+  pf.push_back(std::move(nd));
+  pf.push_back(std::move(state));
+  return pf;
+}
+
+void writePvd(const fs::path& path, const std::vector<fs::path>& files, const std::vector<double>& times) {
+  std::ofstream out(path);
+  if (!out) throw Error(path.string() + ": cannot write the .pvd collection");
+  out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
+         "  <Collection>\n";
+  for (std::size_t i = 0; i < files.size(); ++i)
+    out << "    <DataSet timestep=\"" << std::setprecision(17) << times[i] << "\" part=\"0\" file=\""
+        << files[i].filename().string() << "\"/>\n";
+  out << "  </Collection>\n</VTKFile>\n";
+  if (!out) throw Error(path.string() + ": cannot write the .pvd collection");
+}
+
+template <int d>
+SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeVtk,
+                    const std::string& timeseriesName) {
+  const Scene& scene = c.scene;
+  const DynamicsSpec& dyn = *scene.dynamics;
+  SchemeRun run;
+  run.scheme = schemeName;
+  NewmarkOptions o;
+  o.scheme = newmarkSchemeFromName(schemeName);
+  o.timeStep = dyn.timeStep;
+  o.mass = dyn.consistentMass ? MassKind::Consistent : MassKind::Lumped;
+  if (scene.solver.tolerance) o.solverTolerance = *scene.solver.tolerance;
+  if (scene.solver.maxIterations) o.maxSolverIterations = *scene.solver.maxIterations;
+  if (scene.solver.preSmoothing) o.preSmoothing = *scene.solver.preSmoothing;
+  if (scene.solver.postSmoothing) o.postSmoothing = *scene.solver.postSmoothing;
+  for (const TrackedInfo& t : c.tracked) o.trackedVertices.push_back(t.vertex);
+
+  const auto t0 = Clock::now();
+  std::unique_ptr<TimeStepper<d>> stepper;
+  try {
+    stepper = makeTimeStepper<d>(c.grid, scene.material, c.bc, c.contact, o);
+  } catch (const Error& e) {
+    const int line = schemeName == dyn.scheme ? dyn.schemeLine : dyn.compareLine;  // 0: --compare-schemes
+    throw Error(scene.where(line ? line : dyn.line) + "[dynamics] scheme = \"" +
+                schemeName + "\": " + e.what());
+  }
+  try {
+    stepper->initialize(c.u0, c.v0);
+  } catch (const Error& e) {
+    const int line = dyn.initialDisplacementLine ? dyn.initialDisplacementLine : dyn.line;
+    throw Error(scene.where(line) + "[dynamics] the initial state (initial_displacement, initial_velocity) " +
+                "is not admissible, nothing was integrated: " + e.what());
+  }
+  run.setupSeconds = secondsSince(t0);
+
+  const StepRecord first = stepper->record();
+  run.initialEnergy = first.energy;
+  run.hasRedistributed = first.hasRedistributed;
+  run.initialEnergyRedistributed = first.energyRedistributed;
+  run.times.assign(c.tracked.size(), TrackedTimes{});
+
+  run.timeseries = c.dir / timeseriesName;
+  std::ofstream csv(run.timeseries);
+  if (!csv) throw Error(run.timeseries.string() + ": cannot write the time series");
+  csv << csvHeaderLine(c.tracked.size()) << "\n" << csvLine(first) << "\n";
+
+  auto writeState = [&](const StepRecord& r) {
+    if (!writeVtk) return;
+    std::ostringstream name;
+    name << scene.name << "_" << std::setw(6) << std::setfill('0') << r.step << ".vtu";
+    const fs::path path = c.dir / name.str();
+    std::vector<Field> cells;
+    const auto pf = stateFields(c, stepper->state().u, stepper->state().v, &cells);
+    writeVtu(path, c.mesh, pf, cells);
+    run.vtuFiles.push_back(path);
+    run.vtuTimes.push_back(r.time);
+  };
+  writeState(first);
+
+  auto track = [&](const StepRecord& r) {
+    for (std::size_t k = 0; k < r.tracked.size() && k < run.times.size(); ++k) {
+      const TrackedVertex& t = r.tracked[k];
+      if (!t.contactNode) continue;
+      TrackedTimes& tt = run.times[k];
+      tt.velocityScale = std::max(tt.velocityScale, std::abs(t.normalVelocity));
+      const double tol = 1e-8 * std::max({1.0, std::abs(t.normalDisplacement), std::abs(t.gap)});
+      const bool touching = t.gap <= tol;
+      if (std::isnan(tt.firstContact)) {
+        if (touching) tt.firstContact = r.time;
+        continue;
+      }
+      if (std::isnan(tt.detachment) && !touching) tt.detachment = r.time;
+      // release: the normal velocity points away beyond round-off of the velocities seen so far
+      if (std::isnan(tt.release) && t.normalVelocity < -1e-8 * tt.velocityScale) tt.release = r.time;
+    }
+  };
+  track(first);
+
+  StepRecord previous = first;
+  auto lastReport = Clock::now();
+  const auto loopStart = Clock::now();
+  for (int k = 1; k <= c.steps; ++k) {
+    StepRecord r;
+    try {
+      r = stepper->step();
+    } catch (const Error& e) {
+      std::ostringstream os;
+      os << scene.where(dyn.line) << "[dynamics] scheme = \"" << schemeName << "\": step " << k << " (t = "
+         << fmt(k * dyn.timeStep) << ") failed: " << e.what();
+      throw Error(os.str());
+    }
+    csv << csvLine(r) << "\n";
+    ++run.steps;
+    run.iterations += r.solverIterations;
+    run.maxIterations = std::max(run.maxIterations, r.solverIterations);
+    run.solverSeconds += r.solverSeconds;
+    run.stepSeconds += r.stepSeconds;
+    run.maxPenetration = std::max(run.maxPenetration, r.maxPenetration);
+    run.forceVariation += (r.contactForce - previous.contactForce).norm();
+    run.maxForce = std::max(run.maxForce, r.contactForce.norm());
+    run.maxActive = std::max<long long>(run.maxActive, r.activeSolution);
+    track(r);
+    if (k % dyn.outputStride == 0 || k == c.steps) writeState(r);
+    if (c.options.stepProgress && (secondsSince(lastReport) >= 2.0 || k == c.steps)) {
+      lastReport = Clock::now();
+      std::ostringstream os;
+      os << schemeName << ": step " << k << "/" << c.steps << ", t = " << fmt(r.time) << ", E/E0 = "
+         << fmt(run.initialEnergy != 0 ? r.energy / run.initialEnergy : r.energy) << ", contact nodes "
+         << r.activeSolution << ", " << r.solverIterations << " TNNMG its, " << fmt(secondsSince(loopStart), 3)
+         << " s";
+      c.options.stepProgress(os.str());
+    }
+    previous = r;
+  }
+  run.last = previous;
+  run.finalEnergy = previous.energy;
+  run.finalEnergyRedistributed = previous.energyRedistributed;
+  run.u = stepper->state().u;
+  run.v = stepper->state().v;
+  csv.flush();
+  if (!csv) throw Error(run.timeseries.string() + ": cannot write the time series");
+  return run;
+}
+
+nlohmann::json optionalTime(double t) { return std::isnan(t) ? nlohmann::json(nullptr) : nlohmann::json(t); }
+
+nlohmann::json schemeJson(const Context& c, const SchemeRun& run) {
+  const DynamicsSpec& dyn = *c.scene.dynamics;
+  nlohmann::json tracked = nlohmann::json::array();
+  for (std::size_t k = 0; k < c.tracked.size(); ++k) {
+    const TrackedInfo& t = c.tracked[k];
+    nlohmann::json p = nlohmann::json::array(), x = nlohmann::json::array();
+    for (int a = 0; a < c.mesh.dimension(); ++a) {
+      p.push_back(t.requested[a]);
+      x.push_back(t.position[a]);
+    }
+    nlohmann::json j = {{"point", p},
+                        {"vertex", t.vertex},
+                        {"coordinates", x},
+                        {"distance", t.distance},
+                        {"contact_node", t.contactNode},
+                        {"first_contact_time", optionalTime(run.times[k].firstContact)},
+                        {"detachment_time", optionalTime(run.times[k].detachment)},
+                        {"release_time", optionalTime(run.times[k].release)}};
+    if (k < run.last.tracked.size()) {
+      j["final_normal_displacement"] = run.last.tracked[k].normalDisplacement;
+      j["final_normal_velocity"] = run.last.tracked[k].normalVelocity;
+    }
+    tracked.push_back(j);
+  }
+  nlohmann::json j = {
+      {"scheme", run.scheme},
+      {"tau", dyn.timeStep},
+      {"steps", run.steps},
+      {"end_time", run.last.time},
+      {"mass", dyn.consistentMass ? "consistent" : "lumped"},
+      {"initial_energy", run.initialEnergy},
+      {"final_energy", run.finalEnergy},
+      {"energy_ratio", run.initialEnergy != 0 ? nlohmann::json(run.finalEnergy / run.initialEnergy)
+                                              : nlohmann::json(nullptr)},
+      {"max_penetration", run.maxPenetration},
+      {"max_contact_force", run.maxForce},
+      {"contact_force_variation", run.forceVariation},
+      {"max_active_nodes", run.maxActive},
+      {"final_active_nodes", run.last.activeSolution},
+      {"mean_iterations_per_step", run.steps ? static_cast<double>(run.iterations) / run.steps : 0.0},
+      {"max_iterations_per_step", run.maxIterations},
+      {"setup_s", run.setupSeconds},
+      {"total_step_s", run.stepSeconds},
+      {"solver_s", run.solverSeconds},
+      {"seconds_per_step", run.steps ? run.stepSeconds / run.steps : 0.0},
+      {"timeseries", run.timeseries.string()},
+      {"tracked", tracked},
+  };
+  if (run.hasRedistributed) {
+    j["initial_energy_redistributed"] = run.initialEnergyRedistributed;
+    j["final_energy_redistributed"] = run.finalEnergyRedistributed;
+  }
+  return j;
+}
+
+/// Runs scripts/plot_dynamics.py on the output directory; a failure is a warning.
+void runPlots(const fs::path& dir, const RunOptions& options) {
+  auto warn = [&](const std::string& m) {
+    if (options.stepProgress) options.stepProgress("warning: " + m);
+  };
+  fs::path script = OBS_DYNAMICS_PLOT_SCRIPT;
+  if (const char* env = std::getenv("OBS_PLOT_DYNAMICS_SCRIPT")) script = env;
+  std::error_code ec;
+  if (!fs::is_regular_file(script, ec)) {
+    warn("plots skipped: " + script.string() + " not found (set OBS_PLOT_DYNAMICS_SCRIPT)");
+    return;
+  }
+  // python3 first; a python3 without matplotlib (exit code 3) falls back to the system one
+  std::vector<std::string> pythons = {"python3", "/usr/bin/python3"};
+  if (const char* env = std::getenv("OBS_PYTHON")) pythons = {env};
+  std::string output, cmd;
+  int status = -1;
+  for (const std::string& python : pythons) {
+    cmd = python + " '" + script.string() + "' '" + dir.string() + "'";
+    FILE* pipe = popen((cmd + " 2>&1").c_str(), "r");
+    if (!pipe) continue;
+    output.clear();
+    char buffer[512];
+    while (fgets(buffer, sizeof buffer, pipe)) output += buffer;
+    status = pclose(pipe);
+    if (status == 0 || !(WIFEXITED(status) && WEXITSTATUS(status) == 3)) break;
+  }
+  if (status != 0) {
+    while (!output.empty() && (output.back() == '\n' || output.back() == '\r')) output.pop_back();
+    warn("plots skipped (" + cmd + " failed" + (output.empty() ? std::string(")") : "): " + output));
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> dynamicSchemes(const Scene& scene, bool compareAll) {
+  std::vector<std::string> out = {scene.dynamics->scheme};
+  std::vector<std::string> more = scene.dynamics->compare;
+  if (compareAll)
+    for (NewmarkScheme k : allNewmarkSchemes()) more.emplace_back(name(k));
+  for (const std::string& s : more)
+    if (std::find(out.begin(), out.end(), s) == out.end()) out.push_back(s);
+  return out;
+}
+
+RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh::Mesh& mesh,
+                          const BoundaryConditions& bc, const RunOptions& options, RunResult r,
+                          Clock::time_point start) {
+  const DynamicsSpec& dyn = *scene.dynamics;
+  auto progress = [&](const std::string& line) {
+    if (options.progress) options.progress(line);
+  };
+  const int dim = mesh.dimension();
+  const mesh::Index n = mesh.numVertices();
+
+  // contact set, tracked vertices, initial state (all checked before any time step)
+  const auto obstacle = makeObstacle(scene, dim);
+  const ContactSet contact = makeContactSet(scene, mesh, *obstacle);
+  std::vector<TrackedInfo> tracked;
+  for (std::size_t k = 0; k < dyn.tracked.size(); ++k) {
+    if (dyn.trackedDimensions[k] != dim)
+      throw Error(scene.where(dyn.trackedLine) + "[dynamics] tracked[" + std::to_string(k) + "] has " +
+                  std::to_string(dyn.trackedDimensions[k]) + " coordinates, expected " + std::to_string(dim) +
+                  " (the mesh is " + std::to_string(dim) + "D)");
+    TrackedInfo t;
+    t.requested = dyn.tracked[k];
+    double best = std::numeric_limits<double>::infinity();
+    for (mesh::Index v = 0; v < n; ++v) {
+      const double dist = (mesh.vertex(v) - t.requested).norm();
+      if (dist < best) {
+        best = dist;
+        t.vertex = v;
+      }
+    }
+    t.position = mesh.vertex(t.vertex);
+    t.distance = best;
+    const Index node = contact.nodeOf(t.vertex);
+    t.contactNode = node >= 0 && std::isfinite(contact.gap(node));
+    tracked.push_back(t);
+  }
+
+  Context c{scene, grid, mesh, bc, options, contact, tracked, {}, {}, 0, {}};
+  c.steps = dyn.steps ? *dyn.steps : static_cast<int>(std::ceil(*dyn.endTime / dyn.timeStep - 1e-9));
+  c.u0 = Eigen::VectorXd::Zero(n * dim);
+  c.v0 = Eigen::VectorXd::Zero(n * dim);
+  auto evaluate = [&](const std::vector<Expression>& e, int line, const char* key, Eigen::VectorXd& x) {
+    if (e.empty()) return;
+    if (static_cast<int>(e.size()) != dim)
+      throw Error(scene.where(line) + "[dynamics] " + key + " has " + std::to_string(e.size()) +
+                  " entries, expected " + std::to_string(dim) + " (one per coordinate of the " +
+                  std::to_string(dim) + "D mesh)");
+    for (mesh::Index v = 0; v < n; ++v)
+      for (int a = 0; a < dim; ++a) {
+        const double value = e[a](mesh.vertex(v));
+        if (!std::isfinite(value))
+          throw Error(scene.where(line) + "[dynamics] " + key + "[" + std::to_string(a) +
+                      "] is not finite at vertex " + std::to_string(v));
+        x[v * dim + a] = value;
+      }
+  };
+  evaluate(dyn.initialDisplacement, dyn.initialDisplacementLine, "initial_displacement", c.u0);
+  evaluate(dyn.initialVelocity, dyn.initialVelocityLine, "initial_velocity", c.v0);
+  const DirichletValues dirichlet = collectDirichlet(mesh, bc.dirichlet);
+  for (Eigen::Index i = 0; i < c.u0.size(); ++i)
+    if (dirichlet.constrained[static_cast<std::size_t>(i)]) {
+      c.u0[i] = dirichlet.values[i];
+      c.v0[i] = 0;
+    }
+  r.dofs = static_cast<long long>(n) * dim;
+  r.freeDofs = r.dofs - dirichlet.count();
+
+  c.dir = options.outputDirectory.value_or(scene.output.directory);
+  std::error_code ec;
+  fs::create_directories(c.dir, ec);
+  if (ec) throw Error(c.dir.string() + ": cannot create the output directory (" + ec.message() + ")");
+
+  const std::vector<std::string> schemes = dynamicSchemes(scene, options.compareSchemes);
+  const bool comparison = schemes.size() > 1;
+  {
+    std::ostringstream os;
+    os << "dynamics: " << (comparison ? std::to_string(schemes.size()) + " schemes" : schemes[0]) << ", tau = "
+       << dyn.timeStep << ", " << c.steps << " steps, " << contact.size() << " potential contact nodes";
+    progress(os.str());
+  }
+  std::vector<SchemeRun> runs;
+  std::vector<std::pair<std::string, std::string>> failed;  // compared schemes the library refused
+  for (std::size_t i = 0; i < schemes.size(); ++i) {
+    const std::string file = comparison ? "timeseries_" + schemes[i] + ".csv" : "timeseries.csv";
+    const bool vtk = scene.output.vtk && i == 0;
+    ++r.massAssemblies;
+    try {
+      runs.push_back(dim == 2 ? runScheme<2>(c, schemes[i], vtk, file) : runScheme<3>(c, schemes[i], vtk, file));
+    } catch (const Error& e) {
+      if (i == 0) throw;  // the scene's own scheme must run
+      // a compared scheme that cannot run on this scene (e.g. an indefinite redistributed mass on
+      // a coarse mesh) is reported, and the comparison goes on
+      failed.emplace_back(schemes[i], e.what());
+      std::error_code ignore;
+      fs::remove(c.dir / file, ignore);
+      if (options.stepProgress) options.stepProgress("warning: " + schemes[i] + " skipped: " + e.what());
+      continue;
+    }
+    const SchemeRun& run = runs.back();
+    std::ostringstream os;
+    os << run.scheme << ": " << run.steps << " steps in " << fmt(run.stepSeconds, 3) << " s ("
+       << fmt(run.steps ? static_cast<double>(run.iterations) / run.steps : 0.0, 3)
+       << " TNNMG its/step), E_end/E_0 = " << fmt(run.initialEnergy != 0 ? run.finalEnergy / run.initialEnergy : 0.0)
+       << ", max penetration " << fmt(run.maxPenetration, 3);
+    progress(os.str());
+  }
+
+  // the run's figures are the first scheme's
+  const SchemeRun& primary = runs.front();
+  for (const SchemeRun& run : runs) {
+    r.assemblySeconds += run.setupSeconds;
+    r.solveSeconds += run.stepSeconds;
+  }
+  r.solver.type = "tnnmg";
+  r.solver.iterations = static_cast<int>(std::min<long long>(primary.iterations, std::numeric_limits<int>::max()));
+  r.solver.converged = true;
+  r.solver.seconds = primary.solverSeconds;
+  r.solver.tolerance = scene.solver.tolerance.value_or(NewmarkOptions{}.solverTolerance);
+  ContactReport cr;
+  cr.obstacle = scene.contact->obstacle;
+  cr.boundary = scene.contact->boundary.describe();
+  cr.boundaryVertices = contact.size();
+  for (Index k = 0; k < contact.size(); ++k)
+    if (std::isfinite(contact.gap(k))) ++cr.potentialVertices;
+  cr.actualVertices = primary.last.activeSolution;
+  for (int a = 0; a < 3; ++a) cr.force[a] = primary.last.contactForce[a];
+  cr.load = primary.last.contactForce.norm();
+  cr.maxViolation = primary.last.maxPenetration;
+  r.contact = cr;
+  {
+    ElasticitySolution s;
+    s.dimension = dim;
+    s.displacement = primary.u;
+    recoverStresses(mesh, scene.material, s);
+    for (mesh::Index v = 0; v < n; ++v)
+      r.maxDisplacement = std::max(r.maxDisplacement, primary.u.segment(v * dim, dim).norm());
+    for (const Stress& st : s.cellStress) r.maxVonMises = std::max(r.maxVonMises, vonMises(st));
+  }
+
+  // outputs
+  const auto t = Clock::now();
+  for (const SchemeRun& run : runs) r.outputFiles.push_back(run.timeseries);
+  for (const fs::path& f : primary.vtuFiles) r.outputFiles.push_back(f);
+  if (!primary.vtuFiles.empty()) {
+    const fs::path pvd = c.dir / (scene.name + ".pvd");
+    writePvd(pvd, primary.vtuFiles, primary.vtuTimes);
+    r.outputFiles.push_back(pvd);
+  }
+  r.peakMemoryMB = peakMemoryMB();
+  if (!scene.output.csv.empty()) {
+    const auto path = scene.output.csv.is_absolute() ? scene.output.csv : c.dir / scene.output.csv;
+    r.outputSeconds = secondsSince(t);
+    r.totalSeconds = secondsSince(start);
+    appendCsvRow(path, r);
+    r.outputFiles.push_back(path);
+  }
+  if (scene.output.plots || options.plots) {
+    runPlots(c.dir, options);
+    for (const char* png : {"dyn_energy.png", "dyn_contact_force.png", "dyn_active.png", "dyn_velocity.png"})
+      if (fs::exists(c.dir / png)) r.outputFiles.push_back(c.dir / png);
+  }
+  const fs::path summary = c.dir / "summary.json";
+  r.outputFiles.push_back(summary);
+  r.outputSeconds = secondsSince(t);
+  r.totalSeconds = secondsSince(start);
+  nlohmann::json j = summaryJson(r);
+  j["dynamics"] = schemeJson(c, primary);
+  if (comparison) {
+    nlohmann::json all = nlohmann::json::array();
+    for (const SchemeRun& run : runs) all.push_back(schemeJson(c, run));
+    for (const auto& [scheme, message] : failed) all.push_back({{"scheme", scheme}, {"error", message}});
+    j["dynamics_comparison"] = all;
+  }
+  {
+    std::ofstream out(summary);
+    out << j.dump(2) << "\n";
+    if (!out) throw Error(summary.string() + ": cannot write the summary");
+  }
+  std::string written = c.dir.string() + "/{";
+  for (std::size_t i = 0; i < r.outputFiles.size() && i < 6; ++i)
+    written += (i ? ", " : "") + r.outputFiles[i].filename().string();
+  if (r.outputFiles.size() > 6) written += ", ... (" + std::to_string(r.outputFiles.size()) + " files)";
+  progress("written: " + written + "}");
+  return r;
+}
+
+}  // namespace obs::drivers

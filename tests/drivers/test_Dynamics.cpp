@@ -1,0 +1,380 @@
+// Dynamic contact scenes ([dynamics], drivers DynamicScene.hpp): the three data scenes (ball =
+// Geometry A, rounded block = Geometry 1, the 1D bar as a column) run a few steps and write
+// timeseries.csv, the .pvd collection and summary.json "dynamics"; the bar's contact end follows
+// the exact free flight h0 - v0 t to 1e-8 before impact and lifts off near the exact time
+// h0/v0 + 2L/c0; a comparison writes one series per scheme (scene option and --compare-schemes on
+// the command line); bad input (tau <= 0, missing density, unknown scheme, end_time and steps,
+// an initial state violating the constraint, ...) is a one-line error with file:line and key
+// before the first step; static scenes assemble no mass matrix.
+#include <gtest/gtest.h>
+
+#include <sys/wait.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "obs/drivers/DynamicScene.hpp"
+#include "obs/drivers/RunScene.hpp"
+#include "obs/drivers/SceneParser.hpp"
+#include "obs/drivers/SceneSetup.hpp"
+#include "obs/mesh/Error.hpp"
+
+namespace fs = std::filesystem;
+using namespace obs::drivers;
+
+namespace {
+
+const fs::path kTmp = fs::path(OBS_TEST_TMP_DIR) / "dynamics";
+const fs::path kScenes = fs::path(OBS_DATA_DIR) / "scenes";
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+nlohmann::json summaryOf(const fs::path& dir) {
+  std::ifstream in(dir / "summary.json");
+  return nlohmann::json::parse(in);
+}
+
+/// A CSV file as columns by header name (empty fields: NaN).
+struct Table {
+  std::vector<std::string> header;
+  std::map<std::string, std::vector<double>> columns;
+  std::size_t rows = 0;
+  const std::vector<double>& operator[](const std::string& key) const { return columns.at(key); }
+};
+
+Table readCsv(const fs::path& p) {
+  std::ifstream in(p);
+  Table t;
+  std::string line;
+  std::getline(in, line);
+  std::stringstream hs(line);
+  for (std::string h; std::getline(hs, h, ',');) t.header.push_back(h);
+  while (std::getline(in, line)) {
+    std::stringstream ls(line);
+    std::size_t k = 0;
+    for (std::string f; k < t.header.size(); ++k) {
+      if (!std::getline(ls, f, ',')) f.clear();
+      t.columns[t.header[k]].push_back(f.empty() ? std::nan("") : std::stod(f));
+    }
+    ++t.rows;
+  }
+  return t;
+}
+
+/// Runs a data scene with `steps` time steps into kTmp/<out>.
+RunResult runData(const std::string& name, int steps, const std::string& out, bool compare = false) {
+  Scene scene = parseScene(kScenes / (name + ".toml"));
+  scene.dynamics->steps = steps;
+  scene.dynamics->endTime.reset();
+  const fs::path dir = kTmp / out;
+  fs::remove_all(dir);
+  RunOptions o;
+  o.outputDirectory = dir;
+  o.compareSchemes = compare;
+  return runScene(scene, o);
+}
+
+std::string errorOf(const std::string& text, const std::string& file = "bad.toml") {
+  try {
+    const Scene scene = parseSceneString(text, file, kTmp);
+    validateScene(scene, buildMesh(scene));
+  } catch (const obs::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+/// The bar scene with a replaceable [dynamics] body (lines: [mesh] 1, [material] 8, [contact] 13,
+/// [dynamics] 19, its first key 20).
+std::string barScene(const std::string& dynamics, const std::string& material = "density = 1\n") {
+  return "[mesh]\ngenerator = \"box\"\ntype = \"quadrilateral\"\ncells = [1, 20]\nlower = [0, 5]\n"
+         "upper = [1, 15]\n\n"
+         "[material]\nE = 900\nnu = 0\n" +
+         material +
+         "\n[contact]\nboundary = \"bottom\"\nobstacle = \"plane\"\npoint = [0, 0]\ndirection = [0, -1]\n\n"
+         "[dynamics]\n" +
+         dynamics;
+}
+
+void expectContains(const std::string& message, const std::vector<std::string>& parts) {
+  for (const std::string& p : parts) EXPECT_NE(message.find(p), std::string::npos) << p << "\n  in: " << message;
+}
+
+}  // namespace
+
+TEST(DynamicScenes, EachDataSceneRunsAFewSteps) {
+  for (const char* name : {"dynamics_ball", "dynamics_block", "dynamics_bar"}) {
+    SCOPED_TRACE(name);
+    const RunResult r = runData(name, 3, name);
+    const fs::path dir = kTmp / name;
+    const Table ts = readCsv(dir / "timeseries.csv");
+    ASSERT_EQ(ts.rows, 4u);  // t^0 .. t^3
+    for (const char* col :
+         {"t", "step", "energy", "energy_redistributed", "momentum_x", "momentum_z", "contact_force_x",
+          "contact_force_z", "active_solution", "active_predictor", "predictor_only", "solution_only",
+          "max_penetration", "solver_iterations", "solver_seconds", "tracked0_normal_displacement",
+          "tracked0_normal_velocity", "tracked0_gap"})
+      EXPECT_TRUE(ts.columns.count(col)) << col;
+    EXPECT_EQ(ts["step"][3], 3);
+    const nlohmann::json s = summaryOf(dir);
+    const auto& d = s.at("dynamics");
+    EXPECT_EQ(d.at("scheme"), "improved-contact-stabilized");
+    EXPECT_EQ(d.at("steps"), 3);
+    EXPECT_NEAR(d.at("end_time").get<double>(), 3 * d.at("tau").get<double>(), 1e-14);
+    EXPECT_DOUBLE_EQ(d.at("initial_energy").get<double>(), ts["energy"][0]);
+    EXPECT_DOUBLE_EQ(d.at("final_energy").get<double>(), ts["energy"][3]);
+    EXPECT_GT(d.at("initial_energy").get<double>(), 0);
+    // the energy-dissipative scheme never gains energy
+    EXPECT_LE(d.at("energy_ratio").get<double>(), 1 + 1e-10);
+    EXPECT_GE(d.at("max_penetration").get<double>(), 0);
+    EXPECT_GT(d.at("mean_iterations_per_step").get<double>(), 0);
+    ASSERT_EQ(d.at("tracked").size(), 1u);
+    EXPECT_TRUE(d.at("tracked")[0].at("contact_node").get<bool>());
+    EXPECT_EQ(s.at("mass_assemblies"), 1);
+    EXPECT_FALSE(s.contains("dynamics_comparison"));
+    EXPECT_EQ(s.at("solver").at("type"), "tnnmg");
+    // .pvd over time: steps 0 and 3 (last) at least
+    const std::string pvd = slurp(dir / (std::string(name) + ".pvd"));
+    EXPECT_NE(pvd.find("type=\"Collection\""), std::string::npos);
+    EXPECT_NE(pvd.find(std::string(name) + "_000000.vtu"), std::string::npos);
+    EXPECT_NE(pvd.find(std::string(name) + "_000003.vtu"), std::string::npos);
+    EXPECT_TRUE(fs::exists(dir / (std::string(name) + "_000003.vtu")));
+    // runs.csv row as for static scenes
+    EXPECT_TRUE(fs::exists(dir / "runs.csv"));
+    EXPECT_EQ(r.massAssemblies, 1);
+  }
+}
+
+TEST(DynamicScenes, GeneratedMeshesLieOnTheCurvedSurfaces) {
+  // ball: every vertex of the contact boundary on the sphere of radius 1 after refinement
+  const Scene ball = parseScene(kScenes / "dynamics_ball.toml");
+  const obs::mesh::Mesh m = buildMesh(ball);
+  const int id = *m.boundaryId("surface");
+  double worst = 0;
+  for (obs::mesh::Index f = 0; f < m.numBoundaryFaces(); ++f)
+    if (m.boundaryFaceId(f) == id)
+      for (obs::mesh::Index v : m.boundaryFaceVertices(f)) worst = std::max(worst, std::abs(m.vertex(v).norm() - 1));
+  EXPECT_LT(worst, 1e-12);
+  // rounded block: lowest point z = 0 at x = 0.75, bottom on the cylinder (x - 0.75)^2 + (z - 1.5)^2 = 1.5^2
+  const Scene block = parseScene(kScenes / "dynamics_block.toml");
+  const obs::mesh::Mesh b = buildMesh(block);
+  const int bottom = *b.boundaryId("bottom");
+  worst = 0;
+  for (obs::mesh::Index f = 0; f < b.numBoundaryFaces(); ++f)
+    if (b.boundaryFaceId(f) == bottom)
+      for (obs::mesh::Index v : b.boundaryFaceVertices(f)) {
+        const auto& x = b.vertex(v);
+        worst = std::max(worst, std::abs(std::hypot(x[0] - 0.75, x[2] - 1.5) - 1.5));
+      }
+  EXPECT_LT(worst, 1e-12);
+}
+
+TEST(DynamicScenes, BarFollowsTheExactFlightAndLiftsOffNearTheExactTime) {
+  // the full default run: tau = 3e-3, 450 steps (t = 1.35)
+  const RunResult r = runData("dynamics_bar", 450, "bar_full");
+  const fs::path dir = kTmp / "bar_full";
+  const Table ts = readCsv(dir / "timeseries.csv");
+  const double h0 = 5, v0 = 10, L = 10, c0 = 30;
+  int checked = 0;
+  for (std::size_t i = 0; i < ts.rows; ++i) {
+    const double t = ts["t"][i];
+    if (t >= h0 / v0) break;
+    // height of the contact end = h0 + u_y = h0 - nu'u (nu = -e_y)
+    EXPECT_NEAR(h0 - ts["tracked0_normal_displacement"][i], h0 - v0 * t, 1e-8) << "t = " << t;
+    EXPECT_NEAR(ts["tracked0_normal_velocity"][i], v0, 1e-8) << "t = " << t;
+    EXPECT_EQ(ts["active_solution"][i], 0) << "t = " << t;
+    ++checked;
+  }
+  EXPECT_EQ(checked, 167);  // t = 0 .. 0.498
+  // in contact after the impact, at rest on the plane (no penetration for this scheme)
+  const std::size_t mid = 250;  // t = 0.75
+  EXPECT_NEAR(ts["tracked0_gap"][mid], 0, 1e-9);
+  EXPECT_EQ(ts["active_solution"][mid], 2);
+  const nlohmann::json summary = summaryOf(dir);
+  const nlohmann::json& tr = summary.at("dynamics").at("tracked")[0];
+  const double exact = h0 / v0 + 2 * L / c0;
+  EXPECT_NEAR(tr.at("first_contact_time").get<double>(), 0.501, 1e-9);  // first step after t = 0.5
+  // the discrete bar (20 cells, lumped mass) detaches within a few steps of the exact time
+  EXPECT_NEAR(tr.at("detachment_time").get<double>(), exact, 0.05);
+  EXPECT_NEAR(tr.at("release_time").get<double>(), exact, 0.05);
+  EXPECT_LT(tr.at("final_normal_velocity").get<double>(), 0);  // moving away from the plane
+  // after the rebound the momentum points up; |p|^2 / 2m <= E <= E_0 = m v0^2 / 2 (the scheme
+  // dissipates), so |p| <= m v0 with m = rho L = 10, and little is lost (exact: p = m v0)
+  const double p = ts["momentum_y"][ts.rows - 1], m = 10;
+  EXPECT_LE(p, m * v0 * (1 + 1e-10));
+  EXPECT_GT(p, 0.9 * m * v0);
+  EXPECT_EQ(r.contact->actualVertices, 0);  // flying again at t = 1.35
+}
+
+TEST(DynamicScenes, ComparisonWritesOneSeriesPerScheme) {
+  // scene option: two schemes besides the scene's
+  Scene scene = parseSceneString(barScene("scheme = \"contact-implicit\"\ntau = 3e-3\nsteps = 4\n"
+                                          "initial_velocity = [0, -10]\ntracked = [[0, 5]]\n"
+                                          "compare = [\"contact-stabilized\", \"contact-implicit\", \"classical\"]\n"),
+                                 "cmp.toml", kTmp);
+  const fs::path dir = kTmp / "cmp_scene";
+  fs::remove_all(dir);
+  RunOptions o;
+  o.outputDirectory = dir;
+  const RunResult r = runScene(scene, o);
+  EXPECT_EQ(r.massAssemblies, 3);
+  EXPECT_FALSE(fs::exists(dir / "timeseries.csv"));
+  for (const char* s : {"contact-implicit", "contact-stabilized", "classical"})
+    EXPECT_EQ(readCsv(dir / ("timeseries_" + std::string(s) + ".csv")).rows, 5u) << s;
+  const nlohmann::json j = summaryOf(dir);
+  EXPECT_EQ(j.at("dynamics").at("scheme"), "contact-implicit");
+  ASSERT_EQ(j.at("dynamics_comparison").size(), 3u);
+  EXPECT_EQ(j.at("dynamics_comparison")[1].at("scheme"), "contact-stabilized");
+  // before impact all schemes agree exactly (free flight)
+  const Table a = readCsv(dir / "timeseries_contact-implicit.csv");
+  const Table b = readCsv(dir / "timeseries_classical.csv");
+  EXPECT_DOUBLE_EQ(a["tracked0_normal_displacement"][4], b["tracked0_normal_displacement"][4]);
+
+  // --compare-schemes (RunOptions::compareSchemes): every scheme
+  EXPECT_EQ(dynamicSchemes(scene, true).size(), 10u);
+  EXPECT_EQ(dynamicSchemes(scene, true)[0], "contact-implicit");
+}
+
+TEST(DynamicScenes, ComparedSchemeThatCannotRunIsReportedNotFatal) {
+  // consistent mass: fine for contact-implicit, refused by the predictor scheme contact-stabilized
+  // (Newmark.hpp); the comparison records the refusal and goes on
+  Scene scene = parseSceneString(barScene("scheme = \"contact-implicit\"\nmass = \"consistent\"\ntau = 3e-3\n"
+                                          "steps = 2\ninitial_velocity = [0, -10]\n"
+                                          "compare = [\"contact-stabilized\", \"classical\"]\n"),
+                                 "cmp_failed.toml", kTmp);
+  const fs::path dir = kTmp / "cmp_failed";
+  fs::remove_all(dir);
+  RunOptions o;
+  o.outputDirectory = dir;
+  std::vector<std::string> warnings;
+  o.stepProgress = [&](const std::string& line) { warnings.push_back(line); };
+  runScene(scene, o);
+  const nlohmann::json j = summaryOf(dir);
+  ASSERT_EQ(j.at("dynamics_comparison").size(), 3u);
+  EXPECT_EQ(j.at("dynamics_comparison")[0].at("scheme"), "contact-implicit");
+  EXPECT_EQ(j.at("dynamics_comparison")[1].at("scheme"), "classical");
+  EXPECT_EQ(j.at("dynamics_comparison")[2].at("scheme"), "contact-stabilized");
+  expectContains(j.at("dynamics_comparison")[2].at("error").get<std::string>(),
+                 {"cmp_failed.toml:25:", "[dynamics] scheme = \"contact-stabilized\"", "lumped"});
+  EXPECT_TRUE(fs::exists(dir / "timeseries_classical.csv"));
+  EXPECT_FALSE(fs::exists(dir / "timeseries_contact-stabilized.csv"));
+  EXPECT_TRUE(std::any_of(warnings.begin(), warnings.end(), [](const std::string& w) {
+    return w.rfind("warning: contact-stabilized skipped", 0) == 0;
+  }));
+}
+
+TEST(DynamicScenes, CompareSchemesOnTheCommandLine) {
+  if (!fs::exists(OBS_BINARY)) GTEST_SKIP() << "obs not built: " << OBS_BINARY;
+  const fs::path dir = kTmp / "cli_cmp";
+  fs::remove_all(dir);
+  fs::create_directories(kTmp);
+  const std::string scene = barScene("tau = 3e-3\nsteps = 2\ninitial_velocity = [0, -10]\n");
+  std::ofstream(kTmp / "cli_bar.toml") << scene;
+  const std::string cmd = "'" + std::string(OBS_BINARY) + "' run '" + (kTmp / "cli_bar.toml").string() +
+                          "' --compare-schemes -o '" + dir.string() + "' >'" + (kTmp / "cli.out").string() +
+                          "' 2>'" + (kTmp / "cli.err").string() + "'";
+  const int status = std::system(cmd.c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  ASSERT_EQ(WEXITSTATUS(status), 0) << slurp(kTmp / "cli.err");
+  int series = 0;
+  for (const auto& e : fs::directory_iterator(dir))
+    if (e.path().filename().string().rfind("timeseries_", 0) == 0) {
+      ++series;
+      EXPECT_EQ(readCsv(e.path()).rows, 3u) << e.path();
+    }
+  EXPECT_EQ(series, 10);
+  EXPECT_EQ(summaryOf(dir).at("dynamics_comparison").size(), 10u);
+  EXPECT_EQ(summaryOf(dir).at("mass_assemblies"), 10);
+  // progress lines on stderr, one per scheme at its last step
+  EXPECT_NE(slurp(kTmp / "cli.err").find("khenous-laborde-renard: step 2/2"), std::string::npos);
+}
+
+TEST(DynamicScenes, BadInputIsAnErrorWithFileLineAndKey) {
+  const std::string v = "initial_velocity = [0, -10]\n";
+  expectContains(errorOf(barScene("tau = 0\nsteps = 3\n" + v)), {"bad.toml:20:", "[dynamics] tau", "must be positive"});
+  expectContains(errorOf(barScene("tau = -1e-3\nsteps = 3\n" + v)), {"bad.toml:20:", "[dynamics] tau"});
+  expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\n" + v, "")),
+                 {"bad.toml:8:", "[material] density is missing", "[dynamics] (line 18)"});
+  const std::string unknown = errorOf(barScene("scheme = \"newmark\"\ntau = 1e-3\nsteps = 3\n"));
+  expectContains(unknown, {"bad.toml:20:", "[dynamics] scheme", "\"newmark\" is unknown", "contact-implicit",
+                           "improved-contact-stabilized", "khenous-laborde-renard", "hager-huebner-wohlmuth"});
+  expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\nend_time = 1\n")),
+                 {"bad.toml:22:", "[dynamics] end_time", "cannot be combined with steps"});
+  expectContains(errorOf(barScene("tau = 1e-3\n")), {"bad.toml:19:", "[dynamics] needs end_time"});
+  expectContains(errorOf(barScene("tau = 1e-3\nsteps = 0\n")), {"bad.toml:21:", "[dynamics] steps"});
+  expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\nfoo = 1\n")), {"bad.toml:22:", "unknown key 'foo'"});
+  expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\nmass = \"consistent\"\n")),
+                 {"bad.toml:22:", "[dynamics] mass", "not available for scheme = \"improved-contact-stabilized\""});
+  expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\ncompare = [\"all-of-them\"]\n")),
+                 {"bad.toml:22:", "[dynamics] compare[0]", "is unknown"});
+  expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\noutput_stride = 0\n")), {"bad.toml:22:", "output_stride"});
+  expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\n") + "\n[solver]\ntype = \"pdas\"\n"),
+                 {"bad.toml:23:", "[solver] type = \"pdas\" is not available with [dynamics]"});
+  // [mesh] generators
+  expectContains(errorOf("[mesh]\ngenerator = \"ball\"\ntype = \"quadrilateral\"\ncells = 2\n[material]\nE = 1\nnu = 0\n"),
+                 {"bad.toml:3:", "[mesh] type", "needs a 3D cell type"});
+  expectContains(errorOf("[mesh]\ngenerator = \"ball\"\ntype = \"pyramid\"\ncells = 2\nwidth = 1\n[material]\nE = 1\nnu = 0\n"),
+                 {"bad.toml:5:", "[mesh] width", "does not apply to generator = \"ball\""});
+  expectContains(errorOf("[mesh]\ngenerator = \"rounded_block\"\ntype = \"hexahedron\"\ncells = [1, 1, 1]\n"
+                         "width = 2\nheight = 1\ndepth = 1\narc_radius = 0.5\n[material]\nE = 1\nnu = 0\n"),
+                 {"bad.toml:8:", "[mesh] arc_radius", "at least width / 2"});
+}
+
+TEST(DynamicScenes, InadmissibleInitialStateFailsBeforeTheFirstStep) {
+  // the bar's lower end moved 6 down: 1 below the plane y = 0
+  const Scene scene = parseSceneString(
+      barScene("tau = 1e-3\nsteps = 3\ninitial_velocity = [0, -10]\ninitial_displacement = [0, -6]\n"), "bad.toml",
+      kTmp);
+  const fs::path dir = kTmp / "bad_initial";
+  fs::remove_all(dir);
+  RunOptions o;
+  o.outputDirectory = dir;
+  std::string message;
+  try {
+    runScene(scene, o);
+  } catch (const obs::Error& e) {
+    message = e.what();
+  }
+  expectContains(message, {"bad.toml:23:", "[dynamics]", "initial state", "not admissible"});
+  EXPECT_FALSE(fs::exists(dir / "timeseries.csv"));
+  EXPECT_FALSE(fs::exists(dir / "summary.json"));
+  // tracked point with the wrong number of coordinates
+  const Scene t = parseSceneString(barScene("tau = 1e-3\nsteps = 3\ntracked = [[0, 5, 0]]\n"), "bad.toml", kTmp);
+  message.clear();
+  try {
+    runScene(t, o);
+  } catch (const obs::Error& e) {
+    message = e.what();
+  }
+  expectContains(message, {"bad.toml:22:", "[dynamics] tracked[0] has 3 coordinates, expected 2"});
+}
+
+TEST(DynamicScenes, StaticScenesAssembleNoMassMatrix) {
+  const fs::path dir = kTmp / "static";
+  fs::remove_all(dir);
+  RunOptions o;
+  o.outputDirectory = dir;
+  const RunResult r = runScene(kScenes / "cantilever.toml", o);
+  EXPECT_EQ(r.massAssemblies, 0);
+  const nlohmann::json j = summaryOf(dir);
+  EXPECT_EQ(j.at("mass_assemblies"), 0);
+  EXPECT_FALSE(j.contains("dynamics"));
+  // density is accepted (and ignored) by static scenes
+  EXPECT_EQ(errorOf("[mesh]\ngenerator = \"box\"\ntype = \"quadrilateral\"\ncells = [2, 2]\n[material]\nE = 1\nnu = 0\n"
+                    "density = 2\n[[dirichlet]]\nboundary = \"left\"\n"),
+            "");
+}
