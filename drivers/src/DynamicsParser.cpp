@@ -22,17 +22,7 @@ std::vector<double> numberArray(const TomlSection& s, const toml::value& v, cons
              "= " + literalOf(v) + " must have " +
                  (count > 0 ? std::to_string(count) : std::string("2 or 3")) +
                  " entries (one per coordinate), got " + std::to_string(a.size()));
-  std::vector<double> out;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    if (a[i].is_integer())
-      out.push_back(static_cast<double>(a[i].as_integer()));
-    else if (a[i].is_floating() && std::isfinite(a[i].as_floating()))
-      out.push_back(a[i].as_floating());
-    else
-      s.failAt(a[i], label + "[" + std::to_string(i) + "]",
-               "must be a finite number, got " + literalOf(a[i]));
-  }
-  return out;
+  return finiteNumberEntries(s, v, label);
 }
 
 double positive(const TomlSection& s, const std::string& key) {

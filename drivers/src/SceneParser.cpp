@@ -59,17 +59,7 @@ std::vector<double> numbers(const TomlSection& s, const std::string& key, int co
   if (static_cast<int>(a.size()) != count)
     s.fail(key, "= " + literalOf(v) + " must have " + std::to_string(count) + " entries, got " +
                     std::to_string(a.size()));
-  std::vector<double> out;
-  for (std::size_t i = 0; i < a.size(); ++i) {
-    if (a[i].is_integer())
-      out.push_back(static_cast<double>(a[i].as_integer()));
-    else if (a[i].is_floating() && std::isfinite(a[i].as_floating()))
-      out.push_back(a[i].as_floating());
-    else
-      s.failAt(a[i], key + "[" + std::to_string(i) + "]",
-               "must be a finite number, got " + literalOf(a[i]));
-  }
-  return out;
+  return finiteNumberEntries(s, v, key);
 }
 
 std::optional<mesh::CellType> cellTypeByName(const std::string& name) {

@@ -200,4 +200,19 @@ BoundaryRef TomlSection::boundary(const std::string& key) const {
   return ref;
 }
 
+std::vector<double> finiteNumberEntries(const TomlSection& s, const toml::value& v, const std::string& label) {
+  const auto& a = v.as_array();
+  std::vector<double> out;
+  out.reserve(a.size());
+  for (std::size_t i = 0; i < a.size(); ++i) {
+    if (a[i].is_integer())
+      out.push_back(static_cast<double>(a[i].as_integer()));
+    else if (a[i].is_floating() && std::isfinite(a[i].as_floating()))
+      out.push_back(a[i].as_floating());
+    else
+      s.failAt(a[i], label + "[" + std::to_string(i) + "]", "must be a finite number, got " + literalOf(a[i]));
+  }
+  return out;
+}
+
 }  // namespace obs::drivers

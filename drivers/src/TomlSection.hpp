@@ -22,6 +22,11 @@ std::string literalOf(const toml::value& v);
 /// "a string", "an integer", ... for messages.
 std::string typeNameOf(const toml::value& v);
 
+class TomlSection;
+/// The entries of a TOML array as finite numbers (integers converted); any other entry is an error
+/// of section s naming "label[i]". The caller checks that v is an array of the right length.
+std::vector<double> finiteNumberEntries(const TomlSection& s, const toml::value& v, const std::string& label);
+
 class TomlSection {
 public:
   /// `title` is how the section is written in messages, "[material]" or "[[dirichlet]]".
