@@ -19,6 +19,9 @@
 #include "obs/estimators/PluginPaths.hpp"
 #include "obs/mesh/Error.hpp"
 
+#include "DriverTestSupport.hpp"
+
+using obs::test::slurp;
 namespace fs = std::filesystem;
 
 namespace {
@@ -30,13 +33,6 @@ struct Output {
   int code = -1;
   std::string out, err;
 };
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
 
 Output runObs(const std::string& args, const std::string& tag) {
   fs::create_directories(kTmp);

@@ -10,6 +10,9 @@
 #include <sstream>
 #include <string>
 
+#include "DriverTestSupport.hpp"
+
+using obs::test::slurp;
 namespace fs = std::filesystem;
 
 namespace {
@@ -21,15 +24,8 @@ struct Output {
   std::string out, err;
 };
 
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
 /// Runs `obs <args>` in kTmp, capturing stdout and stderr.
-Output obs(const std::string& args, const std::string& tag) {
+Output runObs(const std::string& args, const std::string& tag) {
   fs::create_directories(kTmp);
   const fs::path out = kTmp / (tag + ".out"), err = kTmp / (tag + ".err");
   const std::string cmd = "cd '" + kTmp.string() + "' && '" + std::string(OBS_BINARY) + "' " +
@@ -56,19 +52,19 @@ protected:
 }  // namespace
 
 TEST_F(Cli, HelpListsCommandsAndExample) {
-  const Output o = obs("--help", "help");
+  const Output o = runObs("--help", "help");
   EXPECT_EQ(o.code, 0);
   for (const char* part :
        {"run", "check", "Examples:", "obs run data/scenes/cantilever.toml", "docs/scenes.md"})
     EXPECT_NE(o.out.find(part), std::string::npos) << part << "\n" << o.out;
-  const Output r = obs("run --help", "run_help");
+  const Output r = runObs("run --help", "run_help");
   EXPECT_EQ(r.code, 0);
   for (const char* part : {"--output", "--refine", "--quiet", "docs/scenes.md"})
     EXPECT_NE(r.out.find(part), std::string::npos) << part << "\n" << r.out;
 }
 
 TEST_F(Cli, Version) {
-  const Output o = obs("--version", "version");
+  const Output o = runObs("--version", "version");
   EXPECT_EQ(o.code, 0);
   EXPECT_EQ(o.out.rfind("obs 0.", 0), 0u) << o.out;
 }
@@ -80,7 +76,7 @@ TEST_F(Cli, UsageErrorsExitWith2) {
            {"run", "missing_scene"},
            {"run x.toml --refine -1", "negative_refine"},
            {"run x.toml --bogus", "bogus"}}) {
-    const Output o = obs(args, "usage_" + tag);
+    const Output o = runObs(args, "usage_" + tag);
     EXPECT_EQ(o.code, 2) << args;
     EXPECT_EQ(o.err.rfind("obs: error: ", 0), 0u) << args << ": " << o.err;
     EXPECT_EQ(countLines(o.err), 1) << args << ": " << o.err;
@@ -92,25 +88,25 @@ TEST_F(Cli, InvalidSceneIsOneErrorLineAndExit1) {
   std::ofstream(kTmp / "bad_nu.toml")
       << "[mesh]\ngenerator = \"box\"\ntype = \"triangle\"\ncells = [2, 2]\n"
          "[material]\nE = 1\nnu = 0.7\n";
-  const Output o = obs("run bad_nu.toml", "bad_nu");
+  const Output o = runObs("run bad_nu.toml", "bad_nu");
   EXPECT_EQ(o.code, 1);
   EXPECT_EQ(o.err, "obs: error: bad_nu.toml:7: [material] nu = 0.7 must lie in [0, 0.5)\n");
   EXPECT_TRUE(o.out.empty()) << o.out;
 
   std::ofstream(kTmp / "bad_syntax.toml") << "[mesh\n";
-  const Output s = obs("run bad_syntax.toml", "bad_syntax");
+  const Output s = runObs("run bad_syntax.toml", "bad_syntax");
   EXPECT_EQ(s.code, 1);
   EXPECT_EQ(countLines(s.err), 1) << s.err;
   EXPECT_NE(s.err.find("bad_syntax.toml:1:"), std::string::npos) << s.err;
 
-  const Output m = obs("run missing.toml", "missing");
+  const Output m = runObs("run missing.toml", "missing");
   EXPECT_EQ(m.code, 1);
   EXPECT_EQ(m.err, "obs: error: missing.toml: cannot open the scene file\n");
 }
 
 TEST_F(Cli, RunPrintsProgressAndQuietDoesNot) {
   const std::string scene = (fs::path(OBS_DATA_DIR) / "scenes" / "cantilever.toml").string();
-  const Output o = obs("run '" + scene + "' --output out_cli", "run");
+  const Output o = runObs("run '" + scene + "' --output out_cli", "run");
   EXPECT_EQ(o.code, 0) << o.err;
   EXPECT_TRUE(o.err.empty()) << o.err;
   for (const char* part :
@@ -119,7 +115,7 @@ TEST_F(Cli, RunPrintsProgressAndQuietDoesNot) {
   EXPECT_TRUE(fs::exists(kTmp / "out_cli" / "summary.json"));
 
   const Output q =
-      obs("run '" + scene + "' --output out_cli_quiet --quiet --refine 1", "run_quiet");
+      runObs("run '" + scene + "' --output out_cli_quiet --quiet --refine 1", "run_quiet");
   EXPECT_EQ(q.code, 0) << q.err;
   EXPECT_TRUE(q.out.empty()) << q.out;
   EXPECT_TRUE(q.err.empty()) << q.err;
@@ -129,13 +125,13 @@ TEST_F(Cli, RunPrintsProgressAndQuietDoesNot) {
 
 TEST_F(Cli, CheckValidatesSeveralScenes) {
   const fs::path scenes = fs::path(OBS_DATA_DIR) / "scenes";
-  const Output o = obs("check '" + (scenes / "cantilever.toml").string() + "' '" +
+  const Output o = runObs("check '" + (scenes / "cantilever.toml").string() + "' '" +
                            (scenes / "block_compression.toml").string() + "'",
                        "check");
   EXPECT_EQ(o.code, 0) << o.err;
   EXPECT_EQ(countLines(o.out), 2) << o.out;
   const Output bad =
-      obs("check '" + (scenes / "cantilever.toml").string() + "' missing.toml", "check_bad");
+      runObs("check '" + (scenes / "cantilever.toml").string() + "' missing.toml", "check_bad");
   EXPECT_EQ(bad.code, 1);
   EXPECT_EQ(countLines(bad.out), 1) << bad.out;
   EXPECT_EQ(bad.err, "obs: error: missing.toml: cannot open the scene file\n");

@@ -33,6 +33,10 @@
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
 
+#include "DriverTestSupport.hpp"
+
+using obs::test::slurp;
+using obs::test::summaryOf;
 namespace fs = std::filesystem;
 using namespace obs::drivers;
 
@@ -46,18 +50,6 @@ fs::path writeScene(const std::string& name, const std::string& text) {
   const fs::path p = kTmp / (name + ".toml");
   std::ofstream(p) << text;
   return p;
-}
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-nlohmann::json summaryOf(const fs::path& dir) {
-  std::ifstream in(dir / "summary.json");
-  return nlohmann::json::parse(in);
 }
 
 struct Vtu {

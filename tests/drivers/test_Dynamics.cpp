@@ -28,6 +28,10 @@
 #include "obs/drivers/SceneSetup.hpp"
 #include "obs/mesh/Error.hpp"
 
+#include "DriverTestSupport.hpp"
+
+using obs::test::slurp;
+using obs::test::summaryOf;
 namespace fs = std::filesystem;
 using namespace obs::drivers;
 
@@ -35,18 +39,6 @@ namespace {
 
 const fs::path kTmp = fs::path(OBS_TEST_TMP_DIR) / "dynamics";
 const fs::path kScenes = fs::path(OBS_DATA_DIR) / "scenes";
-
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p);
-  std::ostringstream s;
-  s << in.rdbuf();
-  return s.str();
-}
-
-nlohmann::json summaryOf(const fs::path& dir) {
-  std::ifstream in(dir / "summary.json");
-  return nlohmann::json::parse(in);
-}
 
 /// A CSV file as columns by header name (empty fields: NaN).
 struct Table {
