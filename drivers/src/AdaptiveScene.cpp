@@ -22,6 +22,7 @@
 #include "obs/estimators/AdaptiveLoop.hpp"
 #include "obs/estimators/Marking.hpp"
 #include "obs/mesh/Error.hpp"
+#include "PlotScript.hpp"
 #include "obs/obs/LinearElasticity.hpp"
 
 namespace obs::drivers {
@@ -232,12 +233,6 @@ fs::path plotScript() {
 #else
   return "scripts/plot_adaptivity.py";
 #endif
-}
-
-std::string quoted(const std::string& s) {
-  std::string q = "'";
-  for (char c : s) q += c == '\'' ? std::string("'\\''") : std::string(1, c);
-  return q + "'";
 }
 
 template <int d>
@@ -494,23 +489,13 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
   r.contact = fin.contact;
 
   if (scene.output.plots || options.plots) {
+    std::vector<std::string> args = {"--output", dir.string(), "--label", scene.name};
+    if (scene.contact) args.insert(args.end(), {"--pressure", (dir / "pressure.csv").string()});
+    args.push_back(stepsCsv.string());
     const fs::path script = plotScript();
-    const std::string args = " " + quoted(script.string()) + " --output " + quoted(dir.string()) + " --label " +
-                             quoted(scene.name) +
-                             (scene.contact ? " --pressure " + quoted((dir / "pressure.csv").string()) : "") + " " +
-                             quoted(stepsCsv.string()) + " >/dev/null 2>" + quoted((dir / "plots.log").string());
-    // $OBS_PYTHON, else python3 on the PATH, else the system's (which may have matplotlib when a
-    // PATH python, e.g. of pyenv, does not)
-    std::vector<std::string> pythons;
-    if (const char* env = std::getenv("OBS_PYTHON"); env && *env) pythons.emplace_back(env);
-    pythons.emplace_back("python3");
-    if (fs::exists("/usr/bin/python3")) pythons.emplace_back("/usr/bin/python3");
-    int status = -1;
-    for (const std::string& python : pythons) {
-      status = std::system((quoted(python) + args).c_str());
-      if (status == 0) break;
-    }
-    if (status != 0) {
+    const PlotScriptRun plot = runPlotScript(script, args);
+    std::ofstream(dir / "plots.log") << plot.command << "\n" << plot.output << "\n";
+    if (!plot.ok) {
       if (options.stepProgress)
         options.stepProgress("warning: no plots (python3 with matplotlib needed to run " + script.string() +
                              "; see " + (dir / "plots.log").string() + ")");

@@ -26,6 +26,7 @@
 #include "obs/obs/ElasticityAssembly.hpp"
 #include "obs/obs/LinearElasticity.hpp"
 #include "obs/obs/Newmark.hpp"
+#include "PlotScript.hpp"
 
 #ifndef OBS_DYNAMICS_PLOT_SCRIPT
 #define OBS_DYNAMICS_PLOT_SCRIPT "scripts/plot_dynamics.py"
@@ -372,25 +373,9 @@ void runPlots(const fs::path& dir, const RunOptions& options) {
     warn("plots skipped: " + script.string() + " not found (set OBS_PLOT_DYNAMICS_SCRIPT)");
     return;
   }
-  // python3 first; a python3 without matplotlib (exit code 3) falls back to the system one
-  std::vector<std::string> pythons = {"python3", "/usr/bin/python3"};
-  if (const char* env = std::getenv("OBS_PYTHON")) pythons = {env};
-  std::string output, cmd;
-  int status = -1;
-  for (const std::string& python : pythons) {
-    cmd = python + " '" + script.string() + "' '" + dir.string() + "'";
-    FILE* pipe = popen((cmd + " 2>&1").c_str(), "r");
-    if (!pipe) continue;
-    output.clear();
-    char buffer[512];
-    while (fgets(buffer, sizeof buffer, pipe)) output += buffer;
-    status = pclose(pipe);
-    if (status == 0 || !(WIFEXITED(status) && WEXITSTATUS(status) == 3)) break;
-  }
-  if (status != 0) {
-    while (!output.empty() && (output.back() == '\n' || output.back() == '\r')) output.pop_back();
-    warn("plots skipped (" + cmd + " failed" + (output.empty() ? std::string(")") : "): " + output));
-  }
+  const PlotScriptRun plot = runPlotScript(script, {dir.string()});
+  if (!plot.ok)
+    warn("plots skipped (" + plot.command + " failed" + (plot.output.empty() ? std::string(")") : "): " + plot.output));
 }
 
 }  // namespace
