@@ -24,6 +24,7 @@
 #include "obs/mesh/Error.hpp"
 #include "PlotScript.hpp"
 #include "obs/obs/LinearElasticity.hpp"
+#include "RunSupport.hpp"
 
 namespace obs::drivers {
 
@@ -31,11 +32,6 @@ namespace {
 
 namespace fs = std::filesystem;
 namespace est = obs::estimators;
-using Clock = std::chrono::steady_clock;
-
-double secondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
 
 /// A number for CSV/JSON text: empty for NaN.
 std::string num(double x) {
@@ -345,12 +341,6 @@ std::string stepLine(const est::AdaptiveStep& s, int steps) {
   return os.str();
 }
 
-double peakMemoryMB() {
-  rusage usage{};
-  if (getrusage(RUSAGE_SELF, &usage) != 0) return 0.0;
-  return static_cast<double>(usage.ru_maxrss) / 1024.0;
-}
-
 }  // namespace
 
 std::string stepsCsvHeader(const std::vector<std::string>& contributions) {
@@ -505,14 +495,7 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
     }
   }
 
-  r.peakMemoryMB = peakMemoryMB();
-  if (!scene.output.csv.empty()) {
-    const auto path = scene.output.csv.is_absolute() ? scene.output.csv : dir / scene.output.csv;
-    r.outputSeconds = secondsSince(t);
-    r.totalSeconds = secondsSince(start);
-    appendCsvRow(path, r);
-    r.outputFiles.push_back(path);
-  }
+  recordRunRow(scene, dir, r, t, start);
   const fs::path summary = dir / "summary.json";
   r.outputFiles.push_back(summary);
   r.outputSeconds = secondsSince(t);

@@ -27,6 +27,7 @@
 #include "obs/obs/LinearElasticity.hpp"
 #include "obs/obs/Newmark.hpp"
 #include "PlotScript.hpp"
+#include "RunSupport.hpp"
 
 #ifndef OBS_DYNAMICS_PLOT_SCRIPT
 #define OBS_DYNAMICS_PLOT_SCRIPT "scripts/plot_dynamics.py"
@@ -37,15 +38,6 @@ namespace obs::drivers {
 namespace {
 
 namespace fs = std::filesystem;
-using Clock = std::chrono::steady_clock;
-
-double secondsSince(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
-
-double peakMemoryMB() {
-  rusage usage{};
-  if (getrusage(RUSAGE_SELF, &usage) != 0) return 0.0;
-  return static_cast<double>(usage.ru_maxrss) / 1024.0;
-}
 
 std::string fmt(double x, int precision = 6) {
   std::ostringstream os;
@@ -537,14 +529,7 @@ RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh
     writePvd(pvd, primary.vtuFiles, primary.vtuTimes);
     r.outputFiles.push_back(pvd);
   }
-  r.peakMemoryMB = peakMemoryMB();
-  if (!scene.output.csv.empty()) {
-    const auto path = scene.output.csv.is_absolute() ? scene.output.csv : c.dir / scene.output.csv;
-    r.outputSeconds = secondsSince(t);
-    r.totalSeconds = secondsSince(start);
-    appendCsvRow(path, r);
-    r.outputFiles.push_back(path);
-  }
+  recordRunRow(scene, c.dir, r, t, start);
   if (scene.output.plots || options.plots) {
     runPlots(c.dir, options);
     for (const char* png : {"dyn_energy.png", "dyn_contact_force.png", "dyn_active.png", "dyn_velocity.png"})

@@ -18,22 +18,12 @@
 #include "obs/drivers/VtkWriter.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/LinearElasticity.hpp"
+#include "RunSupport.hpp"
 
 namespace obs::drivers {
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-
-double secondsSince(Clock::time_point start) {
-  return std::chrono::duration<double>(Clock::now() - start).count();
-}
-
-double peakMemoryMB() {
-  rusage usage{};
-  if (getrusage(RUSAGE_SELF, &usage) != 0) return 0.0;
-  return static_cast<double>(usage.ru_maxrss) / 1024.0;  // Linux: kilobytes
-}
 
 std::string seconds(double s) {
   std::ostringstream os;
@@ -132,14 +122,7 @@ RunResult runScene(const Scene& scene, const RunOptions& options) {
     writeVtu(path, mesh, pf, cf);
     r.outputFiles.push_back(path);
   }
-  r.peakMemoryMB = peakMemoryMB();
-  if (!scene.output.csv.empty()) {
-    const auto path = scene.output.csv.is_absolute() ? scene.output.csv : dir / scene.output.csv;
-    r.outputSeconds = secondsSince(t);
-    r.totalSeconds = secondsSince(start);
-    appendCsvRow(path, r);
-    r.outputFiles.push_back(path);
-  }
+  recordRunRow(scene, dir, r, t, start);
   const auto summary = dir / "summary.json";
   r.outputFiles.push_back(summary);
   r.outputSeconds = secondsSince(t);
