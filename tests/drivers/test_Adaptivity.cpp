@@ -29,23 +29,10 @@ namespace {
 const fs::path kTmp = fs::path(OBS_TEST_TMP_DIR) / "adaptivity";
 const fs::path kScenes = fs::path(OBS_DATA_DIR) / "scenes";
 
-struct Output {
-  int code = -1;
-  std::string out, err;
-};
+using Output = obs::test::ObsOutput;
 
-Output runObs(const std::string& args, const std::string& tag) {
-  fs::create_directories(kTmp);
-  const fs::path out = kTmp / (tag + ".out"), err = kTmp / (tag + ".err");
-  const std::string cmd = "cd '" + kTmp.string() + "' && '" + std::string(OBS_BINARY) + "' " + args + " >'" +
-                          out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(cmd.c_str());
-  Output o;
-  o.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  o.out = slurp(out);
-  o.err = slurp(err);
-  return o;
-}
+/// Runs `obs <args>` in kTmp, capturing stdout and stderr.
+Output runObs(const std::string& args, const std::string& tag) { return obs::test::runObs(kTmp, args, tag); }
 
 using Table = std::vector<std::vector<std::string>>;
 

@@ -19,24 +19,10 @@ namespace {
 
 const fs::path kTmp = fs::path(OBS_TEST_TMP_DIR) / "cli";
 
-struct Output {
-  int code = -1;
-  std::string out, err;
-};
+using Output = obs::test::ObsOutput;
 
 /// Runs `obs <args>` in kTmp, capturing stdout and stderr.
-Output runObs(const std::string& args, const std::string& tag) {
-  fs::create_directories(kTmp);
-  const fs::path out = kTmp / (tag + ".out"), err = kTmp / (tag + ".err");
-  const std::string cmd = "cd '" + kTmp.string() + "' && '" + std::string(OBS_BINARY) + "' " +
-                          args + " >'" + out.string() + "' 2>'" + err.string() + "'";
-  const int status = std::system(cmd.c_str());
-  Output o;
-  o.code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  o.out = slurp(out);
-  o.err = slurp(err);
-  return o;
-}
+Output runObs(const std::string& args, const std::string& tag) { return obs::test::runObs(kTmp, args, tag); }
 
 int countLines(const std::string& s) {
   return static_cast<int>(std::count(s.begin(), s.end(), '\n'));

@@ -16,6 +16,8 @@
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/Obstacle.hpp"
 
+#include "EstimatorTestSupport.hpp"
+
 using namespace obs;
 using namespace obs::estimators;
 using mesh::CellType;
@@ -26,16 +28,9 @@ constexpr double kPi = std::numbers::pi;
 const Material kMaterial{3e5, 0.25};
 bool verbose() { return std::getenv("OBS_TEST_VERBOSE") != nullptr; }
 
-/// Composite 5-point Gauss-Legendre on [a, b] with n panels.
+/// Composite Gauss-Legendre quadrature, by default with 200 panels.
 double integrate(const std::function<double(double)>& f, double a, double b, int n = 200) {
-  static const double x[5] = {-0.9061798459386640, -0.5384693101056831, 0.0, 0.5384693101056831,
-                              0.9061798459386640};
-  static const double w[5] = {0.2369268850561891, 0.4786286704993665, 0.5688888888888889,
-                              0.4786286704993665, 0.2369268850561891};
-  double s = 0, h = (b - a) / n;
-  for (int i = 0; i < n; ++i)
-    for (int k = 0; k < 5; ++k) s += 0.5 * h * w[k] * f(a + h * (i + 0.5 + 0.5 * x[k]));
-  return s;
+  return obs::test::integrate(f, a, b, n);
 }
 
 std::string errorOf(const std::function<void()>& f) {

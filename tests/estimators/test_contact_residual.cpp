@@ -20,6 +20,8 @@
 #include "obs/obs/Obstacle.hpp"
 #include "obs/obs/PrimalDualActiveSet.hpp"
 
+#include "EstimatorTestSupport.hpp"
+
 using namespace obs;
 using namespace obs::estimators;
 using mesh::CellType;
@@ -45,16 +47,9 @@ void expectSumIdentity(const EstimatorResult& r) {
   EXPECT_NEAR(byContribution, eta2, 1e-12 * eta2);
 }
 
-/// Composite 5-point Gauss-Legendre on [a, b] with n panels (independent of mesh::quadratureRule).
+/// Composite Gauss-Legendre quadrature, by default with 64 panels.
 double integrate(const std::function<double(double)>& f, double a, double b, int n = 64) {
-  static const double x[5] = {-0.9061798459386640, -0.5384693101056831, 0.0, 0.5384693101056831,
-                              0.9061798459386640};
-  static const double w[5] = {0.2369268850561891, 0.4786286704993665, 0.5688888888888889,
-                              0.4786286704993665, 0.2369268850561891};
-  double s = 0, h = (b - a) / n;
-  for (int i = 0; i < n; ++i)
-    for (int k = 0; k < 5; ++k) s += 0.5 * h * w[k] * f(a + h * (i + 0.5 + 0.5 * x[k]));
-  return s;
+  return obs::test::integrate(f, a, b, n);
 }
 double integrate2(const std::function<double(double, double)>& f, double a0, double b0, double a1,
                   double b1, int n = 24) {
