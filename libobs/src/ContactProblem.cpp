@@ -71,6 +71,156 @@ ContactProblem<d>::ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorX
 }
 
 template <int d>
+ContactProblem<d>::ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorXd load, DirichletValues dirichlet,
+                                  const ContactSet& contact, mesh::CsrMatrix basis)
+    : basis_(std::move(basis)), A_(std::move(stiffness)), b_(std::move(load)), dirichlet_(std::move(dirichlet)),
+      contact_(contact) {
+  setup();
+}
+
+namespace {
+
+/// y = (I + C') x for a scalar C acting on every component (d components per vertex).
+template <int d>
+Eigen::VectorXd applyTransposedBasis(const mesh::CsrMatrix& C, const Eigen::VectorXd& x) {
+  Eigen::VectorXd y = x;
+  for (Index p = 0; p < C.rows; ++p)
+    for (Index k = C.rowStart[p]; k < C.rowStart[p + 1]; ++k)
+      y.template segment<d>(static_cast<Eigen::Index>(C.columns[k]) * d) +=
+          C.values[k] * x.template segment<d>(static_cast<Eigen::Index>(p) * d);
+  return y;
+}
+
+/// Sparse block rows accumulated with a marker (columns sorted on output).
+template <int d>
+struct RowAccumulator {
+  using Block = Eigen::Matrix<double, d, d>;
+  std::vector<Index> position, cols;
+  std::vector<Block> blocks;
+  explicit RowAccumulator(Index n) : position(n, -1) {}
+  void add(Index j, const Block& B) {
+    if (position[j] < 0) {
+      position[j] = static_cast<Index>(cols.size());
+      cols.push_back(j);
+      blocks.push_back(B);
+    } else {
+      blocks[position[j]] += B;
+    }
+  }
+  /// Appends the row to (rowStart, columns, values) and clears.
+  void flush(std::vector<Index>& rowStart, std::vector<Index>& columns, std::vector<Block>& values) {
+    std::vector<Index> order(cols.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<Index>(i);
+    std::sort(order.begin(), order.end(), [&](Index a, Index b) { return cols[a] < cols[b]; });
+    for (Index i : order) {
+      columns.push_back(cols[i]);
+      values.push_back(blocks[i]);
+    }
+    rowStart.push_back(static_cast<Index>(columns.size()));
+    for (Index j : cols) position[j] = -1;
+    cols.clear();
+    blocks.clear();
+  }
+};
+
+/// T'AT with T = I + C (C scalar, acting on every component).
+template <int d>
+BlockSparseMatrix<d> transformOperator(const BlockSparseMatrix<d>& A, const mesh::CsrMatrix& C) {
+  using Block = Eigen::Matrix<double, d, d>;
+  const Index n = A.rows();
+  // B = A T, row by row: B_r = A_r + sum_s A_rs C_s
+  std::vector<Index> bStart{0}, bCols;
+  std::vector<Block> bVals;
+  RowAccumulator<d> acc(n);
+  for (Index r = 0; r < n; ++r) {
+    for (Index k = A.rowBegin(r); k < A.rowEnd(r); ++k) {
+      const Index s = A.column(k);
+      acc.add(s, A.blockAt(k));
+      for (Index m = C.rowStart[s]; m < C.rowStart[s + 1]; ++m) acc.add(C.columns[m], C.values[m] * A.blockAt(k));
+    }
+    acc.flush(bStart, bCols, bVals);
+  }
+  // C' as lists: for each column p of C, the rows r with C_rp != 0
+  std::vector<Index> tStart(n + 1, 0), tRows;
+  std::vector<double> tVals;
+  for (Index c : C.columns) ++tStart[c + 1];
+  for (Index i = 0; i < n; ++i) tStart[i + 1] += tStart[i];
+  tRows.resize(C.columns.size());
+  tVals.resize(C.columns.size());
+  {
+    std::vector<Index> next(tStart.begin(), tStart.end() - 1);
+    for (Index r = 0; r < n; ++r)
+      for (Index m = C.rowStart[r]; m < C.rowStart[r + 1]; ++m) {
+        tRows[next[C.columns[m]]] = r;
+        tVals[next[C.columns[m]]++] = C.values[m];
+      }
+  }
+  // T'B, row by row: row p = B_p + sum_r C_rp B_r
+  std::vector<Index> rowStart{0}, cols;
+  std::vector<Block> vals;
+  for (Index p = 0; p < n; ++p) {
+    for (Index k = bStart[p]; k < bStart[p + 1]; ++k) acc.add(bCols[k], bVals[k]);
+    for (Index m = tStart[p]; m < tStart[p + 1]; ++m) {
+      const Index r = tRows[m];
+      for (Index k = bStart[r]; k < bStart[r + 1]; ++k) acc.add(bCols[k], tVals[m] * bVals[k]);
+    }
+    acc.flush(rowStart, cols, vals);
+  }
+  BlockSparseMatrix<d> out(std::move(rowStart), std::move(cols));
+  for (Index k = 0; k < out.nonZeroBlocks(); ++k) out.blockAt(k) = vals[k];
+  return out;
+}
+
+}  // namespace
+
+template <int d>
+void ContactProblem<d>::transform() {
+  const Index n = A_.rows();
+  const mesh::CsrMatrix& C = basis_;
+  if (C.rows != n || C.cols != n || C.rowStart.size() != static_cast<std::size_t>(n) + 1)
+    throw Error("contact problem: basis transformation of size " + std::to_string(C.rows) + " x " +
+                std::to_string(C.cols) + " for " + std::to_string(n) + " vertices");
+  for (Index p = 0; p < n; ++p) {
+    if (C.rowStart[p + 1] == C.rowStart[p]) continue;
+    for (int a = 0; a < d; ++a)
+      if (dirichlet_.constrained[static_cast<std::size_t>(p) * d + a])
+        throw Error("contact problem: vertex " + std::to_string(p) +
+                    " is a mortar slave node with a Dirichlet condition (prescribe Dirichlet data on the master "
+                    "side or away from the contact interface)");
+    for (Index k = C.rowStart[p]; k < C.rowStart[p + 1]; ++k) {
+      const Index q = C.columns[k];
+      if (q < 0 || q >= n || C.rowStart[q + 1] != C.rowStart[q] || !std::isfinite(C.values[k]))
+        throw Error("contact problem: invalid basis transformation (C^2 != 0, an index out of range or a "
+                    "non-finite entry in row " + std::to_string(p) + ")");
+    }
+  }
+  A_ = transformOperator(A_, C);
+  b_ = applyTransposedBasis<d>(C, b_);
+}
+
+template <int d>
+Eigen::VectorXd ContactProblem<d>::toDisplacement(const Eigen::VectorXd& x) const {
+  Eigen::VectorXd u = x;
+  const mesh::CsrMatrix& C = basis_;
+  for (Index p = 0; p < C.rows; ++p)
+    for (Index k = C.rowStart[p]; k < C.rowStart[p + 1]; ++k)
+      u.template segment<d>(static_cast<Eigen::Index>(p) * d) +=
+          C.values[k] * x.template segment<d>(static_cast<Eigen::Index>(C.columns[k]) * d);
+  return u;
+}
+
+template <int d>
+Eigen::VectorXd ContactProblem<d>::fromDisplacement(const Eigen::VectorXd& u) const {
+  Eigen::VectorXd x = u;
+  const mesh::CsrMatrix& C = basis_;
+  for (Index p = 0; p < C.rows; ++p)
+    for (Index k = C.rowStart[p]; k < C.rowStart[p + 1]; ++k)
+      x.template segment<d>(static_cast<Eigen::Index>(p) * d) -=
+          C.values[k] * u.template segment<d>(static_cast<Eigen::Index>(C.columns[k]) * d);
+  return x;
+}
+
+template <int d>
 void ContactProblem<d>::setup() {
   const Index n = A_.rows();
   if (b_.size() != static_cast<Eigen::Index>(n) * d ||
@@ -82,6 +232,7 @@ void ContactProblem<d>::setup() {
                 " was built for another mesh (dimension " + std::to_string(contact_.dimension()) + ", " +
                 std::to_string(contact_.numMeshVertices()) + " vertices; the problem has dimension " +
                 std::to_string(d) + ", " + std::to_string(n) + " vertices)");
+  if (transformed()) transform();
   {
     static std::atomic<std::uint64_t> counter{0};
     operatorId_ = ++counter;
@@ -209,7 +360,7 @@ void ContactProblem<d>::setLoad(const Eigen::VectorXd& load) {
   if (load.size() != b_.size())
     throw Error("contact problem: setLoad with " + std::to_string(load.size()) + " entries, the problem has " +
                 std::to_string(b_.size()) + " unknowns");
-  b_ = load - dirichletLift_;
+  b_ = (transformed() ? applyTransposedBasis<d>(basis_, load) : load) - dirichletLift_;
   for (std::size_t i = 0; i < dirichlet_.constrained.size(); ++i)
     if (dirichlet_.constrained[i]) b_[static_cast<Eigen::Index>(i)] = dirichlet_.values[static_cast<Eigen::Index>(i)];
 }

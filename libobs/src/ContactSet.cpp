@@ -53,6 +53,36 @@ ContactSet::ContactSet(const mesh::Mesh& mesh, int boundaryId, const Obstacle& o
 ContactSet::ContactSet(const mesh::Mesh& mesh, const std::string& boundaryName, const Obstacle& obstacle)
     : ContactSet(mesh, idOf(mesh, boundaryName), obstacle) {}
 
+ContactSet::ContactSet(Data data)
+    : dim_(data.dimension), boundaryId_(-1), label_(std::move(data.label)), obstacleName_(std::move(data.obstacleName)) {
+  const std::size_t n = data.vertices.size();
+  if ((dim_ != 2 && dim_ != 3) || data.positions.size() != n || data.directions.size() != n || data.gaps.size() != n ||
+      data.masses.size() != n)
+    throw Error("contact set " + label_ + ": inconsistent data (dimension or sizes)");
+  nodeOf_.assign(data.numMeshVertices, -1);
+  for (std::size_t k = 0; k < n; ++k) {
+    const Index v = data.vertices[k];
+    if (v < 0 || v >= data.numMeshVertices || (k > 0 && v <= data.vertices[k - 1]))
+      throw Error("contact set " + label_ + ": vertices out of range or not increasing");
+    nodeOf_[v] = static_cast<Index>(k);
+    const Point& nu = data.directions[k];
+    if (!nu.allFinite() || std::abs(nu.norm() - 1) > 1e-12 || std::isnan(data.gaps[k]) || !(data.masses[k] > 0))
+      throw Error("contact set " + label_ + ", vertex " + std::to_string(v) +
+                  ": non-unit direction, NaN gap or non-positive boundary mass");
+  }
+  for (const Face& f : data.faces)
+    for (Index k : f.nodes)
+      if (k < 0 || k >= static_cast<Index>(n)) throw Error("contact set " + label_ + ": face node out of range");
+  vertices_ = std::move(data.vertices);
+  positions_ = std::move(data.positions);
+  directions_ = std::move(data.directions);
+  gaps_ = std::move(data.gaps);
+  masses_ = std::move(data.masses);
+  faces_ = std::move(data.faces);
+  rotations_.resize(n);
+  for (std::size_t k = 0; k < n; ++k) rotations_[k] = householderRotation(directions_[k]);
+}
+
 double ContactSet::measure() const {
   double s = 0;
   for (const Face& f : faces_) s += f.measure;

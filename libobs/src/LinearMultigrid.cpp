@@ -11,7 +11,11 @@ namespace obs {
 
 template <int d>
 LinearMultigrid<d>::LinearMultigrid(const mesh::Grid& grid, const Options& options)
-    : options_(options), hierarchy_(grid) {
+    : LinearMultigrid(std::vector<const mesh::Grid*>{&grid}, options) {}
+
+template <int d>
+LinearMultigrid<d>::LinearMultigrid(const std::vector<const mesh::Grid*>& grids, const Options& options)
+    : options_(options), hierarchy_(grids) {
   if (options.preSmoothing < 0 || options.postSmoothing < 0 || options.cycles < 1 || options.cycleIndex < 1 || options.maxIterations < 0 ||
       !(options.tolerance >= 0))
     throw Error("linear multigrid: invalid options (smoothing steps >= 0, cycles >= 1, maxIterations >= 0, "

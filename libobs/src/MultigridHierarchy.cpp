@@ -166,21 +166,142 @@ std::vector<VertexRotation<d>> problemRotations(const ContactProblem<d>& problem
   return out;
 }
 
-template <int d>
-MultigridHierarchy<d>::MultigridHierarchy(const mesh::Grid& grid) {
-  if (grid.dimension() != d)
-    throw Error("multigrid hierarchy: the grid has dimension " + std::to_string(grid.dimension()) +
-                ", the solver " + std::to_string(d));
-  const int L = grid.maxLevel();
-  mesh::GridView coarse = L > 0 ? grid.levelView(0) : grid.leafView();
-  vertices_.push_back(static_cast<Index>(coarse.vertices.size()));
-  for (int l = 0; l < L; ++l) {
-    mesh::GridView fine = l + 1 == L ? grid.leafView() : grid.levelView(l + 1);
-    prolongations_.push_back(mesh::transferMatrix(grid, coarse, fine));
-    transposed_.push_back(transpose(prolongations_.back()));
-    vertices_.push_back(static_cast<Index>(fine.vertices.size()));
-    coarse = std::move(fine);
+namespace {
+
+/// Block-diagonal concatenation of scalar CSR matrices.
+mesh::CsrMatrix blockDiagonal(const std::vector<mesh::CsrMatrix>& parts) {
+  mesh::CsrMatrix out;
+  out.rows = out.cols = 0;
+  out.rowStart = {0};
+  for (const auto& P : parts) {
+    for (Index r = 0; r < P.rows; ++r) {
+      for (Index k = P.rowStart[r]; k < P.rowStart[r + 1]; ++k) {
+        out.columns.push_back(out.cols + P.columns[k]);
+        out.values.push_back(P.values[k]);
+      }
+      out.rowStart.push_back(static_cast<Index>(out.columns.size()));
+    }
+    out.rows += P.rows;
+    out.cols += P.cols;
   }
+  return out;
+}
+
+mesh::CsrMatrix identity(Index n) {
+  mesh::CsrMatrix I;
+  I.rows = I.cols = n;
+  I.rowStart.resize(n + 1);
+  I.columns.resize(n);
+  I.values.assign(n, 1.0);
+  for (Index i = 0; i <= n; ++i) I.rowStart[i] = i;
+  for (Index i = 0; i < n; ++i) I.columns[i] = i;
+  return I;
+}
+
+}  // namespace
+
+template <int d>
+MultigridHierarchy<d>::MultigridHierarchy(const mesh::Grid& grid)
+    : MultigridHierarchy(std::vector<const mesh::Grid*>{&grid}) {}
+
+template <int d>
+MultigridHierarchy<d>::MultigridHierarchy(const std::vector<const mesh::Grid*>& grids) {
+  if (grids.empty()) throw Error("multigrid hierarchy: no grid");
+  int L = 0;
+  for (const mesh::Grid* g : grids) {
+    if (!g) throw Error("multigrid hierarchy: null grid");
+    if (g->dimension() != d)
+      throw Error("multigrid hierarchy: the grid has dimension " + std::to_string(g->dimension()) + ", the solver " +
+                  std::to_string(d));
+    L = std::max(L, g->maxLevel());
+  }
+  // per grid: the view of stacked level l is its level l - (L - L_g), or its coarsest view
+  struct State {
+    const mesh::Grid* grid;
+    int levels;
+    mesh::GridView view;
+  };
+  std::vector<State> state;
+  for (const mesh::Grid* g : grids) {
+    const int Lg = g->maxLevel();
+    state.push_back({g, Lg, Lg > 0 ? g->levelView(0) : g->leafView()});
+  }
+  Index n0 = 0;
+  for (const auto& st : state) n0 += static_cast<Index>(st.view.vertices.size());
+  vertices_.push_back(n0);
+  for (int l = 0; l < L; ++l) {
+    std::vector<mesh::CsrMatrix> parts;
+    Index n = 0;
+    for (auto& st : state) {
+      const int lg = l + 1 - (L - st.levels);  // grid level of stacked level l + 1
+      if (lg <= 0) {
+        parts.push_back(identity(static_cast<Index>(st.view.vertices.size())));
+      } else {
+        mesh::GridView fine = lg == st.levels ? st.grid->leafView() : st.grid->levelView(lg);
+        parts.push_back(mesh::transferMatrix(*st.grid, st.view, fine));
+        st.view = std::move(fine);
+      }
+      n += parts.back().rows;
+    }
+    prolongations_.push_back(parts.size() == 1 ? std::move(parts.front()) : blockDiagonal(parts));
+    transposed_.push_back(transpose(prolongations_.back()));
+    vertices_.push_back(n);
+  }
+}
+
+template <int d>
+void MultigridHierarchy<d>::setFineBasis(const mesh::CsrMatrix& C) {
+  const int L = maxLevel();
+  const Index n = numVertices(L);
+  if (C.rows != 0 && (C.rows != n || C.cols != n))
+    throw Error("multigrid hierarchy: fine basis transformation of size " + std::to_string(C.rows) + " x " +
+                std::to_string(C.cols) + " for " + std::to_string(n) + " fine vertices");
+  if (L == 0) return;  // no prolongation into the fine level
+  if (plainTop_.rows == 0 && (C.rows == 0 || C.columns.empty())) return;  // nothing set, nothing to set
+  if (plainTop_.rows > 0) prolongations_[L - 1] = plainTop_;  // undo an earlier transformation
+  plainTop_ = mesh::CsrMatrix();
+  if (C.rows == 0 || C.columns.empty()) {
+    transposed_[L - 1] = transpose(prolongations_[L - 1]);
+    return;
+  }
+  plainTop_ = prolongations_[L - 1];
+  const mesh::CsrMatrix& P = plainTop_;
+  // (I - C) P, row by row with a sparse accumulator
+  mesh::CsrMatrix Q;
+  Q.rows = P.rows;
+  Q.cols = P.cols;
+  Q.rowStart = {0};
+  std::vector<Index> position(P.cols, -1), cols;
+  std::vector<double> vals;
+  for (Index p = 0; p < P.rows; ++p) {
+    cols.clear();
+    vals.clear();
+    auto add = [&](Index J, double v) {
+      if (position[J] < 0) {
+        position[J] = static_cast<Index>(cols.size());
+        cols.push_back(J);
+        vals.push_back(v);
+      } else {
+        vals[position[J]] += v;
+      }
+    };
+    for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k) add(P.columns[k], P.values[k]);
+    for (Index m = C.rowStart[p]; m < C.rowStart[p + 1]; ++m) {
+      const Index q = C.columns[m];
+      for (Index k = P.rowStart[q]; k < P.rowStart[q + 1]; ++k) add(P.columns[k], -C.values[m] * P.values[k]);
+    }
+    std::vector<Index> order(cols.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<Index>(i);
+    std::sort(order.begin(), order.end(), [&](Index a, Index b) { return cols[a] < cols[b]; });
+    for (Index i : order) {
+      Q.columns.push_back(cols[i]);
+      Q.values.push_back(vals[i]);
+    }
+    Q.rowStart.push_back(static_cast<Index>(Q.columns.size()));
+    for (Index J : cols) position[J] = -1;
+  }
+  prolongations_[L - 1] = std::move(Q);
+  transposed_[L - 1] = transpose(prolongations_[L - 1]);
 }
 
 template <int d>

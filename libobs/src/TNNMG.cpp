@@ -31,9 +31,13 @@ void checkOptions(const Options& o) {
 }  // namespace
 
 template <int d>
-TNNMG<d>::TNNMG(const mesh::Grid& grid, const Options& options) : options_(options) {
+TNNMG<d>::TNNMG(const mesh::Grid& grid, const Options& options)
+    : TNNMG(std::vector<const mesh::Grid*>{&grid}, options) {}
+
+template <int d>
+TNNMG<d>::TNNMG(const std::vector<const mesh::Grid*>& grids, const Options& options) : options_(options) {
   checkOptions(options);
-  auto mg = std::make_unique<LinearMultigrid<d>>(grid, options.multigrid);
+  auto mg = std::make_unique<LinearMultigrid<d>>(grids, options.multigrid);
   fineVertices_ = mg->hierarchy().numVertices(mg->hierarchy().maxLevel());
   correction_ = std::move(mg);
 }
@@ -66,6 +70,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   } else {
     operatorId_ = 0;
     rotated_ = std::make_unique<RotatedProblem<d>>(problem.rotated());
+    correction_->setFineBasis(problem.basisTransformation());
     correction_->setOperator(rotated_->matrix, problemRotations(problem), rotated_->prescribed);
     operatorId_ = problem.operatorId();
     rowSumBound_ = 0;

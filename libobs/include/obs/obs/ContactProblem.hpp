@@ -19,6 +19,16 @@
 ///   A~_pq = Q_p' A_pq Q_q,  b~_p = Q_p' b_p,  bounds w_{p,1} <= g_p (first local component),
 /// a bound-constrained quadratic problem: the form the Gauss-Seidel smoother, the primal-dual active
 /// set method and TNNMG work on.
+///
+/// Basis transformation (two-body contact, see MortarCoupling.hpp). A problem may be given a sparse
+/// scalar matrix C with C^2 = 0 (rows: the constrained slave vertices; columns: master vertices) that
+/// relates its unknowns x to the stacked displacements u of the bodies by
+///   u = (I + C) x,   x = (I - C) u   (C acts on every component alike).
+/// The stiffness and load given to the constructor are those of u; the problem stores
+/// A = T'A_u T and b = T'b_u (T = I + C) and eliminates the Dirichlet values afterwards (they are
+/// values of x as well, since Dirichlet vertices must not be transformed slave vertices). Every
+/// member function, and every solver, works with the problem unknowns x; toDisplacement() and
+/// fromDisplacement() convert. Without a transformation (one body against obstacles) x = u.
 #include <Eigen/Core>
 
 #include <cstdint>
@@ -26,6 +36,7 @@
 #include <vector>
 
 #include "obs/mesh/Mesh.hpp"
+#include "obs/mesh/Prolongation.hpp"
 #include "obs/obs/BlockSparseMatrix.hpp"
 #include "obs/obs/BoundaryConditions.hpp"
 #include "obs/obs/ContactSet.hpp"
@@ -76,6 +87,18 @@ public:
   /// From an assembled stiffness matrix and load (Dirichlet values not yet eliminated).
   ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorXd load, DirichletValues dirichlet,
                  const ContactSet& contact);
+  /// With a basis transformation C (see the file comment; C.rows == 0: none). Throws obs::Error if
+  /// C has the wrong size, C^2 != 0, or a transformed vertex has a Dirichlet component.
+  ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorXd load, DirichletValues dirichlet,
+                 const ContactSet& contact, mesh::CsrMatrix basis);
+
+  /// The basis transformation C (rows() == 0 if there is none).
+  const mesh::CsrMatrix& basisTransformation() const { return basis_; }
+  bool transformed() const { return basis_.rows > 0; }
+  /// u = (I + C) x: the stacked displacements of problem unknowns x.
+  Eigen::VectorXd toDisplacement(const Eigen::VectorXd& x) const;
+  /// x = (I - C) u: the problem unknowns of displacements u (e.g. a warm start).
+  Eigen::VectorXd fromDisplacement(const Eigen::VectorXd& u) const;
 
   Index numVertices() const { return A_.rows(); }
   Index numDofs() const { return A_.rows() * d; }
@@ -106,8 +129,9 @@ public:
   /// constructed problem, kept by copies and by setLoad()/setGaps() (which change neither A nor
   /// the rotations). Solvers may keep operator data (e.g. multigrid hierarchies) for one id.
   std::uint64_t operatorId() const { return operatorId_; }
-  /// Replaces the load b by `load` (before Dirichlet elimination, like the constructor's load; the
-  /// Dirichlet values of construction are eliminated again). Throws obs::Error on a wrong size.
+  /// Replaces the load b by `load` (before Dirichlet elimination and transformation, like the
+  /// constructor's load; the Dirichlet values of construction are eliminated again). Throws
+  /// obs::Error on a wrong size.
   void setLoad(const Eigen::VectorXd& load);
   /// Replaces the gaps g_p of the physical constraints nu_p'u_p <= g_p (ContactSet numbering;
   /// +infinity: no constraint at that node). Directions and rotations stay those of construction,
@@ -124,7 +148,9 @@ public:
 
 private:
   void setup();
+  void transform();
 
+  mesh::CsrMatrix basis_;  ///< C (empty: no transformation)
   BlockSparseMatrix<d> A_;
   Eigen::VectorXd b_;
   DirichletValues dirichlet_;

@@ -38,6 +38,21 @@ public:
   /// The same for a named boundary; throws obs::Error if the mesh has no boundary of that name.
   ContactSet(const mesh::Mesh& mesh, const std::string& boundaryName, const Obstacle& obstacle);
 
+  /// The data of a set built elsewhere (e.g. the slave nodes of a mortar coupling, over the stacked
+  /// vertices of several bodies). Rotations are computed from the directions.
+  struct Data {
+    int dimension = 0;
+    std::string label, obstacleName;
+    Index numMeshVertices = 0;
+    std::vector<Index> vertices;  ///< increasing
+    std::vector<Point> positions, directions;
+    std::vector<double> gaps, masses;
+    std::vector<Face> faces;
+  };
+  /// Throws obs::Error on inconsistent sizes, unsorted or out-of-range vertices, non-unit or
+  /// non-finite directions, NaN gaps or non-positive masses.
+  explicit ContactSet(Data data);
+
   int dimension() const { return dim_; }
   int boundaryId() const { return boundaryId_; }
   /// Boundary name (from the mesh) or "id <n>", for messages.

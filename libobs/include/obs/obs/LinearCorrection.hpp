@@ -26,6 +26,10 @@ public:
   /// (vertex unknowns w = Q'u), with an initial truncation mask (empty: none).
   virtual void setOperator(const BlockSparseMatrix<d>& A, std::vector<VertexRotation<d>> rotations,
                            const std::vector<char>& mask) = 0;
+  /// The fine basis transformation C of a two-body problem (ContactProblem::basisTransformation();
+  /// rows == 0: none), set before setOperator(). Corrections that work on the fine operator alone
+  /// ignore it; multigrid prolongates into the transformed space with (I - C) P.
+  virtual void setFineBasis(const mesh::CsrMatrix& /*C*/) {}
   /// Truncation mask, one entry per component (non-zero = truncated). Returns the number of
   /// components whose truncation changed (the operators are updated only then).
   virtual Index truncate(const std::vector<char>& mask) = 0;

@@ -64,10 +64,13 @@ public:
   /// Hierarchy of the grid's current state (the operator must live on grid.leafView().mesh).
   /// Throws obs::Error on negative smoothing counts or cycles < 1.
   explicit LinearMultigrid(const mesh::Grid& grid, const Options& options = {});
+  /// The block-stacked hierarchy of several bodies' grids (MultigridHierarchy).
+  explicit LinearMultigrid(const std::vector<const mesh::Grid*>& grids, const Options& options = {});
   ~LinearMultigrid() override;
 
   void setOperator(const BlockSparseMatrix<d>& A, std::vector<VertexRotation<d>> rotations = {},
                    const std::vector<char>& mask = {}) override;
+  void setFineBasis(const mesh::CsrMatrix& C) override { hierarchy_.setFineBasis(C); }
   Index truncate(const std::vector<char>& mask) override;
   void apply(const Eigen::VectorXd& r, Eigen::VectorXd& c) override;
   int operatorUpdates() const override { return hierarchy_.coarseUpdates(); }

@@ -27,6 +27,15 @@
 /// diagonal entry of the level so that the diagonal blocks stay invertible (the restricted defect
 /// is zero there).
 ///
+/// Several bodies: the hierarchy of several grids is block-stacked, level by level from the finest
+/// (the leaf views, numbered in the order of the grids) downwards; a grid with fewer levels keeps its
+/// coarsest view (identity prolongation) on the remaining coarse levels.
+///
+/// Fine basis transformation (two-body contact, ContactProblem.hpp): if the fine unknowns are
+/// x = (I - C) u with u the nodal displacements, the last prolongation into the transformed fine
+/// space is (I - C) P_{L-1} (Krause 2009): setFineBasis(C) before setFineOperator(); the coarse
+/// spaces stay the nodal ones of each body.
+///
 /// If L = 0 (a grid without refinement) level 0 is the fine level and coarseOperator(0) is the
 /// explicit truncated fine matrix A~_T (for the direct coarse solver).
 #include <Eigen/Core>
@@ -60,6 +69,13 @@ public:
   /// The hierarchy of the grid's current state: L = grid.maxLevel(), level views 0 .. L-1 and the
   /// leaf view; builds the scalar prolongations. Throws obs::Error if the grid dimension is not d.
   explicit MultigridHierarchy(const mesh::Grid& grid);
+  /// The block-stacked hierarchy of several grids (see the file comment); throws obs::Error if the
+  /// list is empty, holds a null grid or grids of another dimension than d.
+  explicit MultigridHierarchy(const std::vector<const mesh::Grid*>& grids);
+
+  /// Sets (or with rows == 0 removes) the fine basis transformation C: the last prolongation becomes
+  /// (I - C) P_{L-1}. Takes effect at the next setFineOperator(). Throws obs::Error on a wrong size.
+  void setFineBasis(const mesh::CsrMatrix& C);
 
   int maxLevel() const { return static_cast<int>(prolongations_.size()); }
   int numLevels() const { return maxLevel() + 1; }
@@ -111,6 +127,7 @@ private:
 
   std::vector<Index> vertices_;
   std::vector<mesh::CsrMatrix> prolongations_, transposed_;
+  mesh::CsrMatrix plainTop_;  ///< P_{L-1} without the fine basis transformation (if one is set)
   const BlockSparseMatrix<d>* fine_ = nullptr;
   std::vector<BlockSparseMatrix<d>> coarse_;
   std::vector<Mat> rotation_;        ///< per rotated fine vertex

@@ -19,8 +19,11 @@
 /// result are reported. History records energy, correction, active-set size and the number of
 /// components whose truncation changed.
 ///
-/// The solver is built for one grid: the problem must be assembled on grid.leafView().mesh (the
-/// vertex count is checked; obs::Error otherwise). After the grid is adapted, build a new TNNMG.
+/// The solver is built for one grid, or for the grids of several bodies (their hierarchies block-
+/// stacked, MultigridHierarchy): the problem must be assembled on the leaf views, stacked in the same
+/// order (the vertex count is checked; obs::Error otherwise). After a grid is adapted, build a new
+/// TNNMG. A two-body problem with a basis transformation (ContactProblem.hpp) is solved in its
+/// transformed unknowns; the multigrid correction prolongates with (I - C) P on the finest level.
 ///
 /// Operator reuse: the rotated matrix and the linear correction's operators (multigrid hierarchy,
 /// coarse patterns and Galerkin products) are kept after a solve. A following solve of a problem
@@ -60,6 +63,8 @@ public:
 
   /// TNNMG with the multigrid correction on the grid's hierarchy.
   explicit TNNMG(const mesh::Grid& grid, const Options& options = {});
+  /// TNNMG on the block-stacked hierarchy of several bodies' grids.
+  explicit TNNMG(const std::vector<const mesh::Grid*>& grids, const Options& options = {});
   /// TNNMG with another linear correction (e.g. DirectCorrection).
   TNNMG(const mesh::Grid& grid, const Options& options, std::unique_ptr<LinearCorrection<d>> correction);
 

@@ -1,0 +1,42 @@
+#pragma once
+/// \file MultiBody.hpp
+/// Several elastic bodies as one algebraic system (docs/architecture.md, "Many bodies"): the
+/// stiffness matrices are stacked block-diagonally, loads and Dirichlet data one after the other, in
+/// the order of the bodies; vertex v of body i is stacked vertex offsets[i] + v. Couplings between
+/// bodies (MortarCoupling) then act on the stacked numbering through the ContactProblem's
+/// constraints and basis transformation, so one body is the one-element case of the same path.
+#include <Eigen/Core>
+
+#include <vector>
+
+#include "obs/mesh/Mesh.hpp"
+#include "obs/obs/BlockSparseMatrix.hpp"
+#include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/ElasticityAssembly.hpp"
+#include "obs/obs/Material.hpp"
+
+namespace obs {
+
+/// The linear elasticity system of one body (or of stacked bodies), Dirichlet values not eliminated.
+template <int d>
+struct BodySystem {
+  BlockSparseMatrix<d> stiffness;
+  Eigen::VectorXd load;
+  DirichletValues dirichlet;
+  Index numVertices() const { return stiffness.rows(); }
+};
+
+/// Stiffness, load and Dirichlet data of one body (assembleStiffness, assembleLoad, collectDirichlet).
+/// Throws obs::Error on an invalid material or a mesh of another dimension.
+template <int d>
+BodySystem<d> assembleBody(const mesh::Mesh& mesh, const Material& material, const BoundaryConditions& bc);
+
+/// Block-diagonal stacking of the bodies' systems; offsets (if given) receives the first stacked
+/// vertex of each body. Throws obs::Error on inconsistent sizes.
+template <int d>
+BodySystem<d> stackBodies(const std::vector<BodySystem<d>>& bodies, std::vector<Index>* offsets = nullptr);
+
+extern template struct BodySystem<2>;
+extern template struct BodySystem<3>;
+
+}  // namespace obs
