@@ -74,6 +74,10 @@ int checkCommand(const std::vector<std::string>& scenes, std::optional<int> refi
   for (const std::string& file : scenes) {
     try {
       const obs::drivers::Scene scene = obs::drivers::parseScene(file);
+      if (scene.multiBody()) {
+        std::cout << file << ": valid (" << obs::drivers::checkMultiBodyScene(scene, refine) << ")" << std::endl;
+        continue;
+      }
       const obs::mesh::Mesh mesh = obs::drivers::buildMesh(scene, refine);
       obs::drivers::validateScene(scene, mesh);
       std::cout << file << ": valid (" << mesh.dimension() << "D, " << mesh.numCells() << " cells, "

@@ -55,13 +55,17 @@ const std::vector<std::string>& curvedMeshKeys() {
 }
 
 bool isCurvedGenerator(const std::string& generator) {
-  return generator == "ball" || generator == "rounded_block";
+  return generator == "ball" || generator == "rounded_block" || generator == "disk" || generator == "half_disk";
 }
 
 void parseCurvedMesh(const TomlSection& s, MeshSpec& spec) {
   const std::string generator = s.string("generator");
-  const bool ball = generator == "ball";
-  spec.source = ball ? MeshSpec::Source::Ball : MeshSpec::Source::RoundedBlock;
+  // ball-like generators: centre, radius and one cell count (ball 3D; disk, half disk 2D)
+  const bool ball = generator == "ball" || generator == "disk" || generator == "half_disk";
+  spec.source = generator == "ball"      ? MeshSpec::Source::Ball
+                : generator == "disk"    ? MeshSpec::Source::Disk
+                : generator == "half_disk" ? MeshSpec::Source::HalfDisk
+                                         : MeshSpec::Source::RoundedBlock;
   const std::vector<std::string> own =
       ball ? std::vector<std::string>{"centre", "radius"}
            : std::vector<std::string>{"width", "height", "depth", "arc_radius"};
@@ -83,9 +87,11 @@ void parseCurvedMesh(const TomlSection& s, MeshSpec& spec) {
                        "hexahedron, prism, pyramid)");
   spec.cellType = *cellType;
   const int dim = mesh::dimension(*cellType);
-  if (ball && dim != 3)
+  if (generator == "ball" && dim != 3)
     s.fail("type", "= \"" + type + "\": generator = \"ball\" needs a 3D cell type (tetrahedron, "
                                    "hexahedron, prism, pyramid)");
+  if (ball && generator != "ball" && dim != 2)
+    s.fail("type", "= \"" + type + "\": generator = \"" + generator + "\" needs a 2D cell type (triangle, quadrilateral)");
 
   // cells
   const toml::value& cells = s.at("cells");
@@ -119,8 +125,8 @@ void parseCurvedMesh(const TomlSection& s, MeshSpec& spec) {
   if (ball) {
     spec.centre = mesh::Point::Zero();
     if (s.has("centre")) {
-      const auto c = numberArray(s, s.at("centre"), "centre", 3);
-      spec.centre = mesh::Point(c[0], c[1], c[2]);
+      const auto c = numberArray(s, s.at("centre"), "centre", dim);
+      spec.centre = mesh::Point(c[0], c[1], dim == 3 ? c[2] : 0.0);
     }
     spec.radius = s.has("radius") ? positive(s, "radius") : 1.0;
   } else {

@@ -49,6 +49,9 @@ nlohmann::json runMeshCommand(const MeshCommandOptions& options) {
   if (!(options.fraction > 0 && options.fraction <= 1))
     throw Error("obs mesh: --fraction must lie in (0, 1]");
   const Scene scene = parseScene(options.scene);
+  if (scene.multiBody())
+    throw Error(scene.fileName + ": obs mesh works on one-body scenes; this scene has " +
+                std::to_string(scene.bodies.size()) + " [[body]] entries (obs check validates all of them)");
   const int uniform = options.uniform.value_or(scene.mesh.refine);
   if (uniform < 0 || uniform > 12) throw Error("obs mesh: --uniform must lie in [0, 12]");
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <fstream>
 #include <iomanip>
 #include <sstream>
 
@@ -43,6 +44,135 @@ std::string describeCells(const RunResult& r) {
   return std::to_string(r.cells) + " cells (" + types + ")";
 }
 
+/// A .pvd collection of the bodies' .vtu files (one part per body), for ParaView to open in one go.
+void writePartsPvd(const std::filesystem::path& path, const std::vector<std::filesystem::path>& files) {
+  std::ofstream out(path);
+  if (!out) throw Error(path.string() + ": cannot write the .pvd collection");
+  out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
+         "  <Collection>\n";
+  for (std::size_t i = 0; i < files.size(); ++i)
+    out << "    <DataSet timestep=\"0\" part=\"" << i << "\" file=\"" << files[i].filename().string() << "\"/>\n";
+  out << "  </Collection>\n</VTKFile>\n";
+  if (!out) throw Error(path.string() + ": cannot write the .pvd collection");
+}
+
+/// `obs run` of a multi-body scene (Scene::bodies): every body's grid, then the same contact model
+/// path as a one-body contact scene (SceneSolver.hpp), outputs per body and per pair.
+RunResult runMultiBodyScene(const Scene& scene, const RunOptions& options) {
+  const auto start = Clock::now();
+  auto progress = [&](const std::string& line) {
+    if (options.progress) options.progress(line);
+  };
+  RunResult r;
+  r.scene = scene.fileName;
+  auto t = Clock::now();
+  std::vector<mesh::Grid> grids;
+  std::vector<mesh::Mesh> meshes;
+  std::vector<BoundaryConditions> bcs;
+  grids.reserve(scene.bodies.size());
+  for (const Scene& body : scene.bodies) {
+    try {
+      grids.push_back(buildGrid(body, options.refine));
+      meshes.push_back(grids.back().leafView().mesh);
+      validateScene(body, meshes.back());
+      bcs.push_back(makeBoundaryConditions(body, meshes.back()));
+    } catch (const Error& e) {
+      throw Error(std::string(e.what()) + " (in [[body]] '" + body.name + "')");
+    }
+    if (meshes.back().dimension() != meshes.front().dimension())
+      throw Error(scene.where(body.bodyLine) + "[[body]] '" + body.name + "' has dimension " +
+                  std::to_string(meshes.back().dimension()) + ", body '" + scene.bodies.front().name + "' " +
+                  std::to_string(meshes.front().dimension()) + " (all bodies must have the same dimension)");
+  }
+  r.meshSeconds = secondsSince(t);
+  r.dimension = meshes.front().dimension();
+  r.refine = options.refine.value_or(scene.bodies.front().mesh.refine);
+  for (std::size_t i = 0; i < meshes.size(); ++i) {
+    r.vertices += meshes[i].numVertices();
+    r.cells += meshes[i].numCells();
+    const auto counts = meshes[i].cellCounts();
+    for (std::size_t k = 0; k < counts.size(); ++k) r.cellsPerType[k] += counts[k];
+  }
+  progress("meshes built: " + std::to_string(meshes.size()) + " bodies, " + describeCells(r) + " / " +
+           std::to_string(r.vertices) + " vertices (" + std::to_string(r.dimension) + "D, " + seconds(r.meshSeconds) + ")");
+
+  std::vector<const mesh::Grid*> gridPtrs;
+  std::vector<const mesh::Mesh*> meshPtrs;
+  for (std::size_t i = 0; i < grids.size(); ++i) {
+    gridPtrs.push_back(&grids[i]);
+    meshPtrs.push_back(&meshes[i]);
+  }
+  const MultiBodySolution solved = solveMultiBodyScene(scene, gridPtrs, meshPtrs, bcs, options.iterationProgress);
+  r.dofs = solved.dofs;
+  r.freeDofs = solved.freeDofs;
+  r.assemblySeconds = solved.assemblySeconds;
+  r.solveSeconds = solved.solveSeconds;
+  r.solver = solved.solver;
+  r.pairs = solved.pairs;
+  for (std::size_t i = 0; i < meshes.size(); ++i) {
+    BodyReport b;
+    b.name = scene.bodies[i].name;
+    b.vertices = meshes[i].numVertices();
+    b.cells = meshes[i].numCells();
+    const ElasticitySolution& e = solved.bodies[i];
+    for (mesh::Index v = 0; v < meshes[i].numVertices(); ++v)
+      b.maxDisplacement = std::max(b.maxDisplacement, e.displacement.segment(v * r.dimension, r.dimension).norm());
+    for (const Stress& st : e.cellStress) b.maxVonMises = std::max(b.maxVonMises, vonMises(st));
+    r.maxDisplacement = std::max(r.maxDisplacement, b.maxDisplacement);
+    r.maxVonMises = std::max(r.maxVonMises, b.maxVonMises);
+    r.bodies.push_back(b);
+  }
+  {
+    std::ostringstream os;
+    os << "solved in " << seconds(r.solveSeconds) << " (" << r.solver.type << ", " << r.solver.iterations
+       << " iterations" << (r.solver.converged ? "" : ", NOT converged") << "): max |u| = " << std::setprecision(6)
+       << r.maxDisplacement;
+    for (const PairReport& p : r.pairs)
+      os << "; " << p.slave << " / " << p.master << ": " << p.actualVertices << " of " << p.potentialVertices
+         << " slave vertices in contact, P = " << p.load;
+    progress(os.str());
+  }
+
+  t = Clock::now();
+  const std::filesystem::path dir = options.outputDirectory.value_or(scene.output.directory);
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
+  if (scene.output.vtk) {
+    std::vector<std::filesystem::path> parts;
+    for (std::size_t i = 0; i < meshes.size(); ++i) {
+      const auto path = dir / (scene.name + "_" + scene.bodies[i].name + ".vtu");
+      auto pf = pointFields(meshes[i], solved.bodies[i]);
+      pf.insert(pf.end(), solved.contactFields[i].begin(), solved.contactFields[i].end());
+      const auto cf = cellFields(meshes[i], solved.bodies[i]);
+      writeVtu(path, meshes[i], pf, cf);
+      parts.push_back(path);
+      r.outputFiles.push_back(path);
+    }
+    const auto pvd = dir / (scene.name + ".pvd");
+    writePartsPvd(pvd, parts);
+    r.outputFiles.push_back(pvd);
+  }
+  recordRunRow(scene, dir, r, t, start);
+  const auto summary = dir / "summary.json";
+  r.outputFiles.push_back(summary);
+  r.outputSeconds = secondsSince(t);
+  r.totalSeconds = secondsSince(start);
+  writeSummary(summary, r);
+  std::string written;
+  for (const auto& f : r.outputFiles) written += (written.empty() ? "" : ", ") + f.string();
+  progress("written: " + written);
+  if (!r.solver.converged) {
+    std::ostringstream os;
+    os << scene.where(scene.solver.line) << "[solver] " << r.solver.type << " did not converge in "
+       << r.solver.iterations << " iterations (correction " << std::setprecision(3) << r.solver.correction
+       << ", tolerance " << r.solver.tolerance << "); raise [solver] max_iterations or tolerance (outputs written to "
+       << dir.string() << ")";
+    throw Error(os.str());
+  }
+  return r;
+}
+
 }  // namespace
 
 RunResult runScene(const std::filesystem::path& sceneFile, const RunOptions& options) {
@@ -51,6 +181,7 @@ RunResult runScene(const std::filesystem::path& sceneFile, const RunOptions& opt
 
 RunResult runScene(const Scene& scene, const RunOptions& options) {
   if (scene.adaptivity) return runAdaptiveScene(scene, options);
+  if (scene.multiBody()) return runMultiBodyScene(scene, options);
   const auto start = Clock::now();
   auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);

@@ -20,7 +20,7 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kSections =
-    "mesh, material, dirichlet, neumann, body_force, contact, solver, output, adaptivity, dynamics";
+    "mesh, material, dirichlet, neumann, body_force, contact, solver, output, adaptivity, dynamics, body";
 constexpr int kMaxRefine = 12;
 constexpr long long kMaxBoxCells = 100'000'000;
 
@@ -71,7 +71,7 @@ std::optional<mesh::CellType> cellTypeByName(const std::string& name) {
 void parseBox(const TomlSection& s, MeshSpec& spec) {
   const std::string generator = s.string("generator");
   if (generator != "box")
-    s.fail("generator", "= \"" + generator + "\" is unknown (known generators: box, ball, rounded_block)");
+    s.fail("generator", "= \"" + generator + "\" is unknown (known generators: box, ball, rounded_block, disk, half_disk)");
   const std::string type = s.string("type");
   const auto cellType = cellTypeByName(type);
   if (!cellType)
@@ -151,7 +151,7 @@ MeshSpec parseMesh(const Scene& scene, const toml::value& table) {
     parseCurvedMesh(s, spec);
   } else if (s.has("generator")) {
     for (const std::string& key : curvedMeshKeys())
-      if (s.has(key)) s.fail(key, "does not apply to generator = \"box\" (only ball, rounded_block)");
+      if (s.has(key)) s.fail(key, "does not apply to generator = \"box\" (only ball, rounded_block, disk, half_disk)");
     spec.source = MeshSpec::Source::Box;
     parseBox(s, spec);
   } else {
@@ -423,6 +423,96 @@ OutputSpec parseOutput(const Scene& scene, const toml::value* table) {
 
 }  // namespace
 
+/// The sections that describe one body (top level of a one-body scene, or one [[body]] entry):
+/// mesh, material, dirichlet, neumann, body_force. `prefix` is "" or "body." for messages.
+void parseBodySections(Scene& scene, const toml::table& t, const std::string& prefix, int line) {
+  auto find = [&](const char* key) -> const toml::value* {
+    const auto it = t.find(key);
+    return it == t.end() ? nullptr : &it->second;
+  };
+  for (const char* required : {"mesh", "material"})
+    if (!find(required))
+      throw Error(scene.where(line) + "[" + prefix + std::string(required) + "] section is missing" +
+                  (prefix.empty() ? "" : " in [[body]] '" + scene.name + "'"));
+  scene.mesh = parseMesh(scene, *find("mesh"));
+  parseMaterial(scene, *find("material"));
+  if (const toml::value* d = find("dirichlet"))
+    for (const toml::value& e : entries(scene, *d, prefix + "dirichlet"))
+      scene.dirichlet.push_back(parseDirichlet(scene, e));
+  if (const toml::value* n = find("neumann"))
+    for (const toml::value& e : entries(scene, *n, prefix + "neumann"))
+      scene.neumann.push_back(parseNeumann(scene, e));
+  if (const toml::value* b = find("body_force")) {
+    const TomlSection s(scene.fileName, "[" + prefix + "body_force]", *b, {"value"});
+    scene.bodyForce = s.vector("value");
+  }
+}
+
+/// [[body]] entries and the [[contact]] pairs of a multi-body scene.
+void parseMultiBody(Scene& scene, const toml::value& bodies, const toml::value* contact) {
+  if (!bodies.is_array() || bodies.as_array().empty() || !bodies.as_array().front().is_table())
+    throw Error(whereOf(scene.fileName, bodies) + "[[body]] must be an array of tables: write [[body]] (double "
+                "brackets) before each body");
+  for (const toml::value& b : bodies.as_array()) {
+    const TomlSection s(scene.fileName, "[[body]]", b, {"name", "mesh", "material", "dirichlet", "neumann", "body_force"});
+    Scene body;
+    body.fileName = scene.fileName;
+    body.directory = scene.directory;
+    body.name = s.string("name");
+    body.bodyLine = s.line();
+    if (body.name.empty() || body.name.find_first_of(" /\\:") != std::string::npos)
+      s.fail("name", "= \"" + body.name + "\" must be a non-empty name without spaces, slashes or colons");
+    for (const Scene& other : scene.bodies)
+      if (other.name == body.name)
+        s.fail("name", "= \"" + body.name + "\" is used by the body of line " + std::to_string(other.bodyLine));
+    parseBodySections(body, b.as_table(), "body.", s.line());
+    scene.bodies.push_back(std::move(body));
+  }
+  if (scene.bodies.size() < 2)
+    throw Error(scene.where(scene.bodies.front().bodyLine) +
+                "[[body]] a multi-body scene needs at least two bodies (a single body is described by the "
+                "top-level [mesh] and [material] sections)");
+  if (!contact)
+    throw Error(scene.fileName + ": a multi-body scene needs [[contact]] pairs (slave and master boundaries)");
+  if (!contact->is_array())
+    throw Error(whereOf(scene.fileName, *contact) +
+                "[contact] in a multi-body scene must be [[contact]] entries (double brackets) with slave and master");
+  auto bodyIndex = [&](const TomlSection& side, const std::string& name) {
+    for (std::size_t i = 0; i < scene.bodies.size(); ++i)
+      if (scene.bodies[i].name == name) return static_cast<int>(i);
+    std::string known;
+    for (const Scene& b : scene.bodies) known += (known.empty() ? "" : ", ") + b.name;
+    side.fail("body", "= \"" + name + "\" is not a body of this scene (bodies: " + known + ")");
+  };
+  for (const toml::value& c : contact->as_array()) {
+    const TomlSection s(scene.fileName, "[[contact]]", c, {"slave", "master", "min_coverage", "type"});
+    MortarPairSpec pair;
+    pair.line = s.line();
+    if (s.has("type") && s.string("type") != "mortar")
+      s.fail("type", "= \"" + s.string("type") + "\" is unknown (two-body contact: \"mortar\")");
+    for (const char* side : {"slave", "master"}) {
+      const toml::value& v = s.at(side);
+      if (!v.is_table())
+        s.fail(side, "must be a table { body = \"name\", boundary = \"name\" or id }");
+      const TomlSection t(scene.fileName, "[[contact]] " + std::string(side), v, {"body", "boundary"});
+      const std::string name = t.string("body");
+      const int index = bodyIndex(t, name);
+      (std::string(side) == "slave" ? pair.slaveBody : pair.masterBody) = name;
+      (std::string(side) == "slave" ? pair.slaveIndex : pair.masterIndex) = index;
+      (std::string(side) == "slave" ? pair.slave : pair.master) = t.boundary("boundary");
+    }
+    if (pair.slaveIndex == pair.masterIndex)
+      s.fail("master", "is on the slave's body '" + pair.slaveBody +
+                           "' (self-contact is not supported: slave and master must belong to different bodies)");
+    if (s.has("min_coverage")) {
+      pair.minCoverage = s.number("min_coverage");
+      if (!(pair.minCoverage > 0 && pair.minCoverage <= 1))
+        s.fail("min_coverage", "= " + literalOf(s.at("min_coverage")) + " must lie in (0, 1]");
+    }
+    scene.pairs.push_back(std::move(pair));
+  }
+}
+
 Scene parseSceneString(const std::string& text, const std::string& fileName,
                        const std::filesystem::path& directory,
                        const std::vector<std::string>& overrides) {
@@ -457,7 +547,7 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
     const bool known = key == "mesh" || key == "material" || key == "dirichlet" ||
                        key == "neumann" || key == "body_force" || key == "contact" ||
                        key == "solver" || key == "output" || key == "adaptivity" ||
-                       key == "dynamics";
+                       key == "dynamics" || key == "body";
     if (!known && (!unknown || value.location().line() < unknown->location().line())) {
       unknown = &value;
       unknownKey = key;
@@ -476,22 +566,22 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
     const auto it = t.find(key);
     return it == t.end() ? nullptr : &it->second;
   };
-  for (const char* required : {"mesh", "material"})
-    if (!find(required))
-      throw Error(fileName + ": [" + std::string(required) + "] section is missing");
-
-  scene.mesh = parseMesh(scene, *find("mesh"));
-  parseMaterial(scene, *find("material"));
-  if (const toml::value* d = find("dirichlet"))
-    for (const toml::value& e : entries(scene, *d, "dirichlet"))
-      scene.dirichlet.push_back(parseDirichlet(scene, e));
-  if (const toml::value* n = find("neumann"))
-    for (const toml::value& e : entries(scene, *n, "neumann"))
-      scene.neumann.push_back(parseNeumann(scene, e));
-  if (const toml::value* b = find("body_force")) {
-    const TomlSection s(fileName, "[body_force]", *b, {"value"});
-    scene.bodyForce = s.vector("value");
+  if (const toml::value* bodies = find("body")) {
+    for (const char* key : {"mesh", "material", "dirichlet", "neumann", "body_force"})
+      if (const toml::value* v = find(key))
+        throw Error(whereOf(fileName, *v) + "[" + std::string(key) +
+                    "] at the top level cannot be combined with [[body]] entries (put it inside the body: [body." +
+                    key + "])");
+    for (const char* key : {"adaptivity", "dynamics"})
+      if (const toml::value* v = find(key))
+        throw Error(whereOf(fileName, *v) + "[" + std::string(key) +
+                    "] is not available for multi-body scenes yet (static two-body contact only)");
+    parseMultiBody(scene, *bodies, find("contact"));
+    if (const toml::value* sv = find("solver")) scene.solver = parseSolver(scene, *sv, true);
+    scene.output = parseOutput(scene, find("output"));
+    return scene;
   }
+  parseBodySections(scene, t, "", 0);
   if (const toml::value* c = find("contact")) scene.contact = parseContact(scene, *c);
   if (const toml::value* sv = find("solver"))
     scene.solver = parseSolver(scene, *sv, scene.contact.has_value());

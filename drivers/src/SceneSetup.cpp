@@ -9,6 +9,7 @@
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/CurvedMeshes.hpp"
 #include "obs/mesh/Error.hpp"
+#include "obs/obs/MortarCoupling.hpp"
 #include "obs/mesh/Gmsh.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
 
@@ -133,17 +134,28 @@ std::vector<DirichletCondition> dirichletConditions(const Scene& scene, const me
 }  // namespace
 
 mesh::Grid buildGrid(const Scene& scene, std::optional<int> refineOverride) {
+  if (scene.multiBody())
+    throw Error(scene.fileName + ": the scene has " + std::to_string(scene.bodies.size()) +
+                " [[body]] entries; their grids are built per body (Scene::bodies)");
   const MeshSpec& spec = scene.mesh;
   mesh::CurvedMesh curved;  // generator = "ball" / "rounded_block": mesh + boundary projections
-  if (spec.source == MeshSpec::Source::Ball || spec.source == MeshSpec::Source::RoundedBlock) {
+  if (spec.source != MeshSpec::Source::Box && spec.source != MeshSpec::Source::File) {
+    const char* generator = spec.source == MeshSpec::Source::Ball   ? "ball"
+                            : spec.source == MeshSpec::Source::Disk ? "disk"
+                            : spec.source == MeshSpec::Source::HalfDisk ? "half_disk"
+                                                                        : "rounded_block";
     try {
-      curved = spec.source == MeshSpec::Source::Ball
-                   ? mesh::ballMesh(spec.centre, spec.radius, spec.cellType, spec.cells[0])
-                   : mesh::roundedBlockMesh(spec.width, spec.height, spec.depth, spec.arcRadius,
-                                            spec.cellType, spec.cells);
+      switch (spec.source) {
+        case MeshSpec::Source::Ball: curved = mesh::ballMesh(spec.centre, spec.radius, spec.cellType, spec.cells[0]); break;
+        case MeshSpec::Source::Disk: curved = mesh::diskMesh(spec.centre, spec.radius, spec.cellType, spec.cells[0]); break;
+        case MeshSpec::Source::HalfDisk:
+          curved = mesh::halfDiskMesh(spec.centre, spec.radius, spec.cellType, spec.cells[0]);
+          break;
+        default:
+          curved = mesh::roundedBlockMesh(spec.width, spec.height, spec.depth, spec.arcRadius, spec.cellType, spec.cells);
+      }
     } catch (const Error& e) {
-      throw Error(scene.where(spec.line) + "[mesh] generator = \"" +
-                  (spec.source == MeshSpec::Source::Ball ? "ball" : "rounded_block") + "\": " + e.what());
+      throw Error(scene.where(spec.line) + "[mesh] generator = \"" + generator + "\": " + e.what());
     }
   }
   mesh::Mesh m = spec.source == MeshSpec::Source::Box
@@ -173,6 +185,10 @@ mesh::Grid buildGrid(const Scene& scene, std::optional<int> refineOverride) {
 
 mesh::Mesh buildMesh(const Scene& scene, std::optional<int> refineOverride) {
   return buildGrid(scene, refineOverride).leafMesh();
+}
+
+int boundaryIdOf(const Scene& scene, const mesh::Mesh& mesh, const BoundaryRef& ref, const std::string& title) {
+  return resolveBoundary(scene, mesh, ref, title);
 }
 
 int contactBoundaryId(const Scene& scene, const mesh::Mesh& mesh) {
@@ -302,6 +318,49 @@ BoundaryConditions makeBoundaryConditions(const Scene& scene, const mesh::Mesh& 
     bc.bodyForce = ExpressionVectorField(
         padded(*scene.bodyForce), scene.where(scene.bodyForce->line) + "[body_force] value", dim);
   return bc;
+}
+
+std::string checkMultiBodyScene(const Scene& scene, std::optional<int> refineOverride) {
+  std::vector<mesh::Mesh> meshes;
+  for (const Scene& body : scene.bodies) {
+    try {
+      meshes.push_back(buildMesh(body, refineOverride));
+      validateScene(body, meshes.back());
+      (void)makeBoundaryConditions(body, meshes.back());
+    } catch (const Error& e) {
+      throw Error(std::string(e.what()) + " (in [[body]] '" + body.name + "')");
+    }
+    if (meshes.back().dimension() != meshes.front().dimension())
+      throw Error(scene.where(body.bodyLine) + "[[body]] '" + body.name +
+                  "' has another dimension than body '" + scene.bodies.front().name + "'");
+  }
+  std::vector<Index> offsets;
+  Index n = 0;
+  for (const auto& m : meshes) {
+    offsets.push_back(n);
+    n += m.numVertices();
+  }
+  long long cells = 0, constrained = 0;
+  for (const auto& m : meshes) cells += m.numCells();
+  for (const MortarPairSpec& p : scene.pairs) {
+    const Scene& sb = scene.bodies[p.slaveIndex];
+    const Scene& mb = scene.bodies[p.masterIndex];
+    const int sid = boundaryIdOf(scene, meshes[p.slaveIndex], p.slave, "[[contact]] slave of body '" + sb.name + "':");
+    const int mid = boundaryIdOf(scene, meshes[p.masterIndex], p.master, "[[contact]] master of body '" + mb.name + "':");
+    MortarOptions o;
+    o.minCoverage = p.minCoverage;
+    try {
+      const MortarCoupling c({&meshes[p.slaveIndex], sid, offsets[p.slaveIndex], "body '" + sb.name + "'"},
+                             {&meshes[p.masterIndex], mid, offsets[p.masterIndex], "body '" + mb.name + "'"}, n, o);
+      constrained += c.size();
+    } catch (const Error& e) {
+      throw Error(scene.where(p.line) + "[[contact]] " + e.what());
+    }
+  }
+  return std::to_string(scene.bodies.size()) + " bodies, " + std::to_string(meshes.front().dimension()) + "D, " +
+         std::to_string(cells) + " cells, " + std::to_string(n) + " vertices, " + std::to_string(scene.pairs.size()) +
+         " mortar pair" + (scene.pairs.size() == 1 ? "" : "s") + " with " + std::to_string(constrained) +
+         " constrained slave vertices";
 }
 
 }  // namespace obs::drivers

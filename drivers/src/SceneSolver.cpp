@@ -3,12 +3,17 @@
 #include <chrono>
 #include <cmath>
 #include <iomanip>
+#include <algorithm>
+#include <limits>
 #include <memory>
+#include <numbers>
+#include <optional>
 #include <sstream>
 
 #include "obs/drivers/ObstacleFactory.hpp"
 #include "obs/drivers/SceneSetup.hpp"
 #include "obs/mesh/Error.hpp"
+#include "obs/obs/ContactModel.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
 #include "obs/obs/LinearMultigrid.hpp"
@@ -96,7 +101,7 @@ SceneSolution solveLinear(const Scene& scene, const mesh::Grid& grid, const mesh
 }
 
 template <int d>
-std::unique_ptr<ContactSolver<d>> makeContactSolver(const Scene& scene, const mesh::Grid& grid,
+std::unique_ptr<ContactSolver<d>> makeContactSolver(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
                                                     const IterationProgress& progress,
                                                     double& tolerance) {
   const std::string type = scene.solverType();
@@ -112,7 +117,7 @@ std::unique_ptr<ContactSolver<d>> makeContactSolver(const Scene& scene, const me
     common(o, 200);
     o.preSmoothing = spec.preSmoothing.value_or(o.preSmoothing);
     o.postSmoothing = spec.postSmoothing.value_or(o.postSmoothing);
-    return std::make_unique<TNNMG<d>>(grid, o);
+    return std::make_unique<TNNMG<d>>(grids, o);
   }
   if (type == "pdas") {
     typename PrimalDualActiveSet<d>::Options o;
@@ -140,8 +145,12 @@ SceneSolution solveContact(const Scene& scene, const mesh::Grid& grid, const mes
 
   auto t0 = Clock::now();
   const auto obstacle = makeObstacle(scene, d);
-  const ContactSet contactSet = makeContactSet(scene, mesh, *obstacle);
-  const ContactProblem<d> problem(mesh, scene.material, bc, contactSet);
+  // the contact model of one body and one obstacle coupling (the multi-body path with one body)
+  ContactModel<d> model;
+  model.addBody(scene.name, mesh, scene.material, bc);
+  model.addObstacleContact(0, makeContactSet(scene, mesh, *obstacle), "[contact]");
+  const ContactProblem<d> problem = model.assemble();
+  const ContactSet& contactSet = problem.contactSet();
   e.assemblySeconds = since(t0);
   e.dofs = static_cast<long long>(mesh.numVertices()) * d;
   e.freeDofs = e.dofs - problem.dirichlet().count();
@@ -151,7 +160,7 @@ SceneSolution solveContact(const Scene& scene, const mesh::Grid& grid, const mes
   double tolerance = 0;
   ContactResult result;
   try {
-    const auto solver = makeContactSolver<d>(scene, grid, progress, tolerance);
+    const auto solver = makeContactSolver<d>(scene, {&grid}, progress, tolerance);
     result = solver->solve(problem, e.displacement);
   } catch (const Error& err) {
     solverFailed(scene, type, err);
@@ -242,7 +251,161 @@ SceneSolution solve(const Scene& scene, const mesh::Grid& grid, const mesh::Mesh
                        : solveLinear<d>(scene, grid, mesh, bc, assembled);
 }
 
+/// "body:boundary" (the boundary's name, or its id).
+std::string sideLabel(const std::string& body, const BoundaryRef& ref) {
+  return body + ":" + (ref.name.empty() ? std::to_string(ref.id) : ref.name);
+}
+
+template <int d>
+MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
+                                 const std::vector<const mesh::Mesh*>& meshes, const std::vector<BoundaryConditions>& bcs,
+                                 const IterationProgress& progress) {
+  MultiBodySolution s;
+  const std::string type = scene.solverType();
+  auto t0 = Clock::now();
+  ContactModel<d> model;
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i)
+    model.addBody(scene.bodies[i].name, *meshes[i], scene.bodies[i].material, bcs[i]);
+  for (const MortarPairSpec& p : scene.pairs) {
+    const Scene& sb = scene.bodies[p.slaveIndex];
+    const Scene& mb = scene.bodies[p.masterIndex];
+    const int sid = boundaryIdOf(scene, *meshes[p.slaveIndex], p.slave, "[[contact]] slave of body '" + sb.name + "':");
+    const int mid = boundaryIdOf(scene, *meshes[p.masterIndex], p.master, "[[contact]] master of body '" + mb.name + "':");
+    MortarOptions o;
+    o.minCoverage = p.minCoverage;
+    model.addMortarPair(p.slaveIndex, sid, p.masterIndex, mid, sideLabel(p.slaveBody, p.slave) + " / " + sideLabel(p.masterBody, p.master), o);
+  }
+  std::optional<ContactProblem<d>> problem;
+  try {
+    problem.emplace(model.assemble());
+  } catch (const Error& e) {
+    throw Error(scene.where(scene.pairs.front().line) + "[[contact]] " + e.what());
+  }
+  s.assemblySeconds = since(t0);
+  s.dofs = static_cast<long long>(model.numVertices()) * d;
+  s.freeDofs = s.dofs - problem->dirichlet().count();
+
+  t0 = Clock::now();
+  double tolerance = 0;
+  ContactResult result;
+  Eigen::VectorXd x;
+  try {
+    const auto solver = makeContactSolver<d>(scene, grids, progress, tolerance);
+    result = solver->solve(*problem, x);
+  } catch (const Error& err) {
+    solverFailed(scene, type, err);
+  }
+  s.solveSeconds = since(t0);
+  if (!x.allFinite())
+    throw Error(scene.where(scene.solver.line) + "[solver] " + type + " failed: NaN or Inf in the solution");
+  s.solver.type = type;
+  s.solver.iterations = result.iterations;
+  s.solver.converged = result.converged;
+  s.solver.seconds = s.solveSeconds;
+  s.solver.tolerance = tolerance;
+  s.solver.correction = result.correction;
+  s.solver.convergenceRate = result.convergenceRate;
+  s.solver.kkt = result.kkt;
+
+  // displacements per body
+  const Eigen::VectorXd u = problem->toDisplacement(x);
+  const ContactOutputs out = computeContactOutputs(*problem, x, kContactTolerance);
+  const ContactSet& cs = problem->contactSet();
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+    const auto& b = model.bodies()[i];
+    ElasticitySolution e;
+    e.dimension = d;
+    e.dofs = static_cast<long long>(meshes[i]->numVertices()) * d;
+    e.displacement = u.segment(static_cast<Eigen::Index>(b.offset) * d, e.dofs);
+    recoverStresses(*meshes[i], scene.bodies[i].material, e);
+    s.bodies.push_back(std::move(e));
+  }
+
+  // per pair: forces on both sides, pressures, areas; point fields on both bodies
+  std::vector<Field> fields;
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+    const std::size_t n = static_cast<std::size_t>(meshes[i]->numVertices());
+    s.contactFields.push_back({Field{"gap", 1, std::vector<double>(n, 0.0), false},
+                               Field{"normal_displacement", 1, std::vector<double>(n, 0.0), false},
+                               Field{"contact_pressure", 1, std::vector<double>(n, 0.0), false},
+                               Field{"contact_state", 1, std::vector<double>(n, 0.0), true},
+                               Field{"constraint_direction", 3, std::vector<double>(3 * n, 0.0), false},
+                               Field{"contact_force", 3, std::vector<double>(3 * n, 0.0), false}});
+  }
+  for (const auto& c : model.couplings()) {
+    const MortarCoupling& mc = *c.coupling;
+    PairReport r;
+    const MortarPairSpec& spec = scene.pairs[s.pairs.size()];
+    r.slave = sideLabel(spec.slaveBody, spec.slave);
+    r.master = sideLabel(spec.masterBody, spec.master);
+    r.potentialVertices = mc.size();
+    r.slaveVertices = mc.size() + mc.statistics().uncoveredNodes;
+    r.segments = mc.statistics().segments;
+    r.uncovered = mc.statistics().uncoveredNodes;
+    r.mortarSeconds = mc.statistics().seconds;
+    Eigen::VectorXd mu(mc.size());
+    Eigen::Vector3d slaveForce = Eigen::Vector3d::Zero();
+    double pmin = std::numeric_limits<double>::infinity(), pmax = -pmin;
+    std::vector<char> in(mc.size(), 0);
+    const Index offS = model.bodies()[c.slave].offset;
+    auto& fs = s.contactFields[c.slave];
+    for (Index k = 0; k < mc.size(); ++k) {
+      const Index node = c.nodes[k];
+      mu[k] = out.multiplier[node];
+      slaveForce -= mu[k] * mc.normal(k);
+      r.load += mu[k];
+      in[k] = out.inContact[node];
+      r.actualVertices += in[k];
+      if (in[k]) {
+        pmin = std::min(pmin, out.pressure[node]);
+        pmax = std::max(pmax, out.pressure[node]);
+      }
+      const auto v = static_cast<std::size_t>(cs.vertex(node) - offS);
+      const Point& nu = cs.direction(node);
+      for (int a = 0; a < 3; ++a) fs[4].values[3 * v + a] = nu[a];
+      fs[0].values[v] = cs.gap(node);
+      fs[1].values[v] = nu.template head<d>().dot(x.template segment<d>(static_cast<Eigen::Index>(cs.vertex(node)) * d));
+      fs[2].values[v] = out.pressure[node];
+      fs[3].values[v] = in[k] ? 2 : 1;
+      for (int a = 0; a < d; ++a) fs[5].values[3 * v + a] = -mu[k] * nu[a];
+      r.maxViolation = std::max(r.maxViolation, fs[1].values[v] - cs.gap(node));
+    }
+    if (r.actualVertices > 0) {
+      r.pressureMin = pmin;
+      r.pressureMax = pmax;
+    }
+    const Eigen::VectorXd fm = mc.masterForces(mu);
+    Eigen::Vector3d masterForce = Eigen::Vector3d::Zero();
+    const Index offM = model.bodies()[c.master].offset;
+    auto& fmField = s.contactFields[c.master];
+    for (Index v = 0; v < meshes[c.master]->numVertices(); ++v) {
+      const auto f = fm.template segment<d>(static_cast<Eigen::Index>(offM + v) * d);
+      masterForce.template head<d>() += f;
+      for (int a = 0; a < d; ++a) fmField[5].values[3 * static_cast<std::size_t>(v) + a] += f[a];
+    }
+    for (int a = 0; a < 3; ++a) {
+      r.forceSlave[a] = slaveForce[a];
+      r.forceMaster[a] = masterForce[a];
+    }
+    const ContactSet pairSet = mc.contactSet();
+    for (const ContactSet::Face& f : pairSet.faces())
+      if (std::all_of(f.nodes.begin(), f.nodes.end(), [&](Index k) { return in[k] != 0; })) r.area += f.measure;
+    r.radius = d == 3 ? std::sqrt(r.area / std::numbers::pi) : r.area / 2;
+    s.pairs.push_back(r);
+  }
+  return s;
+}
+
 }  // namespace
+
+MultiBodySolution solveMultiBodyScene(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
+                                      const std::vector<const mesh::Mesh*>& meshes,
+                                      const std::vector<BoundaryConditions>& bcs, const IterationProgress& progress) {
+  if (meshes.empty() || meshes.size() != scene.bodies.size() || grids.size() != meshes.size() || bcs.size() != meshes.size())
+    throw Error(scene.where(0) + "internal: multi-body solve with inconsistent body lists");
+  return meshes.front()->dimension() == 2 ? solveMultiBody<2>(scene, grids, meshes, bcs, progress)
+                                          : solveMultiBody<3>(scene, grids, meshes, bcs, progress);
+}
 
 bool reportsIteration(int iteration) {
   if (iteration <= 10) return iteration >= 1;

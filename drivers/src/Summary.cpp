@@ -73,6 +73,41 @@ nlohmann::json summaryJson(const RunResult& r) {
         {"max_violation", c.maxViolation},
     };
   }
+  if (!r.bodies.empty()) {
+    nlohmann::json bodies = nlohmann::json::array();
+    for (const BodyReport& b : r.bodies)
+      bodies.push_back({{"name", b.name},
+                        {"vertices", b.vertices},
+                        {"cells", b.cells},
+                        {"max_displacement", b.maxDisplacement},
+                        {"max_von_mises", b.maxVonMises}});
+    j["bodies"] = bodies;
+  }
+  if (!r.pairs.empty()) {
+    auto vec = [&](const std::array<double, 3>& v) {
+      nlohmann::json a = nlohmann::json::array();
+      for (int i = 0; i < r.dimension; ++i) a.push_back(v[i]);
+      return a;
+    };
+    nlohmann::json pairs = nlohmann::json::array();
+    for (const PairReport& p : r.pairs)
+      pairs.push_back({{"slave", p.slave},
+                       {"master", p.master},
+                       {"slave_vertices", p.slaveVertices},
+                       {"potential_vertices", p.potentialVertices},
+                       {"actual_vertices", p.actualVertices},
+                       {"force_slave", vec(p.forceSlave)},
+                       {"force_master", vec(p.forceMaster)},
+                       {"load_P", p.load},
+                       {"pressure_min", p.pressureMin},
+                       {"pressure_max", p.pressureMax},
+                       {r.dimension == 3 ? "area" : "width", p.area},
+                       {"radius", p.radius},
+                       {"max_violation", p.maxViolation},
+                       {"mortar",
+                        {{"segments", p.segments}, {"uncovered_nodes", p.uncovered}, {"seconds", p.mortarSeconds}}}});
+    j["pairs"] = pairs;
+  }
   return j;
 }
 

@@ -492,7 +492,7 @@ Eigen::VectorXd MortarCoupling::masterForces(const Eigen::VectorXd& multipliers)
   for (std::size_t k = 0; k < nodes_.size(); ++k) {
     const double lambda = multipliers[static_cast<Eigen::Index>(k)] / D_[k];
     for (const Entry& en : M_[k])
-      for (int a = 0; a < dim_; ++a) f[static_cast<Eigen::Index>(en.vertex) * dim_ + a] -= lambda * en.value * normals_[k][a];
+      for (int a = 0; a < dim_; ++a) f[static_cast<Eigen::Index>(en.vertex) * dim_ + a] += lambda * en.value * normals_[k][a];
   }
   return f;
 }

@@ -29,6 +29,10 @@ fs::path writeScene(const std::string& name, const std::string& text) {
 /// parse + build mesh + validate, as `obs run` does before solving.
 void load(const fs::path& p) {
   const Scene scene = parseScene(p);
+  if (scene.multiBody()) {  // every body, and the pairs' couplings
+    checkMultiBodyScene(scene);
+    return;
+  }
   const obs::mesh::Mesh mesh = buildMesh(scene);
   validateScene(scene, mesh);
 }

@@ -40,6 +40,32 @@ struct ContactReport {
   double maxViolation = 0; ///< max_p (nu_p.u_p - g_p)^+
 };
 
+/// One [[contact]] pair of a multi-body scene (dual mortar, MortarCoupling.hpp).
+struct PairReport {
+  std::string slave, master;          ///< "body:boundary" as written
+  long long slaveVertices = 0;        ///< slave nodes of the boundary
+  long long potentialVertices = 0;    ///< constrained slave nodes (covered by the master surface)
+  long long actualVertices = 0;       ///< in actual contact
+  std::array<double, 3> forceSlave{};   ///< total force on the slave body (from the master)
+  std::array<double, 3> forceMaster{};  ///< total force on the master body; = -forceSlave
+  double load = 0;          ///< P = sum_p D_pp lambda_p (normal force)
+  double pressureMin = 0;   ///< min / max of the dual-mortar pressure lambda_p over the actual
+  double pressureMax = 0;   ///< contact vertices (0 without contact)
+  double area = 0;          ///< measure of the slave faces with all vertices in contact
+  double radius = 0;        ///< 3D: sqrt(area / pi); 2D: area / 2
+  double maxViolation = 0;  ///< max_p of the weighted-gap violation (n_p.w_p - g_p)^+
+  long long segments = 0;   ///< slave/master face pairs with an intersection
+  long long uncovered = 0;  ///< slave nodes below the coverage threshold (unconstrained)
+  double mortarSeconds = 0; ///< search, clipping, quadrature, transformation
+};
+
+/// One body of a multi-body scene.
+struct BodyReport {
+  std::string name;
+  long long vertices = 0, cells = 0;
+  double maxDisplacement = 0, maxVonMises = 0;
+};
+
 struct RunResult {
   std::string scene;  ///< scene file as given
   int dimension = 0;
@@ -63,6 +89,8 @@ struct RunResult {
 
   SolverReport solver;
   std::optional<ContactReport> contact;  ///< scenes with [contact] only
+  std::vector<BodyReport> bodies;  ///< multi-body scenes: per body
+  std::vector<PairReport> pairs;   ///< multi-body scenes: per [[contact]] pair
   /// Mass matrices assembled (one per time stepper of a [dynamics] scene; 0 for static scenes,
   /// which never build one — DESIGN.md "the library builds only what that scene needs").
   int massAssemblies = 0;

@@ -35,10 +35,10 @@ struct BoundaryRef {
   std::string describe() const;  ///< "\"left\"" or "3", as written in the scene
 };
 
-/// [mesh]: a generated box, ball or rounded block, or a Gmsh file, then `refine` uniform
+/// [mesh]: a generated box, ball, rounded block, disk or half disk, or a Gmsh file, then `refine` uniform
 /// refinements (new vertices on curved boundaries are projected onto the exact surface).
 struct MeshSpec {
-  enum class Source { Box, File, Ball, RoundedBlock };
+  enum class Source { Box, File, Ball, RoundedBlock, Disk, HalfDisk };
   Source source = Source::Box;
   // generator = "box"
   mesh::CellType cellType = mesh::CellType::Quadrilateral;
@@ -122,6 +122,16 @@ struct OutputSpec {
                        ///< runs: by scripts/plot_adaptivity.py
 };
 
+/// One [[contact]] entry of a multi-body scene: dual-mortar contact between the slave boundary of
+/// one body and the master boundary of another (docs/scenes.md, "Multi-body scenes").
+struct MortarPairSpec {
+  std::string slaveBody, masterBody;  ///< body names as written
+  BoundaryRef slave, master;          ///< boundaries of those bodies
+  int slaveIndex = -1, masterIndex = -1;  ///< indices into Scene::bodies
+  double minCoverage = 0.5;  ///< slave nodes covered less are unconstrained (MortarCoupling.hpp)
+  int line = 0;              ///< line of [[contact]]
+};
+
 struct Scene {
   std::string fileName;             ///< the scene path as given (used in messages)
   std::filesystem::path directory;  ///< directory of the scene file
@@ -139,6 +149,16 @@ struct Scene {
   OutputSpec output;
   std::optional<AdaptivitySpec> adaptivity;  ///< [adaptivity]: run the adaptive loop
   std::optional<DynamicsSpec> dynamics;  ///< [dynamics]: time-dependent contact (DynamicScene.hpp)
+
+  /// [[body]] entries of a multi-body scene (empty in one-body scenes, whose body is described by
+  /// the top-level sections above). Each is a Scene holding that body's mesh, material,
+  /// [[dirichlet]], [[neumann]] and body force, with name = the body's name and bodyLine = the
+  /// line of its [[body]]; solver, output and contact are those of the enclosing scene.
+  std::vector<Scene> bodies;
+  int bodyLine = 0;
+  /// [[contact]] pairs of a multi-body scene.
+  std::vector<MortarPairSpec> pairs;
+  bool multiBody() const { return !bodies.empty(); }
 
   /// The solver type to use: solver.type, or "tnnmg" with [contact] and "direct" without.
   std::string solverType() const;

@@ -32,6 +32,16 @@ mesh::Mesh buildMesh(const Scene& scene, std::optional<int> refineOverride = std
 /// violate the constraint (checkDirichletContact).
 void validateScene(const Scene& scene, const mesh::Mesh& mesh);
 
+/// Checks a multi-body scene without solving: every body as validateScene, equal dimensions, and
+/// every [[contact]] pair's boundaries and mortar coupling (the surfaces overlap). Returns a one-line
+/// description ("2 bodies, 3D, ... cells, ... vertices, 1 mortar pair with ... constrained slave
+/// vertices"); throws obs::Error naming the file, line and body otherwise.
+std::string checkMultiBodyScene(const Scene& scene, std::optional<int> refineOverride = std::nullopt);
+
+/// Id of the boundary `ref` on the mesh; throws "file:line: <title> boundary = ... does not exist in
+/// the mesh (available boundaries: ...)" otherwise.
+int boundaryIdOf(const Scene& scene, const mesh::Mesh& mesh, const BoundaryRef& ref, const std::string& title);
+
 /// Boundary id of [contact] boundary; throws (naming the file, line and the available boundaries)
 /// if it does not exist or has no boundary faces.
 int contactBoundaryId(const Scene& scene, const mesh::Mesh& mesh);

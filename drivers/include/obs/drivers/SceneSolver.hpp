@@ -51,4 +51,24 @@ SceneSolution solveScene(const Scene& scene, const mesh::Grid& grid, const mesh:
                          const BoundaryConditions& bc, const IterationProgress& progress = {},
                          const AssembledCallback& assembled = {});
 
+/// The solution of a multi-body scene: per body the displacement (stresses recovered) and the
+/// contact point fields of its .vtu, the solver report and one report per [[contact]] pair.
+struct MultiBodySolution {
+  std::vector<ElasticitySolution> bodies;
+  std::vector<std::vector<Field>> contactFields;
+  SolverReport solver;
+  std::vector<PairReport> pairs;
+  long long dofs = 0, freeDofs = 0;
+  double assemblySeconds = 0, solveSeconds = 0;
+};
+
+/// Solves a validated multi-body scene (Scene::bodies, Scene::pairs): the bodies' grids, their leaf
+/// meshes and boundary conditions in the order of Scene::bodies. The problem is built by the same
+/// ContactModel as a one-body contact scene (bodies stacked, mortar pairs as couplings) and solved
+/// by the [solver] (TNNMG on the block-stacked hierarchies by default).
+MultiBodySolution solveMultiBodyScene(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
+                                      const std::vector<const mesh::Mesh*>& meshes,
+                                      const std::vector<BoundaryConditions>& bcs,
+                                      const IterationProgress& progress = {});
+
 }  // namespace obs::drivers

@@ -32,7 +32,8 @@
 /// so the stacked problem is again a bound-constrained minimisation in w (ContactProblem with a
 /// BasisTransformation) and TNNMG, projected Gauss-Seidel and the primal-dual active set method
 /// apply unchanged. The multiplier of the bound is D_pp lambda_p, lambda_p the dual-mortar contact
-/// pressure at p; the master side receives -sum_p lambda_p M_pq n_p, so action equals reaction.
+/// pressure at p; the slave node p receives the force -D_pp lambda_p n_p and the master vertex q
+/// sum_p lambda_p M_pq n_p, so action equals reaction.
 #include <Eigen/Core>
 
 #include <string>
@@ -103,8 +104,10 @@ public:
   /// C = D^{-1} M as a stacked n x n scalar matrix (rows of constrained slave nodes).
   mesh::CsrMatrix transformation() const;
 
-  /// Force on the master body from the nodal multipliers mu_k (= D_pp lambda_p) of the bound
-  /// constraints: f_q = -sum_p (mu_p / D_pp) M_pq n_p, stacked (numStackedVertices * d entries).
+  /// Nodal forces on the master body from the multipliers mu_k (= D_pp lambda_p) of the bound
+  /// constraints: f_q = sum_p (mu_p / D_pp) M_pq n_p (along the slave normals, away from the slave),
+  /// stacked (numStackedVertices * d entries). The slave body receives -mu_p n_p at its node p, so
+  /// the totals are equal and opposite (sum_q M_pq = D_pp).
   Eigen::VectorXd masterForces(const Eigen::VectorXd& multipliers) const;
 
 private:

@@ -1,0 +1,225 @@
+// Two-body contact with dual mortar: TNNMG on the block-stacked hierarchies against the primal-dual
+// active set method with CHOLMOD (PDAS), and against the one-body problem of the same slave body on a
+// rigid plane (memory per unknown). The problem (3D): a block with a cylindrical bottom (hexahedra,
+// width 1, height 0.5, depth 0.5, arc radius 1; the thesis' Geometry 1 shape) pressed 0.005 into a box
+// [-1, 1] x [-0.5, 0.5] x [-1, 0] of tetrahedra (non-matching interface), both uniformly refined.
+// Per level and solver, in a child process each (peak memory its own): unknowns, constrained slave
+// nodes, iterations, mortar assembly time (search, clipping, quadrature, transformation), problem
+// assembly time, solve time, peak memory. Writes a markdown table; progress goes to stderr.
+//
+//   build/bench/two_body perf.md --levels 1-3 [--pdas-max-dofs N] [--solvers tnnmg,pdas,onebody]
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <iomanip>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/CurvedMeshes.hpp"
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/ContactModel.hpp"
+#include "obs/obs/Obstacle.hpp"
+#include "obs/obs/PrimalDualActiveSet.hpp"
+#include "obs/obs/TNNMG.hpp"
+
+using namespace obs;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+struct Measurement {
+  bool ran = false, failed = false, converged = false;
+  long long dofs = 0, slaveNodes = 0, activeNodes = 0;
+  int iterations = 0;
+  double mortarSeconds = 0, assemblySeconds = 0, solveSeconds = 0, peakMB = 0, load = 0;
+  char message[160] = {};
+};
+
+template <class F>
+Measurement isolated(F f) {
+  int fd[2];
+  if (pipe(fd) != 0) throw std::runtime_error("pipe failed");
+  std::cout.flush();
+  std::cerr.flush();
+  const pid_t pid = fork();
+  if (pid == 0) {
+    close(fd[0]);
+    Measurement m;
+    try {
+      m = f();
+    } catch (const std::exception& e) {
+      m.failed = true;
+      std::snprintf(m.message, sizeof m.message, "%s", e.what());
+    }
+    m.ran = true;
+    rusage u{};
+    getrusage(RUSAGE_SELF, &u);
+    m.peakMB = static_cast<double>(u.ru_maxrss) / 1024.0;
+    if (write(fd[1], &m, sizeof m) != static_cast<ssize_t>(sizeof m)) _exit(1);
+    _exit(0);
+  }
+  close(fd[1]);
+  Measurement m;
+  const ssize_t got = read(fd[0], &m, sizeof m);
+  close(fd[0]);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  if (got != static_cast<ssize_t>(sizeof m)) {
+    m = Measurement();
+    m.ran = m.failed = true;
+    std::snprintf(m.message, sizeof m.message, "child process died (status %d; out of memory?)", status);
+  }
+  return m;
+}
+
+mesh::Grid roundedBlock(int levels) {
+  mesh::CurvedMesh rb = mesh::roundedBlockMesh(1.0, 0.5, 0.5, 1.0, mesh::CellType::Hexahedron, {4, 2, 2});
+  const Point shift(-0.5, -0.25, 0);
+  for (Index v = 0; v < rb.mesh.numVertices(); ++v) rb.mesh.vertex(v) += shift;
+  mesh::Grid g(std::move(rb.mesh));
+  for (const auto& [id, projection] : rb.projections)  // the projections move with the mesh
+    g.setBoundaryProjection(id, [projection, shift](const Point& x) { return Point(projection(x - shift) + shift); });
+  for (int l = 0; l < levels; ++l) g.refineUniformly();
+  return g;
+}
+
+BoundaryConditions pushedTop() {
+  BoundaryConditions bc;
+  bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Point(0, 0, -0.005); }});
+  return bc;
+}
+
+Measurement runTwoBody(int levels, const std::string& solverName) {
+  Measurement m;
+  auto t0 = Clock::now();
+  mesh::Grid upper = roundedBlock(levels);
+  mesh::Grid lower(mesh::boxMesh(mesh::CellType::Tetrahedron, {4, 2, 2}, Point(-1, -0.5, -1), Point(1, 0.5, 0)));
+  for (int l = 0; l < levels; ++l) lower.refineUniformly();
+  const mesh::Mesh ml = lower.leafView().mesh, mu = upper.leafView().mesh;
+  BoundaryConditions bl;
+  bl.dirichlet.push_back({mesh::kBottom});
+  ContactModel<3> model;
+  model.addBody("box", ml, Material{1.0, 0.3}, bl);
+  model.addBody("rounded block", mu, Material{1.0, 0.3}, pushedTop());
+  model.addMortarPair(1, mesh::kBottom, 0, mesh::kTop, "bottom / top");
+  const ContactProblem<3> problem = model.assemble();
+  m.assemblySeconds = since(t0);
+  m.mortarSeconds = model.couplings().front().coupling->statistics().seconds;
+  m.slaveNodes = model.couplings().front().coupling->size();
+  m.dofs = problem.numDofs();
+  Eigen::VectorXd x;
+  t0 = Clock::now();
+  ContactResult r;
+  if (solverName == "tnnmg") {
+    TNNMG<3> solver({&lower, &upper});
+    r = solver.solve(problem, x);
+  } else {
+    PrimalDualActiveSet<3> solver;
+    r = solver.solve(problem, x);
+  }
+  m.solveSeconds = since(t0);
+  m.iterations = r.iterations;
+  m.converged = r.converged;
+  m.activeNodes = r.activeSetSize;
+  const Eigen::VectorXd mu_ = problem.multipliers(x);
+  m.load = mu_.sum();
+  return m;
+}
+
+Measurement runOneBody(int levels) {
+  Measurement m;
+  auto t0 = Clock::now();
+  mesh::Grid upper = roundedBlock(levels);
+  const mesh::Mesh mu = upper.leafView().mesh;
+  const PlaneObstacle plane(Point(0, 0, 0), Point(0, 0, -1));
+  ContactModel<3> model;
+  model.addBody("rounded block", mu, Material{1.0, 0.3}, pushedTop());
+  model.addObstacleContact(0, ContactSet(mu, mesh::kBottom, plane), "rigid plane");
+  const ContactProblem<3> problem = model.assemble();
+  m.assemblySeconds = since(t0);
+  m.dofs = problem.numDofs();
+  Eigen::VectorXd x;
+  t0 = Clock::now();
+  TNNMG<3> solver(upper);
+  const ContactResult r = solver.solve(problem, x);
+  m.solveSeconds = since(t0);
+  m.iterations = r.iterations;
+  m.converged = r.converged;
+  m.activeNodes = r.activeSetSize;
+  m.load = problem.multipliers(x).sum();
+  return m;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::cerr << "usage: two_body OUTPUT.md [--levels a-b] [--pdas-max-dofs N] [--solvers tnnmg,pdas,onebody]\n";
+    return 2;
+  }
+  const std::string outFile = argv[1];
+  int first = 1, last = 3;
+  long long pdasMax = 400000;
+  std::string solvers = "tnnmg,pdas,onebody";
+  for (int i = 2; i + 1 < argc; i += 2) {
+    const std::string key = argv[i], value = argv[i + 1];
+    if (key == "--levels") {
+      if (std::sscanf(value.c_str(), "%d-%d", &first, &last) != 2) return 2;
+    } else if (key == "--pdas-max-dofs") {
+      pdasMax = std::stoll(value);
+    } else if (key == "--solvers") {
+      solvers = value;
+    } else {
+      std::cerr << "unknown option " << key << "\n";
+      return 2;
+    }
+  }
+  std::ostringstream table;
+  table << "| level | solver | unknowns | slave nodes | active | iterations | mortar s | assembly s | solve s | "
+           "peak MB | bytes/unknown | load P |\n|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  for (int level = first; level <= last; ++level) {
+    long long dofs = 0;  // of this level's TNNMG run
+    for (const std::string s : {"tnnmg", "pdas", "onebody"}) {
+      if (solvers.find(s) == std::string::npos) continue;
+      std::cerr << "level " << level << " " << s << " ..." << std::flush;
+      Measurement m;
+      if (s == "pdas") {
+        if (dofs > pdasMax) {
+          std::cerr << " skipped (" << dofs << " unknowns > --pdas-max-dofs)\n";
+          continue;
+        }
+        m = isolated([&] { return runTwoBody(level, "pdas"); });
+      } else if (s == "tnnmg") {
+        m = isolated([&] { return runTwoBody(level, "tnnmg"); });
+        dofs = m.dofs;
+      } else {
+        m = isolated([&] { return runOneBody(level); });
+      }
+      if (m.failed) {
+        std::cerr << " failed: " << m.message << "\n";
+        table << "| " << level << " | " << s << " | failed: " << m.message << " |||||||||\n";
+        continue;
+      }
+      std::cerr << " " << m.dofs << " unknowns, " << m.iterations << " iterations, " << m.solveSeconds << " s\n";
+      table << std::setprecision(4) << "| " << level << " | " << (s == "onebody" ? "tnnmg, one body on a rigid plane" : s)
+            << " | " << m.dofs << " | " << m.slaveNodes << " | " << m.activeNodes << " | " << m.iterations
+            << (m.converged ? "" : " (not converged)") << " | " << m.mortarSeconds << " | " << m.assemblySeconds
+            << " | " << m.solveSeconds << " | " << m.peakMB << " | "
+            << static_cast<long long>(m.peakMB * 1048576.0 / static_cast<double>(m.dofs)) << " | " << m.load << " |\n";
+    }
+  }
+  std::ofstream out(outFile);
+  out << table.str();
+  std::cout << table.str();
+  return 0;
+}

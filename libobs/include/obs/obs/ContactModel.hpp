@@ -1,0 +1,73 @@
+#pragma once
+/// \file ContactModel.hpp
+/// One description of a contact problem for every runner (docs/architecture.md, "Many bodies"):
+/// bodies (mesh, material, boundary conditions) and couplings, each either a body against a rigid
+/// obstacle (a ContactSet on that body's mesh) or a dual-mortar pair (slave boundary of one body,
+/// master boundary of another; MortarCoupling.hpp). assemble() stacks the bodies (MultiBody.hpp),
+/// merges the couplings' constraints into one ContactSet over the stacked vertices and builds the
+/// ContactProblem with the mortar basis transformation (none if there is no mortar pair), so TNNMG,
+/// PDAS and PGS solve every model alike. A one-body Signorini problem is the model with one body
+/// and one obstacle coupling, and gives the same ContactProblem as ContactProblem(mesh, material,
+/// bc, contactSet).
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "obs/mesh/Mesh.hpp"
+#include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/ContactSet.hpp"
+#include "obs/obs/Material.hpp"
+#include "obs/obs/MortarCoupling.hpp"
+#include "obs/obs/MultiBody.hpp"
+
+namespace obs {
+
+template <int d>
+class ContactModel {
+public:
+  struct Body {
+    std::string name;
+    const mesh::Mesh* mesh = nullptr;  ///< kept by pointer: must outlive assemble()
+    Material material;
+    BoundaryConditions bc;
+    Index offset = 0;  ///< first stacked vertex (set by assemble())
+  };
+  struct Coupling {
+    std::string label;
+    bool mortar = false;
+    int body = -1;                     ///< obstacle couplings: the body
+    int slave = -1, master = -1;       ///< mortar pairs: the bodies
+    int slaveId = 0, masterId = 0;     ///< mortar pairs: boundary ids on the bodies' meshes
+    MortarOptions options;
+    std::unique_ptr<ContactSet> obstacleSet;  ///< obstacle couplings (on the body's mesh)
+    std::unique_ptr<MortarCoupling> coupling; ///< mortar pairs (built by assemble())
+    std::vector<Index> nodes;  ///< this coupling's nodes in the merged ContactSet (assemble())
+  };
+
+  /// Adds a body; returns its index.
+  int addBody(std::string name, const mesh::Mesh& mesh, const Material& material, BoundaryConditions bc);
+  /// A rigid obstacle for body `body`: `set` was built on that body's mesh.
+  void addObstacleContact(int body, ContactSet set, std::string label);
+  /// A dual-mortar pair between boundary `slaveId` of body `slave` and `masterId` of body `master`.
+  void addMortarPair(int slave, int slaveId, int master, int masterId, std::string label,
+                     const MortarOptions& options = {});
+
+  /// Stacks, couples and builds the problem. Throws obs::Error on invalid indices, a vertex
+  /// constrained by two couplings, and every error of the parts (MortarCoupling, ContactProblem).
+  ContactProblem<d> assemble();
+
+  const std::vector<Body>& bodies() const { return bodies_; }
+  const std::vector<Coupling>& couplings() const { return couplings_; }
+  Index numVertices() const { return numVertices_; }
+
+private:
+  std::vector<Body> bodies_;
+  std::vector<Coupling> couplings_;
+  Index numVertices_ = 0;
+};
+
+extern template class ContactModel<2>;
+extern template class ContactModel<3>;
+
+}  // namespace obs

@@ -1,0 +1,153 @@
+#include "obs/obs/ContactModel.hpp"
+
+#include <algorithm>
+#include <numeric>
+
+#include "obs/mesh/Error.hpp"
+
+namespace obs {
+
+template <int d>
+int ContactModel<d>::addBody(std::string name, const mesh::Mesh& mesh, const Material& material,
+                             BoundaryConditions bc) {
+  bodies_.push_back({std::move(name), &mesh, material, std::move(bc), 0});
+  return static_cast<int>(bodies_.size()) - 1;
+}
+
+template <int d>
+void ContactModel<d>::addObstacleContact(int body, ContactSet set, std::string label) {
+  if (body < 0 || body >= static_cast<int>(bodies_.size()))
+    throw Error("contact model: obstacle contact '" + label + "' for body " + std::to_string(body) + " (no such body)");
+  Coupling c;
+  c.label = std::move(label);
+  c.body = body;
+  c.obstacleSet = std::make_unique<ContactSet>(std::move(set));
+  couplings_.push_back(std::move(c));
+}
+
+template <int d>
+void ContactModel<d>::addMortarPair(int slave, int slaveId, int master, int masterId, std::string label,
+                                    const MortarOptions& options) {
+  const int n = static_cast<int>(bodies_.size());
+  if (slave < 0 || slave >= n || master < 0 || master >= n)
+    throw Error("contact model: mortar pair '" + label + "' names a body that does not exist");
+  if (slave == master)
+    throw Error("contact model: mortar pair '" + label + "': slave and master belong to the same body");
+  Coupling c;
+  c.label = std::move(label);
+  c.mortar = true;
+  c.slave = slave;
+  c.master = master;
+  c.slaveId = slaveId;
+  c.masterId = masterId;
+  c.options = options;
+  couplings_.push_back(std::move(c));
+}
+
+template <int d>
+ContactProblem<d> ContactModel<d>::assemble() {
+  if (bodies_.empty()) throw Error("contact model: no body");
+  std::vector<BodySystem<d>> systems;
+  for (const Body& b : bodies_) systems.push_back(assembleBody<d>(*b.mesh, b.material, b.bc));
+  std::vector<Index> offsets;
+  BodySystem<d> system = stackBodies<d>(systems, &offsets);
+  systems.clear();
+  numVertices_ = system.numVertices();
+  for (std::size_t i = 0; i < bodies_.size(); ++i) bodies_[i].offset = offsets[i];
+
+  // one-body special case: the obstacle set is already over the stacked (= the body's) vertices
+  if (bodies_.size() == 1 && couplings_.size() == 1 && !couplings_[0].mortar) {
+    Coupling& c = couplings_[0];
+    c.nodes.resize(c.obstacleSet->size());
+    std::iota(c.nodes.begin(), c.nodes.end(), 0);
+    return ContactProblem<d>(std::move(system.stiffness), std::move(system.load), std::move(system.dirichlet),
+                             *c.obstacleSet);
+  }
+
+  // the couplings' nodes over the stacked vertices
+  struct Node {
+    Index vertex;
+    int coupling;
+    Index local;
+  };
+  std::vector<Node> nodes;
+  std::vector<ContactSet> sets;  // per coupling, over the stacked vertices
+  mesh::CsrMatrix basis;
+  std::vector<mesh::CsrMatrix> transforms;
+  for (std::size_t k = 0; k < couplings_.size(); ++k) {
+    Coupling& c = couplings_[k];
+    if (c.mortar) {
+      const Body& s = bodies_[c.slave];
+      const Body& m = bodies_[c.master];
+      c.coupling = std::make_unique<MortarCoupling>(
+          MortarSurface{s.mesh, c.slaveId, s.offset, "body '" + s.name + "'"},
+          MortarSurface{m.mesh, c.masterId, m.offset, "body '" + m.name + "'"}, numVertices_, c.options);
+      sets.push_back(c.coupling->contactSet());
+      transforms.push_back(c.coupling->transformation());
+    } else {
+      const ContactSet& cs = *c.obstacleSet;
+      const Index off = bodies_[c.body].offset;
+      ContactSet::Data data;
+      data.dimension = cs.dimension();
+      data.label = cs.boundaryLabel();
+      data.obstacleName = cs.obstacleName();
+      data.numMeshVertices = numVertices_;
+      for (Index i = 0; i < cs.size(); ++i) {
+        data.vertices.push_back(off + cs.vertex(i));
+        data.positions.push_back(cs.position(i));
+        data.directions.push_back(cs.direction(i));
+        data.gaps.push_back(cs.gap(i));
+        data.masses.push_back(cs.boundaryMass(i));
+      }
+      data.faces = cs.faces();
+      sets.emplace_back(std::move(data));
+    }
+    for (Index i = 0; i < sets.back().size(); ++i) nodes.push_back({sets.back().vertex(i), static_cast<int>(k), i});
+  }
+  std::sort(nodes.begin(), nodes.end(), [](const Node& a, const Node& b) { return a.vertex < b.vertex; });
+  ContactSet::Data merged;
+  merged.dimension = d;
+  merged.numMeshVertices = numVertices_;
+  for (const Coupling& c : couplings_) merged.label += (merged.label.empty() ? "" : ", ") + c.label;
+  merged.obstacleName = couplings_.size() == 1 ? sets.front().obstacleName() : "several";
+  for (auto& c : couplings_) c.nodes.assign(sets[&c - couplings_.data()].size(), -1);
+  for (std::size_t i = 0; i < nodes.size(); ++i) {
+    if (i > 0 && nodes[i].vertex == nodes[i - 1].vertex)
+      throw Error("contact model: stacked vertex " + std::to_string(nodes[i].vertex) + " is constrained by both '" +
+                  couplings_[nodes[i - 1].coupling].label + "' and '" + couplings_[nodes[i].coupling].label +
+                  "' (a vertex may belong to one contact coupling only)");
+    const ContactSet& cs = sets[nodes[i].coupling];
+    const Index l = nodes[i].local;
+    couplings_[nodes[i].coupling].nodes[l] = static_cast<Index>(i);
+    merged.vertices.push_back(nodes[i].vertex);
+    merged.positions.push_back(cs.position(l));
+    merged.directions.push_back(cs.direction(l));
+    merged.gaps.push_back(cs.gap(l));
+    merged.masses.push_back(cs.boundaryMass(l));
+  }
+  for (std::size_t k = 0; k < couplings_.size(); ++k)
+    for (ContactSet::Face f : sets[k].faces()) {
+      for (Index& n : f.nodes) n = couplings_[k].nodes[n];
+      merged.faces.push_back(std::move(f));
+    }
+  // the basis transformation: the sum of the pairs' C (their rows are disjoint slave vertices)
+  if (!transforms.empty()) {
+    basis.rows = basis.cols = numVertices_;
+    basis.rowStart.assign(numVertices_ + 1, 0);
+    for (Index r = 0; r < numVertices_; ++r) {
+      for (const auto& T : transforms)
+        for (Index m = T.rowStart[r]; m < T.rowStart[r + 1]; ++m) {
+          basis.columns.push_back(T.columns[m]);
+          basis.values.push_back(T.values[m]);
+        }
+      basis.rowStart[r + 1] = static_cast<Index>(basis.columns.size());
+    }
+  }
+  return ContactProblem<d>(std::move(system.stiffness), std::move(system.load), std::move(system.dirichlet),
+                           ContactSet(std::move(merged)), std::move(basis));
+}
+
+template class ContactModel<2>;
+template class ContactModel<3>;
+
+}  // namespace obs

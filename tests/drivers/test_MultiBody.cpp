@@ -1,0 +1,197 @@
+// Multi-body scenes ([[body]], [[contact]] pairs with dual mortar) through runScene (`obs run`): the
+// 3D patch scene transmits the constant pressure exactly with equal and opposite forces; the 2D
+// cylinder scene agrees between TNNMG and PDAS and writes one .vtu per body plus a .pvd; a one-body
+// contact scene gives the same results as before the contact model (it is the one-body case of the
+// same path); every bad input of the multi-body format is a one-line error naming file and line.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "obs/drivers/RunScene.hpp"
+#include "obs/drivers/SceneParser.hpp"
+#include "obs/drivers/SceneSetup.hpp"
+#include "obs/mesh/Error.hpp"
+#include "DriverTestSupport.hpp"
+
+using obs::test::slurp;
+using obs::test::summaryOf;
+namespace fs = std::filesystem;
+using namespace obs::drivers;
+
+namespace {
+
+const fs::path kTmp = fs::path(OBS_TEST_TMP_DIR) / "multi_body";
+const fs::path kScenes = fs::path(OBS_DATA_DIR) / "scenes";
+
+RunResult run(const fs::path& scene, const std::string& out, std::vector<std::string> overrides = {}) {
+  RunOptions o;
+  o.outputDirectory = kTmp / out;
+  o.overrides = std::move(overrides);
+  return runScene(scene, o);
+}
+
+TEST(MultiBodyScene, PatchSceneTransmitsConstantPressureExactly) {
+  const RunResult r = run(kScenes / "twobody_patch.toml", "patch");
+  ASSERT_EQ(r.pairs.size(), 1u);
+  const PairReport& p = r.pairs.front();
+  EXPECT_EQ(p.potentialVertices, 36);
+  EXPECT_EQ(p.actualVertices, 36);
+  EXPECT_NEAR(p.pressureMin, 10.0, 1e-8);
+  EXPECT_NEAR(p.pressureMax, 10.0, 1e-8);
+  EXPECT_NEAR(p.load, 10.0, 1e-9);
+  EXPECT_NEAR(p.area, 1.0, 1e-12);
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(p.forceSlave[a] + p.forceMaster[a], 0.0, 1e-11);
+  EXPECT_NEAR(p.forceSlave[2], 10.0, 1e-9);  // the lower block pushes the upper one up
+  // the exact solution's largest displacement: the upper block's top corner (2.5e-5, 2.5e-5, -1.5e-4)
+  EXPECT_NEAR(r.maxDisplacement, std::sqrt(2 * 2.5e-5 * 2.5e-5 + 1.5e-4 * 1.5e-4), 1e-14);
+  ASSERT_EQ(r.bodies.size(), 2u);
+  EXPECT_EQ(r.bodies[0].name, "lower");
+  const nlohmann::json j = summaryOf(kTmp / "patch");
+  ASSERT_TRUE(j.contains("pairs"));
+  EXPECT_EQ(j["pairs"][0]["force_slave"].size(), 3u);
+  EXPECT_EQ(j["pairs"][0]["force_master"].size(), 3u);
+  for (const char* key : {"load_P", "actual_vertices", "pressure_min", "pressure_max"})
+    EXPECT_TRUE(j["pairs"][0].contains(key)) << key;
+  EXPECT_TRUE(fs::exists(kTmp / "patch" / "twobody_patch_lower.vtu"));
+  EXPECT_TRUE(fs::exists(kTmp / "patch" / "twobody_patch_upper.vtu"));
+  const std::string pvd = slurp(kTmp / "patch" / "twobody_patch.pvd");
+  EXPECT_NE(pvd.find("part=\"1\" file=\"twobody_patch_upper.vtu\""), std::string::npos) << pvd;
+}
+
+TEST(MultiBodyScene, CylinderSceneTnnmgAgreesWithPdas) {
+  RunOptions o;  // --refine 2 for both bodies
+  o.refine = 2;
+  o.outputDirectory = kTmp / "cyl_tnnmg";
+  const RunResult t = runScene(kScenes / "twobody_cylinders.toml", o);
+  o.outputDirectory = kTmp / "cyl_pdas";
+  o.overrides = {"solver.type=\"pdas\""};
+  const RunResult p = runScene(kScenes / "twobody_cylinders.toml", o);
+  ASSERT_EQ(t.pairs.size(), 1u);
+  EXPECT_TRUE(t.solver.converged);
+  EXPECT_LE(t.solver.iterations, 20);
+  EXPECT_EQ(t.pairs[0].actualVertices, p.pairs[0].actualVertices);
+  EXPECT_NEAR(t.pairs[0].load, p.pairs[0].load, 1e-7 * p.pairs[0].load);
+  EXPECT_GT(t.pairs[0].actualVertices, 3);
+  EXPECT_LT(t.pairs[0].forceMaster[1], 0);  // the block is pushed down
+  EXPECT_NEAR(t.pairs[0].forceSlave[1] + t.pairs[0].forceMaster[1], 0.0, 1e-12);
+  EXPECT_GT(t.pairs[0].uncovered, 0);  // the arc above the block is not covered: no constraint there
+}
+
+// --- bad input -----------------------------------------------------------------------------------
+
+std::string errorOf(const std::string& text, bool run = false) {
+  fs::create_directories(kTmp);
+  const fs::path p = kTmp / "bad.toml";
+  std::ofstream(p) << text;
+  try {
+    const Scene s = parseScene(p);
+    if (run) {
+      RunOptions o;
+      o.outputDirectory = kTmp / "bad";
+      runScene(s, o);
+    } else {
+      checkMultiBodyScene(s);
+    }
+  } catch (const obs::Error& e) {
+    return e.what();
+  }
+  return "no error";
+}
+
+const std::string kLower = R"(
+[[body]]
+name = "lower"
+[body.mesh]
+generator = "box"
+type = "quadrilateral"
+cells = [4, 2]
+lower = [0.0, 0.0]
+upper = [1.0, 0.5]
+[body.material]
+E = 1.0
+nu = 0.3
+[[body.dirichlet]]
+boundary = "bottom"
+)";
+
+std::string upper(const std::string& lower = "[0.0, 0.5]", const std::string& upper = "[1.0, 1.0]",
+                  const std::string& dirichlet = "top") {
+  return R"(
+[[body]]
+name = "upper"
+[body.mesh]
+generator = "box"
+type = "triangle"
+cells = [3, 2]
+lower = )" + lower + R"(
+upper = )" + upper + R"(
+[body.material]
+E = 1.0
+nu = 0.3
+[[body.dirichlet]]
+boundary = ")" + dirichlet + R"("
+value = [0.0, -0.01]
+)";
+}
+
+const std::string kPair = R"(
+[[contact]]
+slave = { body = "upper", boundary = "bottom" }
+master = { body = "lower", boundary = "top" }
+)";
+
+TEST(MultiBodyScene, ValidSceneChecks) {
+  EXPECT_EQ(errorOf(kLower + upper() + kPair), "no error");
+}
+
+TEST(MultiBodyScene, BadInputIsOneLineErrorWithLine) {
+  auto expect = [](const std::string& text, const std::string& part, bool run = false) {
+    const std::string m = errorOf(text, run);
+    EXPECT_NE(m.find(part), std::string::npos) << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+    EXPECT_NE(m.find("bad.toml"), std::string::npos) << m;
+  };
+  expect(kLower + kPair, "needs at least two bodies");
+  expect(kLower + upper(), "needs [[contact]] pairs");
+  expect(kLower + upper() + kPair + "\n[mesh]\ngenerator = \"box\"\n", "cannot be combined with [[body]]");
+  expect(kLower + upper() + kPair + "\n[dynamics]\ntau = 0.1\n", "not available for multi-body scenes");
+  std::string dup = kLower + kLower;
+  expect(dup + kPair, "is used by the body of line");
+  expect(kLower + upper() + R"(
+[[contact]]
+slave = { body = "upper", boundary = "bottom" }
+master = { body = "nobody", boundary = "top" }
+)", "\"nobody\" is not a body of this scene (bodies: lower, upper)");
+  expect(kLower + upper() + R"(
+[[contact]]
+slave = { body = "upper", boundary = "bottom" }
+master = { body = "upper", boundary = "top" }
+)", "self-contact is not supported");
+  expect(kLower + upper() + R"(
+[[contact]]
+slave = { body = "upper", boundary = "floor" }
+master = { body = "lower", boundary = "top" }
+)", "boundary = \"floor\" does not exist");
+  expect(kLower + upper() + R"(
+[[contact]]
+slave = { body = "upper", boundary = "bottom" }
+master = { body = "lower", boundary = "top" }
+friction = 0.3
+)", "friction");
+  // surfaces far apart: the distance is reported
+  expect(kLower + upper("[5.0, 0.5]", "[6.0, 1.0]") + kPair, "covers no slave node");
+  // a free body (no Dirichlet data) in a static scene
+  std::string free = upper();
+  free = free.substr(0, free.find("[[body.dirichlet]]"));
+  expect(kLower + free + kPair, "(in [[body]] 'upper')");
+  // a Dirichlet condition on the slave side of the interface
+  expect(kLower + upper("[0.0, 0.5]", "[1.0, 1.0]", "bottom") + kPair, "mortar slave node with a Dirichlet condition",
+         true);
+}
+
+}  // namespace
