@@ -55,14 +55,16 @@ const std::vector<std::string>& curvedMeshKeys() {
 }
 
 bool isCurvedGenerator(const std::string& generator) {
-  return generator == "ball" || generator == "rounded_block" || generator == "disk" || generator == "half_disk";
+  return generator == "ball" || generator == "rounded_block" || generator == "disk" || generator == "half_disk" ||
+         generator == "half_ball";
 }
 
 void parseCurvedMesh(const TomlSection& s, MeshSpec& spec) {
   const std::string generator = s.string("generator");
   // ball-like generators: centre, radius and one cell count (ball 3D; disk, half disk 2D)
-  const bool ball = generator == "ball" || generator == "disk" || generator == "half_disk";
+  const bool ball = generator == "ball" || generator == "disk" || generator == "half_disk" || generator == "half_ball";
   spec.source = generator == "ball"      ? MeshSpec::Source::Ball
+                : generator == "half_ball" ? MeshSpec::Source::HalfBall
                 : generator == "disk"    ? MeshSpec::Source::Disk
                 : generator == "half_disk" ? MeshSpec::Source::HalfDisk
                                          : MeshSpec::Source::RoundedBlock;
@@ -87,10 +89,11 @@ void parseCurvedMesh(const TomlSection& s, MeshSpec& spec) {
                        "hexahedron, prism, pyramid)");
   spec.cellType = *cellType;
   const int dim = mesh::dimension(*cellType);
-  if (generator == "ball" && dim != 3)
-    s.fail("type", "= \"" + type + "\": generator = \"ball\" needs a 3D cell type (tetrahedron, "
+  const bool ball3D = generator == "ball" || generator == "half_ball";
+  if (ball3D && dim != 3)
+    s.fail("type", "= \"" + type + "\": generator = \"" + generator + "\" needs a 3D cell type (tetrahedron, "
                                    "hexahedron, prism, pyramid)");
-  if (ball && generator != "ball" && dim != 2)
+  if (ball && !ball3D && dim != 2)
     s.fail("type", "= \"" + type + "\": generator = \"" + generator + "\" needs a 2D cell type (triangle, quadrilateral)");
 
   // cells

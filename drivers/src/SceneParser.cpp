@@ -71,7 +71,7 @@ std::optional<mesh::CellType> cellTypeByName(const std::string& name) {
 void parseBox(const TomlSection& s, MeshSpec& spec) {
   const std::string generator = s.string("generator");
   if (generator != "box")
-    s.fail("generator", "= \"" + generator + "\" is unknown (known generators: box, ball, rounded_block, disk, half_disk)");
+    s.fail("generator", "= \"" + generator + "\" is unknown (known generators: box, ball, rounded_block, half_ball, disk, half_disk)");
   const std::string type = s.string("type");
   const auto cellType = cellTypeByName(type);
   if (!cellType)
@@ -151,7 +151,7 @@ MeshSpec parseMesh(const Scene& scene, const toml::value& table) {
     parseCurvedMesh(s, spec);
   } else if (s.has("generator")) {
     for (const std::string& key : curvedMeshKeys())
-      if (s.has(key)) s.fail(key, "does not apply to generator = \"box\" (only ball, rounded_block, disk, half_disk)");
+      if (s.has(key)) s.fail(key, "does not apply to generator = \"box\" (only ball, half_ball, rounded_block, disk, half_disk)");
     spec.source = MeshSpec::Source::Box;
     parseBox(s, spec);
   } else {
@@ -485,7 +485,7 @@ void parseMultiBody(Scene& scene, const toml::value& bodies, const toml::value* 
     side.fail("body", "= \"" + name + "\" is not a body of this scene (bodies: " + known + ")");
   };
   for (const toml::value& c : contact->as_array()) {
-    const TomlSection s(scene.fileName, "[[contact]]", c, {"slave", "master", "min_coverage", "type"});
+    const TomlSection s(scene.fileName, "[[contact]]", c, {"slave", "master", "min_coverage", "search_distance", "type"});
     MortarPairSpec pair;
     pair.line = s.line();
     if (s.has("type") && s.string("type") != "mortar")
@@ -508,6 +508,11 @@ void parseMultiBody(Scene& scene, const toml::value& bodies, const toml::value* 
       pair.minCoverage = s.number("min_coverage");
       if (!(pair.minCoverage > 0 && pair.minCoverage <= 1))
         s.fail("min_coverage", "= " + literalOf(s.at("min_coverage")) + " must lie in (0, 1]");
+    }
+    if (s.has("search_distance")) {
+      pair.searchDistance = s.number("search_distance");
+      if (!(pair.searchDistance > 0))
+        s.fail("search_distance", "= " + literalOf(s.at("search_distance")) + " must be positive");
     }
     scene.pairs.push_back(std::move(pair));
   }

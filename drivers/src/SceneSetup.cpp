@@ -143,11 +143,15 @@ mesh::Grid buildGrid(const Scene& scene, std::optional<int> refineOverride) {
     const char* generator = spec.source == MeshSpec::Source::Ball   ? "ball"
                             : spec.source == MeshSpec::Source::Disk ? "disk"
                             : spec.source == MeshSpec::Source::HalfDisk ? "half_disk"
+                            : spec.source == MeshSpec::Source::HalfBall ? "half_ball"
                                                                         : "rounded_block";
     try {
       switch (spec.source) {
         case MeshSpec::Source::Ball: curved = mesh::ballMesh(spec.centre, spec.radius, spec.cellType, spec.cells[0]); break;
         case MeshSpec::Source::Disk: curved = mesh::diskMesh(spec.centre, spec.radius, spec.cellType, spec.cells[0]); break;
+        case MeshSpec::Source::HalfBall:
+          curved = mesh::halfBallMesh(spec.centre, spec.radius, spec.cellType, spec.cells[0]);
+          break;
         case MeshSpec::Source::HalfDisk:
           curved = mesh::halfDiskMesh(spec.centre, spec.radius, spec.cellType, spec.cells[0]);
           break;
@@ -349,6 +353,7 @@ std::string checkMultiBodyScene(const Scene& scene, std::optional<int> refineOve
     const int mid = boundaryIdOf(scene, meshes[p.masterIndex], p.master, "[[contact]] master of body '" + mb.name + "':");
     MortarOptions o;
     o.minCoverage = p.minCoverage;
+    o.searchDistance = p.searchDistance;
     try {
       const MortarCoupling c({&meshes[p.slaveIndex], sid, offsets[p.slaveIndex], "body '" + sb.name + "'"},
                              {&meshes[p.masterIndex], mid, offsets[p.masterIndex], "body '" + mb.name + "'"}, n, o);

@@ -273,6 +273,7 @@ MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mes
     const int mid = boundaryIdOf(scene, *meshes[p.masterIndex], p.master, "[[contact]] master of body '" + mb.name + "':");
     MortarOptions o;
     o.minCoverage = p.minCoverage;
+    o.searchDistance = p.searchDistance;
     model.addMortarPair(p.slaveIndex, sid, p.masterIndex, mid, sideLabel(p.slaveBody, p.slave) + " / " + sideLabel(p.masterBody, p.master), o);
   }
   std::optional<ContactProblem<d>> problem;

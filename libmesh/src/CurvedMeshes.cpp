@@ -145,7 +145,7 @@ void addBoundaryFaces(Mesh& mesh, const std::vector<unsigned>& tags, Classify cl
 // --- cubed-sphere blocks -----------------------------------------------------------------------
 
 constexpr unsigned kOnSphere = 1;  // vertex tag: outermost layer
-constexpr unsigned kOnCut = 2;     // vertex tag: on the diameter y = centre.y (half disk)
+constexpr unsigned kOnCut = 2;     // vertex tag: on the cut plane x[cutAxis] = centre[cutAxis] (half disk/ball)
 
 /// A mesh with kOnSphere/kOnCut tags of its vertices (block vertices first, in vertex order).
 struct TaggedMesh {
@@ -155,8 +155,9 @@ struct TaggedMesh {
 
 /// Mesh of a ball (dim 3) or disk (dim 2) from the cubed-sphere blocks with N cells per direction
 /// of the inner cube, restricted to the block cells whose centroid satisfies `keep` (all if empty).
+/// Vertices on the plane x[cutAxis] = centre[cutAxis] (a mesh plane for even N) are tagged kOnCut.
 TaggedMesh cubedBall(int dim, const Point& centre, double radius, int N, CellType type,
-                     const std::function<bool(const Point&)>& keep = {}) {
+                     const std::function<bool(const Point&)>& keep = {}, int cutAxis = 1) {
   const int m = (N + 1) / 2;  // radial layers
   const double a = radius / (2.0 * std::sqrt(static_cast<double>(dim)));
   const std::int64_t side = N + 1, lattice = dim == 3 ? side * side * side : side * side;
@@ -231,7 +232,7 @@ TaggedMesh cubedBall(int dim, const Point& centre, double radius, int N, CellTyp
     const int s = static_cast<int>(side);
     const Key key = {l, r % s, r / s % s, r / s / s};
     out.mesh.addVertex(position(key));
-    out.tags.push_back((l == m ? kOnSphere : 0u) | (2 * key[2] == N ? kOnCut : 0u));
+    out.tags.push_back((l == m ? kOnSphere : 0u) | (2 * key[cutAxis + 1] == N ? kOnCut : 0u));
   }
   auto id = [&](const Key& key) {
     return static_cast<Index>(std::lower_bound(used.begin(), used.end(), keyIndex(key)) -
@@ -307,6 +308,25 @@ CurvedMesh halfDiskMesh(const Point& centre, double radius, CellType type, int n
   out.mesh.setBoundaryName(kCurvedSurface, "arc");
   out.mesh.setBoundaryName(kHalfDiskTop, "top");
   out.projections[kCurvedSurface] = sphereProjection(2, centre, radius);
+  return out;
+}
+
+CurvedMesh halfBallMesh(const Point& centre, double radius, CellType type, int n) {
+  checkType("halfBallMesh", type, 3);
+  checkBall("halfBallMesh", 3, centre, radius, n);
+  // The equator plane z = centre.z is a mesh plane of the ball with 2n cells; keep the cells below.
+  const double cz = centre[2];
+  auto [mesh, tags] =
+      cubedBall(3, centre, radius, 2 * n, type, [cz](const Point& x) { return x[2] < cz; }, 2);
+  CurvedMesh out{std::move(mesh), {}};
+  addBoundaryFaces(out.mesh, tags, [](unsigned common) {
+    if (common & kOnCut) return int(kHalfDiskTop);
+    if (common & kOnSphere) return int(kCurvedSurface);
+    throw std::logic_error("halfBallMesh: a boundary face off the sphere and the equator plane");
+  });
+  out.mesh.setBoundaryName(kCurvedSurface, "surface");
+  out.mesh.setBoundaryName(kHalfDiskTop, "top");
+  out.projections[kCurvedSurface] = sphereProjection(3, centre, radius);
   return out;
 }
 

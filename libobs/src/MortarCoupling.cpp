@@ -299,9 +299,17 @@ MortarCoupling::MortarCoupling(const MortarSurface& slave, const MortarSurface& 
   std::vector<double> mass(ns, 0.0), Dsum(ns, 0.0), gap(ns, 0.0);
   std::vector<std::vector<Entry>> rows(ns);
 
+  // the potential contact zone: master faces within the search distance of a slave face (default:
+  // a tenth of the slave surface's extent, at least its largest face; independent of the refinement)
   double search = options.searchDistance;
-  if (!(search > 0))
-    for (const auto& f : sf) search = std::max(search, f.diameter);
+  if (!(search > 0)) {
+    Box extent;
+    for (const auto& f : sf) {
+      extent.extend(f.box);
+      search = std::max(search, f.diameter);
+    }
+    search = std::max(search, 0.1 * extent.diagonal().norm());
+  }
 
   BoxGrid grid(mf, dim_);
   std::vector<Index> candidates;

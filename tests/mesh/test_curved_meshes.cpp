@@ -339,6 +339,27 @@ TEST(HalfDiskMesh, DiameterIsFlatAndExact) {
   for (const Point& x : hd.mesh.vertices()) EXPECT_LE(x[1], kDiskCentre[1]);
 }
 
+TEST(HalfBallMesh, EquatorIsFlatAndEveryTypeConforms) {
+  // the flat top is the exact disc z = centre.z of area pi r^2; the mesh is a conforming half of the
+  // ball (volume close to 2/3 pi r^3 for the flat-faced cells), for every 3D type
+  const Point c(0.5, -0.25, 1.0);
+  for (CellType type : {CellType::Hexahedron, CellType::Tetrahedron, CellType::Prism, CellType::Pyramid}) {
+    const CurvedMesh hb = halfBallMesh(c, 1.0, type, 2);
+    for (Index f = 0; f < hb.mesh.numBoundaryFaces(); ++f)
+      if (hb.mesh.boundaryFaceId(f) == kHalfDiskTop)
+        for (Index v : hb.mesh.boundaryFaceVertices(f)) EXPECT_EQ(hb.mesh.vertex(v)[2], c[2]) << name(type);
+    for (const Point& x : hb.mesh.vertices()) EXPECT_LE(x[2], c[2]) << name(type);
+    const auto measures = boundaryMeasureById(hb.mesh);
+    EXPECT_NEAR(measures.at(kHalfDiskTop), std::numbers::pi, 0.1) << name(type);  // polygonal disc
+    EXPECT_EQ(hb.mesh.boundaryNames().at(kHalfDiskTop), "top");
+    EXPECT_TRUE(hb.projections.count(kCurvedSurface));
+    // half of the full ball's boundary faces on the sphere
+    const CurvedMesh ball = ballMesh(c, 1.0, type, 4);
+    EXPECT_NEAR(measures.at(kCurvedSurface), 0.5 * boundaryMeasureById(ball.mesh).at(kCurvedSurface), 1e-12)
+        << name(type);
+  }
+}
+
 TEST(RoundedBlockMesh, FlatSidesAndLowestPoint) {
   const double H = 1.2, R = 2.5;
   const CurvedMesh b = roundedBlockMesh(kW, H, kD, R, CellType::Hexahedron, kBlockCells);

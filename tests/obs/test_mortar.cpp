@@ -460,6 +460,35 @@ TEST(MortarTwoBody, RoundedBlockOnBoxTnnmgAgreesWithPdas3D) {
               << ", contact nodes " << out.contactNodes << ", force " << out.force.transpose() << "\n";
 }
 
+TEST(MortarCoupling, PotentialContactZoneDoesNotShrinkWithRefinement) {
+  // every slave vertex within 0.1 of the master surface is constrained, however fine the mesh (a
+  // search distance tied to the face size left the rim of the contact zone unconstrained on fine
+  // grids: the cylinder then penetrated the block there)
+  for (int levels : {2, 5}) {
+    mesh::Grid block(mesh::boxMesh(CellType::Quadrilateral, {8, 4, 1}, Point(-2, -2, 0), Point(2, 0, 0)));
+    mesh::Grid cylinder = CylinderOnBlock::makeCylinder(CellType::Triangle);
+    for (int l = 0; l < levels; ++l) {
+      block.refineUniformly();
+      cylinder.refineUniformly();
+    }
+    const mesh::Mesh& mb = block.leafView().mesh;
+    const mesh::Mesh& mc = cylinder.leafView().mesh;
+    const Index off = mb.numVertices();
+    MortarCoupling c({&mc, mesh::kCurvedSurface, off, "arc"}, {&mb, mesh::kTop, 0, "top"}, off + mc.numVertices());
+    std::vector<char> constrained(mc.numVertices(), 0);
+    for (Index k = 0; k < c.size(); ++k) constrained[c.vertex(k) - off] = 1;
+    Index near = 0;
+    for (Index f = 0; f < mc.numBoundaryFaces(); ++f)
+      if (mc.boundaryFaceId(f) == mesh::kCurvedSurface)
+        for (Index v : mc.boundaryFaceVertices(f))
+          if (mc.vertex(v)[1] < 0.1) {
+            EXPECT_TRUE(constrained[v]) << "levels " << levels << ", vertex at " << mc.vertex(v).transpose();
+            ++near;
+          }
+    EXPECT_GT(near, 4);
+  }
+}
+
 TEST(MortarCoupling, BadInput) {
   mesh::Mesh lower = mesh::boxMesh(CellType::Hexahedron, 2);
   mesh::Mesh upper = shifted(mesh::boxMesh(CellType::Hexahedron, 2), Point(0, 0, 1));

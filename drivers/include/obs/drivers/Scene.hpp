@@ -38,7 +38,7 @@ struct BoundaryRef {
 /// [mesh]: a generated box, ball, rounded block, disk or half disk, or a Gmsh file, then `refine` uniform
 /// refinements (new vertices on curved boundaries are projected onto the exact surface).
 struct MeshSpec {
-  enum class Source { Box, File, Ball, RoundedBlock, Disk, HalfDisk };
+  enum class Source { Box, File, Ball, RoundedBlock, Disk, HalfDisk, HalfBall };
   Source source = Source::Box;
   // generator = "box"
   mesh::CellType cellType = mesh::CellType::Quadrilateral;
@@ -129,6 +129,7 @@ struct MortarPairSpec {
   BoundaryRef slave, master;          ///< boundaries of those bodies
   int slaveIndex = -1, masterIndex = -1;  ///< indices into Scene::bodies
   double minCoverage = 0.5;  ///< slave nodes covered less are unconstrained (MortarCoupling.hpp)
+  double searchDistance = -1;  ///< potential contact zone (MortarOptions::searchDistance); <= 0: default
   int line = 0;              ///< line of [[contact]]
 };
 

@@ -40,7 +40,7 @@ struct CurvedMesh {
 /// Boundary ids of ball, disk and half disk (the rounded block uses BoxBoundary of BoxMesh.hpp).
 enum CurvedBoundary : int {
   kCurvedSurface = 1,  ///< "surface" (ball), "circle" (disk), "arc" (half disk)
-  kHalfDiskTop = 2,    ///< "top": the straight diameter of the half disk
+  kHalfDiskTop = 2,    ///< "top": the straight diameter of the half disk / the flat disc of the half ball
 };
 
 /// The ball of radius `radius` around `centre`, cubed-sphere blocks with n = level0Cells cells per
@@ -72,6 +72,12 @@ CurvedMesh diskMesh(const Point& centre, double radius, CellType type, int n);
 /// 2D analogue of a ball touching a plane from above. Boundary ids 1 "arc" (projection onto the
 /// circle) and 2 "top" (the diameter, flat). Throws as diskMesh.
 CurvedMesh halfDiskMesh(const Point& centre, double radius, CellType type, int n);
+
+/// The lower half ball {|x - centre| <= radius, z <= centre.z}: the part of ballMesh(centre, radius,
+/// type, 2n) below the equator plane (a mesh plane of that ball), i.e. a ball touching a plane from
+/// above with a flat top to hold it. Boundary ids 1 "surface" (projection onto the sphere) and 2
+/// "top" (the flat disc). Throws as ballMesh.
+CurvedMesh halfBallMesh(const Point& centre, double radius, CellType type, int n);
 
 /// The block of the thesis' dynamic examples: [0, width] x [0, depth] x [z_b(x), height] with the
 /// cylindrical bottom z_b(x) = R - sqrt(R^2 - (x - width/2)^2), R = arcRadius (cylinder axis along

@@ -11,7 +11,7 @@
 /// Discretisation, per slave face e (segment in 2D, triangle or quadrilateral in 3D):
 ///  - dual basis psi_i = sum_j (A_e)_ij phi_j with A_e = D_e M_e^{-1}, M_e the face mass matrix and
 ///    D_e = diag(row sums of M_e), so int_e psi_i phi_j = delta_ij int_e phi_j (biorthogonality);
-///  - every master face whose bounding box overlaps e's (enlarged by the search distance) is
+///  - every master face facing e whose bounding box overlaps e's (enlarged by the search distance) is
 ///    projected along the slave face normal n_e onto e's plane, clipped against e (interval
 ///    intersection in 2D, Sutherland-Hodgman for convex polygons in 3D), the clipped polygon is
 ///    split into triangles from its centroid and integrated with a Gauss rule of degree 6;
@@ -46,8 +46,10 @@
 namespace obs {
 
 struct MortarOptions {
-  /// Master faces farther than this from a slave face (bounding boxes) are not considered; <= 0:
-  /// the largest slave face diameter.
+  /// Master faces farther than this from a slave face (bounding boxes) are not paired with it, so
+  /// slave nodes farther than this from the master surface stay unconstrained: it must exceed the
+  /// largest expected approach of the surfaces. <= 0: a tenth of the diagonal of the slave
+  /// surface's bounding box, at least the largest slave face diameter (independent of refinement).
   double searchDistance = -1;
   /// Minimum coverage D_pp / int_S phi_p of a constrained slave node (see the file comment).
   double minCoverage = 0.5;
