@@ -12,7 +12,7 @@ std::string Scene::where(int line) const {
 
 std::string Scene::solverType() const {
   if (!solver.type.empty()) return solver.type;
-  return contact || !pairs.empty() ? "tnnmg" : "direct";
+  return contact || multiBody() ? "tnnmg" : "direct";
 }
 
 }  // namespace obs::drivers

@@ -485,6 +485,26 @@ void parseMultiBody(Scene& scene, const toml::value& bodies, const toml::value* 
     side.fail("body", "= \"" + name + "\" is not a body of this scene (bodies: " + known + ")");
   };
   for (const toml::value& c : contact->as_array()) {
+    if (c.is_table() && c.as_table().count("body")) {
+      // a rigid obstacle for one body: the keys of [contact] plus body = "name"
+      const toml::value& b = c.as_table().at("body");
+      if (!b.is_string())
+        throw Error(whereOf(scene.fileName, b) + "[[contact]] body must be a string (a body name), got " + typeNameOf(b));
+      int index = -1;
+      for (std::size_t i = 0; i < scene.bodies.size(); ++i)
+        if (scene.bodies[i].name == b.as_string()) index = static_cast<int>(i);
+      if (index < 0)
+        throw Error(whereOf(scene.fileName, b) + "[[contact]] body = \"" + std::string(b.as_string()) +
+                    "\" is not a body of this scene");
+      Scene& body = scene.bodies[index];
+      if (body.contact)
+        throw Error(whereOf(scene.fileName, c) + "[[contact]] body '" + body.name +
+                    "' already has a rigid obstacle (line " + std::to_string(body.contact->line) + "); one per body");
+      toml::value rest = c;
+      rest.as_table().erase("body");
+      body.contact = parseContact(body, rest);
+      continue;
+    }
     const TomlSection s(scene.fileName, "[[contact]]", c, {"slave", "master", "min_coverage", "search_distance", "type"});
     MortarPairSpec pair;
     pair.line = s.line();

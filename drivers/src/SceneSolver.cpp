@@ -256,6 +256,13 @@ std::string sideLabel(const std::string& body, const BoundaryRef& ref) {
   return body + ":" + (ref.name.empty() ? std::to_string(ref.id) : ref.name);
 }
 
+struct MortarCouplingSpecLabels {
+  std::string slave, master;
+};
+MortarCouplingSpecLabels pairLabels(const MortarPairSpec& p) {
+  return {sideLabel(p.slaveBody, p.slave), sideLabel(p.masterBody, p.master)};
+}
+
 template <int d>
 MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
                                  const std::vector<const mesh::Mesh*>& meshes, const std::vector<BoundaryConditions>& bcs,
@@ -275,6 +282,17 @@ MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mes
     o.minCoverage = p.minCoverage;
     o.searchDistance = p.searchDistance;
     model.addMortarPair(p.slaveIndex, sid, p.masterIndex, mid, sideLabel(p.slaveBody, p.slave) + " / " + sideLabel(p.masterBody, p.master), o);
+  }
+  // rigid obstacles of single bodies ([[contact]] with body = ...), after the pairs
+  std::vector<std::unique_ptr<Obstacle>> obstacles;
+  std::vector<int> obstacleBody;
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+    const Scene& body = scene.bodies[i];
+    if (!body.contact) continue;
+    obstacles.push_back(makeObstacle(body, d));
+    model.addObstacleContact(static_cast<int>(i), makeContactSet(body, *meshes[i], *obstacles.back()),
+                             sideLabel(body.name, body.contact->boundary) + " / obstacle " + body.contact->obstacle);
+    obstacleBody.push_back(static_cast<int>(i));
   }
   std::optional<ContactProblem<d>> problem;
   try {
@@ -333,27 +351,43 @@ MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mes
                                Field{"constraint_direction", 3, std::vector<double>(3 * n, 0.0), false},
                                Field{"contact_force", 3, std::vector<double>(3 * n, 0.0), false}});
   }
+  std::size_t mortarIndex = 0, obstacleIndex = 0;  // couplings: the pairs in scene order, then obstacles
   for (const auto& c : model.couplings()) {
-    const MortarCoupling& mc = *c.coupling;
     PairReport r;
-    const MortarPairSpec& spec = scene.pairs[s.pairs.size()];
-    r.slave = sideLabel(spec.slaveBody, spec.slave);
-    r.master = sideLabel(spec.masterBody, spec.master);
-    r.potentialVertices = mc.size();
-    r.slaveVertices = mc.size() + mc.statistics().uncoveredNodes;
-    r.segments = mc.statistics().segments;
-    r.uncovered = mc.statistics().uncoveredNodes;
-    r.mortarSeconds = mc.statistics().seconds;
-    Eigen::VectorXd mu(mc.size());
+    // the coupling's nodes: stacked vertex, direction, multiplier mu = D_pp lambda_p (mortar) or the
+    // nodal force (obstacle), its body and the faces
+    const int slaveBody = c.mortar ? c.slave : c.body;
+    const Index count = c.mortar ? c.coupling->size() : c.obstacleSet->size();
+    if (c.mortar) {
+      const MortarCouplingSpecLabels labels = pairLabels(scene.pairs[mortarIndex++]);
+      r.slave = labels.slave;
+      r.master = labels.master;
+      const MortarCoupling& mc = *c.coupling;
+      r.slaveVertices = mc.size() + mc.statistics().uncoveredNodes;
+      r.segments = mc.statistics().segments;
+      r.uncovered = mc.statistics().uncoveredNodes;
+      r.mortarSeconds = mc.statistics().seconds;
+    } else {
+      const Scene& body = scene.bodies[obstacleBody[obstacleIndex++]];
+      r.slave = sideLabel(body.name, body.contact->boundary);
+      r.master = "obstacle " + body.contact->obstacle;
+      r.slaveVertices = count;
+    }
+    Eigen::VectorXd mu(count);
     Eigen::Vector3d slaveForce = Eigen::Vector3d::Zero();
     double pmin = std::numeric_limits<double>::infinity(), pmax = -pmin;
-    std::vector<char> in(mc.size(), 0);
-    const Index offS = model.bodies()[c.slave].offset;
-    auto& fs = s.contactFields[c.slave];
-    for (Index k = 0; k < mc.size(); ++k) {
+    std::vector<char> in(count, 0);
+    const Index offS = model.bodies()[slaveBody].offset;
+    auto& fs = s.contactFields[slaveBody];
+    for (Index k = 0; k < count; ++k) {
       const Index node = c.nodes[k];
+      if (!problem->constraint(node).bounded()) {
+        mu[k] = 0;
+        continue;
+      }
+      ++r.potentialVertices;
       mu[k] = out.multiplier[node];
-      slaveForce -= mu[k] * mc.normal(k);
+      slaveForce -= mu[k] * cs.direction(node);
       r.load += mu[k];
       in[k] = out.inContact[node];
       r.actualVertices += in[k];
@@ -375,20 +409,23 @@ MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mes
       r.pressureMin = pmin;
       r.pressureMax = pmax;
     }
-    const Eigen::VectorXd fm = mc.masterForces(mu);
-    Eigen::Vector3d masterForce = Eigen::Vector3d::Zero();
-    const Index offM = model.bodies()[c.master].offset;
-    auto& fmField = s.contactFields[c.master];
-    for (Index v = 0; v < meshes[c.master]->numVertices(); ++v) {
-      const auto f = fm.template segment<d>(static_cast<Eigen::Index>(offM + v) * d);
-      masterForce.template head<d>() += f;
-      for (int a = 0; a < d; ++a) fmField[5].values[3 * static_cast<std::size_t>(v) + a] += f[a];
+    Eigen::Vector3d masterForce = -slaveForce;  // a rigid obstacle takes the reaction
+    if (c.mortar) {
+      const Eigen::VectorXd fm = c.coupling->masterForces(mu);
+      masterForce.setZero();
+      const Index offM = model.bodies()[c.master].offset;
+      auto& fmField = s.contactFields[c.master];
+      for (Index v = 0; v < meshes[c.master]->numVertices(); ++v) {
+        const auto f = fm.template segment<d>(static_cast<Eigen::Index>(offM + v) * d);
+        masterForce.template head<d>() += f;
+        for (int a = 0; a < d; ++a) fmField[5].values[3 * static_cast<std::size_t>(v) + a] += f[a];
+      }
     }
     for (int a = 0; a < 3; ++a) {
       r.forceSlave[a] = slaveForce[a];
       r.forceMaster[a] = masterForce[a];
     }
-    const ContactSet pairSet = mc.contactSet();
+    const ContactSet pairSet = c.mortar ? c.coupling->contactSet() : *c.obstacleSet;
     for (const ContactSet::Face& f : pairSet.faces())
       if (std::all_of(f.nodes.begin(), f.nodes.end(), [&](Index k) { return in[k] != 0; })) r.area += f.measure;
     r.radius = d == 3 ? std::sqrt(r.area / std::numbers::pi) : r.area / 2;

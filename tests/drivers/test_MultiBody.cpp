@@ -82,6 +82,66 @@ TEST(MultiBodyScene, CylinderSceneTnnmgAgreesWithPdas) {
   EXPECT_GT(t.pairs[0].uncovered, 0);  // the arc above the block is not covered: no constraint there
 }
 
+TEST(MultiBodyScene, RigidObstacleOfOneBodyIsTheOneBodyProblem) {
+  // the punch as body 'punch' of a multi-body scene with a second, clamped body and no pair: the
+  // punch's contact results equal those of data/scenes/punch.toml (the same model path)
+  fs::create_directories(kTmp);
+  const fs::path scene = kTmp / "punch_and_block.toml";
+  std::ofstream(scene) << R"(
+[[body]]
+name = "punch"
+[body.mesh]
+generator = "box"
+type = "quadrilateral"
+cells = [4, 4]
+lower = [0, 0]
+upper = [1, 1]
+refine = 3
+[body.material]
+E = 3e5
+nu = 0.25
+[[body.dirichlet]]
+boundary = "top"
+value = [0, -0.01]
+
+[[body]]
+name = "block"
+[body.mesh]
+generator = "box"
+type = "triangle"
+cells = [2, 2]
+lower = [3, 0]
+upper = [4, 1]
+[body.material]
+E = 1.0
+nu = 0.3
+[[body.dirichlet]]
+boundary = "left"
+
+[[contact]]
+body = "punch"
+boundary = "bottom"
+obstacle = "strip"
+point = [0.5, 0]
+half_width = 0.0625
+direction = [0, -1]
+)";
+  const RunResult multi = run(scene, "punch_and_block");
+  RunOptions o;
+  o.refine = 3;
+  o.outputDirectory = kTmp / "punch_alone";
+  const RunResult single = runScene(kScenes / "punch.toml", o);
+  ASSERT_EQ(multi.pairs.size(), 1u);
+  ASSERT_TRUE(single.contact.has_value());
+  const PairReport& p = multi.pairs.front();
+  EXPECT_EQ(p.master, "obstacle strip");
+  EXPECT_EQ(p.actualVertices, single.contact->actualVertices);
+  EXPECT_EQ(p.potentialVertices, single.contact->potentialVertices);
+  EXPECT_NEAR(p.load, single.contact->load, 1e-9 * single.contact->load);
+  EXPECT_NEAR(p.forceMaster[1], single.contact->force[1], 1e-9 * single.contact->load);
+  EXPECT_EQ(multi.solver.iterations, single.solver.iterations);
+}
+
 // --- bad input -----------------------------------------------------------------------------------
 
 std::string errorOf(const std::string& text, bool run = false) {
@@ -158,6 +218,21 @@ TEST(MultiBodyScene, BadInputIsOneLineErrorWithLine) {
   };
   expect(kLower + kPair, "needs at least two bodies");
   expect(kLower + upper(), "needs [[contact]] pairs");
+  expect(kLower + upper() + kPair + R"(
+[[contact]]
+body = "lower"
+boundary = "right"
+obstacle = "plane"
+point = [1.5, 0.0]
+direction = [1.0, 0.0]
+
+[[contact]]
+body = "lower"
+boundary = "left"
+obstacle = "plane"
+point = [-0.5, 0.0]
+direction = [-1.0, 0.0]
+)", "already has a rigid obstacle");
   expect(kLower + upper() + kPair + "\n[mesh]\ngenerator = \"box\"\n", "cannot be combined with [[body]]");
   expect(kLower + upper() + kPair + "\n[dynamics]\ntau = 0.1\n", "not available for multi-body scenes");
   std::string dup = kLower + kLower;
