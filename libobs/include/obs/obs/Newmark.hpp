@@ -202,6 +202,10 @@ public:
   const ContactProblem<d>& problem() const { return *problem_; }
   /// Energy E(u, v) = 1/2 v'Mv + 1/2 u'Au - f'u.
   double energy(const Eigen::VectorXd& u, const Eigen::VectorXd& v) const;
+  /// Nodal contact forces of the last step on the obstacle, F_p nu_p per vertex (vertex-major, zero
+  /// away from the contact nodes; all zero after initialize()): the multiplier divided by c' tau^2.
+  /// The force on the body is -F; StepRecord::contactForce is its sum over the vertices.
+  Eigen::VectorXd contactForces() const;
 
 private:
   struct Predictor;
