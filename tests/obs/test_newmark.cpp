@@ -469,11 +469,13 @@ TEST(Newmark, HagerHuebnerWohlmuthLongMultiVertexImpact2D) {
 }
 
 TEST(Newmark, RedistributedSchemesRejectAnIndefiniteStepMatrix) {
-  // 4^3 tetrahedral unit cube without mass at the bottom: M~ has three negative eigenvalues (test_mass).
+  // 5 x 5 x 2 tetrahedral block [0, 1]^2 x [0, 0.5] without mass at the bottom: M~ has a positive
+  // diagonal and one negative eigenvalue (coarser or odd layer counts give non-positive diagonal
+  // entries, rejected earlier with the vertex; docs/dynamics.md).
   // With a small c tau^2 A the step matrix S = M~ + c tau^2 A is indefinite too: clear error before
   // stepping (formerly a CHOLMOD error of the coarse solve); with a large one S is positive definite,
   // the stepper is built and reports the indefinite M~.
-  mesh::Grid grid(mesh::boxMesh(CellType::Tetrahedron, 4));
+  mesh::Grid grid(mesh::boxMesh(CellType::Tetrahedron, {5, 5, 2}, P(0, 0, 0), P(1, 1, 0.5)));
   PlaneObstacle plane(P(0, 0, -0.1), P(0, 0, -1));
   ContactSet contact(grid.leafView().mesh, mesh::kBottom, plane);
   for (NewmarkScheme s : allNewmarkSchemes()) {
@@ -488,13 +490,13 @@ TEST(Newmark, RedistributedSchemesRejectAnIndefiniteStepMatrix) {
     } catch (const obs::Error& e) {
       const std::string what = e.what();
       EXPECT_NE(what.find("is not positive definite"), std::string::npos) << what;
-      EXPECT_NE(what.find("3 negative eigenvalues"), std::string::npos) << what;
+      EXPECT_NE(what.find("(1 negative eigenvalues)"), std::string::npos) << what;
       EXPECT_NE(what.find("Refine the mesh near the contact boundary"), std::string::npos) << what;
       EXPECT_NE(what.find(std::string(name(s))), std::string::npos) << what;
     }
-    NewmarkFamily<3> stiff(grid, material(100), {}, contact, opts(s, 0.01));
+    NewmarkFamily<3> stiff(grid, material(1e4), {}, contact, opts(s, 0.01));
     EXPECT_FALSE(stiff.redistributedMassDefiniteness().positiveDefinite) << name(s);
-    EXPECT_EQ(stiff.redistributedMassDefiniteness().nonPositivePivots, 3) << name(s);
+    EXPECT_EQ(stiff.redistributedMassDefiniteness().nonPositivePivots, 1) << name(s);
   }
   // one refinement: M~ positive definite, accepted for any tau
   grid.refineUniformly();
