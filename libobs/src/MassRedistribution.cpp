@@ -24,26 +24,36 @@ RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vecto
                 " flags do not match");
   if (dimension != 2 && dimension != 3)
     throw Error("mass redistribution: dimension " + std::to_string(dimension) + " (2 or 3 expected)");
-  const int m = dimension + 1;
+  // constraints: 1 (total mass), d first moments, d(d+1)/2 second moments
+  const int m = 1 + dimension + dimension * (dimension + 1) / 2;
 
-  // centre of the kept vertices (shift of the coordinates in the constraint weights)
+  // centre and radius of the kept vertices: the constraint weights use the coordinates
+  // y = (x - xbar) / L, an equivalent set of constraints (linear combinations of the ones in x) with
+  // weights of order one
   Eigen::Vector3d xbar = Eigen::Vector3d::Zero();
   Eigen::Index kept = 0;
   for (Eigen::Index i = 0; i < n; ++i)
     if (!massless[i]) xbar += vertices[i], ++kept;
   if (kept == 0) throw Error("mass redistribution: every vertex is massless (no vertex keeps mass)");
   xbar /= static_cast<double>(kept);
-  double diam = 0;
-  for (Eigen::Index i = 0; i < n; ++i) diam = std::max(diam, (vertices[i] - xbar).norm());
+  double L = 0;
+  for (Eigen::Index i = 0; i < n; ++i) L = std::max(L, (vertices[i] - xbar).norm());
+  if (!(L > 0) || !std::isfinite(L))
+    throw Error("mass redistribution: the vertices span no volume (radius " + std::to_string(L) + ")");
 
+  // W^k_ij: 1; (y_i,a + y_j,a)/2; (y_i,a y_j,b + y_j,a y_i,b)/2 for a <= b (symmetric in i, j)
   auto weights = [&](Eigen::Index i, Eigen::Index j) {
     Eigen::VectorXd w(m);
-    w[0] = 1;
-    for (int c = 0; c < dimension; ++c) w[c + 1] = 0.5 * (vertices[i][c] + vertices[j][c]) - xbar[c];
+    const Eigen::Vector3d yi = (vertices[i] - xbar) / L, yj = (vertices[j] - xbar) / L;
+    int k = 0;
+    w[k++] = 1;
+    for (int a = 0; a < dimension; ++a) w[k++] = 0.5 * (yi[a] + yj[a]);
+    for (int a = 0; a < dimension; ++a)
+      for (int b = a; b < dimension; ++b) w[k++] = 0.5 * (yi[a] * yj[b] + yj[a] * yi[b]);
     return w;
   };
 
-  // targets c = C(M), the Gram matrix G and the restricted matrix M0
+  // targets c = C(M), the Gram matrix G_kl = sum_K |M_ij| W^k W^l and the restricted matrix M0
   RedistributedMass out;
   out.massless = massless;
   out.matrix = M;
@@ -59,16 +69,25 @@ RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vecto
         out.movedMass += it.value();
         it.valueRef() = 0;
       } else {
-        G += w * w.transpose();
+        G += std::abs(it.value()) * w * w.transpose();
         ++keptEntries;
       }
     }
   if (keptEntries == 0) throw Error("mass redistribution: no matrix entry couples two vertices that keep mass");
+  // G is singular iff the kept entries cannot carry the constraints independently (e.g. all vertices
+  // that keep mass on one line in 2D, on one plane in 3D): no such M~ exists in general
   const Eigen::LDLT<Eigen::MatrixXd> Gfac(G);
+  {
+    const Eigen::VectorXd D = Gfac.vectorD();
+    if (Gfac.info() != Eigen::Success || !(D.minCoeff() > 1e-12 * D.cwiseAbs().maxCoeff()))
+      throw Error("mass redistribution: the " + std::to_string(kept) + " vertices that keep mass do not determine "
+                  "the total mass, the first and the second moments (e.g. they lie on one line or plane); "
+                  "refine the mesh or choose a smaller contact boundary");
+  }
   const ScalarSparseMatrix M0 = out.matrix;
-  const double scale = std::max(std::abs(target[0]), 1e-300) * std::max(1.0, diam);
+  const double scale = std::max(std::abs(target[0]), 1e-300);
 
-  // Uzawa: lambda <- lambda + G^{-1} (c - C(M0 + sum lambda_k W^k))
+  // Uzawa: lambda <- lambda + G^{-1} (c - C(M0 + |M0| sum lambda_k W^k))
   Eigen::VectorXd lambda = Eigen::VectorXd::Zero(m);
   double previous = std::numeric_limits<double>::infinity();
   for (int k = 0; k <= options.maxIterations; ++k) {
@@ -79,7 +98,7 @@ RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vecto
         const Eigen::Index j = it.col();
         if (massless[j]) continue;
         const Eigen::VectorXd w = weights(i, j);
-        it.valueRef() = it0.value() + lambda.dot(w);
+        it.valueRef() = it0.value() + std::abs(it0.value()) * lambda.dot(w);
         current += it.value() * w;
       }
     }

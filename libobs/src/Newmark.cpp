@@ -249,6 +249,13 @@ double NewmarkFamily<d>::energy(const Eigen::VectorXd& u, const Eigen::VectorXd&
 }
 
 template <int d>
+Eigen::VectorXd NewmarkFamily<d>::contactForces() const {
+  checkInitialized();
+  const double tau = options_.timeStep;
+  return multiplier_ / (multiplierFactor_ * tau * tau);
+}
+
+template <int d>
 double NewmarkFamily<d>::activeTolerance(const Eigen::VectorXd& u) const {
   double U = u.size() ? u.template lpNorm<Eigen::Infinity>() : 0.0;
   for (double g : gaps_)
@@ -373,7 +380,10 @@ StepRecord NewmarkFamily<d>::step() {
         base.template segment<d>(static_cast<Eigen::Index>(constraints_[k].vertex) * d) += P.delta[k] * constraints_[k].direction;
   Eigen::VectorXd rhs = applyMass(base, redistributed) + (0.5 * tau * tau) * f_;
   if (scheme != NewmarkScheme::KhenousLabordeRenard) rhs -= (0.25 * tau * tau) * (A_ * u);
-  if (scheme == NewmarkScheme::Classical) rhs += previousMultiplier_;
+  // classical (5.21): + tau^2/4 M F_con^n, the reaction of the obstacle at t^n. The solver's multiplier
+  // lambda = (b - S w) along nu is the force on the obstacle (S w = b - lambda), i.e. minus the reaction:
+  // the previous step's lambda enters with the sign of the new one (S u^{n+1} = ... - lambda^n - lambda^{n+1})
+  if (scheme == NewmarkScheme::Classical) rhs -= previousMultiplier_;
 
   // The variational inequality is solved for the increment w = u^{n+1} - base (S w = rhs - S base,
   // bounds shifted by nu'base): the iterate and the energy are small, which keeps the solver's

@@ -1,6 +1,6 @@
 // Mass matrices (consistent, lumped with the HRZ fallback) for all six element types and the mass
-// redistribution of Khenous-Laborde-Renard (MATH.md §5): total mass rho |Omega|, first moments,
-// zero rows/columns at the contact vertices, optimality of the constrained least squares, and the
+// redistribution of Khenous-Laborde-Renard (thesis Sec. 5.2.4): total mass rho |Omega|, first and
+// second moments (centre of gravity, moment of inertia), zero rows/columns at the contact vertices, optimality of the constrained least squares, and the
 // smallest eigenvalue of M~ on the remaining vertices.
 #include <gtest/gtest.h>
 
@@ -32,6 +32,15 @@ double moment(const ScalarSparseMatrix& M, const mesh::Mesh& m, int c) {
   for (Eigen::Index i = 0; i < M.outerSize(); ++i)
     for (ScalarSparseMatrix::InnerIterator it(M, i); it; ++it)
       s += it.value() * (c < 0 ? 1.0 : m.vertex(static_cast<Index>(it.col()))[c]);
+  return s;
+}
+
+/// sum_ij M_ij x_i,a x_j,b (second moment: int rho x_a x_b for the consistent M).
+double secondMoment(const ScalarSparseMatrix& M, const mesh::Mesh& m, int a, int b) {
+  double s = 0;
+  for (Eigen::Index i = 0; i < M.outerSize(); ++i)
+    for (ScalarSparseMatrix::InnerIterator it(M, i); it; ++it)
+      s += it.value() * m.vertex(static_cast<Index>(i))[a] * m.vertex(static_cast<Index>(it.col()))[b];
   return s;
 }
 
@@ -73,11 +82,11 @@ TEST_P(MassTest, TotalMassAndFirstMomentsOfConsistentAndLumped) {
   }
 }
 
-TEST_P(MassTest, RedistributionKeepsMassAndCentreOfGravity) {
+TEST_P(MassTest, RedistributionKeepsMassCentreOfGravityAndSecondMoments) {
   const CellType t = GetParam();
   const int dim = mesh::dimension(t);
-  // 6 (2D) / 4 (3D) cells per direction; tetrahedra 6: on the 4^3 tetrahedral mesh the bottom layer
-  // carries 1/6 of the mass and M~ is indefinite (smallest eigenvalue -7.7e-5, see docs/dynamics.md)
+  // 6 (2D) / 4 (3D; tetrahedra 6) cells per direction; on 3 cells across M~ is indefinite (the bottom
+  // layer carries 1/6 of the mass; see docs/dynamics.md)
   const mesh::Mesh m = mesh::boxMesh(t, dim == 2 ? 6 : (t == CellType::Tetrahedron ? 6 : 4));
   const ScalarSparseMatrix M = assembleConsistentMass(m, Material{});
   // contact vertices: the bottom face (y = 0 in 2D, z = 0 in 3D)
@@ -89,6 +98,33 @@ TEST_P(MassTest, RedistributionKeepsMassAndCentreOfGravity) {
   EXPECT_GT(R.movedMass, 0);
   EXPECT_NEAR(moment(Mt, m, -1), moment(M, m, -1), 1e-13);
   for (int c = 0; c < dim; ++c) EXPECT_NEAR(moment(Mt, m, c), moment(M, m, c), 1e-13) << "coordinate " << c;
+  // second moments: those of M are int_[0,1]^d x_a x_b = 1/3 (a = b), 1/4 (a != b); M~ keeps them
+  for (int a = 0; a < dim; ++a)
+    for (int b = 0; b < dim; ++b) {
+      EXPECT_NEAR(secondMoment(M, m, a, b), a == b ? 1.0 / 3 : 0.25, 1e-13) << a << b;
+      EXPECT_NEAR(secondMoment(Mt, m, a, b), secondMoment(M, m, a, b), 1e-13) << a << b;
+    }
+  // the moment of inertia about the vertical axis through the centre: changed by removing the
+  // bottom layer alone (M0), restored by the redistribution
+  {
+    ScalarSparseMatrix M0 = M;
+    for (Eigen::Index i = 0; i < M0.outerSize(); ++i)
+      for (ScalarSparseMatrix::InnerIterator it(M0, i); it; ++it)
+        if (contact[i] || contact[it.col()]) it.valueRef() = 0;
+    auto inertia = [&](const ScalarSparseMatrix& A) {  // int rho |x_h - c_h|^2, horizontal coordinates
+      double J = 0;
+      for (int a = 0; a < dim - 1; ++a) {
+        const double mass = moment(A, m, -1), first = moment(A, m, a);
+        J += secondMoment(A, m, a, a) - first * first / mass;
+      }
+      return J;
+    };
+    if (verbose())
+      std::cout << mesh::name(t) << ": horizontal moment of inertia of M " << inertia(M) << ", of M~ " << inertia(Mt)
+                << ", of M without the contact rows " << inertia(M0) << "\n";
+    EXPECT_NEAR(inertia(Mt), inertia(M), 1e-13);
+    EXPECT_GT(std::abs(inertia(M0) - inertia(M)), 1e-3 * inertia(M));
+  }
   // zero rows/columns at the contact vertices, pattern of M kept, symmetric
   const Eigen::MatrixXd D(Mt), D0(M);
   for (Index i = 0; i < m.numVertices(); ++i)
@@ -113,9 +149,9 @@ TEST_P(MassTest, RedistributionKeepsMassAndCentreOfGravity) {
 }
 
 TEST(MassRedistribution, DefinitenessCheckCountsNegativeEigenvalues) {
-  // 4^3 tetrahedral unit cube without mass at the bottom: M~ indefinite (dense smallest eigenvalue
-  // -7.7e-5); the LDL' inertia (negative pivots = negative eigenvalues) must agree with the dense count
-  const mesh::Mesh m = mesh::boxMesh(CellType::Tetrahedron, 4);
+  // 3^3 tetrahedral unit cube without mass at the bottom: M~ indefinite (dense smallest eigenvalue
+  // -2.5e-3); the LDL' inertia (negative pivots = negative eigenvalues) must agree with the dense count
+  const mesh::Mesh m = mesh::boxMesh(CellType::Tetrahedron, 3);
   const ScalarSparseMatrix M = assembleConsistentMass(m, Material{});
   std::vector<char> contact(m.numVertices(), 0);
   for (Index v = 0; v < m.numVertices(); ++v) contact[v] = m.vertex(v)[2] == 0.0;
@@ -135,7 +171,7 @@ TEST(MassRedistribution, DefinitenessCheckCountsNegativeEigenvalues) {
     negative = (ev.array() < 0).count();
   }
   const DefinitenessCheck pd = checkPositiveDefinite(R.matrix, contact);
-  if (verbose()) std::cout << "4^3 tetrahedra: " << negative << " negative eigenvalues, LDL' " << pd.nonPositivePivots << "\n";
+  if (verbose()) std::cout << "3^3 tetrahedra: " << negative << " negative eigenvalues, LDL' " << pd.nonPositivePivots << "\n";
   EXPECT_FALSE(pd.positiveDefinite);
   EXPECT_GE(negative, 1);
   EXPECT_EQ(pd.nonPositivePivots, negative);
@@ -158,10 +194,16 @@ TEST(MassRedistribution, IsTheClosestMatrixWithTheConstraints) {
   for (Index v = 0; v < m.numVertices(); ++v) contact[v] = m.vertex(v)[1] == 0.0;
   const RedistributedMass R = redistributeMass(M, m.vertices(), 2, contact);
   const Eigen::MatrixXd D(R.matrix), D0(M);
-  double dist = 0;
-  for (Index i = 0; i < m.numVertices(); ++i)
-    for (Index j = 0; j < m.numVertices(); ++j)
-      if (!contact[i] && !contact[j]) dist += std::pow(D(i, j) - D0(i, j), 2);
+  // the distance: sum over the kept pattern K of (M~_ij - M_ij)^2 / |M_ij|
+  auto kept = [&](Index i, Index j) { return !contact[i] && !contact[j] && D0(i, j) != 0; };
+  auto distance = [&](const Eigen::MatrixXd& X) {
+    double s = 0;
+    for (Index i = 0; i < m.numVertices(); ++i)
+      for (Index j = 0; j < m.numVertices(); ++j)
+        if (kept(i, j)) s += std::pow(X(i, j) - D0(i, j), 2) / std::abs(D0(i, j));
+    return s;
+  };
+  const double dist = distance(D);
   // admissible competitors: M~ + P with P symmetric on the kept pattern and C(P) = 0
   std::mt19937 gen(7);
   std::normal_distribution<double> N(0, 1e-3);
@@ -169,30 +211,38 @@ TEST(MassRedistribution, IsTheClosestMatrixWithTheConstraints) {
     Eigen::MatrixXd P = Eigen::MatrixXd::Zero(D.rows(), D.cols());
     for (Index i = 0; i < m.numVertices(); ++i)
       for (Index j = i; j < m.numVertices(); ++j)
-        if (!contact[i] && !contact[j] && D0(i, j) != 0) P(i, j) = P(j, i) = N(gen);
-    // project P onto {C(P) = 0} in the Frobenius inner product (constraints: weights 1, x, y)
-    std::vector<Eigen::MatrixXd> W(3, Eigen::MatrixXd::Zero(D.rows(), D.cols()));
+        if (kept(i, j)) P(i, j) = P(j, i) = N(gen);
+    // project P onto {C(P) = 0} in the inner product sum_K P_ij Q_ij / |M_ij| (constraints: weights
+    // 1, x, y, x_i x_j, (x_i y_j + y_i x_j)/2, y_i y_j in the original coordinates; the projection
+    // subtracts sum_a l_a |M| W^a)
+    std::vector<Eigen::MatrixXd> W(6, Eigen::MatrixXd::Zero(D.rows(), D.cols())), Wm = W;
     for (Index i = 0; i < m.numVertices(); ++i)
       for (Index j = 0; j < m.numVertices(); ++j)
-        if (P(i, j) != 0 || (!contact[i] && !contact[j] && D0(i, j) != 0)) {
+        if (kept(i, j)) {
+          const double w = std::abs(D0(i, j));
+          const mesh::Point &xi = m.vertex(i), &xj = m.vertex(j);
           W[0](i, j) = 1;
-          W[1](i, j) = 0.5 * (m.vertex(i)[0] + m.vertex(j)[0]);
-          W[2](i, j) = 0.5 * (m.vertex(i)[1] + m.vertex(j)[1]);
+          W[1](i, j) = 0.5 * (xi[0] + xj[0]);
+          W[2](i, j) = 0.5 * (xi[1] + xj[1]);
+          W[3](i, j) = xi[0] * xj[0];
+          W[4](i, j) = 0.5 * (xi[0] * xj[1] + xi[1] * xj[0]);
+          W[5](i, j) = xi[1] * xj[1];
+          Wm[0](i, j) = w;  // |M| W^a
+          for (int a = 1; a < 6; ++a) Wm[a](i, j) = w * W[a](i, j);
         }
-    Eigen::Matrix3d G;
-    Eigen::Vector3d r;
-    for (int a = 0; a < 3; ++a) {
+    Eigen::Matrix<double, 6, 6> G;
+    Eigen::Matrix<double, 6, 1> r;
+    for (int a = 0; a < 6; ++a) {
       r[a] = (W[a].array() * P.array()).sum();
-      for (int b = 0; b < 3; ++b) G(a, b) = (W[a].array() * W[b].array()).sum();
+      for (int b = 0; b < 6; ++b) G(a, b) = (W[a].array() * Wm[b].array()).sum();
     }
-    const Eigen::Vector3d l = G.ldlt().solve(r);
-    for (int a = 0; a < 3; ++a) P -= l[a] * W[a];
-    double other = 0;
-    for (Index i = 0; i < m.numVertices(); ++i)
-      for (Index j = 0; j < m.numVertices(); ++j)
-        if (!contact[i] && !contact[j]) other += std::pow(D(i, j) + P(i, j) - D0(i, j), 2);
+    const Eigen::Matrix<double, 6, 1> l = G.ldlt().solve(r);
+    for (int a = 0; a < 6; ++a) P -= l[a] * Wm[a];
+    for (int a = 0; a < 6; ++a) EXPECT_NEAR((W[a].array() * P.array()).sum(), 0.0, 1e-15) << "constraint " << a;
+    const double other = distance(D + P);
     EXPECT_GT(other, dist) << "trial " << trial;
-    EXPECT_NEAR(other, dist + P.squaredNorm(), 1e-12 * other);  // orthogonality of the optimum
+    // orthogonality of the optimum: |M~ + P - M|^2 = |M~ - M|^2 + |P|^2 in the weighted norm
+    EXPECT_NEAR(other, dist + distance(D0 + P), 1e-12 * other);
   }
 }
 
@@ -224,6 +274,15 @@ TEST(MassMatrix, BadInput) {
   const ScalarSparseMatrix M = assembleConsistentMass(m, Material{});
   EXPECT_THROW(redistributeMass(M, m.vertices(), 2, std::vector<char>(m.numVertices(), 1)), obs::Error);
   EXPECT_THROW(redistributeMass(M, m.vertices(), 2, std::vector<char>(3, 0)), obs::Error);
+  // only the top row keeps mass: its vertices lie on one line, the second moments cannot be kept
+  std::vector<char> allButTop(m.numVertices(), 1);
+  for (Index v = 0; v < m.numVertices(); ++v) allButTop[v] = m.vertex(v)[1] != 1.0;
+  try {
+    redistributeMass(M, m.vertices(), 2, allButTop);
+    ADD_FAILURE() << "no error";
+  } catch (const obs::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("do not determine"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -5,6 +5,8 @@
 // extreme time steps and stiffnesses, and bad input.
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
+
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
@@ -216,6 +218,171 @@ TEST(Newmark, BarMatchesTheExactSolutionBeforeImpactAndAlphaDetachesCloser) {
   }
 }
 
+/// Classical Newmark with contact (thesis (5.21)-(5.22)), F^n the nodal contact forces on the obstacle
+/// (contactForces(); the force on the body is -F), on the free components:
+///   M(u^{n+1} - u^n - tau v^n) = tau^2/4 (2f - A(u^n + u^{n+1}) - F^n - F^{n+1}),
+///   v^{n+1} = 2/tau (u^{n+1} - u^n) - v^n.
+/// Hence the impulse balance M(v^{n+1} - v^n) = tau/2 (2f - A(u^n + u^{n+1}) - F^n - F^{n+1}) and,
+/// multiplied by v^{n+1} + v^n = 2/tau (u^{n+1} - u^n) (zero on Dirichlet components), the energy
+/// identity (5.24)
+///   E^{n+1} - E^n = -1/2 (F^n + F^{n+1}) . (u^{n+1} - u^n).
+/// Both forces enter with the same sign. With the opposite sign on F^n (the old defect) a body pressed
+/// onto the obstacle accumulates force step by step and sticks; the identity then fails at every
+/// step in which a node leaves the obstacle under a non-zero F^n ("release" steps below).
+struct ClassicalIdentities {
+  /// max_n |E^{n+1} - E^n + 1/2 (F^n + F^{n+1}).(u^{n+1} - u^n)| / s_n, s_n the sum of the kinetic,
+  /// elastic and |load| energies at t^n and t^{n+1} (the size of what is subtracted)
+  double energy = 0;
+  double work = 0;       ///< max_n |1/2 (F^n + F^{n+1}).(u^{n+1} - u^n)| / s_n (size of the checked term)
+  double impulse = 0;    ///< max_n relative residual of the impulse balance (free components)
+  int contactSteps = 0;  ///< steps with a contact force at t^{n+1}
+  int releaseSteps = 0;  ///< steps with |F^n.(u^{n+1} - u^n)| > 1e-6 s_n
+  std::vector<StepRecord> records;
+};
+
+ClassicalIdentities checkClassical(NewmarkFamily<2>& st, const Eigen::VectorXd& u0, const Eigen::VectorXd& v0,
+                                   int steps) {
+  ClassicalIdentities out;
+  const double tau = st.options().timeStep;
+  const std::vector<char>& fixed = st.problem().dirichlet().constrained;
+  st.initialize(u0, v0);
+  out.records.push_back(st.record());
+  auto size = [](const StepRecord& r) { return r.kineticEnergy + r.elasticEnergy + std::abs(r.loadPotential); };
+  Eigen::VectorXd u = u0, v = v0, F = st.contactForces();
+  EXPECT_EQ(F.norm(), 0.0);
+  for (int k = 0; k < steps; ++k) {
+    out.records.push_back(st.step());
+    const StepRecord& a = out.records[out.records.size() - 2];
+    const StepRecord& b = out.records.back();
+    const Eigen::VectorXd& un = st.state().u;
+    const Eigen::VectorXd& vn = st.state().v;
+    const Eigen::VectorXd Fn = st.contactForces();
+    const Eigen::VectorXd du = un - u;
+    const double work = -0.5 * (F + Fn).dot(du);
+    const double s = size(a) + size(b);
+    out.energy = std::max(out.energy, std::abs(b.energy - a.energy - work) / s);
+    out.work = std::max(out.work, std::abs(work) / s);
+    out.contactSteps += Fn.norm() > 0;
+    out.releaseSteps += std::abs(F.dot(du)) > 1e-6 * s;
+    const Eigen::VectorXd Au = st.stiffness() * (u + un);
+    Eigen::VectorXd r = st.mass() * (vn - v) - (0.5 * tau) * (2 * st.load() - Au - F - Fn);
+    for (Eigen::Index i = 0; i < r.size(); ++i)
+      if (fixed[static_cast<std::size_t>(i)]) r[i] = 0;
+    const double scale =
+        (st.mass() * v).norm() + (st.mass() * vn).norm() + 0.5 * tau * (Au.norm() + (F + Fn).norm() + 2 * st.load().norm());
+    out.impulse = std::max(out.impulse, r.norm() / scale);
+    u = un, v = vn, F = Fn;
+  }
+  return out;
+}
+
+TEST(Newmark, ClassicalEnergyIdentityWithContactOneDof) {
+  // one unknown: the unit square of one quadrilateral, clamped on the left and on the top, u_x = 0 on
+  // the right, so only the vertical displacement of the lower right vertex is free; it is thrown onto
+  // the plane y = 0 (gap 0.02) and pressed onto it by a downward body force: repeated impacts,
+  // chatter and releases under load
+  Block b(CellType::Quadrilateral, {1, 1, 1}, 1, 1, 0.02);
+  const mesh::Mesh m = b.grid.leafView().mesh;
+  BoundaryConditions bc;
+  bc.dirichlet.push_back({mesh::kLeft, {true, true, true}, [](const Point&) { return Eigen::Vector3d::Zero(); }});
+  bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Eigen::Vector3d::Zero(); }});
+  bc.dirichlet.push_back({mesh::kRight, {true, false, false}, [](const Point&) { return Eigen::Vector3d::Zero(); }});
+  bc.bodyForce = [](const Point&) { return Eigen::Vector3d(0, -20, 0); };
+  Index corner = -1;
+  for (Index p = 0; p < m.numVertices(); ++p)
+    if (m.vertex(p)[0] == 1 && m.vertex(p)[1] == 0.02) corner = p;
+  ASSERT_GE(corner, 0);
+  for (MassKind mass : {MassKind::Lumped, MassKind::Consistent}) {
+    NewmarkOptions o = opts(NewmarkScheme::Classical, 0.01);
+    o.mass = mass;
+    o.solverTolerance = 1e-14;
+    NewmarkFamily<2> st(b.grid, material(100), bc, *b.contact, o);
+    int free = 0;
+    for (char c : st.problem().dirichlet().constrained) free += !c;
+    ASSERT_EQ(free, 1);
+    Eigen::VectorXd v0 = Eigen::VectorXd::Zero(2 * b.vertices());
+    v0[2 * corner + 1] = -1;
+    const ClassicalIdentities c = checkClassical(st, Eigen::VectorXd::Zero(2 * b.vertices()), v0, 200);
+    if (verbose())
+      std::cout << "classical, one unknown (" << (mass == MassKind::Lumped ? "lumped" : "consistent")
+                << " M): energy identity " << c.energy << " (work term up to " << c.work << "), impulse balance "
+                << c.impulse << ", contact steps " << c.contactSteps << ", release steps " << c.releaseSteps
+                << ", E_end/E_0 " << c.records.back().energy / c.records.front().energy << "\n";
+    EXPECT_GE(c.contactSteps, 10);
+    EXPECT_GE(c.releaseSteps, 3);
+    EXPECT_GT(c.work, 1e-3);
+    EXPECT_LT(c.energy, 1e-12);
+    EXPECT_LT(c.impulse, 1e-12);
+  }
+}
+
+TEST(Newmark, ClassicalEnergyIdentityWithContactOnTheBar) {
+  // the bar of data/scenes/dynamics_bar.toml (tau = 3e-3, 450 steps): the identity holds at every
+  // step, and the contact end leaves the obstacle again (it did not with the sign defect)
+  Bar bar;
+  NewmarkOptions o = opts(NewmarkScheme::Classical, 0.003);
+  o.trackedVertices = {bar.bottom};
+  o.solverTolerance = 1e-14;
+  NewmarkFamily<2> st(bar.block.grid, material(900, 0.0, 1.0), {}, *bar.block.contact, o);
+  const Index n = bar.block.vertices();
+  const ClassicalIdentities c = checkClassical(st, Eigen::VectorXd::Zero(2 * n), uniform(n, 0, -10), 450);
+  bool touched = false;
+  double detach = 0;
+  for (const StepRecord& r : c.records) {
+    if (r.tracked[0].gap <= 1e-9) touched = true;
+    if (touched && detach == 0 && r.tracked[0].gap > 1e-6) detach = r.time;
+  }
+  if (verbose())
+    std::cout << "classical, bar: energy identity " << c.energy << " (work term up to " << c.work
+              << "), impulse balance " << c.impulse << ", contact steps " << c.contactSteps << ", release steps "
+              << c.releaseSteps << ", first detachment " << detach << " (exact 1.1667), E_end/E_0 "
+              << c.records.back().energy / c.records.front().energy << "\n";
+  EXPECT_GE(c.contactSteps, 20);
+  EXPECT_GE(c.releaseSteps, 1);
+  EXPECT_GT(c.work, 1e-3);
+  EXPECT_LT(c.energy, 1e-12);
+  EXPECT_LT(c.impulse, 1e-12);
+  EXPECT_GT(detach, 0.5);
+  // independent reference: the 1D bar (20 linear elements, lumped masses h/2 at the ends, h inside)
+  // with the classical scheme and its one-unknown complementarity problem solved in closed form,
+  // S u = b + tau^2/4 (r^n + r^{n+1}) e_0, u_0 >= -h0, r^{n+1} >= 0 (reaction on the end, upwards).
+  // Each impact of the chatter amplifies differences of round-off size about tenfold (1e-12 in free
+  // flight, 6e-10 after the third impact, 2e-8 after the fourth), so the comparison stops after the
+  // fourth contact episode (t = 0.543, 181 steps; impact at t = 0.5).
+  {
+    const int N = 20, nodes = N + 1;
+    const double E = 900, h = 0.5, h0 = 5, tau = 0.003;
+    Eigen::MatrixXd K = Eigen::MatrixXd::Zero(nodes, nodes), M = Eigen::MatrixXd::Zero(nodes, nodes);
+    for (int e = 0; e < N; ++e) {
+      K(e, e) += E / h, K(e + 1, e + 1) += E / h, K(e, e + 1) -= E / h, K(e + 1, e) -= E / h;
+      M(e, e) += h / 2, M(e + 1, e + 1) += h / 2;
+    }
+    const Eigen::MatrixXd S = M + 0.25 * tau * tau * K;
+    const Eigen::LDLT<Eigen::MatrixXd> Sf(S);
+    const Eigen::VectorXd s0 = Sf.solve(Eigen::VectorXd::Unit(nodes, 0));
+    Eigen::VectorXd u = Eigen::VectorXd::Zero(nodes), v = Eigen::VectorXd::Constant(nodes, -10);
+    double r = 0, maxDiff = 0, maxForce = 0;
+    for (int k = 1; k <= 181; ++k) {
+      const Eigen::VectorXd b = M * (u + tau * v) - 0.25 * tau * tau * (K * u) + 0.25 * tau * tau * r * Eigen::VectorXd::Unit(nodes, 0);
+      Eigen::VectorXd un = Sf.solve(b);
+      double rn = 0;
+      if (un[0] < -h0) {
+        const double c = (-h0 - un[0]) / s0[0];
+        un += c * s0, rn = 4 * c / (tau * tau);
+      }
+      v = (2 / tau) * (un - u) - v, u = un, r = rn;
+      // the 2D column: two bottom vertices, each carries half of the 1D end's force
+      const StepRecord& rec = c.records[static_cast<std::size_t>(k)];
+      maxDiff = std::max(maxDiff, std::abs(rec.tracked[0].displacement[1] - u[0]));
+      maxForce = std::max(maxForce, r);
+      EXPECT_NEAR(-rec.contactForce[1], r, 1e-6 * std::max(1.0, r)) << "step " << k;  // 4/tau^2 x displacements
+    }
+    if (verbose()) std::cout << "1D reference, 181 steps: max |u_end difference| " << maxDiff << ", max force " << maxForce << "\n";
+    EXPECT_LT(maxDiff, 1e-9);
+    EXPECT_GT(maxForce, 0);
+  }
+}
+
 TEST(Newmark, PersistencySchemesConserveEnergy) {
   // (a finer mesh than for the lumped schemes: M~ needs several cells across, see test_mass)
   Block b(CellType::Triangle, {8, 4, 1}, 1, 0.5, 0.02);
@@ -342,11 +509,13 @@ TEST(Newmark, HagerHuebnerWohlmuthLongMultiVertexImpact2D) {
 }
 
 TEST(Newmark, RedistributedSchemesRejectAnIndefiniteStepMatrix) {
-  // 4^3 tetrahedral unit cube without mass at the bottom: M~ has three negative eigenvalues (test_mass).
+  // 5 x 5 x 2 tetrahedral block [0, 1]^2 x [0, 0.5] without mass at the bottom: M~ has a positive
+  // diagonal and one negative eigenvalue (coarser or odd layer counts give non-positive diagonal
+  // entries, rejected earlier with the vertex; docs/dynamics.md).
   // With a small c tau^2 A the step matrix S = M~ + c tau^2 A is indefinite too: clear error before
   // stepping (formerly a CHOLMOD error of the coarse solve); with a large one S is positive definite,
   // the stepper is built and reports the indefinite M~.
-  mesh::Grid grid(mesh::boxMesh(CellType::Tetrahedron, 4));
+  mesh::Grid grid(mesh::boxMesh(CellType::Tetrahedron, {5, 5, 2}, P(0, 0, 0), P(1, 1, 0.5)));
   PlaneObstacle plane(P(0, 0, -0.1), P(0, 0, -1));
   ContactSet contact(grid.leafView().mesh, mesh::kBottom, plane);
   for (NewmarkScheme s : allNewmarkSchemes()) {
@@ -361,13 +530,13 @@ TEST(Newmark, RedistributedSchemesRejectAnIndefiniteStepMatrix) {
     } catch (const obs::Error& e) {
       const std::string what = e.what();
       EXPECT_NE(what.find("is not positive definite"), std::string::npos) << what;
-      EXPECT_NE(what.find("3 negative eigenvalues"), std::string::npos) << what;
+      EXPECT_NE(what.find("(1 negative eigenvalues)"), std::string::npos) << what;
       EXPECT_NE(what.find("Refine the mesh near the contact boundary"), std::string::npos) << what;
       EXPECT_NE(what.find(std::string(name(s))), std::string::npos) << what;
     }
-    NewmarkFamily<3> stiff(grid, material(100), {}, contact, opts(s, 0.01));
+    NewmarkFamily<3> stiff(grid, material(1e4), {}, contact, opts(s, 0.01));
     EXPECT_FALSE(stiff.redistributedMassDefiniteness().positiveDefinite) << name(s);
-    EXPECT_EQ(stiff.redistributedMassDefiniteness().nonPositivePivots, 3) << name(s);
+    EXPECT_EQ(stiff.redistributedMassDefiniteness().nonPositivePivots, 1) << name(s);
   }
   // one refinement: M~ positive definite, accepted for any tau
   grid.refineUniformly();

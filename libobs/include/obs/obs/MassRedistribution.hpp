@@ -1,26 +1,39 @@
 #pragma once
 /// \file MassRedistribution.hpp
-/// Mass redistribution (Khenous, Laborde, Renard 2006/2008; thesis Sec. 5.2.4, MATH.md §5): a mass
-/// matrix M~ without mass at the potential contact vertices C,
+/// Mass redistribution (Khenous, Laborde, Renard 2006/2008; thesis Sec. 5.2.4): a mass matrix M~
+/// without mass at the potential contact vertices C,
 ///   M~_ij = 0 if i in C or j in C,   M~_ij = 0 where M_ij = 0 (pattern of M kept),
-/// with the total mass and the centre of gravity of M,
-///   sum_ij M~_ij = sum_ij M_ij,   sum_ij M~_ij (x_i + x_j)/2 = sum_ij M_ij (x_i + x_j)/2  (each coordinate),
-/// and closest to M in the Frobenius norm among such matrices (constrained least squares).
+/// with the total mass, the centre of gravity and the moment of inertia of M,
+///   sum_ij M~_ij = sum_ij M_ij                                   (total mass),
+///   sum_ij M~_ij x_j,a = sum_ij M_ij x_j,a              for each a  (first moments),
+///   sum_ij M~_ij x_i,a x_j,b = sum_ij M_ij x_i,a x_j,b  for a <= b  (second moments),
+/// 1 + d + d(d+1)/2 constraints (6 in 2D, 10 in 3D), and closest to M among such matrices in the
+/// weighted Frobenius norm sum_K (M~_ij - M_ij)^2 / |M_ij| (constrained least squares). For the consistent M the right-hand sides are the
+/// integrals of rho, rho x_a and rho x_a x_b over the body (the coordinates are finite element
+/// functions), so M~ has the body's mass, centre of gravity and second-moment tensor, and with it
+/// its inertia tensor J = tr(I) Id - I, I_ab = int rho x_a x_b (about any point).
 ///
 /// Solution: with the kept entries K = {(i, j) in pattern, i, j not in C}, M0 = M restricted to K and
-/// the constraint weights W^0_ij = 1, W^c_ij = (x_i,c + x_j,c)/2 - xbar_c on K (centred coordinates,
-/// an equivalent set of constraints that is better conditioned), the minimiser is
-///   M~ = M0 + sum_k lambda_k W^k     (symmetric, on K),
-/// with Lagrange multipliers lambda solving the (d+1) x (d+1) constraints. They are computed by an
-/// Uzawa iteration lambda <- lambda + G^{-1} (c - C(M~(lambda))), preconditioned with the Gram matrix
-/// G_kl = sum_K W^k W^l (as the thesis, Sec. 5.2.6, we use Uzawa; with this preconditioner it converges
-/// in one or two sweeps, the extra sweeps only remove round-off). The moment of inertia is not kept.
+/// the constraint weights on K, in the coordinates y = (x - xbar)/L of the kept vertices (centre xbar,
+/// radius L; an equivalent, better conditioned set of constraints),
+///   W^0_ij = 1,  W^a_ij = (y_i,a + y_j,a)/2,  W^ab_ij = (y_i,a y_j,b + y_j,a y_i,b)/2,
+/// the minimiser is
+///   M~_ij = M_ij + |M_ij| sum_k lambda_k W^k_ij  on K   (symmetric, pattern of M),
+/// i.e. every kept (non-negative) entry is rescaled by a quadratic polynomial of the pair's coordinates, like a
+/// density modulation. The weight 1/|M_ij| makes the correction relative: with the plain Frobenius
+/// norm the correction sum_k lambda_k W^k is the same for small and large entries, and with the second
+/// moments kept it made M~ indefinite up to 4 cells across (4^2 quadrilaterals, 4^3 hexahedra, prisms,
+/// tetrahedra; docs/dynamics.md). The Lagrange multipliers lambda are computed by an Uzawa iteration
+/// lambda <- lambda + G^{-1} (c - C(M~(lambda))), preconditioned with the Gram matrix
+/// G_kl = sum_K |M_ij| W^k W^l (as the thesis, Sec. 5.2.6, we use Uzawa; with this preconditioner it converges
+/// in one or two sweeps, the extra sweeps only remove round-off). G is singular if the kept entries
+/// cannot carry the constraints (e.g. every vertex that keeps mass on one line): obs::Error.
 ///
 /// M~ is symmetric; it is positive semidefinite on the remaining vertices when the removed mass is
 /// small against the smallest eigenvalue of M (a boundary layer of a mesh with several cells across).
-/// On coarse meshes it can be indefinite (4^3 tetrahedral unit cube with the bottom removed: smallest
-/// eigenvalue -7.7e-5); checkPositiveDefinite() decides this with one sparse factorisation (any size),
-/// smallestEigenvalue() computes the eigenvalue densely (small problems, tests).
+/// On coarse meshes it can be indefinite (3^3 tetrahedral unit cube with the bottom removed);
+/// checkPositiveDefinite() decides this with one sparse factorisation (any size), smallestEigenvalue()
+/// computes the eigenvalue densely (small problems, tests).
 #include <Eigen/Core>
 
 #include <vector>
@@ -31,8 +44,8 @@
 namespace obs {
 
 struct MassRedistributionOptions {
-  /// Relative constraint residual |c - C(M~)| / (total mass * max(1, diam)) to reach; the iteration
-  /// also stops at the round-off floor (a residual <= 1e-11 that a sweep no longer halves).
+  /// Relative constraint residual |c - C(M~)| / (total mass) to reach (constraints in the coordinates
+  /// y = (x - xbar)/L of the file comment); the iteration also stops at the round-off floor (a residual <= 1e-11 that a sweep no longer halves).
   double tolerance = 1e-14;
   int maxIterations = 50;
 };
@@ -40,7 +53,7 @@ struct MassRedistributionOptions {
 struct RedistributedMass {
   ScalarSparseMatrix matrix;        ///< M~ (pattern of M, zero rows/columns at the massless vertices)
   std::vector<char> massless;       ///< per vertex: in C
-  Eigen::VectorXd multipliers;      ///< lambda (d + 1)
+  Eigen::VectorXd multipliers;      ///< lambda (1 + d + d(d+1)/2, order of the file comment)
   int iterations = 0;               ///< Uzawa sweeps
   double residual = 0;              ///< final relative constraint residual
   double movedMass = 0;             ///< sum of the removed entries of M (the mass taken off C)
@@ -48,8 +61,8 @@ struct RedistributedMass {
 
 /// Redistributes M away from the vertices with massless[v] != 0 (see the file comment).
 /// `vertices` are the mesh vertex positions, `dimension` 2 or 3. Throws obs::Error on inconsistent
-/// sizes, if every vertex is massless or no kept entry exists, or if the Uzawa iteration does not
-/// reach the tolerance.
+/// sizes, if every vertex is massless, no kept entry exists or the kept entries cannot carry the
+/// constraints (singular Gram matrix), or if the Uzawa iteration does not reach the tolerance.
 RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vector<mesh::Point>& vertices,
                                    int dimension, const std::vector<char>& massless,
                                    const MassRedistributionOptions& options = {});

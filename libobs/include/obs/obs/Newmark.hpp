@@ -28,6 +28,8 @@
 ///    the solve).
 ///  - "classical" (5.21-5.22): (M + tau^2/4 A) u^{n+1} = M(u^n + tau v^n) - tau^2/4 A u^n + tau^2/2 f
 ///    + tau^2/4 (M F_con^n + M F_con^{n+1}), u^{n+1} in K; v^{n+1} = (2/tau)(u^{n+1} - u^n) - v^n.
+///    Both contact forces enter with the same sign (the reaction of step n is stored); then
+///    E^{n+1} - E^n = -1/2 (F^n + F^{n+1}).(u^{n+1} - u^n) with F = contactForces() (thesis (5.24)).
 ///  - "laursen-chawla" (Alg. 5.2.3): contact-implicit with the persistency set.
 ///  - "khenous-laborde-renard" (Alg. 5.2.4), redistributed mass M~ (MassRedistribution.hpp):
 ///    (M~ + tau^2/2 A) u^{n+1} = M~(u^n + tau v^n) + tau^2/2 (f + M F_con), u^{n+1} in K;
@@ -202,6 +204,10 @@ public:
   const ContactProblem<d>& problem() const { return *problem_; }
   /// Energy E(u, v) = 1/2 v'Mv + 1/2 u'Au - f'u.
   double energy(const Eigen::VectorXd& u, const Eigen::VectorXd& v) const;
+  /// Nodal contact forces of the last step on the obstacle, F_p nu_p per vertex (vertex-major, zero
+  /// away from the contact nodes; all zero after initialize()): the multiplier divided by c' tau^2.
+  /// The force on the body is -F; StepRecord::contactForce is its sum over the vertices.
+  Eigen::VectorXd contactForces() const;
 
 private:
   struct Predictor;
