@@ -123,16 +123,34 @@ struct RowAccumulator {
   }
 };
 
-/// T'AT with T = I + C (C scalar, acting on every component).
+/// T'AT with T = I + C (C scalar, acting on every component). Only the rows next to transformed
+/// (slave) vertices and the rows of master vertices change; all others are copied.
 template <int d>
 BlockSparseMatrix<d> transformOperator(const BlockSparseMatrix<d>& A, const mesh::CsrMatrix& C) {
   using Block = Eigen::Matrix<double, d, d>;
   const Index n = A.rows();
-  // B = A T, row by row: B_r = A_r + sum_s A_rs C_s
+  std::vector<char> slave(n, 0), master(n, 0);
+  for (Index r = 0; r < n; ++r)
+    if (C.rowStart[r + 1] > C.rowStart[r]) slave[r] = 1;
+  for (Index c : C.columns) master[c] = 1;
+  RowAccumulator<d> acc(n);
+  // B = A T, row by row: B_r = A_r + sum_s A_rs C_s (a copy of A_r if no column of A_r is a slave)
   std::vector<Index> bStart{0}, bCols;
   std::vector<Block> bVals;
-  RowAccumulator<d> acc(n);
+  bStart.reserve(n + 1);
+  bCols.reserve(static_cast<std::size_t>(A.nonZeroBlocks()) + C.columns.size() * 8);
+  bVals.reserve(bCols.capacity());
   for (Index r = 0; r < n; ++r) {
+    bool touched = false;
+    for (Index k = A.rowBegin(r); k < A.rowEnd(r) && !touched; ++k) touched = slave[A.column(k)] != 0;
+    if (!touched) {
+      for (Index k = A.rowBegin(r); k < A.rowEnd(r); ++k) {
+        bCols.push_back(A.column(k));
+        bVals.push_back(A.blockAt(k));
+      }
+      bStart.push_back(static_cast<Index>(bCols.size()));
+      continue;
+    }
     for (Index k = A.rowBegin(r); k < A.rowEnd(r); ++k) {
       const Index s = A.column(k);
       acc.add(s, A.blockAt(k));
@@ -155,10 +173,21 @@ BlockSparseMatrix<d> transformOperator(const BlockSparseMatrix<d>& A, const mesh
         tVals[next[C.columns[m]]++] = C.values[m];
       }
   }
-  // T'B, row by row: row p = B_p + sum_r C_rp B_r
+  // T'B, row by row: row p = B_p + sum_r C_rp B_r (a copy of B_p unless p is a master vertex)
   std::vector<Index> rowStart{0}, cols;
   std::vector<Block> vals;
+  rowStart.reserve(n + 1);
+  cols.reserve(bCols.size() + C.columns.size() * 16);
+  vals.reserve(cols.capacity());
   for (Index p = 0; p < n; ++p) {
+    if (!master[p]) {
+      for (Index k = bStart[p]; k < bStart[p + 1]; ++k) {
+        cols.push_back(bCols[k]);
+        vals.push_back(bVals[k]);
+      }
+      rowStart.push_back(static_cast<Index>(cols.size()));
+      continue;
+    }
     for (Index k = bStart[p]; k < bStart[p + 1]; ++k) acc.add(bCols[k], bVals[k]);
     for (Index m = tStart[p]; m < tStart[p + 1]; ++m) {
       const Index r = tRows[m];
