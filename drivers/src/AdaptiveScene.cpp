@@ -395,6 +395,8 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
   }
   o.solverTolerance = scene.solver.tolerance.value_or(o.solverTolerance);
   o.maxSolverIterations = scene.solver.maxIterations.value_or(o.maxSolverIterations);
+  o.preSmoothing = scene.solver.preSmoothing.value_or(o.preSmoothing);  // were ignored before
+  o.postSmoothing = scene.solver.postSmoothing.value_or(o.postSmoothing);
 
   std::unique_ptr<Obstacle> obstacle;
   std::optional<est::ContactReference> reference;

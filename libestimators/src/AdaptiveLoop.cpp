@@ -8,6 +8,7 @@
 #include "obs/estimators/Marking.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Prolongation.hpp"
+#include "obs/obs/ContactModel.hpp"
 #include "obs/mesh/Quadrature.hpp"
 #include "obs/mesh/ReferenceElement.hpp"
 #include "obs/obs/CholmodSolver.hpp"
@@ -149,7 +150,12 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
                             : Eigen::VectorXd::Zero(rec.unknowns);
     if (obstacle_) {
       set.emplace(m, contactId_, *obstacle_);
-      problem.emplace(m, material_, bc_, *set);
+      {  // the one-body contact model, as in static and dynamic runs
+        ContactModel<d> model;
+        model.addBody("body", m, material_, bc_);
+        model.addObstacleContact(0, *set, set->boundaryLabel());
+        problem.emplace(model.assemble());
+      }
       rec.assemblySeconds = since(t);
       t = Clock::now();
       ContactResult result;
@@ -157,6 +163,8 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
         typename TNNMG<d>::Options o;
         o.tolerance = options_.solverTolerance;
         o.maxIterations = options_.maxSolverIterations;
+        o.preSmoothing = options_.preSmoothing;
+        o.postSmoothing = options_.postSmoothing;
         o.recordHistory = false;
         TNNMG<d> solver(grid_, o);
         result = solver.solve(*problem, u);

@@ -258,6 +258,18 @@ TEST(AdaptiveLoop, StoppingRulesSolversAndErrors) {
   EXPECT_NE(errorOf([&] { AdaptiveLoop(grid, kMaterial, bc, bad); })
                 .find("unknown marking strategy 'median' (known: doerfler, fraction, maximum, mean)"),
             std::string::npos);
+  // the smoothing steps reach the loop's TNNMG (they were not forwarded before): none at all is
+  // TNNMG's own error, at the first solve
+  bad = {};
+  bad.preSmoothing = 0;
+  bad.postSmoothing = 0;
+  {
+    mesh::Grid g(mesh::boxMesh(CellType::Quadrilateral, 4));
+    AdaptiveLoop loop(g, kMaterial, bc, bad);
+    const StripObstacle punch(Point(0.5, 0, 0), 0.0625, Point(0, -1, 0));
+    loop.setContact(punch, mesh::kBottom);
+    EXPECT_NE(errorOf([&] { loop.run(); }).find("at least one nonsmooth sweep"), std::string::npos);
+  }
   bad = {};
   bad.maxSteps = 0;
   EXPECT_NE(errorOf([&] { AdaptiveLoop(grid, kMaterial, bc, bad); }).find("maxSteps"), std::string::npos);

@@ -75,6 +75,8 @@ struct AdaptiveLoopOptions {
   ContactSolverKind solver = ContactSolverKind::TNNMG;
   double solverTolerance = 1e-10;  ///< relative energy-norm correction (ContactSolverOptions)
   int maxSolverIterations = 500;
+  int preSmoothing = 3;   ///< TNNMG nonsmooth sweeps before / after the correction (TNNMG::Options)
+  int postSmoothing = 0;
   bool warmStart = true;           ///< start from the prolonged previous solution
   double contactTolerance = 1e-8;  ///< relative tolerance of actual contact
   /// Registry to create the estimator from (null: EstimatorRegistry::global()).
