@@ -8,6 +8,7 @@
 // assembly time, solve time, peak memory. Writes a markdown table; progress goes to stderr.
 //
 //   build/bench/two_body perf.md --levels 1-3 [--pdas-max-dofs N] [--solvers tnnmg,pdas,onebody]
+//                                [--box-type tetrahedron|hexahedron]   (the master box's cells)
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -99,11 +100,13 @@ BoundaryConditions pushedTop() {
   return bc;
 }
 
+mesh::CellType gBoxType = mesh::CellType::Tetrahedron;  // --box-type
+
 Measurement runTwoBody(int levels, const std::string& solverName) {
   Measurement m;
   auto t0 = Clock::now();
   mesh::Grid upper = roundedBlock(levels);
-  mesh::Grid lower(mesh::boxMesh(mesh::CellType::Tetrahedron, {4, 2, 2}, Point(-1, -0.5, -1), Point(1, 0.5, 0)));
+  mesh::Grid lower(mesh::boxMesh(gBoxType, {4, 2, 2}, Point(-1, -0.5, -1), Point(1, 0.5, 0)));
   for (int l = 0; l < levels; ++l) lower.refineUniformly();
   const mesh::Mesh ml = lower.leafView().mesh, mu = upper.leafView().mesh;
   BoundaryConditions bl;
@@ -164,7 +167,8 @@ Measurement runOneBody(int levels) {
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::cerr << "usage: two_body OUTPUT.md [--levels a-b] [--pdas-max-dofs N] [--solvers tnnmg,pdas,onebody]\n";
+    std::cerr << "usage: two_body OUTPUT.md [--levels a-b] [--pdas-max-dofs N] [--solvers tnnmg,pdas,onebody] "
+                 "[--box-type tetrahedron|hexahedron]\n";
     return 2;
   }
   const std::string outFile = argv[1];
@@ -177,6 +181,13 @@ int main(int argc, char** argv) {
       if (std::sscanf(value.c_str(), "%d-%d", &first, &last) != 2) return 2;
     } else if (key == "--pdas-max-dofs") {
       pdasMax = std::stoll(value);
+    } else if (key == "--box-type") {
+      if (value == "hexahedron")
+        gBoxType = mesh::CellType::Hexahedron;
+      else if (value != "tetrahedron") {
+        std::cerr << "--box-type: hexahedron or tetrahedron\n";
+        return 2;
+      }
     } else if (key == "--solvers") {
       solvers = value;
     } else {
