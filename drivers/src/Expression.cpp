@@ -16,6 +16,10 @@ using Op = Expression::Op;
 using Instruction = Expression::Instruction;
 
 constexpr int kMaxNesting = 200;
+/// Longest chain of operations in the syntax tree (a + b + c + ... nests to the left without
+/// parentheses); emitting and freeing the tree recurse along it, so it must stay far below what
+/// the stack holds.
+constexpr int kMaxChain = 10000;
 constexpr int kInlineStack = 32;
 
 int arity(Op op) {
@@ -95,6 +99,7 @@ constexpr std::array<Function, 19> kFunctions{{
 struct Node {
   Op op = Op::Constant;
   double value = 0.0;
+  int depth = 1;  ///< levels of the subtree
   std::unique_ptr<Node> a, b;
 };
 using NodePtr = std::unique_ptr<Node>;
@@ -110,6 +115,7 @@ NodePtr combine(Op op, NodePtr a, NodePtr b = nullptr) {
   if (foldable) return constant(apply(op, a->value, b ? b->value : 0.0));
   auto n = std::make_unique<Node>();
   n->op = op;
+  n->depth = 1 + std::max(a->depth, b ? b->depth : 0);
   n->a = std::move(a);
   n->b = std::move(b);
   return n;
@@ -136,6 +142,12 @@ private:
     throw ExpressionError(std::string(s_), static_cast<int>(pos) + 1, reason);
   }
 
+  void checkChain(const Node& n) const {
+    if (n.depth > kMaxChain)
+      fail(pos_, "expression too long: more than " + std::to_string(kMaxChain) +
+                     " chained operations");
+  }
+
   void skipSpace() {
     while (pos_ < s_.size() && std::isspace(static_cast<unsigned char>(s_[pos_]))) ++pos_;
   }
@@ -158,6 +170,7 @@ private:
         n = combine(Op::Sub, std::move(n), term());
       else
         break;
+      checkChain(*n);
     }
     --depth_;
     return n;
@@ -172,6 +185,7 @@ private:
         n = combine(Op::Div, std::move(n), unary());
       else
         break;
+      checkChain(*n);
     }
     return n;
   }
@@ -309,11 +323,38 @@ std::string shortest(double v) {
 
 }  // namespace
 
+namespace {
+
+/// `text` with every byte outside printable ASCII (line breaks, tabs, NUL, UTF-8) shown as '?'.
+std::string printable(std::string_view text) {
+  std::string out(text);
+  for (char& c : out)
+    if (static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) >= 0x7f) c = '?';
+  return out;
+}
+
+/// At most about `width` characters of `text` around the 1-based `position`, "..." marking cuts.
+std::string shortened(std::string_view text, int position, std::size_t width) {
+  if (text.size() <= width) return printable(text);
+  const std::size_t at = static_cast<std::size_t>(std::max(position, 1) - 1);
+  const std::size_t begin = std::min(at > width / 2 ? at - width / 2 : 0, text.size() - width);
+  return (begin > 0 ? "..." : "") + printable(text.substr(begin, width)) +
+         (begin + width < text.size() ? "..." : "");
+}
+
+constexpr std::size_t kExcerptWidth = 80;
+
+}  // namespace
+
 ExpressionError::ExpressionError(std::string text, int position, std::string reason)
-    : Error("expression \"" + text + "\": " + reason + " at position " + std::to_string(position)),
+    : Error("expression \"" + shortened(text, position, kExcerptWidth) +
+            "\": " + shortened(reason, 1, 2 * kExcerptWidth) + " at position " +
+            std::to_string(position)),
       text_(std::move(text)),
       position_(position),
-      reason_(std::move(reason)) {}
+      reason_(shortened(reason, 1, 2 * kExcerptWidth)) {}
+
+std::string ExpressionError::excerpt() const { return shortened(text_, position_, kExcerptWidth); }
 
 Expression::Expression(double constant)
     : text_(shortest(constant)), code_{{Op::Constant, constant}}, stackSize_(1) {}

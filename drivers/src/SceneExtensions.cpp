@@ -45,6 +45,7 @@ void applyOverrides(toml::value& root, const std::vector<std::string>& overrides
       throw Error(where + "unknown section [" + section + "] (allowed sections: " + joined(sections) + ")");
     if (valueText.empty()) throw Error(where + "the value is missing (TOML syntax, e.g. 3, \"uniform\", [0, 1])");
     toml::value parsed;
+    checkTomlNesting(valueText, fileName + " (from --set)");
     try {
       std::istringstream is("value = " + valueText + "\n");
       parsed = toml::parse(is, kOverrideSource);

@@ -542,6 +542,7 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
                        const std::filesystem::path& directory,
                        const std::vector<std::string>& overrides) {
   toml::value root;
+  checkTomlNesting(text, fileName);
   try {
     std::istringstream is(text);
     root = toml::parse(is, fileName);

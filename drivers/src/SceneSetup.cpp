@@ -5,6 +5,7 @@
 #include <set>
 #include <sstream>
 
+#include "obs/drivers/MeshSize.hpp"
 #include "obs/drivers/ObstacleFactory.hpp"
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/CurvedMeshes.hpp"
@@ -138,6 +139,17 @@ mesh::Grid buildGrid(const Scene& scene, std::optional<int> refineOverride) {
     throw Error(scene.fileName + ": the scene has " + std::to_string(scene.bodies.size()) +
                 " [[body]] entries; their grids are built per body (Scene::bodies)");
   const MeshSpec& spec = scene.mesh;
+  // A generated mesh is sized before it is built: an oversized request must not allocate first.
+  if (const double coarse = generatedCoarseCells(spec);
+      refinedCells(coarse, spec.cellType, std::max(0, refineOverride.value_or(spec.refine))) >
+      static_cast<double>(kMaxCells)) {
+    std::ostringstream os;
+    os << scene.where(spec.line) << "[mesh] asks for about "
+       << refinedCells(coarse, spec.cellType, std::max(0, refineOverride.value_or(spec.refine)))
+       << " cells (" << coarse << " before refinement; the limit is "
+       << static_cast<double>(kMaxCells) << ")";
+    throw Error(os.str());
+  }
   mesh::CurvedMesh curved;  // generator = "ball" / "rounded_block": mesh + boundary projections
   if (spec.source != MeshSpec::Source::Box && spec.source != MeshSpec::Source::File) {
     const char* generator = spec.source == MeshSpec::Source::Ball   ? "ball"

@@ -34,6 +34,38 @@ std::string whereOf(const std::string& fileName, const toml::value& v) {
   return prefix(fileName, lineOf(v));
 }
 
+void checkTomlNesting(std::string_view text, const std::string& fileName) {
+  int depth = 0, line = 1;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (c == '\n') {
+      ++line;
+    } else if (c == '#') {  // comment to the end of the line
+      while (i + 1 < text.size() && text[i + 1] != '\n') ++i;
+    } else if (c == '"' || c == '\'') {  // basic or literal string, one-line or multi-line
+      const bool multi = text.substr(i, 3) == std::string(3, c);
+      const std::string close = multi ? std::string(3, c) : std::string(1, c);
+      std::size_t j = i + close.size();
+      while (j < text.size() && text.substr(j, close.size()) != close) {
+        if (c == '"' && text[j] == '\\') ++j;  // escaped character
+        if (j < text.size() && text[j] == '\n') {
+          ++line;
+          if (!multi) break;  // unterminated: toml::parse reports it
+        }
+        ++j;
+      }
+      i = std::min(j + close.size(), text.size()) - 1;
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxTomlNesting)
+        throw Error(fileName + ":" + std::to_string(line) +
+                    ": TOML arrays and inline tables nested deeper than " +
+                    std::to_string(kMaxTomlNesting) + " levels");
+    } else if ((c == ']' || c == '}') && depth > 0) {
+      --depth;
+    }
+  }
+}
+
 std::string literalOf(const toml::value& v) {
   const toml::source_location loc = v.location();
   const std::string& line = loc.line_str();
@@ -158,7 +190,7 @@ Expression TomlSection::expressionOf(const toml::value& v, const std::string& la
     } catch (const ExpressionError& e) {
       failAt(
           v, label,
-          "= \"" + e.text() + "\": " + e.reason() + " at position " + std::to_string(e.position()));
+          "= \"" + e.excerpt() + "\": " + e.reason() + " at position " + std::to_string(e.position()));
     }
   }
   failAt(v, label, "must be a number or an expression string, got " + typeNameOf(v));

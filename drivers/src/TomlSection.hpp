@@ -8,6 +8,7 @@
 #include <initializer_list>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "obs/drivers/Expression.hpp"
@@ -21,6 +22,15 @@ std::string whereOf(const std::string& fileName, const toml::value& v);
 std::string literalOf(const toml::value& v);
 /// "a string", "an integer", ... for messages.
 std::string typeNameOf(const toml::value& v);
+
+/// Deepest nesting of arrays and inline tables a scene may use (scenes need 2).
+inline constexpr int kMaxTomlNesting = 32;
+
+/// Throws obs::Error "<fileName>:<line>: TOML arrays and inline tables nested deeper than
+/// kMaxTomlNesting levels" if `text` nests '[' / '{' (outside strings and comments) that deeply.
+/// Called before toml::parse, whose recursive descent would otherwise overflow the stack (depth
+/// ~10^4) or take minutes (inline tables) on such input.
+void checkTomlNesting(std::string_view text, const std::string& fileName);
 
 class TomlSection;
 /// The entries of a TOML array as finite numbers (integers converted); any other entry is an error

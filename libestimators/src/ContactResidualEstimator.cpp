@@ -195,6 +195,9 @@ void ContactResidualEstimator::addContactFaces(const EstimatorInput& input,
   const ContactNodeClasses classes = classifyContactNodes(
       m, contactBoundaryIds(input), set, input.displacement, contactOptions_.contactTolerance);
   const std::vector<double> s = pressures(input, classes, true);
+  if (set && !obstacle)  // eta_7 and eta_8 would silently be 0
+    throw Error("estimator 'contact-residual': the input has the contact set " + set->boundaryLabel() +
+                " but no obstacle; eta_7 and eta_8 need the exact gap g (set ContactData::obstacle)");
   const NodalData nd = nodalData(m, set, input.displacement);
   auto cls = [&](Index v) { return classes.ofVertex[v]; };
 

@@ -695,6 +695,10 @@ Mesh readGmsh(const std::filesystem::path& file) {
   if (!stream) throw Error(fileName + ": cannot open file");
   std::string text((std::istreambuf_iterator<char>(stream)), std::istreambuf_iterator<char>());
   if (stream.bad()) throw Error(fileName + ": read error");
+  return readGmshString(std::move(text), fileName);
+}
+
+Mesh readGmshString(std::string text, const std::string& fileName) {
   LineReader lines(std::move(text), fileName);
   return Parser(lines).parse();
 }

@@ -283,6 +283,18 @@ TEST(ContactResidualEstimator, HandComputed2D) {
   } catch (const obs::Error& e) {
     EXPECT_NE(std::string(e.what()).find("no contact outputs"), std::string::npos) << e.what();
   }
+
+  // ... and the obstacle whenever there is a contact set: without it eta_7 and eta_8 cannot be
+  // evaluated, which must not pass as eta_7 = eta_8 = 0
+  const ContactData noObstacle{&set, &out, nullptr};
+  in.contact = &noObstacle;
+  try {
+    ContactResidualEstimator().estimate(in);
+    FAIL() << "a contact set without an obstacle was accepted";
+  } catch (const obs::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("no obstacle"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("eta_7"), std::string::npos) << e.what();
+  }
 }
 
 // 3D: one hexahedron whose contact face is the trapezoid (0,0), (1,0), (1.25,1), (0,1) in z = 0

@@ -28,12 +28,17 @@ namespace obs::drivers {
 
 /// A syntax error in an expression. `position` is the 1-based character position in the text,
 /// `reason` the bare description ("unknown function 'sinn'"); what() combines both with the text.
+/// Messages stay one line of bounded length whatever the text holds: what(), excerpt() and
+/// reason() show line breaks and other control bytes as '?' and shorten long texts around the
+/// position (text() keeps the text as given).
 class ExpressionError : public Error {
 public:
   ExpressionError(std::string text, int position, std::string reason);
   const std::string& text() const { return text_; }
   int position() const { return position_; }
   const std::string& reason() const { return reason_; }
+  /// The text as quoted in messages: printable, at most about 80 characters around the position.
+  std::string excerpt() const;
 
 private:
   std::string text_;

@@ -40,7 +40,8 @@
 ///    plane obstacle (g = g_m) and a feasible u give eta_7 = eta_8 = 0 exactly.
 ///  - grad_Gamma g in eta_8 by central differences of g along the reference face coordinates
 ///    (step 1e-6 of the reference face), one-sided where g is infinite on one side.
-///  - eta_7 and eta_8 need ContactData::obstacle (the exact g); without it they are 0.
+///  - eta_7 and eta_8 need ContactData::obstacle (the exact g): a contact set without an
+///    obstacle is an obs::Error, as are missing pressures.
 ///  - Without contact data or with no node in actual contact, eta_6 = eta_7 = 0, eta_5 sums over
 ///    all of N^C, and eta_1 ... eta_5 coincide with `residual`.
 ///

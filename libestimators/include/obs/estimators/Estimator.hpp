@@ -59,7 +59,8 @@ MeshStamp meshStamp(const mesh::Mesh& mesh, std::uint64_t revision = 0);
 /// pointers are not owned; any of them may be null. `residual` uses only `set` (its boundary id is
 /// treated as potential contact boundary, its directions nu_p split sigma n into eta_4 / eta_5);
 /// `contact-residual` (ContactResidualEstimator.hpp) also the pressures s_p of `outputs` (required
-/// once a node is in actual contact) and the exact gap of `obstacle` (eta_7, eta_8).
+/// once a node is in actual contact) and the exact gap of `obstacle` (eta_7, eta_8; required with a
+/// set).
 struct ContactData {
   const ContactSet* set = nullptr;          ///< potential contact nodes N^C, nu_p, g_p, m_p^C
   const ContactOutputs* outputs = nullptr;  ///< actual contact, multipliers, pressures s_p

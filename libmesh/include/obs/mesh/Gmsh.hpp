@@ -29,6 +29,7 @@
 /// "mesh.msh:17: element 12 references unknown node 99".
 #include <filesystem>
 #include <optional>
+#include <string>
 
 #include "obs/mesh/CellType.hpp"
 #include "obs/mesh/Mesh.hpp"
@@ -37,6 +38,9 @@ namespace obs::mesh {
 
 /// Reads a Gmsh .msh file (format 4.1 or 2.2, ASCII). Throws obs::Error on any problem.
 Mesh readGmsh(const std::filesystem::path& file);
+
+/// Reads .msh text held in memory (the same parser as readGmsh); `fileName` names it in messages.
+Mesh readGmshString(std::string text, const std::string& fileName);
 
 /// Writes `mesh` as a Gmsh 4.1 ASCII file. The cells form one entity of the mesh dimension in
 /// physical group 1 named "domain"; the boundary faces of each boundary id form one entity of
