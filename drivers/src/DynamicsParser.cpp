@@ -40,6 +40,7 @@ std::string schemeNames() {
 /// Checks a scheme name; `v` is the TOML value for the message.
 std::string schemeName(const TomlSection& s, const toml::value& v, const std::string& label) {
   if (!v.is_string()) s.failAt(v, label, "must be a scheme name (string), got " + typeNameOf(v));
+  checkOneLine(s, v, label);
   const std::string n = v.as_string().str;
   for (NewmarkScheme k : allNewmarkSchemes())
     if (name(k) == n) return n;

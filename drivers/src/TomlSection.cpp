@@ -76,6 +76,11 @@ std::string literalOf(const toml::value& v) {
   os << v;
   std::string s = os.str();
   while (!s.empty() && (s.back() == '\n' || s.back() == ' ')) s.pop_back();
+  // messages are one line: a multi-line string or table shows its line breaks as '?'
+  for (char& c : s)
+    if (static_cast<unsigned char>(c) < 0x20) c = '?';
+  constexpr std::size_t kMaxLength = 200;
+  if (s.size() > kMaxLength) s = s.substr(0, kMaxLength) + "...";
   return s;
 }
 
@@ -166,9 +171,16 @@ long long TomlSection::integer(const std::string& key) const {
   return v.as_integer();
 }
 
+void checkOneLine(const TomlSection& s, const toml::value& v, const std::string& label) {
+  for (const char c : v.as_string().str)
+    if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
+      s.failAt(v, label, "must be one line of text without control characters (line breaks, tabs)");
+}
+
 std::string TomlSection::string(const std::string& key) const {
   const toml::value& v = at(key);
   if (!v.is_string()) fail(key, "must be a string, got " + typeNameOf(v));
+  checkOneLine(*this, v, key);
   return v.as_string().str;
 }
 
@@ -222,6 +234,7 @@ BoundaryRef TomlSection::boundary(const std::string& key) const {
   if (v.is_string()) {
     ref.name = v.as_string().str;
     if (ref.name.empty()) fail(key, "must not be empty");
+    checkOneLine(*this, v, key);
   } else if (v.is_integer()) {
     if (v.as_integer() < 0 || v.as_integer() > 1'000'000'000)
       fail(key, "= " + literalOf(v) + " must be a boundary name or a non-negative boundary id");

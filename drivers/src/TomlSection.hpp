@@ -37,6 +37,11 @@ class TomlSection;
 /// of section s naming "label[i]". The caller checks that v is an array of the right length.
 std::vector<double> finiteNumberEntries(const TomlSection& s, const toml::value& v, const std::string& label);
 
+/// Names, file names and keywords (string values) are one line of text: a line break or another
+/// control character in the string `v` is an error of section s naming `label` (such text would
+/// also break the one-line messages that quote it). string() and boundary() check this.
+void checkOneLine(const TomlSection& s, const toml::value& v, const std::string& label);
+
 class TomlSection {
 public:
   /// `title` is how the section is written in messages, "[material]" or "[[dirichlet]]".

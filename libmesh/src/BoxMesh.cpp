@@ -35,6 +35,15 @@ public:
     }
     if (2 * count > std::numeric_limits<Index>::max())
       throw Error(std::string(who) + ": too many cells for 32-bit indices");
+    // The grid coordinates must be finite and distinct in floating point (a box 1e-320 wide or
+    // 1e308 long is not, whatever the cell count).
+    for (int d = 0; d < dim; ++d)
+      for (int i = 0; i < n_[d]; ++i)
+        if (!(std::isfinite(coord(d, i + 1)) && coord(d, i) < coord(d, i + 1)))
+          throw Error(std::string(who) + ": the box [" + std::to_string(lower[d]) + ", " +
+                      std::to_string(upper[d]) + "] in direction " + std::to_string(d) +
+                      " cannot be divided into " + std::to_string(cells[d]) +
+                      " cells in floating point (grid coordinates coincide or overflow)");
     for (int k = 0; k <= n_[2]; ++k)
       for (int j = 0; j <= n_[1]; ++j)
         for (int i = 0; i <= n_[0]; ++i)
@@ -58,7 +67,9 @@ public:
       const auto n = static_cast<int>(v.size());
       if (q < n) std::swap(v[p], v[q]);
       if (s < n) std::swap(v[r], v[s]);
-      if (!oriented(type, v)) throw std::logic_error("boxMesh: cannot orient a cell");
+      if (!oriented(type, v))  // a cell of zero volume in floating point (e.g. 1e-200 x 1e-200)
+        throw Error("boxMesh: a cell of the box is degenerate in floating point (its volume "
+                    "underflows); scale the box or use fewer cells");
     }
     mesh_.addCell(type, v);
   }

@@ -104,6 +104,28 @@ TEST(FuzzRegression, ExpressionErrorsAreOneBoundedLine) {
   EXPECT_NE(sceneMsg.find("\"0.1 *?sinn(x)\": unknown function 'sinn'"), std::string::npos) << sceneMsg;
 }
 
+// Found by fuzz_parsers (seeds 1 and 3): string values with line breaks (TOML multi-line strings)
+// were quoted verbatim in messages ("[mesh] generator = \"multi\nline\" is unknown"), giving
+// messages of several lines. Names and keywords must now be one line, and quoted values are.
+TEST(FuzzRegression, MultiLineStringsGiveOneLineMessages) {
+  auto scene = [](const std::string& key, const std::string& value) {
+    std::string text = kValidScene;
+    const auto at = text.find(key + " = ");
+    const auto end = text.find('\n', at);
+    return text.substr(0, at) + key + " = " + value + text.substr(end);
+  };
+  for (const std::string& text :
+       {scene("generator", "'''\nbox\n'''"), scene("boundary", "\"\"\"le\nft\"\"\""),
+        kValidScene + "[contact]\nboundary = \"right\"\nobstacle = \"plane\"\npoint = [2, 0]\n"
+                      "direction = '''\nnormal'''\n"}) {
+    const std::string msg = errorOf([&] { obs::fuzz::runScene(text, kScenes); });
+    EXPECT_FALSE(msg.empty());
+    EXPECT_EQ(msg.find('\n'), std::string::npos) << msg;
+  }
+  const std::string msg = errorOf([&] { obs::fuzz::runScene(scene("generator", "'''\nbox\n'''"), kScenes); });
+  EXPECT_NE(msg.find("[mesh] generator must be one line of text"), std::string::npos) << msg;
+}
+
 // Found in review and confirmed with a 10^6-term input (SIGSEGV): "x+x+...+x" built a syntax tree
 // as deep as the chain is long, and emitting and freeing it recursed once per term.
 TEST(FuzzRegression, LongOperatorChainsAreBounded) {

@@ -205,3 +205,21 @@ TEST(BoxMesh, InvalidArgumentsThrow) {
 }
 
 }  // namespace
+
+// Found by fuzz_parsers (seed 2): a box too thin for its cell count in floating point made boxMesh
+// throw std::logic_error ("cannot orient a cell"), which `obs check` does not report as an input
+// error. Now it is an obs::Error naming the direction, before anything is built.
+TEST(BoxMesh, BoxesTooThinOrTooLargeForFloatingPointAreErrors) {
+  using obs::mesh::CellType;
+  using obs::mesh::Point;
+  for (const CellType t : {CellType::Quadrilateral, CellType::Triangle}) {
+    EXPECT_THROW(obs::mesh::boxMesh(t, {32, 8, 1}, Point(0, 0, 0), Point(4, 4.9e-324, 0)), obs::Error);
+    EXPECT_THROW(obs::mesh::boxMesh(t, {32, 8, 1}, Point(-1e308, 0, 0), Point(1e308, 1, 0)), obs::Error);
+    // both spacings representable, but their product (the cell volume) underflows
+    EXPECT_THROW(obs::mesh::boxMesh(t, {2, 2, 1}, Point(0, 0, 0), Point(1e-200, 1e-200, 0)), obs::Error);
+  }
+  EXPECT_THROW(obs::mesh::boxMesh(CellType::Hexahedron, {2, 2, 2}, Point(0, 0, 0), Point(1e-110, 1e-110, 1e-110)),
+               obs::Error);
+  // small but representable boxes still work
+  EXPECT_EQ(obs::mesh::boxMesh(CellType::Quadrilateral, {4, 4, 1}, Point(0, 0, 0), Point(1e-100, 1e-100, 0)).numCells(), 16);
+}
