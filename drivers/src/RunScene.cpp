@@ -175,6 +175,22 @@ RunResult runMultiBodyScene(const Scene& scene, const RunOptions& options) {
 
 }  // namespace
 
+std::string singleLevelWarning(const Scene& scene, const mesh::Grid& grid) {
+  if (grid.maxLevel() > 0) return {};
+  const std::string& type = scene.solver.type;
+  const bool tnnmg = scene.contact && (type.empty() || type == "tnnmg");
+  if (!tnnmg && type != "multigrid") return {};
+  return "warning: the grid has a single level (" +
+         std::string(scene.mesh.source == MeshSpec::Source::File ? "a mesh file" : "a generated mesh") +
+         " without refine), so " + (tnnmg ? "TNNMG" : "multigrid") +
+         " has no coarse levels: its linear correction is a direct (CHOLMOD) solve" +
+         (tnnmg ? ", refactorised whenever the active set changes: a nonsmooth Newton method "
+                  "costing one sparse factorisation per active-set change instead of one multigrid "
+                  "cycle per iteration"
+                : " costing one sparse factorisation") +
+         "; set [mesh] refine = 1 or more (or --refine) to solve on a grid hierarchy";
+}
+
 RunResult runScene(const std::filesystem::path& sceneFile, const RunOptions& options) {
   return runScene(parseScene(sceneFile, options.overrides), options);
 }
@@ -204,6 +220,8 @@ RunResult runScene(const Scene& scene, const RunOptions& options) {
   r.refine = options.refine.value_or(scene.mesh.refine);
   progress("mesh built: " + describeCells(r) + " / " + std::to_string(r.vertices) + " vertices (" +
            std::to_string(r.dimension) + "D, " + seconds(r.meshSeconds) + ")");
+  if (const std::string w = singleLevelWarning(scene, grid); !w.empty() && options.stepProgress)
+    options.stepProgress(w);
   if (scene.dynamics) return runDynamicScene(scene, grid, mesh, bc, options, std::move(r), start);
 
   // assemble and solve

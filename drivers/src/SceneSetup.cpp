@@ -139,16 +139,22 @@ mesh::Grid buildGrid(const Scene& scene, std::optional<int> refineOverride) {
     throw Error(scene.fileName + ": the scene has " + std::to_string(scene.bodies.size()) +
                 " [[body]] entries; their grids are built per body (Scene::bodies)");
   const MeshSpec& spec = scene.mesh;
+  const int refine = refineOverride.value_or(spec.refine);
+  const std::string what =
+      refineOverride ? "--refine " + std::to_string(refine)
+                     : scene.where(spec.refineLine) + "[mesh] refine = " + std::to_string(refine);
+  if (refine < 0) throw Error(what + " must not be negative");
   // A generated mesh is sized before it is built: an oversized request must not allocate first.
-  if (const double coarse = generatedCoarseCells(spec);
-      refinedCells(coarse, spec.cellType, std::max(0, refineOverride.value_or(spec.refine))) >
-      static_cast<double>(kMaxCells)) {
+  if (const double coarse = generatedCoarseCells(spec); coarse > 0) {
     std::ostringstream os;
-    os << scene.where(spec.line) << "[mesh] asks for about "
-       << refinedCells(coarse, spec.cellType, std::max(0, refineOverride.value_or(spec.refine)))
-       << " cells (" << coarse << " before refinement; the limit is "
-       << static_cast<double>(kMaxCells) << ")";
-    throw Error(os.str());
+    if (coarse > static_cast<double>(kMaxCells))
+      os << scene.where(spec.line) << "[mesh] asks for " << coarse << " cells (the limit is "
+         << static_cast<double>(kMaxCells) << ")";
+    else if (const double refined = refinedCells(coarse, spec.cellType, refine);
+             refined > static_cast<double>(kMaxCells))
+      os << what << " would give about " << refined << " cells (from "
+         << static_cast<long long>(coarse) << "; the limit is " << static_cast<double>(kMaxCells) << ")";
+    if (!os.str().empty()) throw Error(os.str());
   }
   mesh::CurvedMesh curved;  // generator = "ball" / "rounded_block": mesh + boundary projections
   if (spec.source != MeshSpec::Source::Box && spec.source != MeshSpec::Source::File) {
@@ -178,11 +184,6 @@ mesh::Grid buildGrid(const Scene& scene, std::optional<int> refineOverride) {
                      ? mesh::boxMesh(spec.cellType, spec.cells, spec.lower, spec.upper)
                  : spec.source == MeshSpec::Source::File ? mesh::readGmsh(spec.file)
                                                          : curved.mesh;
-  const int refine = refineOverride.value_or(spec.refine);
-  const std::string what =
-      refineOverride ? "--refine " + std::to_string(refine)
-                     : scene.where(spec.refineLine) + "[mesh] refine = " + std::to_string(refine);
-  if (refine < 0) throw Error(what + " must not be negative");
   const auto counts = m.cellCounts();
   double predicted = 0;
   for (mesh::CellType t : mesh::kVolumeCellTypes)

@@ -73,7 +73,12 @@ ContactResult ProjectedGaussSeidel<d>::solve(const ContactProblem<d>& problem, E
     const double wAw = w.dot(Aw), bw = rot.rhs.dot(w);
     const Eigen::VectorXd delta = w - previous;
     const double num = std::sqrt(std::max(0.0, rot.matrix.energy(delta)));
-    const double den = std::sqrt(std::max(0.0, wAw));
+    // ||w||_A over the free components (prescribed ones are identity rows of A~, whose unit
+    // diagonal would make the test depend on the unit of E; the same measure as TNNMG)
+    double freeAw = 0;
+    for (Eigen::Index i = 0; i < w.size(); ++i)
+      if (!rot.prescribed[static_cast<std::size_t>(i)]) freeAw += w[i] * Aw[i];
+    const double den = std::sqrt(std::max(0.0, freeAw));
     const double correction = den > 0 ? num / den : (num > 0 ? 1.0 : 0.0);
     converged = monitor.record(0.5 * wAw - bw, correction, rot.countActive(w));
     monitor.requireMonotone(0.5 * std::abs(wAw) + std::abs(bw));

@@ -128,7 +128,12 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     delta = w - previous;
     A.multiply(delta, Adelta);
     const double wAw = w.dot(Aw), bw = rot.rhs.dot(w);
-    const double num = std::sqrt(std::max(0.0, delta.dot(Adelta))), den = std::sqrt(std::max(0.0, wAw));
+    // ||w||_A over the free components only: the prescribed ones are identity rows of A~
+    // (applyDirichlet), whose unit diagonal would make the relative test depend on the unit of E
+    double freeAw = 0;
+    for (Eigen::Index i = 0; i < n; ++i)
+      if (!rot.prescribed[static_cast<std::size_t>(i)]) freeAw += w[i] * Aw[i];
+    const double num = std::sqrt(std::max(0.0, delta.dot(Adelta))), den = std::sqrt(std::max(0.0, freeAw));
     const double correction = den > 0 ? num / den : (num > 0 ? 1.0 : 0.0);
     converged = monitor.record(0.5 * wAw - bw, correction, rot.countActive(w), changes);
     // scale of the energy's terms, including the round-off of w'Aw (<= eps |w|'|A||w|): for stiff

@@ -147,8 +147,7 @@ TEST(FuzzRegression, OversizedGeneratedMeshesFailBeforeAllocating) {
   box.replace(box.find("[2, 2]"), 6, "[9000, 9000]");
   const auto boxScene = obs::drivers::parseSceneString(box, "big.toml", kScenes);
   EXPECT_EQ(errorOf([&] { obs::drivers::buildMesh(boxScene); }),
-            "big.toml:1: [mesh] asks for about 8.1e+07 cells (8.1e+07 before refinement; the limit "
-            "is 5e+07)");
+            "big.toml:1: [mesh] asks for 8.1e+07 cells (the limit is 5e+07)");
   std::string ball = R"([mesh]
 generator = "ball"
 type = "pyramid"
@@ -170,8 +169,7 @@ steps = 1
     const auto scene = obs::drivers::parseSceneString(ball, "ball.toml", kScenes);
     obs::drivers::buildMesh(scene);
   });
-  EXPECT_EQ(msg, "ball.toml:1: [mesh] asks for about 2.4e+10 cells (2.4e+10 before refinement; the "
-                 "limit is 5e+07)");
+  EXPECT_EQ(msg, "ball.toml:1: [mesh] asks for 2.4e+10 cells (the limit is 5e+07)");
 }
 
 }  // namespace

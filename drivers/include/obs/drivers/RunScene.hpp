@@ -13,6 +13,7 @@
 
 #include "obs/drivers/RunResult.hpp"
 #include "obs/drivers/Scene.hpp"
+#include "obs/mesh/Grid.hpp"
 
 namespace obs::drivers {
 
@@ -37,5 +38,12 @@ RunResult runScene(const std::filesystem::path& sceneFile, const RunOptions& opt
 
 /// Runs an already parsed scene.
 RunResult runScene(const Scene& scene, const RunOptions& options = {});
+
+/// The warning runScene gives (through RunOptions::stepProgress, on stderr in `obs run`) when a
+/// static or dynamic scene solved by TNNMG or linear multigrid has a one-level grid (a mesh file
+/// or generator without refine): the multigrid correction is then a direct solve, refactorised at
+/// every active-set change, i.e. a nonsmooth Newton method with the cost of a sparse
+/// factorisation per change (docs/reliability.md). Empty if there is nothing to warn about.
+std::string singleLevelWarning(const Scene& scene, const mesh::Grid& grid);
 
 }  // namespace obs::drivers
