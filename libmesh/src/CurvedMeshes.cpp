@@ -47,7 +47,8 @@ void checkType(const char* who, CellType type, int dim) {
 // --- cells -------------------------------------------------------------------------------------
 
 /// Adds a cell; if the given vertex order is negatively oriented, it is mirrored first (the same
-/// swaps as BoxMesh). A cell that is not positively oriented either way is a construction bug.
+/// swaps as BoxMesh). A cell that is not positively oriented either way is degenerate in floating
+/// point (an obs::Error).
 void addOriented(Mesh& mesh, CellType type, std::array<Index, 8> v) {
   const int n = numVertices(type);
   auto oriented = [&] {
@@ -62,7 +63,9 @@ void addOriented(Mesh& mesh, CellType type, std::array<Index, 8> v) {
     if (type == CellType::Prism) r = 4, s = 5;
     std::swap(v[p], v[q]);
     if (s < n) std::swap(v[r], v[s]);
-    if (!oriented()) throw std::logic_error("curved mesh: a cell is not positively oriented");
+    if (!oriented())  // e.g. a ball of radius 1 centred at 1e19: the coordinates cannot resolve it
+      throw Error("curved mesh: a cell is degenerate in floating point (the size is too small "
+                  "relative to the coordinates of the centre, or the cells too many)");
   }
   mesh.addCell(type, std::span<const Index>(v.data(), n));
 }

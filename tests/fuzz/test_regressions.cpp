@@ -126,6 +126,33 @@ TEST(FuzzRegression, MultiLineStringsGiveOneLineMessages) {
   EXPECT_NE(msg.find("[mesh] generator must be one line of text"), std::string::npos) << msg;
 }
 
+// Found by fuzz_parsers (seeds 6 and 10): a ball of radius 1 centred at 9.2e18 has coordinates
+// that cannot resolve its cells; the generator threw std::logic_error ("a cell is not positively
+// oriented"), which is no input error. Now it is an obs::Error.
+TEST(FuzzRegression, BallFarFromTheOriginIsAnError) {
+  const std::string scene = R"([mesh]
+generator = "ball"
+type = "pyramid"
+cells = 2
+centre = [0, 9223372036854775807, 0]
+radius = 1
+[material]
+E = 500
+nu = 0.3
+density = 1
+[contact]
+boundary = "surface"
+obstacle = "plane"
+point = [0, 0, -1.01]
+direction = [0, 0, -1]
+[dynamics]
+tau = 5e-3
+steps = 1
+)";
+  const std::string msg = errorOf([&] { obs::fuzz::runScene(scene, kScenes); });
+  EXPECT_NE(msg.find("degenerate in floating point"), std::string::npos) << msg;
+}
+
 // Found in review and confirmed with a 10^6-term input (SIGSEGV): "x+x+...+x" built a syntax tree
 // as deep as the chain is long, and emitting and freeing it recursed once per term.
 TEST(FuzzRegression, LongOperatorChainsAreBounded) {
