@@ -1,6 +1,8 @@
 # Convenience entry points for obs. Everything real is in CMake; this file only chains the steps.
 #   make demo   install dependencies, build, run the main example (thesis Example 1A: adaptive punch)
 #   make test   install dependencies, build, run the whole test suite
+#   make sanitize  AddressSanitizer + UndefinedBehaviorSanitizer build in build-sanitize/ and the
+#               whole test suite under it (manual: slow on small machines, not part of CI)
 # Variables: BUILD_DIR (default build), JOBS (default: number of cores).
 
 BUILD_DIR ?= build
@@ -11,7 +13,7 @@ DEMO_OUT ?= out/example1a
 # cmake --build runs make again; keep its output free of "Entering directory" lines.
 MAKEFLAGS += --no-print-directory
 
-.PHONY: all deps configure build demo test clean
+.PHONY: all deps configure build demo test sanitize clean
 
 all: build
 
@@ -44,6 +46,19 @@ demo: build
 
 test: build
 	ctest --test-dir $(BUILD_DIR) --output-on-failure -j$(JOBS)
+
+# ASan + UBSan (RelWithDebInfo, -fno-omit-frame-pointer); any report fails the test that caused
+# it (halt_on_error, UBSan non-recoverable). The fuzz driver skips its memory limit under ASan.
+SANITIZE_DIR ?= build-sanitize
+SANITIZE_FLAGS = -fsanitize=address,undefined -fno-sanitize-recover=undefined -fno-omit-frame-pointer
+sanitize: deps
+	cmake -S . -B $(SANITIZE_DIR) -DCMAKE_BUILD_TYPE=RelWithDebInfo \
+	  "-DCMAKE_CXX_FLAGS=$(SANITIZE_FLAGS)" "-DCMAKE_C_FLAGS=$(SANITIZE_FLAGS)" \
+	  "-DCMAKE_EXE_LINKER_FLAGS=$(SANITIZE_FLAGS)" "-DCMAKE_SHARED_LINKER_FLAGS=$(SANITIZE_FLAGS)" \
+	  -DOBS_BUILD_BENCH=OFF
+	cmake --build $(SANITIZE_DIR) -j$(JOBS)
+	ASAN_OPTIONS=detect_leaks=1:halt_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
+	  ctest --test-dir $(SANITIZE_DIR) --output-on-failure -j$(JOBS)
 
 clean:
 	rm -rf $(BUILD_DIR) $(DEMO_OUT)
