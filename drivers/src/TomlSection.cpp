@@ -35,11 +35,20 @@ std::string whereOf(const std::string& fileName, const toml::value& v) {
 }
 
 void checkTomlNesting(std::string_view text, const std::string& fileName) {
-  int depth = 0, line = 1;
+  int depth = 0, line = 1, dots = 0;
+  bool key = true;  // in the key or table header at the start of a line (before '=')
   for (std::size_t i = 0; i < text.size(); ++i) {
     const char c = text[i];
     if (c == '\n') {
       ++line;
+      dots = 0;
+      key = depth == 0;
+    } else if (c == '=') {
+      key = false;
+    } else if (c == '.' && key) {  // a.b.c = 1 and [a.b.c] nest tables as deeply as arrays do
+      if (++dots >= kMaxTomlNesting)
+        throw Error(fileName + ":" + std::to_string(line) + ": TOML key with more than " +
+                    std::to_string(kMaxTomlNesting) + " dotted parts");
     } else if (c == '#') {  // comment to the end of the line
       while (i + 1 < text.size() && text[i + 1] != '\n') ++i;
     } else if (c == '"' || c == '\'') {  // basic or literal string, one-line or multi-line

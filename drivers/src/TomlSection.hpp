@@ -27,9 +27,10 @@ std::string typeNameOf(const toml::value& v);
 inline constexpr int kMaxTomlNesting = 32;
 
 /// Throws obs::Error "<fileName>:<line>: TOML arrays and inline tables nested deeper than
-/// kMaxTomlNesting levels" if `text` nests '[' / '{' (outside strings and comments) that deeply.
-/// Called before toml::parse, whose recursive descent would otherwise overflow the stack (depth
-/// ~10^4) or take minutes (inline tables) on such input.
+/// kMaxTomlNesting levels" if `text` nests '[' / '{' (outside strings and comments) that deeply,
+/// or "... TOML key with more than kMaxTomlNesting dotted parts" for a key or table header like
+/// [a.b.c...]. Called before toml::parse, whose recursive descent would otherwise overflow the
+/// stack (depth ~10^4) or take minutes (inline tables, dotted keys) on such input.
 void checkTomlNesting(std::string_view text, const std::string& fileName);
 
 class TomlSection;

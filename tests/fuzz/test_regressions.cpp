@@ -78,6 +78,23 @@ TEST(FuzzRegression, DeeplyNestedTomlArraysAreAnError) {
   EXPECT_NE(msg.find("unknown key 'x'"), std::string::npos) << msg;
 }
 
+// Found by fuzz_parsers (seed 1000, input 51863 of 100,000): a table header with 21,000 dotted
+// parts ([a.b.b.b...]) kept toml11 busy for more than a minute.
+TEST(FuzzRegression, DeeplyDottedKeysAreAnError) {
+  for (const std::string& line : {"[adaptivity" + repeated(".b", 20000) + "]\n", "a" + repeated(".b", 20000) + " = 1\n"}) {
+    const std::string msg =
+        errorOf([&] { obs::drivers::parseSceneString(kValidScene + line, "dots.toml", kScenes); });
+    EXPECT_EQ(msg, "dots.toml:10: TOML key with more than 32 dotted parts");
+  }
+  // values with points (numbers, dates, multi-line arrays) are no keys
+  const std::string ok = kValidScene + "[output]\ndirectory = \"a.b.c\"\n";
+  EXPECT_EQ(obs::fuzz::runScene(ok, kScenes), obs::fuzz::Accepted::Fully);
+  EXPECT_EQ(obs::fuzz::runScene(kValidScene + "[body_force]\nvalue = [\n" + repeated("1.5 +", 0) + "0.5,\n" +
+                                    repeated("0.", 1) + "25,\n]\n",
+                                kScenes),
+            obs::fuzz::Accepted::Fully);
+}
+
 TEST(FuzzRegression, NestedValueOfSetOverrideIsAnError) {
   const std::string msg = errorOf([&] {
     obs::drivers::parseSceneString(kValidScene, "s.toml", kScenes,
