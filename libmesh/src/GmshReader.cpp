@@ -514,7 +514,10 @@ private:
     const std::string end = "$End" + std::string(name);
     while (in_.next())
       if (in_.line() == end) return;
-    in_.fail("unexpected end of file: missing " + end + " (section $" + std::string(name) +
+    // the name as quoted (at most 40 characters): an unknown section can be any line
+    const std::string shown = quoted(name);
+    const std::string bare = shown.substr(1, shown.size() - 2);
+    in_.fail("unexpected end of file: missing $End" + bare + " (section $" + bare +
              " starts at line " + std::to_string(start) + ")");
   }
 

@@ -690,3 +690,17 @@ TEST(Gmsh, ExampleMeshesRoundTrip) {
 }
 
 }  // namespace
+
+// Found by fuzz_parsers (seed 1000, gmsh input 76694): an unterminated unknown section quoted its
+// name in full, so a 285,000-character header line gave a message of that length.
+TEST(Gmsh, UnterminatedLongSectionNameIsShortenedInTheMessage) {
+  const std::string text = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$" + std::string(100000, 'X') + "\n1 2 3\n";
+  try {
+    obs::mesh::readGmshString(text, "long.msh");
+    FAIL() << "accepted";
+  } catch (const obs::Error& e) {
+    const std::string msg = e.what();
+    EXPECT_LT(msg.size(), 200u) << msg.substr(0, 300);
+    EXPECT_EQ(msg.rfind("long.msh:5: unexpected end of file: missing $EndXXXX", 0), 0u) << msg.substr(0, 300);
+  }
+}
