@@ -1,5 +1,6 @@
 // Mass matrices (consistent, lumped with the HRZ fallback) for all six element types and the mass
-// redistribution of Khenous-Laborde-Renard (MATH.md §5): total mass rho |Omega|, first moments,
+// redistribution of Khenous-Laborde-Renard (docs/theory.md#mass-redistribution): total mass rho |Omega|,
+// first moments,
 // zero rows/columns at the contact vertices, optimality of the constrained least squares, and the
 // smallest eigenvalue of M~ on the remaining vertices.
 #include <gtest/gtest.h>

@@ -333,7 +333,7 @@ TEST(MortarTwoBody, TnnmgAgreesWithPdasAndIterationsStayFlat2D) {
     for (Index v = 0; v < s.system.numVertices(); ++v) master += fm.segment<2>(2 * v);
     EXPECT_NEAR((out.force.head<2>() + master).norm(), 0.0, 1e-12 * out.force.norm());
     if (verbose()) {
-      // Hertz (MATH.md-free statement: two cylinders, here R2 = infinity): b = sqrt(4 P R / (pi E*))
+      // Hertz (docs/theory.md#two-body-hertz: two cylinders, here R2 = infinity): b = sqrt(4 P R / (pi E*))
       const double Estar = 1.0 / (2 * (1 - 0.09) / 1.0);
       const double P = out.force.norm();
       std::cout << "levels " << levels << ": unknowns " << s.system.load.size() << ", TNNMG " << rt.iterations

@@ -1,7 +1,7 @@
 #pragma once
 /// \file AdaptiveLoop.hpp
-/// The adaptive loop solve -> estimate -> mark -> refine (thesis Sec. 4.1, 4.2; MATH.md §3, §4;
-/// DESIGN.md "libestimators") on a mesh::Grid, for a Signorini problem (an obstacle on one
+/// The adaptive loop solve -> estimate -> mark -> refine (thesis Sec. 4.1, 4.2; docs/theory.md#adaptive-loop;
+/// docs/architecture.md#libestimators) on a mesh::Grid, for a Signorini problem (an obstacle on one
 /// boundary id) or plain linear elasticity (no obstacle), with a per-step record and an optional
 /// callback. No printing: drivers report through the callback.
 ///
@@ -20,10 +20,10 @@
 ///  6. refine: Adaptive: mark the cells chosen by the marking strategy (MarkingStrategy, default
 ///     "mean" with theta = 1.1) and Grid::adapt() (boundary projections of the grid apply);
 ///     Uniform: Grid::refineUniformly().
-/// eoc (MATH.md (4.2), on the vertex count N): eoc_k = (ln eta_{k-1} - ln eta_k) /
+/// eoc (docs/theory.md#eoc, on the vertex count N): eoc_k = (ln eta_{k-1} - ln eta_k) /
 /// (ln N_k - ln N_{k-1}), NaN at k = 0 or without estimates.
 ///
-/// Reference errors (MATH.md §4, (4.4)) with a ContactReference (AnalyticContact.hpp) and the
+/// Reference errors (docs/theory.md#pressure-error) with a ContactReference (AnalyticContact.hpp) and the
 /// computed load P = sum_p mu_p = int_{Gamma_C} s_m (s_m = sum_p s_p phi_p, m_p^C = int phi_p):
 ///  - pressureError = ||s_m - p(., P)||_{Gamma_C} / ||p(., P)||_{Gamma_C} by face quadrature of
 ///    degree reference.quadratureDegree (for the punch, p is not square integrable at the strip
@@ -83,7 +83,7 @@ struct AdaptiveLoopOptions {
 
 struct ReferenceErrors {
   double load = 0;               ///< computed P = sum_p mu_p
-  double pressureError = 0;      ///< relative L2 error of s_m (MATH.md (4.4))
+  double pressureError = 0;      ///< relative L2 error of s_m (docs/theory.md#pressure-error)
   double radius = 0;             ///< measured contact radius
   double exactRadius = 0;        ///< b(P)
   double radiusError = 0;        ///< |radius - b| / b
@@ -164,7 +164,7 @@ private:
   Eigen::VectorXd u_;
 };
 
-/// eoc = (ln eta0 - ln eta1) / (ln n1 - ln n0) (MATH.md (4.2)); NaN if undefined.
+/// eoc = (ln eta0 - ln eta1) / (ln n1 - ln n0) (docs/theory.md#eoc); NaN if undefined.
 double experimentalOrder(double eta0, double n0, double eta1, double n1);
 
 /// The reference errors of a solution (see the file comment).

@@ -1,10 +1,11 @@
 #pragma once
 /// \file Estimator.hpp
-/// The interface of a posteriori error estimators (DESIGN.md "libestimators", STYLE.md "Estimators",
+/// The interface of a posteriori error estimators (docs/architecture.md#libestimators,
 /// in the spirit of MFEM's `ErrorEstimator`): from the discrete problem and its solution an
 /// estimator computes one non-negative indicator eta_e per cell with
 ///     eta^2 = sum_e eta_e^2 = sum_k eta_k^2,
-/// the named contributions eta_k (e.g. eta_1 ... eta_5 of the residual estimator, MATH.md §3), and
+/// the named contributions eta_k (e.g. eta_1 ... eta_5 of the residual estimator,
+/// docs/theory.md#contact-estimator), and
 /// per-vertex / per-cell fields for visualisation. The result records which mesh it was computed
 /// for (a MeshStamp), so a result that is used after the mesh changed is detected.
 ///
@@ -55,7 +56,7 @@ struct MeshStamp {
 /// The stamp of a mesh (linear in the mesh size).
 MeshStamp meshStamp(const mesh::Mesh& mesh, std::uint64_t revision = 0);
 
-/// Contact data of a Signorini solution, for contact estimators (MATH.md §3 eta_4 ... eta_8). The
+/// Contact data of a Signorini solution, for contact estimators (docs/theory.md#estimator-contributions). The
 /// pointers are not owned; any of them may be null. `residual` uses only `set` (its boundary id is
 /// treated as potential contact boundary, its directions nu_p split sigma n into eta_4 / eta_5);
 /// `contact-residual` (ContactResidualEstimator.hpp) also the pressures s_p of `outputs` (required
@@ -80,8 +81,8 @@ struct EstimatorInput {
   const Eigen::VectorXd& displacement;
 
   /// Boundary ids of the potential contact boundary Gamma_C. `residual` treats these faces as a
-  /// traction-free Neumann boundary (MATH.md §3, thesis remark after (3.14)); any Neumann or
-  /// Dirichlet data on them is ignored except Dirichlet-fixed components. The id of contact->set
+  /// traction-free Neumann boundary (docs/theory.md#residual-estimator, thesis remark after (3.14)); any
+  /// Neumann or Dirichlet data on them is ignored except Dirichlet-fixed components. The id of contact->set
   /// is added automatically.
   std::vector<int> contactBoundaryIds;
   /// Optional contact data (see ContactData).

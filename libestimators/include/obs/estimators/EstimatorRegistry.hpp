@@ -1,6 +1,6 @@
 #pragma once
 /// \file EstimatorRegistry.hpp
-/// Name -> factory registry of estimators (DESIGN.md "libestimators"; like DUNE's solver registry),
+/// Name -> factory registry of estimators (docs/architecture.md#libestimators; like DUNE's solver registry),
 /// so that scene files and the command line select estimators by name and embedding code or
 /// plugins add their own.
 ///

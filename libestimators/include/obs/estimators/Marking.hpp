@@ -1,11 +1,11 @@
 #pragma once
 /// \file Marking.hpp
 /// Marking strategies: which cells to refine given the indicators eta_e of an EstimatorResult
-/// (DESIGN.md "libestimators"). All return the marked cell numbers in increasing order; they are
+/// (docs/architecture.md#libestimators). All return the marked cell numbers in increasing order; they are
 /// deterministic (ties are broken by the lower cell number); when every indicator is zero nothing is
 /// marked. Indicators must be finite and non-negative, else obs::Error.
 ///
-///   mean      (thesis Sec. 4.1.1, MATH.md §3, the thesis' choice, theta = 1.1):
+///   mean      (thesis Sec. 4.1.1, docs/theory.md#marking, the thesis' choice, theta = 1.1):
 ///             mark e  iff  eta_e^2 >= theta^2 * (1/N) sum_e' eta_e'^2,             theta >= 0
 ///   doerfler  (bulk criterion, Doerfler 1996), theta in [0, 1], default 0.5: the smallest set M with
 ///             sum_{e in M} eta_e^2 >= theta * sum_e eta_e^2, taken greedily by decreasing eta_e
