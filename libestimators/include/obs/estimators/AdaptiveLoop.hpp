@@ -31,14 +31,16 @@
 ///  - radius = max over actual contact vertices of |x_p - centre|, radiusError = |radius - b(P)| / b(P);
 ///  - centreError = |s_c - p(x_c, P)| / p(x_c, P) at the potential contact vertex c nearest to the centre.
 ///
-/// Sample use:
+/// Sample use (a complete program is examples/adaptive_custom_estimator.cpp):
 ///   mesh::Grid grid(mesh::boxMesh(mesh::CellType::Quadrilateral, 4));
-///   StripObstacle punch(Point(0.5, 0, 0), 0.0625, -Point::UnitY());
+///   const StripObstacle punch(Point(0.5, 0, 0), 0.0625, Point(0, -1, 0));
 ///   AdaptiveLoopOptions o;  o.maxSteps = 6;
 ///   AdaptiveLoop loop(grid, material, bc, o);
 ///   loop.setContact(punch, mesh::kBottom);
 ///   loop.setReference(punchReference());
-///   loop.setCallback([](const AdaptiveStepView& s) { writeVtk(s.view.mesh, s.displacement); });
+///   loop.setCallback([](const AdaptiveStepView& s) {
+///     std::printf("%d %ld %g\n", s.record.step, long(s.record.vertices), s.record.eta);
+///   });
 ///   const std::vector<AdaptiveStep> steps = loop.run();
 #include <Eigen/Core>
 
