@@ -1,6 +1,7 @@
 # Convenience entry points for obs. Everything real is in CMake; this file only chains the steps.
 #   make demo   install dependencies, build, run the main example (thesis Example 1A: adaptive punch)
 #   make test   install dependencies, build, run the whole test suite
+#   make docs   API reference with Doxygen (installs doxygen) into $(BUILD_DIR)/docs/html
 # Variables: BUILD_DIR (default build), JOBS (default: number of cores).
 
 BUILD_DIR ?= build
@@ -11,7 +12,7 @@ DEMO_OUT ?= out/example1a
 # cmake --build runs make again; keep its output free of "Entering directory" lines.
 MAKEFLAGS += --no-print-directory
 
-.PHONY: all deps configure build demo test clean
+.PHONY: all deps configure build demo test docs clean
 
 all: build
 
@@ -44,6 +45,16 @@ demo: build
 
 test: build
 	ctest --test-dir $(BUILD_DIR) --output-on-failure -j$(JOBS)
+
+# The API reference from the header comments (Doxyfile); doxygen is needed only here, so it is
+# installed by `install-deps --docs`, not by the other targets. Warnings, among them every
+# undocumented public name, are listed in $(BUILD_DIR)/docs/doxygen-warnings.log.
+docs:
+	scripts/install-deps --docs
+	rm -rf $(BUILD_DIR)/docs && mkdir -p $(BUILD_DIR)/docs
+	OBS_DOCS_OUTPUT=$(BUILD_DIR)/docs doxygen Doxyfile
+	@echo "API reference: $(BUILD_DIR)/docs/html/index.html"
+	@echo "Doxygen warnings: $$(grep -c warning $(BUILD_DIR)/docs/doxygen-warnings.log) in $(BUILD_DIR)/docs/doxygen-warnings.log ($$(grep -c 'is not documented' $(BUILD_DIR)/docs/doxygen-warnings.log) undocumented public names)"
 
 clean:
 	rm -rf $(BUILD_DIR) $(DEMO_OUT)
