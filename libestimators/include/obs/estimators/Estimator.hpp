@@ -39,17 +39,18 @@ using mesh::Index;
 /// connectivity, boundary faces and vertex coordinates, and an optional revision number given by the
 /// caller (e.g. a grid's refinement counter; 0 = none).
 struct MeshStamp {
-  int dimension = 0;
-  Index numVertices = 0;
-  Index numCells = 0;
-  std::uint64_t hash = 0;
-  std::uint64_t revision = 0;
+  int dimension = 0;         ///< of the mesh
+  Index numVertices = 0;     ///< of the mesh
+  Index numCells = 0;        ///< of the mesh
+  std::uint64_t hash = 0;    ///< FNV-1a of the mesh content
+  std::uint64_t revision = 0;  ///< the caller's revision number (0: none)
 
   /// Same mesh content (sizes and hash); the revision is not compared.
   bool sameMesh(const MeshStamp& other) const {
     return dimension == other.dimension && numVertices == other.numVertices &&
            numCells == other.numCells && hash == other.hash;
   }
+  /// Same content and revision.
   bool operator==(const MeshStamp&) const = default;
 };
 
@@ -71,14 +72,15 @@ struct ContactData {
 /// displacement u_h (vertex-major, u[v*d + c]). The members are references: the objects must
 /// outlive the input.
 struct EstimatorInput {
+  /// The four required inputs; the optional members below keep their defaults.
   EstimatorInput(const mesh::Mesh& mesh, const Material& material, const BoundaryConditions& bc,
                  const Eigen::VectorXd& displacement)
       : mesh(mesh), material(material), boundaryConditions(bc), displacement(displacement) {}
 
-  const mesh::Mesh& mesh;
-  const Material& material;
-  const BoundaryConditions& boundaryConditions;
-  const Eigen::VectorXd& displacement;
+  const mesh::Mesh& mesh;                        ///< the mesh of the solution
+  const Material& material;                      ///< Lame parameters of sigma(u_h)
+  const BoundaryConditions& boundaryConditions;  ///< f, Neumann data (J^N), Dirichlet faces
+  const Eigen::VectorXd& displacement;           ///< u_h, vertex-major
 
   /// Boundary ids of the potential contact boundary Gamma_C. `residual` treats these faces as a
   /// traction-free Neumann boundary (docs/theory.md#residual-estimator, thesis remark after (3.14)); any
@@ -93,8 +95,8 @@ struct EstimatorInput {
 
 /// A named contribution eta_k and its value.
 struct Contribution {
-  std::string name;
-  double value = 0;
+  std::string name;  ///< e.g. "eta_1"
+  double value = 0;  ///< eta_k = (sum_p eta_{k,p}^2)^{1/2}
 };
 
 /// The output of an estimator.

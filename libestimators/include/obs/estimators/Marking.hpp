@@ -25,9 +25,13 @@ namespace obs::estimators {
 
 using mesh::Index;
 
+/// `mean`: the cells with eta_e^2 >= theta^2 mean(eta^2) (see the file comment).
 std::vector<Index> markMeanValue(std::span<const double> indicators, double theta = 1.1);
+/// `doerfler`: the smallest set of largest cells with sum eta_e^2 >= theta eta^2.
 std::vector<Index> markDoerfler(std::span<const double> indicators, double theta = 0.5);
+/// `maximum`: the cells with eta_e >= theta max eta.
 std::vector<Index> markMaximum(std::span<const double> indicators, double theta = 0.5);
+/// `fraction`: the ceil(fraction N) cells with the largest indicators.
 std::vector<Index> markFixedFraction(std::span<const double> indicators, double fraction = 0.2);
 
 /// One flag per cell (1 = marked) from a list of marked cells.
@@ -37,18 +41,22 @@ std::vector<char> markedFlags(std::span<const Index> marked, Index numCells);
 /// parameter theta (the strategy's default if not given). Scene files and drivers use this.
 class MarkingStrategy {
 public:
+  /// A strategy as listed by available().
   struct Info {
-    std::string name;
-    std::string description;
-    double defaultParameter;
+    std::string name;         ///< "mean", "doerfler", ...
+    std::string description;  ///< one line
+    double defaultParameter;  ///< theta when none is given
   };
 
   /// Throws obs::Error "unknown marking strategy '<name>' (known: doerfler, fraction, maximum,
   /// mean)" for unknown names, and for a parameter outside the strategy's range.
   explicit MarkingStrategy(const std::string& name, std::optional<double> parameter = {});
 
+  /// The strategy's name.
   const std::string& name() const { return name_; }
+  /// theta (the given one or the default).
   double parameter() const { return parameter_; }
+  /// The marked cells, in increasing order (see the file comment).
   std::vector<Index> mark(std::span<const double> indicators) const;
 
   /// The available strategies, sorted by name.
