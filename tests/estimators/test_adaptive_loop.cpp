@@ -17,6 +17,7 @@
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/Obstacle.hpp"
 
+#include "../GridCheck.hpp"
 #include "EstimatorTestSupport.hpp"
 
 using namespace obs;
@@ -120,8 +121,10 @@ PunchRun runPunch(AdaptiveLoopOptions o) {
     if (s.estimate) {
       EXPECT_TRUE(s.estimate->validFor(s.view.mesh));
     }
+    obs::test::checkGrid(s.grid);  // the grid of every step, i.e. after every adapt()
   });
   r.steps = loop.run();
+  obs::test::checkGrid(grid);  // after the last adapt()
   EXPECT_EQ(loop.displacement().size(), r.steps.back().unknowns);
   r.maxLevel = grid.maxLevel();
   for (Index e : grid.leafElements()) {
@@ -242,6 +245,7 @@ TEST(AdaptiveLoop, StoppingRulesSolversAndErrors) {
   l.maxSteps = 3;
   AdaptiveLoop plain(grid, kMaterial, bc, l);
   const auto steps = plain.run();
+  obs::test::checkGrid(grid);
   ASSERT_EQ(steps.size(), 3u);
   EXPECT_EQ(steps[0].solver, "cholmod");
   EXPECT_EQ(steps[2].actualContact, 0);
