@@ -3,6 +3,7 @@
 #   make test   install dependencies, build, run the whole test suite
 #   make sanitize  AddressSanitizer + UndefinedBehaviorSanitizer build in build-sanitize/ and the
 #               whole test suite under it (manual: slow on small machines, not part of CI)
+#   make docs   API reference with Doxygen (installs doxygen) into $(BUILD_DIR)/docs/html
 # Variables: BUILD_DIR (default build), JOBS (default: number of cores).
 
 BUILD_DIR ?= build
@@ -13,7 +14,7 @@ DEMO_OUT ?= out/example1a
 # cmake --build runs make again; keep its output free of "Entering directory" lines.
 MAKEFLAGS += --no-print-directory
 
-.PHONY: all deps configure build demo test sanitize clean
+.PHONY: all deps configure build demo test sanitize docs clean
 
 all: build
 
@@ -59,6 +60,15 @@ sanitize: deps
 	cmake --build $(SANITIZE_DIR) -j$(JOBS)
 	ASAN_OPTIONS=detect_leaks=1:halt_on_error=1 UBSAN_OPTIONS=print_stacktrace=1 \
 	  ctest --test-dir $(SANITIZE_DIR) --output-on-failure -j$(JOBS)
+# The API reference from the header comments (Doxyfile); doxygen is needed only here, so it is
+# installed by `install-deps --docs`, not by the other targets. Warnings, among them every
+# undocumented public name, are listed in $(BUILD_DIR)/docs/doxygen-warnings.log.
+docs:
+	scripts/install-deps --docs
+	rm -rf $(BUILD_DIR)/docs && mkdir -p $(BUILD_DIR)/docs
+	OBS_DOCS_OUTPUT=$(BUILD_DIR)/docs doxygen Doxyfile
+	@echo "API reference: $(BUILD_DIR)/docs/html/index.html"
+	@echo "Doxygen warnings: $$(grep -c warning $(BUILD_DIR)/docs/doxygen-warnings.log) in $(BUILD_DIR)/docs/doxygen-warnings.log ($$(grep -c 'is not documented' $(BUILD_DIR)/docs/doxygen-warnings.log) undocumented public names)"
 
 clean:
 	rm -rf $(BUILD_DIR) $(DEMO_OUT)

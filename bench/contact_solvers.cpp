@@ -56,7 +56,7 @@ using Clock = std::chrono::steady_clock;
 
 namespace {
 
-const Material kMaterial{3e5, 0.25};  // MATH.md §4
+const Material kMaterial{3e5, 0.25};  // docs/theory.md#analytic-references
 
 struct Settings {
   int punchFrom = 2, punchTo = 5, hertzFrom = 1, hertzTo = 3, hertzCoarse = 2;
@@ -148,10 +148,10 @@ struct Setup {
     for (int l = 0; l < level; ++l) grid.refineUniformly();
     mesh = grid.leafView().mesh;
     const auto fixed = [](const Point&) { return Point::Zero(); };
-    if (which == Problem::Punch) {  // g = 0 on x in [0.4375, 0.5625], direction -e_y (MATH.md §4)
+    if (which == Problem::Punch) {  // g = 0 on x in [0.4375, 0.5625], direction -e_y (docs/theory.md#analytic-references)
       bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Point(0, -0.01, 0); }});
       obstacle = std::make_unique<StripObstacle>(Point(0.5, 0, 0), 0.0625, Point(0, -1, 0));
-    } else if (which == Problem::Hertz) {  // rigid ball R = 0.75 touching (0.5, 0.5, 0) (MATH.md §4)
+    } else if (which == Problem::Hertz) {  // rigid ball R = 0.75 touching (0.5, 0.5, 0) (docs/theory.md#analytic-references)
       bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Point(0, 0, -0.005); }});
       obstacle = std::make_unique<BallObstacle>(Point(0.5, 0.5, -0.75), 0.75);
     } else {  // step-42, linear elastic: ball R = 0.6 at (0.5, 0.5, 1.59) pressed 0.01 into the top face

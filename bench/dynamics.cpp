@@ -1,4 +1,4 @@
-// Cost per time step of the Newmark family (libobs Newmark.hpp, MATH.md §5) with TNNMG on two 3D
+// Cost per time step of the Newmark family (libobs Newmark.hpp, docs/theory.md#newmark) with TNNMG on two 3D
 // geometries of the reference thesis (Sec. 5.3.3):
 //   Geometry 1: a block with a cylindrical bottom (roundedBlockMesh, hexahedra, 3 x 2 x 1 coarse cells
 //               refined 3 times: 3,825 vertices, 11,475 unknowns), E = 500, nu = 0.3, rho = 1,

@@ -3,8 +3,8 @@
 #  1. all Newmark schemes on Geometry A (ball, pyramids) and Geometry 1 (rounded block, hexahedra):
 #     E_end/E_0, max penetration, contact-force total variation (smoothness), time per step;
 #     figures of energy, contact force, active nodes and the tracked vertex's normal velocity;
-#  2. the bar of MATH.md §5: detachment and release time of the contact end per scheme against
-#     the exact h0/v0 + 2L/c0;
+#  2. the bar of docs/theory.md#bar-reference: detachment and release time of the contact end per scheme
+#     against the exact h0/v0 + 2L/c0;
 #  3. energy loss against tau and h (thesis Fig. 5.14) on Geometry A with run times.
 # Uses `obs run` (data/scenes/dynamics_*.toml with --set / --refine / --compare-schemes).
 #
@@ -100,7 +100,7 @@ for g, title in (("ball", "Geometry A (ball of pyramids, v0 = 2, tau = 5e-3)"),
 
 s = summary("bar")
 exact = 0.5 + 20 / 30
-out += ["### The bar (MATH.md §5): detachment of the contact end", "",
+out += ["### The bar (docs/theory.md#bar-reference): detachment of the contact end", "",
         f"Column of 1 x 20 quadrilaterals, nu = 0, E = 900, rho = 1, L = 10, h0 = 5, v0 = 10, tau = {s['dynamics']['tau']:g};"
         f" exact contact interval [0.5, {exact:.4f}]. 'detachment' = first time level with an open gap after the"
         " first contact, 'release' = first time level whose normal velocity points away from the obstacle.", "",

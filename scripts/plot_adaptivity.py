@@ -3,8 +3,8 @@
 
 Reads one or more steps.csv files (one per run: adaptive contact-residual, adaptive residual,
 uniform, ...) and writes into --output:
-  estimator.png       eta against the number of vertices (log-log; slope = -eoc, MATH.md (4.2));
-  pressure_error.png  relative L2 pressure error (MATH.md (4.4)) against the actual contact
+  estimator.png       eta against the number of vertices (log-log; slope = -eoc, docs/theory.md#eoc);
+  pressure_error.png  relative L2 pressure error (docs/theory.md#pressure-error) against the actual contact
                       vertices (log-log), if the runs have a reference;
   radius_error.png    relative contact radius error against the actual contact vertices (if given);
   pressure.png        with --pressure pressure.csv: s_p and the exact pressure along the contact

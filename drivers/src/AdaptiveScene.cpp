@@ -1,7 +1,5 @@
 #include "obs/drivers/AdaptiveScene.hpp"
 
-#include <sys/resource.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>

@@ -1,8 +1,5 @@
 #include "obs/drivers/DynamicScene.hpp"
 
-#include <sys/resource.h>
-#include <sys/wait.h>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>

@@ -1,7 +1,5 @@
 #include "obs/drivers/RunScene.hpp"
 
-#include <sys/resource.h>
-
 #include <algorithm>
 #include <chrono>
 #include <fstream>

@@ -167,7 +167,7 @@ TEST_F(AdaptiveRun, VtkEveryWritesOneFilePerStep) {
 }
 
 // --set replaces scene keys: uniform refinement from 16 x 16 quadrilaterals gives the exact vertex
-// counts 17^2, 33^2, 65^2; the eoc column agrees with the eta and vertex columns (MATH.md (4.2)).
+// counts 17^2, 33^2, 65^2; the eoc column agrees with the eta and vertex columns (docs/theory.md#eoc).
 TEST_F(AdaptiveRun, SetOverridesRefinementAndEstimator) {
   const Output o = run(scenePath("example1a"),
                        "--set adaptivity.steps=3 --set 'adaptivity.refinement=\"uniform\"' "

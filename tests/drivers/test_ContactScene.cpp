@@ -86,7 +86,7 @@ Vtu readVtu(const fs::path& p) {
   return v;
 }
 
-/// The punch of MATH.md §4 with a replaceable [contact] body and [solver] section.
+/// The punch of docs/theory.md#analytic-references with a replaceable [contact] body and [solver] section.
 std::string punchScene(int refine, const std::string& contact, const std::string& solver = "") {
   return R"([mesh]
 generator = "box"
@@ -171,8 +171,8 @@ TEST(ContactScene, DataScenesRunWithSensibleContact) {
     EXPECT_NEAR(std::abs(vertical), r.contact->load, 1e-10 * r.contact->load);
     for (int i = 0; i < c.dim - 1; ++i) EXPECT_LT(std::abs(r.contact->force[i]), 1e-8 * r.contact->load);
     EXPECT_LT(r.totalSeconds, 5);
-    // half-space theory (MATH.md §4) with the computed load P: the contact radius b(P); the
-    // node-based estimate can only resolve it to a mesh size h (wedge h = 1/128, hertz h = 1/16)
+    // half-space theory (docs/theory.md#analytic-references) with the computed load P: the contact radius
+    // b(P); the node-based estimate can only resolve it to a mesh size h (wedge h = 1/128, hertz h = 1/16)
     const double E = 3e5, nu = 0.25, P = r.contact->load;
     if (std::string(c.name) == "wedge") {
       const double b = P * (1 - nu * nu) / (E * 0.2);

@@ -1,9 +1,11 @@
 # Run by ctest as `cmake -D... -P run_embedding_test.cmake` (see CMakeLists.txt here):
 #   1. install the obs build tree OBS_BINARY_DIR into PREFIX (emptied first),
 #   2. configure CONSUMER_SOURCE_DIR in CONSUMER_BINARY_DIR with CMAKE_PREFIX_PATH=PREFIX,
-#   3. build it, 4. run it and require "embedding ok" in its output.
+#   3. build it, 4. run its programs and require OK_PATTERN in the output of each.
 # Every failing step stops the test with the command and its full output.
-# Optional: CONFIG (build configuration), GENERATOR, MAKE_PROGRAM, CXX_COMPILER.
+# Optional: CONFIG (build configuration), GENERATOR, MAKE_PROGRAM, CXX_COMPILER; EXECUTABLES, the
+# programs to run, comma-separated (default: consumer); OK_PATTERN, the regular expression each
+# program's output must match (default: embedding ok).
 cmake_minimum_required(VERSION 3.25)
 
 foreach(var OBS_BINARY_DIR PREFIX CONSUMER_SOURCE_DIR CONSUMER_BINARY_DIR)
@@ -82,16 +84,29 @@ endif()
 # 3. build
 run(build "${CMAKE_COMMAND}" --build "${CONSUMER_BINARY_DIR}" ${config_args})
 
-# 4. run
-set(exe "${CONSUMER_BINARY_DIR}/consumer")
-if(NOT EXISTS "${exe}" AND NOT "${CONFIG}" STREQUAL "")
-  set(exe "${CONSUMER_BINARY_DIR}/${CONFIG}/consumer")  # multi-configuration generators
+# 4. run every program (the first one is also checked with ldd below)
+if(NOT DEFINED EXECUTABLES OR "${EXECUTABLES}" STREQUAL "")
+  set(EXECUTABLES consumer)
 endif()
-run(run "${exe}")
-message("${step_output}")
-if(NOT step_output MATCHES "embedding ok")
-  fail("the consumer ran but did not print 'embedding ok'" "${step_output}")
+if(NOT DEFINED OK_PATTERN OR "${OK_PATTERN}" STREQUAL "")
+  set(OK_PATTERN "embedding ok")
 endif()
+string(REPLACE "," ";" programs "${EXECUTABLES}")
+set(exe "")
+foreach(program IN LISTS programs)
+  set(path "${CONSUMER_BINARY_DIR}/${program}")
+  if(NOT EXISTS "${path}" AND NOT "${CONFIG}" STREQUAL "")
+    set(path "${CONSUMER_BINARY_DIR}/${CONFIG}/${program}")  # multi-configuration generators
+  endif()
+  if(exe STREQUAL "")
+    set(exe "${path}")
+  endif()
+  run("run ${program}" "${path}")
+  message("${step_output}")
+  if(NOT step_output MATCHES "${OK_PATTERN}")
+    fail("${program} ran but did not print '${OK_PATTERN}'" "${step_output}")
+  endif()
+endforeach()
 
 # The obs libraries the consumer loads must be the installed ones, not the build tree's.
 find_program(LDD ldd)

@@ -1,4 +1,5 @@
-// AdaptiveLoop on the 2D punch (MATH.md §4): refinement concentrates at the strip edges, vertices
+// AdaptiveLoop on the 2D punch (docs/theory.md#analytic-references): refinement concentrates at the strip
+// edges, vertices
 // grow, the estimator decreases (eoc about 1/2 against 1/4 for uniform refinement, thesis Fig.
 // 4.4), warm starts save TNNMG iterations, contact-residual beats uniform refinement in the
 // pressure errors; the analytic references integrate to their load; input errors.
@@ -16,6 +17,7 @@
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/Obstacle.hpp"
 
+#include "../GridCheck.hpp"
 #include "EstimatorTestSupport.hpp"
 
 using namespace obs;
@@ -51,8 +53,8 @@ TEST(AnalyticContact, PressuresIntegrateToTheLoad) {
               P, 1e-10 * P);
   EXPECT_NEAR(punchPressure(0, P, b), P / (kPi * b), 1e-12 * P);
   EXPECT_EQ(punchPressure(0.07, P, b), 0.0);
-  // wedge: b(872.19) = 0.013628 (MATH.md §4); s = b/2 t^4 tames the logarithm at the apex,
-  // s = b cos t the square root at the edge
+  // wedge: b(872.19) = 0.013628 (docs/theory.md#analytic-references); s = b/2 t^4 tames the logarithm at the
+  // apex, s = b cos t the square root at the edge
   const double bw = wedgeContactRadius(P, E, nu, 0.2);
   EXPECT_NEAR(bw, 0.013628, 5e-7);
   auto pw = [&](double s) { return wedgePressure(s, P, E, nu, 0.2); };
@@ -60,14 +62,14 @@ TEST(AnalyticContact, PressuresIntegrateToTheLoad) {
   const double outer = integrate([&](double t) { return pw(bw * std::cos(t)) * bw * std::sin(t); }, 0, kPi / 3);
   EXPECT_NEAR(2 * (inner + outer), P, 1e-8 * P);
   EXPECT_EQ(wedgePressure(bw * 1.01, P, E, nu, 0.2), 0.0);
-  // Hertz: b(88.28) = 0.0537 (MATH.md §4), int 2 pi r p(r) dr = P
+  // Hertz: b(88.28) = 0.0537 (docs/theory.md#analytic-references), int 2 pi r p(r) dr = P
   const double Ph = 88.28, R = 0.75;
   const double bh = hertzContactRadius(Ph, E, nu, R);
   EXPECT_NEAR(bh, 0.0537, 5e-5);
   EXPECT_NEAR(integrate([&](double r) { return 2 * kPi * r * hertzPressure(r, Ph, E, nu, R); }, 0, bh, 400), Ph,
               1e-6 * Ph);
   EXPECT_NEAR(hertzPressure(0, Ph, E, nu, R), 3 * Ph / (2 * kPi * bh * bh), 1e-12 * Ph);
-  // the reference objects use the centre of MATH.md §4
+  // the reference objects use the centre of docs/theory.md#analytic-references
   const ContactReference h = hertzReference();
   EXPECT_DOUBLE_EQ(h.pressure(Point(0.5 + bh / 2, 0.5, 0), Ph), hertzPressure(bh / 2, Ph, E, nu, R));
   EXPECT_NEAR(h.radius(Ph), bh, 1e-15);
@@ -119,8 +121,10 @@ PunchRun runPunch(AdaptiveLoopOptions o) {
     if (s.estimate) {
       EXPECT_TRUE(s.estimate->validFor(s.view.mesh));
     }
+    obs::test::checkGrid(s.grid);  // the grid of every step, i.e. after every adapt()
   });
   r.steps = loop.run();
+  obs::test::checkGrid(grid);  // after the last adapt()
   EXPECT_EQ(loop.displacement().size(), r.steps.back().unknowns);
   r.maxLevel = grid.maxLevel();
   for (Index e : grid.leafElements()) {
@@ -173,7 +177,7 @@ TEST(AdaptiveLoop, PunchRefinesAtTheStripEdgesAndBeatsUniform) {
   const double eocU = experimentalOrder(uni.steps[0].eta, uni.steps[0].vertices, uf.eta, uf.vertices);
   EXPECT_GT(eocA, 0.42);
   EXPECT_LT(eocU, 0.32);
-  // fewer vertices, smaller errors in the pressure (MATH.md (4.4)) and at the centre node
+  // fewer vertices, smaller errors in the pressure (docs/theory.md#pressure-error) and at the centre node
   EXPECT_LT(af.vertices, uf.vertices);
   EXPECT_LT(af.reference->pressureError, 0.95 * uf.reference->pressureError);
   EXPECT_LT(af.reference->centreError, 0.2 * uf.reference->centreError);
@@ -241,6 +245,7 @@ TEST(AdaptiveLoop, StoppingRulesSolversAndErrors) {
   l.maxSteps = 3;
   AdaptiveLoop plain(grid, kMaterial, bc, l);
   const auto steps = plain.run();
+  obs::test::checkGrid(grid);
   ASSERT_EQ(steps.size(), 3u);
   EXPECT_EQ(steps[0].solver, "cholmod");
   EXPECT_EQ(steps[2].actualContact, 0);

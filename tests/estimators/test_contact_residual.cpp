@@ -1,5 +1,5 @@
-// The contact estimator `contact-residual` (MATH.md §3): it coincides with `residual` without
-// contact; eta_6 ... eta_8 vanish for a plane obstacle (g = g_m) without semi contact, eta_7 and
+// The contact estimator `contact-residual` (docs/theory.md#contact-estimator): it coincides with `residual`
+// without contact; eta_6 ... eta_8 vanish for a plane obstacle (g = g_m) without semi contact, eta_7 and
 // eta_8 for any plane; hand-computed eta_6, eta_7, eta_8 (closed forms in 2D, an independent
 // composite Gauss quadrature on a non-affine 3D face); node classes; the sum identity; the
 // registry lists it; missing pressures are an error.

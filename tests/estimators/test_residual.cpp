@@ -1,5 +1,5 @@
-// The residual estimator (MATH.md §3): second derivatives on non-affine cells, zero estimate for
-// linear fields (patch test on distorted meshes of every cell type, with tractions, pressures,
+// The residual estimator (docs/theory.md#residual-estimator): second derivatives on non-affine cells, zero
+// estimate for linear fields (patch test on distorted meshes of every cell type, with tractions, pressures,
 // rollers and a contact boundary), hand-computed values on a two-triangle mesh, the sum identity
 // sum_e eta_e^2 = sum_k eta_k^2 = sum_p eta_p^2, and detection of stale results.
 #include <gtest/gtest.h>

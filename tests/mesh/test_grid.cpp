@@ -21,7 +21,11 @@
 #include "obs/mesh/RedRefinement.hpp"
 #include "obs/mesh/ReferenceElement.hpp"
 
+#include "../GridCheck.hpp"
+
 using namespace obs::mesh;
+using obs::test::checkGrid;
+using obs::test::checkView;
 
 namespace {
 
@@ -46,89 +50,6 @@ std::vector<Point> corners(const Grid& g, Index e) {
   std::vector<Point> x;
   for (Index v : g.vertices(e)) x.push_back(g.vertex(v));
   return x;
-}
-
-double volume(const Grid& g, Index e) { return signedMeasure(g.type(e), corners(g, e)); }
-
-/// Geometry map of element e at reference coordinates xi.
-Point mapPoint(const Grid& g, Index e, const Point& xi) {
-  const ReferenceElement& ref = referenceElement(g.type(e));
-  std::vector<double> phi(ref.numVertices);
-  ref.values(xi, phi);
-  Point x = Point::Zero();
-  for (int i = 0; i < ref.numVertices; ++i) x += phi[i] * g.vertex(g.vertices(e)[i]);
-  return x;
-}
-
-/// A view is a valid conforming mesh of the domain with the original boundary.
-void checkView(const Mesh& m, double vol, const std::map<int, double>& area, const std::string& what) {
-  const ConformityReport r = checkConformity(m);
-  EXPECT_TRUE(r.conforming()) << what << ": hanging " << r.hangingFaces << " nonmanifold "
-                              << r.nonManifoldFaces << " misoriented " << r.misorientedFaces
-                              << " unmatched " << r.unmatchedBoundaryFaces;
-  Index inverted = 0;
-  for (Index c = 0; c < m.numCells(); ++c) inverted += !isPositivelyOriented(m, c);
-  EXPECT_EQ(inverted, 0) << what;
-  // No hanging vertices, checked geometrically: no vertex at the midpoint of a cell edge or at the
-  // centre of a quadrilateral face.
-  std::set<std::array<long long, 3>> at;
-  auto key = [](const Point& x) {
-    return std::array<long long, 3>{std::llround(x[0] * 1e9), std::llround(x[1] * 1e9),
-                                    std::llround(x[2] * 1e9)};
-  };
-  for (const Point& x : m.vertices()) at.insert(key(x));
-  Index hanging = 0;
-  for (Index c = 0; c < m.numCells(); ++c) {
-    const auto cv = m.cellVertices(c);
-    for (const auto& e : localEdges(m.cellType(c)))
-      hanging += at.count(key(0.5 * (m.vertex(cv[e[0]]) + m.vertex(cv[e[1]]))));
-    if (m.dimension() == 3)
-      for (const LocalFace& f : localFaces(m.cellType(c)))
-        if (f.size == 4) {
-          Point s = Point::Zero();
-          for (int k = 0; k < 4; ++k) s += 0.25 * m.vertex(cv[f.vertices[k]]);
-          hanging += at.count(key(s));
-        }
-  }
-  EXPECT_EQ(hanging, 0) << what;
-  EXPECT_NEAR(totalVolume(m), vol, 1e-12 * vol) << what;
-  const auto a = boundaryMeasureById(m);
-  ASSERT_EQ(a.size(), area.size()) << what;
-  for (const auto& [id, value] : area) EXPECT_NEAR(a.at(id), value, 1e-12 * value) << what << " id " << id;
-}
-
-/// Every invariant of the grid: views, hierarchy, children inside their fathers (corners at the
-/// father's geometry map of geometryInFather) and tiling them (green children only if the father
-/// has planar faces: `planar`).
-void checkGrid(const Grid& g, double vol, const std::map<int, double>& area, bool planar = true) {
-  checkView(g.leafMesh(), vol, area, "leaf view");
-  for (int l = 0; l <= g.maxLevel(); ++l) checkView(g.levelMesh(l), vol, area, "level " + std::to_string(l));
-  for (Index e = 0; e < g.numElements(); ++e) {
-    if (g.isRemoved(e)) continue;
-    if (g.level(e) > 0) {
-      const Index f = g.father(e);
-      EXPECT_EQ(g.level(e), g.level(f) + 1);
-      EXPECT_EQ(g.isGreen(e), g.refinement(f) == Refinement::Green);
-      const auto xi = g.geometryInFather(e);
-      for (std::size_t i = 0; i < xi.size(); ++i) {
-        EXPECT_TRUE(insideReferenceElement(g.type(f), xi[i], 1e-14)) << e;
-        EXPECT_NEAR((mapPoint(g, f, xi[i]) - g.vertex(g.vertices(e)[i])).norm(), 0, 1e-12) << e;
-      }
-    }
-    if (g.numChildren(e) > 0) {
-      EXPECT_NE(g.refinement(e), Refinement::None);
-      EXPECT_FALSE(g.isGreen(e)) << "green elements are never refined";
-      double sum = 0;
-      for (int k = 0; k < g.numChildren(e); ++k) {
-        EXPECT_EQ(g.father(g.child(e, k)), e);
-        EXPECT_FALSE(g.isRemoved(g.child(e, k)));
-        sum += volume(g, g.child(e, k));
-      }
-      if (planar || g.refinement(e) == Refinement::Red) {
-        EXPECT_NEAR(sum, volume(g, e), 1e-12 * volume(g, e)) << e;
-      }
-    }
-  }
 }
 
 }  // namespace

@@ -24,7 +24,7 @@ using mesh::CellType;
 
 namespace {
 
-const Material kMaterial{3e5, 0.25};  // MATH.md §4
+const Material kMaterial{3e5, 0.25};  // docs/theory.md#analytic-references
 
 Point P(double x, double y, double z = 0) { return Point(x, y, z); }
 

@@ -1,6 +1,7 @@
 // Mass matrices (consistent, lumped with the HRZ fallback) for all six element types and the mass
-// redistribution of Khenous-Laborde-Renard (thesis Sec. 5.2.4): total mass rho |Omega|, first and
-// second moments (centre of gravity, moment of inertia), zero rows/columns at the contact vertices, optimality of the constrained least squares, and the
+// redistribution of Khenous-Laborde-Renard (docs/theory.md#mass-redistribution): total mass rho |Omega|,
+// first and second moments (centre of gravity, moment of inertia), zero rows/columns at the contact
+// vertices, optimality of the constrained least squares, and the
 // smallest eigenvalue of M~ on the remaining vertices.
 #include <gtest/gtest.h>
 

@@ -335,7 +335,7 @@ TEST(MortarTwoBody, TnnmgAgreesWithPdasAndIterationsStayFlat2D) {
     EXPECT_NEAR((master - out.force.head<2>()).norm(), 0.0, 1e-12 * out.force.norm());
     EXPECT_LT(master[1], 0.0);  // the cylinder pushes the block down
     if (verbose()) {
-      // Hertz (MATH.md-free statement: two cylinders, here R2 = infinity): b = sqrt(4 P R / (pi E*))
+      // Hertz (docs/theory.md#two-body-hertz: two cylinders, here R2 = infinity): b = sqrt(4 P R / (pi E*))
       const double Estar = 1.0 / (2 * (1 - 0.09) / 1.0);
       const double P = out.force.norm();
       std::cout << "levels " << levels << ": unknowns " << s.system.load.size() << ", TNNMG " << rt.iterations

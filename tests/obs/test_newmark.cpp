@@ -1,8 +1,8 @@
-// The Newmark family for dynamic contact (MATH.md §5, thesis Sec. 5.2-5.3): conservation without
+// The Newmark family for dynamic contact (docs/theory.md#newmark, thesis Sec. 5.2-5.3): conservation without
 // contact, dissipativity of the contact-implicit / contact-stabilized / alpha(p) / alpha = 1/2 schemes
 // on a one-vertex and a multi-vertex impact, the normal-velocity laws (thesis (5.29), (5.48)),
-// energy conservation of the persistency schemes, non-penetration, the exact 1D bar of MATH.md §5,
-// extreme time steps and stiffnesses, and bad input.
+// energy conservation of the persistency schemes, non-penetration, the exact 1D bar of
+// docs/theory.md#bar-reference, extreme time steps and stiffnesses, and bad input.
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
@@ -129,8 +129,8 @@ void checkDissipative(bool oneVertex) {
 TEST(Newmark, DissipativeSchemesOneVertexImpact) { checkDissipative(true); }
 TEST(Newmark, DissipativeSchemesMultiVertexImpact) { checkDissipative(false); }
 
-/// The bar of MATH.md §5 as a 2D column of quadrilaterals (nu = 0): every bottom vertex moves
-/// like the contact node of the 1D bar.
+/// The bar of docs/theory.md#bar-reference as a 2D column of quadrilaterals (nu = 0): every bottom vertex
+/// moves like the contact node of the 1D bar.
 struct Bar {
   Block block{CellType::Quadrilateral, {1, 20, 1}, 1, 10, 5};
   Index bottom = 0;  // vertex (0, 5)

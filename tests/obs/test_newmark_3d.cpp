@@ -1,5 +1,5 @@
-// The Newmark family in 3D (MATH.md §5): a small hexahedral block dropped (slightly sideways) onto a
-// plane. Without contact: linear momentum (M v, M~ v for the redistributed schemes) is conserved by
+// The Newmark family in 3D (docs/theory.md#newmark): a small hexahedral block dropped (slightly sideways)
+// onto a plane. Without contact: linear momentum (M v, M~ v for the redistributed schemes) is conserved by
 // every scheme, and the energy each scheme conserves exactly is conserved (classical: E; HHW: E~;
 // KLR: E~ + tau^2/8 a'M~a). With contact: the contact-implicit, contact-stabilized, alpha(p) and
 // alpha = 1/2 schemes never gain energy, no scheme with the non-penetration set penetrates, the

@@ -45,7 +45,7 @@ TEST(Obstacle, PlaneGapIsSignedDistanceAlongDirection) {
 }
 
 TEST(Obstacle, StripIsAPunchWithInfiniteGapOutside) {
-  // MATH.md §4 punch: g = 0 on x in [0.4375, 0.5625] of y = 0, constraint direction -e_y
+  // docs/theory.md#punch: g = 0 on x in [0.4375, 0.5625] of y = 0, constraint direction -e_y
   const StripObstacle punch(P(0.5, 0), 0.0625, P(0, -1));
   EXPECT_EQ(punch.gap(P(0.5, 0)), 0.0);
   EXPECT_EQ(punch.gap(P(0.4375, 0)), 0.0);  // band edge is included
@@ -61,14 +61,14 @@ TEST(Obstacle, StripIsAPunchWithInfiniteGapOutside) {
 }
 
 TEST(Obstacle, WedgeGivesSlopeTimesDistanceFromApex) {
-  const WedgeObstacle wedge(P(0.5, 0), 0.2);  // MATH.md §4: g = 0.2 |x - 0.5| on y = 0
+  const WedgeObstacle wedge(P(0.5, 0), 0.2);  // docs/theory.md#wedge: g = 0.2 |x - 0.5| on y = 0
   for (double x : {0.0, 0.3, 0.5, 0.61, 1.0}) EXPECT_NEAR(wedge.gap(P(x, 0)), 0.2 * std::abs(x - 0.5), 1e-15);
   EXPECT_NEAR(wedge.gap(P(0.2, 0.1)), 0.1 + 0.06, 1e-15);
   EXPECT_TRUE(wedge.direction(P(0, 0)).isApprox(P(0, -1)));
 }
 
 TEST(Obstacle, BallReproducesTheHertzGap) {
-  // MATH.md §4: ball of radius 0.75 touching (0.5, 0.5, 0) from below, g = R - sqrt(R^2 - r^2)
+  // docs/theory.md#hertz: ball of radius 0.75 touching (0.5, 0.5, 0) from below, g = R - sqrt(R^2 - r^2)
   const double R = 0.75;
   const BallObstacle ball(P(0.5, 0.5, -R), R);
   for (const Point& x : {P(0.5, 0.5, 0), P(0.6, 0.5, 0), P(0.3, 0.8, 0), P(1, 1, 0), P(0.5, 1.2, 0)}) {

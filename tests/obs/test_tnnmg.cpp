@@ -25,7 +25,7 @@ using mesh::CellType;
 
 namespace {
 
-const Material kMaterial{3e5, 0.25};  // MATH.md §4
+const Material kMaterial{3e5, 0.25};  // docs/theory.md#analytic-references
 
 bool verbose() { return std::getenv("OBS_TEST_VERBOSE") != nullptr; }
 
@@ -55,7 +55,8 @@ void refineNear(mesh::Grid& grid, const Point& centre, double radius, int cycles
   }
 }
 
-/// The punch of MATH.md §4 (strip g = 0 on [0.4375, 0.5625]) or the Hertz ball with a deeper push.
+/// The punch of docs/theory.md#analytic-references (strip g = 0 on [0.4375, 0.5625]) or the Hertz ball with a
+/// deeper push.
 template <int d>
 std::unique_ptr<Obstacle> standardObstacle() {
   if constexpr (d == 2) return std::make_unique<StripObstacle>(P(0.5, 0), 0.0625, P(0, -1));

@@ -2,17 +2,18 @@
 /// \file AdaptiveScene.hpp
 /// `obs run` for a scene with [adaptivity] (AdaptivitySpec.hpp, docs/scenes.md): the adaptive loop
 /// solve -> estimate -> mark -> refine of libestimators (AdaptiveLoop.hpp; thesis Sec. 4.1, 4.2;
-/// MATH.md §3, §4) on the grid of [mesh], with TNNMG or the primal-dual active set method from
+/// docs/theory.md#adaptive-loop) on the grid of [mesh], with TNNMG or the primal-dual active set method from
 /// [solver] (contact scenes; scenes without [contact] are solved directly with CHOLMOD), the
 /// estimator, marking and stopping rules of [adaptivity] and an optional analytic reference
 /// (punch, wedge, Hertz: AnalyticContact.hpp, parameters taken from [contact] and [material]).
 ///
 /// Outputs in the output directory:
 ///   steps.csv      one row per step: step, cells, vertices, unknowns, potential/actual/semi/full
-///                  contact vertices, eta, each eta_k (the estimator's contributions), eoc (MATH.md
-///                  (4.2), on the vertex count), solver, iterations, converged, solver/estimator/
+///                  contact vertices, eta, each eta_k (the estimator's contributions), eoc
+///                  (docs/theory.md#eoc, on the vertex count), solver, iterations, converged,
+///                  solver/estimator/
 ///                  refinement/transfer seconds, marked cells, and the reference columns load,
-///                  pressure_error (MATH.md (4.4)), radius, exact_radius, radius_error,
+///                  pressure_error (docs/theory.md#pressure-error), radius, exact_radius, radius_error,
 ///                  centre_pressure, exact_centre_pressure, centre_error, nodal_pressure_error (the
 ///                  discrete variant sqrt(sum m_p (s_p - p(x_p))^2 / sum m_p p(x_p)^2) over the potential
 ///                  contact vertices with 0 < p < inf; empty where not applicable);

@@ -2,7 +2,7 @@
 /// \file AdaptivitySpec.hpp
 /// The scene section [adaptivity] (docs/scenes.md): `obs run` solves the scene with the adaptive
 /// loop solve -> estimate -> mark -> refine of libestimators (AdaptiveLoop.hpp; thesis Sec. 4.1,
-/// MATH.md §3, §4), starting from the [mesh] grid (with its `refine`).
+/// docs/theory.md#adaptive-loop), starting from the [mesh] grid (with its `refine`).
 ///
 ///   [adaptivity]
 ///   refinement = "adaptive"          # "adaptive" (default) | "uniform"

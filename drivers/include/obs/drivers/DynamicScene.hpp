@@ -2,7 +2,7 @@
 /// \file DynamicScene.hpp
 /// `obs run` for scenes with [dynamics]: dynamic frictionless contact of one linear-elastic body
 /// with a rigid obstacle, integrated by a scheme of the Newmark family (libobs Newmark.hpp,
-/// MATH.md §5; thesis Sec. 5.2, 5.3), optionally compared with other schemes on the same scene.
+/// docs/theory.md#newmark; thesis Sec. 5.2, 5.3), optionally compared with other schemes on the same scene.
 ///
 /// Per scheme: M u'' + A u = f + contact forces from u^0, v^0 ([dynamics] initial_displacement,
 /// initial_velocity; Dirichlet components take the prescribed value and velocity 0) with time step

@@ -1,7 +1,7 @@
 #pragma once
 /// \file DynamicsSpec.hpp
 /// The scene section [dynamics] (docs/scenes.md): time stepping of dynamic contact with one scheme
-/// of the Newmark family (libobs Newmark.hpp, MATH.md §5), its initial state, tracked points and
+/// of the Newmark family (libobs Newmark.hpp, docs/theory.md#newmark), its initial state, tracked points and
 /// the schemes to compare. Read by the scene parser (every entry remembers its line), run by
 /// DynamicScene.hpp.
 #include <optional>

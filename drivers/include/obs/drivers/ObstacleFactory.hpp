@@ -1,7 +1,7 @@
 #pragma once
 /// \file ObstacleFactory.hpp
 /// Obstacle types of the scene section [contact] (docs/scenes.md): name -> parameters -> the
-/// obs::Obstacle of libobs (Obstacle.hpp, MATH.md §1). Every obstacle gives the constraint
+/// obs::Obstacle of libobs (Obstacle.hpp, docs/theory.md#signorini). Every obstacle gives the constraint
 /// u . nu <= g(x) at the vertices of the contact boundary, nu pointing from the body into the
 /// obstacle. Types (gap formulas with d = (a - x) . nu the height of the reference point a above
 /// x along nu, s1, s2 the tangential coordinates of x - a, see Obstacle.hpp):

@@ -25,7 +25,7 @@ struct SolverReport {
   std::optional<KktResiduals> kkt;  ///< contact solvers: KKT residuals of the solution
 };
 
-/// Contact quantities of a solution (MATH.md §1, computeContactOutputs in ContactProblem.hpp).
+/// Contact quantities of a solution (docs/theory.md#signorini, computeContactOutputs in ContactProblem.hpp).
 struct ContactReport {
   std::string obstacle;           ///< obstacle type
   std::string boundary;           ///< the contact boundary as written in the scene
@@ -92,7 +92,7 @@ struct RunResult {
   std::vector<BodyReport> bodies;  ///< multi-body scenes: per body
   std::vector<PairReport> pairs;   ///< multi-body scenes: per [[contact]] pair
   /// Mass matrices assembled (one per time stepper of a [dynamics] scene; 0 for static scenes,
-  /// which never build one — DESIGN.md "the library builds only what that scene needs").
+  /// which never build one — docs/architecture.md#build-what-is-needed).
   int massAssemblies = 0;
 
   std::vector<std::filesystem::path> outputFiles;  ///< everything written, summary.json last

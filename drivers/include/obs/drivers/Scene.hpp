@@ -77,7 +77,7 @@ struct NeumannSpec {
   int line = 0;  ///< line of [[neumann]]
 };
 
-/// [contact]: the potential contact boundary Gamma_C and the rigid obstacle (MATH.md §1). The
+/// [contact]: the potential contact boundary Gamma_C and the rigid obstacle (docs/theory.md#signorini). The
 /// obstacle's parameters are kept as written; ObstacleFactory.hpp lists them per obstacle type,
 /// checks them against the mesh dimension and builds the obs::Obstacle.
 struct ContactSpec {

@@ -3,9 +3,10 @@
 /// Solving a validated scene on its grid (the solve step of `obs run`):
 ///  - without [contact]: linear elasticity, [solver] type "direct" (CHOLMOD, default) or
 ///    "multigrid" (V-cycle iteration of LinearMultigrid on the grid's levels);
-///  - with [contact]: the Signorini problem min 1/2 u'Au - b'u s.t. nu_p.u_p <= g_p (MATH.md §1)
-///    with "tnnmg" (default; MATH.md §2, on the grid hierarchy), "pdas" (primal-dual active set with
-///    CHOLMOD) or "pgs" (projected block Gauss-Seidel), then the contact quantities
+///  - with [contact]: the Signorini problem min 1/2 u'Au - b'u s.t. nu_p.u_p <= g_p
+///    (docs/theory.md#signorini)
+///    with "tnnmg" (default; docs/theory.md#tnnmg, on the grid hierarchy), "pdas" (primal-dual active set
+///    with CHOLMOD) or "pgs" (projected block Gauss-Seidel), then the contact quantities
 ///    (computeContactOutputs) and the contact point fields of the .vtu.
 /// Solver failures (NaN, divergence, stagnation) are obs::Errors naming the scene and solver; an
 /// iteration that reaches max_iterations returns converged = false (the caller decides).

@@ -6,7 +6,7 @@
 ///               the boundary faces touching the vertex, -1 for interior vertices);
 ///   contact scenes add the point data of SceneSolver (0 away from the contact boundary):
 ///               gap (g_p at constrained contact vertices), normal_displacement (nu_p . u_p on the
-///               contact boundary), contact_pressure (s_p = mu_p / m_p^C, MATH.md §1),
+///               contact boundary), contact_pressure (s_p = mu_p / m_p^C, docs/theory.md#contact-pressure),
 ///               contact_state (int: 0 not constrained, 1 potential contact, 2 actual contact),
 ///               constraint_direction (nu_p, 3 components);
 ///   cell data   stress (cell mean, 9 components), von_mises (of the cell mean),

@@ -1,7 +1,7 @@
 #pragma once
 /// \file AdaptiveLoop.hpp
-/// The adaptive loop solve -> estimate -> mark -> refine (thesis Sec. 4.1, 4.2; MATH.md §3, §4;
-/// DESIGN.md "libestimators") on a mesh::Grid, for a Signorini problem (an obstacle on one
+/// The adaptive loop solve -> estimate -> mark -> refine (thesis Sec. 4.1, 4.2; docs/theory.md#adaptive-loop;
+/// docs/architecture.md#libestimators) on a mesh::Grid, for a Signorini problem (an obstacle on one
 /// boundary id) or plain linear elasticity (no obstacle), with a per-step record and an optional
 /// callback. No printing: drivers report through the callback.
 ///
@@ -20,10 +20,10 @@
 ///  6. refine: Adaptive: mark the cells chosen by the marking strategy (MarkingStrategy, default
 ///     "mean" with theta = 1.1) and Grid::adapt() (boundary projections of the grid apply);
 ///     Uniform: Grid::refineUniformly().
-/// eoc (MATH.md (4.2), on the vertex count N): eoc_k = (ln eta_{k-1} - ln eta_k) /
+/// eoc (docs/theory.md#eoc, on the vertex count N): eoc_k = (ln eta_{k-1} - ln eta_k) /
 /// (ln N_k - ln N_{k-1}), NaN at k = 0 or without estimates.
 ///
-/// Reference errors (MATH.md §4, (4.4)) with a ContactReference (AnalyticContact.hpp) and the
+/// Reference errors (docs/theory.md#pressure-error) with a ContactReference (AnalyticContact.hpp) and the
 /// computed load P = sum_p mu_p = int_{Gamma_C} s_m (s_m = sum_p s_p phi_p, m_p^C = int phi_p):
 ///  - pressureError = ||s_m - p(., P)||_{Gamma_C} / ||p(., P)||_{Gamma_C} by face quadrature of
 ///    degree reference.quadratureDegree (for the punch, p is not square integrable at the strip
@@ -31,14 +31,16 @@
 ///  - radius = max over actual contact vertices of |x_p - centre|, radiusError = |radius - b(P)| / b(P);
 ///  - centreError = |s_c - p(x_c, P)| / p(x_c, P) at the potential contact vertex c nearest to the centre.
 ///
-/// Sample use:
+/// Sample use (a complete program is examples/adaptive_custom_estimator.cpp):
 ///   mesh::Grid grid(mesh::boxMesh(mesh::CellType::Quadrilateral, 4));
-///   StripObstacle punch(Point(0.5, 0, 0), 0.0625, -Point::UnitY());
+///   const StripObstacle punch(Point(0.5, 0, 0), 0.0625, Point(0, -1, 0));
 ///   AdaptiveLoopOptions o;  o.maxSteps = 6;
 ///   AdaptiveLoop loop(grid, material, bc, o);
 ///   loop.setContact(punch, mesh::kBottom);
 ///   loop.setReference(punchReference());
-///   loop.setCallback([](const AdaptiveStepView& s) { writeVtk(s.view.mesh, s.displacement); });
+///   loop.setCallback([](const AdaptiveStepView& s) {
+///     std::printf("%d %ld %g\n", s.record.step, long(s.record.vertices), s.record.eta);
+///   });
 ///   const std::vector<AdaptiveStep> steps = loop.run();
 #include <Eigen/Core>
 
@@ -60,11 +62,14 @@ namespace obs::estimators {
 
 class EstimatorRegistry;
 
+/// Adaptive: refine the cells the marking strategy chooses; Uniform: refine every cell.
 enum class RefinementMode { Adaptive, Uniform };
+/// The contact solver of each step (TNNMG.hpp, PrimalDualActiveSet.hpp).
 enum class ContactSolverKind { TNNMG, PrimalDualActiveSet };
 
+/// What the loop does: estimator, marking, stopping rules, solver.
 struct AdaptiveLoopOptions {
-  RefinementMode mode = RefinementMode::Adaptive;
+  RefinementMode mode = RefinementMode::Adaptive;  ///< adaptive or uniform refinement
   std::string estimator = "contact-residual";  ///< registry name
   std::string marking = "mean";                ///< MarkingStrategy name
   std::optional<double> markingParameter;      ///< theta (the strategy's default if unset)
@@ -72,65 +77,76 @@ struct AdaptiveLoopOptions {
   int maxSteps = 5;              ///< number of solves (>= 1); refinements = solves - 1 at most
   Index targetVertices = 0;      ///< stop once the leaf view has at least this many vertices (0: off)
   double etaTolerance = 0;       ///< stop once eta <= etaTolerance (0: off)
-  ContactSolverKind solver = ContactSolverKind::TNNMG;
+  ContactSolverKind solver = ContactSolverKind::TNNMG;  ///< contact solver of every step
   double solverTolerance = 1e-10;  ///< relative energy-norm correction (ContactSolverOptions)
-  int maxSolverIterations = 500;
-  int preSmoothing = 3;   ///< TNNMG nonsmooth sweeps before / after the correction (TNNMG::Options)
-  int postSmoothing = 0;
+  int maxSolverIterations = 500;   ///< iteration cap of the contact solver
+  int preSmoothing = 3;            ///< TNNMG nonsmooth sweeps before the correction (TNNMG::Options)
+  int postSmoothing = 0;           ///< TNNMG nonsmooth sweeps after the correction
   bool warmStart = true;           ///< start from the prolonged previous solution
   double contactTolerance = 1e-8;  ///< relative tolerance of actual contact
   /// Registry to create the estimator from (null: EstimatorRegistry::global()).
   const EstimatorRegistry* registry = nullptr;
 };
 
+/// Errors of one step against an analytic reference (docs/theory.md#pressure-error).
 struct ReferenceErrors {
   double load = 0;               ///< computed P = sum_p mu_p
-  double pressureError = 0;      ///< relative L2 error of s_m (MATH.md (4.4))
+  double pressureError = 0;      ///< relative L2 error of s_m (docs/theory.md#pressure-error)
   double radius = 0;             ///< measured contact radius
   double exactRadius = 0;        ///< b(P)
   double radiusError = 0;        ///< |radius - b| / b
   Index centreVertex = -1;       ///< leaf-view vertex nearest to the centre
   double centrePressure = 0;     ///< s_c
-  double exactCentrePressure = 0;
+  double exactCentrePressure = 0;  ///< p(x_c, P)
   double centreError = 0;        ///< |s_c - p(x_c)| / p(x_c)
 };
 
 /// The record of one step.
 struct AdaptiveStep {
-  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-  int step = 0;
-  Index cells = 0, vertices = 0, unknowns = 0;
-  Index potentialContact = 0, actualContact = 0, semiContact = 0, fullContact = 0;
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();  ///< "not computed"
+  int step = 0;                            ///< k = 0, 1, ...
+  Index cells = 0;                         ///< cells of the leaf view
+  Index vertices = 0;                      ///< vertices of the leaf view (N of the eoc)
+  Index unknowns = 0;                      ///< d * vertices
+  /// Contact vertices (docs/theory.md#node-classes): potential (N^C), actual, semi, full contact.
+  Index potentialContact = 0;
+  Index actualContact = 0;                 ///< N^sC + N^fC
+  Index semiContact = 0;                   ///< N^sC
+  Index fullContact = 0;                   ///< N^fC
   double eta = kNaN;                       ///< NaN if not estimated
   std::vector<Contribution> contributions; ///< eta_k (empty if not estimated)
-  double eoc = kNaN;
-  std::string solver;
-  int solverIterations = 0;
-  bool converged = false;
+  double eoc = kNaN;                       ///< against the previous step (docs/theory.md#eoc)
+  std::string solver;                      ///< name of the solver used
+  int solverIterations = 0;                ///< its iterations (1 for a direct solve)
+  bool converged = false;                  ///< whether the solver reached its tolerance
   double kkt = 0;                          ///< max KKT residual of the solution (contact only)
   double load = 0;                         ///< sum_p mu_p (0 without contact)
-  double assemblySeconds = 0, solverSeconds = 0, estimatorSeconds = 0;
+  double assemblySeconds = 0;              ///< assembling the problem on the leaf view
+  double solverSeconds = 0;                ///< the contact (or linear) solve
+  double estimatorSeconds = 0;             ///< the estimate
   double refinementSeconds = 0;            ///< marking + adapt after this step (0 for the last;
                                            ///< filled after the callback of the step)
   double transferSeconds = 0;              ///< building the start vector of this step
   Index marked = 0;                        ///< cells marked after this step
-  std::optional<ReferenceErrors> reference;
+  std::optional<ReferenceErrors> reference;  ///< with a ContactReference (setReference) only
 };
 
 /// What the callback sees after step k, before the grid is refined (valid during the call only).
 struct AdaptiveStepView {
-  const AdaptiveStep& record;
-  const mesh::Grid& grid;
+  const AdaptiveStep& record;               ///< the step's record (refinementSeconds not yet set)
+  const mesh::Grid& grid;                   ///< the grid, not yet refined
   const mesh::GridView& view;               ///< the leaf view the step was computed on
   const Eigen::VectorXd& displacement;      ///< on view.mesh, vertex-major
   const ContactSet* contactSet;             ///< null without contact
   const ContactOutputs* outputs;            ///< null without contact
-  const ContactNodeClasses& classes;
+  const ContactNodeClasses& classes;        ///< node classes of view.mesh (all None without contact)
   const EstimatorResult* estimate;          ///< null if not estimated
 };
 
+/// The adaptive loop (see the file comment); examples/adaptive_custom_estimator.cpp shows it in use.
 class AdaptiveLoop {
 public:
+  /// Called after every step with its view (see AdaptiveStepView).
   using Callback = std::function<void(const AdaptiveStepView&)>;
 
   /// The grid is refined in place; material and bc must outlive the loop. Throws obs::Error for
@@ -142,13 +158,16 @@ public:
   /// Contact with a rigid obstacle on the boundary faces with this id (the obstacle must outlive
   /// the loop). Without it the loop solves linear elasticity.
   void setContact(const Obstacle& obstacle, int boundaryId);
+  /// An analytic reference (AnalyticContact.hpp): every step then records ReferenceErrors.
   void setReference(ContactReference reference);
+  /// The function called after every step (replaces an earlier one).
   void setCallback(Callback callback);
 
   /// Runs the loop (see the file comment) and returns the records.
   std::vector<AdaptiveStep> run();
   /// The solution on the final leaf view (after run()).
   const Eigen::VectorXd& displacement() const { return u_; }
+  /// The options given to the constructor.
   const AdaptiveLoopOptions& options() const { return options_; }
 
 private:
@@ -166,7 +185,7 @@ private:
   Eigen::VectorXd u_;
 };
 
-/// eoc = (ln eta0 - ln eta1) / (ln n1 - ln n0) (MATH.md (4.2)); NaN if undefined.
+/// eoc = (ln eta0 - ln eta1) / (ln n1 - ln n0) (docs/theory.md#eoc); NaN if undefined.
 double experimentalOrder(double eta0, double n0, double eta1, double n1);
 
 /// The reference errors of a solution (see the file comment).

@@ -1,7 +1,7 @@
 #pragma once
 /// \file AnalyticContact.hpp
-/// Analytic half-space references of the thesis' benchmark examples (MATH.md §4; thesis Sec.
-/// 1.2.2, 4.2.1, 4.2.2; Johnson, Contact Mechanics): contact pressures p = -sigma_nu and contact
+/// Analytic half-space references of the thesis' benchmark examples (docs/theory.md#analytic-references;
+/// thesis Sec. 1.2.2, 4.2.1, 4.2.2; Johnson, Contact Mechanics): contact pressures p = -sigma_nu and contact
 /// radii for a given total load P (per unit thickness in 2D, plane strain E* = E / (1 - nu^2)).
 /// Every pressure integrates to P over the contact zone. Parameters are checked (obs::Error naming
 /// the reference and the parameter); points outside the contact zone have pressure 0.
@@ -32,14 +32,14 @@ double hertzPressure(double r, double load, double youngsModulus, double poisson
 
 /// An analytic reference for AdaptiveLoop: the exact pressure at a point of Gamma_C for a load P,
 /// the exact contact radius for a load P, and the centre of contact (the "centre node" is the
-/// potential contact vertex nearest to it). The MATH.md §4 examples: punchReference(),
-/// wedgeReference(), hertzReference() with the thesis' geometry (centre (0.5, 0) in 2D,
+/// potential contact vertex nearest to it). The docs/theory.md#analytic-references examples:
+/// punchReference(), wedgeReference(), hertzReference() with the thesis' geometry (centre (0.5, 0) in 2D,
 /// (0.5, 0.5, 0) in 3D).
 struct ContactReference {
   std::function<double(const Point& x, double load)> pressure;
   std::function<double(double load)> radius;
   Point centre = Point::Zero();
-  int quadratureDegree = 6;  ///< face quadrature of the L2 norms (MATH.md (4.4))
+  int quadratureDegree = 6;  ///< face quadrature of the L2 norms (docs/theory.md#pressure-error)
 };
 
 ContactReference punchReference(double halfWidth = 0.0625, const Point& centre = Point(0.5, 0, 0));

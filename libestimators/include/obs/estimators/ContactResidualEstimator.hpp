@@ -1,6 +1,7 @@
 #pragma once
 /// \file ContactResidualEstimator.hpp
-/// The residual-type estimator for contact of the thesis (Sec. 3.1.2, 4.1.1; MATH.md §3),
+/// The residual-type estimator for contact of the thesis (Sec. 3.1.2, 4.1.1;
+/// docs/theory.md#contact-estimator),
 /// registered as `contact-residual`. With the patch quantities of ResidualEstimator (h_p = diam
 /// omega_p, r, J^I, J^N, the boundary stress w = -sigma_h n on Gamma_C split into sigma_nu = w.nu
 /// and sigma_T = w - sigma_nu nu), the discrete pressure s_p = ((b - A u)_p . nu_p) / m_p^C
@@ -25,8 +26,8 @@
 /// and every vertex of every contact face containing p are in actual contact (thesis Sec. 4.1.1);
 /// semi contact N^sC = actual minus full.
 ///
-/// gamma~_{p,C} (MATH.md §3): on each contact face s containing p, the sub-face cut off by the
-/// face's edge midpoints around p, i.e. the image of the reference face under the homothety of
+/// gamma~_{p,C} (docs/theory.md#estimator-contributions): on each contact face s containing p, the sub-face
+/// cut off by the face's edge midpoints around p, i.e. the image of the reference face under the homothety of
 /// ratio 1/2 about p's reference corner: half the segment in 2D, a quarter of a triangle or
 /// quadrilateral in 3D. The sub-faces of different nodes are disjoint.
 ///
@@ -45,8 +46,8 @@
 ///  - Without contact data or with no node in actual contact, eta_6 = eta_7 = 0, eta_5 sums over
 ///    all of N^C, and eta_1 ... eta_5 coincide with `residual`.
 ///
-/// Element indicators (MATH.md §3): eta_1 ... eta_5 as in ResidualEstimator (every h-weighted
-/// piece to its cell, interior faces half to each side); eta_{6,p}^2 and eta_{7,p}^2 split equally
+/// Element indicators (docs/theory.md#element-indicators): eta_1 ... eta_5 as in ResidualEstimator (every
+/// h-weighted piece to its cell, interior faces half to each side); eta_{6,p}^2 and eta_{7,p}^2 split equally
 /// over the contact faces containing p (each piece to the cell of its face); the eta_8 term of a
 /// face split equally over its vertices and given to the face's cell. So sum_e eta_e^2 =
 /// sum_k eta_k^2 = sum_p sum_k eta_{k,p}^2.

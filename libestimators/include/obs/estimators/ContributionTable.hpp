@@ -1,6 +1,6 @@
 #pragma once
 /// \file ContributionTable.hpp
-/// Bookkeeping of patch-based estimators (MATH.md §3 "Element indicators", thesis Sec. 4.1.1).
+/// Bookkeeping of patch-based estimators (docs/theory.md#element-indicators, thesis Sec. 4.1.1).
 ///
 /// The thesis estimator is defined on vertex patches: eta_k^2 = sum_p eta_{k,p}^2. Every
 /// eta_{k,p}^2 is a sum of pieces that each come from one cell e of the patch (an element

@@ -1,6 +1,6 @@
 #pragma once
 /// \file ElementGeometry.hpp
-/// Geometry needed by residual-type estimators (thesis Sec. 4.1.1, MATH.md §3):
+/// Geometry needed by residual-type estimators (thesis Sec. 4.1.1, docs/theory.md#patches):
 ///  - PointValues: shape functions, physical gradients and physical second derivatives at any
 ///    reference point of a cell (also on its faces, where CellValues' quadrature does not reach);
 ///  - cellFaceQuadrature: quadrature points on a face of a cell with the outward normal and the

@@ -1,10 +1,11 @@
 #pragma once
 /// \file Estimator.hpp
-/// The interface of a posteriori error estimators (DESIGN.md "libestimators", STYLE.md "Estimators",
+/// The interface of a posteriori error estimators (docs/architecture.md#libestimators,
 /// in the spirit of MFEM's `ErrorEstimator`): from the discrete problem and its solution an
 /// estimator computes one non-negative indicator eta_e per cell with
 ///     eta^2 = sum_e eta_e^2 = sum_k eta_k^2,
-/// the named contributions eta_k (e.g. eta_1 ... eta_5 of the residual estimator, MATH.md §3), and
+/// the named contributions eta_k (e.g. eta_1 ... eta_5 of the residual estimator,
+/// docs/theory.md#contact-estimator), and
 /// per-vertex / per-cell fields for visualisation. The result records which mesh it was computed
 /// for (a MeshStamp), so a result that is used after the mesh changed is detected.
 ///
@@ -38,24 +39,25 @@ using mesh::Index;
 /// connectivity, boundary faces and vertex coordinates, and an optional revision number given by the
 /// caller (e.g. a grid's refinement counter; 0 = none).
 struct MeshStamp {
-  int dimension = 0;
-  Index numVertices = 0;
-  Index numCells = 0;
-  std::uint64_t hash = 0;
-  std::uint64_t revision = 0;
+  int dimension = 0;         ///< of the mesh
+  Index numVertices = 0;     ///< of the mesh
+  Index numCells = 0;        ///< of the mesh
+  std::uint64_t hash = 0;    ///< FNV-1a of the mesh content
+  std::uint64_t revision = 0;  ///< the caller's revision number (0: none)
 
   /// Same mesh content (sizes and hash); the revision is not compared.
   bool sameMesh(const MeshStamp& other) const {
     return dimension == other.dimension && numVertices == other.numVertices &&
            numCells == other.numCells && hash == other.hash;
   }
+  /// Same content and revision.
   bool operator==(const MeshStamp&) const = default;
 };
 
 /// The stamp of a mesh (linear in the mesh size).
 MeshStamp meshStamp(const mesh::Mesh& mesh, std::uint64_t revision = 0);
 
-/// Contact data of a Signorini solution, for contact estimators (MATH.md §3 eta_4 ... eta_8). The
+/// Contact data of a Signorini solution, for contact estimators (docs/theory.md#estimator-contributions). The
 /// pointers are not owned; any of them may be null. `residual` uses only `set` (its boundary id is
 /// treated as potential contact boundary, its directions nu_p split sigma n into eta_4 / eta_5);
 /// `contact-residual` (ContactResidualEstimator.hpp) also the pressures s_p of `outputs` (required
@@ -71,18 +73,19 @@ struct ContactData {
 /// displacement u_h (vertex-major, u[v*d + c]). The members are references: the objects must
 /// outlive the input.
 struct EstimatorInput {
+  /// The four required inputs; the optional members below keep their defaults.
   EstimatorInput(const mesh::Mesh& mesh, const Material& material, const BoundaryConditions& bc,
                  const Eigen::VectorXd& displacement)
       : mesh(mesh), material(material), boundaryConditions(bc), displacement(displacement) {}
 
-  const mesh::Mesh& mesh;
-  const Material& material;
-  const BoundaryConditions& boundaryConditions;
-  const Eigen::VectorXd& displacement;
+  const mesh::Mesh& mesh;                        ///< the mesh of the solution
+  const Material& material;                      ///< Lame parameters of sigma(u_h)
+  const BoundaryConditions& boundaryConditions;  ///< f, Neumann data (J^N), Dirichlet faces
+  const Eigen::VectorXd& displacement;           ///< u_h, vertex-major
 
   /// Boundary ids of the potential contact boundary Gamma_C. `residual` treats these faces as a
-  /// traction-free Neumann boundary (MATH.md §3, thesis remark after (3.14)); any Neumann or
-  /// Dirichlet data on them is ignored except Dirichlet-fixed components. The id of contact->set
+  /// traction-free Neumann boundary (docs/theory.md#residual-estimator, thesis remark after (3.14)); any
+  /// Neumann or Dirichlet data on them is ignored except Dirichlet-fixed components. The id of contact->set
   /// is added automatically.
   std::vector<int> contactBoundaryIds;
   /// Optional contact data (see ContactData).
@@ -93,8 +96,8 @@ struct EstimatorInput {
 
 /// A named contribution eta_k and its value.
 struct Contribution {
-  std::string name;
-  double value = 0;
+  std::string name;  ///< e.g. "eta_1"
+  double value = 0;  ///< eta_k = (sum_p eta_{k,p}^2)^{1/2}
 };
 
 /// The output of an estimator.

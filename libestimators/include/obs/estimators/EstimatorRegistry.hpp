@@ -1,6 +1,6 @@
 #pragma once
 /// \file EstimatorRegistry.hpp
-/// Name -> factory registry of estimators (DESIGN.md "libestimators"; like DUNE's solver registry),
+/// Name -> factory registry of estimators (docs/architecture.md#libestimators; like DUNE's solver registry),
 /// so that scene files and the command line select estimators by name and embedding code or
 /// plugins add their own.
 ///
@@ -27,14 +27,17 @@
 
 namespace obs::estimators {
 
+/// The registry (see the file comment).
 class EstimatorRegistry {
 public:
+  /// Creates a new estimator.
   using Factory = std::function<std::unique_ptr<Estimator>()>;
 
+  /// One registered estimator.
   struct Entry {
-    std::string name;
-    std::string description;
-    Factory factory;
+    std::string name;         ///< registry name
+    std::string description;  ///< one line, for `obs estimators`
+    Factory factory;          ///< creates it
     std::string origin;  ///< "built-in", "plugin <path>" or "" (added by embedding code)
   };
 
@@ -50,6 +53,7 @@ public:
   /// factory, or a name that is already registered (saying where the existing one came from).
   void add(const std::string& name, const std::string& description, Factory factory);
 
+  /// Whether `name` is registered.
   bool contains(const std::string& name) const;
   /// Registered names, sorted.
   std::vector<std::string> names() const;

@@ -1,11 +1,11 @@
 #pragma once
 /// \file Marking.hpp
 /// Marking strategies: which cells to refine given the indicators eta_e of an EstimatorResult
-/// (DESIGN.md "libestimators"). All return the marked cell numbers in increasing order; they are
+/// (docs/architecture.md#libestimators). All return the marked cell numbers in increasing order; they are
 /// deterministic (ties are broken by the lower cell number); when every indicator is zero nothing is
 /// marked. Indicators must be finite and non-negative, else obs::Error.
 ///
-///   mean      (thesis Sec. 4.1.1, MATH.md §3, the thesis' choice, theta = 1.1):
+///   mean      (thesis Sec. 4.1.1, docs/theory.md#marking, the thesis' choice, theta = 1.1):
 ///             mark e  iff  eta_e^2 >= theta^2 * (1/N) sum_e' eta_e'^2,             theta >= 0
 ///   doerfler  (bulk criterion, Doerfler 1996), theta in [0, 1], default 0.5: the smallest set M with
 ///             sum_{e in M} eta_e^2 >= theta * sum_e eta_e^2, taken greedily by decreasing eta_e
@@ -25,9 +25,13 @@ namespace obs::estimators {
 
 using mesh::Index;
 
+/// `mean`: the cells with eta_e^2 >= theta^2 mean(eta^2) (see the file comment).
 std::vector<Index> markMeanValue(std::span<const double> indicators, double theta = 1.1);
+/// `doerfler`: the smallest set of largest cells with sum eta_e^2 >= theta eta^2.
 std::vector<Index> markDoerfler(std::span<const double> indicators, double theta = 0.5);
+/// `maximum`: the cells with eta_e >= theta max eta.
 std::vector<Index> markMaximum(std::span<const double> indicators, double theta = 0.5);
+/// `fraction`: the ceil(fraction N) cells with the largest indicators.
 std::vector<Index> markFixedFraction(std::span<const double> indicators, double fraction = 0.2);
 
 /// One flag per cell (1 = marked) from a list of marked cells.
@@ -37,18 +41,22 @@ std::vector<char> markedFlags(std::span<const Index> marked, Index numCells);
 /// parameter theta (the strategy's default if not given). Scene files and drivers use this.
 class MarkingStrategy {
 public:
+  /// A strategy as listed by available().
   struct Info {
-    std::string name;
-    std::string description;
-    double defaultParameter;
+    std::string name;         ///< "mean", "doerfler", ...
+    std::string description;  ///< one line
+    double defaultParameter;  ///< theta when none is given
   };
 
   /// Throws obs::Error "unknown marking strategy '<name>' (known: doerfler, fraction, maximum,
   /// mean)" for unknown names, and for a parameter outside the strategy's range.
   explicit MarkingStrategy(const std::string& name, std::optional<double> parameter = {});
 
+  /// The strategy's name.
   const std::string& name() const { return name_; }
+  /// theta (the given one or the default).
   double parameter() const { return parameter_; }
+  /// The marked cells, in increasing order (see the file comment).
   std::vector<Index> mark(std::span<const double> indicators) const;
 
   /// The available strategies, sorted by name.

@@ -1,6 +1,7 @@
 #pragma once
 /// \file ResidualEstimator.hpp
-/// The standard residual estimator `residual` (MATH.md §3; thesis Sec. 2.2.1, 3.1.2 and 4.1.1) in
+/// The standard residual estimator `residual` (docs/theory.md#residual-estimator; thesis Sec. 2.2.1, 3.1.2
+/// and 4.1.1) in
 /// the patch form of the thesis. With h_p = diam omega_p (patchDiameters), sigma_h = sigma(u_h):
 ///
 ///   eta_1,p = h_p     ||r||_{omega_p},        r = div sigma_h + f                 (all nodes)
@@ -29,7 +30,7 @@
 ///  - Quadrature: Options::elementDegree in cells, Options::faceDegree on faces; J^I is evaluated at
 ///    matching points of both cells (referencePointOnFace).
 ///
-/// Element indicators (MATH.md §3 "Element indicators"), the exact decomposition used:
+/// Element indicators (docs/theory.md#element-indicators), the exact decomposition used:
 ///   eta_{1,e}^2 = (sum_{p in e} h_p^2) ||r||_e^2                 (omega_p holds e for p in e)
 ///   eta_{2,e}^2 = sum_{interior faces F of e} 1/2 (sum_{p in F} h_p) ||J^I||_F^2
 ///   eta_{3,e}^2 = sum_{Neumann faces F of e}      (sum_{p in F} h_p) ||J^N||_F^2

@@ -1,6 +1,6 @@
 #pragma once
 /// \file ContactProblem.hpp
-/// The algebraic Signorini problem (MATH.md §1, thesis Problem 2.1.1):
+/// The algebraic Signorini problem (docs/theory.md#signorini, thesis Problem 2.1.1):
 ///   minimise J(u) = 1/2 u'Au - b'u   subject to   nu_p' u_p <= g_p  at the potential contact nodes p,
 /// with A, b the stiffness matrix and load after the symmetric elimination of the Dirichlet values
 /// (applyDirichlet: prescribed rows/columns are identity rows with b = u_D, so J is minimised at u_D
@@ -15,7 +15,7 @@
 /// alone: s > g throws obs::Error before solving, otherwise the node is unconstrained (gap +inf).
 /// Without prescribed components nothing changes: the effective constraint is (nu_p, g_p, Q_p).
 ///
-/// Rotated form (MATH.md §1, §2): with w_p = Q_p' u_p (Q_p = I at vertices without a constraint)
+/// Rotated form (docs/theory.md#rotations): with w_p = Q_p' u_p (Q_p = I at vertices without a constraint)
 ///   A~_pq = Q_p' A_pq Q_q,  b~_p = Q_p' b_p,  bounds w_{p,1} <= g_p (first local component),
 /// a bound-constrained quadratic problem: the form the Gauss-Seidel smoother, the primal-dual active
 /// set method and TNNMG work on.
@@ -161,14 +161,16 @@ private:
   std::uint64_t operatorId_ = 0;
 };
 
-/// Contact quantities of a solution (MATH.md §1, §3), per contact node k of the ContactSet:
+/// Contact quantities of a solution (docs/theory.md#contact-pressure), per contact node k of the ContactSet:
 ///   inContact[k]  actual contact: g_p - nu_p'u_p <= relativeTolerance * U, U = max(|u|_inf, |g|_inf)
-///                 over finite gaps (MATH.md §3 N^aC);
+///                 over finite gaps (docs/theory.md#node-classes);
 ///   multiplier[k] mu_p = (b - A u)_p . nu_p (physical constraint, see Constraint::scale);
-///   pressure[k]   s_p = mu_p / m_p^C  (MATH.md §1, thesis (4.1)), an approximation of -sigma_nu;
+///   pressure[k]   s_p = mu_p / m_p^C  (docs/theory.md#contact-pressure, thesis (4.1)), an approximation of
+///   -sigma_nu;
 /// totals: force = sum_p mu_p nu_p (the force the obstacle exerts on the body is -force), contact area
 /// = measure of the contact faces all of whose nodes are in contact, and a contact radius estimate:
-/// sqrt(area / pi) in 3D (a disk), area / 2 in 2D (half the contact length, the b of MATH.md §4).
+/// sqrt(area / pi) in 3D (a disk), area / 2 in 2D (half the contact length, the b of
+/// docs/theory.md#analytic-references).
 struct ContactOutputs {
   std::vector<char> inContact;
   std::vector<double> multiplier;

@@ -1,7 +1,7 @@
 #pragma once
 /// \file ContactSet.hpp
-/// The potential contact nodes N^C of a one-body Signorini problem (MATH.md §1, thesis Sec. 2.1): the
-/// vertices of the boundary faces with one boundary id (Gamma_C), with per node p
+/// The potential contact nodes N^C of a one-body Signorini problem (docs/theory.md#signorini, thesis Sec.
+/// 2.1): the vertices of the boundary faces with one boundary id (Gamma_C), with per node p
 ///   nu_p   constraint direction, nu_p = obstacle.direction(x_p) normalised;
 ///   g_p    gap, g_p = obstacle.gap(x_p) (negative: penetration, valid; +infinity: unconstrained);
 ///   Q_p    local rotation, an orthogonal (Householder) matrix with Q_p e_1 = nu_p, so that in rotated

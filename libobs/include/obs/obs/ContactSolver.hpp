@@ -1,9 +1,9 @@
 #pragma once
 /// \file ContactSolver.hpp
-/// The common interface of the contact solvers (DESIGN.md libobs): solve the bound-constrained problem
-/// of a ContactProblem from a start u, return a result value (iterations, convergence, time, KKT
+/// The common interface of the contact solvers (docs/architecture.md#libobs): solve the bound-constrained
+/// problem of a ContactProblem from a start u, return a result value (iterations, convergence, time, KKT
 /// residuals, per-iteration history) in the spirit of DUNE's InverseOperatorResult, never print.
-/// Iterative solvers stop when the relative energy-norm correction (MATH.md §2)
+/// Iterative solvers stop when the relative energy-norm correction (docs/theory.md#tnnmg-stopping)
 ///   ||u^{k+1} - u^k||_A / ||u^{k+1}||_A < tolerance
 /// (solvers with an exact stopping rule, like the active-set method, say so). Reaching maxIterations
 /// returns converged = false; NaN/Inf, divergence and stagnation throw obs::Error saying what happened.

@@ -1,6 +1,7 @@
 #pragma once
 /// \file KktResiduals.hpp
-/// Optimality measures of an approximate solution u of the contact problem (MATH.md §1): the KKT
+/// Optimality measures of an approximate solution u of the contact problem
+/// (docs/theory.md#signorini-discrete): the KKT
 /// conditions  A u - b + mu_p nu_p = 0 at contact nodes, A u - b = 0 elsewhere (free components),
 /// nu_p'u_p <= g_p, mu_p >= 0, mu_p (g_p - nu_p'u_p) = 0, with mu_p = (b - A u)_p . nu_p read off
 /// the residual (effective constraints of ContactProblem; nodes with gap +inf count as free).

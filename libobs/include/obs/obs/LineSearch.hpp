@@ -1,7 +1,7 @@
 #pragma once
 /// \file LineSearch.hpp
-/// Defect projection and exact line search of TNNMG (MATH.md §2 steps 4-5), for the rotated problem
-/// min 1/2 w'Aw - b'w s.t. w_{p,1} <= upper_p:
+/// Defect projection and exact line search of TNNMG (docs/theory.md#tnnmg-line-search), for the rotated
+/// problem min 1/2 w'Aw - b'w s.t. w_{p,1} <= upper_p:
 ///  - projectCorrection: clip the correction so that w + c stays admissible, componentwise on the
 ///    bound components, c_{p,1} <- min(c_{p,1}, upper_p - w_{p,1});
 ///  - exactLineSearch: alpha_max = min over c_{p,1} > 0 of (upper_p - w_{p,1}) / c_{p,1} (the largest

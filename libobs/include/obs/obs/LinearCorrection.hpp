@@ -1,7 +1,7 @@
 #pragma once
 /// \file LinearCorrection.hpp
-/// The linear correction of TNNMG (MATH.md §2 step 3) as an exchangeable part (dune-tnnmg style):
-/// an approximate solver for the truncated defect problem A_T c = r, where A_T is the fine operator
+/// The linear correction of TNNMG (docs/theory.md#tnnmg-correction) as an exchangeable part (dune-tnnmg
+/// style): an approximate solver for the truncated defect problem A_T c = r, where A_T is the fine operator
 /// with the truncated components replaced by identity rows and columns, r is zero there and the
 /// correction c must be zero there. Implementations: LinearMultigrid (V-cycles on the grid
 /// hierarchy, the TNNMG default) and DirectCorrection (CHOLMOD on A_T: an exact truncated Newton

@@ -1,6 +1,6 @@
 #pragma once
 /// \file LinearMultigrid.hpp
-/// Geometric multigrid V-cycle for A_T x = r on a MultigridHierarchy (MATH.md §2 step 3):
+/// Geometric multigrid V-cycle for A_T x = r on a MultigridHierarchy (docs/theory.md#tnnmg-correction):
 /// symmetric block Gauss-Seidel smoothing (nu1 forward sweeps before, nu2 backward sweeps after the
 /// coarse correction, TruncatedGaussSeidel), Galerkin coarse operators with truncated and rotated
 /// transfers on the finest level, and CHOLMOD on level 0 (factorised once per coarse-operator

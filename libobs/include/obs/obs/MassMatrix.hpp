@@ -1,6 +1,6 @@
 #pragma once
 /// \file MassMatrix.hpp
-/// Mass matrices of the first-order Lagrange spaces on all six element types (MATH.md §5):
+/// Mass matrices of the first-order Lagrange spaces on all six element types (docs/theory.md#newmark):
 ///   consistent  M_ij = rho int phi_i phi_j  (scalar; the vector-valued mass matrix is M (x) I_d),
 ///   lumped      m_i  = sum_j M_ij = rho int phi_i  (row sum, per cell),
 /// with a fallback for cells whose local row sums are not all positive (HRZ, Hinton-Rock-Zienkiewicz:

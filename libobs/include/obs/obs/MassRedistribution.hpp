@@ -1,7 +1,7 @@
 #pragma once
 /// \file MassRedistribution.hpp
-/// Mass redistribution (Khenous, Laborde, Renard 2006/2008; thesis Sec. 5.2.4): a mass matrix M~
-/// without mass at the potential contact vertices C,
+/// Mass redistribution (Khenous, Laborde, Renard 2006/2008; thesis Sec. 5.2.4,
+/// docs/theory.md#mass-redistribution): a mass matrix M~ without mass at the potential contact vertices C,
 ///   M~_ij = 0 if i in C or j in C,   M~_ij = 0 where M_ij = 0 (pattern of M kept),
 /// with the total mass, the centre of gravity and the moment of inertia of M,
 ///   sum_ij M~_ij = sum_ij M_ij                                   (total mass),

@@ -1,7 +1,7 @@
 #pragma once
 /// \file Material.hpp
 /// Isotropic linear-elastic material (Hooke's law). In 2D obs uses plane strain.
-///   lambda = E nu / ((1+nu)(1-2nu)),  mu = E / (2(1+nu))          (MATH.md §1)
+///   lambda = E nu / ((1+nu)(1-2nu)),  mu = E / (2(1+nu))          (docs/theory.md#signorini)
 #include "obs/mesh/Error.hpp"
 
 namespace obs {
@@ -9,7 +9,7 @@ namespace obs {
 struct Material {
   double youngsModulus = 1.0;  ///< E > 0
   double poissonRatio = 0.0;   ///< 0 <= nu < 0.5 (obs does not accept auxetic materials)
-  double density = 1.0;        ///< rho > 0 (mass per volume), used by the mass matrices (MATH.md §5)
+  double density = 1.0;        ///< rho > 0 (mass per volume), used by the mass matrices (docs/theory.md#newmark)
 
   double lambda() const {
     const double E = youngsModulus, nu = poissonRatio;

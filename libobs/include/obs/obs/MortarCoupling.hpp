@@ -1,8 +1,7 @@
 #pragma once
 /// \file MortarCoupling.hpp
 /// Dual-mortar coupling of two elastic bodies whose meshes do not match at the contact interface
-/// (Wohlmuth 2000; Wohlmuth and Krause 2003; thesis Sec. 1.2.1 and 2.1; docs/theory.md, "Two-body
-/// contact with dual mortar").
+/// (Wohlmuth 2000; Wohlmuth and Krause 2003; thesis Sec. 1.2.1 and 2.1; docs/theory.md#dual-mortar).
 ///
 /// The bodies' unknowns are stacked: vertex v of the slave mesh is unknown `slaveOffset + v`, vertex
 /// v of the master mesh `masterOffset + v`. The slave surface S is the set of boundary faces of the

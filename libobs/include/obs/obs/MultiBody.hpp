@@ -1,6 +1,6 @@
 #pragma once
 /// \file MultiBody.hpp
-/// Several elastic bodies as one algebraic system (docs/architecture.md, "Many bodies"): the
+/// Several elastic bodies as one algebraic system (docs/architecture.md#multi-body): the
 /// stiffness matrices are stacked block-diagonally, loads and Dirichlet data one after the other, in
 /// the order of the bodies; vertex v of body i is stacked vertex offsets[i] + v. Couplings between
 /// bodies (MortarCoupling) then act on the stacked numbering through the ContactProblem's

@@ -1,12 +1,12 @@
 #pragma once
 /// \file MultigridHierarchy.hpp
-/// The level hierarchy of the geometric multigrid methods (MATH.md §2, "Level hierarchy"): the
+/// The level hierarchy of the geometric multigrid methods (docs/theory.md#multigrid-levels): the
 /// spaces of vector-valued P1/Q1 functions on the level views 0 .. L-1 of a Grid and on its leaf
 /// view (level L, where the problem lives), the block prolongations P_l = P^s_l (x) I_d from level l
 /// to l + 1 (P^s_l the scalar interpolation of Prolongation.hpp), and the Galerkin operators
 ///   A_l = P_l' A_{l+1} P_l,   l = L-1, ..., 0.
 ///
-/// Finest level: rotations and truncation (MATH.md §2 steps 2-3). The fine operator is given in
+/// Finest level: rotations and truncation (docs/theory.md#multigrid-levels). The fine operator is given in
 /// the rotated unknowns w_p = Q_p' u_p of the contact problem (A~ = Q'AQ), so the last prolongation
 /// is P~ = Q' P_{L-1} (rotations live on the finest level only). A truncation mask marks fine
 /// components (Dirichlet components and active bounds, rotated numbering); with T = diag(1 - mask)

@@ -1,7 +1,7 @@
 #pragma once
 /// \file Newmark.hpp
 /// Time stepping for dynamic frictionless contact of one linear-elastic body with a rigid obstacle:
-/// the Newmark family of the reference thesis (Sec. 5.2, 5.3; MATH.md §5), behind the TimeStepper
+/// the Newmark family of the reference thesis (Sec. 5.2, 5.3; docs/theory.md#newmark), behind the TimeStepper
 /// interface. Equation of motion M u'' + A u = f + contact forces, f the constant load of the
 /// BoundaryConditions (body force, Neumann), Dirichlet values constant in time, time step tau.
 /// Every step solves one variational inequality
@@ -135,7 +135,7 @@ struct StepRecord {
   double energyRedistributed = 0;         ///< E~ (hasRedistributed)
   /// khenous-laborde-renard (Newmark beta = gamma = 1/2): accelerationEnergy = tau^2/8 a'M~a and
   /// energyModified = E~ + tau^2/8 a'M~a, the quantity the scheme conserves exactly without contact
-  /// (E and E~ alone drift by O(tau^2); MATH.md §5, docs/dynamics.md "Energies").
+  /// (E and E~ alone drift by O(tau^2); docs/theory.md#newmark, docs/dynamics.md "Energies").
   bool hasAcceleration = false;
   double accelerationEnergy = 0;
   double energyModified = 0;

@@ -1,6 +1,7 @@
 #pragma once
 /// \file Obstacle.hpp
-/// Rigid obstacles of the Signorini problem (MATH.md §1, thesis Sec. 1.2.2 and 4.2): an obstacle gives,
+/// Rigid obstacles of the Signorini problem (docs/theory.md#signorini, thesis Sec. 1.2.2 and 4.2): an
+/// obstacle gives,
 /// at a point x of the undeformed body, the constraint direction nu(x) (unit, pointing from the body
 /// into the obstacle) and the gap g(x), the signed distance from x to the obstacle surface measured
 /// along nu(x). The linearised non-penetration condition is u(x) . nu(x) <= g(x).
@@ -79,7 +80,7 @@ private:
   Point point_, nu_, t1_, t2_;
 };
 
-/// Flat punch of half width w (thesis Sec. 1.2.2 (1.27), MATH.md §4 punch): a flat face through
+/// Flat punch of half width w (thesis Sec. 1.2.2 (1.27), docs/theory.md#punch): a flat face through
 /// `point` on the band |s1| <= w across t1, nothing elsewhere:
 ///   h(s) = 0 for |s1| <= w (1e-12 relative tolerance at the band edge), h = -infinity otherwise,
 /// i.e. g(x) = (point - x) . nu on the band and g = +infinity outside (`outsideGap` replaces +infinity,
@@ -96,7 +97,7 @@ private:
   double halfWidth_, outsideGap_;
 };
 
-/// Wedge with apex a and slope cot(alpha) = m (thesis (1.28)-(1.29), MATH.md §4 wedge: a = (0.5, 0),
+/// Wedge with apex a and slope cot(alpha) = m (thesis (1.28)-(1.29), docs/theory.md#wedge: a = (0.5, 0),
 /// m = 0.2, nu = -e_y gives g = 0.2 |x - 0.5| on y = 0):  h(s) = -m |s1|,  g = (a - x) . nu + m |s1|.
 /// A 2D obstacle; in 3D it is a ridge along t2.
 class WedgeObstacle : public HeightFieldObstacle {
@@ -173,7 +174,7 @@ private:
 ///    the near cap of the sphere. With x - c = a nu + w, w . nu = 0, r = |w|:
 ///      g(x) = -a - sqrt(R^2 - r^2)  for r <= R,   g = +infinity for r > R.
 ///    For nu = -e_z: g = (x_z - c_z) - sqrt(R^2 - r^2); for c = (0.5, 0.5, -R) and x on z = 0 this is
-///    the Hertz gap g = R - sqrt(R^2 - r^2) (MATH.md §4), r = distance from (0.5, 0.5).
+///    the Hertz gap g = R - sqrt(R^2 - r^2) (docs/theory.md#hertz), r = distance from (0.5, 0.5).
 ///  - Normal: nu(x) = (c - x)/|c - x| (the obstacle normal at the closest point), g = |x - c| - R.
 class BallObstacle : public Obstacle {
 public:

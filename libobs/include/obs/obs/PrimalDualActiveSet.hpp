@@ -1,7 +1,7 @@
 #pragma once
 /// \file PrimalDualActiveSet.hpp
 /// Primal-dual active set method = semismooth Newton for the complementarity conditions
-/// (Hintermueller, Ito, Kunisch 2002), on the rotated problem of ContactProblem (MATH.md §1):
+/// (Hintermueller, Ito, Kunisch 2002), on the rotated problem of ContactProblem (docs/theory.md#rotations):
 ///   min 1/2 w'Aw - b'w  s.t.  w_{p,1} <= g_p,   multipliers mu_p = (b - A w)_{p,1}.
 /// Iteration k, from (w^k, mu^k):
 ///   1. active set  A_k = { p bounded : mu_p^k + c_p (w^k_{p,1} - g_p) > 0 },  c_p = c * A_pp(1,1)

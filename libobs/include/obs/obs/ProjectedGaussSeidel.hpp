@@ -1,7 +1,7 @@
 #pragma once
 /// \file ProjectedGaussSeidel.hpp
-/// Nonsmooth block Gauss-Seidel for the rotated contact problem (MATH.md §2 step 1; Graeser, Sack,
-/// Sander 2009; Kornhuber 1997):  min 1/2 w'Aw - b'w  s.t.  w_{p,1} <= upper_p.
+/// Nonsmooth block Gauss-Seidel for the rotated contact problem (docs/theory.md#tnnmg-smoother; Graeser,
+/// Sack, Sander 2009; Kornhuber 1997):  min 1/2 w'Aw - b'w  s.t.  w_{p,1} <= upper_p.
 ///
 /// Two reusable parts (the TNNMG smoother is exactly this sweep):
 ///  - BlockLocalSolver<d>: exact minimisation of the energy in one block p with the others fixed,

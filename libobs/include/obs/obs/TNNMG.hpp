@@ -1,6 +1,6 @@
 #pragma once
 /// \file TNNMG.hpp
-/// Truncated nonsmooth Newton multigrid (Graeser, Sack, Sander 2009; MATH.md §2) for the contact
+/// Truncated nonsmooth Newton multigrid (Graeser, Sack, Sander 2009; docs/theory.md#tnnmg) for the contact
 /// problem min 1/2 w'Aw - b'w s.t. w_{p,1} <= g_p in the rotated unknowns of a ContactProblem.
 /// One iteration from w^k, composed of the parts of dune-tnnmg:
 ///   1. pre-smoothing: nu1 nonsmooth block Gauss-Seidel sweeps (BlockGaussSeidelSweep with the exact

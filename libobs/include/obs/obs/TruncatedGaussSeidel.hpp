@@ -1,7 +1,8 @@
 #pragma once
 /// \file TruncatedGaussSeidel.hpp
-/// Linear block Gauss-Seidel for A_T x = r, the smoother of the linear multigrid V-cycle (MATH.md §2
-/// step 3). A_T is the matrix A with the *truncated* components (a bit mask per vertex: Dirichlet
+/// Linear block Gauss-Seidel for A_T x = r, the smoother of the linear multigrid V-cycle
+/// (docs/theory.md#tnnmg-correction). A_T is the matrix A with the *truncated* components (a bit mask per
+/// vertex: Dirichlet
 /// components and active bounds on the finest level, nothing on coarse levels) replaced by identity
 /// rows and columns, without forming it: with T_p = diag(1 - bit_c) and D_p = A_pp the block step is
 ///   x_p = W_p (r_p - sum_{q != p} A_pq x_q),   W_p = T_p (T_p D_p T_p + I - T_p)^{-1} T_p,

@@ -1,7 +1,7 @@
 #pragma once
 /// \file TruncatedLinearization.hpp
-/// The truncated linearization of TNNMG at an iterate w (MATH.md §2 step 2; Graeser, Sack, Sander
-/// 2009, Sec. 4): the energy J(w) = 1/2 w'Aw - b'w is quadratic, so its linearization is J itself
+/// The truncated linearization of TNNMG at an iterate w (docs/theory.md#tnnmg-truncation; Graeser, Sack,
+/// Sander 2009, Sec. 4): the energy J(w) = 1/2 w'Aw - b'w is quadratic, so its linearization is J itself
 /// restricted to the components that are not truncated. Truncated are
 ///   - prescribed (Dirichlet) components: identity rows of A, fixed at their values;
 ///   - active bounds: w_{p,1} >= upper_p (the smoother puts active components exactly on the bound).
