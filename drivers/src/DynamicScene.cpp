@@ -584,7 +584,7 @@ RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh
     tracked.push_back(t);
   }
 
-  Context c{scene, grid, mesh, bc, options, contact, tracked, {}, {}, 0, {}};
+  Context c{scene, grid, mesh, bc, options, contact, tracked, {}, {}, 0, {}, false, {}, nullptr, {}};
   c.steps = dyn.steps ? *dyn.steps : static_cast<int>(std::ceil(*dyn.endTime / dyn.timeStep - 1e-9));
   c.u0 = Eigen::VectorXd::Zero(n * dim);
   c.v0 = Eigen::VectorXd::Zero(n * dim);
