@@ -636,8 +636,12 @@ RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh
   if (restart) {
     c.restart = &*restart;
     c.restartFile = *options.restart;
-    progress("restart from " + options.restart->string() + " at step " +
-             std::to_string(restart->integer("scheme/step")) + " (t = " + fmt(restart->real("scheme/time")) + ")");
+    try {
+      progress("restart from " + options.restart->string() + " at step " +
+               std::to_string(restart->integer("scheme/step")) + " (t = " + fmt(restart->real("scheme/time")) + ")");
+    } catch (const Error& e) {
+      throw Error(options.restart->string() + ": " + e.what());
+    }
   }
   {
     std::ostringstream os;

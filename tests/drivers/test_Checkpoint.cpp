@@ -375,6 +375,15 @@ TEST(CheckpointRestart, EveryNStepsAndARestartFromTheLastOne) {
   ASSERT_EQ(lines.size(), 7u);  // steps 40, 80, ..., 280
   EXPECT_NE(lines[0].find("step 40 "), std::string::npos) << lines[0];
   EXPECT_EQ(obs::readCheckpoint(a / "checkpoint.h5").integer("scheme/step"), 280);
+  // by wall time: a step takes more than a microsecond, so every step writes one
+  {
+    const fs::path timed = writeScene("bar_seconds", barScene(12, "checkpoint = { seconds = 1e-6 }\n"));
+    int written = 0;
+    RunOptions t = quiet(kTmp / "seconds");
+    t.stepProgress = [&](const std::string& l) { written += l.starts_with("checkpoint:"); };
+    runScene(timed, t);
+    EXPECT_EQ(written, 12);
+  }
   // a run killed between checkpoints: its outputs run ahead of the checkpoint and are cut back on
   // restart (here: outputs up to step 250, the checkpoint of step 240)
   const fs::path at240 = kTmp / "every_240.h5";
