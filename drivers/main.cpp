@@ -18,8 +18,8 @@
 // `obs estimators [--plugin lib.so]...` lists the registered error estimators (after loading plugins).
 //
 // Exit codes: 0 success, 1 error (invalid scene, solver or I/O failure), 2 command-line misuse,
-// 3 a [dynamics] run stopped early with a checkpoint (SIGINT/SIGTERM or --stop-after-step; continue it
-// with --restart, docs/checkpoint.md).
+// 3 a [dynamics] run stopped early (SIGINT/SIGTERM or --stop-after-step) with a checkpoint to continue
+// it with --restart (docs/checkpoint.md); scheme comparisons stop without one.
 // Every error is one line "obs: error: ..." on stderr.
 #include <CLI/CLI.hpp>
 

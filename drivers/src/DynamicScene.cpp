@@ -432,7 +432,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
     const bool signalled = InterruptGuard::requested();
     const bool stop = k < c.steps && (signalled || (c.options.stopAfterStep && k >= *c.options.stopAfterStep));
     if (stop && !c.checkpointing)
-      throw Error("interrupted by " + InterruptGuard::signalName() + " after step " + std::to_string(k) + " of " +
+      throw RunInterrupted("interrupted by " + InterruptGuard::signalName() + " after step " + std::to_string(k) + " of " +
                   schemeName + " (scheme comparisons write no checkpoints)");
     if (c.checkpointing && (stop || schedule.due(k))) writeCheckpointAt(k);
     if (stop) {
@@ -657,6 +657,8 @@ RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh
     ++r.massAssemblies;
     try {
       runs.push_back(dim == 2 ? runScheme<2>(c, schemes[i], vtk, file) : runScheme<3>(c, schemes[i], vtk, file));
+    } catch (const RunInterrupted&) {
+      throw;  // a signal stops the whole comparison
     } catch (const Error& e) {
       if (i == 0) throw;  // the scene's own scheme must run
       // a compared scheme that cannot run on this scene (e.g. an indefinite redistributed mass on

@@ -40,8 +40,9 @@ struct RunOptions {
   std::optional<int> stopAfterStep = {};
 };
 
-/// A run that stopped early with a checkpoint (SIGINT/SIGTERM, RunOptions::stopAfterStep); the
-/// message says where it stopped, names the checkpoint and how to continue. `obs run` exits with 3.
+/// A run that stopped early (SIGINT/SIGTERM, RunOptions::stopAfterStep); the message says where it
+/// stopped, names the checkpoint and how to continue (a scheme comparison stops without one). `obs
+/// run` exits with 3.
 class RunInterrupted : public Error {
 public:
   using Error::Error;
