@@ -17,7 +17,9 @@
 // builds the scene's mesh as a hierarchical grid, refines it, checks it and prints a JSON report.
 // `obs estimators [--plugin lib.so]...` lists the registered error estimators (after loading plugins).
 //
-// Exit codes: 0 success, 1 error (invalid scene, solver or I/O failure), 2 command-line misuse.
+// Exit codes: 0 success, 1 error (invalid scene, solver or I/O failure), 2 command-line misuse,
+// 3 a [dynamics] run stopped early (SIGINT/SIGTERM or --stop-after-step) with a checkpoint to continue
+// it with --restart (docs/checkpoint.md); scheme comparisons stop without one.
 // Every error is one line "obs: error: ..." on stderr.
 #include <CLI/CLI.hpp>
 
@@ -41,6 +43,7 @@ namespace {
 
 constexpr int kExitError = 1;
 constexpr int kExitUsage = 2;
+constexpr int kExitInterrupted = 3;
 
 void printError(std::string message) {
   for (char& c : message)
@@ -51,7 +54,8 @@ void printError(std::string message) {
 int runCommand(const std::string& scene, const std::optional<std::string>& output,
                std::optional<int> refine, bool quiet, bool verbose,
                const std::vector<std::string>& plugins, const std::vector<std::string>& overrides,
-               bool plots, bool compareSchemes) {
+               bool plots, bool compareSchemes, const std::optional<std::string>& restart,
+               std::optional<int> stopAfterStep) {
   // plugins first, so that their estimators are valid names in [adaptivity]
   for (const std::string& plugin : plugins)
     obs::estimators::EstimatorRegistry::global().loadPlugin(plugin);
@@ -59,6 +63,8 @@ int runCommand(const std::string& scene, const std::optional<std::string>& outpu
   options.overrides = overrides;
   options.plots = plots;
   options.compareSchemes = compareSchemes;
+  if (restart) options.restart = *restart;
+  options.stopAfterStep = stopAfterStep;
   if (!quiet) options.stepProgress = [](const std::string& line) { std::cerr << line << std::endl; };
   if (output) options.outputDirectory = *output;
   options.refine = refine;
@@ -134,6 +140,8 @@ int main(int argc, char** argv) {
   std::optional<int> refine;
   bool quiet = false, verbose = false, runPlots = false;
   bool compareSchemes = false;  // [dynamics]: run every scheme
+  std::optional<std::string> restart;
+  std::optional<int> stopAfterStep;
   std::vector<std::string> runPlugins, overrides;
   CLI::App* run =
       app.add_subcommand("run", "Solve the scene in a scene file and write the results");
@@ -158,6 +166,13 @@ int main(int argc, char** argv) {
                 "scripts/plot_dynamics.py (as [output] plots = true)");
   run->add_flag("--compare-schemes", compareSchemes,
                 "[dynamics] scenes: also run every other Newmark scheme (timeseries_<scheme>.csv each)");
+  run->add_option("--restart", restart,
+                  "[dynamics] scenes: continue from a checkpoint written by an interrupted run of the same "
+                  "scene, into its output directory (docs/checkpoint.md)")
+      ->type_name("FILE.h5");
+  run->add_option("--stop-after-step", stopAfterStep,
+                  "[dynamics] scenes: stop after time step K with a checkpoint (as on SIGINT/SIGTERM; exit code 3)")
+      ->type_name("K");
   run->add_flag("--quiet,-q", quiet, "Print nothing but errors");
   run->add_flag("--verbose,-v", verbose,
                 "Contact solvers: one line per block of iterations on stderr (1-10, 20, 30, ..., "
@@ -176,6 +191,9 @@ int main(int argc, char** argv) {
       "With [dynamics] the time steppers run (progress on stderr) and write timeseries.csv,\n"
       "<scene name>_NNNNNN.vtu + <scene name>.pvd and summary.json \"dynamics\".\n"
       "Example: obs run data/scenes/dynamics_ball.toml --compare-schemes --plots\n"
+      "SIGINT/SIGTERM stop a [dynamics] run after the current step with <output>/checkpoint.h5 (exit\n"
+      "code 3; [output] checkpoint = { every = N } writes one every N steps); continue with\n"
+      "  obs run SCENE --restart <output>/checkpoint.h5\n"
       "The scene file format is documented in docs/scenes.md.\n");
 
   std::vector<std::string> checkScenes;
@@ -246,7 +264,7 @@ int main(int argc, char** argv) {
   try {
     if (run->parsed())
       return runCommand(scene, output, refine, quiet, verbose, runPlugins, overrides, runPlots,
-                        compareSchemes);
+                        compareSchemes, restart, stopAfterStep);
     if (check->parsed()) return checkCommand(checkScenes, checkRefine);
     if (meshCmd->parsed()) {
       meshOptions.scene = meshScene;
@@ -256,6 +274,9 @@ int main(int argc, char** argv) {
     if (estimators->parsed()) return estimatorsCommand(plugins);
     printError("no command given (run 'obs --help' for usage)");
     return kExitUsage;
+  } catch (const obs::drivers::RunInterrupted& e) {
+    printError(e.what());
+    return kExitInterrupted;
   } catch (const obs::Error& e) {
     printError(e.what());
   } catch (const std::bad_alloc&) {

@@ -8,6 +8,7 @@
 #include <iomanip>
 #include <limits>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <utility>
 
@@ -22,8 +23,10 @@
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
 #include "obs/obs/LinearElasticity.hpp"
+#include "obs/obs/Checkpoint.hpp"
 #include "obs/obs/Newmark.hpp"
 #include "PlotScript.hpp"
+#include "RunCheckpoint.hpp"
 #include "RunSupport.hpp"
 
 #ifndef OBS_DYNAMICS_PLOT_SCRIPT
@@ -91,7 +94,88 @@ struct Context {
   Eigen::VectorXd u0, v0;
   int steps = 0;
   fs::path dir;
+  /// Checkpoints (first scheme of a run without comparison): written to checkpointFile on the
+  /// [output] checkpoint schedule, on SIGINT/SIGTERM and at --stop-after-step.
+  bool checkpointing = false;
+  fs::path checkpointFile;
+  const CheckpointRecord* restart = nullptr;  ///< --restart: the checkpoint to continue from
+  fs::path restartFile;
 };
+
+/// The driver's running figures of a scheme run (SchemeRun) in a checkpoint, "run/...", with the
+/// length and hash of the time series written so far.
+void storeSchemeRun(CheckpointRecord& cp, const SchemeRun& run, long long csvBytes, std::uint64_t csvHash) {
+  cp.set("run/steps", static_cast<long long>(run.steps), "time steps done");
+  cp.set("run/solver_iterations", run.iterations, "TNNMG iterations, all steps so far");
+  cp.set("run/max_solver_iterations", static_cast<long long>(run.maxIterations), "max TNNMG iterations of a step");
+  cp.set("run/setup_seconds", run.setupSeconds, "wall time of the stepper setup (first run)");
+  cp.set("run/step_seconds", run.stepSeconds, "wall time of the steps so far");
+  cp.set("run/solver_seconds", run.solverSeconds, "wall time of TNNMG so far");
+  cp.set("run/initial_energy", run.initialEnergy, "energy E of the initial state");
+  cp.set("run/initial_energy_redistributed", run.initialEnergyRedistributed, "E~ of the initial state (M~ schemes)");
+  cp.set("run/has_redistributed", static_cast<long long>(run.hasRedistributed), "1: the scheme has M~");
+  cp.set("run/max_penetration", run.maxPenetration, "max penetration so far");
+  cp.set("run/contact_force_variation", run.forceVariation, "sum_n |F^{n+1} - F^n| so far");
+  cp.set("run/max_contact_force", run.maxForce, "max_n |F^n| so far");
+  cp.set("run/max_active_nodes", run.maxActive, "max nodes in contact so far");
+  Eigen::VectorXd first(run.times.size()), detach(run.times.size()), release(run.times.size()),
+      scale(run.times.size());
+  for (std::size_t k = 0; k < run.times.size(); ++k) {
+    const auto i = static_cast<Eigen::Index>(k);
+    first[i] = run.times[k].firstContact;
+    detach[i] = run.times[k].detachment;
+    release[i] = run.times[k].release;
+    scale[i] = run.times[k].velocityScale;
+  }
+  cp.set("run/tracked_first_contact_time", first, "per tracked point: first contact time (NaN: none yet)");
+  cp.set("run/tracked_detachment_time", detach, "per tracked point: time the gap opened again (NaN: none yet)");
+  cp.set("run/tracked_release_time", release, "per tracked point: time nu'v < 0 after contact (NaN: none yet)");
+  cp.set("run/tracked_velocity_scale", scale, "per tracked point: max |nu'v| so far");
+  std::string files;
+  for (const fs::path& f : run.vtuFiles) files += f.filename().string() + "\n";
+  Eigen::VectorXd times(static_cast<Eigen::Index>(run.vtuTimes.size()));
+  for (std::size_t k = 0; k < run.vtuTimes.size(); ++k) times[static_cast<Eigen::Index>(k)] = run.vtuTimes[k];
+  cp.set("run/vtu_files", files, "the .vtu files written so far (output directory), one per line");
+  cp.set("run/vtu_times", times, "their times (the .pvd collection)");
+  cp.set("run/timeseries_bytes", csvBytes, "bytes of the time series written up to this step");
+  cp.set("run/timeseries_hash", hexHash(csvHash), "FNV-1a 64 of those bytes");
+}
+
+void restoreSchemeRun(const CheckpointRecord& cp, SchemeRun& run, const fs::path& dir) {
+  run.steps = static_cast<int>(cp.integer("run/steps"));
+  run.iterations = cp.integer("run/solver_iterations");
+  run.maxIterations = static_cast<int>(cp.integer("run/max_solver_iterations"));
+  run.setupSeconds = cp.real("run/setup_seconds");
+  run.stepSeconds = cp.real("run/step_seconds");
+  run.solverSeconds = cp.real("run/solver_seconds");
+  run.initialEnergy = cp.real("run/initial_energy");
+  run.initialEnergyRedistributed = cp.real("run/initial_energy_redistributed");
+  run.hasRedistributed = cp.integer("run/has_redistributed") != 0;
+  run.maxPenetration = cp.real("run/max_penetration");
+  run.forceVariation = cp.real("run/contact_force_variation");
+  run.maxForce = cp.real("run/max_contact_force");
+  run.maxActive = cp.integer("run/max_active_nodes");
+  const Eigen::VectorXd& first = cp.vector("run/tracked_first_contact_time");
+  const Eigen::VectorXd& detach = cp.vector("run/tracked_detachment_time");
+  const Eigen::VectorXd& release = cp.vector("run/tracked_release_time");
+  const Eigen::VectorXd& scale = cp.vector("run/tracked_velocity_scale");
+  const auto n = static_cast<Eigen::Index>(run.times.size());
+  if (first.size() != n || detach.size() != n || release.size() != n || scale.size() != n)
+    throw Error("the checkpoint tracks " + std::to_string(first.size()) + " points, the scene " + std::to_string(n));
+  for (Eigen::Index k = 0; k < n; ++k)
+    run.times[static_cast<std::size_t>(k)] = TrackedTimes{first[k], detach[k], release[k], scale[k]};
+  std::istringstream files(cp.text("run/vtu_files"));
+  for (std::string f; std::getline(files, f);) {
+    if (!fs::exists(dir / f))
+      throw Error("the interrupted run's " + (dir / f).string() +
+                  " is missing (restart into the output directory of the interrupted run)");
+    run.vtuFiles.push_back(dir / f);
+  }
+  const Eigen::VectorXd& times = cp.vector("run/vtu_times");
+  if (static_cast<std::size_t>(times.size()) != run.vtuFiles.size())
+    throw Error("run/vtu_times and run/vtu_files differ in length");
+  run.vtuTimes.assign(times.data(), times.data() + times.size());
+}
 
 std::string csvHeaderLine(std::size_t tracked) {
   std::string h =
@@ -203,6 +287,9 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
                 "is not admissible, nothing was integrated: " + e.what());
   }
   run.setupSeconds = secondsSince(t0);
+  auto* newmark = dynamic_cast<NewmarkFamily<d>*>(stepper.get());
+  if ((c.checkpointing || c.restart) && !newmark)
+    throw Error(scene.where(dyn.schemeLine) + "[dynamics] scheme = \"" + schemeName + "\" cannot be checkpointed");
 
   const StepRecord first = stepper->record();
   run.initialEnergy = first.energy;
@@ -210,10 +297,52 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
   run.initialEnergyRedistributed = first.energyRedistributed;
   run.times.assign(c.tracked.size(), TrackedTimes{});
 
+  // The time series; its length and FNV-1a hash so far go into checkpoints, and a restart cuts the
+  // file back to them.
   run.timeseries = c.dir / timeseriesName;
-  std::ofstream csv(run.timeseries);
-  if (!csv) throw Error(run.timeseries.string() + ": cannot write the time series");
-  csv << csvHeaderLine(c.tracked.size()) << "\n" << csvLine(first) << "\n";
+  std::ofstream csv;
+  long long csvBytes = 0;
+  std::uint64_t csvHash = kFnvOffset;
+  auto emit = [&](const std::string& line) {
+    const std::string text = line + "\n";
+    csv << text;
+    csvBytes += static_cast<long long>(text.size());
+    csvHash = fnv1a(text.data(), text.size(), csvHash);
+  };
+  int startStep = 0;
+  if (c.restart) {
+    const CheckpointRecord& cp = *c.restart;
+    try {
+      const NewmarkSchemeState state = loadNewmarkState(cp);
+      if (state.state.step > c.steps)
+        throw Error("the checkpoint is at step " + std::to_string(state.state.step) + ", beyond the scene's " +
+                    std::to_string(c.steps) + " steps");
+      newmark->setSchemeState(state);
+      startStep = state.state.step;
+      restoreSchemeRun(cp, run, c.dir);
+      csvBytes = cp.integer("run/timeseries_bytes");
+      const std::string hash = cp.text("run/timeseries_hash");
+      std::ifstream in(run.timeseries, std::ios::binary);
+      std::string text(static_cast<std::size_t>(std::max(csvBytes, 0LL)), '\0');
+      if (!in || !in.read(text.data(), static_cast<std::streamsize>(text.size())) ||
+          hexHash(fnv1a(text.data(), text.size())) != hash)
+        throw Error(run.timeseries.string() + " does not begin with the " + std::to_string(csvBytes) +
+                    " bytes the interrupted run wrote up to step " + std::to_string(startStep) +
+                    " (restart into the output directory of the interrupted run)");
+      in.close();
+      csvHash = std::stoull(hash, nullptr, 16);
+      fs::resize_file(run.timeseries, static_cast<std::uintmax_t>(csvBytes));
+    } catch (const Error& e) {
+      throw Error(c.restartFile.string() + ": " + e.what());
+    }
+    csv.open(run.timeseries, std::ios::app | std::ios::binary);
+    if (!csv) throw Error(run.timeseries.string() + ": cannot write the time series");
+  } else {
+    csv.open(run.timeseries, std::ios::binary);
+    if (!csv) throw Error(run.timeseries.string() + ": cannot write the time series");
+    emit(csvHeaderLine(c.tracked.size()));
+    emit(csvLine(first));
+  }
 
   auto writeState = [&](const StepRecord& r) {
     if (!writeVtk) return;
@@ -226,7 +355,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
     run.vtuFiles.push_back(path);
     run.vtuTimes.push_back(r.time);
   };
-  writeState(first);
+  if (!c.restart) writeState(first);
 
   auto track = [&](const StepRecord& r) {
     for (std::size_t k = 0; k < r.tracked.size() && k < run.times.size(); ++k) {
@@ -245,12 +374,27 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
       if (std::isnan(tt.release) && t.normalVelocity < -1e-8 * tt.velocityScale) tt.release = r.time;
     }
   };
-  track(first);
+  if (!c.restart) track(first);
 
-  StepRecord previous = first;
+  CheckpointSchedule schedule(scene.output.checkpoint);
+  auto writeCheckpointAt = [&](int k) {
+    csv.flush();  // the checkpoint refers to these bytes
+    if (!csv) throw Error(run.timeseries.string() + ": cannot write the time series");
+    CheckpointRecord cp;
+    cp.kind = "dynamic";
+    storeRunIdentity(cp, scene, c.mesh);
+    storeNewmarkState(cp, newmark->schemeState());
+    storeSchemeRun(cp, run, csvBytes, csvHash);
+    writeCheckpoint(c.checkpointFile, cp);
+    schedule.written();
+    if (c.options.stepProgress)
+      c.options.stepProgress("checkpoint: step " + std::to_string(k) + " -> " + c.checkpointFile.string());
+  };
+
+  StepRecord previous = c.restart ? stepper->record() : first;
   auto lastReport = Clock::now();
   const auto loopStart = Clock::now();
-  for (int k = 1; k <= c.steps; ++k) {
+  for (int k = startStep + 1; k <= c.steps; ++k) {
     StepRecord r;
     try {
       r = stepper->step();
@@ -260,7 +404,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
          << fmt(k * dyn.timeStep) << ") failed: " << e.what();
       throw Error(os.str());
     }
-    csv << csvLine(r) << "\n";
+    emit(csvLine(r));
     ++run.steps;
     run.iterations += r.solverIterations;
     run.maxIterations = std::max(run.maxIterations, r.solverIterations);
@@ -282,6 +426,20 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
       c.options.stepProgress(os.str());
     }
     previous = r;
+    const bool signalled = InterruptGuard::requested();
+    const bool stop = k < c.steps && (signalled || (c.options.stopAfterStep && k >= *c.options.stopAfterStep));
+    if (stop && !c.checkpointing)
+      throw RunInterrupted("interrupted by " + InterruptGuard::signalName() + " after step " + std::to_string(k) + " of " +
+                  schemeName + " (scheme comparisons write no checkpoints)");
+    if (c.checkpointing && (stop || schedule.due(k))) writeCheckpointAt(k);
+    if (stop) {
+      std::ostringstream os;
+      os << (signalled ? "interrupted by " + InterruptGuard::signalName() : std::string("stopped (--stop-after-step)"))
+         << " after step " << k << " of " << c.steps << " (t = " << fmt(r.time) << "): checkpoint written to "
+         << c.checkpointFile.string() << "; continue with: obs run " << scene.fileName << " --restart "
+         << c.checkpointFile.string() << " (and the same --output, --refine and --set options)";
+      throw RunInterrupted(os.str());
+    }
   }
   run.last = previous;
   run.finalEnergy = previous.energy;
@@ -388,6 +546,14 @@ RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh
   };
   const int dim = mesh.dimension();
   const mesh::Index n = mesh.numVertices();
+  const InterruptGuard interrupts;  // SIGINT/SIGTERM: finish the step, checkpoint, stop
+
+  // --restart: the checkpoint must belong to this scene and grid
+  std::optional<CheckpointRecord> restart;
+  if (options.restart) {
+    restart = readCheckpoint(*options.restart);
+    checkRunIdentity(*restart, *options.restart, "dynamic", scene, mesh);
+  }
 
   // contact set, tracked vertices, initial state (all checked before any time step)
   const auto obstacle = makeObstacle(scene, dim);
@@ -415,7 +581,7 @@ RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh
     tracked.push_back(t);
   }
 
-  Context c{scene, grid, mesh, bc, options, contact, tracked, {}, {}, 0, {}};
+  Context c{scene, grid, mesh, bc, options, contact, tracked, {}, {}, 0, {}, false, {}, nullptr, {}};
   c.steps = dyn.steps ? *dyn.steps : static_cast<int>(std::ceil(*dyn.endTime / dyn.timeStep - 1e-9));
   c.u0 = Eigen::VectorXd::Zero(n * dim);
   c.v0 = Eigen::VectorXd::Zero(n * dim);
@@ -452,6 +618,28 @@ RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh
 
   const std::vector<std::string> schemes = dynamicSchemes(scene, options.compareSchemes);
   const bool comparison = schemes.size() > 1;
+  if (comparison && scene.output.checkpoint)
+    throw Error(scene.where(scene.output.checkpoint->line) +
+                "[output] checkpoint: scheme comparisons ([dynamics] compare, --compare-schemes) write no checkpoints");
+  if (comparison && (options.restart || options.stopAfterStep))
+    throw Error(scene.fileName + ": " + (options.restart ? "--restart" : "--stop-after-step") +
+                ": scheme comparisons ([dynamics] compare, --compare-schemes) write no checkpoints");
+  if (options.stopAfterStep && (*options.stopAfterStep < 1 || *options.stopAfterStep >= c.steps))
+    throw Error(scene.fileName + ": --stop-after-step " + std::to_string(*options.stopAfterStep) +
+                " must lie in [1, " + std::to_string(c.steps - 1) + "] (the run has " + std::to_string(c.steps) +
+                " steps)");
+  c.checkpointing = !comparison;
+  c.checkpointFile = c.dir / "checkpoint.h5";
+  if (restart) {
+    c.restart = &*restart;
+    c.restartFile = *options.restart;
+    try {
+      progress("restart from " + options.restart->string() + " at step " +
+               std::to_string(restart->integer("scheme/step")) + " (t = " + fmt(restart->real("scheme/time")) + ")");
+    } catch (const Error& e) {
+      throw Error(options.restart->string() + ": " + e.what());
+    }
+  }
   {
     std::ostringstream os;
     os << "dynamics: " << (comparison ? std::to_string(schemes.size()) + " schemes" : schemes[0]) << ", tau = "
@@ -466,6 +654,8 @@ RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh
     ++r.massAssemblies;
     try {
       runs.push_back(dim == 2 ? runScheme<2>(c, schemes[i], vtk, file) : runScheme<3>(c, schemes[i], vtk, file));
+    } catch (const RunInterrupted&) {
+      throw;  // a signal stops the whole comparison
     } catch (const Error& e) {
       if (i == 0) throw;  // the scene's own scheme must run
       // a compared scheme that cannot run on this scene (e.g. an indefinite redistributed mass on

@@ -401,11 +401,36 @@ SolverSpec parseSolver(const Scene& scene, const toml::value& table, bool contac
   return spec;
 }
 
+/// [output] checkpoint = { every = N, seconds = S } (Scene.hpp CheckpointSpec).
+CheckpointSpec parseCheckpoint(const TomlSection& output) {
+  const toml::value& v = output.at("checkpoint");
+  if (!v.is_table())
+    output.fail("checkpoint", "must be a table, e.g. { every = 100 } (steps) or { seconds = 3600 }, got " +
+                                  typeNameOf(v));
+  const TomlSection s(output.fileName(), "[output] checkpoint", v, {"every", "seconds"});
+  CheckpointSpec spec;
+  spec.line = output.line("checkpoint");
+  if (s.has("every")) {
+    const long long n = s.integer("every");
+    if (n < 1 || n > 1000000000) s.fail("every", "= " + literalOf(s.at("every")) + " must be a number of steps >= 1");
+    spec.every = static_cast<int>(n);
+  }
+  if (s.has("seconds")) {
+    const double t = s.number("seconds");
+    if (!(t > 0)) s.fail("seconds", "= " + literalOf(s.at("seconds")) + " must be positive");
+    spec.seconds = t;
+  }
+  if (!spec.every && !spec.seconds)
+    output.fail("checkpoint", "needs every = N (steps) and/or seconds = S (wall time)");
+  return spec;
+}
+
 OutputSpec parseOutput(const Scene& scene, const toml::value* table) {
   OutputSpec out;
   out.directory = fs::path("out") / scene.name;
   if (!table) return out;
-  const TomlSection s(scene.fileName, "[output]", *table, {"directory", "vtk", "csv", "plots"});
+  const TomlSection s(scene.fileName, "[output]", *table, {"directory", "vtk", "csv", "plots", "checkpoint"});
+  if (s.has("checkpoint")) out.checkpoint = parseCheckpoint(s);
   if (s.has("directory")) {
     const std::string d = s.string("directory");
     if (d.empty()) s.fail("directory", "must not be empty");
@@ -565,6 +590,8 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
   scene.fileName = fileName;
   scene.directory = directory;
   scene.name = fs::path(fileName).stem().string();
+  scene.text = text;
+  scene.overrides = overrides;
 
   // Unknown top-level entries, first in file order.
   const toml::value* unknown = nullptr;
@@ -618,6 +645,9 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
     scene.dynamics = parseDynamics(scene, *dy);
     checkDynamicScene(scene);
   }
+  if (scene.output.checkpoint && !scene.dynamics)
+    throw Error(scene.where(scene.output.checkpoint->line) +
+                "[output] checkpoint applies to [dynamics] scenes only (static and adaptive runs write none)");
   return scene;
 }
 

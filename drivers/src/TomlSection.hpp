@@ -76,6 +76,7 @@ public:
                            const std::string& message) const;
 
   const std::string& title() const { return title_; }
+  const std::string& fileName() const { return fileName_; }
 
 private:
   std::string fileName_;

@@ -485,6 +485,52 @@ StepRecord NewmarkFamily<d>::step() {
 }
 
 template <int d>
+NewmarkSchemeState NewmarkFamily<d>::schemeState() const {
+  checkInitialized();
+  NewmarkSchemeState s;
+  s.scheme = std::string(obs::name(options_.scheme));
+  s.state = state_;
+  s.multiplier = multiplier_;
+  s.previousMultiplier = previousMultiplier_;
+  s.activePredictor = last_.activePredictor;
+  s.predictorOnly = last_.predictorOnly;
+  s.solutionOnly = last_.solutionOnly;
+  s.solverIterations = last_.solverIterations;
+  return s;
+}
+
+template <int d>
+void NewmarkFamily<d>::setSchemeState(const NewmarkSchemeState& s) {
+  if (s.scheme != obs::name(options_.scheme))
+    throw Error("time stepping: a state of scheme '" + s.scheme + "' cannot continue scheme '" +
+                std::string(obs::name(options_.scheme)) + "'");
+  const Eigen::Index n = static_cast<Eigen::Index>(numVertices_) * d;
+  const bool withAcceleration = options_.scheme == NewmarkScheme::KhenousLabordeRenard;
+  auto check = [&](const Eigen::VectorXd& x, Eigen::Index size, const char* what) {
+    if (x.size() != size)
+      throw Error(std::string("time stepping: state vector ") + what + " has " + std::to_string(x.size()) +
+                  " entries, the problem has " + std::to_string(size));
+    if (!x.allFinite()) throw Error(std::string("time stepping: state vector ") + what + " has non-finite values");
+  };
+  check(s.state.u, n, "u");
+  check(s.state.v, n, "v");
+  check(s.state.a, withAcceleration ? n : 0, "a");
+  check(s.multiplier, n, "multiplier");
+  check(s.previousMultiplier, n, "previous multiplier");
+  if (s.state.step < 0 || !std::isfinite(s.state.time))
+    throw Error("time stepping: state with step " + std::to_string(s.state.step) + ", time " + num(s.state.time));
+  state_ = s.state;
+  multiplier_ = s.multiplier;
+  previousMultiplier_ = s.previousMultiplier;
+  initialized_ = true;
+  last_ = makeRecord();
+  last_.activePredictor = s.activePredictor;
+  last_.predictorOnly = s.predictorOnly;
+  last_.solutionOnly = s.solutionOnly;
+  last_.solverIterations = s.solverIterations;
+}
+
+template <int d>
 StepRecord NewmarkFamily<d>::record() const {
   checkInitialized();
   return last_;

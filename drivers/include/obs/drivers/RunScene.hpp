@@ -14,6 +14,7 @@
 #include "obs/drivers/RunResult.hpp"
 #include "obs/drivers/Scene.hpp"
 #include "obs/mesh/Grid.hpp"
+#include "obs/mesh/Error.hpp"
 
 namespace obs::drivers {
 
@@ -31,6 +32,21 @@ struct RunOptions {
   bool plots = false;  ///< `--plots`: as [output] plots = true
   /// `--compare-schemes`: a [dynamics] scene also runs every other scheme (DynamicScene.hpp).
   bool compareSchemes = false;
+  /// `--restart FILE.h5`: a [dynamics] run continues from this checkpoint (docs/checkpoint.md); the
+  /// scene and grid must be those it was written for, the output directory must hold the outputs
+  /// of the interrupted run.
+  std::optional<std::filesystem::path> restart = {};
+  /// `--stop-after-step K`: a [dynamics] run stops after time step K (< the scene's steps) with a
+  /// checkpoint, as on SIGINT/SIGTERM (RunInterrupted).
+  std::optional<int> stopAfterStep = {};
+};
+
+/// A run that stopped early (SIGINT/SIGTERM, RunOptions::stopAfterStep); the message says where it
+/// stopped, names the checkpoint and how to continue (a scheme comparison stops without one). `obs
+/// run` exits with 3.
+class RunInterrupted : public Error {
+public:
+  using Error::Error;
 };
 
 /// Runs the scene file; throws obs::Error on any problem (invalid scene, solver failure, I/O).

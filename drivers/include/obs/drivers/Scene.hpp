@@ -113,6 +113,15 @@ struct SolverSpec {
   int line = 0;  ///< line of [solver] (0: section absent)
 };
 
+/// [output] checkpoint = { every = N, seconds = S }: write <output>/checkpoint.h5 every N time
+/// steps and/or when S seconds of wall time have passed since the last one ([dynamics] scenes;
+/// docs/checkpoint.md). At least one of the two is given.
+struct CheckpointSpec {
+  std::optional<int> every;        ///< steps, >= 1
+  std::optional<double> seconds;   ///< wall-clock seconds, > 0
+  int line = 0;                    ///< line of the checkpoint key
+};
+
 /// [output]
 struct OutputSpec {
   std::filesystem::path directory;  ///< relative to the working directory; default out/<scene name>
@@ -120,6 +129,7 @@ struct OutputSpec {
   std::filesystem::path csv = "runs.csv";  ///< empty: no CSV; relative paths are inside `directory`
   bool plots = false;  ///< dynamic scenes: PNG plots by scripts/plot_dynamics.py; [adaptivity]
                        ///< runs: by scripts/plot_adaptivity.py
+  std::optional<CheckpointSpec> checkpoint;
 };
 
 /// One [[contact]] entry of a multi-body scene: dual-mortar contact between the slave boundary of
@@ -137,6 +147,10 @@ struct Scene {
   std::string fileName;             ///< the scene path as given (used in messages)
   std::filesystem::path directory;  ///< directory of the scene file
   std::string name;                 ///< file stem, e.g. "cantilever"
+  /// The scene file's text and the `--set` overrides applied to it, as read (checkpoints store them
+  /// and their hash; a restart compares them).
+  std::string text;
+  std::vector<std::string> overrides;
 
   MeshSpec mesh;
   Material material;

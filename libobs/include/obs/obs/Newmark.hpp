@@ -150,6 +150,20 @@ struct StepRecord {
   double stepSeconds = 0;
 };
 
+/// Everything a NewmarkFamily carries from one step to the next, for checkpoint/restart
+/// (Checkpoint.hpp): with the same grid, material, loads, contact set and options, a stepper set to
+/// this state continues bitwise as the one it was taken from. The predictor, active sets and bounds
+/// of a step are functions of (u^n, v^n) and are recomputed; the operators are rebuilt.
+struct NewmarkSchemeState {
+  std::string scheme;                  ///< name(NewmarkScheme) of the stepper
+  DynamicState state;                  ///< step, time, u^n, v^n (a^n: khenous-laborde-renard)
+  Eigen::VectorXd multiplier;          ///< nodal multiplier lambda of the last step (contact force)
+  Eigen::VectorXd previousMultiplier;  ///< classical: lambda^n, part of the next right-hand side
+  /// Counters of the last step's StepRecord that the state alone does not determine.
+  Index activePredictor = 0, predictorOnly = 0, solutionOnly = 0;
+  int solverIterations = 0;
+};
+
 /// A time integrator for dynamic contact: initialise with u^0, v^0, then step().
 template <int d>
 class TimeStepper {
@@ -208,6 +222,11 @@ public:
   /// away from the contact nodes; all zero after initialize()): the multiplier divided by c' tau^2.
   /// The force on the body is -F; StepRecord::contactForce is its sum over the vertices.
   Eigen::VectorXd contactForces() const;
+  /// The state between steps (checkpoints; throws obs::Error before initialize()).
+  NewmarkSchemeState schemeState() const;
+  /// Continues from a state taken by schemeState() of a stepper built on the same problem (restart).
+  /// Throws obs::Error for another scheme, wrong vector sizes or non-finite values.
+  void setSchemeState(const NewmarkSchemeState& s);
 
 private:
   struct Predictor;

@@ -1,0 +1,62 @@
+#pragma once
+/// \file RunCheckpoint.hpp
+/// Checkpoint support of the scene runners (internal to the drivers; the file format is libobs
+/// Checkpoint.hpp, the entries docs/checkpoint.md): what identifies a run (scene text and hash, the
+/// leaf grid), the check a restart makes against it, the schedule of [output] checkpoint, and the
+/// SIGINT/SIGTERM guard that lets a run finish its step and write a checkpoint before stopping.
+#include <csignal>
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include "obs/drivers/Scene.hpp"
+#include "obs/mesh/Mesh.hpp"
+#include "obs/obs/Checkpoint.hpp"
+#include "RunSupport.hpp"
+
+namespace obs::drivers {
+
+/// FNV-1a 64 (hex) of the scene text followed by its --set overrides (one "\n--set <override>"
+/// each): two runs with the same hash read the same scene.
+std::string sceneHash(const Scene& scene);
+
+/// Stores "scene/text", "scene/overrides", "scene/hash", "grid/leaf_vertices", "grid/leaf_cells"
+/// and "grid/leaf_checksum" (FNV-1a of the leaf vertex coordinates and cell vertex lists).
+void storeRunIdentity(CheckpointRecord& record, const Scene& scene, const mesh::Mesh& leaf);
+
+/// Throws a one-line obs::Error "<file>: ..." naming what differs if the checkpoint was written for
+/// another kind of run, another scene (first differing line of the text, or the overrides) or
+/// another grid (vertex/cell counts or checksum, e.g. another --refine).
+void checkRunIdentity(const CheckpointRecord& record, const std::filesystem::path& file,
+                      const std::string& kind, const Scene& scene, const mesh::Mesh& leaf);
+
+/// [output] checkpoint: due after step k if k is a multiple of `every`, or if `seconds` have passed
+/// since the schedule began or the last checkpoint.
+class CheckpointSchedule {
+public:
+  explicit CheckpointSchedule(const std::optional<CheckpointSpec>& spec) : spec_(spec), last_(Clock::now()) {}
+  bool due(int step) const;
+  void written() { last_ = Clock::now(); }
+
+private:
+  std::optional<CheckpointSpec> spec_;
+  Clock::time_point last_;
+};
+
+/// While alive, SIGINT and SIGTERM only set a flag (requested()); the handlers reset themselves, so
+/// a second signal terminates the process as usual. The previous handlers are restored at exit.
+class InterruptGuard {
+public:
+  InterruptGuard();
+  ~InterruptGuard();
+  InterruptGuard(const InterruptGuard&) = delete;
+  InterruptGuard& operator=(const InterruptGuard&) = delete;
+  static bool requested();
+  /// "SIGINT" / "SIGTERM" (the first signal received).
+  static std::string signalName();
+
+private:
+  struct sigaction oldInt_ {}, oldTerm_{};
+};
+
+}  // namespace obs::drivers

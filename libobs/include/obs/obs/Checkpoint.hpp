@@ -1,0 +1,99 @@
+#pragma once
+/// \file Checkpoint.hpp
+/// Checkpoint files (HDF5) for resuming long runs, and the record they hold.
+///
+/// A CheckpointRecord is a flat set of named entries, each a text, a real number, an integer, a
+/// real vector or an integer vector, with a one-line description. Names are HDF5 paths
+/// ("state/displacement"); the groups are created as needed. writeCheckpoint stores every entry as a
+/// dataset with a "description" attribute, so `h5dump -A file.h5` or h5py explain the file without
+/// obs. The root group carries the attributes
+///   format          "obs checkpoint"
+///   format_version  kCheckpointFormatVersion (a reader refuses any other version)
+///   obs_version     the obs version that wrote the file
+///   kind            what the record describes ("dynamic", ...; set by the caller)
+///   content_hash    FNV-1a 64 over every entry (name, type, bytes), 16 hex digits
+/// The content hash makes a corrupted dataset an error on reading even where HDF5 itself reads
+/// the damaged bytes without complaint.
+///
+/// Atomicity: writeCheckpoint writes `file.tmp`, flushes it to disk and renames it to `file`
+/// (rename is atomic on POSIX file systems), so a process killed while writing (even by SIGKILL)
+/// leaves the previous checkpoint intact; only the .tmp file may be incomplete.
+///
+/// The state of a Newmark time stepper (Newmark.hpp) is stored and loaded by storeNewmarkState /
+/// loadNewmarkState under "scheme/..."; the obs program adds its own entries (docs/checkpoint.md
+/// lists them). Embedding codes may add theirs: a record holds any entries.
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+#include "obs/obs/Newmark.hpp"
+
+namespace obs {
+
+inline constexpr int kCheckpointFormatVersion = 1;
+
+class CheckpointRecord {
+public:
+  using Value = std::variant<std::string, double, long long, Eigen::VectorXd, std::vector<long long>>;
+  struct Entry {
+    Value value;
+    std::string description;
+  };
+
+  /// What the record describes (root attribute "kind").
+  std::string kind;
+
+  /// Adds or replaces an entry. Names: non-empty path components of [A-Za-z0-9_] separated by
+  /// '/', no leading or trailing '/'; a name cannot also be a group of other entries. Throws
+  /// obs::Error otherwise.
+  void set(const std::string& name, Value value, std::string description);
+
+  bool has(const std::string& name) const { return entries_.count(name) > 0; }
+  /// Typed access; obs::Error naming the entry if it is missing or of another type.
+  const std::string& text(const std::string& name) const;
+  double real(const std::string& name) const;
+  long long integer(const std::string& name) const;
+  const Eigen::VectorXd& vector(const std::string& name) const;
+  const std::vector<long long>& integers(const std::string& name) const;
+  const std::map<std::string, Entry>& entries() const { return entries_; }
+
+  /// FNV-1a 64 over the entries in name order (name, type tag, data bytes): the "content_hash".
+  std::uint64_t contentHash() const;
+
+private:
+  template <class T>
+  const T& get(const std::string& name, const char* type) const;
+  std::map<std::string, Entry> entries_;
+};
+
+/// Writes the record to `file` atomically (see above); obs::Error if the file cannot be written
+/// (the previous `file`, if any, is then unchanged).
+void writeCheckpoint(const std::filesystem::path& file, const CheckpointRecord& record);
+
+/// Reads a checkpoint; one-line obs::Error naming the file if it is missing, not HDF5, truncated
+/// or damaged (HDF5 cannot read it, or the content hash differs), not an obs checkpoint, or of
+/// another format version.
+CheckpointRecord readCheckpoint(const std::filesystem::path& file);
+
+/// The obs version written into checkpoints ("major.minor.patch").
+const char* checkpointObsVersion();
+
+/// FNV-1a 64 of bytes, continuing from `hash` (start: kFnvOffset); as 16 lower-case hex digits.
+inline constexpr std::uint64_t kFnvOffset = 14695981039346656037ull;
+std::uint64_t fnv1a(const void* data, std::size_t bytes, std::uint64_t hash = kFnvOffset);
+std::string hexHash(std::uint64_t hash);
+
+/// Stores a Newmark stepper's state (NewmarkFamily::schemeState) under "scheme/": name, step, time,
+/// displacement, velocity, acceleration, multiplier, previous_multiplier and the counters of the
+/// last step.
+void storeNewmarkState(CheckpointRecord& record, const NewmarkSchemeState& state);
+/// The state stored by storeNewmarkState (obs::Error naming a missing entry).
+NewmarkSchemeState loadNewmarkState(const CheckpointRecord& record);
+
+}  // namespace obs

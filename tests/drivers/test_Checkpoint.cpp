@@ -1,0 +1,579 @@
+// Checkpoint and restart (libobs Checkpoint.hpp, drivers DynamicScene, docs/checkpoint.md):
+//  - the record API round-trips every entry type bitwise (NaN, empty vectors and texts included);
+//  - a Newmark stepper set to a stored state continues bitwise like the original (library level);
+//  - a dynamic run stopped at step k (--stop-after-step, SIGTERM) and restarted gives the same
+//    summary (timings aside), time series (timing columns aside) and .vtu/.pvd files, byte for byte,
+//    as the uninterrupted run, for schemes with and without carried scheme state;
+//  - [output] checkpoint = { every = N } writes after every N-th step;
+//  - writing is atomic: a failed write leaves the previous checkpoint intact, and a process killed
+//    by SIGKILL at arbitrary times (checkpoints every step) never leaves an unreadable checkpoint.h5;
+//  - restarting with another scene, --set, --refine, a truncated, damaged or non-HDF5 file, a file of
+//    another format version or without the interrupted run's outputs is a one-line error naming
+//    what differs; bad [output] checkpoint values are file:line errors.
+#include <gtest/gtest.h>
+
+#include <hdf5.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+#include <functional>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "obs/drivers/ObstacleFactory.hpp"
+#include "obs/drivers/RunScene.hpp"
+#include "obs/drivers/SceneParser.hpp"
+#include "obs/drivers/SceneSetup.hpp"
+#include "obs/mesh/Error.hpp"
+#include "obs/obs/Checkpoint.hpp"
+#include "obs/obs/Newmark.hpp"
+
+#include "DriverTestSupport.hpp"
+
+using obs::test::slurp;
+using obs::test::summaryOf;
+namespace fs = std::filesystem;
+using namespace obs::drivers;
+
+namespace {
+
+const fs::path kTmp = fs::path(OBS_TEST_TMP_DIR) / "checkpoint";
+
+/// The bar of data/scenes/dynamics_bar.toml (a column dropped onto a plane: contact from t = 0.5,
+/// lift-off at t = 1.17), `steps` steps of tau = 3e-3, a .vtu every 50 steps; `output` is appended to
+/// [output] (lines: [mesh] 1, [output] 19, its first key 20; with no output entries tau is line 23).
+std::string barScene(int steps, const std::string& output = "", const std::string& scheme = "improved-contact-stabilized") {
+  return "[mesh]\ngenerator = \"box\"\ntype = \"quadrilateral\"\ncells = [1, 20]\nlower = [0, 5]\n"
+         "upper = [1, 15]\n\n"
+         "[material]\nE = 900\nnu = 0\ndensity = 1\n\n"
+         "[contact]\nboundary = \"bottom\"\nobstacle = \"plane\"\npoint = [0, 0]\ndirection = [0, -1]\n\n"
+         "[output]\n" +
+         output +
+         "\n[dynamics]\nscheme = \"" + scheme + "\"\ntau = 3e-3\nsteps = " + std::to_string(steps) +
+         "\ninitial_velocity = [0, -10]\ntracked = [[0, 5]]\noutput_stride = 50\n";
+}
+
+fs::path writeScene(const std::string& name, const std::string& text) {
+  fs::create_directories(kTmp);
+  const fs::path p = kTmp / (name + ".toml");
+  std::ofstream(p) << text;
+  return p;
+}
+
+/// summary.json without wall times, memory and output paths (which name the directory).
+nlohmann::json comparable(nlohmann::json j) {
+  if (j.is_object()) {
+    nlohmann::json out = nlohmann::json::object();
+    for (auto& [k, v] : j.items()) {
+      const bool timing = k.ends_with("_s") || k.find("seconds") != std::string::npos ||
+                          k.find("memory") != std::string::npos || k == "output_files" || k == "timeseries";
+      if (!timing) out[k] = comparable(v);
+    }
+    return out;
+  }
+  if (j.is_array())
+    for (auto& v : j) v = comparable(v);
+  return j;
+}
+
+/// The time series without its two timing columns (solver_seconds, step_seconds).
+std::string withoutTimings(const fs::path& csv) {
+  std::istringstream in(slurp(csv));
+  std::string out;
+  int timing[2] = {-1, -1};
+  for (std::string line; std::getline(in, line);) {
+    std::vector<std::string> f;
+    std::stringstream ls(line);
+    for (std::string x; std::getline(ls, x, ',');) f.push_back(x);
+    if (timing[0] < 0)
+      for (std::size_t k = 0; k < f.size(); ++k) {
+        if (f[k] == "solver_seconds") timing[0] = static_cast<int>(k);
+        if (f[k] == "step_seconds") timing[1] = static_cast<int>(k);
+      }
+    for (std::size_t k = 0; k < f.size(); ++k)
+      if (static_cast<int>(k) != timing[0] && static_cast<int>(k) != timing[1]) out += f[k] + ",";
+    out += "\n";
+  }
+  return out;
+}
+
+/// Every .vtu/.pvd of `a` exists in `b` with the same bytes; the same time series and summary.
+void expectSameRun(const fs::path& a, const fs::path& b) {
+  int files = 0;
+  for (const auto& e : fs::directory_iterator(a)) {
+    const std::string ext = e.path().extension().string();
+    if (ext != ".vtu" && ext != ".pvd") continue;
+    ++files;
+    const fs::path other = b / e.path().filename();
+    ASSERT_TRUE(fs::exists(other)) << other;
+    EXPECT_TRUE(slurp(e.path()) == slurp(other)) << e.path().filename() << " differs";
+  }
+  EXPECT_GE(files, 3);
+  EXPECT_EQ(withoutTimings(a / "timeseries.csv"), withoutTimings(b / "timeseries.csv"));
+  EXPECT_EQ(comparable(summaryOf(a)).dump(1), comparable(summaryOf(b)).dump(1));
+}
+
+RunOptions quiet(const fs::path& dir) {
+  RunOptions o;
+  o.outputDirectory = dir;
+  return o;
+}
+
+std::string errorOf(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const obs::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+void expectContains(std::string message, const std::vector<std::string>& parts) {
+  while (!message.empty() && message.back() == '\n') message.pop_back();  // stderr's line end
+  EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  for (const std::string& p : parts) EXPECT_NE(message.find(p), std::string::npos) << p << "\n  in: " << message;
+}
+
+/// Runs the scene file into dir, stopped after step k; returns the checkpoint path.
+fs::path stopAt(const fs::path& scene, const fs::path& dir, int k, std::vector<std::string> overrides = {}) {
+  fs::remove_all(dir);
+  RunOptions o = quiet(dir);
+  o.stopAfterStep = k;
+  o.overrides = std::move(overrides);
+  EXPECT_THROW(runScene(scene, o), RunInterrupted);
+  return dir / "checkpoint.h5";
+}
+
+}  // namespace
+
+// --- the record ----------------------------------------------------------------------------------
+
+TEST(CheckpointRecord, RoundTripsEveryEntryTypeBitwise) {
+  fs::create_directories(kTmp);
+  obs::CheckpointRecord r;
+  r.kind = "test";
+  Eigen::VectorXd x(5);
+  x << 1.0 / 3.0, -0.0, std::numeric_limits<double>::quiet_NaN(), 1e-310, -std::numeric_limits<double>::infinity();
+  r.set("a/b/vector", x, "a vector with NaN, -0, a denormal and -inf");
+  r.set("a/empty_vector", Eigen::VectorXd(), "empty");
+  r.set("a/integers", std::vector<long long>{-1, 0, 1LL << 62}, "integers");
+  r.set("a/no_integers", std::vector<long long>{}, "empty");
+  r.set("text", std::string("line 1\nline \"2\" = 'x'\n"), "text with newlines and quotes");
+  r.set("empty_text", std::string(), "");
+  r.set("real", 0.1, "0.1");
+  r.set("integer", -7LL, "-7");
+  const fs::path file = kTmp / "roundtrip.h5";
+  obs::writeCheckpoint(file, r);
+  EXPECT_FALSE(fs::exists(kTmp / "roundtrip.h5.tmp"));
+  const obs::CheckpointRecord s = obs::readCheckpoint(file);
+  EXPECT_EQ(s.kind, "test");
+  ASSERT_EQ(s.entries().size(), r.entries().size());
+  EXPECT_EQ(s.contentHash(), r.contentHash());
+  const Eigen::VectorXd& y = s.vector("a/b/vector");
+  ASSERT_EQ(y.size(), 5);
+  EXPECT_EQ(std::memcmp(x.data(), y.data(), sizeof(double) * 5), 0);
+  EXPECT_EQ(s.vector("a/empty_vector").size(), 0);
+  EXPECT_EQ(s.integers("a/integers"), (std::vector<long long>{-1, 0, 1LL << 62}));
+  EXPECT_TRUE(s.integers("a/no_integers").empty());
+  EXPECT_EQ(s.text("text"), "line 1\nline \"2\" = 'x'\n");
+  EXPECT_EQ(s.text("empty_text"), "");
+  EXPECT_EQ(s.real("real"), 0.1);
+  EXPECT_EQ(s.integer("integer"), -7);
+  EXPECT_EQ(s.entries().at("a/b/vector").description, "a vector with NaN, -0, a denormal and -inf");
+  // typed access names the entry
+  expectContains(errorOf([&] { (void)s.real("text"); }), {"'text'", "is a text", "expected a real number"});
+  expectContains(errorOf([&] { (void)s.vector("nothing"); }), {"'nothing'", "missing"});
+  // names are HDF5 paths of plain components; an entry cannot be a group of others
+  obs::CheckpointRecord bad;
+  expectContains(errorOf([&] { bad.set("/x", 1.0, ""); }), {"invalid entry name '/x'"});
+  expectContains(errorOf([&] { bad.set("x//y", 1.0, ""); }), {"invalid entry name"});
+  expectContains(errorOf([&] { bad.set("x y", 1.0, ""); }), {"invalid entry name"});
+  bad.set("x/y", 1.0, "");
+  expectContains(errorOf([&] { bad.set("x", 1.0, ""); }), {"'x'", "'x/y'", "group"});
+}
+
+TEST(CheckpointRecord, FailedWriteLeavesThePreviousCheckpointIntact) {
+  fs::create_directories(kTmp);
+  const fs::path file = kTmp / "atomic.h5";
+  obs::CheckpointRecord r;
+  r.kind = "test";
+  r.set("value", 1.0, "first");
+  obs::writeCheckpoint(file, r);
+  // the temporary cannot be created (a non-empty directory has its name): the write fails ...
+  const fs::path tmp = kTmp / "atomic.h5.tmp";
+  fs::remove_all(tmp);
+  fs::create_directories(tmp / "blocker");
+  r.set("value", 2.0, "second");
+  expectContains(errorOf([&] { obs::writeCheckpoint(file, r); }), {file.string(), "cannot write the checkpoint"});
+  // ... and the latest checkpoint is still the first, complete one
+  EXPECT_EQ(obs::readCheckpoint(file).real("value"), 1.0);
+  fs::remove_all(tmp);
+  obs::writeCheckpoint(file, r);
+  EXPECT_EQ(obs::readCheckpoint(file).real("value"), 2.0);
+}
+
+TEST(CheckpointRecord, DamagedTruncatedForeignAndOtherVersionFilesAreOneLineErrors) {
+  fs::create_directories(kTmp);
+  const fs::path good = kTmp / "good.h5";
+  obs::CheckpointRecord r;
+  r.kind = "test";
+  r.set("state/values", Eigen::VectorXd::Constant(512, 1.25), "1.25 everywhere");
+  obs::writeCheckpoint(good, r);
+  const std::string bytes = slurp(good);
+
+  // one flipped bit in the data: HDF5 reads it, the content hash does not match
+  {
+    std::string damaged = bytes;
+    const double v = 1.25;
+    const std::string pattern(reinterpret_cast<const char*>(&v), sizeof v);
+    const std::size_t at = damaged.find(pattern + pattern);
+    ASSERT_NE(at, std::string::npos);
+    damaged[at + 8 * 100 + 3] ^= 0x10;
+    const fs::path f = kTmp / "damaged.h5";
+    std::ofstream(f, std::ios::binary) << damaged;
+    expectContains(errorOf([&] { (void)obs::readCheckpoint(f); }),
+                   {f.string(), "content hash", "differs", "damaged"});
+  }
+  // truncated at several lengths (as by a full disk or a copy cut short)
+  for (double fraction : {0.1, 0.5, 0.9, 0.99}) {
+    SCOPED_TRACE(fraction);
+    const fs::path f = kTmp / "truncated.h5";
+    std::ofstream(f, std::ios::binary) << bytes.substr(0, static_cast<std::size_t>(fraction * bytes.size()));
+    const std::string e = errorOf([&] { (void)obs::readCheckpoint(f); });
+    expectContains(e, {f.string() + ": "});
+    EXPECT_TRUE(e.find("truncated") != std::string::npos || e.find("damaged") != std::string::npos) << e;
+  }
+  // not HDF5 at all, missing
+  {
+    const fs::path f = kTmp / "text.h5";
+    std::ofstream(f) << "[mesh]\n";
+    expectContains(errorOf([&] { (void)obs::readCheckpoint(f); }), {f.string(), "not an HDF5 file"});
+    expectContains(errorOf([&] { (void)obs::readCheckpoint(kTmp / "missing.h5"); }), {"missing.h5", "no such"});
+  }
+  // another format version and a foreign HDF5 file (attributes changed with the HDF5 C API)
+  {
+    const fs::path f = kTmp / "version.h5";
+    fs::copy_file(good, f, fs::copy_options::overwrite_existing);
+    const hid_t h = H5Fopen(f.c_str(), H5F_ACC_RDWR, H5P_DEFAULT);
+    ASSERT_GE(h, 0);
+    const hid_t a = H5Aopen(h, "format_version", H5P_DEFAULT);
+    const long long two = 2;
+    H5Awrite(a, H5T_NATIVE_LLONG, &two);
+    H5Aclose(a);
+    H5Fclose(h);
+    expectContains(errorOf([&] { (void)obs::readCheckpoint(f); }),
+                   {f.string(), "format version 2", "reads version 1"});
+  }
+  {
+    const fs::path f = kTmp / "foreign.h5";
+    const hid_t h = H5Fcreate(f.c_str(), H5F_ACC_TRUNC, H5P_DEFAULT, H5P_DEFAULT);
+    ASSERT_GE(h, 0);
+    H5Fclose(h);
+    expectContains(errorOf([&] { (void)obs::readCheckpoint(f); }), {f.string(), "attribute format is missing"});
+  }
+}
+
+// --- library level: a Newmark stepper continues bitwise from a stored state ----------------------
+
+TEST(CheckpointNewmark, StepperSetToAStoredStateContinuesBitwise) {
+  const Scene scene = parseSceneString(barScene(1), "bar.toml", kTmp);
+  const obs::mesh::Grid grid = buildGrid(scene);
+  const obs::mesh::Mesh mesh = grid.leafView().mesh;
+  const obs::BoundaryConditions bc = makeBoundaryConditions(scene, mesh);
+  const auto obstacle = makeObstacle(scene, 2);
+  const obs::ContactSet contact = makeContactSet(scene, mesh, *obstacle);
+  for (obs::NewmarkScheme scheme : obs::allNewmarkSchemes()) {
+    SCOPED_TRACE(std::string(obs::name(scheme)));
+    obs::NewmarkOptions o;
+    o.scheme = scheme;
+    o.timeStep = 3e-3;
+    Eigen::VectorXd u0 = Eigen::VectorXd::Zero(mesh.numVertices() * 2), v0 = u0;
+    for (obs::mesh::Index p = 0; p < mesh.numVertices(); ++p) v0[2 * p + 1] = -10;
+    obs::NewmarkFamily<2> a(grid, scene.material, bc, contact, o);
+    a.initialize(u0, v0);
+    for (int k = 0; k < 200; ++k) a.step();  // in contact from step 167
+    obs::CheckpointRecord r;
+    obs::storeNewmarkState(r, a.schemeState());
+    const fs::path file = kTmp / "newmark.h5";
+    obs::writeCheckpoint(file, r);
+    obs::NewmarkFamily<2> b(grid, scene.material, bc, contact, o);
+    b.initialize(u0, v0);  // the operators; the state is replaced
+    b.setSchemeState(obs::loadNewmarkState(obs::readCheckpoint(file)));
+    EXPECT_EQ(b.record().contactForce, a.record().contactForce);
+    for (int k = 0; k < 60; ++k) {
+      const obs::StepRecord ra = a.step(), rb = b.step();
+      ASSERT_EQ(ra.solverIterations, rb.solverIterations) << "step " << ra.step;
+      ASSERT_EQ(ra.activePredictor, rb.activePredictor);
+    }
+    EXPECT_TRUE(a.state().u == b.state().u);
+    EXPECT_TRUE(a.state().v == b.state().v);
+    EXPECT_EQ(a.state().time, b.state().time);
+    EXPECT_EQ(a.record().contactForce, b.record().contactForce);
+    // a state of another scheme is refused
+    obs::NewmarkSchemeState other = a.schemeState();
+    other.scheme = scheme == obs::NewmarkScheme::Classical ? "contact-implicit" : "classical";
+    expectContains(errorOf([&] { b.setSchemeState(other); }), {"state of scheme '" + other.scheme + "'"});
+    other = a.schemeState();
+    other.state.v.resize(3);
+    expectContains(errorOf([&] { b.setSchemeState(other); }), {"state vector v has 3 entries"});
+  }
+}
+
+// --- obs run: interrupted and restarted runs equal the uninterrupted one -------------------------
+
+TEST(CheckpointRestart, StoppedAndRestartedRunEqualsTheUninterruptedOneBitwise) {
+  // the stop steps: before contact, in contact (with a .vtu step), after lift-off; the schemes:
+  // predictor data, the classical multiplier carried into the next step, M~ with the acceleration
+  const std::vector<std::pair<std::string, int>> cases = {
+      {"improved-contact-stabilized", 100}, {"improved-contact-stabilized", 250}, {"classical", 213},
+      {"khenous-laborde-renard", 190},      {"hager-huebner-wohlmuth", 420}};
+  for (const auto& [scheme, k] : cases) {
+    SCOPED_TRACE(scheme + " stopped after step " + std::to_string(k));
+    const fs::path scene = writeScene("bar_" + scheme, barScene(450, "", scheme));
+    const fs::path a = kTmp / ("full_" + scheme), b = kTmp / ("restarted_" + scheme + std::to_string(k));
+    fs::remove_all(a);
+    runScene(scene, quiet(a));
+    const fs::path cp = stopAt(scene, b, k);
+    ASSERT_TRUE(fs::exists(cp));
+    EXPECT_FALSE(fs::exists(b / "summary.json"));
+    const obs::CheckpointRecord rec = obs::readCheckpoint(cp);
+    EXPECT_EQ(rec.kind, "dynamic");
+    EXPECT_EQ(rec.integer("scheme/step"), k);
+    EXPECT_EQ(rec.text("scheme/name"), scheme);
+    EXPECT_EQ(rec.text("scene/text"), slurp(scene));
+    EXPECT_EQ(rec.integer("grid/leaf_vertices"), 42);
+    RunOptions o = quiet(b);
+    o.restart = cp;
+    const RunResult r = runScene(scene, o);
+    EXPECT_EQ(summaryOf(b).at("dynamics").at("steps"), 450);
+    expectSameRun(a, b);
+  }
+}
+
+TEST(CheckpointRestart, EveryNStepsAndARestartFromTheLastOne) {
+  const fs::path scene = writeScene("bar_every", barScene(300, "checkpoint = { every = 40 }\n"));
+  const fs::path a = kTmp / "every_full", b = kTmp / "every_stopped";
+  fs::remove_all(a);
+  std::vector<std::string> lines;
+  RunOptions o = quiet(a);
+  o.stepProgress = [&](const std::string& l) {
+    if (l.starts_with("checkpoint:")) lines.push_back(l);
+  };
+  runScene(scene, o);
+  ASSERT_EQ(lines.size(), 7u);  // steps 40, 80, ..., 280
+  EXPECT_NE(lines[0].find("step 40 "), std::string::npos) << lines[0];
+  EXPECT_EQ(obs::readCheckpoint(a / "checkpoint.h5").integer("scheme/step"), 280);
+  // by wall time: a step takes more than a microsecond, so every step writes one
+  {
+    const fs::path timed = writeScene("bar_seconds", barScene(12, "checkpoint = { seconds = 1e-6 }\n"));
+    int written = 0;
+    RunOptions t = quiet(kTmp / "seconds");
+    t.stepProgress = [&](const std::string& l) { written += l.starts_with("checkpoint:"); };
+    runScene(timed, t);
+    EXPECT_EQ(written, 12);
+  }
+  // a run killed between checkpoints: its outputs run ahead of the checkpoint and are cut back on
+  // restart (here: outputs up to step 250, the checkpoint of step 240)
+  const fs::path at240 = kTmp / "every_240.h5";
+  fs::remove_all(b);
+  fs::remove(at240);
+  RunOptions s = quiet(b);
+  s.stopAfterStep = 250;
+  s.stepProgress = [&](const std::string& l) {
+    if (l.starts_with("checkpoint: step 240 ")) fs::copy_file(b / "checkpoint.h5", at240);
+  };
+  EXPECT_THROW(runScene(scene, s), RunInterrupted);
+  EXPECT_EQ(obs::readCheckpoint(b / "checkpoint.h5").integer("scheme/step"), 250);
+  ASSERT_EQ(obs::readCheckpoint(at240).integer("scheme/step"), 240);
+  RunOptions r = quiet(b);  // b holds outputs up to step 250, the checkpoint is at 240
+  r.restart = at240;
+  runScene(scene, r);
+  expectSameRun(a, b);
+}
+
+TEST(CheckpointRestart, SigtermFinishesTheStepWritesACheckpointAndExitsWith3) {
+  if (!fs::exists(OBS_BINARY)) GTEST_SKIP() << "obs not built: " << OBS_BINARY;
+  const fs::path scene = writeScene("bar_signal", barScene(3000));
+  const fs::path a = kTmp / "signal_full", b = kTmp / "signal_stopped";
+  fs::remove_all(a);
+  fs::remove_all(b);
+  fs::create_directories(b);
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    const std::string err = (b / "run.err").string();
+    (void)!freopen(err.c_str(), "w", stderr);
+    (void)!freopen("/dev/null", "w", stdout);
+    execl(OBS_BINARY, "obs", "run", scene.c_str(), "--output", b.c_str(), nullptr);
+    _exit(127);
+  }
+  // signal once the time stepping has begun (the time series has rows)
+  for (int i = 0; i < 20000; ++i) {
+    std::ifstream in(b / "timeseries.csv");
+    std::string line;
+    int rows = 0;
+    while (rows < 5 && std::getline(in, line)) ++rows;
+    if (rows >= 5) break;
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  kill(pid, SIGTERM);
+  int status = 0;
+  waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  ASSERT_EQ(WEXITSTATUS(status), 3) << slurp(b / "run.err");
+  const std::string err = slurp(b / "run.err");
+  expectContains(err.substr(err.find("obs: error:")), {"interrupted by SIGTERM after step", "checkpoint written to",
+                                                       "--restart"});
+  const long long k = obs::readCheckpoint(b / "checkpoint.h5").integer("scheme/step");
+  EXPECT_GT(k, 0);
+  EXPECT_LT(k, 3000);
+  const auto restarted = obs::test::runObs(
+      kTmp, "run '" + scene.string() + "' --output '" + b.string() + "' --restart '" + (b / "checkpoint.h5").string() + "' -q",
+      "signal_restart");
+  ASSERT_EQ(restarted.code, 0) << restarted.err;
+  runScene(scene, quiet(a));
+  expectSameRun(a, b);
+}
+
+TEST(CheckpointRestart, KillDuringCheckpointWritingNeverLeavesACorruptLatestFile) {
+  if (!fs::exists(OBS_BINARY)) GTEST_SKIP() << "obs not built: " << OBS_BINARY;
+  // a checkpoint after every step; SIGKILL 0, 2, 4, ... ms after the first checkpoint appeared lands
+  // during writes, between them and during renames
+  const fs::path scene = writeScene("bar_kill", barScene(80, "checkpoint = { every = 1 }\nvtk = false\n"));
+  int checked = 0, withTemporary = 0;
+  for (int delayMs = 0; delayMs <= 14; delayMs += 2) {
+    SCOPED_TRACE(delayMs);
+    const fs::path dir = kTmp / "kill";
+    fs::remove_all(dir);
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      (void)!freopen("/dev/null", "w", stderr);
+      (void)!freopen("/dev/null", "w", stdout);
+      execl(OBS_BINARY, "obs", "run", scene.c_str(), "--output", dir.c_str(), nullptr);
+      _exit(127);
+    }
+    for (int i = 0; i < 20000 && !fs::exists(dir / "checkpoint.h5"); ++i)
+      std::this_thread::sleep_for(std::chrono::microseconds(500));
+    std::this_thread::sleep_for(std::chrono::milliseconds(delayMs));
+    kill(pid, SIGKILL);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    ASSERT_TRUE(fs::exists(dir / "checkpoint.h5"));
+    withTemporary += fs::exists(dir / "checkpoint.h5.tmp");
+    const obs::CheckpointRecord r = obs::readCheckpoint(dir / "checkpoint.h5");  // throws if damaged
+    EXPECT_GE(r.integer("scheme/step"), 1);
+    ++checked;
+    if (delayMs == 6) {  // a restart after SIGKILL completes the run
+      RunOptions o = quiet(dir);
+      o.restart = dir / "checkpoint.h5";
+      runScene(scene, o);
+      EXPECT_EQ(summaryOf(dir).at("dynamics").at("steps"), 80);
+    }
+  }
+  std::cout << "[ info ] " << checked << " runs killed, " << withTemporary
+            << " of them while checkpoint.h5.tmp existed; every checkpoint.h5 was readable\n";
+}
+
+// --- errors --------------------------------------------------------------------------------------
+
+TEST(CheckpointRestart, RestartWithAnotherSceneGridOrOutputIsAnErrorNamingTheDifference) {
+  const fs::path scene = writeScene("bar_err", barScene(200));
+  const fs::path dir = kTmp / "err";
+  const fs::path cp = stopAt(scene, dir, 50);
+  auto restart = [&](const fs::path& s, RunOptions o) {
+    o.restart = cp;
+    return errorOf([&] { runScene(s, o); });
+  };
+  // the scene text differs: the first differing line, both versions
+  std::string text = barScene(200);
+  text.replace(text.find("tau = 3e-3"), 10, "tau = 2e-3");
+  const fs::path other = writeScene("bar_err_other", text);
+  expectContains(restart(other, quiet(dir)), {cp.string() + ": ", "another scene", "line 23",
+                                              "'tau = 2e-3' in " + other.string(), "'tau = 3e-3' in the checkpoint"});
+  // the same text, other --set overrides
+  RunOptions o = quiet(dir);
+  o.overrides = {"dynamics.output_stride=10"};
+  expectContains(restart(scene, o), {"another scene", "--set overrides differ", "dynamics.output_stride=10"});
+  // another grid
+  o = quiet(dir);
+  o.refine = 1;
+  expectContains(restart(scene, o), {cp.string() + ": ", "grid of 42 vertices / 20 cells", "another --refine"});
+  // the outputs of the interrupted run are not in the output directory
+  expectContains(restart(scene, quiet(kTmp / "err_elsewhere")),
+                 {cp.string() + ": ", "is missing", "output directory of the interrupted run"});
+  fs::remove_all(kTmp / "err_copy");
+  fs::create_directories(kTmp / "err_copy");
+  for (const auto& e : fs::directory_iterator(dir)) fs::copy_file(e.path(), kTmp / "err_copy" / e.path().filename());
+  {
+    std::string ts = slurp(kTmp / "err_copy" / "timeseries.csv");
+    ts[ts.size() / 2] = ts[ts.size() / 2] == '1' ? '2' : '1';
+    std::ofstream(kTmp / "err_copy" / "timeseries.csv", std::ios::binary) << ts;
+  }
+  expectContains(restart(scene, quiet(kTmp / "err_copy")), {"timeseries.csv does not begin with the", "step 50"});
+  // a checkpoint of a static scene cannot exist; a static scene with --restart is refused
+  const fs::path plain = writeScene("plain", "[mesh]\ngenerator = \"box\"\ntype = \"quadrilateral\"\ncells = [2, 2]\n[material]\nE = 1\nnu = 0.3\n"
+                                             "[[dirichlet]]\nboundary = \"left\"\n");
+  expectContains(restart(plain, quiet(kTmp / "plain")), {"--restart applies to [dynamics] scenes only"});
+  // --stop-after-step beyond the run
+  o = quiet(kTmp / "err_stop");
+  o.stopAfterStep = 200;
+  expectContains(errorOf([&] { runScene(scene, o); }), {"--stop-after-step 200 must lie in [1, 199]"});
+  // a damaged checkpoint through obs run: one line naming the file
+  {
+    std::string bytes = slurp(cp);
+    bytes.resize(bytes.size() / 2);
+    std::ofstream(kTmp / "half.h5", std::ios::binary) << bytes;
+    RunOptions h = quiet(dir);
+    h.restart = kTmp / "half.h5";
+    expectContains(errorOf([&] { runScene(scene, h); }), {(kTmp / "half.h5").string() + ": "});
+  }
+  // and through the program: exit code 1, one line
+  if (fs::exists(OBS_BINARY)) {
+    const auto out = obs::test::runObs(kTmp, "run '" + other.string() + "' -o '" + dir.string() + "' --restart '" +
+                                                 cp.string() + "'", "restart_other");
+    EXPECT_EQ(out.code, 1);
+    EXPECT_EQ(std::count(out.err.begin(), out.err.end(), '\n'), 1) << out.err;
+    expectContains(out.err, {"obs: error: ", "another scene"});
+  }
+}
+
+TEST(CheckpointScene, BadCheckpointKeysAreErrorsWithFileAndLine) {
+  auto error = [](const std::string& output, const std::string& extra = "") {
+    return errorOf([&] { parseSceneString(barScene(10, output) + extra, "bad.toml", kTmp); });
+  };
+  expectContains(error("checkpoint = { every = 0 }\n"), {"bad.toml:20: [output] checkpoint every = 0", ">= 1"});
+  expectContains(error("checkpoint = { seconds = -1 }\n"), {"bad.toml:20: [output] checkpoint seconds = -1", "positive"});
+  expectContains(error("checkpoint = { every = 1.5 }\n"), {"bad.toml:20: [output] checkpoint every must be an integer"});
+  expectContains(error("checkpoint = { steps = 10 }\n"), {"bad.toml:20:", "steps"});
+  expectContains(error("checkpoint = {}\n"), {"bad.toml:20: [output] checkpoint needs every = N"});
+  expectContains(error("checkpoint = 10\n"), {"bad.toml:20: [output] checkpoint must be a table", "got an integer"});
+  expectContains(error("checkpoint = { every = 5 }\n", "compare = [\"classical\"]\n"), {});  // parses; refused at run
+  expectContains(errorOf([&] {
+                   parseSceneString("[mesh]\ngenerator = \"box\"\ntype = \"quadrilateral\"\ncells = [2, 2]\n[material]\nE = 1\nnu = 0.3\n[output]\n"
+                                    "checkpoint = { every = 5 }\n",
+                                    "static.toml", kTmp);
+                 }),
+                 {"static.toml:9: [output] checkpoint applies to [dynamics] scenes only"});
+  const fs::path scene =
+      writeScene("bar_compare", barScene(10, "checkpoint = { every = 5 }\n") + "compare = [\"classical\"]\n");
+  expectContains(errorOf([&] { runScene(scene, quiet(kTmp / "compare")); }),
+                 {"bar_compare.toml:20: [output] checkpoint: scheme comparisons"});
+  // valid: both keys
+  const Scene s = parseSceneString(barScene(10, "checkpoint = { every = 5, seconds = 600 }\n"), "ok.toml", kTmp);
+  ASSERT_TRUE(s.output.checkpoint);
+  EXPECT_EQ(*s.output.checkpoint->every, 5);
+  EXPECT_EQ(*s.output.checkpoint->seconds, 600);
+}
