@@ -1,7 +1,8 @@
 /// \file MeshSize.cpp
 /// Cell counts of the mesh generators, from their parameters (see MeshSize.hpp). The counts follow
 /// the cell splits documented in BoxMesh.hpp (cells per box) and CurvedMeshes.hpp (cubed-sphere
-/// blocks: n^d cells in the inner cube plus 2d blocks of n^(d-1) x ceil(n/2) cells).
+/// blocks: n^d cells in the inner cube plus 2d blocks of n^(d-1) x ceil(n/2) cells; the half ball
+/// and half disk are the halves of those with 2n cells).
 #include "obs/drivers/MeshSize.hpp"
 
 #include <cmath>
@@ -39,6 +40,13 @@ double cellsPerBallHexahedron(mesh::CellType t) {
   }
 }
 
+/// Cells of the cubed ball (3D) or disk (2D) with n cells per direction of its inner cube/square.
+double cubedBallCells(double n, int dim, mesh::CellType t) {
+  const double m = std::ceil(n / 2);
+  const double blocks = std::pow(n, dim) + 2 * dim * std::pow(n, dim - 1) * m;
+  return blocks * cellsPerBallHexahedron(t);
+}
+
 }  // namespace
 
 double generatedCoarseCells(const MeshSpec& spec) {
@@ -46,11 +54,13 @@ double generatedCoarseCells(const MeshSpec& spec) {
   switch (spec.source) {
     case MeshSpec::Source::File:
       return 0;
-    case MeshSpec::Source::Ball: {
-      const double n = spec.cells[0], m = std::ceil(n / 2);
-      const double blocks = std::pow(n, dim) + 2 * dim * std::pow(n, dim - 1) * m;
-      return blocks * cellsPerBallHexahedron(spec.cellType);
-    }
+    case MeshSpec::Source::Ball:
+    case MeshSpec::Source::Disk:
+      return cubedBallCells(spec.cells[0], dim, spec.cellType);
+    case MeshSpec::Source::HalfBall:
+    case MeshSpec::Source::HalfDisk:
+      // the half of the cubed ball/disk with 2n cells below its mid plane (a mesh plane of it)
+      return cubedBallCells(2.0 * spec.cells[0], dim, spec.cellType) / 2;
     case MeshSpec::Source::Box:
     case MeshSpec::Source::RoundedBlock: {
       double boxes = 1;

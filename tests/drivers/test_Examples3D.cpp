@@ -113,7 +113,9 @@ void expectConvergedWithContact(const ExampleRun& r, int steps) {
   EXPECT_GT(r.steps.last("actual_contact"), 0);
   EXPECT_LE(r.steps.last("actual_contact"), r.steps.last("potential_contact"));
   EXPECT_TRUE(std::isfinite(r.steps.last("eta")) && r.steps.last("eta") > 0);
-  if (steps > 1) EXPECT_GT(r.steps.last("vertices"), r.steps.number(0, "vertices"));  // it refined
+  if (steps > 1) {
+    EXPECT_GT(r.steps.last("vertices"), r.steps.number(0, "vertices"));  // it refined
+  }
   ASSERT_TRUE(r.result.contact.has_value());
   EXPECT_TRUE(r.result.solver.converged);
   EXPECT_FALSE(r.contactVertices().empty());

@@ -7,7 +7,8 @@
 
 namespace obs::drivers {
 
-/// Cells of the coarse mesh of a generated [mesh] (box, ball, rounded_block), exactly as the
+/// Cells of the coarse mesh of a generated [mesh] (box, ball, disk, half_ball, half_disk,
+/// rounded_block), exactly as the
 /// generators in BoxMesh.hpp and CurvedMeshes.hpp build them; 0 for a mesh file (unknown until
 /// the file is read).
 double generatedCoarseCells(const MeshSpec& spec);
