@@ -46,6 +46,13 @@ void ContactModel<d>::addMortarPair(int slave, int slaveId, int master, int mast
 
 template <int d>
 ContactProblem<d> ContactModel<d>::assemble() {
+  Parts p = assembleParts();
+  return ContactProblem<d>(std::move(p.system.stiffness), std::move(p.system.load), std::move(p.system.dirichlet),
+                           p.contact, std::move(p.basis));
+}
+
+template <int d>
+typename ContactModel<d>::Parts ContactModel<d>::assembleParts() {
   if (bodies_.empty()) throw Error("contact model: no body");
   std::vector<BodySystem<d>> systems;
   for (const Body& b : bodies_) systems.push_back(assembleBody<d>(*b.mesh, b.material, b.bc));
@@ -60,8 +67,7 @@ ContactProblem<d> ContactModel<d>::assemble() {
     Coupling& c = couplings_[0];
     c.nodes.resize(c.obstacleSet->size());
     std::iota(c.nodes.begin(), c.nodes.end(), 0);
-    return ContactProblem<d>(std::move(system.stiffness), std::move(system.load), std::move(system.dirichlet),
-                             *c.obstacleSet);
+    return Parts{std::move(system), *c.obstacleSet, mesh::CsrMatrix{}};
   }
 
   // the couplings' nodes over the stacked vertices
@@ -143,8 +149,7 @@ ContactProblem<d> ContactModel<d>::assemble() {
       basis.rowStart[r + 1] = static_cast<Index>(basis.columns.size());
     }
   }
-  return ContactProblem<d>(std::move(system.stiffness), std::move(system.load), std::move(system.dirichlet),
-                           ContactSet(std::move(merged)), std::move(basis));
+  return Parts{std::move(system), ContactSet(std::move(merged)), std::move(basis)};
 }
 
 template class ContactModel<2>;

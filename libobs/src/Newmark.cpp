@@ -87,50 +87,138 @@ struct NewmarkFamily<d>::Predictor {
   std::vector<char> active;     ///< per contact node
   std::vector<double> tauStar;  ///< local impact time
   std::vector<double> delta;    ///< (tau* - tau) nu'v^n = normal predictor correction (<= 0)
+  std::vector<double> mu;       ///< mortar: multipliers of the projection (>= 0)
+};
+
+/// One constraint row of B (mortar): nu_p'(x_p) with x_p = u_p - sum_j C_pj u_j, i.e. the entries
+/// (p, 1) and (j, -C_pj), all along nu_p.
+template <int d>
+struct NewmarkFamily<d>::MortarRow {
+  std::vector<std::pair<Index, double>> entries;
+  double diagonal = 0;  ///< (B M^{-1} B')_pp over the free components
 };
 
 template <int d>
 NewmarkFamily<d>::NewmarkFamily(const mesh::Grid& grid, const Material& material, const BoundaryConditions& bc,
                                 const ContactSet& contact, const NewmarkOptions& options)
     : options_(options) {
-  const double tau = options.timeStep;
-  if (!std::isfinite(tau) || tau <= 0)
-    throw Error("time stepping: the time step tau must be positive and finite, got " + num(tau));
-  material.validate();
   if (grid.dimension() != d)
     throw Error("time stepping: the grid has dimension " + std::to_string(grid.dimension()) + ", the stepper " +
                 std::to_string(d));
+  const mesh::Mesh mesh = grid.leafView().mesh;
+  if (contact.dimension() != d || contact.numMeshVertices() != mesh.numVertices())
+    throw Error("time stepping: the contact set " + contact.boundaryLabel() + " was built for another mesh (" +
+                std::to_string(contact.numMeshVertices()) + " vertices; the leaf mesh of the grid has " +
+                std::to_string(mesh.numVertices()) + ")");
+  // one body against an obstacle: the contact model with one body and one obstacle coupling
+  ContactModel<d> model;
+  model.addBody("body", mesh, material, bc);
+  model.addObstacleContact(0, contact, contact.boundaryLabel());
+  init({&grid}, model);
+}
+
+template <int d>
+NewmarkFamily<d>::NewmarkFamily(const std::vector<const mesh::Grid*>& grids, ContactModel<d>& model,
+                                const NewmarkOptions& options)
+    : options_(options) {
+  init(grids, model);
+}
+
+template <int d>
+void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, ContactModel<d>& model) {
+  const NewmarkOptions& options = options_;
+  const double tau = options.timeStep;
+  if (!std::isfinite(tau) || tau <= 0)
+    throw Error("time stepping: the time step tau must be positive and finite, got " + num(tau));
+  const auto& bodies = model.bodies();
+  if (bodies.empty() || grids.size() != bodies.size())
+    throw Error("time stepping: " + std::to_string(grids.size()) + " grids for a contact model of " +
+                std::to_string(bodies.size()) + " bodies");
+  for (const auto& b : bodies) b.material.validate();
+  for (std::size_t i = 0; i < grids.size(); ++i) {
+    if (!grids[i] || grids[i]->dimension() != d)
+      throw Error("time stepping: the grid of body '" + bodies[i].name + "' has dimension " +
+                  std::to_string(grids[i] ? grids[i]->dimension() : 0) + ", the stepper " + std::to_string(d));
+    if (grids[i]->leafView().mesh.numVertices() != bodies[i].mesh->numVertices())
+      throw Error("time stepping: the grid of body '" + bodies[i].name + "' does not carry the body's mesh (" +
+                  std::to_string(grids[i]->leafView().mesh.numVertices()) + " leaf vertices, the mesh has " +
+                  std::to_string(bodies[i].mesh->numVertices()) + ")");
+  }
   const NewmarkScheme scheme = options.scheme;
   if (options.mass == MassKind::Consistent && hasPredictorInDisplacement(scheme))
     throw Error("time stepping: scheme '" + std::string(obs::name(scheme)) +
                 "' needs the lumped mass matrix (its predictor is a node-wise projection); use mass = lumped");
   if (options.activeTolerance < 0 || !std::isfinite(options.activeTolerance))
     throw Error("time stepping: active tolerance must be non-negative and finite");
+  if (!(options.predictorTolerance > 0) || options.maxPredictorSweeps < 1)
+    throw Error("time stepping: the predictor tolerance must be positive and the sweep cap at least 1");
 
-  const mesh::Mesh mesh = grid.leafView().mesh;
-  numVertices_ = mesh.numVertices();
-  if (contact.dimension() != d || contact.numMeshVertices() != numVertices_)
-    throw Error("time stepping: the contact set " + contact.boundaryLabel() + " was built for another mesh (" +
-                std::to_string(contact.numMeshVertices()) + " vertices; the leaf mesh of the grid has " +
-                std::to_string(numVertices_) + ")");
+  typename ContactModel<d>::Parts parts = model.assembleParts();
+  const ContactSet& contact = parts.contact;
+  numVertices_ = parts.system.numVertices();
   for (Index v : options.trackedVertices)
     if (v < 0 || v >= numVertices_)
       throw Error("time stepping: tracked vertex " + std::to_string(v) + " is not a vertex of the mesh (0.." +
                   std::to_string(numVertices_ - 1) + ")");
 
-  A_ = assembleStiffness<d>(mesh, material);
-  f_ = assembleLoad<d>(mesh, bc);
-  dirichlet_ = collectDirichlet(mesh, bc.dirichlet);
-  lumped_ = assembleLumpedMass(mesh, material);
+  A_ = std::move(parts.system.stiffness);
+  f_ = std::move(parts.system.load);
+  dirichlet_ = std::move(parts.system.dirichlet);
+  basis_ = parts.basis;
   const bool redistributed = usesRedistributedMass(scheme);
+  const bool needConsistent = options.mass == MassKind::Consistent || redistributed;
+  // masses body by body, stacked like the stiffness (one body: the body's matrices as they are)
+  std::vector<ScalarSparseMatrix> consistentPerBody;
+  lumped_.resize(numVertices_);
+  for (const auto& b : bodies) {
+    lumped_.segment(b.offset, b.mesh->numVertices()) = assembleLumpedMass(*b.mesh, b.material);
+    if (needConsistent) consistentPerBody.push_back(assembleConsistentMass(*b.mesh, b.material));
+  }
+  auto stack = [&](const std::vector<ScalarSparseMatrix>& parts) {
+    if (parts.size() == 1) return parts.front();
+    std::vector<Eigen::Triplet<double>> t;
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+      const Index off = bodies[i].offset;
+      for (Eigen::Index r = 0; r < parts[i].outerSize(); ++r)
+        for (ScalarSparseMatrix::InnerIterator it(parts[i], r); it; ++it)
+          t.emplace_back(off + it.row(), off + it.col(), it.value());
+    }
+    ScalarSparseMatrix m(numVertices_, numVertices_);
+    m.setFromTriplets(t.begin(), t.end());
+    return m;
+  };
   ScalarSparseMatrix consistent;
-  if (options.mass == MassKind::Consistent || redistributed) consistent = assembleConsistentMass(mesh, material);
+  if (needConsistent) consistent = stack(consistentPerBody);
   M_ = options.mass == MassKind::Lumped ? expandLumpedMass<d>(lumped_, A_) : expandMass<d>(consistent, A_);
   if (redistributed) {
+    // massless: the contact vertices, and for mortar pairs the master vertices coupled to them
     std::vector<char> massless(static_cast<std::size_t>(numVertices_), 0);
     for (Index v : contact.vertices()) massless[static_cast<std::size_t>(v)] = 1;
-    redistributed_ = std::make_unique<RedistributedMass>(
-        redistributeMass(consistent, mesh.vertices(), d, massless, options.redistribution));
+    for (std::size_t k = 0; k < basis_.columns.size(); ++k)
+      if (basis_.values[k] != 0) massless[static_cast<std::size_t>(basis_.columns[k])] = 1;
+    // each body keeps its own mass, centre of gravity and second moments
+    std::vector<ScalarSparseMatrix> tilde;
+    auto stacked = std::make_unique<RedistributedMass>();
+    stacked->massless = massless;
+    for (std::size_t i = 0; i < bodies.size(); ++i) {
+      const Index off = bodies[i].offset, n = bodies[i].mesh->numVertices();
+      std::vector<char> local(massless.begin() + off, massless.begin() + off + n);
+      if (std::find(local.begin(), local.end(), 1) == local.end()) {
+        tilde.push_back(consistentPerBody[i]);  // no contact vertex: nothing to redistribute
+        continue;
+      }
+      RedistributedMass r = redistributeMass(consistentPerBody[i], bodies[i].mesh->vertices(), d, local,
+                                             options.redistribution);
+      tilde.push_back(std::move(r.matrix));
+      const Eigen::Index m = stacked->multipliers.size();
+      stacked->multipliers.conservativeResize(m + r.multipliers.size());
+      stacked->multipliers.tail(r.multipliers.size()) = r.multipliers;
+      stacked->iterations = std::max(stacked->iterations, r.iterations);
+      stacked->residual = std::max(stacked->residual, r.residual);
+      stacked->movedMass += r.movedMass;
+    }
+    stacked->matrix = stack(tilde);
+    redistributed_ = std::move(stacked);
     Mr_ = expandMass<d>(redistributed_->matrix, A_);
     const ScalarSparseMatrix& Mt = redistributed_->matrix;
     for (Eigen::Index i = 0; i < Mt.outerSize(); ++i) {
@@ -191,7 +279,7 @@ NewmarkFamily<d>::NewmarkFamily(const mesh::Grid& grid, const Material& material
   DirichletValues zero = dirichlet_;
   zero.values.setZero();
   problem_ = std::make_unique<ContactProblem<d>>(std::move(S), Eigen::VectorXd::Zero(numVertices_ * d), zero,
-                                                 *contact_);
+                                                 *contact_, basis_);
   constraints_ = problem_->constraints();
   for (auto& c : constraints_) {  // effective constraints for u (the problem's are for increments)
     if (!c.bounded()) continue;
@@ -208,13 +296,64 @@ NewmarkFamily<d>::NewmarkFamily(const mesh::Grid& grid, const Material& material
   for (Index k = 0; k < contact.size(); ++k) gaps_[static_cast<std::size_t>(k)] = contact.gap(k);
   multiplierFactor_ = scheme == NewmarkScheme::Classical ? 0.25 : 0.5;
 
+  // mortar: the rows of B for the predictor (slave vertices carry no Dirichlet component)
+  if (basis_.rows > 0) {
+    rows_.resize(constraints_.size());
+    for (std::size_t k = 0; k < constraints_.size(); ++k) {
+      const auto& cn = constraints_[k];
+      if (!cn.bounded()) continue;
+      MortarRow& row = rows_[k];
+      row.entries.emplace_back(cn.vertex, 1.0);
+      for (Index m = basis_.rowStart[cn.vertex]; m < basis_.rowStart[cn.vertex + 1]; ++m)
+        if (basis_.values[m] != 0) row.entries.emplace_back(basis_.columns[m], -basis_.values[m]);
+      for (const auto& [v, coef] : row.entries)
+        for (int a = 0; a < d; ++a)
+          if (!dirichlet_.constrained[static_cast<std::size_t>(v) * d + a])
+            row.diagonal += coef * coef * cn.direction[a] * cn.direction[a] / lumped_[v];
+    }
+  }
+
   typename TNNMG<d>::Options so;
   so.tolerance = options.solverTolerance;
   so.maxIterations = options.maxSolverIterations;
   so.preSmoothing = options.preSmoothing;
   so.postSmoothing = options.postSmoothing;
   so.recordHistory = false;
-  solver_ = std::make_unique<TNNMG<d>>(grid, so);
+  solver_ = grids.size() == 1 ? std::make_unique<TNNMG<d>>(*grids.front(), so) : std::make_unique<TNNMG<d>>(grids, so);
+}
+
+template <int d>
+Eigen::VectorXd NewmarkFamily<d>::relative(const Eigen::VectorXd& u) const {
+  return basis_.rows > 0 ? problem_->fromDisplacement(u) : u;
+}
+
+template <int d>
+Eigen::VectorXd NewmarkFamily<d>::physicalForce(const Eigen::VectorXd& y) const {
+  Eigen::VectorXd f = y;
+  for (Index p = 0; p < basis_.rows; ++p)
+    for (Index m = basis_.rowStart[p]; m < basis_.rowStart[p + 1]; ++m)
+      f.template segment<d>(static_cast<Eigen::Index>(basis_.columns[m]) * d) -=
+          basis_.values[m] * y.template segment<d>(static_cast<Eigen::Index>(p) * d);
+  return f;
+}
+
+template <int d>
+Eigen::VectorXd NewmarkFamily<d>::predictorCorrection(const Predictor& P, const std::vector<double>& weight) const {
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(numVertices_) * d);
+  for (std::size_t k = 0; k < constraints_.size(); ++k) {
+    if (!P.active[k] || weight[k] == 0) continue;
+    const auto& c = constraints_[k];
+    if (basis_.rows == 0) {
+      z.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d) += weight[k] * P.delta[k] * c.direction;
+      continue;
+    }
+    for (const auto& [v, coef] : rows_[k].entries)
+      for (int a = 0; a < d; ++a) {
+        const std::size_t i = static_cast<std::size_t>(v) * d + a;
+        if (!dirichlet_.constrained[i]) z[static_cast<Eigen::Index>(i)] -= weight[k] * P.mu[k] * coef * c.direction[a] / lumped_[v];
+      }
+  }
+  return z;
 }
 
 template <int d>
@@ -252,7 +391,7 @@ template <int d>
 Eigen::VectorXd NewmarkFamily<d>::contactForces() const {
   checkInitialized();
   const double tau = options_.timeStep;
-  return multiplier_ / (multiplierFactor_ * tau * tau);
+  return (basis_.rows > 0 ? physicalForce(multiplier_) : multiplier_) / (multiplierFactor_ * tau * tau);
 }
 
 template <int d>
@@ -285,11 +424,12 @@ void NewmarkFamily<d>::initialize(const Eigen::VectorXd& u0, const Eigen::Vector
                   ", prescribed " + num(g) + "; v = " + num(v0[i]) + ", must be 0)");
   }
   const double tol = activeTolerance(u0);
+  const Eigen::VectorXd x0 = relative(u0);
   for (Index k = 0; k < contact_->size(); ++k) {
     const double g = gaps_[static_cast<std::size_t>(k)];
     if (!std::isfinite(g)) continue;
     const Index p = contact_->vertex(k);
-    const double un = contact_->direction(k).template head<d>().dot(u0.template segment<d>(static_cast<Eigen::Index>(p) * d));
+    const double un = contact_->direction(k).template head<d>().dot(x0.template segment<d>(static_cast<Eigen::Index>(p) * d));
     if (un - g > tol) {
       const Point& x = contact_->position(k);
       throw Error("time stepping: the initial displacement violates the contact constraint at vertex " +
@@ -344,17 +484,75 @@ void NewmarkFamily<d>::computePredictor(Predictor& P) const {
   P.active.assign(nc, 0);
   P.tauStar.assign(nc, tau);
   P.delta.assign(nc, 0.0);
+  const Eigen::VectorXd x = relative(state_.u), w = relative(state_.v);
+  if (basis_.rows == 0) {
+    // rigid obstacles: B is diagonal, the lumped-mass projection is node-wise
+    for (std::size_t k = 0; k < nc; ++k) {
+      const auto& c = constraints_[k];
+      if (!c.bounded()) continue;
+      const auto i = static_cast<Eigen::Index>(c.vertex) * d;
+      const double un = c.direction.dot(x.template segment<d>(i));
+      const double vn = c.direction.dot(w.template segment<d>(i));
+      const double excess = un + tau * vn - c.gap;
+      if (excess <= 0) continue;
+      P.active[k] = 1;
+      P.delta[k] = -excess;  // = (tau* - tau) vn
+      P.tauStar[k] = vn > 0 ? std::clamp(tau - excess / vn, 0.0, tau) : 0.0;
+    }
+    return;
+  }
+  // mortar: min 1/2 |z|_M^2 subject to B(y + z) <= g, y = u^n + tau v^n, by projected Gauss-Seidel on
+  // the multipliers (Hildreth): z = -M^{-1} B'mu, mu_k <- max(0, mu_k + (B(y + z) - g)_k / G_kk)
+  P.mu.assign(nc, 0.0);
+  std::vector<double> r(nc, 0.0), vn(nc, 0.0);  // r_k = g_k - (B y)_k
+  double scale = 0, worst = 0;
   for (std::size_t k = 0; k < nc; ++k) {
     const auto& c = constraints_[k];
     if (!c.bounded()) continue;
     const auto i = static_cast<Eigen::Index>(c.vertex) * d;
-    const double un = c.direction.dot(state_.u.template segment<d>(i));
-    const double vn = c.direction.dot(state_.v.template segment<d>(i));
-    const double excess = un + tau * vn - c.gap;
-    if (excess <= 0) continue;
+    vn[k] = c.direction.dot(w.template segment<d>(i));
+    r[k] = c.gap - c.direction.dot(x.template segment<d>(i)) - tau * vn[k];
+    scale = std::max({scale, std::abs(c.gap), std::abs(tau * vn[k])});
+    worst = std::max(worst, -r[k]);
+  }
+  if (worst <= 0) return;  // y is admissible: z = 0
+  const double tol = options_.predictorTolerance * std::max(scale, 1e-300);
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(numVertices_) * d);
+  auto rowValue = [&](std::size_t k) {  // (B z)_k
+    double s = 0;
+    for (const auto& [v, coef] : rows_[k].entries)
+      s += coef * constraints_[k].direction.dot(z.template segment<d>(static_cast<Eigen::Index>(v) * d));
+    return s;
+  };
+  int sweep = 0;
+  for (;; ++sweep) {
+    if (sweep >= options_.maxPredictorSweeps)
+      throw Error("time stepping: step " + std::to_string(state_.step + 1) + ": the contact predictor did not converge in " +
+                  std::to_string(sweep) + " sweeps (constraint residual " + num(worst) + ")");
+    double change = 0;
+    for (std::size_t k = 0; k < nc; ++k) {
+      if (!constraints_[k].bounded() || rows_[k].diagonal <= 0) continue;
+      const double violation = rowValue(k) - r[k];  // (B(y + z) - g)_k
+      const double next = std::max(0.0, P.mu[k] + violation / rows_[k].diagonal);
+      const double dmu = next - P.mu[k];
+      if (dmu == 0) continue;
+      P.mu[k] = next;
+      change = std::max(change, std::abs(dmu) * rows_[k].diagonal);
+      const auto& dir = constraints_[k].direction;
+      for (const auto& [v, coef] : rows_[k].entries)
+        for (int a = 0; a < d; ++a) {
+          const std::size_t i = static_cast<std::size_t>(v) * d + a;
+          if (!dirichlet_.constrained[i]) z[static_cast<Eigen::Index>(i)] -= dmu * coef * dir[a] / lumped_[v];
+        }
+    }
+    worst = change;
+    if (change <= tol) break;
+  }
+  for (std::size_t k = 0; k < nc; ++k) {
+    if (!constraints_[k].bounded() || P.mu[k] <= 0) continue;
     P.active[k] = 1;
-    P.delta[k] = -excess;  // = (tau* - tau) vn
-    P.tauStar[k] = vn > 0 ? std::clamp(tau - excess / vn, 0.0, tau) : 0.0;
+    P.delta[k] = rowValue(k);  // change of the normal jump, = (tau* - tau) [v]_nu at an active node
+    P.tauStar[k] = vn[k] > 0 ? std::clamp(tau + P.delta[k] / vn[k], 0.0, tau) : 0.0;
   }
 }
 
@@ -374,16 +572,21 @@ StepRecord NewmarkFamily<d>::step() {
 
   // right-hand side
   Eigen::VectorXd base = u + tau * v;
-  if (hasPredictorInDisplacement(scheme))
-    for (std::size_t k = 0; k < constraints_.size(); ++k)
-      if (P.active[k])
-        base.template segment<d>(static_cast<Eigen::Index>(constraints_[k].vertex) * d) += P.delta[k] * constraints_[k].direction;
+  if (hasPredictorInDisplacement(scheme)) {
+    if (basis_.rows == 0) {
+      for (std::size_t k = 0; k < constraints_.size(); ++k)
+        if (P.active[k])
+          base.template segment<d>(static_cast<Eigen::Index>(constraints_[k].vertex) * d) += P.delta[k] * constraints_[k].direction;
+    } else {
+      base += predictorCorrection(P, std::vector<double>(constraints_.size(), 1.0));  // the projection onto K
+    }
+  }
   Eigen::VectorXd rhs = applyMass(base, redistributed) + (0.5 * tau * tau) * f_;
   if (scheme != NewmarkScheme::KhenousLabordeRenard) rhs -= (0.25 * tau * tau) * (A_ * u);
   // classical (5.21): + tau^2/4 M F_con^n, the reaction of the obstacle at t^n. The solver's multiplier
   // lambda = (b - S w) along nu is the force on the obstacle (S w = b - lambda), i.e. minus the reaction:
   // the previous step's lambda enters with the sign of the new one (S u^{n+1} = ... - lambda^n - lambda^{n+1})
-  if (scheme == NewmarkScheme::Classical) rhs -= previousMultiplier_;
+  if (scheme == NewmarkScheme::Classical) rhs -= basis_.rows > 0 ? physicalForce(previousMultiplier_) : previousMultiplier_;
 
   // The variational inequality is solved for the increment w = u^{n+1} - base (S w = rhs - S base,
   // bounds shifted by nu'base): the iterate and the energy are small, which keeps the solver's
@@ -393,13 +596,14 @@ StepRecord NewmarkFamily<d>::step() {
   {
     const double tol = activeTolerance(u);
     const bool persistency = usesPersistency(scheme);
+    const Eigen::VectorXd xu = relative(u), xb = relative(base);
     std::vector<double> g(gaps_.size(), kInf);
     for (Index k = 0; k < contact_->size(); ++k) {
       const double gk = gaps_[static_cast<std::size_t>(k)];
       if (!std::isfinite(gk)) continue;
       const auto i = static_cast<Eigen::Index>(contact_->vertex(k)) * d;
       const auto nu = contact_->direction(k).template head<d>();
-      const double un = nu.dot(u.template segment<d>(i)), bn = nu.dot(base.template segment<d>(i));
+      const double un = nu.dot(xu.template segment<d>(i)), bn = nu.dot(xb.template segment<d>(i));
       if (!persistency)
         g[static_cast<std::size_t>(k)] = gk - bn;
       else if (un >= gk - tol)
@@ -409,9 +613,9 @@ StepRecord NewmarkFamily<d>::step() {
   }
   problem_->setLoad(rhs - S_ * base);
 
-  Eigen::VectorXd increment = Eigen::VectorXd::Zero(n);
+  Eigen::VectorXd increment = Eigen::VectorXd::Zero(n);  // problem unknowns (relative for mortar pairs)
   const ContactResult result = solver_->solve(*problem_, increment);
-  const Eigen::VectorXd unew = base + increment;
+  const Eigen::VectorXd unew = base + (basis_.rows > 0 ? problem_->toDisplacement(increment) : increment);
   if (!result.converged)
     throw Error("time stepping: step " + std::to_string(state_.step + 1) + " (t = " + num(state_.time + tau) +
                 "): TNNMG did not converge in " + std::to_string(result.iterations) + " iterations (correction " +
@@ -433,10 +637,13 @@ StepRecord NewmarkFamily<d>::step() {
   Eigen::VectorXd anew;
   const double solTol = activeTolerance(unew);
   std::vector<char> solActive(constraints_.size(), 0);
-  for (std::size_t k = 0; k < constraints_.size(); ++k) {
-    const auto& c = constraints_[k];
-    if (!c.bounded()) continue;
-    solActive[k] = c.gap - c.direction.dot(unew.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d)) <= solTol;
+  {
+    const Eigen::VectorXd xnew = relative(unew);
+    for (std::size_t k = 0; k < constraints_.size(); ++k) {
+      const auto& c = constraints_[k];
+      if (!c.bounded()) continue;
+      solActive[k] = c.gap - c.direction.dot(xnew.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d)) <= solTol;
+    }
   }
   if (scheme == NewmarkScheme::KhenousLabordeRenard) {
     anew = (2 / (tau * tau)) * (unew - u - tau * v);
@@ -444,6 +651,7 @@ StepRecord NewmarkFamily<d>::step() {
   } else {
     vnew = (2 / tau) * (unew - u) - v;
     if (hasPredictorInDisplacement(scheme)) {
+      std::vector<double> betas(constraints_.size(), 0.0);
       for (std::size_t k = 0; k < constraints_.size(); ++k) {
         if (!P.active[k]) continue;
         double beta = 1;
@@ -456,9 +664,13 @@ StepRecord NewmarkFamily<d>::step() {
         } else if (solActive[k] && scheme == NewmarkScheme::AlphaOneZero) {
           beta = 0;
         }
-        vnew.template segment<d>(static_cast<Eigen::Index>(constraints_[k].vertex) * d) -=
-            (2 / tau) * beta * P.delta[k] * constraints_[k].direction;
+        betas[k] = beta;
+        if (basis_.rows == 0)
+          vnew.template segment<d>(static_cast<Eigen::Index>(constraints_[k].vertex) * d) -=
+              (2 / tau) * beta * P.delta[k] * constraints_[k].direction;
       }
+      // mortar: the beta-weighted part of the predictor's force pairs (momentum neutral)
+      if (basis_.rows > 0) vnew -= (2 / tau) * predictorCorrection(P, betas);
     }
   }
   if (!vnew.allFinite())
@@ -570,11 +782,12 @@ StepRecord NewmarkFamily<d>::makeRecord() const {
   r.contactForce /= multiplierFactor_ * tau * tau;
 
   const double tol = activeTolerance(u);
+  const Eigen::VectorXd x = relative(u), w = basis_.rows > 0 ? relative(v) : v;
   for (Index k = 0; k < contact_->size(); ++k) {
     const double g = gaps_[static_cast<std::size_t>(k)];
     if (!std::isfinite(g)) continue;
     const double un = contact_->direction(k).template head<d>().dot(
-        u.template segment<d>(static_cast<Eigen::Index>(contact_->vertex(k)) * d));
+        x.template segment<d>(static_cast<Eigen::Index>(contact_->vertex(k)) * d));
     r.activeSolution += g - un <= tol;
     r.maxPenetration = std::max(r.maxPenetration, un - g);
   }
@@ -588,8 +801,11 @@ StepRecord NewmarkFamily<d>::makeRecord() const {
     if (k >= 0) {
       t.contactNode = true;
       const Point& nu = contact_->direction(k);
-      t.normalDisplacement = nu.dot(t.displacement);
-      t.normalVelocity = nu.dot(t.velocity);
+      Eigen::Vector3d xr = Eigen::Vector3d::Zero(), wr = Eigen::Vector3d::Zero();
+      xr.template head<d>() = x.template segment<d>(i);
+      wr.template head<d>() = w.template segment<d>(i);
+      t.normalDisplacement = nu.dot(xr);
+      t.normalVelocity = nu.dot(wr);
       t.gap = gaps_[static_cast<std::size_t>(k)] - t.normalDisplacement;
     }
     r.tracked.push_back(t);
@@ -604,6 +820,12 @@ std::unique_ptr<TimeStepper<d>> makeTimeStepper(const mesh::Grid& grid, const Ma
   return std::make_unique<NewmarkFamily<d>>(grid, material, bc, contact, options);
 }
 
+template <int d>
+std::unique_ptr<TimeStepper<d>> makeTimeStepper(const std::vector<const mesh::Grid*>& grids, ContactModel<d>& model,
+                                                const NewmarkOptions& options) {
+  return std::make_unique<NewmarkFamily<d>>(grids, model, options);
+}
+
 template class NewmarkFamily<2>;
 template class NewmarkFamily<3>;
 template std::unique_ptr<TimeStepper<2>> makeTimeStepper<2>(const mesh::Grid&, const Material&,
@@ -611,6 +833,10 @@ template std::unique_ptr<TimeStepper<2>> makeTimeStepper<2>(const mesh::Grid&, c
                                                             const NewmarkOptions&);
 template std::unique_ptr<TimeStepper<3>> makeTimeStepper<3>(const mesh::Grid&, const Material&,
                                                             const BoundaryConditions&, const ContactSet&,
+                                                            const NewmarkOptions&);
+template std::unique_ptr<TimeStepper<2>> makeTimeStepper<2>(const std::vector<const mesh::Grid*>&, ContactModel<2>&,
+                                                            const NewmarkOptions&);
+template std::unique_ptr<TimeStepper<3>> makeTimeStepper<3>(const std::vector<const mesh::Grid*>&, ContactModel<3>&,
                                                             const NewmarkOptions&);
 
 }  // namespace obs

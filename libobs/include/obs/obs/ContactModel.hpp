@@ -53,8 +53,22 @@ public:
   void addMortarPair(int slave, int slaveId, int master, int masterId, std::string label,
                      const MortarOptions& options = {});
 
-  /// Stacks, couples and builds the problem. Throws obs::Error on invalid indices, a vertex
-  /// constrained by two couplings, and every error of the parts (MortarCoupling, ContactProblem).
+  /// The pieces of the problem before the ContactProblem is formed: the stacked system of the
+  /// bodies (stiffness, load, Dirichlet data of the displacements u), the couplings' constraints
+  /// merged into one ContactSet over the stacked vertices, and the basis transformation C of the
+  /// mortar pairs (rows() == 0 without mortar pairs). The dynamic runner (Newmark.hpp) builds its
+  /// step problems from these with its own matrices.
+  struct Parts {
+    BodySystem<d> system;
+    ContactSet contact;
+    mesh::CsrMatrix basis;
+  };
+  /// Stacks the bodies and builds the couplings (sets Body::offset, Coupling::coupling/nodes).
+  /// Throws obs::Error on invalid indices, a vertex constrained by two couplings, and every error of
+  /// the parts (MortarCoupling).
+  Parts assembleParts();
+  /// assembleParts() made into the ContactProblem. Throws what assembleParts() and the
+  /// ContactProblem constructor throw.
   ContactProblem<d> assemble();
 
   const std::vector<Body>& bodies() const { return bodies_; }

@@ -1,7 +1,7 @@
 #pragma once
 /// \file Newmark.hpp
-/// Time stepping for dynamic frictionless contact of one linear-elastic body with a rigid obstacle:
-/// the Newmark family of the reference thesis (Sec. 5.2, 5.3; docs/theory.md#newmark), behind the TimeStepper
+/// Time stepping for dynamic frictionless contact of linear-elastic bodies with rigid obstacles and
+/// with each other (dual mortar, ContactModel.hpp): the Newmark family of the reference thesis (Sec. 5.2, 5.3; docs/theory.md#newmark), behind the TimeStepper
 /// interface. Equation of motion M u'' + A u = f + contact forces, f the constant load of the
 /// BoundaryConditions (body force, Neumann), Dirichlet values constant in time, time step tau.
 /// Every step solves one variational inequality
@@ -47,6 +47,20 @@
 /// (and M~ v), the total contact force sum_p F_p nu_p with F_p the nodal multiplier divided by c'
 /// tau^2 (c' = 1/2, 1/4 for classical), node counts active for solution / predictor / only one of
 /// them, max penetration max_p (nu_p'u_p - g_p)^+, tracked vertices, solver iterations and time.
+///
+/// Several bodies (docs/theory.md#dynamic-two-body-contact). A ContactModel with several bodies and
+/// dual-mortar pairs is the same computation on the stacked unknowns: M, A and f are stacked
+/// block-diagonally, every contact quantity above is taken of the relative displacement x = (I - C) u
+/// of the mortar basis transformation (ContactProblem.hpp), so nu_p'x_p is the normal jump
+/// [u]_nu at slave node p and g_p its weighted gap. The predictor is the projection of u^n + tau v^n
+/// onto {[u]_nu <= g} in the lumped-mass norm (thesis (5.43)); its correction is the pair of equal
+/// and opposite forces -M^{-1} B'mu on both sides (B the mortar constraint rows, mu >= 0), computed by
+/// a projected Gauss-Seidel iteration on the multipliers (Hildreth) over the contact zone only. For a
+/// rigid obstacle B is diagonal and the projection is the node-wise formula above. The contact
+/// forces are physical forces on both bodies (action = reaction), the linear momentum M v of free
+/// bodies is conserved by every scheme (thesis (5.46)), and mass redistribution removes the mass of
+/// the slave and the coupled master vertices, body by body (each body keeps its own mass, centre of
+/// gravity and second moments).
 #include <Eigen/Core>
 
 #include <memory>
@@ -56,6 +70,7 @@
 
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/ContactModel.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/ContactSet.hpp"
 #include "obs/obs/MassMatrix.hpp"
@@ -103,8 +118,13 @@ struct NewmarkOptions {
   /// A node counts as active (in contact) if g_p - nu_p'u_p <= activeTolerance * U, U = max(|u|_inf,
   /// finite |g_p|, 1e-300).
   double activeTolerance = 1e-8;
-  /// Vertices whose displacement and velocity are reported in every record.
+  /// Vertices whose displacement and velocity are reported in every record (stacked numbering of
+  /// the bodies for a ContactModel).
   std::vector<Index> trackedVertices;
+  /// Predictor of a mortar model (Hildreth iteration on the multipliers): relative tolerance of the
+  /// constraint residual and the sweep cap (obs::Error if reached).
+  double predictorTolerance = 1e-13;
+  int maxPredictorSweeps = 10000;
   MassRedistributionOptions redistribution;
 };
 
@@ -118,6 +138,8 @@ struct DynamicState {
 struct TrackedVertex {
   Index vertex = -1;
   bool contactNode = false;  ///< normal values are defined (ContactSet direction) only then (else 0)
+  /// displacement, velocity: of the vertex; normalDisplacement, normalVelocity, gap: of the relative
+  /// displacement x = (I - C) u (mortar slave nodes: the normal jump), = the vertex's for obstacles
   Eigen::Vector3d displacement = Eigen::Vector3d::Zero(), velocity = Eigen::Vector3d::Zero();
   double normalDisplacement = 0, normalVelocity = 0;
   double gap = 0;  ///< g_p - nu'u_p (contact nodes)
@@ -141,7 +163,9 @@ struct StepRecord {
   double energyModified = 0;
   Eigen::Vector3d momentum = Eigen::Vector3d::Zero();              ///< M v (summed per component)
   Eigen::Vector3d momentumRedistributed = Eigen::Vector3d::Zero();  ///< M~ v (hasRedistributed)
-  Eigen::Vector3d contactForce = Eigen::Vector3d::Zero();  ///< sum_p F_p nu_p (force on the obstacle)
+  /// sum_p F_p nu_p over the contact nodes: the force on the obstacles, and for mortar pairs the
+  /// force the slave side exerts on the master side (the total over both bodies is zero).
+  Eigen::Vector3d contactForce = Eigen::Vector3d::Zero();
   Index activeSolution = 0, activePredictor = 0, predictorOnly = 0, solutionOnly = 0;
   double maxPenetration = 0;
   std::vector<TrackedVertex> tracked;
@@ -197,6 +221,12 @@ public:
   /// x'M~x < 0 grow, slowly when c tau^2 A dominates, so callers should warn.
   NewmarkFamily(const mesh::Grid& grid, const Material& material, const BoundaryConditions& bc,
                 const ContactSet& contact, const NewmarkOptions& options);
+  /// Several bodies: grids[i] is the grid of model body i (its leaf mesh is the body's mesh); the
+  /// model's couplings (obstacles, mortar pairs) are built by ContactModel::assembleParts() and the
+  /// TNNMG hierarchy is the bodies' grids block-stacked. The one-body constructor above is this one
+  /// with a model of one body and one obstacle coupling. Throws as above, and obs::Error if the grids
+  /// do not match the bodies or the model cannot be assembled.
+  NewmarkFamily(const std::vector<const mesh::Grid*>& grids, ContactModel<d>& model, const NewmarkOptions& options);
   ~NewmarkFamily() override;
 
   std::string name() const override { return std::string(obs::name(options_.scheme)); }
@@ -220,7 +250,9 @@ public:
   double energy(const Eigen::VectorXd& u, const Eigen::VectorXd& v) const;
   /// Nodal contact forces of the last step on the obstacle, F_p nu_p per vertex (vertex-major, zero
   /// away from the contact nodes; all zero after initialize()): the multiplier divided by c' tau^2.
-  /// The force on the body is -F; StepRecord::contactForce is its sum over the vertices.
+  /// The force on the body is -F; StepRecord::contactForce is its sum over the vertices. Mortar
+  /// pairs: F = (I - C') F~ with F~ the nodal multipliers at the slave nodes, i.e. the slave and the
+  /// master vertices carry equal and opposite totals (the force on the bodies is -F).
   Eigen::VectorXd contactForces() const;
   /// The state between steps (checkpoints; throws obs::Error before initialize()).
   NewmarkSchemeState schemeState() const;
@@ -230,7 +262,15 @@ public:
 
 private:
   struct Predictor;
+  struct MortarRow;
+  void init(const std::vector<const mesh::Grid*>& grids, ContactModel<d>& model);
   void checkInitialized() const;
+  /// x = (I - C) u (a copy of u without mortar pairs).
+  Eigen::VectorXd relative(const Eigen::VectorXd& u) const;
+  /// (I - C') y: nodal multipliers at the slave nodes as forces on both sides.
+  Eigen::VectorXd physicalForce(const Eigen::VectorXd& y) const;
+  /// The predictor correction weighted per contact node, -M^{-1} B'(w mu) (mortar) or w delta nu.
+  Eigen::VectorXd predictorCorrection(const Predictor& p, const std::vector<double>& weight) const;
   void computePredictor(Predictor& p) const;
   /// M x with the standard (redistributed: false) or the system's mass (redistributed: true).
   Eigen::VectorXd applyMass(const Eigen::VectorXd& x, bool redistributed) const;
@@ -250,6 +290,8 @@ private:
   std::vector<typename ContactProblem<d>::Constraint> constraints_;  ///< effective, non-penetration
   std::vector<double> gaps_;                     ///< physical gaps of the ContactSet
   std::unique_ptr<TNNMG<d>> solver_;
+  mesh::CsrMatrix basis_;          ///< C of the mortar pairs (rows() == 0: none)
+  std::vector<MortarRow> rows_;    ///< mortar: the constraint rows B of the predictor, per contact node
   DynamicState state_;
   bool initialized_ = false;
   Eigen::VectorXd previousMultiplier_;  ///< classical: tau^2/4 M F_con^n as a nodal vector
@@ -262,6 +304,10 @@ private:
 template <int d>
 std::unique_ptr<TimeStepper<d>> makeTimeStepper(const mesh::Grid& grid, const Material& material,
                                                 const BoundaryConditions& bc, const ContactSet& contact,
+                                                const NewmarkOptions& options);
+/// A stepper for a contact model of several bodies (grids[i]: body i).
+template <int d>
+std::unique_ptr<TimeStepper<d>> makeTimeStepper(const std::vector<const mesh::Grid*>& grids, ContactModel<d>& model,
                                                 const NewmarkOptions& options);
 
 extern template class NewmarkFamily<2>;
