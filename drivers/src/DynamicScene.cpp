@@ -17,6 +17,7 @@
 #include "obs/drivers/CsvWriter.hpp"
 #include "obs/drivers/ObstacleFactory.hpp"
 #include "obs/drivers/SceneSetup.hpp"
+#include "obs/drivers/SceneSolver.hpp"
 #include "obs/drivers/SolutionFields.hpp"
 #include "obs/drivers/Summary.hpp"
 #include "obs/drivers/VtkWriter.hpp"
@@ -100,6 +101,17 @@ struct Context {
   fs::path checkpointFile;
   const CheckpointRecord* restart = nullptr;  ///< --restart: the checkpoint to continue from
   fs::path restartFile;
+  /// Multi-body scenes: the bodies in stacked order (grid, leaf mesh, boundary conditions, first
+  /// stacked vertex); grid/mesh/bc above are the first body's. Empty for one-body scenes.
+  struct Body {
+    const Scene* spec = nullptr;
+    const mesh::Grid* grid = nullptr;
+    const mesh::Mesh* mesh = nullptr;
+    const BoundaryConditions* bc = nullptr;
+    Index offset = 0;
+  };
+  std::vector<Body> bodies;
+  bool multiBody() const { return !bodies.empty(); }
 };
 
 /// The driver's running figures of a scheme run (SchemeRun) in a checkpoint, "run/...", with the
@@ -241,13 +253,36 @@ std::vector<Field> stateFields(const Context& c, const Eigen::VectorXd& u, const
   return pf;
 }
 
-void writePvd(const fs::path& path, const std::vector<fs::path>& files, const std::vector<double>& times) {
+/// The .vtu fields of body b of a multi-body state: displacement, stress, von_mises, boundary_id,
+/// velocity (the body's segment of the stacked vectors).
+std::vector<Field> bodyStateFields(const Context& c, std::size_t b, const Eigen::VectorXd& u, const Eigen::VectorXd& v,
+                                   std::vector<Field>* cells) {
+  const Context::Body& body = c.bodies[b];
+  const int dim = body.mesh->dimension();
+  const mesh::Index n = body.mesh->numVertices();
+  ElasticitySolution s;
+  s.dimension = dim;
+  s.displacement = u.segment(static_cast<Eigen::Index>(body.offset) * dim, static_cast<Eigen::Index>(n) * dim);
+  recoverStresses(*body.mesh, body.spec->material, s);
+  std::vector<Field> pf = pointFields(*body.mesh, s);
+  *cells = cellFields(*body.mesh, s);
+  Field vel{"velocity", 3, std::vector<double>(3 * n, 0.0), false};
+  for (mesh::Index p = 0; p < n; ++p)
+    for (int a = 0; a < dim; ++a) vel.values[3 * p + a] = v[(body.offset + p) * dim + a];
+  pf.push_back(std::move(vel));
+  return pf;
+}
+
+/// The .pvd collection over time; with `parts` > 1 the files come in groups of `parts` per time
+/// (one per body), numbered as parts.
+void writePvd(const fs::path& path, const std::vector<fs::path>& files, const std::vector<double>& times,
+              std::size_t parts = 1) {
   std::ofstream out(path);
   if (!out) throw Error(path.string() + ": cannot write the .pvd collection");
   out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
          "  <Collection>\n";
   for (std::size_t i = 0; i < files.size(); ++i)
-    out << "    <DataSet timestep=\"" << std::setprecision(17) << times[i] << "\" part=\"0\" file=\""
+    out << "    <DataSet timestep=\"" << std::setprecision(17) << times[i] << "\" part=\"" << i % parts << "\" file=\""
         << files[i].filename().string() << "\"/>\n";
   out << "  </Collection>\n</VTKFile>\n";
   if (!out) throw Error(path.string() + ": cannot write the .pvd collection");
@@ -272,8 +307,23 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
 
   const auto t0 = Clock::now();
   std::unique_ptr<TimeStepper<d>> stepper;
+  ContactModel<d> model;  // multi-body scenes: the bodies and the [[contact]] couplings
+  std::vector<std::unique_ptr<Obstacle>> obstacles;
   try {
-    stepper = makeTimeStepper<d>(c.grid, scene.material, c.bc, c.contact, o);
+    if (c.multiBody()) {
+      std::vector<const mesh::Mesh*> meshes;
+      std::vector<const mesh::Grid*> grids;
+      std::vector<BoundaryConditions> bcs;
+      for (const Context::Body& b : c.bodies) {
+        meshes.push_back(b.mesh);
+        grids.push_back(b.grid);
+        bcs.push_back(*b.bc);
+      }
+      buildContactModel<d>(scene, meshes, bcs, model, obstacles);
+      stepper = makeTimeStepper<d>(grids, model, o);
+    } else {
+      stepper = makeTimeStepper<d>(c.grid, scene.material, c.bc, c.contact, o);
+    }
   } catch (const Error& e) {
     const int line = schemeName == dyn.scheme ? dyn.schemeLine : dyn.compareLine;  // 0: --compare-schemes
     throw Error(scene.where(line ? line : dyn.line) + "[dynamics] scheme = \"" +
@@ -346,6 +396,20 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
 
   auto writeState = [&](const StepRecord& r) {
     if (!writeVtk) return;
+    if (c.multiBody()) {
+      // one .vtu per body and step; the .pvd lists them as parts of one time step
+      for (std::size_t b = 0; b < c.bodies.size(); ++b) {
+        std::ostringstream name;
+        name << scene.name << "_" << c.bodies[b].spec->name << "_" << std::setw(6) << std::setfill('0') << r.step << ".vtu";
+        const fs::path path = c.dir / name.str();
+        std::vector<Field> cells;
+        const auto pf = bodyStateFields(c, b, stepper->state().u, stepper->state().v, &cells);
+        writeVtu(path, *c.bodies[b].mesh, pf, cells);
+        run.vtuFiles.push_back(path);
+        run.vtuTimes.push_back(r.time);
+      }
+      return;
+    }
     std::ostringstream name;
     name << scene.name << "_" << std::setw(6) << std::setfill('0') << r.step << ".vtu";
     const fs::path path = c.dir / name.str();
@@ -537,16 +601,56 @@ std::vector<std::string> dynamicSchemes(const Scene& scene, bool compareAll) {
   return out;
 }
 
-RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh::Mesh& mesh,
-                          const BoundaryConditions& bc, const RunOptions& options, RunResult r,
-                          Clock::time_point start) {
+namespace {
+
+/// The couplings of a multi-body scene merged into one ContactSet over the stacked vertices (the
+/// steppers build the same model again; this one names the contact nodes for tracking and reports).
+template <int d>
+ContactSet mergedContactSet(const Scene& scene, const std::vector<Context::Body>& bodies) {
+  std::vector<const mesh::Mesh*> meshes;
+  std::vector<BoundaryConditions> bcs;
+  for (const Context::Body& b : bodies) {
+    meshes.push_back(b.mesh);
+    bcs.push_back(*b.bc);
+  }
+  ContactModel<d> model;
+  std::vector<std::unique_ptr<Obstacle>> obstacles;
+  buildContactModel<d>(scene, meshes, bcs, model, obstacles);
+  try {
+    return model.assembleParts().contact;
+  } catch (const Error& e) {
+    throw Error(scene.where(scene.pairs.front().line) + "[[contact]] " + e.what());
+  }
+}
+
+/// runDynamicScene for one body (bodies empty) or several (Context::bodies).
+RunResult runDynamics(const Scene& scene, const mesh::Grid& grid, const mesh::Mesh& mesh, const BoundaryConditions& bc,
+                      const std::vector<Context::Body>& bodies, const RunOptions& options, RunResult r,
+                      Clock::time_point start) {
   const DynamicsSpec& dyn = *scene.dynamics;
   auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
   };
+  const bool multi = !bodies.empty();
   const int dim = mesh.dimension();
-  const mesh::Index n = mesh.numVertices();
+  const mesh::Index n = multi ? bodies.back().offset + bodies.back().mesh->numVertices() : mesh.numVertices();
   const InterruptGuard interrupts;  // SIGINT/SIGTERM: finish the step, checkpoint, stop
+  if (multi && (options.restart || options.stopAfterStep))
+    throw Error(scene.fileName + ": " + (options.restart ? "--restart" : "--stop-after-step") +
+                ": multi-body [dynamics] scenes write no checkpoints yet");
+  // the stacked vertex positions (one body: the mesh's)
+  std::vector<mesh::Point> positions;
+  std::vector<const Scene*> owner;  // the body description of each stacked vertex
+  if (multi) {
+    for (const Context::Body& b : bodies)
+      for (mesh::Index v = 0; v < b.mesh->numVertices(); ++v) {
+        positions.push_back(b.mesh->vertex(v));
+        owner.push_back(b.spec);
+      }
+  } else {
+    positions = mesh.vertices();
+    owner.assign(static_cast<std::size_t>(n), &scene);
+  }
 
   // --restart: the checkpoint must belong to this scene and grid
   std::optional<CheckpointRecord> restart;
@@ -556,8 +660,10 @@ RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh
   }
 
   // contact set, tracked vertices, initial state (all checked before any time step)
-  const auto obstacle = makeObstacle(scene, dim);
-  const ContactSet contact = makeContactSet(scene, mesh, *obstacle);
+  std::unique_ptr<Obstacle> obstacle;
+  if (!multi) obstacle = makeObstacle(scene, dim);
+  const ContactSet contact = multi ? (dim == 2 ? mergedContactSet<2>(scene, bodies) : mergedContactSet<3>(scene, bodies))
+                                   : makeContactSet(scene, mesh, *obstacle);
   std::vector<TrackedInfo> tracked;
   for (std::size_t k = 0; k < dyn.tracked.size(); ++k) {
     if (dyn.trackedDimensions[k] != dim)
@@ -568,41 +674,62 @@ RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh
     t.requested = dyn.tracked[k];
     double best = std::numeric_limits<double>::infinity();
     for (mesh::Index v = 0; v < n; ++v) {
-      const double dist = (mesh.vertex(v) - t.requested).norm();
+      const double dist = (positions[static_cast<std::size_t>(v)] - t.requested).norm();
       if (dist < best) {
         best = dist;
         t.vertex = v;
       }
     }
-    t.position = mesh.vertex(t.vertex);
+    t.position = positions[static_cast<std::size_t>(t.vertex)];
     t.distance = best;
     const Index node = contact.nodeOf(t.vertex);
     t.contactNode = node >= 0 && std::isfinite(contact.gap(node));
     tracked.push_back(t);
   }
 
-  Context c{scene, grid, mesh, bc, options, contact, tracked, {}, {}, 0, {}, false, {}, nullptr, {}};
+  Context c{scene, grid, mesh, bc, options, contact, tracked, {}, {}, 0, {}, false, {}, nullptr, {}, bodies};
   c.steps = dyn.steps ? *dyn.steps : static_cast<int>(std::ceil(*dyn.endTime / dyn.timeStep - 1e-9));
   c.u0 = Eigen::VectorXd::Zero(n * dim);
   c.v0 = Eigen::VectorXd::Zero(n * dim);
-  auto evaluate = [&](const std::vector<Expression>& e, int line, const char* key, Eigen::VectorXd& x) {
-    if (e.empty()) return;
-    if (static_cast<int>(e.size()) != dim)
-      throw Error(scene.where(line) + "[dynamics] " + key + " has " + std::to_string(e.size()) +
-                  " entries, expected " + std::to_string(dim) + " (one per coordinate of the " +
-                  std::to_string(dim) + "D mesh)");
-    for (mesh::Index v = 0; v < n; ++v)
+  // u^0, v^0: a body's own [[body]] initial_displacement / initial_velocity, else the [dynamics] ones
+  auto evaluate = [&](bool velocity, Eigen::VectorXd& x) {
+    for (mesh::Index v = 0; v < n; ++v) {
+      const Scene& body = *owner[static_cast<std::size_t>(v)];
+      const std::vector<Expression>& own = velocity ? body.bodyInitialVelocity : body.bodyInitialDisplacement;
+      const bool local = multi && !own.empty();
+      const std::vector<Expression>& e = local ? own : velocity ? dyn.initialVelocity : dyn.initialDisplacement;
+      if (e.empty()) continue;
+      const int line = local ? (velocity ? body.bodyInitialVelocityLine : body.bodyInitialDisplacementLine)
+                             : (velocity ? dyn.initialVelocityLine : dyn.initialDisplacementLine);
+      const std::string key = std::string(local ? "[[body]] '" + body.name + "' " : "[dynamics] ") +
+                              (velocity ? "initial_velocity" : "initial_displacement");
+      if (static_cast<int>(e.size()) != dim)
+        throw Error(scene.where(line) + key + " has " + std::to_string(e.size()) + " entries, expected " +
+                    std::to_string(dim) + " (one per coordinate of the " + std::to_string(dim) + "D mesh)");
       for (int a = 0; a < dim; ++a) {
-        const double value = e[a](mesh.vertex(v));
+        const double value = e[a](positions[static_cast<std::size_t>(v)]);
         if (!std::isfinite(value))
-          throw Error(scene.where(line) + "[dynamics] " + key + "[" + std::to_string(a) +
-                      "] is not finite at vertex " + std::to_string(v));
+          throw Error(scene.where(line) + key + "[" + std::to_string(a) + "] is not finite at vertex " +
+                      std::to_string(v));
         x[v * dim + a] = value;
       }
+    }
   };
-  evaluate(dyn.initialDisplacement, dyn.initialDisplacementLine, "initial_displacement", c.u0);
-  evaluate(dyn.initialVelocity, dyn.initialVelocityLine, "initial_velocity", c.v0);
-  const DirichletValues dirichlet = collectDirichlet(mesh, bc.dirichlet);
+  evaluate(false, c.u0);
+  evaluate(true, c.v0);
+  DirichletValues dirichlet;
+  if (multi) {
+    dirichlet.constrained.assign(static_cast<std::size_t>(n) * dim, 0);
+    dirichlet.values = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n) * dim);
+    for (const Context::Body& b : bodies) {
+      const DirichletValues own = collectDirichlet(*b.mesh, b.bc->dirichlet);
+      const auto off = static_cast<std::size_t>(b.offset) * dim;
+      std::copy(own.constrained.begin(), own.constrained.end(), dirichlet.constrained.begin() + static_cast<std::ptrdiff_t>(off));
+      dirichlet.values.segment(static_cast<Eigen::Index>(off), own.values.size()) = own.values;
+    }
+  } else {
+    dirichlet = collectDirichlet(mesh, bc.dirichlet);
+  }
   for (Eigen::Index i = 0; i < c.u0.size(); ++i)
     if (dirichlet.constrained[static_cast<std::size_t>(i)]) {
       c.u0[i] = dirichlet.values[i];
@@ -628,7 +755,7 @@ RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh
     throw Error(scene.fileName + ": --stop-after-step " + std::to_string(*options.stopAfterStep) +
                 " must lie in [1, " + std::to_string(c.steps - 1) + "] (the run has " + std::to_string(c.steps) +
                 " steps)");
-  c.checkpointing = !comparison;
+  c.checkpointing = !comparison && !multi;
   c.checkpointFile = c.dir / "checkpoint.h5";
   if (restart) {
     c.restart = &*restart;
@@ -687,8 +814,8 @@ RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh
   r.solver.seconds = primary.solverSeconds;
   r.solver.tolerance = scene.solver.tolerance.value_or(NewmarkOptions{}.solverTolerance);
   ContactReport cr;
-  cr.obstacle = scene.contact->obstacle;
-  cr.boundary = scene.contact->boundary.describe();
+  cr.obstacle = multi ? contact.obstacleName() : scene.contact->obstacle;
+  cr.boundary = multi ? contact.boundaryLabel() : scene.contact->boundary.describe();
   cr.boundaryVertices = contact.size();
   for (Index k = 0; k < contact.size(); ++k)
     if (std::isfinite(contact.gap(k))) ++cr.potentialVertices;
@@ -697,7 +824,24 @@ RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh
   cr.load = primary.last.contactForce.norm();
   cr.maxViolation = primary.last.maxPenetration;
   r.contact = cr;
-  {
+  if (multi) {
+    for (const Context::Body& b : bodies) {
+      BodyReport br;
+      br.name = b.spec->name;
+      br.vertices = b.mesh->numVertices();
+      br.cells = b.mesh->numCells();
+      ElasticitySolution s;
+      s.dimension = dim;
+      s.displacement = primary.u.segment(static_cast<Eigen::Index>(b.offset) * dim, br.vertices * dim);
+      recoverStresses(*b.mesh, b.spec->material, s);
+      for (mesh::Index v = 0; v < b.mesh->numVertices(); ++v)
+        br.maxDisplacement = std::max(br.maxDisplacement, s.displacement.segment(v * dim, dim).norm());
+      for (const Stress& st : s.cellStress) br.maxVonMises = std::max(br.maxVonMises, vonMises(st));
+      r.maxDisplacement = std::max(r.maxDisplacement, br.maxDisplacement);
+      r.maxVonMises = std::max(r.maxVonMises, br.maxVonMises);
+      r.bodies.push_back(br);
+    }
+  } else {
     ElasticitySolution s;
     s.dimension = dim;
     s.displacement = primary.u;
@@ -713,7 +857,7 @@ RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh
   for (const fs::path& f : primary.vtuFiles) r.outputFiles.push_back(f);
   if (!primary.vtuFiles.empty()) {
     const fs::path pvd = c.dir / (scene.name + ".pvd");
-    writePvd(pvd, primary.vtuFiles, primary.vtuTimes);
+    writePvd(pvd, primary.vtuFiles, primary.vtuTimes, c.multiBody() ? c.bodies.size() : 1);
     r.outputFiles.push_back(pvd);
   }
   recordRunRow(scene, c.dir, r, t, start);
@@ -745,6 +889,28 @@ RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh
   if (r.outputFiles.size() > 6) written += ", ... (" + std::to_string(r.outputFiles.size()) + " files)";
   progress("written: " + written + "}");
   return r;
+}
+
+}  // namespace
+
+RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh::Mesh& mesh,
+                          const BoundaryConditions& bc, const RunOptions& options, RunResult r,
+                          Clock::time_point start) {
+  return runDynamics(scene, grid, mesh, bc, {}, options, std::move(r), start);
+}
+
+RunResult runDynamicScene(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
+                          const std::vector<const mesh::Mesh*>& meshes, const std::vector<BoundaryConditions>& bcs,
+                          const RunOptions& options, RunResult r, Clock::time_point start) {
+  if (grids.size() != scene.bodies.size() || meshes.size() != grids.size() || bcs.size() != grids.size())
+    throw Error(scene.where(0) + "internal: multi-body dynamics with inconsistent body lists");
+  std::vector<Context::Body> bodies;
+  Index offset = 0;
+  for (std::size_t i = 0; i < grids.size(); ++i) {
+    bodies.push_back({&scene.bodies[i], grids[i], meshes[i], &bcs[i], offset});
+    offset += meshes[i]->numVertices();
+  }
+  return runDynamics(scene, *grids.front(), *meshes.front(), bcs.front(), bodies, options, std::move(r), start);
 }
 
 }  // namespace obs::drivers

@@ -249,6 +249,18 @@ DynamicsSpec parseDynamics(const Scene& scene, const toml::value& table) {
 
 void checkDynamicScene(const Scene& scene) {
   const DynamicsSpec& d = *scene.dynamics;
+  if (scene.multiBody()) {
+    // every body needs its density; the contact is the [[contact]] pairs (and obstacles of bodies)
+    for (const Scene& b : scene.bodies)
+      if (b.densityLine == 0)
+        throw Error(scene.where(b.materialLine ? b.materialLine : b.bodyLine) + "[[body]] '" + b.name +
+                    "': [material] density is missing: a scene with [dynamics] (line " + std::to_string(d.line) +
+                    ") needs the mass density rho > 0 of every body");
+    if (!scene.solver.type.empty() && scene.solver.type != "tnnmg")
+      throw Error(scene.where(scene.solver.line) + "[solver] type = \"" + scene.solver.type +
+                  "\" is not available with [dynamics] (the time steppers solve every step with tnnmg)");
+    return;
+  }
   if (scene.densityLine == 0)
     throw Error(scene.where(scene.materialLine) +
                 "[material] density is missing: a scene with [dynamics] (line " +

@@ -100,6 +100,7 @@ RunResult runMultiBodyScene(const Scene& scene, const RunOptions& options) {
     gridPtrs.push_back(&grids[i]);
     meshPtrs.push_back(&meshes[i]);
   }
+  if (scene.dynamics) return runDynamicScene(scene, gridPtrs, meshPtrs, bcs, options, std::move(r), start);
   const MultiBodySolution solved = solveMultiBodyScene(scene, gridPtrs, meshPtrs, bcs, options.iterationProgress);
   r.dofs = solved.dofs;
   r.freeDofs = solved.freeDofs;

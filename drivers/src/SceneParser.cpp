@@ -479,7 +479,9 @@ void parseMultiBody(Scene& scene, const toml::value& bodies, const toml::value* 
     throw Error(whereOf(scene.fileName, bodies) + "[[body]] must be an array of tables: write [[body]] (double "
                 "brackets) before each body");
   for (const toml::value& b : bodies.as_array()) {
-    const TomlSection s(scene.fileName, "[[body]]", b, {"name", "mesh", "material", "dirichlet", "neumann", "body_force"});
+    const TomlSection s(scene.fileName, "[[body]]", b,
+                        {"name", "mesh", "material", "dirichlet", "neumann", "body_force", "initial_velocity",
+                         "initial_displacement"});
     Scene body;
     body.fileName = scene.fileName;
     body.directory = scene.directory;
@@ -491,6 +493,14 @@ void parseMultiBody(Scene& scene, const toml::value& bodies, const toml::value* 
       if (other.name == body.name)
         s.fail("name", "= \"" + body.name + "\" is used by the body of line " + std::to_string(other.bodyLine));
     parseBodySections(body, b.as_table(), "body.", s.line());
+    if (s.has("initial_velocity")) {
+      body.bodyInitialVelocity = s.vector("initial_velocity").entries;
+      body.bodyInitialVelocityLine = s.line("initial_velocity");
+    }
+    if (s.has("initial_displacement")) {
+      body.bodyInitialDisplacement = s.vector("initial_displacement").entries;
+      body.bodyInitialDisplacementLine = s.line("initial_displacement");
+    }
     scene.bodies.push_back(std::move(body));
   }
   if (scene.bodies.size() < 2)
@@ -625,13 +635,25 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
         throw Error(whereOf(fileName, *v) + "[" + std::string(key) +
                     "] at the top level cannot be combined with [[body]] entries (put it inside the body: [body." +
                     key + "])");
-    for (const char* key : {"adaptivity", "dynamics"})
-      if (const toml::value* v = find(key))
-        throw Error(whereOf(fileName, *v) + "[" + std::string(key) +
-                    "] is not available for multi-body scenes yet (static two-body contact only)");
+    if (const toml::value* v = find("adaptivity"))
+      throw Error(whereOf(fileName, *v) +
+                  "[adaptivity] is not available for multi-body scenes yet (static and dynamic two-body contact only)");
     parseMultiBody(scene, *bodies, find("contact"));
     if (const toml::value* sv = find("solver")) scene.solver = parseSolver(scene, *sv, true);
     scene.output = parseOutput(scene, find("output"));
+    if (const toml::value* dy = find("dynamics")) {
+      scene.dynamics = parseDynamics(scene, *dy);
+      checkDynamicScene(scene);
+      for (Scene& b : scene.bodies) b.dynamics = scene.dynamics;  // bodies are dynamic (e.g. may move freely)
+    } else {
+      for (const Scene& b : scene.bodies)
+        if (b.bodyInitialVelocityLine || b.bodyInitialDisplacementLine)
+          throw Error(scene.where(b.bodyInitialVelocityLine ? b.bodyInitialVelocityLine : b.bodyInitialDisplacementLine) +
+                      "[[body]] '" + b.name + "': initial_velocity / initial_displacement need a [dynamics] section");
+    }
+    if (scene.output.checkpoint)
+      throw Error(scene.where(scene.output.checkpoint->line) +
+                  "[output] checkpoint is not available for multi-body scenes yet (one-body [dynamics] scenes only)");
     return scene;
   }
   parseBodySections(scene, t, "", 0);

@@ -271,29 +271,8 @@ MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mes
   const std::string type = scene.solverType();
   auto t0 = Clock::now();
   ContactModel<d> model;
-  for (std::size_t i = 0; i < scene.bodies.size(); ++i)
-    model.addBody(scene.bodies[i].name, *meshes[i], scene.bodies[i].material, bcs[i]);
-  for (const MortarPairSpec& p : scene.pairs) {
-    const Scene& sb = scene.bodies[p.slaveIndex];
-    const Scene& mb = scene.bodies[p.masterIndex];
-    const int sid = boundaryIdOf(scene, *meshes[p.slaveIndex], p.slave, "[[contact]] slave of body '" + sb.name + "':");
-    const int mid = boundaryIdOf(scene, *meshes[p.masterIndex], p.master, "[[contact]] master of body '" + mb.name + "':");
-    MortarOptions o;
-    o.minCoverage = p.minCoverage;
-    o.searchDistance = p.searchDistance;
-    model.addMortarPair(p.slaveIndex, sid, p.masterIndex, mid, sideLabel(p.slaveBody, p.slave) + " / " + sideLabel(p.masterBody, p.master), o);
-  }
-  // rigid obstacles of single bodies ([[contact]] with body = ...), after the pairs
   std::vector<std::unique_ptr<Obstacle>> obstacles;
-  std::vector<int> obstacleBody;
-  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
-    const Scene& body = scene.bodies[i];
-    if (!body.contact) continue;
-    obstacles.push_back(makeObstacle(body, d));
-    model.addObstacleContact(static_cast<int>(i), makeContactSet(body, *meshes[i], *obstacles.back()),
-                             sideLabel(body.name, body.contact->boundary) + " / obstacle " + body.contact->obstacle);
-    obstacleBody.push_back(static_cast<int>(i));
-  }
+  const std::vector<int> obstacleBody = buildContactModel<d>(scene, meshes, bcs, model, obstacles);
   std::optional<ContactProblem<d>> problem;
   try {
     problem.emplace(model.assemble());
@@ -435,6 +414,42 @@ MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mes
 }
 
 }  // namespace
+
+template <int d>
+std::vector<int> buildContactModel(const Scene& scene, const std::vector<const mesh::Mesh*>& meshes,
+                                   const std::vector<BoundaryConditions>& bcs, ContactModel<d>& model,
+                                   std::vector<std::unique_ptr<Obstacle>>& obstacles) {
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i)
+    model.addBody(scene.bodies[i].name, *meshes[i], scene.bodies[i].material, bcs[i]);
+  for (const MortarPairSpec& p : scene.pairs) {
+    const Scene& sb = scene.bodies[p.slaveIndex];
+    const Scene& mb = scene.bodies[p.masterIndex];
+    const int sid = boundaryIdOf(scene, *meshes[p.slaveIndex], p.slave, "[[contact]] slave of body '" + sb.name + "':");
+    const int mid = boundaryIdOf(scene, *meshes[p.masterIndex], p.master, "[[contact]] master of body '" + mb.name + "':");
+    MortarOptions o;
+    o.minCoverage = p.minCoverage;
+    o.searchDistance = p.searchDistance;
+    model.addMortarPair(p.slaveIndex, sid, p.masterIndex, mid, sideLabel(p.slaveBody, p.slave) + " / " + sideLabel(p.masterBody, p.master), o);
+  }
+  // rigid obstacles of single bodies ([[contact]] with body = ...), after the pairs
+  std::vector<int> obstacleBody;
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+    const Scene& body = scene.bodies[i];
+    if (!body.contact) continue;
+    obstacles.push_back(makeObstacle(body, d));
+    model.addObstacleContact(static_cast<int>(i), makeContactSet(body, *meshes[i], *obstacles.back()),
+                             sideLabel(body.name, body.contact->boundary) + " / obstacle " + body.contact->obstacle);
+    obstacleBody.push_back(static_cast<int>(i));
+  }
+  return obstacleBody;
+}
+
+template std::vector<int> buildContactModel<2>(const Scene&, const std::vector<const mesh::Mesh*>&,
+                                               const std::vector<BoundaryConditions>&, ContactModel<2>&,
+                                               std::vector<std::unique_ptr<Obstacle>>&);
+template std::vector<int> buildContactModel<3>(const Scene&, const std::vector<const mesh::Mesh*>&,
+                                               const std::vector<BoundaryConditions>&, ContactModel<3>&,
+                                               std::vector<std::unique_ptr<Obstacle>>&);
 
 MultiBodySolution solveMultiBodyScene(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
                                       const std::vector<const mesh::Mesh*>& meshes,

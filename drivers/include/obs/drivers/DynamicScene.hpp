@@ -50,4 +50,15 @@ RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh
                           const BoundaryConditions& bc, const RunOptions& options, RunResult result,
                           std::chrono::steady_clock::time_point start);
 
+/// A multi-body scene (scene.bodies, [[contact]] pairs) with [dynamics]: body i on grids[i] with
+/// leaf mesh meshes[i] and conditions bcs[i], stacked in this order; the same runner with the
+/// contact model of the scene (SceneSolver.hpp buildContactModel). Initial states per body
+/// ([[body]] initial_velocity / initial_displacement, default the [dynamics] ones); one .vtu per
+/// body and output step (<scene>_<body>_NNNNNN.vtu, parts of the .pvd); tracked points are the
+/// nearest vertex of any body (a slave node of a pair reports the normal jump [u]_nu). Multi-body
+/// runs write no checkpoints yet (--restart and --stop-after-step are errors).
+RunResult runDynamicScene(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
+                          const std::vector<const mesh::Mesh*>& meshes, const std::vector<BoundaryConditions>& bcs,
+                          const RunOptions& options, RunResult result, std::chrono::steady_clock::time_point start);
+
 }  // namespace obs::drivers

@@ -171,6 +171,10 @@ struct Scene {
   /// line of its [[body]]; solver, output and contact are those of the enclosing scene.
   std::vector<Scene> bodies;
   int bodyLine = 0;
+  /// [[body]] initial_velocity / initial_displacement of a multi-body [dynamics] scene, vector
+  /// expressions as in [dynamics] (empty: the [dynamics] values, which then apply to every body).
+  std::vector<Expression> bodyInitialVelocity, bodyInitialDisplacement;
+  int bodyInitialVelocityLine = 0, bodyInitialDisplacementLine = 0;
   /// [[contact]] pairs of a multi-body scene.
   std::vector<MortarPairSpec> pairs;
   bool multiBody() const { return !bodies.empty(); }

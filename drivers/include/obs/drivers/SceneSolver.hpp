@@ -11,6 +11,7 @@
 /// Solver failures (NaN, divergence, stagnation) are obs::Errors naming the scene and solver; an
 /// iteration that reaches max_iterations returns converged = false (the caller decides).
 #include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -20,7 +21,9 @@
 #include "obs/drivers/VtkWriter.hpp"
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/ContactModel.hpp"
 #include "obs/obs/LinearElasticity.hpp"
+#include "obs/obs/Obstacle.hpp"
 
 namespace obs::drivers {
 
@@ -62,6 +65,16 @@ struct MultiBodySolution {
   long long dofs = 0, freeDofs = 0;
   double assemblySeconds = 0, solveSeconds = 0;
 };
+
+/// The contact model of a multi-body scene, built once for every runner (static, dynamic): the
+/// bodies (scene.bodies[i] on meshes[i] with bcs[i]), the [[contact]] mortar pairs in scene order,
+/// then the rigid obstacles of single bodies (their obstacles are kept in `obstacles`, which must
+/// outlive the model). Returns the body of each obstacle coupling, in order. Throws obs::Error
+/// naming the scene line for unknown boundaries.
+template <int d>
+std::vector<int> buildContactModel(const Scene& scene, const std::vector<const mesh::Mesh*>& meshes,
+                                   const std::vector<BoundaryConditions>& bcs, ContactModel<d>& model,
+                                   std::vector<std::unique_ptr<Obstacle>>& obstacles);
 
 /// Solves a validated multi-body scene (Scene::bodies, Scene::pairs): the bodies' grids, their leaf
 /// meshes and boundary conditions in the order of Scene::bodies. The problem is built by the same
