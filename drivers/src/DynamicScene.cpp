@@ -680,6 +680,17 @@ RunResult runDynamics(const Scene& scene, const mesh::Grid& grid, const mesh::Me
         t.vertex = v;
       }
     }
+    // coinciding vertices (the two sides of a contact interface): the contact node
+    const double tie = best + 1e-12 * (1 + best);
+    for (mesh::Index v = 0; v < n; ++v)
+      if ((positions[static_cast<std::size_t>(v)] - t.requested).norm() <= tie) {
+        const Index node = contact.nodeOf(v);
+        if (node >= 0 && std::isfinite(contact.gap(node))) {
+          t.vertex = v;
+          best = (positions[static_cast<std::size_t>(v)] - t.requested).norm();
+          break;
+        }
+      }
     t.position = positions[static_cast<std::size_t>(t.vertex)];
     t.distance = best;
     const Index node = contact.nodeOf(t.vertex);

@@ -1,7 +1,7 @@
 #pragma once
 /// \file DynamicScene.hpp
 /// `obs run` for scenes with [dynamics]: dynamic frictionless contact of one linear-elastic body
-/// with a rigid obstacle, integrated by a scheme of the Newmark family (libobs Newmark.hpp,
+/// with a rigid obstacle, or of several bodies coupled by dual mortar (multi-body scenes), integrated by a scheme of the Newmark family (libobs Newmark.hpp,
 /// docs/theory.md#newmark; thesis Sec. 5.2, 5.3), optionally compared with other schemes on the same scene.
 ///
 /// Per scheme: M u'' + A u = f + contact forces from u^0, v^0 ([dynamics] initial_displacement,

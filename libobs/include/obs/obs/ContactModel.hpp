@@ -6,7 +6,8 @@
 /// master boundary of another; MortarCoupling.hpp). assemble() stacks the bodies (MultiBody.hpp),
 /// merges the couplings' constraints into one ContactSet over the stacked vertices and builds the
 /// ContactProblem with the mortar basis transformation (none if there is no mortar pair), so TNNMG,
-/// PDAS and PGS solve every model alike. A one-body Signorini problem is the model with one body
+/// PDAS and PGS solve every model alike; NewmarkFamily (Newmark.hpp) builds its step problems
+/// from assembleParts(). A one-body Signorini problem is the model with one body
 /// and one obstacle coupling, and gives the same ContactProblem as ContactProblem(mesh, material,
 /// bc, contactSet).
 #include <memory>
