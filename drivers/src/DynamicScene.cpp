@@ -568,6 +568,9 @@ nlohmann::json schemeJson(const Context& c, const SchemeRun& run) {
   if (run.hasRedistributed) {
     j["initial_energy_redistributed"] = run.initialEnergyRedistributed;
     j["final_energy_redistributed"] = run.finalEnergyRedistributed;
+    j["energy_ratio_redistributed"] = run.initialEnergyRedistributed != 0
+                                          ? nlohmann::json(run.finalEnergyRedistributed / run.initialEnergyRedistributed)
+                                          : nlohmann::json(nullptr);
   }
   return j;
 }

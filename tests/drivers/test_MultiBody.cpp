@@ -246,6 +246,17 @@ TEST(MultiBodyScene, DynamicImpactConservesMomentumAndWritesEveryBody) {
       EXPECT_TRUE(fs::exists(dir / ("twobody_impact_" + std::string(body) + "_" + step + ".vtu"))) << body << step;
   const std::string pvd = slurp(dir / "twobody_impact.pvd");
   EXPECT_NE(pvd.find("part=\"1\" file=\"twobody_impact_upper_000120.vtu\""), std::string::npos);
+  // a comparison keeps the energy ratio with M~ for the redistributed schemes
+  run(kScenes / "twobody_impact.toml", "impact_klr",
+      {"dynamics.compare=[\"khenous-laborde-renard\"]", "dynamics.output_stride=1000"});
+  const auto cmp = summaryOf(kTmp / "impact_klr").at("dynamics_comparison");
+  ASSERT_EQ(cmp.size(), 2u);
+  EXPECT_FALSE(cmp[0].contains("energy_ratio_redistributed"));
+  const auto& klr = cmp[1];
+  EXPECT_EQ(klr.at("scheme").get<std::string>(), "khenous-laborde-renard");
+  EXPECT_DOUBLE_EQ(klr.at("energy_ratio_redistributed").get<double>(),
+                   klr.at("final_energy_redistributed").get<double>() / klr.at("initial_energy_redistributed").get<double>());
+  EXPECT_LT(klr.at("max_penetration").get<double>(), 1e-10);
   // multi-body runs write no checkpoints yet: a clear error
   RunOptions o;
   o.outputDirectory = kTmp / "impact_stop";

@@ -130,10 +130,13 @@ TEST(NewmarkTwoBody, EverySchemeConservesMomentumAndBalancesTheContactForces) {
     EXPECT_LT(maxImbalance, 1e-12);      // action = reaction, node by node summed
     EXPECT_LT(maxMomentumError, 1e-11);  // thesis (5.46)
     EXPECT_GT(upperSpeed, lowerSpeed);   // they bounced: the upper body moves up relative to the lower
-    if (!persistency) EXPECT_LT(maxPenetration, 1e-9);
+    if (!persistency) {
+      EXPECT_LT(maxPenetration, 1e-9);
+    }
     if (scheme == NewmarkScheme::ContactImplicit || scheme == NewmarkScheme::ContactStabilized ||
-        scheme == NewmarkScheme::ImprovedContactStabilized)
+        scheme == NewmarkScheme::ImprovedContactStabilized) {
       EXPECT_LT(maxGain, 1e-10);  // dissipative (Prop. 5.3.1 with the mortar projection)
+    }
   }
 }
 
