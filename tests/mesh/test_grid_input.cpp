@@ -6,6 +6,7 @@
 
 #include <string>
 
+#include "../GridCheck.hpp"
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Grid.hpp"
@@ -75,6 +76,7 @@ TEST(GridInput, MirroredCellsAreReorientedAndReported) {
     }
     g.mark(0);
     g.adapt();
+    obs::test::checkGrid(g);
     const Mesh leaf = g.leafMesh();
     EXPECT_TRUE(checkConformity(leaf).conforming()) << name(t);
     EXPECT_NEAR(totalVolume(leaf), totalVolume(box), 1e-12) << name(t);

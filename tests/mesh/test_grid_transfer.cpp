@@ -10,6 +10,7 @@
 #include <functional>
 #include <random>
 
+#include "../GridCheck.hpp"
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Grid.hpp"
@@ -105,6 +106,7 @@ TEST_P(TransferTest, LocalProlongationsWithGreenElementsAreExact) {
         ++marked;
       }
     green += g.adapt().greenClosed;
+    obs::test::checkGrid(g);
   }
   ASSERT_GT(green, 0);
   for (int l = 0; l < g.maxLevel(); ++l)
@@ -137,6 +139,7 @@ TEST_P(TransferTest, LeafTransferAcrossAdaptInterpolatesTheOldLeafFunction) {
       ++marked;
     }
   const AdaptResult r = g.adapt();
+  obs::test::checkGrid(g);
   ASSERT_GT(r.greenRemoved, 0);
   const GridView after = g.leafView();
   const CsrMatrix T = transferMatrix(g, before, after);
@@ -185,6 +188,7 @@ TEST_P(TransferTest, LeafTransferOverManyAdaptCycles) {
         ++marked;
       }
     g.adapt();
+    obs::test::checkGrid(g);
     const GridView after = g.leafView();
     checkTransfer(transferMatrix(g, before, after), before, after, "cycle " + std::to_string(cycle));
   }
@@ -216,6 +220,7 @@ TEST_P(TransferTest, NewVertexDataFromOrigins) {
         ++marked;
       }
     const AdaptResult r = g.adapt();
+    obs::test::checkGrid(g);
     g.interpolateNewVertices(values, r.firstNewVertex, 2);
     ASSERT_EQ(values.size(), 2u * g.numVertices());
     for (Index v = r.firstNewVertex; v < g.numVertices(); ++v) {

@@ -11,6 +11,7 @@
 #include <cstdlib>
 #include <iostream>
 
+#include "../GridCheck.hpp"
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Grid.hpp"
@@ -334,6 +335,7 @@ TEST(LinearMultigrid, LocallyRefinedGridConverges) {
       if ((c - Point(0.5, 0, 0)).norm() < 0.3) grid.mark(e);
     }
     grid.adapt();
+    obs::test::checkGrid(grid);
   }
   const mesh::Mesh m = grid.leafView().mesh;
   const auto s = linearSystem<2>(m);

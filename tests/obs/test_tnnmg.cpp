@@ -10,6 +10,7 @@
 #include <iostream>
 #include <memory>
 
+#include "../GridCheck.hpp"
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Grid.hpp"
@@ -52,6 +53,7 @@ void refineNear(mesh::Grid& grid, const Point& centre, double radius, int cycles
       if ((x - centre).norm() < radius) grid.mark(e);
     }
     grid.adapt();
+    obs::test::checkGrid(grid);
   }
 }
 
