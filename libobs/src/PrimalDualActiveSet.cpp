@@ -1,6 +1,7 @@
 #include "obs/obs/PrimalDualActiveSet.hpp"
 
 #include <cmath>
+#include <limits>
 #include <optional>
 #include <set>
 
@@ -39,11 +40,17 @@ ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Ei
   // The active set only changes values (Dirichlet rows/columns), never the pattern: the ordering and
   // symbolic analysis of the first step are reused by every later factorisation.
   std::optional<CholmodSolver> cholmod;
+  // A start node that touches its bound with no force on it (indicator zero up to the rounding of
+  // the gap and the residual) starts active: a body held only by contact (the upper body of two
+  // touching blocks) is otherwise left floating, and the first Newton matrix singular, whenever the
+  // rounding of its zero gaps happens to fall on the inactive side.
+  const double tie = 1e-12 * std::max(rot.rhs.template lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());
   for (int k = 0;; ++k) {
     Index activeCount = 0;
     for (std::size_t i = 0; i < bounded.size(); ++i) {
       const Index p = bounded[i];
-      active[i] = mu[i] + cp[i] * (w[p * d] - rot.upper[p]) > 0;
+      const double indicator = mu[i] + cp[i] * (w[p * d] - rot.upper[p]);
+      active[i] = indicator > 0 || (k == 0 && std::abs(indicator) <= tie);
       activeCount += active[i];
     }
     if (k > 0 && active == previous) {

@@ -233,7 +233,14 @@ INSTANTIATE_TEST_SUITE_P(FaceTypes, MortarPatch3D,
                                            PatchCase{CellType::Hexahedron, 3, CellType::Tetrahedron, 4},
                                            PatchCase{CellType::Hexahedron, 5, CellType::Hexahedron, 7},
                                            PatchCase{CellType::Tetrahedron, 2, CellType::Prism, 3},
-                                           PatchCase{CellType::Prism, 4, CellType::Pyramid, 3}));
+                                           PatchCase{CellType::Prism, 4, CellType::Pyramid, 3}),
+                         [](const ::testing::TestParamInfo<PatchCase>& info) {
+                           // e.g. "tetrahedron3_hexahedron4": lower and upper block (deterministic
+                           // names; gtest would otherwise print the struct's padding bytes)
+                           const PatchCase& c = info.param;
+                           return std::string(mesh::name(c.lower)) + std::to_string(c.nLower) + "_" +
+                                  std::string(mesh::name(c.upper)) + std::to_string(c.nUpper);
+                         });
 
 TEST(MortarPatch2D, ConstantPressureAndLinearDisplacementExact) {
   for (auto [lt, ut] : {std::pair{CellType::Quadrilateral, CellType::Triangle},
