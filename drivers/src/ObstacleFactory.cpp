@@ -6,6 +6,8 @@
 #include <sstream>
 
 #include "obs/mesh/Error.hpp"
+#include "obs/mesh/SurfaceMesh.hpp"
+#include "obs/obs/SurfaceObstacle.hpp"
 
 namespace obs::drivers {
 
@@ -58,6 +60,10 @@ std::vector<ObstacleType> makeTypes() {
        true,
        {{"centre", Kind::Point, true}, {"radius", Kind::Number, true, Range::Positive}, kDirection}},
       {"expression", 0, false, {{"gap", Kind::Expression, true}, kDirection}},
+      {"surface",
+       0,
+       false,
+       {{"file", Kind::File, true}, kDirection, {"reverse", Kind::Boolean, false}}},
       {"smiley",
        3,
        false,
@@ -193,6 +199,16 @@ std::unique_ptr<Obstacle> makeObstacle(const Scene& scene, int dim) {
       return std::make_unique<BallObstacle>(p.point("centre"), p.number("radius"), nu, mode);
     if (name == "disk")
       return std::make_unique<DiskObstacle>(p.point("centre"), p.number("radius"), nu, mode);
+    if (name == "surface") {
+      const ContactSpec::File& file = c.files.at("file");
+      const mesh::SurfaceMesh surface = mesh::readSurfaceMesh(file.path);
+      if (surface.dimension != dim)
+        throw Error(scene.where(file.line) + "[contact] file = \"" + file.text + "\" is a " +
+                    (surface.dimension == 2 ? "2D surface (segments)" : "3D surface (triangles, quadrilaterals)") +
+                    ", the mesh is " + std::to_string(dim) + "D");
+      const auto reverse = c.flags.find("reverse");
+      return std::make_unique<SurfaceObstacle>(surface, nu, reverse != c.flags.end() && reverse->second.value);
+    }
     if (name == "expression") {
       if (!c.gap) throw Error(scene.where(c.line) + "[contact] obstacle = \"expression\" needs gap");
       const std::string what = scene.where(c.gapLine) + "[contact] gap = \"" + c.gap->text() + "\"";

@@ -336,6 +336,21 @@ ContactSpec parseContact(const Scene& scene, const toml::value& table) {
         spec.gap = s.expression(key);
         spec.gapLine = s.line(key);
         break;
+      case ObstacleParameter::Kind::File: {
+        const std::string file = s.string(key);
+        if (file.empty()) s.fail(key, "must not be empty");
+        fs::path path(file);
+        if (path.is_relative()) path = scene.directory / path;
+        path = path.lexically_normal();
+        std::error_code ec;
+        if (!fs::is_regular_file(path, ec))
+          s.fail(key, "= \"" + file + "\": no such file (looked for " + path.string() + ")");
+        spec.files[key] = {path, file, s.line(key)};
+        break;
+      }
+      case ObstacleParameter::Kind::Boolean:
+        spec.flags[key] = {s.boolean(key), s.line(key)};
+        break;
     }
   }
   return spec;

@@ -11,6 +11,7 @@
 #include "obs/mesh/CurvedMeshes.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/MortarCoupling.hpp"
+#include "obs/obs/SurfaceObstacle.hpp"
 #include "obs/mesh/Gmsh.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
 
@@ -220,14 +221,33 @@ int contactBoundaryId(const Scene& scene, const mesh::Mesh& mesh) {
 
 ContactSet makeContactSet(const Scene& scene, const mesh::Mesh& mesh, const Obstacle& obstacle) {
   const int id = contactBoundaryId(scene, mesh);
+  const std::string what = scene.where(scene.contact->line) + "[contact] obstacle = \"" +
+                           scene.contact->obstacle + "\" on boundary " +
+                           scene.contact->boundary.describe() + ": ";
+  std::optional<ContactSet> contact;
   try {
-    return ContactSet(mesh, id, obstacle);
+    contact.emplace(mesh, id, obstacle);
   } catch (const Error& e) {
     if (std::string(e.what()).rfind(scene.fileName, 0) == 0) throw;  // names its scene line already
-    throw Error(scene.where(scene.contact->line) + "[contact] obstacle = \"" +
-                scene.contact->obstacle + "\" on boundary " + scene.contact->boundary.describe() +
-                ": " + e.what());
+    throw Error(what + e.what());
   }
+  // A surface mesh that no line from the contact boundary meets from the front is a mistake in the
+  // scene (misplaced, or its faces ordered the wrong way round), not an unconstrained problem.
+  if (const auto* surface = dynamic_cast<const SurfaceObstacle*>(&obstacle)) {
+    bool constrained = false, back = false;
+    for (Index k = 0; k < contact->size() && !constrained; ++k) {
+      constrained = std::isfinite(contact->gap(k));
+      back = back || surface->seesOnlyBackFaces(mesh.vertex(contact->vertex(k)));
+    }
+    if (!constrained && back)
+      throw Error(what + "the lines along direction from the contact vertices meet only the backs of "
+                  "the faces of " + surface->source() + ": its faces are ordered clockwise seen from "
+                  "outside the obstacle; set reverse = true (or reorder them)");
+    if (!constrained)
+      throw Error(what + "no line along direction from a contact vertex meets " + surface->source() +
+                  ": the surface lies beside the body (check its coordinates and direction)");
+  }
+  return std::move(*contact);
 }
 
 void checkDirichletContact(const Scene& scene, const mesh::Mesh& mesh, const ContactSet& contact) {

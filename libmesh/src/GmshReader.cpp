@@ -28,6 +28,7 @@
 
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Gmsh.hpp"
+#include "obs/mesh/SurfaceMesh.hpp"
 
 namespace obs::mesh {
 namespace {
@@ -246,6 +247,17 @@ public:
   explicit Parser(LineReader& in) : in_(in) {}
 
   Mesh parse() {
+    parseSections();
+    return assemble();
+  }
+
+  SurfaceMesh parseSurface() {
+    parseSections();
+    return assembleSurface();
+  }
+
+private:
+  void parseSections() {
     parseMeshFormat();
     while (in_.next()) {
       const std::string_view header = in_.line();
@@ -269,10 +281,8 @@ public:
       else
         skipSection(name);
     }
-    return assemble();
   }
 
-private:
   // --- sections ------------------------------------------------------------------------------
 
   /// "$MeshFormat / version file-type data-size / $EndMeshFormat" at the start of the file.
@@ -594,7 +604,9 @@ private:
 
   // --- assembly ------------------------------------------------------------------------------
 
-  Mesh assemble() {
+  /// Checks the sections that must exist and replaces the node tags in elementNodes_ by node
+  /// positions.
+  void resolveNodes() {
     if (elementsLine_ == 0) in_.fail("no $Elements section");
     if (nodesLine_ == 0) in_.fail("no $Nodes section");
     if (nodeTags_.size() > static_cast<std::size_t>(std::numeric_limits<Index>::max()))
@@ -616,7 +628,10 @@ private:
           in_.failAt(b.line, "element block refers to entity (dimension " +
                                  std::to_string(b.entityDim) + ", tag " +
                                  std::to_string(b.entityTag) + "), which $Entities does not list");
+  }
 
+  Mesh assemble() {
+    resolveNodes();
     int dim = 0;
     for (const RawElement& e : elements_) dim = std::max(dim, e.dim);
     if (dim < 2) in_.failAt(elementsLine_, "no cells: $Elements holds no 2D or 3D elements");
@@ -667,6 +682,41 @@ private:
     return mesh;
   }
 
+  /// The elements of the highest dimension as the faces of a surface mesh (SurfaceMesh.hpp).
+  SurfaceMesh assembleSurface() {
+    resolveNodes();
+    int dim = 0;
+    for (const RawElement& e : elements_) dim = std::max(dim, e.dim);
+    if (dim == 3)
+      in_.failAt(elementsLine_, "holds volume elements; a surface mesh has triangles or quadrilaterals (3D) "
+                                "or segments (2D) only");
+    if (dim < 1) in_.failAt(elementsLine_, "no faces: $Elements holds no segments, triangles or quadrilaterals");
+    SurfaceMesh surface;
+    surface.dimension = dim + 1;
+    std::vector<Index> vertexOf(nodeTags_.size(), -1);
+    for (const RawElement& e : elements_)
+      if (e.dim == dim)
+        for (int k = 0; k < e.numNodes; ++k) {
+          const std::size_t n = node(e, k);
+          if (vertexOf[n] >= 0) continue;
+          const Point& x = nodeCoords_[n];
+          if (dim == 1 && x.z() != 0)
+            in_.failAt(e.line, "segment " + std::to_string(e.tag) + " uses node " + std::to_string(nodeTags_[n]) +
+                                   " with z = " + std::to_string(x.z()) +
+                                   "; the segments of a 2D surface lie in the plane z = 0");
+          vertexOf[n] = static_cast<Index>(surface.vertices.size());
+          surface.vertices.push_back(x);
+        }
+    for (const RawElement& e : elements_) {
+      if (e.dim != dim) continue;
+      std::array<Index, 4> face{-1, -1, -1, -1};
+      for (int k = 0; k < e.numNodes; ++k) face[static_cast<std::size_t>(k)] = vertexOf[node(e, k)];
+      surface.types.push_back(*cellTypeFromGmsh(e.gmshType));
+      surface.faces.push_back(face);
+    }
+    return surface;
+  }
+
   LineReader& in_;
   bool v4_ = false;
   bool hasEntities_ = false;
@@ -688,7 +738,10 @@ private:
 
 }  // namespace
 
-Mesh readGmsh(const std::filesystem::path& file) {
+namespace {
+
+/// The text of a .msh file, or an obs::Error naming what is wrong with the path.
+std::string readMshText(const std::filesystem::path& file) {
   const std::string fileName = file.string();
   std::error_code ec;
   if (!std::filesystem::exists(file, ec)) throw Error(fileName + ": file not found");
@@ -698,7 +751,22 @@ Mesh readGmsh(const std::filesystem::path& file) {
   if (!stream) throw Error(fileName + ": cannot open file");
   std::string text((std::istreambuf_iterator<char>(stream)), std::istreambuf_iterator<char>());
   if (stream.bad()) throw Error(fileName + ": read error");
-  return readGmshString(std::move(text), fileName);
+  return text;
+}
+
+}  // namespace
+
+Mesh readGmsh(const std::filesystem::path& file) { return readGmshString(readMshText(file), file.string()); }
+
+SurfaceMesh readGmshSurface(const std::filesystem::path& file) {
+  return readGmshSurfaceString(readMshText(file), file.string());
+}
+
+SurfaceMesh readGmshSurfaceString(std::string text, const std::string& fileName) {
+  LineReader lines(std::move(text), fileName);
+  SurfaceMesh surface = Parser(lines).parseSurface();
+  surface.source = fileName;
+  return surface;
 }
 
 Mesh readGmshString(std::string text, const std::string& fileName) {

@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -620,4 +621,122 @@ TEST(ContactSceneCli, VerboseProgressOnStderrAndOneLineErrors) {
   EXPECT_EQ(std::count(err3.begin(), err3.end(), '\n'), 1) << err3;
   EXPECT_EQ(err3.rfind("obs: error: ", 0), 0u) << err3;
   EXPECT_TRUE(contains(err3, "did not converge in 2 iterations")) << err3;
+}
+
+// --- obstacles from surface meshes (docs/scenes.md#surface-obstacles) -----------------------------
+
+namespace {
+
+/// A 2D polyline as a Gmsh 2.2 file of segments through `points`, in the given order.
+fs::path writePolyline(const std::string& name, const std::vector<std::array<double, 2>>& points) {
+  std::ostringstream s;
+  s << "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n" << points.size() << "\n";
+  for (std::size_t i = 0; i < points.size(); ++i) s << i + 1 << " " << points[i][0] << " " << points[i][1] << " 0\n";
+  s << "$EndNodes\n$Elements\n" << points.size() - 1 << "\n";
+  for (std::size_t i = 0; i + 1 < points.size(); ++i) s << i + 1 << " 1 2 0 1 " << i + 1 << " " << i + 2 << "\n";
+  s << "$EndElements\n";
+  fs::create_directories(kTmp);
+  std::ofstream(kTmp / name) << s.str();
+  return kTmp / name;
+}
+
+double maxDifference(const std::vector<double>& a, const std::vector<double>& b) {
+  EXPECT_EQ(a.size(), b.size());
+  double d = 0;
+  for (std::size_t i = 0; i < std::min(a.size(), b.size()); ++i) d = std::max(d, std::abs(a[i] - b[i]));
+  return d;
+}
+
+double maxAbs(const std::vector<double>& a) {
+  double m = 0;
+  for (double v : a) m = std::max(m, std::abs(v));
+  return m;
+}
+
+}  // namespace
+
+TEST(ContactScene, SurfaceObstacleEqualsTheAnalyticObstacleItTriangulates) {
+  // 2D: the wedge g = (0 - y) + 0.02 |x - 0.5| as a polyline through its apex, ordered right to
+  // left (outward normals up, towards the punch)
+  writePolyline("wedge.msh", {{2, -0.03}, {0.5, 0}, {-1, -0.03}});
+  const std::string wedge = "\n[contact]\nboundary = \"bottom\"\nobstacle = \"wedge\"\napex = [0.5, 0]\nslope = 0.02\n";
+  const std::string surface = "\n[contact]\nboundary = \"bottom\"\nobstacle = \"surface\"\nfile = \"wedge.msh\"\n";
+  const std::string solver = "[solver]\ntolerance = 1e-12\n";
+  const RunResult rw = runIn(writeScene("wedge_analytic", punchScene(3, wedge, solver)), kTmp / "wedge_analytic");
+  const RunResult rs = runIn(writeScene("wedge_surface", punchScene(3, surface, solver)), kTmp / "wedge_surface");
+  ASSERT_TRUE(rw.contact && rs.contact);
+  EXPECT_GT(rw.contact->actualVertices, 2);
+  EXPECT_EQ(rs.contact->actualVertices, rw.contact->actualVertices);
+  EXPECT_NEAR(rs.contact->load, rw.contact->load, 1e-9 * std::abs(rw.contact->load));
+  const auto uw = readVtu(kTmp / "wedge_analytic" / "wedge_analytic.vtu").array("displacement");
+  const auto us = readVtu(kTmp / "wedge_surface" / "wedge_surface.vtu").array("displacement");
+  EXPECT_LT(maxDifference(uw, us), 1e-9 * maxAbs(uw));
+
+  // the same polyline ordered left to right is seen from the back: an error naming `reverse`;
+  // with reverse = true the result is the same as above
+  writePolyline("wedge_ltr.msh", {{-1, -0.03}, {0.5, 0}, {2, -0.03}});
+  const std::string ltr = "\n[contact]\nboundary = \"bottom\"\nobstacle = \"surface\"\nfile = \"wedge_ltr.msh\"\n";
+  EXPECT_ERROR_PARTS(errorOf("wedge_ltr", punchScene(0, ltr)), "wedge_ltr.toml:15: [contact] obstacle = \"surface\"",
+                     "only the backs of the faces", "set reverse = true");
+  const RunResult rr = runIn(writeScene("wedge_reverse", punchScene(3, ltr + "reverse = true\n", solver)),
+                             kTmp / "wedge_reverse");
+  const auto ur = readVtu(kTmp / "wedge_reverse" / "wedge_reverse.vtu").array("displacement");
+  EXPECT_LT(maxDifference(uw, ur), 1e-9 * maxAbs(uw));
+
+  // 3D: the plane z = -0.001 as two triangles of an ASCII STL, against the plane obstacle
+  fs::create_directories(kTmp);
+  std::ofstream(kTmp / "floor.stl") << "solid floor\n"
+                                       "facet normal 0 0 1\nouter loop\nvertex -1 -1 -0.001\nvertex 2 -1 -0.001\n"
+                                       "vertex 2 2 -0.001\nendloop\nendfacet\n"
+                                       "facet normal 0 0 1\nouter loop\nvertex -1 -1 -0.001\nvertex 2 2 -0.001\n"
+                                       "vertex -1 2 -0.001\nendloop\nendfacet\nendsolid floor\n";
+  const std::string cube = R"([mesh]
+generator = "box"
+type = "hexahedron"
+cells = [2, 2, 2]
+refine = 1
+[material]
+E = 100
+nu = 0.3
+[[dirichlet]]
+boundary = "top"
+value = [0.002, 0, -0.01]
+[solver]
+tolerance = 1e-12
+[contact]
+boundary = "bottom"
+)";
+  const RunResult pp = runIn(writeScene("floor_plane", cube + "obstacle = \"plane\"\npoint = [0, 0, -0.001]\n"),
+                             kTmp / "floor_plane");
+  const RunResult ps = runIn(writeScene("floor_stl", cube + "obstacle = \"surface\"\nfile = \"floor.stl\"\n"),
+                             kTmp / "floor_stl");
+  ASSERT_TRUE(pp.contact && ps.contact);
+  EXPECT_EQ(ps.contact->actualVertices, pp.contact->actualVertices);
+  const auto up = readVtu(kTmp / "floor_plane" / "floor_plane.vtu").array("displacement");
+  const auto ust = readVtu(kTmp / "floor_stl" / "floor_stl.vtu").array("displacement");
+  EXPECT_LT(maxDifference(up, ust), 1e-9 * maxAbs(up));
+}
+
+TEST(ContactSceneErrors, SurfaceObstacle) {
+  const std::string head = "\n[contact]\nboundary = \"bottom\"\nobstacle = \"surface\"\n";
+  EXPECT_ERROR_PARTS(errorOf("surface_nofile", punchScene(0, head)), "obstacle = \"surface\" needs file");
+  EXPECT_ERROR_PARTS(errorOf("surface_missing", punchScene(0, head + "file = \"nowhere.stl\"\n")),
+                     "surface_missing.toml:18: [contact] file = \"nowhere.stl\": no such file");
+  EXPECT_ERROR_PARTS(errorOf("surface_flag", punchScene(0, head + "file = \"wedge.msh\"\nreverse = \"yes\"\n")),
+                     "surface_flag.toml:19", "reverse");
+  writePolyline("wedge.msh", {{2, -0.03}, {0.5, 0}, {-1, -0.03}});
+  // a 2D polyline for a 3D mesh
+  const std::string cube = "[mesh]\ngenerator = \"box\"\ntype = \"hexahedron\"\ncells = [2, 2, 2]\n[material]\nE = 1\n"
+                           "nu = 0.3\n[[dirichlet]]\nboundary = \"top\"\nvalue = [0, 0, -0.01]\n[contact]\n"
+                           "boundary = \"bottom\"\nobstacle = \"surface\"\nfile = \"wedge.msh\"\n";
+  EXPECT_ERROR_PARTS(errorOf("surface_dim", cube), "surface_dim.toml:14: [contact] file = \"wedge.msh\" is a 2D surface",
+                     "the mesh is 3D");
+  // beside the body: no line along -e_y from the bottom meets it
+  writePolyline("aside.msh", {{7, -0.3}, {5, 0}, {3, -0.3}});
+  EXPECT_ERROR_PARTS(errorOf("surface_aside", punchScene(0, head + "file = \"aside.msh\"\n")),
+                     "no line along direction from a contact vertex meets", "aside.msh");
+  // a defect of the surface itself names the file
+  writePolyline("kinked.msh", {{2, -0.3}, {0.5, 0}, {0.5, 0}, {-1, -0.3}});
+  EXPECT_ERROR_PARTS(errorOf("surface_degenerate", punchScene(0, head + "file = \"kinked.msh\"\n")),
+                     "surface_degenerate.toml", "kinked.msh", "degenerate");
 }

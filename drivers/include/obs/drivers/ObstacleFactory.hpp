@@ -20,6 +20,9 @@
 ///               fixed nu: g = -(x - c) . nu - sqrt(R^2 - r^2) for r <= R (r distance of x from the
 ///               axis through c along nu), +inf beyond; "normal": nu = (c - x)/|c - x|, g = |x - c| - R
 ///   expression  gap (expression of x, y, z), direction   g = gap(x), fixed nu
+///   surface     file (.msh or .stl, relative to the scene file), direction, reverse (boolean)
+///               g = distance along nu to the surface mesh (SurfaceObstacle.hpp), +inf where the
+///               line misses it; the mesh must have the scene's dimension (segments in 2D)
 /// `direction` defaults to -e_y (2D) / -e_z (3D) for every type.
 #include <memory>
 #include <string>
@@ -32,7 +35,7 @@ namespace obs::drivers {
 
 /// One parameter of an obstacle type as written in [contact].
 struct ObstacleParameter {
-  enum class Kind { Number, Point, Direction, Expression };
+  enum class Kind { Number, Point, Direction, Expression, File, Boolean };
   enum class Range { Any, Positive, NonNegative };
   const char* key;
   Kind kind;

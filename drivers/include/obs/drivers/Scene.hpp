@@ -94,6 +94,17 @@ struct ContactSpec {
   int obstacleLine = 0;
   std::map<std::string, Number> numbers;  ///< scalar parameters given (radius, slope, ...)
   std::map<std::string, Vector> vectors;  ///< points and directions given
+  struct File {
+    std::filesystem::path path;  ///< resolved against the scene file's directory, exists
+    std::string text;            ///< as written
+    int line = 0;
+  };
+  std::map<std::string, File> files;  ///< file parameters given (surface: file)
+  struct Flag {
+    bool value = false;
+    int line = 0;
+  };
+  std::map<std::string, Flag> flags;  ///< boolean parameters given (surface: reverse)
   bool normalDirection = false;           ///< direction = "normal"
   int directionLine = 0;                  ///< 0: direction not given (the type's default)
   std::optional<Expression> gap;          ///< obstacle = "expression": g(x)

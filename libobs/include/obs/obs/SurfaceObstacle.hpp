@@ -1,0 +1,70 @@
+#pragma once
+/// \file SurfaceObstacle.hpp
+/// A rigid obstacle given by a surface mesh (mesh::SurfaceMesh: Gmsh or STL; the thesis' tibial
+/// head is such an obstacle), docs/theory.md#surface-obstacles. The gap is exact for the piecewise
+/// planar surface: quadrilaterals are split into two triangles along their first diagonal (exact
+/// for planar quadrilaterals), and the line x + t nu through a point of the body is intersected with
+/// every face it meets, found through a bounding-volume hierarchy (axis-aligned boxes, median
+/// split) in O(log n) per point.
+///
+/// Gap. Each crossing of the line with a face is an entry (the face's outward normal, see
+/// SurfaceMesh.hpp, opposes nu: the line enters the obstacle there) or an exit. Along the line the
+/// obstacle occupies the intervals from an entry to the next exit (to +infinity if there is none,
+/// as behind an open surface patch); exits without a preceding entry (the back of an open patch)
+/// are ignored. Then
+///   g(x) = t_entry <= 0  if x (t = 0) lies in such an interval (the body penetrates the obstacle),
+///   g(x) = the smallest t_entry > 0 otherwise,   g(x) = +infinity if the line meets no entry.
+/// Coinciding crossings through shared edges and vertices count once.
+///
+/// The constructor checks the surface and throws obs::Error naming the source and the face: non-
+/// finite coordinates, degenerate faces (zero area or length), edges shared by more than two faces,
+/// neighbouring faces with opposite orientation ("flipped normals"), and holes: a connected piece
+/// of a 3D surface whose boundary consists of more than one closed loop (a line through the hole
+/// would miss the obstacle). `reverse` flips every face (for a surface whose faces are ordered
+/// clockwise seen from outside the obstacle).
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "obs/mesh/SurfaceMesh.hpp"
+#include "obs/obs/Obstacle.hpp"
+
+namespace obs {
+
+class SurfaceObstacle : public Obstacle {
+public:
+  /// `direction` (non-zero, normalised here) is the constraint direction nu for every point.
+  SurfaceObstacle(const mesh::SurfaceMesh& surface, const Point& direction, bool reverse = false);
+  ~SurfaceObstacle() override;
+
+  double gap(const Point& x) const override;
+  Point direction(const Point&) const override { return nu_; }
+  std::string name() const override { return "surface"; }
+  int dimension() const override { return dimension_; }
+
+  /// One crossing of the line x + t nu with the surface.
+  struct Crossing {
+    double t;
+    bool entry;  ///< the face's outward normal opposes nu
+  };
+  /// All crossings of the line through x, sorted by t (entries first at equal t), duplicates through
+  /// shared edges removed. gap() is computed from these.
+  std::vector<Crossing> crossings(const Point& x) const;
+  /// The same by testing every face (no hierarchy): for tests of the hierarchy.
+  std::vector<Crossing> crossingsBruteForce(const Point& x) const;
+  /// True if the line through x meets the surface but only from the back (exits, no entry): the
+  /// faces are probably oriented the wrong way round (see `reverse`).
+  bool seesOnlyBackFaces(const Point& x) const;
+
+  mesh::Index numTriangles() const;  ///< faces after quadrilaterals are split (segments in 2D)
+  const std::string& source() const { return source_; }
+
+private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+  Point nu_;
+  int dimension_;
+  std::string source_;
+};
+
+}  // namespace obs
