@@ -2,7 +2,7 @@
 // their rates on smoothly distorted unit boxes (obs::solveManufactured), written as the markdown
 // table of docs/verification.md.
 //
-// Sample run (about a minute on one core):
+// Sample run (about a minute on one core); it replaces its own block of the page (MarkdownBlock.hpp):
 //   build/bench/convergence docs/verification.md
 #include <cmath>
 #include <cstdio>
@@ -10,6 +10,7 @@
 #include <iostream>
 #include <sstream>
 
+#include "MarkdownBlock.hpp"
 #include "obs/obs/Verification.hpp"
 
 using namespace obs;
@@ -58,12 +59,10 @@ int main(int argc, char** argv) {
     md << "\n";
   }
   if (argc == 2) {
-    std::ofstream out(argv[1]);
-    if (!out) {
+    if (!bench::writeMarkdownBlock(argv[1], "convergence", md.str())) {
       std::cerr << "convergence: cannot write " << argv[1] << "\n";
       return 1;
     }
-    out << md.str();
   } else {
     std::cout << md.str();
   }

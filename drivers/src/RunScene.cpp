@@ -190,6 +190,17 @@ std::string singleLevelWarning(const Scene& scene, const mesh::Grid& grid) {
          "; set [mesh] refine = 1 or more (or --refine) to solve on a grid hierarchy";
 }
 
+std::string bbarWarning(const Scene& scene, const mesh::Mesh& mesh) {
+  if (scene.material.formulation != VolumetricFormulation::BBar) return {};
+  for (Index c = 0; c < mesh.numCells(); ++c) {
+    const mesh::CellType t = mesh.cellType(c);
+    if (t != mesh::CellType::Triangle && t != mesh::CellType::Tetrahedron) return {};
+  }
+  return "warning: [material] formulation = \"bbar\" has no effect on a mesh of triangles or tetrahedra "
+         "(div u is constant in each cell), which lock as nu -> 1/2; use quadrilaterals or hexahedra "
+         "(docs/theory.md#b-bar)";
+}
+
 RunResult runScene(const std::filesystem::path& sceneFile, const RunOptions& options) {
   return runScene(parseScene(sceneFile, options.overrides), options);
 }
@@ -224,6 +235,7 @@ RunResult runScene(const Scene& scene, const RunOptions& options) {
            std::to_string(r.dimension) + "D, " + seconds(r.meshSeconds) + ")");
   if (const std::string w = singleLevelWarning(scene, grid); !w.empty() && options.stepProgress)
     options.stepProgress(w);
+  if (const std::string w = bbarWarning(scene, mesh); !w.empty() && options.stepProgress) options.stepProgress(w);
   if (scene.dynamics) return runDynamicScene(scene, grid, mesh, bc, options, std::move(r), start);
 
   // assemble and solve

@@ -94,6 +94,10 @@ void validateInput(const EstimatorInput& in, const std::string& estimatorName) {
   } catch (const Error& e) {
     throw Error(where + e.what());
   }
+  // The residuals of the built-in estimators use the pointwise stress of the standard formulation.
+  if (in.material.formulation != VolumetricFormulation::Standard)
+    throw Error(where + "the B-bar formulation (formulation = \"bbar\") is not supported by the "
+                "estimators yet; use formulation = \"standard\" in adaptive runs");
 }
 
 // --- ContributionTable ----------------------------------------------------------------------------

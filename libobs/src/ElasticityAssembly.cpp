@@ -77,29 +77,46 @@ template <int d>
 BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& material) {
   if (mesh.dimension() != d) throw Error("assembleStiffness: mesh dimension mismatch");
   auto A = BlockSparseMatrix<d>::withMeshPattern(mesh);
-  const double lambda = material.lambda(), mu = material.mu();
+  const double mu = material.mu();
+  // B-bar (docs/theory.md#b-bar): lambda/2 (div u)^2 = kappa/2 (div u)^2 - mu/3 (div u)^2, and the
+  // kappa part takes the cell mean of div u: K_e = int [2 mu eps:eps - 2 mu/3 div div]
+  // + kappa/|e| (int div phi_i)(int div phi_j). Standard: the lambda part pointwise.
+  const bool bbar = material.formulation == VolumetricFormulation::BBar;
+  const double pointwise = bbar ? -2 * mu / 3 : material.lambda();
+  const double kappa = material.bulkModulus();
   CellValues<d> cv(kStiffnessDegree);
   using Block = typename BlockSparseMatrix<d>::Block;
+  using Vec = Eigen::Matrix<double, d, 1>;
   Block local[8][8];
   Index pos[8][8];
+  Vec meanGradient[8];
   for (Index c = 0; c < mesh.numCells(); ++c) {
     cv.reinit(mesh, c);
     const int n = cv.numVertices();
-    for (int i = 0; i < n; ++i)
+    for (int i = 0; i < n; ++i) {
+      meanGradient[i].setZero();
       for (int j = 0; j < n; ++j) local[i][j].setZero();
+    }
+    double volume = 0;
     for (int q = 0; q < cv.numPoints(); ++q) {
       const double w = cv.JxW(q);
+      volume += w;
       for (int i = 0; i < n; ++i) {
         const auto& gi = cv.gradient(q, i);
+        if (bbar) meanGradient[i] += w * gi;
         for (int j = 0; j < n; ++j) {
           const auto& gj = cv.gradient(q, j);
           // K_ij[a][b] = lambda d_a phi_i d_b phi_j + mu (delta_ab grad phi_i . grad phi_j
           //              + d_b phi_i d_a phi_j)
-          local[i][j].noalias() += w * (lambda * gi * gj.transpose() + mu * gj * gi.transpose());
+          local[i][j].noalias() += w * (pointwise * gi * gj.transpose() + mu * gj * gi.transpose());
           local[i][j].diagonal().array() += w * mu * gi.dot(gj);
         }
       }
     }
+    if (bbar)
+      for (int i = 0; i < n; ++i)
+        for (int j = 0; j < n; ++j)
+          local[i][j].noalias() += (kappa / volume) * meanGradient[i] * meanGradient[j].transpose();
     const auto verts = mesh.cellVertices(c);
     for (int i = 0; i < n; ++i)
       for (int j = 0; j < n; ++j) pos[i][j] = A.find(verts[i], verts[j]);

@@ -20,6 +20,7 @@ double since(Clock::time_point t0) {
 template <int d>
 void recoverStressesOf(const mesh::Mesh& mesh, const Material& mat, ElasticitySolution& s) {
   const double lambda = mat.lambda(), mu = mat.mu();
+  const bool bbar = mat.formulation == VolumetricFormulation::BBar;
   CellValues<d> cv(2);
   s.cellStress.assign(mesh.numCells(), Stress::Zero());
   s.vertexStress.assign(mesh.numVertices(), Stress::Zero());
@@ -27,19 +28,30 @@ void recoverStressesOf(const mesh::Mesh& mesh, const Material& mat, ElasticitySo
   for (Index c = 0; c < mesh.numCells(); ++c) {
     cv.reinit(mesh, c);
     const auto verts = mesh.cellVertices(c);
-    Stress sum = Stress::Zero();
-    double vol = 0;
-    for (int q = 0; q < cv.numPoints(); ++q) {
+    auto gradientAt = [&](int q) {
       Eigen::Matrix<double, d, d> grad = Eigen::Matrix<double, d, d>::Zero();  // du_a/dx_b
       for (int i = 0; i < cv.numVertices(); ++i)
         grad += s.displacement.template segment<d>(static_cast<Eigen::Index>(verts[i]) * d) *
                 cv.gradient(q, i).transpose();
+      return grad;
+    };
+    // B-bar: sigma = 2 mu eps + (kappa mean(div u) - 2 mu/3 div u) I (docs/theory.md#b-bar)
+    double vol = 0, meanDivergence = 0;
+    for (int q = 0; q < cv.numPoints(); ++q) {
+      vol += cv.JxW(q);
+      if (bbar) meanDivergence += cv.JxW(q) * gradientAt(q).trace();
+    }
+    meanDivergence /= vol;
+    Stress sum = Stress::Zero();
+    for (int q = 0; q < cv.numPoints(); ++q) {
+      const Eigen::Matrix<double, d, d> grad = gradientAt(q);
       const Eigen::Matrix<double, d, d> eps = 0.5 * (grad + grad.transpose());
+      const double volumetric = bbar ? mat.bulkModulus() * meanDivergence - 2 * mu / 3 * eps.trace()
+                                     : lambda * eps.trace();
       Stress sigma = Stress::Zero();
       sigma.topLeftCorner<d, d>() = 2 * mu * eps;
-      sigma.diagonal().array() += lambda * eps.trace();  // plane strain: sigma_zz = lambda tr eps
+      sigma.diagonal().array() += volumetric;  // plane strain: sigma_zz = the volumetric part
       sum += cv.JxW(q) * sigma;
-      vol += cv.JxW(q);
     }
     s.cellStress[c] = sum / vol;
     for (Index v : verts) {

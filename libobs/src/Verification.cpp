@@ -1,5 +1,6 @@
 #include "obs/obs/Verification.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
 
@@ -132,6 +133,59 @@ void distortUnitBox(mesh::Mesh& mesh, double amplitude) {
       x[a] = x0[a] + amplitude * p;
     }
   }
+}
+
+ThickCylinderSolution::ThickCylinderSolution(const Material& material, double a, double b, double p)
+    : E_(material.youngsModulus), nu_(material.poissonRatio), A_(p * a * a / (b * b - a * a)), B_(A_ * b * b) {}
+
+Eigen::Vector3d ThickCylinderSolution::value(const Point& x) const {
+  const double r = std::hypot(x[0], x[1]);
+  const double ur = (1 + nu_) / E_ * ((1 - 2 * nu_) * A_ * r + B_ / r);
+  return Eigen::Vector3d(ur * x[0] / r, ur * x[1] / r, 0);
+}
+
+Eigen::Matrix3d ThickCylinderSolution::gradient(const Point& x) const {
+  // grad u = u_r' e_r e_r' + (u_r / r) e_t e_t'
+  const double r = std::hypot(x[0], x[1]);
+  const double ur = (1 + nu_) / E_ * ((1 - 2 * nu_) * A_ * r + B_ / r);
+  const double dur = (1 + nu_) / E_ * ((1 - 2 * nu_) * A_ - B_ / (r * r));
+  const Eigen::Vector3d er(x[0] / r, x[1] / r, 0), et(-x[1] / r, x[0] / r, 0);
+  return dur * er * er.transpose() + (ur / r) * et * et.transpose();
+}
+
+ManufacturedRun solveThickCylinder(mesh::CellType type, int n, const Material& material) {
+  const int d = mesh::dimension(type);
+  const double quarter = std::acos(0.0);
+  const int layers = std::max(1, n / 4);
+  auto m = mesh::boxMesh(type, {n, n, layers}, Point(1, 0, 0), Point(2, quarter, 0.25));
+  for (Index v = 0; v < m.numVertices(); ++v) {
+    Point& x = m.vertex(v);
+    x = Point(x[0] * std::cos(x[1]), x[0] * std::sin(x[1]), x[2]);
+  }
+  const ThickCylinderSolution u(material);
+  // box ids: 1 r = 1 (pressure), 2 r = 2 (free); the angle is the second coordinate: 3/4 in 2D,
+  // 5/6 in 3D (t = 0: u_y = 0; t = pi/2, the plane x = 0: u_x = 0); 3D: 3/4 the ends z = 0, 1/4
+  BoundaryConditions bc;
+  bc.neumann.push_back({1, {}, [](const Point&) { return 1.0; }});
+  const int low = d == 2 ? 3 : 5, high = d == 2 ? 4 : 6;
+  bc.dirichlet.push_back({low, {false, true, false}});
+  bc.dirichlet.push_back({high, {true, false, false}});
+  if (d == 3) {
+    bc.dirichlet.push_back({3, {false, false, true}});
+    bc.dirichlet.push_back({4, {false, false, true}});
+  }
+  const auto s = solveLinearElasticity(m, material, bc);
+  const auto e = computeErrors(m, s.displacement, [&](const Point& x) { return u.value(x); },
+                               [&](const Point& x) { return u.gradient(x); });
+  ManufacturedRun r;
+  r.type = type;
+  r.cellsPerDirection = n;
+  r.h = 1.0 / n;
+  r.dofs = s.dofs;
+  r.relativeL2 = e.l2 / e.l2Exact;
+  r.relativeH1 = e.h1 / e.h1Exact;
+  r.solveSeconds = s.assemblySeconds + s.solveSeconds;
+  return r;
 }
 
 }  // namespace obs

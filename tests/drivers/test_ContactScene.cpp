@@ -740,3 +740,46 @@ TEST(ContactSceneErrors, SurfaceObstacle) {
   EXPECT_ERROR_PARTS(errorOf("surface_degenerate", punchScene(0, head + "file = \"kinked.msh\"\n")),
                      "surface_degenerate.toml", "kinked.msh", "degenerate");
 }
+
+// --- [material] formulation (docs/theory.md#b-bar) -----------------------------------------------
+
+TEST(ContactScene, BBarFormulationInScenes) {
+  // the punch with nu = 0.4999: B-bar changes the solution (no locking), PDAS and TNNMG agree
+  const std::string nearlyIncompressible = [] {
+    std::string s = punchScene(2, kStrip, "[solver]\ntype = \"pdas\"\n");
+    s.replace(s.find("nu = 0.25"), 9, "nu = 0.4999\nformulation = \"bbar\"");
+    return s;
+  }();
+  const RunResult pdas = runIn(writeScene("bbar_pdas", nearlyIncompressible), kTmp / "bbar_pdas");
+  std::string tnnmgScene = nearlyIncompressible;
+  tnnmgScene.replace(tnnmgScene.find("type = \"pdas\""), 13, "tolerance = 1e-9\nmax_iterations = 3000");
+  const RunResult tnnmg = runIn(writeScene("bbar_tnnmg", tnnmgScene), kTmp / "bbar_tnnmg");
+  std::string lockedScene = nearlyIncompressible;
+  lockedScene.replace(lockedScene.find("formulation = \"bbar\""), 20, "formulation = \"standard\"");
+  const RunResult locked = runIn(writeScene("bbar_locked", lockedScene), kTmp / "bbar_locked");
+  ASSERT_TRUE(pdas.contact && tnnmg.contact && locked.contact);
+  EXPECT_NEAR(tnnmg.contact->load, pdas.contact->load, 1e-4 * pdas.contact->load);  // TNNMG is slow here (docs/performance.md)
+  // the locked discretisation is far too stiff: a much larger force for the same displacement
+  EXPECT_GT(locked.contact->load, 1.5 * pdas.contact->load);
+
+  EXPECT_ERROR_PARTS(errorOf("formulation_unknown", [] {
+                       std::string s = punchScene(0, kStrip);
+                       s.replace(s.find("nu = 0.25"), 9, "nu = 0.25\nformulation = \"mixed\"");
+                       return s;
+                     }()),
+                     "formulation_unknown.toml:10: [material] formulation = \"mixed\" is unknown");
+  EXPECT_ERROR_PARTS(errorOf("formulation_adaptive", [] {
+                       std::string s = punchScene(0, kStrip, "[adaptivity]\nsteps = 2\n");
+                       s.replace(s.find("nu = 0.25"), 9, "nu = 0.25\nformulation = \"bbar\"");
+                       return s;
+                     }()),
+                     "formulation_adaptive.toml:10: [material] formulation = \"bbar\" is not supported by the "
+                     "estimators of [adaptivity]");
+  // a warning on simplices only, where B-bar changes nothing
+  std::string triangles = nearlyIncompressible;
+  triangles.replace(triangles.find("type = \"quadrilateral\""), 22, "type = \"triangle\"");
+  const Scene tri = parseScene(writeScene("bbar_triangles", triangles));
+  EXPECT_NE(bbarWarning(tri, buildMesh(tri)).find("has no effect on a mesh of triangles"), std::string::npos);
+  const Scene quad = parseScene(writeScene("bbar_quads", nearlyIncompressible));
+  EXPECT_EQ(bbarWarning(quad, buildMesh(quad)), "");
+}

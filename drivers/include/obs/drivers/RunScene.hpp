@@ -61,5 +61,8 @@ RunResult runScene(const Scene& scene, const RunOptions& options = {});
 /// every active-set change, i.e. a nonsmooth Newton method with the cost of a sparse
 /// factorisation per change (docs/reliability.md). Empty if there is nothing to warn about.
 std::string singleLevelWarning(const Scene& scene, const mesh::Grid& grid);
+/// "warning: ..." if [material] formulation = "bbar" on a mesh of simplices only (where it changes
+/// nothing), else "".
+std::string bbarWarning(const Scene& scene, const mesh::Mesh& mesh);
 
 }  // namespace obs::drivers

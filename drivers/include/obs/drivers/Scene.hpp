@@ -167,6 +167,7 @@ struct Scene {
   Material material;
   int materialLine = 0;
   int densityLine = 0;  ///< line of [material] density (0: not given; required by [dynamics])
+  int formulationLine = 0;  ///< line of [material] formulation (0: not given: "standard")
   std::vector<DirichletSpec> dirichlet;
   std::vector<NeumannSpec> neumann;
   std::optional<VectorValue> bodyForce;

@@ -61,6 +61,27 @@ struct ManufacturedRun {
 ManufacturedRun solveManufactured(mesh::CellType type, int cellsPerDirection,
                                   double distortion = 0.08, const Material& material = {100.0, 0.3});
 
+/// Lame's thick-walled cylinder in plane strain (docs/theory.md#b-bar): inner radius a, outer
+/// radius b, internal pressure p, outer surface free. With A = p a^2/(b^2 - a^2), B = A b^2:
+///   sigma_rr = A - B/r^2,  sigma_tt = A + B/r^2,  u = u_r(r) e_r,  u_r = (1 + nu)/E ((1 - 2 nu) A r + B/r),
+/// finite as nu -> 1/2 (the standard test of volumetric locking).
+class ThickCylinderSolution {
+public:
+  ThickCylinderSolution(const Material& material, double innerRadius = 1, double outerRadius = 2,
+                        double pressure = 1);
+  Eigen::Vector3d value(const Point& x) const;
+  Eigen::Matrix3d gradient(const Point& x) const;
+
+private:
+  double E_, nu_, A_, B_;
+};
+
+/// One run of the locking study: a quarter of the cylinder 1 <= r <= 2 (pressure 1 inside) as the
+/// box [1, 2] x [0, pi/2] of n x n cells of `type` mapped by (r, t) -> (r cos t, r sin t) (in 3D
+/// extruded to 0 <= z <= 1/4 with max(1, n/4) layers and u_z = 0 on both ends: plane strain),
+/// symmetry conditions u . n = 0 on the cut planes. Errors relative to the exact solution.
+ManufacturedRun solveThickCylinder(mesh::CellType type, int cellsPerDirection, const Material& material);
+
 /// Smooth interior distortion of the unit box: x_a += amplitude sin(pi x_a) prod_{b != a} sin(pi x_b)
 /// (over the first d coordinates). Boundary vertices stay; cells become non-affine.
 void distortUnitBox(mesh::Mesh& mesh, double amplitude);
