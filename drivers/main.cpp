@@ -15,6 +15,8 @@
 //
 // `obs mesh SCENE.toml [--uniform K] [--random-cycles N --fraction F --seed S] [--output DIR]`
 // builds the scene's mesh as a hierarchical grid, refines it, checks it and prints a JSON report.
+// `obs sweep SCENE --vary KEY=V1,V2 ... -o DIR` runs every combination in its own process and
+// writes DIR/sweep.csv (accuracy and cost per run, docs/tradeoffs.md).
 // `obs estimators [--plugin lib.so]...` lists the registered error estimators (after loading plugins).
 //
 // Exit codes: 0 success, 1 error (invalid scene, solver or I/O failure), 2 command-line misuse,
@@ -35,6 +37,7 @@
 #include "obs/drivers/RunScene.hpp"
 #include "obs/drivers/SceneParser.hpp"
 #include "obs/drivers/SceneSetup.hpp"
+#include "obs/drivers/SweepCommand.hpp"
 #include "obs/estimators/EstimatorRegistry.hpp"
 #include "obs/estimators/Version.hpp"
 #include "obs/mesh/Error.hpp"
@@ -96,6 +99,25 @@ int checkCommand(const std::vector<std::string>& scenes, std::optional<int> refi
   return status;
 }
 
+/// `obs sweep`: every combination of the varied keys in its own `obs run` process; sweep.csv.
+int sweepCommand(obs::drivers::SweepOptions options, const std::vector<std::string>& vary, bool quiet) {
+  for (const std::string& v : vary) options.vary.push_back(obs::drivers::parseSweepVariable(v));
+  options.obsBinary = std::filesystem::read_symlink("/proc/self/exe");
+  if (!quiet) options.progress = [](const std::string& line) { std::cerr << line << std::endl; };
+  const obs::drivers::SweepSummary s = obs::drivers::runSweep(options);
+  if (!quiet) {
+    std::cout << "written: " << s.csv.string();
+    for (const auto& p : s.plots) std::cout << ", " << p.string();
+    std::cout << " (" << s.runs << " runs";
+    if (s.reused > 0) std::cout << ", " << s.reused << " reused from an earlier sweep";
+    std::cout << ")" << std::endl;
+  }
+  if (s.failed > 0)
+    throw obs::Error("sweep: " + std::to_string(s.failed) + " of " + std::to_string(s.runs) +
+                     " runs failed (status and error in " + s.csv.string() + ")");
+  return 0;
+}
+
 /// `obs mesh`: refine and check the grid of a scene, print the JSON report.
 int meshCommand(const obs::drivers::MeshCommandOptions& options) {
   std::cout << obs::drivers::runMeshCommand(options).dump(2) << "\n";
@@ -132,6 +154,7 @@ int main(int argc, char** argv) {
       "  obs run data/scenes/cantilever.toml --refine 2    the same on a twice refined mesh\n"
       "  obs check data/scenes/*.toml                      validate scenes without solving\n"
       "  obs mesh data/scenes/cantilever.toml --random-cycles 10  refine, check a grid\n"
+      "  obs sweep data/scenes/hertz.toml --vary mesh.refine=1,2,3 -o out/sweep   runs and sweep.csv\n"
       "  obs estimators                                    list the error estimators\n"
       "Run 'obs <command> --help' for the options of a command. Scene files: docs/scenes.md\n");
 
@@ -210,6 +233,38 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 12));
   check->footer("Example: obs check data/scenes/*.toml\nScene files: docs/scenes.md\n");
 
+  obs::drivers::SweepOptions sweepOptions;
+  std::vector<std::string> sweepVary;
+  std::string sweepScene, sweepOutput;
+  bool sweepQuiet = false;
+  CLI::App* sweep = app.add_subcommand(
+      "sweep", "Run a scene for every combination of varied keys (each in its own process); sweep.csv and plots");
+  sweep->add_option("scene", sweepScene, "Scene file (TOML)")->required()->type_name("SCENE.toml");
+  sweep->add_option("--vary", sweepVary,
+                    "A key in --set syntax and its values, comma-separated (repeatable; every combination runs), "
+                    "e.g. --vary mesh.refine=1,2,3 --vary 'solver.tolerance=1e-6,1e-10'")
+      ->required()
+      ->type_name("KEY=V1,V2,...");
+  sweep->add_option("--set,-s", sweepOptions.overrides, "Override a scene key in every run (repeatable)")
+      ->type_name("SECTION.KEY=VALUE");
+  sweep->add_option("--reference-set", sweepOptions.referenceOverrides,
+                    "An extra reference run with these overrides (repeatable, e.g. --reference-set mesh.refine=4); "
+                    "default reference: the run with the most unknowns")
+      ->type_name("SECTION.KEY=VALUE");
+  sweep->add_option("--repeat", sweepOptions.repeat, "Runs per combination (default 1)")->check(CLI::Range(1, 100));
+  sweep->add_option("--output,-o", sweepOutput, "Sweep directory (run_NNN/ per run, sweep.csv)")
+      ->required()
+      ->type_name("DIR");
+  sweep->add_flag("--plots", sweepOptions.plots,
+                  "Accuracy against wall time and against peak memory as PNG (scripts/plot_sweep.py)");
+  sweep->add_flag("--quiet,-q", sweepQuiet, "Print nothing but errors");
+  sweep->footer(
+      "Each run is `obs run SCENE --output DIR/run_NNN --set ...`; a failed run is a row with its error\n"
+      "(the sweep goes on; the exit code is 1 if any failed); running the same sweep again reuses the\n"
+      "finished runs (resume after an interrupt). sweep.csv: varied values, status, unknowns,\n"
+      "iterations, load P, max |u|, eta, analytic error, load and displacement error against the run\n"
+      "with the most unknowns, wall time, solver time, peak memory. See docs/tradeoffs.md.\n");
+
   std::vector<std::string> plugins;
   obs::drivers::MeshCommandOptions meshOptions;
   std::string meshScene, meshOutput;
@@ -266,6 +321,11 @@ int main(int argc, char** argv) {
       return runCommand(scene, output, refine, quiet, verbose, runPlugins, overrides, runPlots,
                         compareSchemes, restart, stopAfterStep);
     if (check->parsed()) return checkCommand(checkScenes, checkRefine);
+    if (sweep->parsed()) {
+      sweepOptions.scene = sweepScene;
+      sweepOptions.output = sweepOutput;
+      return sweepCommand(sweepOptions, sweepVary, sweepQuiet);
+    }
     if (meshCmd->parsed()) {
       meshOptions.scene = meshScene;
       if (!meshOutput.empty()) meshOptions.output = meshOutput;
