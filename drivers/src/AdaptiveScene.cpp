@@ -177,6 +177,7 @@ nlohmann::json stepJson(const est::AdaptiveStep& s, double nodalError) {
   j["eoc"] = jnum(s.eoc);
   j["solver"] = s.solver;
   j["iterations"] = s.solverIterations;
+  j["solver_tolerance"] = jnum(s.solverTolerance);
   j["converged"] = s.converged;
   j["kkt"] = jnum(s.kkt);
   j["load"] = s.load;
@@ -381,10 +382,14 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
   o.targetVertices = static_cast<Index>(spec.maxVertices);
   o.etaTolerance = spec.etaTolerance;
   o.warmStart = spec.warmStart;
+  o.inexactFraction = spec.inexact;
   const std::string type = scene.solverType();
   if (scene.contact) {
     if (type == "tnnmg")
       o.solver = est::ContactSolverKind::TNNMG;
+    else if (type == "pdas" && spec.inexact > 0)
+      throw Error(scene.where(scene.solver.line) + "[solver] type = \"pdas\" solves every step exactly; "
+                  "[adaptivity] inexact applies to tnnmg only");
     else if (type == "pdas")
       o.solver = est::ContactSolverKind::PrimalDualActiveSet;
     else

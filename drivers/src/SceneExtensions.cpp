@@ -67,7 +67,7 @@ void applyOverrides(toml::value& root, const std::vector<std::string>& overrides
 AdaptivitySpec parseAdaptivity(const Scene& scene, const toml::value& table, bool contact) {
   const TomlSection s(scene.fileName, "[adaptivity]", table,
                       {"refinement", "estimator", "marking", "theta", "steps", "max_vertices",
-                       "eta_tolerance", "reference", "vtk", "warm_start"});
+                       "eta_tolerance", "reference", "vtk", "warm_start", "inexact"});
   AdaptivitySpec spec;
   spec.line = s.line();
   if (s.has("refinement")) {
@@ -135,6 +135,13 @@ AdaptivitySpec parseAdaptivity(const Scene& scene, const toml::value& table, boo
       s.fail("vtk", "= \"" + v + "\" is unknown (known: every, last, none)");
   }
   if (s.has("warm_start")) spec.warmStart = s.boolean("warm_start");
+  if (s.has("inexact")) {
+    const double f = s.number("inexact");
+    if (!(f >= 0 && f < 1))
+      s.fail("inexact", "= " + literalOf(s.at("inexact")) + " must lie in [0, 1) (the fraction of the estimator; 0: off)");
+    if (f > 0 && !contact) s.fail("inexact", "needs a [contact] section (it sets the tolerance of the contact solver)");
+    spec.inexact = f;
+  }
   return spec;
 }
 

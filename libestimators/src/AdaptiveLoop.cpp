@@ -1,5 +1,6 @@
 #include "obs/estimators/AdaptiveLoop.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <memory>
@@ -119,6 +120,38 @@ std::vector<AdaptiveStep> AdaptiveLoop::run() {
   return grid_.dimension() == 2 ? runDim<2>() : runDim<3>();
 }
 
+namespace {
+
+/// sqrt(sum over free components i of u_i (A u)_i): the energy norm TNNMG's relative stopping
+/// test divides by (prescribed rows of A are identity rows, left out).
+template <int d>
+double freeEnergyNorm(const BlockSparseMatrix<d>& A, const Eigen::VectorXd& u, const DirichletValues& dirichlet) {
+  const Eigen::VectorXd Au = A * u;
+  double s = 0;
+  for (Eigen::Index i = 0; i < u.size(); ++i)
+    if (!dirichlet.constrained[static_cast<std::size_t>(i)]) s += u[i] * Au[i];
+  return std::sqrt(std::max(0.0, s));
+}
+
+}  // namespace
+
+double AdaptiveLoop::inexactTolerance(const std::vector<AdaptiveStep>& steps, const AdaptiveStep& rec, int d) const {
+  const double base = options_.solverTolerance;
+  if (!(options_.inexactFraction > 0) || steps.empty()) return base;
+  const bool knownLast = rec.step + 1 == options_.maxSteps ||
+                         (options_.targetVertices > 0 && rec.vertices >= options_.targetVertices);
+  const AdaptiveStep& previous = steps.back();
+  if (knownLast || !(previous.eta > 0) || !(lastEnergyNorm_ > 0)) return base;
+  // predicted eta of this step: eta ~ N^(-eoc), eoc of the last step (1/d, the optimal order for
+  // first-order elements, until there is one), clamped to [0, 1]
+  const double eoc = std::isfinite(previous.eoc) ? std::clamp(previous.eoc, 0.0, 1.0) : 1.0 / d;
+  const double predicted = previous.eta * std::pow(static_cast<double>(previous.vertices) / rec.vertices, eoc);
+  // algebraic error ~ rho / (1 - rho) * last correction (geometric convergence with rate rho)
+  const double rho = std::clamp(lastRate_, 0.05, 0.9);
+  const double tolerance = options_.inexactFraction * predicted / lastEnergyNorm_ * (1 - rho) / rho;
+  return std::clamp(tolerance, base, 1e-2);
+}
+
 template <int d>
 std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
   const bool adaptive = options_.mode == RefinementMode::Adaptive;
@@ -129,6 +162,7 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
   if (adaptive) marking.emplace(options_.marking, options_.markingParameter);
 
   std::vector<AdaptiveStep> steps;
+  lastRate_ = lastEnergyNorm_ = 0;
   mesh::GridView view = grid_.leafView();
   Eigen::VectorXd start;  // empty: cold start
   double transferSeconds = 0;
@@ -159,9 +193,10 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
       rec.assemblySeconds = since(t);
       t = Clock::now();
       ContactResult result;
+      rec.solverTolerance = options_.solverTolerance;
       if (options_.solver == ContactSolverKind::TNNMG) {
         typename TNNMG<d>::Options o;
-        o.tolerance = options_.solverTolerance;
+        o.tolerance = rec.solverTolerance = inexactTolerance(steps, rec, d);
         o.maxIterations = options_.maxSolverIterations;
         o.preSmoothing = options_.preSmoothing;
         o.postSmoothing = options_.postSmoothing;
@@ -181,6 +216,8 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
       rec.solverIterations = result.iterations;
       rec.converged = result.converged;
       rec.kkt = result.kkt.max();
+      lastRate_ = result.convergenceRate;
+      lastEnergyNorm_ = freeEnergyNorm<d>(problem->matrix(), u, collectDirichlet(m, bc_.dirichlet));
     } else {
       BlockSparseMatrix<d> A = assembleStiffness<d>(m, material_);
       Eigen::VectorXd b = assembleLoad<d>(m, bc_);

@@ -16,6 +16,8 @@
 ///   reference = "punch"              # optional analytic reference: punch | wedge | hertz
 ///   vtk = "last"                     # every | last | none
 ///   warm_start = true                # start each solve from the prolonged previous solution
+///   inexact = 0                      # > 0: solve steps only to this fraction of the predicted eta
+///                                    # (TNNMG; docs/estimators.md#inexact-solves); 0: off
 #include <optional>
 #include <string>
 
@@ -33,6 +35,7 @@ struct AdaptivitySpec {
   std::string reference;           ///< empty: none; "punch", "wedge" or "hertz"
   Vtk vtk = Vtk::Last;
   bool warmStart = true;
+  double inexact = 0;              ///< AdaptiveLoopOptions::inexactFraction
   int line = 0;                    ///< line of [adaptivity] (0: from --set only)
   int referenceLine = 0;
 };

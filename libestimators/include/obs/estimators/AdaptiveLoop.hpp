@@ -83,6 +83,11 @@ struct AdaptiveLoopOptions {
   int preSmoothing = 3;            ///< TNNMG nonsmooth sweeps before the correction (TNNMG::Options)
   int postSmoothing = 0;           ///< TNNMG nonsmooth sweeps after the correction
   bool warmStart = true;           ///< start from the prolonged previous solution
+  /// Inexact solves (docs/estimators.md#inexact-solves): > 0 stops TNNMG once the estimated
+  /// algebraic error is below this fraction of the estimator predicted for the step (from the
+  /// previous step's eta and eoc); steps that are known to be the last (maxSteps, targetVertices)
+  /// and the first step use solverTolerance. 0: every step to solverTolerance.
+  double inexactFraction = 0;
   double contactTolerance = 1e-8;  ///< relative tolerance of actual contact
   /// Registry to create the estimator from (null: EstimatorRegistry::global()).
   const EstimatorRegistry* registry = nullptr;
@@ -118,6 +123,7 @@ struct AdaptiveStep {
   double eoc = kNaN;                       ///< against the previous step (docs/theory.md#eoc)
   std::string solver;                      ///< name of the solver used
   int solverIterations = 0;                ///< its iterations (1 for a direct solve)
+  double solverTolerance = 0;              ///< the relative tolerance the step was solved to
   bool converged = false;                  ///< whether the solver reached its tolerance
   double kkt = 0;                          ///< max KKT residual of the solution (contact only)
   double load = 0;                         ///< sum_p mu_p (0 without contact)
@@ -173,6 +179,8 @@ public:
 private:
   template <int d>
   std::vector<AdaptiveStep> runDim();
+  /// The relative solver tolerance of step rec (AdaptiveLoopOptions::inexactFraction).
+  double inexactTolerance(const std::vector<AdaptiveStep>& steps, const AdaptiveStep& rec, int d) const;
 
   mesh::Grid& grid_;
   const Material& material_;
@@ -183,6 +191,8 @@ private:
   std::optional<ContactReference> reference_;
   Callback callback_;
   Eigen::VectorXd u_;
+  double lastRate_ = 0;        ///< convergence rate of the previous step's contact solve
+  double lastEnergyNorm_ = 0;  ///< free-component energy norm of the previous step's solution
 };
 
 /// eoc = (ln eta0 - ln eta1) / (ln n1 - ln n0) (docs/theory.md#eoc); NaN if undefined.
