@@ -533,7 +533,9 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
     std::ostringstream os;
     os << scene.where(scene.solver.line) << "[solver] " << final.solver << " did not converge in step "
        << final.step << " (" << final.solverIterations
-       << " iterations); raise [solver] max_iterations or tolerance (outputs written to " << dir.string() << ")";
+       << " iterations), so the adaptive loop stopped there without estimating on it; raise [solver] "
+          "max_iterations or tolerance (outputs written to "
+       << dir.string() << ")";
     throw Error(os.str());
   }
   return r;

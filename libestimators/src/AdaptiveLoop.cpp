@@ -248,9 +248,10 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
       for (double mu : outputs->multiplier) rec.load += mu;
     if (reference_ && outputs) rec.reference = referenceErrors(m, *set, *outputs, *reference_);
 
-    // estimate
+    // estimate (not on an unconverged solution: its residual is the solver's, not the
+    // discretisation's, and marking on it would refine the wrong cells; the loop stops there)
     std::optional<EstimatorResult> result;
-    if (estimator) {
+    if (estimator && rec.converged) {
       t = Clock::now();
       EstimatorInput in(m, material_, bc_, u);
       in.meshRevision = static_cast<std::uint64_t>(k);
@@ -269,7 +270,7 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
     }
 
     // stop?
-    bool last = k + 1 == options_.maxSteps ||
+    bool last = !rec.converged || k + 1 == options_.maxSteps ||
                 (options_.targetVertices > 0 && rec.vertices >= options_.targetVertices) ||
                 (options_.etaTolerance > 0 && result && rec.eta <= options_.etaTolerance);
     // marking (the refinement itself follows the callback, so that it sees the grid of the step)

@@ -194,6 +194,30 @@ TEST_F(AdaptiveRun, SetOverridesRefinementAndEstimator) {
   EXPECT_FALSE(contains(steps[0].back() + "," + slurp(dir / "steps.csv").substr(0, 200), "eta_6"));
 }
 
+TEST_F(AdaptiveRun, UnconvergedStepStopsTheLoopAndInexactIsRecorded) {
+  // TNNMG capped at 8 iterations: the first step that needs more is the last one, not estimated
+  const Output o = run(scenePath("example1a"), "--set adaptivity.steps=6 --set solver.max_iterations=8", "capped");
+  EXPECT_EQ(o.code, 1);
+  EXPECT_TRUE(contains(o.err, "did not converge in step ")) << o.err;
+  EXPECT_TRUE(contains(o.err, "the adaptive loop stopped there without estimating on it")) << o.err;
+  const auto summary = nlohmann::json::parse(slurp(kTmp / "capped" / "summary.json"));
+  const auto& steps = summary["adaptivity"]["steps"];
+  ASSERT_GE(steps.size(), 2u);
+  ASSERT_LT(steps.size(), 6u);
+  EXPECT_FALSE(steps.back()["converged"].get<bool>());
+  EXPECT_TRUE(steps.back()["eta"].is_null());
+  EXPECT_TRUE(steps[0]["converged"].get<bool>());
+
+  // inexact = 0.1: intermediate steps record their looser tolerance, the first and last 1e-10
+  const Output i = run(scenePath("example1a"), "--set adaptivity.steps=4 --set adaptivity.inexact=0.1", "inexact");
+  ASSERT_EQ(i.code, 0) << i.err;
+  const auto s = nlohmann::json::parse(slurp(kTmp / "inexact" / "summary.json"))["adaptivity"]["steps"];
+  ASSERT_EQ(s.size(), 4u);
+  EXPECT_EQ(s[0]["solver_tolerance"].get<double>(), 1e-10);
+  EXPECT_GT(s[1]["solver_tolerance"].get<double>(), 1e-8);
+  EXPECT_EQ(s[3]["solver_tolerance"].get<double>(), 1e-10);
+}
+
 TEST_F(AdaptiveRun, BadSetGivesOneLineErrors) {
   struct Case {
     std::string set, message;
@@ -334,6 +358,8 @@ TEST(AdaptivityParser, ErrorsNameLineAndKnownNames) {
             "s.toml:17: [adaptivity] vtk = \"all\" is unknown (known: every, last, none)");
   EXPECT_EQ(parseError(kBase + "[adaptivity]\nmax_vertices = -1\n"),
             "s.toml:17: [adaptivity] max_vertices = -1 must not be negative (0: off)");
+  EXPECT_EQ(parseError(kBase + "[adaptivity]\ninexact = 1.5\n"),
+            "s.toml:17: [adaptivity] inexact = 1.5 must lie in [0, 1) (the fraction of the estimator; 0: off)");
   // the same problems from --set name the override instead of a line
   EXPECT_EQ(parseError(kBase, {"adaptivity.marking=\"best\""}),
             "s.toml (from --set): [adaptivity] marking = \"best\" is unknown (known strategies: doerfler, "

@@ -117,7 +117,8 @@ PunchRun runPunch(AdaptiveLoopOptions o) {
     EXPECT_EQ(s.displacement.size(), s.record.unknowns);
     ASSERT_NE(s.outputs, nullptr);
     EXPECT_EQ(s.outputs->contactNodes, s.record.actualContact);
-    EXPECT_EQ(s.estimate != nullptr, o.mode == RefinementMode::Adaptive || o.estimateUniform);
+    EXPECT_EQ(s.estimate != nullptr,
+              (o.mode == RefinementMode::Adaptive || o.estimateUniform) && s.record.converged);
     if (s.estimate) {
       EXPECT_TRUE(s.estimate->validFor(s.view.mesh));
     }
@@ -243,6 +244,25 @@ TEST(AdaptiveLoop, InexactSolvesSaveIterationsNotAccuracy) {
   EXPECT_NEAR(b.reference->pressureError, a.reference->pressureError, 0.05 * a.reference->pressureError);
   EXPECT_NEAR(b.load, a.load, 0.01 * a.load);
   EXPECT_TRUE(b.converged);
+}
+
+TEST(AdaptiveLoop, StopsAtAnUnconvergedSolveWithoutEstimating) {
+  AdaptiveLoopOptions o;
+  o.maxSteps = 6;
+  const PunchRun full = runPunch(o);
+  int first = -1;  // the first step that needs more than 8 iterations
+  for (const AdaptiveStep& s : full.steps)
+    if (first < 0 && s.solverIterations > 8) first = s.step;
+  ASSERT_GE(first, 1) << "the test needs a step beyond the first that takes more than 8 iterations";
+  o.maxSolverIterations = 8;
+  const PunchRun capped = runPunch(o);
+  ASSERT_EQ(static_cast<int>(capped.steps.size()), first + 1);  // the loop stopped at that step
+  EXPECT_EQ(capped.callbacks, first + 1);                       // which the callback still saw
+  const AdaptiveStep& last = capped.steps.back();
+  EXPECT_FALSE(last.converged);
+  EXPECT_TRUE(std::isnan(last.eta));
+  EXPECT_EQ(last.marked, 0);
+  for (int k = 0; k < first; ++k) EXPECT_TRUE(capped.steps[k].converged);
 }
 
 TEST(AdaptiveLoop, StoppingRulesSolversAndErrors) {

@@ -169,7 +169,9 @@ public:
   /// The function called after every step (replaces an earlier one).
   void setCallback(Callback callback);
 
-  /// Runs the loop (see the file comment) and returns the records.
+  /// Runs the loop (see the file comment) and returns the records. A step whose contact solve did
+  /// not converge is the last: it is recorded (converged = false) and passed to the callback, but
+  /// not estimated (eta NaN) and not refined, so the caller can report it.
   std::vector<AdaptiveStep> run();
   /// The solution on the final leaf view (after run()).
   const Eigen::VectorXd& displacement() const { return u_; }
