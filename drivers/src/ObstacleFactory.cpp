@@ -62,7 +62,7 @@ std::vector<ObstacleType> makeTypes() {
       {"expression", 0, false, {{"gap", Kind::Expression, true}, kDirection}},
       {"surface",
        0,
-       false,
+       true,
        {{"file", Kind::File, true}, kDirection, {"reverse", Kind::Boolean, false}}},
       {"smiley",
        3,
@@ -206,8 +206,11 @@ std::unique_ptr<Obstacle> makeObstacle(const Scene& scene, int dim) {
         throw Error(scene.where(file.line) + "[contact] file = \"" + file.text + "\" is a " +
                     (surface.dimension == 2 ? "2D surface (segments)" : "3D surface (triangles, quadrilaterals)") +
                     ", the mesh is " + std::to_string(dim) + "D");
-      const auto reverse = c.flags.find("reverse");
-      return std::make_unique<SurfaceObstacle>(surface, nu, reverse != c.flags.end() && reverse->second.value);
+      const auto flag = c.flags.find("reverse");
+      const bool reverse = flag != c.flags.end() && flag->second.value;
+      if (c.normalDirection)
+        return std::make_unique<SurfaceObstacle>(surface, SurfaceObstacle::ClosestPoint{}, reverse);
+      return std::make_unique<SurfaceObstacle>(surface, nu, reverse);
     }
     if (name == "expression") {
       if (!c.gap) throw Error(scene.where(c.line) + "[contact] obstacle = \"expression\" needs gap");

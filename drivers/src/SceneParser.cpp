@@ -330,7 +330,7 @@ ContactSpec parseContact(const Scene& scene, const toml::value& table) {
             s.fail(key, "= " + literalOf(v) + " must be \"normal\" or a vector");
           if (!type->normalDirection)
             s.fail(key, "= \"normal\" is not available for obstacle = \"" + spec.obstacle +
-                            "\" (only ball and disk); give a vector");
+                            "\" (only ball, disk and surface); give a vector");
           spec.normalDirection = true;
         } else {
           spec.vectors[key] = contactVector(s, key);

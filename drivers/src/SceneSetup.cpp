@@ -233,7 +233,7 @@ ContactSet makeContactSet(const Scene& scene, const mesh::Mesh& mesh, const Obst
   }
   // A surface mesh that no line from the contact boundary meets from the front is a mistake in the
   // scene (misplaced, or its faces ordered the wrong way round), not an unconstrained problem.
-  if (const auto* surface = dynamic_cast<const SurfaceObstacle*>(&obstacle)) {
+  if (const auto* surface = dynamic_cast<const SurfaceObstacle*>(&obstacle); surface && !surface->closestPointMode()) {
     bool constrained = false, back = false;
     for (Index k = 0; k < contact->size() && !constrained; ++k) {
       constrained = std::isfinite(contact->gap(k));

@@ -64,6 +64,7 @@ struct SurfaceObstacle::Impl {
   struct Face {
     Point a, b, c;
     bool entry;
+    Point normal;  ///< outward unit normal
   };
   struct Node {
     Box box;
@@ -184,11 +185,22 @@ struct SurfaceObstacle::Impl {
 SurfaceObstacle::SurfaceObstacle(const mesh::SurfaceMesh& surface, const Point& direction, bool reverse)
     : impl_(std::make_unique<Impl>()), dimension_(surface.dimension), source_(surface.source) {
   const std::string what = "surface obstacle " + (source_.empty() ? std::string("(in memory)") : source_);
+  if (!direction.allFinite() || !(direction.norm() > 0)) throw Error(what + ": direction must be a non-zero finite vector");
+  if (dimension_ == 2 && direction[2] != 0) throw Error(what + ": direction of a 2D obstacle must have z = 0");
+  nu_ = direction.normalized();
+  build(surface, reverse);
+}
+
+SurfaceObstacle::SurfaceObstacle(const mesh::SurfaceMesh& surface, ClosestPoint, bool reverse)
+    : impl_(std::make_unique<Impl>()), closest_(true), dimension_(surface.dimension), source_(surface.source) {
+  nu_ = dimension_ == 2 ? Point(-Point::UnitY()) : Point(-Point::UnitZ());  // only for entry flags, unused
+  build(surface, reverse);
+}
+
+void SurfaceObstacle::build(const mesh::SurfaceMesh& surface, bool reverse) {
+  const std::string what = "surface obstacle " + (source_.empty() ? std::string("(in memory)") : source_);
   auto fail = [&](const std::string& message) -> void { throw Error(what + ": " + message); };
   if (dimension_ != 2 && dimension_ != 3) fail("dimension must be 2 or 3");
-  if (!direction.allFinite() || !(direction.norm() > 0)) fail("direction must be a non-zero finite vector");
-  if (dimension_ == 2 && direction[2] != 0) fail("direction of a 2D obstacle must have z = 0");
-  nu_ = direction.normalized();
   if (surface.numFaces() == 0) fail("has no faces");
   const Index nv = static_cast<Index>(surface.vertices.size());
   if (surface.types.size() != surface.faces.size()) fail("face types and faces differ in number");
@@ -241,13 +253,13 @@ SurfaceObstacle::SurfaceObstacle(const mesh::SurfaceMesh& surface, const Point& 
     if (dimension_ == 2) {
       const Point e = at(1) - at(0);
       if (!(e.norm() > 1e-14 * size)) degenerate();
-      m.faces.push_back({at(0), at(1), Point::Zero(), cross2(nu_, e) < 0});
+      m.faces.push_back({at(0), at(1), Point::Zero(), cross2(nu_, e) < 0, Point(e[1], -e[0], 0).normalized()});
       continue;
     }
     auto addTriangle = [&](const Point& a, const Point& b, const Point& cc) {
       const Point n = (b - a).cross(cc - a);
       if (!(n.norm() > 1e-12 * (b - a).norm() * (cc - a).norm()) || !(n.norm() > 0)) degenerate();
-      m.faces.push_back({a, b, cc, n.dot(nu_) < 0});
+      m.faces.push_back({a, b, cc, n.dot(nu_) < 0, n.normalized()});
     };
     addTriangle(at(0), at(1), at(2));
     if (c.size() == 4) addTriangle(at(0), at(2), at(3));
@@ -312,6 +324,18 @@ SurfaceObstacle::SurfaceObstacle(const mesh::SurfaceMesh& surface, const Point& 
     }
   }
 
+  // A closed surface (no boundary edges) must enclose a positive volume (area in 2D) with its
+  // outward normals; a negative one means that all faces are ordered the wrong way round.
+  const bool closed = std::none_of(edges.begin(), edges.end(), [](const auto& e) { return e.second.size() == 1; });
+  if (closed) {
+    double measure = 0;
+    for (const Impl::Face& f : m.faces)
+      measure += dimension_ == 2 ? cross2(f.a, f.b) / 2 : f.a.dot(f.b.cross(f.c)) / 6;
+    if (measure < 0)
+      fail(std::string("the closed surface encloses a negative ") + (dimension_ == 2 ? "area" : "volume") +
+           ": its faces are ordered clockwise seen from outside the obstacle; set reverse = true (or reorder them)");
+  }
+
   m.order.resize(m.faces.size());
   std::iota(m.order.begin(), m.order.end(), 0);
   m.nodes.reserve(2 * m.faces.size() / 4 + 2);
@@ -355,7 +379,102 @@ std::vector<SurfaceObstacle::Crossing> SurfaceObstacle::crossingsBruteForce(cons
   return m.finish(std::move(found));
 }
 
+namespace {
+
+/// The point of triangle (a, b, c) nearest to p: the Voronoi regions of the corners, then of the
+/// edges, else the interior (barycentric coordinates from the sub-areas).
+Point closestOnTriangle(const Point& p, const Point& a, const Point& b, const Point& c) {
+  const Point ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = ab.dot(ap), d2 = ac.dot(ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Point bp = p - b;
+  const double d3 = ab.dot(bp), d4 = ac.dot(bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + d1 / (d1 - d3) * ab;
+  const Point cp = p - c;
+  const double d5 = ab.dot(cp), d6 = ac.dot(cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + d2 / (d2 - d6) * ac;
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0) return b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b);
+  const double scale = 1 / (va + vb + vc);
+  return a + ab * (vb * scale) + ac * (vc * scale);
+}
+
+Point closestOnSegment(const Point& p, const Point& a, const Point& b) {
+  const Point e = b - a;
+  const double t = std::clamp((p - a).dot(e) / e.squaredNorm(), 0.0, 1.0);
+  return a + t * e;
+}
+
+double boxDistance2(const Box& box, const Point& x, int dim) {
+  double s = 0;
+  for (int a = 0; a < dim; ++a) {
+    const double d = std::max({box.lo[a] - x[a], 0.0, x[a] - box.hi[a]});
+    s += d * d;
+  }
+  return s;
+}
+
+}  // namespace
+
+SurfaceObstacle::Nearest SurfaceObstacle::nearest(const Point& x) const {
+  const Impl& m = *impl_;
+  // faces within a relative 1e-9 of the smallest distance count as nearest (edges, vertices)
+  double best = kInf;
+  struct Candidate {
+    double distance2;
+    int face;
+    Point point;
+  };
+  std::vector<Candidate> candidates;
+  int stack[128];
+  int top = 0;
+  stack[top++] = 0;
+  const double slack2 = m.boxSlack * m.boxSlack;
+  while (top > 0) {
+    const Impl::Node& node = m.nodes[static_cast<std::size_t>(stack[--top])];
+    if (boxDistance2(node.box, x, m.dim) > best * (1 + 1e-9) + slack2) continue;
+    if (node.left < 0) {
+      for (int i = node.begin; i < node.end; ++i) {
+        const int f = m.order[static_cast<std::size_t>(i)];
+        const Impl::Face& face = m.faces[static_cast<std::size_t>(f)];
+        const Point c = m.dim == 2 ? closestOnSegment(x, face.a, face.b) : closestOnTriangle(x, face.a, face.b, face.c);
+        const double d2 = (x - c).squaredNorm();
+        candidates.push_back({d2, f, c});
+        best = std::min(best, d2);
+      }
+      continue;
+    }
+    stack[top++] = node.left;
+    stack[top++] = node.right;
+  }
+  Nearest n{Point::Zero(), 0, Point::Zero()};
+  for (const Candidate& k : candidates) {
+    if (k.distance2 == best) n.point = k.point;
+    if (k.distance2 <= best * (1 + 1e-9) + slack2) n.normal += m.faces[static_cast<std::size_t>(k.face)].normal;
+  }
+  const double distance = std::sqrt(best);
+  n.signedDistance = (x - n.point).dot(n.normal) < 0 ? -distance : distance;
+  return n;
+}
+
+Point SurfaceObstacle::direction(const Point& x) const {
+  if (!closest_) return nu_;
+  const Nearest n = nearest(x);
+  const Point d = n.point - x;  // towards the surface
+  // on the surface (to rounding): the inward normal; otherwise along x - c, into the obstacle
+  if (!(d.norm() > impl_->boxSlack) || !(n.normal.norm() > 0)) {
+    const Point inward = -n.normal;
+    return inward.norm() > 0 ? Point(inward.normalized()) : nu_;
+  }
+  return n.signedDistance >= 0 ? Point(d.normalized()) : Point(-d.normalized());
+}
+
 double SurfaceObstacle::gap(const Point& x) const {
+  if (closest_) return nearest(x).signedDistance;
   // The obstacle occupies [entry, next exit) along the line; the first such interval that does
   // not end behind x gives the gap (its entry, <= 0 if x lies inside it).
   bool open = false;

@@ -683,6 +683,18 @@ TEST(ContactScene, SurfaceObstacleEqualsTheAnalyticObstacleItTriangulates) {
   const auto ur = readVtu(kTmp / "wedge_reverse" / "wedge_reverse.vtu").array("displacement");
   EXPECT_LT(maxDifference(uw, ur), 1e-9 * maxAbs(uw));
 
+  // closest-point mode on a straight polyline under the punch: the signed distance to the line
+  // and the direction -e_y, i.e. the plane obstacle
+  writePolyline("floor_line.msh", {{2, -0.001}, {0.5, -0.001}, {-1, -0.001}});
+  const std::string plane = "\n[contact]\nboundary = \"bottom\"\nobstacle = \"plane\"\npoint = [0, -0.001]\n";
+  const std::string normal =
+      "\n[contact]\nboundary = \"bottom\"\nobstacle = \"surface\"\nfile = \"floor_line.msh\"\ndirection = \"normal\"\n";
+  runIn(writeScene("line_plane", punchScene(3, plane, solver)), kTmp / "line_plane");
+  runIn(writeScene("line_normal", punchScene(3, normal, solver)), kTmp / "line_normal");
+  const auto ulp = readVtu(kTmp / "line_plane" / "line_plane.vtu").array("displacement");
+  const auto uln = readVtu(kTmp / "line_normal" / "line_normal.vtu").array("displacement");
+  EXPECT_LT(maxDifference(ulp, uln), 1e-9 * maxAbs(ulp));
+
   // 3D: the plane z = -0.001 as two triangles of an ASCII STL, against the plane obstacle
   fs::create_directories(kTmp);
   std::ofstream(kTmp / "floor.stl") << "solid floor\n"

@@ -278,3 +278,61 @@ TEST(SurfaceObstacle, DefectsAreErrors) {
   s.dimension = 3;
   expectErrorMentioning([&] { SurfaceObstacle(s, down); }, "expected triangles or quadrilaterals");
 }
+
+// --- closest-point mode (signed distance) ---------------------------------------------------------
+
+TEST(SurfaceObstacle, ClosestPointModeIsTheSignedDistance) {
+  const SurfaceObstacle cube(unitCube(), SurfaceObstacle::ClosestPoint{});
+  EXPECT_TRUE(cube.closestPointMode());
+  // above the top face, and inside below it: the same direction -e_z (into the obstacle)
+  EXPECT_NEAR(cube.gap(Point(0.4, 0.5, 1.3)), 0.3, 1e-15);
+  EXPECT_TRUE(cube.direction(Point(0.4, 0.5, 1.3)).isApprox(Point(0, 0, -1)));
+  EXPECT_NEAR(cube.gap(Point(0.4, 0.5, 0.9)), -0.1, 1e-15);
+  EXPECT_TRUE(cube.direction(Point(0.4, 0.5, 0.9)).isApprox(Point(0, 0, -1)));
+  // beside the cube, and at a corner: towards the nearest point
+  EXPECT_NEAR(cube.gap(Point(1.25, 0.5, 0.5)), 0.25, 1e-15);
+  EXPECT_TRUE(cube.direction(Point(1.25, 0.5, 0.5)).isApprox(Point(-1, 0, 0)));
+  EXPECT_NEAR(cube.gap(Point(1.2, 1.2, 1.2)), 0.2 * std::sqrt(3.0), 1e-14);
+  EXPECT_TRUE(cube.direction(Point(1.2, 1.2, 1.2)).isApprox(Point(-1, -1, -1).normalized()));
+  // on the surface: gap 0, the inward normal; below the cube it is finite (unlike a fixed direction)
+  EXPECT_NEAR(cube.gap(Point(0.3, 0.7, 1)), 0, 1e-15);
+  EXPECT_TRUE(cube.direction(Point(0.3, 0.7, 1)).isApprox(Point(0, 0, -1)));
+  EXPECT_NEAR(cube.gap(Point(0.5, 0.5, -0.5)), 0.5, 1e-15);
+  EXPECT_TRUE(cube.direction(Point(0.5, 0.5, -0.5)).isApprox(Point(0, 0, 1)));
+  // deep inside: the nearest face decides (x = 0.1 is nearest to the face x = 0)
+  EXPECT_NEAR(cube.gap(Point(0.1, 0.5, 0.4)), -0.1, 1e-15);
+  EXPECT_TRUE(cube.direction(Point(0.1, 0.5, 0.4)).isApprox(Point(1, 0, 0)));
+}
+
+TEST(SurfaceObstacle, ClosestPointModeConvergesToTheDiskWithNormalDirections) {
+  // DiskObstacle in "normal" mode is the exact signed distance with nu = (c - x)/|c - x|
+  const DiskObstacle disk(Point::Zero(), 1.0, Point(0, -1, 0), BallObstacle::Direction::Normal);
+  std::vector<double> gapErrors, directionErrors;
+  for (int n : {32, 64, 128, 256}) {
+    const SurfaceObstacle poly(polygon(n, Point::Zero(), 1.0), SurfaceObstacle::ClosestPoint{});
+    double eg = 0, ed = 0;
+    for (int k = 0; k < 200; ++k) {
+      const double phi = 0.1 + 2 * std::numbers::pi * k / 200, r = 1.3 + 0.2 * std::sin(3.0 * k);
+      const Point x(r * std::cos(phi), r * std::sin(phi), 0);
+      eg = std::max(eg, std::abs(poly.gap(x) - disk.gap(x)));
+      ed = std::max(ed, (poly.direction(x) - disk.direction(x)).norm());
+    }
+    gapErrors.push_back(eg);
+    directionErrors.push_back(ed);
+  }
+  for (std::size_t i = 1; i < gapErrors.size(); ++i) {
+    EXPECT_NEAR(std::log2(gapErrors[i - 1] / gapErrors[i]), 2.0, 0.2);  // O(h^2): the chord sag
+    EXPECT_GT(std::log2(directionErrors[i - 1] / directionErrors[i]), 0.8);  // O(h): at least
+  }
+}
+
+TEST(SurfaceObstacle, ClosedSurfaceTurnedInsideOutIsAnError) {
+  SurfaceMesh inverted = unitCube();
+  for (auto& q : inverted.faces) std::swap(q[1], q[3]);
+  expectErrorMentioning([&] { SurfaceObstacle(inverted, Point(0, 0, -1)); }, "negative volume");
+  expectErrorMentioning([&] { SurfaceObstacle(inverted, SurfaceObstacle::ClosestPoint{}); }, "set reverse = true");
+  EXPECT_NO_THROW(SurfaceObstacle(inverted, SurfaceObstacle::ClosestPoint{}, true));
+  SurfaceMesh clockwise = polygon(16, Point::Zero(), 1.0);
+  for (auto& f : clockwise.faces) std::swap(f[0], f[1]);
+  expectErrorMentioning([&] { SurfaceObstacle(clockwise, Point(0, -1, 0)); }, "negative area");
+}

@@ -20,9 +20,10 @@
 ///               fixed nu: g = -(x - c) . nu - sqrt(R^2 - r^2) for r <= R (r distance of x from the
 ///               axis through c along nu), +inf beyond; "normal": nu = (c - x)/|c - x|, g = |x - c| - R
 ///   expression  gap (expression of x, y, z), direction   g = gap(x), fixed nu
-///   surface     file (.msh or .stl, relative to the scene file), direction, reverse (boolean)
-///               g = distance along nu to the surface mesh (SurfaceObstacle.hpp), +inf where the
-///               line misses it; the mesh must have the scene's dimension (segments in 2D)
+///   surface     file (.msh or .stl, relative to the scene file), direction or "normal", reverse
+///               fixed nu: g = distance along nu to the surface mesh (SurfaceObstacle.hpp), +inf
+///               where the line misses it; "normal": g = signed distance to the nearest point c of
+///               the surface, nu along c - x; the mesh must have the scene's dimension
 /// `direction` defaults to -e_y (2D) / -e_z (3D) for every type.
 #include <memory>
 #include <string>

@@ -24,6 +24,7 @@
 /// clockwise seen from outside the obstacle).
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "obs/mesh/SurfaceMesh.hpp"
@@ -33,12 +34,21 @@ namespace obs {
 
 class SurfaceObstacle : public Obstacle {
 public:
+  /// Tag of the closest-point mode (see below).
+  struct ClosestPoint {};
+
   /// `direction` (non-zero, normalised here) is the constraint direction nu for every point.
   SurfaceObstacle(const mesh::SurfaceMesh& surface, const Point& direction, bool reverse = false);
+  /// Closest-point mode (docs/theory.md#surface-obstacles): with c(x) the point of the surface
+  /// nearest to x, g(x) = +|x - c| outside the obstacle and -|x - c| inside (the side is that of
+  /// the outward normals of the faces nearest to x), and nu(x) the unit vector from the outside
+  /// towards the inside along x - c (on the surface: the inward normal). The gap is finite
+  /// everywhere; it is the signed distance, the linearisation the thesis uses for complex obstacles.
+  SurfaceObstacle(const mesh::SurfaceMesh& surface, ClosestPoint, bool reverse = false);
   ~SurfaceObstacle() override;
 
   double gap(const Point& x) const override;
-  Point direction(const Point&) const override { return nu_; }
+  Point direction(const Point& x) const override;
   std::string name() const override { return "surface"; }
   int dimension() const override { return dimension_; }
 
@@ -56,12 +66,24 @@ public:
   /// faces are probably oriented the wrong way round (see `reverse`).
   bool seesOnlyBackFaces(const Point& x) const;
 
-  mesh::Index numTriangles() const;  ///< faces after quadrilaterals are split (segments in 2D)
+  mesh::Index numTriangles() const;
+  bool closestPointMode() const { return closest_; }
+  /// The point of the surface nearest to x, the signed distance (negative inside the obstacle) and
+  /// the sum of the outward unit normals of the faces nearest to x (several at edges and vertices).
+  struct Nearest {
+    Point point;
+    double signedDistance;
+    Point normal;
+  };
+  Nearest nearest(const Point& x) const;  ///< faces after quadrilaterals are split (segments in 2D)
   const std::string& source() const { return source_; }
 
 private:
+  void build(const mesh::SurfaceMesh& surface, bool reverse);
+
   struct Impl;
   std::unique_ptr<Impl> impl_;
+  bool closest_ = false;
   Point nu_;
   int dimension_;
   std::string source_;
