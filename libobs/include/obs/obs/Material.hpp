@@ -12,8 +12,9 @@ namespace obs {
 enum class VolumetricFormulation {
   Standard,  ///< full integration: locks (too stiff) as nu -> 1/2 for every cell type
   BBar,      ///< B-bar / mean dilatation: div u replaced by its cell mean in the volumetric part;
-             ///< removes locking on quadrilaterals, hexahedra, prisms and pyramids (on triangles and
-             ///< tetrahedra div u is constant per cell, so it equals Standard and still locks)
+             ///< removes locking on quadrilaterals and hexahedra and reduces it on pyramids; on
+             ///< triangles and tetrahedra div u is constant per cell, so it equals Standard and still
+             ///< locks (prisms: only where u varies along the prism axis)
 };
 
 struct Material {
