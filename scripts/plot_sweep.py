@@ -4,8 +4,8 @@ curve per combination of all varied keys but the last (the points of a curve fol
 the Pareto front (runs that no other run beats in both accuracy and cost) circled.
 
 Accuracy is the first of these columns that has values: analytic_error (the scene's analytic
-reference), load_error, displacement_error (both against the run with the most unknowns, which has
-no error of its own and is left out).
+reference), energy_error (dynamic runs: |E_end/E_0 - 1|), load_error, displacement_error (both
+against the reference run, which has no error of its own and is left out).
 
     python3 scripts/plot_sweep.py out/sweep/sweep.csv      # writes accuracy_vs_time.png, accuracy_vs_memory.png
 """
@@ -19,7 +19,8 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 
 FIXED = ["run", "repeat", "status", "error", "unknowns", "vertices", "iterations", "load_P", "max_displacement", "eta",
-         "analytic_error", "load_error", "displacement_error", "wall_s", "solver_s", "peak_mb", "reference"]
+         "analytic_error", "load_error", "displacement_error", "energy_ratio", "energy_error", "force_variation",
+         "max_penetration", "wall_s", "solver_s", "peak_mb", "reference"]
 
 
 def number(s):
@@ -36,10 +37,10 @@ def main():
     if not rows:
         sys.exit("plot_sweep: no successful runs in " + path)
     keys = [k for k in rows[0].keys() if k not in FIXED]
-    metric = next((m for m in ["analytic_error", "load_error", "displacement_error"]
+    metric = next((m for m in ["analytic_error", "energy_error", "load_error", "displacement_error"]
                    if any(number(r[m]) for r in rows)), None)
     if metric is None:
-        sys.exit("plot_sweep: no accuracy column with values (analytic_error, load_error, displacement_error)")
+        sys.exit("plot_sweep: no accuracy column with values (analytic_error, energy_error, load_error, displacement_error)")
     points = [r for r in rows if number(r[metric]) is not None and number(r[metric]) > 0]
     out = os.path.dirname(os.path.abspath(path))
     for cost, label, name in [("wall_s", "wall time [s]", "accuracy_vs_time.png"),
@@ -65,7 +66,7 @@ def main():
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel(label)
-        ax.set_ylabel(metric.replace("_", " ") + (" (against the finest run)" if metric != "analytic_error" else ""))
+        ax.set_ylabel(metric.replace("_", " ") + (" (against the reference run)" if metric in ("load_error", "displacement_error") else ""))
         ax.set_title(f"{len(points)} runs; labels: {keys[-1]}")
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(fontsize=8)

@@ -81,6 +81,13 @@ std::string formatNumber(std::optional<double> v) {
   return buf;
 }
 
+/// Dynamic runs: |E_end / E_0 - 1|, the deviation from the energy the continuous (frictionless,
+/// elastic) problem conserves.
+std::optional<double> energyError(std::optional<double> ratio) {
+  if (!ratio) return std::nullopt;
+  return std::abs(*ratio - 1);
+}
+
 /// The first "obs: error: ..." line of a run's stderr (without the prefix), else its last line.
 std::string errorOf(const fs::path& stderrFile) {
   std::ifstream in(stderrFile);
@@ -343,11 +350,14 @@ SweepSummary runSweep(const SweepOptions& o) {
   csv << "run,repeat";
   for (const SweepVariable& v : o.vary) csv << "," << csvField(v.key);
   csv << ",status,error,unknowns,vertices,iterations,load_P,max_displacement,eta,analytic_error,load_error,"
-         "displacement_error,wall_s,solver_s,peak_mb,reference\n";
+         "displacement_error,energy_ratio,energy_error,force_variation,max_penetration,wall_s,solver_s,peak_mb,"
+         "reference\n";
   for (const Run& run : runs) {
     const json& s = run.summary;
     const json* step = lastStep(s);
     const bool isReference = &run == reference;
+    // the load and max |u| of a dynamic run are those of its last step: no accuracy measure
+    const bool compare = run.ok && !isReference && !(s.is_object() && s.contains("dynamics"));
     if (explicitReference && &run == &runs.back())
       csv << "ref," << run.repeat;
     else
@@ -359,8 +369,12 @@ SweepSummary runSweep(const SweepOptions& o) {
         << formatNumber(number(s, {"contact", "load_P"})) << "," << formatNumber(number(s, {"max_displacement"}))
         << "," << formatNumber(step ? number(*step, {"eta"}) : std::nullopt) << ","
         << formatNumber(step ? number(*step, {"reference", "pressure_error"}) : std::nullopt) << ","
-        << (isReference || !run.ok ? "" : formatNumber(relative(number(s, {"contact", "load_P"}), refLoad))) << ","
-        << (isReference || !run.ok ? "" : formatNumber(relative(number(s, {"max_displacement"}), refDisp))) << ","
+        << (compare ? formatNumber(relative(number(s, {"contact", "load_P"}), refLoad)) : "") << ","
+        << (compare ? formatNumber(relative(number(s, {"max_displacement"}), refDisp)) : "") << ","
+        << formatNumber(number(s, {"dynamics", "energy_ratio"})) << ","
+        << formatNumber(energyError(number(s, {"dynamics", "energy_ratio"}))) << ","
+        << formatNumber(number(s, {"dynamics", "contact_force_variation"})) << ","
+        << formatNumber(number(s, {"dynamics", "max_penetration"})) << ","
         << formatNumber(run.wallSeconds) << "," << formatNumber(number(s, {"times", "solve_s"})) << ","
         << formatNumber(run.peakMb) << "," << (isReference ? "1" : "0") << "\n";
   }

@@ -172,6 +172,27 @@ TEST(Sweep, ExplicitReferenceRun) {
   EXPECT_THROW(runSweep(o), obs::Error);
 }
 
+TEST(Sweep, DynamicRunsReportEnergyAndContactForce) {
+  if (!fs::exists(OBS_BINARY)) GTEST_SKIP() << "obs not built: " << OBS_BINARY;
+  const fs::path out = kTmp / "dynamic";
+  fs::remove_all(out);
+  SweepOptions o = options(out);
+  o.scene = fs::path(OBS_DATA_DIR) / "scenes" / "dynamics_bar.toml";
+  o.vary = {parseSweepVariable("dynamics.scheme=\"contact-implicit\",\"contact-stabilized\"")};
+  EXPECT_EQ(runSweep(o).failed, 0);
+  const auto rows = readCsv(out / "sweep.csv");
+  ASSERT_EQ(rows.size(), 2u);
+  for (const auto& r : rows) {
+    const double ratio = std::stod(r.at("energy_ratio"));
+    EXPECT_NEAR(std::stod(r.at("energy_error")), std::abs(ratio - 1), 1e-9);
+    EXPECT_GE(std::stod(r.at("force_variation")), 0);
+    EXPECT_FALSE(r.at("max_penetration").empty());
+  }
+  // the contact force of the contact-implicit scheme oscillates, the stabilized one's does not
+  // (docs/dynamics.md): a much larger total variation
+  EXPECT_GT(std::stod(rows[0].at("force_variation")), 2 * std::stod(rows[1].at("force_variation")));
+}
+
 TEST(Sweep, FailedRunsAreRowsAndASweepResumes) {
   if (!fs::exists(OBS_BINARY)) GTEST_SKIP() << "obs not built: " << OBS_BINARY;
   const fs::path out = kTmp / "resume";

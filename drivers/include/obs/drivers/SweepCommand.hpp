@@ -11,12 +11,16 @@
 ///   run, repeat, <one column per varied key>, status (ok | failed), error, unknowns, vertices,
 ///   iterations, load_P, max_displacement, eta (adaptive: the last step's estimate),
 ///   analytic_error (adaptive scenes with an analytic reference: the last step's relative pressure
-///   error), load_error, displacement_error, wall_s, solver_s, peak_mb
+///   error), load_error, displacement_error, energy_ratio, energy_error, force_variation,
+///   max_penetration (dynamic runs: E_end/E_0, |E_end/E_0 - 1| against the energy the continuous
+///   problem conserves, the total variation of the contact force, the largest penetration),
+///   wall_s, solver_s, peak_mb, reference
 /// The accuracy measures load_error = |P - P_ref| / |P_ref| and displacement_error (the same for
 /// max |u|) are taken against the reference run: with --reference-set KEY=VALUE (repeatable) an extra
 /// run "ref" of the scene with the sweep's --set and these overrides (e.g. a finer grid; it is the
 /// last row); otherwise the successful run with the most unknowns (ties: the smallest solver
-/// tolerance, then the first). Their columns are empty for the reference itself (reference = 1). peak_mb is the child's peak resident
+/// tolerance, then the first). Their columns are empty for the reference itself (reference = 1) and
+/// for dynamic runs (whose load and max |u| are those of the last step; energy_error measures them). peak_mb is the child's peak resident
 /// memory (getrusage), wall_s its wall-clock time including start-up and output.
 ///
 /// Failures do not stop the sweep: a run that fails is a row with status "failed" and the first
