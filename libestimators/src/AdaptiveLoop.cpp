@@ -216,8 +216,10 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
       rec.solverIterations = result.iterations;
       rec.converged = result.converged;
       rec.kkt = result.kkt.max();
-      lastRate_ = result.convergenceRate;
-      lastEnergyNorm_ = freeEnergyNorm<d>(problem->matrix(), u, collectDirichlet(m, bc_.dirichlet));
+      if (options_.inexactFraction > 0) {  // inputs of the next step's tolerance (inexactTolerance)
+        lastRate_ = result.convergenceRate;
+        lastEnergyNorm_ = freeEnergyNorm<d>(problem->matrix(), u, collectDirichlet(m, bc_.dirichlet));
+      }
     } else {
       BlockSparseMatrix<d> A = assembleStiffness<d>(m, material_);
       Eigen::VectorXd b = assembleLoad<d>(m, bc_);
