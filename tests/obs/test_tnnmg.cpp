@@ -427,3 +427,63 @@ TEST(Tnnmg, ProblemOnAnotherMeshIsAnError) {
   bad.preSmoothing = 0;
   EXPECT_THROW((TNNMG<2>{grid, bad}), obs::Error);
 }
+
+// --- extremes of the mesh (docs/reliability.md) -----------------------------------------------------
+// Every cell type: twenty cycles of local refinement towards the first point of contact (cells
+// 2^-22 of the domain there, 22 grid levels), and thin plates whose cells have the aspect ratio
+// 1:1000. Asserted: TNNMG converges (no NaN, within its iteration cap) and agrees with PDAS.
+
+class TnnmgExtremes : public ::testing::TestWithParam<CellType> {};
+
+TEST_P(TnnmgExtremes, TwentyLevelsOfRefinementTowardsAPoint) {
+  const CellType type = GetParam();
+  const int dim = mesh::dimension(type);
+  mesh::Grid grid = uniformGrid(type, 2, 1);
+  const Point centre = dim == 2 ? P(0.5, 0) : P(0.5, 0.5, 0);
+  for (int cycle = 0; cycle < 20; ++cycle) {
+    const double h = 0.25 * std::ldexp(1.0, -cycle);  // the finest cells near the point
+    refineNear(grid, centre, 1.5 * h, 1);
+  }
+  EXPECT_GE(grid.maxLevel(), 21);
+  const mesh::Mesh m = grid.leafView().mesh;
+  auto run = [&]<int d>(std::integral_constant<int, d>) {
+    const auto obstacle = standardObstacle<d>();
+    const ContactSet cs(m, mesh::kBottom, *obstacle);
+    const ContactProblem<d> problem(m, kMaterial, standardLoad<d>(), cs);
+    const Outcome<d> r = solve(grid, problem, true, tightOptions<d>(), "20 levels " + std::string(mesh::name(type)));
+    ASSERT_TRUE(r.u.allFinite());
+    expectAgreement(problem, r);
+  };
+  if (dim == 2) run(std::integral_constant<int, 2>{});
+  else run(std::integral_constant<int, 3>{});
+}
+
+TEST_P(TnnmgExtremes, ThinPlateWithCellAspectRatio1To1000) {
+  const CellType type = GetParam();
+  const int dim = mesh::dimension(type);
+  // one layer of cells 0.125 wide and 1.25e-4 thick, refined twice in 2D, once in 3D (the ratio
+  // stays 1000)
+  const double t = 1.25e-4;
+  mesh::Grid grid(dim == 2 ? mesh::boxMesh(type, {8, 1, 1}, P(0, 0), P(1, t))
+                           : mesh::boxMesh(type, {8, 8, 1}, P(0, 0, 0), P(1, 1, t)));
+  for (int l = 0; l < (dim == 2 ? 2 : 1); ++l) grid.refineUniformly();
+  const mesh::Mesh m = grid.leafView().mesh;
+  auto run = [&]<int d>(std::integral_constant<int, d>) {
+    // a large ball below the plate, the top pressed down by half the thickness
+    const std::unique_ptr<Obstacle> obstacle =
+        d == 2 ? std::unique_ptr<Obstacle>(std::make_unique<DiskObstacle>(P(0.5, -100), 100.0))
+               : std::unique_ptr<Obstacle>(std::make_unique<BallObstacle>(P(0.5, 0.5, -100), 100.0));
+    const ContactSet cs(m, mesh::kBottom, *obstacle);
+    const ContactProblem<d> problem(m, kMaterial, pressedFromTop(d == 2 ? P(0, -0.5 * t) : P(0, 0, -0.5 * t)), cs);
+    typename TNNMG<d>::Options o = tightOptions<d>();
+    o.maxIterations = 300;
+    const Outcome<d> r = solve(grid, problem, true, o, "aspect 1:1000 " + std::string(mesh::name(type)));
+    ASSERT_TRUE(r.u.allFinite());
+    expectAgreement(problem, r);
+  };
+  if (dim == 2) run(std::integral_constant<int, 2>{});
+  else run(std::integral_constant<int, 3>{});
+}
+
+INSTANTIATE_TEST_SUITE_P(AllTypes, TnnmgExtremes, ::testing::ValuesIn(mesh::kVolumeCellTypes),
+                         [](const auto& info) { return std::string(mesh::name(info.param)); });
