@@ -211,7 +211,6 @@ void SurfaceObstacle::build(const mesh::SurfaceMesh& surface, bool reverse) {
 
   // Vertices: finite, and in the xy-plane for a 2D surface.
   Box all;
-  std::vector<char> used(static_cast<std::size_t>(nv), 0);
   auto cornersOf = [&](Index f) {
     const mesh::CellType type = surface.types[static_cast<std::size_t>(f)];
     const int n = type == mesh::CellType::Segment ? 2 : type == mesh::CellType::Triangle ? 3 : 4;
@@ -232,7 +231,6 @@ void SurfaceObstacle::build(const mesh::SurfaceMesh& surface, bool reverse) {
       const Point& p = surface.vertices[static_cast<std::size_t>(v)];
       if (!p.allFinite()) fail("vertex " + std::to_string(v) + " has a non-finite coordinate");
       if (dimension_ == 2 && p[2] != 0) fail("vertex " + std::to_string(v) + " of a 2D surface has z != 0");
-      used[static_cast<std::size_t>(v)] = 1;
       all.add(p);
     }
   }
