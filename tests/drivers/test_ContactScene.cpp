@@ -734,14 +734,14 @@ TEST(ContactSceneErrors, SurfaceObstacle) {
   EXPECT_ERROR_PARTS(errorOf("surface_nofile", punchScene(0, head)), "obstacle = \"surface\" needs file");
   EXPECT_ERROR_PARTS(errorOf("surface_missing", punchScene(0, head + "file = \"nowhere.stl\"\n")),
                      "surface_missing.toml:18: [contact] file = \"nowhere.stl\": no such file");
-  EXPECT_ERROR_PARTS(errorOf("surface_flag", punchScene(0, head + "file = \"wedge.msh\"\nreverse = \"yes\"\n")),
+  writePolyline("wedge_errors.msh", {{2, -0.03}, {0.5, 0}, {-1, -0.03}});
+  EXPECT_ERROR_PARTS(errorOf("surface_flag", punchScene(0, head + "file = \"wedge_errors.msh\"\nreverse = \"yes\"\n")),
                      "surface_flag.toml:19", "reverse");
-  writePolyline("wedge.msh", {{2, -0.03}, {0.5, 0}, {-1, -0.03}});
   // a 2D polyline for a 3D mesh
   const std::string cube = "[mesh]\ngenerator = \"box\"\ntype = \"hexahedron\"\ncells = [2, 2, 2]\n[material]\nE = 1\n"
                            "nu = 0.3\n[[dirichlet]]\nboundary = \"top\"\nvalue = [0, 0, -0.01]\n[contact]\n"
-                           "boundary = \"bottom\"\nobstacle = \"surface\"\nfile = \"wedge.msh\"\n";
-  EXPECT_ERROR_PARTS(errorOf("surface_dim", cube), "surface_dim.toml:14: [contact] file = \"wedge.msh\" is a 2D surface",
+                           "boundary = \"bottom\"\nobstacle = \"surface\"\nfile = \"wedge_errors.msh\"\n";
+  EXPECT_ERROR_PARTS(errorOf("surface_dim", cube), "surface_dim.toml:14: [contact] file = \"wedge_errors.msh\" is a 2D surface",
                      "the mesh is 3D");
   // beside the body: no line along -e_y from the bottom meets it
   writePolyline("aside.msh", {{7, -0.3}, {5, 0}, {3, -0.3}});

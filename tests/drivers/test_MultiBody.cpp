@@ -146,14 +146,16 @@ direction = [0, -1]
 // --- bad input -----------------------------------------------------------------------------------
 
 std::string errorOf(const std::string& text, bool run = false) {
-  fs::create_directories(kTmp);
-  const fs::path p = kTmp / "bad.toml";
+  // a directory per test: ctest runs the tests of this file in parallel processes
+  const fs::path dir = kTmp / ::testing::UnitTest::GetInstance()->current_test_info()->name();
+  fs::create_directories(dir);
+  const fs::path p = dir / "bad.toml";
   std::ofstream(p) << text;
   try {
     const Scene s = parseScene(p);
     if (run) {
       RunOptions o;
-      o.outputDirectory = kTmp / "bad";
+      o.outputDirectory = dir / "bad";
       runScene(s, o);
     } else {
       checkMultiBodyScene(s);

@@ -25,8 +25,10 @@ const fs::path kTmp = fs::path(OBS_TEST_TMP_DIR) / "sweep";
 
 /// The punch of docs/theory.md#analytic-references, small.
 fs::path punchScene() {
-  fs::create_directories(kTmp);
-  const fs::path p = kTmp / "punch.toml";
+  // one file per test: ctest runs the tests of this file in parallel processes
+  const fs::path dir = kTmp / ::testing::UnitTest::GetInstance()->current_test_info()->name();
+  fs::create_directories(dir);
+  const fs::path p = dir / "punch.toml";
   std::ofstream(p) << R"([mesh]
 generator = "box"
 type = "quadrilateral"
