@@ -89,6 +89,29 @@ Eigen::Vector3d PlaneWaveSolution::traction(const Point& x, const Eigen::Vector3
   return stress(x) * n;
 }
 
+namespace {
+
+/// Solves the problem on m, measures the errors against the exact solution u (value, gradient)
+/// and fills the row of a convergence study with n cells per direction.
+template <class Exact>
+ManufacturedRun studyRun(mesh::CellType type, int n, const mesh::Mesh& m, const Material& material,
+                         const BoundaryConditions& bc, const Exact& u) {
+  const auto s = solveLinearElasticity(m, material, bc);
+  const auto e = computeErrors(m, s.displacement, [&](const Point& x) { return u.value(x); },
+                               [&](const Point& x) { return u.gradient(x); });
+  ManufacturedRun r;
+  r.type = type;
+  r.cellsPerDirection = n;
+  r.h = 1.0 / n;
+  r.dofs = s.dofs;
+  r.relativeL2 = e.l2 / e.l2Exact;
+  r.relativeH1 = e.h1 / e.h1Exact;
+  r.solveSeconds = s.assemblySeconds + s.solveSeconds;
+  return r;
+}
+
+}  // namespace
+
 ManufacturedRun solveManufactured(mesh::CellType type, int n, double distortion,
                                   const Material& material) {
   auto m = mesh::boxMesh(type, {n, n, n}, Point(0, 0, 0), Point(1, 1, 1));
@@ -106,18 +129,7 @@ ManufacturedRun solveManufactured(mesh::CellType type, int n, double distortion,
     else
       bc.neumann.push_back({id, [&u, normal](const Point& x) { return u.traction(x, normal); }, {}});
   }
-  const auto s = solveLinearElasticity(m, material, bc);
-  const auto e = computeErrors(m, s.displacement, [&](const Point& x) { return u.value(x); },
-                               [&](const Point& x) { return u.gradient(x); });
-  ManufacturedRun r;
-  r.type = type;
-  r.cellsPerDirection = n;
-  r.h = 1.0 / n;
-  r.dofs = s.dofs;
-  r.relativeL2 = e.l2 / e.l2Exact;
-  r.relativeH1 = e.h1 / e.h1Exact;
-  r.solveSeconds = s.assemblySeconds + s.solveSeconds;
-  return r;
+  return studyRun(type, n, m, material, bc, u);
 }
 
 void distortUnitBox(mesh::Mesh& mesh, double amplitude) {
@@ -174,18 +186,7 @@ ManufacturedRun solveThickCylinder(mesh::CellType type, int n, const Material& m
     bc.dirichlet.push_back({3, {false, false, true}});
     bc.dirichlet.push_back({4, {false, false, true}});
   }
-  const auto s = solveLinearElasticity(m, material, bc);
-  const auto e = computeErrors(m, s.displacement, [&](const Point& x) { return u.value(x); },
-                               [&](const Point& x) { return u.gradient(x); });
-  ManufacturedRun r;
-  r.type = type;
-  r.cellsPerDirection = n;
-  r.h = 1.0 / n;
-  r.dofs = s.dofs;
-  r.relativeL2 = e.l2 / e.l2Exact;
-  r.relativeH1 = e.h1 / e.h1Exact;
-  r.solveSeconds = s.assemblySeconds + s.solveSeconds;
-  return r;
+  return studyRun(type, n, m, material, bc, u);
 }
 
 }  // namespace obs
