@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <iomanip>
+#include <numbers>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -14,6 +15,7 @@
 #include "obs/drivers/CsvWriter.hpp"
 #include "obs/drivers/ObstacleFactory.hpp"
 #include "obs/drivers/SceneSetup.hpp"
+#include "obs/drivers/SceneSolver.hpp"
 #include "obs/drivers/SolutionFields.hpp"
 #include "obs/drivers/Summary.hpp"
 #include "obs/drivers/VtkWriter.hpp"
@@ -185,6 +187,16 @@ nlohmann::json stepJson(const est::AdaptiveStep& s, double nodalError) {
                 {"estimator_s", s.estimatorSeconds}, {"refinement_s", s.refinementSeconds},
                 {"transfer_s", s.transferSeconds}};
   j["marked"] = s.marked;
+  if (s.bodies.size() > 1 || s.couplings.size() > 1 || (!s.couplings.empty() && s.couplings.front().mortar)) {
+    nlohmann::json b = nlohmann::json::array();
+    for (const auto& x : s.bodies)
+      b.push_back({{"cells", x.cells}, {"vertices", x.vertices}, {"eta", jnum(x.eta)}, {"marked", x.marked}});
+    j["bodies"] = b;
+    nlohmann::json c = nlohmann::json::array();
+    for (const auto& x : s.couplings)
+      c.push_back({{"label", x.label}, {"actual_vertices", x.actualVertices}, {"load_P", x.load}});
+    j["pairs"] = c;
+  }
   if (s.reference) {
     const auto& r = *s.reference;
     j["reference"] = {{"load", jnum(r.load)},
@@ -277,7 +289,7 @@ void snapshotStep(const Scene& scene, const est::AdaptiveStepView& v, const std:
   for (const Stress& s : e.cellStress) fin.maxVonMises = std::max(fin.maxVonMises, vonMises(s));
   const auto counts = m.cellCounts();
   for (std::size_t i = 0; i < counts.size() && i < fin.cellsPerType.size(); ++i) fin.cellsPerType[i] = counts[i];
-  if (!v.contactSet || !v.outputs) return;
+  if (!v.contactSet || !v.outputs || !scene.contact) return;  // (mortar slaves: reported per pair)
   const ContactSet& set = *v.contactSet;
   const ContactOutputs& out = *v.outputs;
   ContactReport c;
@@ -326,6 +338,41 @@ void snapshotStep(const Scene& scene, const est::AdaptiveStepView& v, const std:
   fin.contact = c;
 }
 
+/// The loop options of a scene's [adaptivity] and [solver] (one place for the one-body and the
+/// multi-body runner); `contact`: the scene has a contact coupling.
+est::AdaptiveLoopOptions adaptiveLoopOptions(const Scene& scene, bool contact) {
+  const AdaptivitySpec& spec = *scene.adaptivity;
+  est::AdaptiveLoopOptions o;
+  o.mode = spec.uniform ? est::RefinementMode::Uniform : est::RefinementMode::Adaptive;
+  o.estimator = spec.estimator;
+  o.marking = spec.marking;
+  o.markingParameter = spec.theta;
+  o.estimateUniform = true;
+  o.maxSteps = spec.steps;
+  o.targetVertices = static_cast<Index>(spec.maxVertices);
+  o.etaTolerance = spec.etaTolerance;
+  o.warmStart = spec.warmStart;
+  o.inexactFraction = spec.inexact;
+  const std::string type = scene.solverType();
+  if (contact) {
+    if (type == "tnnmg")
+      o.solver = est::ContactSolverKind::TNNMG;
+    else if (type == "pdas" && spec.inexact > 0)
+      throw Error(scene.where(scene.solver.line) + "[solver] type = \"pdas\" solves every step exactly; "
+                  "[adaptivity] inexact applies to tnnmg only");
+    else if (type == "pdas")
+      o.solver = est::ContactSolverKind::PrimalDualActiveSet;
+    else
+      throw Error(scene.where(scene.solver.line) + "[solver] type = \"" + type +
+                  "\" is not available with [adaptivity] (use tnnmg or pdas)");
+  }
+  o.solverTolerance = scene.solver.tolerance.value_or(o.solverTolerance);
+  o.maxSolverIterations = scene.solver.maxIterations.value_or(o.maxSolverIterations);
+  o.preSmoothing = scene.solver.preSmoothing.value_or(o.preSmoothing);  // were ignored before
+  o.postSmoothing = scene.solver.postSmoothing.value_or(o.postSmoothing);
+  return o;
+}
+
 std::string stepLine(const est::AdaptiveStep& s, int steps) {
   std::ostringstream os;
   os << "step " << s.step << "/" << steps - 1 << ": " << s.vertices << " vertices, " << s.cells << " cells";
@@ -338,6 +385,223 @@ std::string stepLine(const est::AdaptiveStep& s, int steps) {
   if (s.marked > 0) os << ", marked " << s.marked;
   os << std::setprecision(3) << " (" << s.solverSeconds + s.estimatorSeconds + s.assemblySeconds << " s)";
   return os.str();
+}
+
+/// The common end of the one-body and multi-body adaptive runs: plots, runs.csv row, summary.json
+/// (the run plus "adaptivity"), the "written" line, and the error of an unconverged last step.
+void finishAdaptiveRun(const Scene& scene, const RunOptions& options, const fs::path& dir, const fs::path& stepsCsv,
+                       const std::vector<est::AdaptiveStep>& steps, const std::vector<double>& nodalErrors,
+                       double theta, RunResult& r, Clock::time_point t, Clock::time_point start) {
+  const AdaptivitySpec& spec = *scene.adaptivity;
+  const est::AdaptiveStep& final = steps.back();
+  auto progress = [&](const std::string& line) {
+    if (options.progress) options.progress(line);
+  };
+  if (scene.output.plots || options.plots) {
+    std::vector<std::string> args = {"--output", dir.string(), "--label", scene.name};
+    if (scene.contact) args.insert(args.end(), {"--pressure", (dir / "pressure.csv").string()});
+    args.push_back(stepsCsv.string());
+    const fs::path script = plotScript();
+    const PlotScriptRun plot = runPlotScript(script, args);
+    std::ofstream(dir / "plots.log") << plot.command << "\n" << plot.output << "\n";
+    if (!plot.ok) {
+      if (options.stepProgress)
+        options.stepProgress("warning: no plots (python3 with matplotlib needed to run " + script.string() +
+                             "; see " + (dir / "plots.log").string() + ")");
+    } else {
+      for (const char* png : {"estimator.png", "pressure.png", "pressure_error.png"})
+        if (fs::exists(dir / png)) r.outputFiles.push_back(dir / png);
+    }
+  }
+
+  recordRunRow(scene, dir, r, t, start);
+  const fs::path summary = dir / "summary.json";
+  r.outputFiles.push_back(summary);
+  r.outputSeconds = secondsSince(t);
+  r.totalSeconds = secondsSince(start);
+  nlohmann::json j = summaryJson(r);
+  nlohmann::json a;
+  a["refinement"] = spec.uniform ? "uniform" : "adaptive";
+  a["estimator"] = spec.estimator;
+  a["marking"] = spec.marking;
+  a["theta"] = theta;
+  a["max_steps"] = spec.steps;
+  a["max_vertices"] = spec.maxVertices;
+  a["eta_tolerance"] = spec.etaTolerance;
+  a["reference"] = spec.reference.empty() ? nlohmann::json(nullptr) : nlohmann::json(spec.reference);
+  a["steps"] = nlohmann::json::array();
+  for (const auto& s : steps)
+    a["steps"].push_back(
+        stepJson(s, static_cast<std::size_t>(s.step) < nodalErrors.size() ? nodalErrors[s.step] : std::nan("")));
+  j["adaptivity"] = a;
+  {
+    std::ofstream out(summary);
+    out << j.dump(2) << "\n";
+    if (!out) throw Error(summary.string() + ": cannot write the summary");
+  }
+
+  std::string written;
+  for (const auto& f : r.outputFiles) written += (written.empty() ? "" : ", ") + f.string();
+  progress("written: " + written);
+  if (!final.converged) {
+    std::ostringstream os;
+    os << scene.where(scene.solver.line) << "[solver] " << final.solver << " did not converge in step "
+       << final.step << " (" << final.solverIterations
+       << " iterations), so the adaptive loop stopped there without estimating on it; raise [solver] "
+          "max_iterations or tolerance (outputs written to "
+       << dir.string() << ")";
+    throw Error(os.str());
+  }
+}
+
+/// `obs run` of a multi-body scene with [adaptivity]: the bodies' grids refined by one AdaptiveLoop
+/// (all bodies' cells marked together, the couplings rebuilt on every step's leaf views), one .vtu
+/// per body and step as parts of one .pvd, steps.csv with the totals, per-body and per-pair figures
+/// in summary.json.
+RunResult runAdaptiveMultiBody(const Scene& scene, const RunOptions& options) {
+  const auto start = Clock::now();
+  const AdaptivitySpec& spec = *scene.adaptivity;
+  auto progress = [&](const std::string& line) {
+    if (options.progress) options.progress(line);
+  };
+  RunResult r;
+  r.scene = scene.fileName;
+  auto t = Clock::now();
+  BodyGrids built = buildBodyGrids(scene, options.refine);
+  const int dim = built.meshes.front().dimension();
+  r.meshSeconds = secondsSince(t);
+  r.dimension = dim;
+  r.refine = options.refine.value_or(scene.bodies.front().mesh.refine);
+
+  const bool contact = !scene.pairs.empty() ||
+                       std::any_of(scene.bodies.begin(), scene.bodies.end(), [](const Scene& b) { return b.contact.has_value(); });
+  const est::AdaptiveLoopOptions o = adaptiveLoopOptions(scene, contact);
+  std::vector<est::AdaptiveBody> bodies;
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i)
+    bodies.push_back({scene.bodies[i].name, &built.grids[i], &scene.bodies[i].material, &built.bcs[i]});
+  est::AdaptiveLoop loop(std::move(bodies), o);
+  std::vector<std::unique_ptr<Obstacle>> obstacles;
+  std::vector<std::pair<std::string, std::string>> sides;  // per coupling: slave, master labels
+  CouplingVisitor visit;
+  visit.pair = [&](int slave, int sid, int master, int mid, const std::string& label, const MortarOptions& mo,
+                   const std::string& sl, const std::string& ml) {
+    loop.addMortarContact(slave, sid, master, mid, label, mo);
+    sides.emplace_back(sl, ml);
+  };
+  visit.obstacle = [&](int body, const Obstacle& obstacle, const std::string& label, const std::string& sl,
+                       const std::string& ml) {
+    loop.addObstacleContact(body, obstacle, contactBoundaryId(scene.bodies[body], built.meshes[body]), label);
+    sides.emplace_back(sl, ml);
+  };
+  visitCouplings(scene, built.meshPointers(), obstacles, visit);
+  Index vertices = 0;
+  for (const mesh::Mesh& m : built.meshes) vertices += m.numVertices();
+  progress("adaptive loop: " + std::string(spec.uniform ? "uniform" : "adaptive") + " refinement of " +
+           std::to_string(scene.bodies.size()) + " bodies, estimator " + spec.estimator +
+           (spec.uniform ? "" : ", marking " + spec.marking) + ", up to " + std::to_string(spec.steps) +
+           " steps from " + std::to_string(vertices) + " vertices");
+
+  const fs::path dir = options.outputDirectory.value_or(scene.output.directory);
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
+
+  std::vector<PvdEntry> vtkFiles;
+  std::vector<BodyReport> finalBodies;
+  std::array<long long, 7> cellsPerType{};
+  loop.setCallback([&](const est::AdaptiveStepView& v) {
+    const bool isLast = v.record.marked == 0;
+    const bool write = spec.vtk == AdaptivitySpec::Vtk::Every || (spec.vtk == AdaptivitySpec::Vtk::Last && isLast);
+    finalBodies.clear();
+    cellsPerType.fill(0);
+    for (std::size_t i = 0; i < v.bodies.size(); ++i) {
+      const est::AdaptiveBodyView& b = v.bodies[i];
+      const est::AdaptiveStepView bodyView{v.record, b.grid, b.view, b.displacement, b.contactSet,
+                                           b.outputs, b.classes, b.estimate, v.bodies};
+      StepSnapshot snap;
+      FinalState fin;
+      if (dim == 2)
+        snapshotStep<2>(scene.bodies[i], bodyView, b.marked, !isLast && spec.uniform, snap, fin, std::nullopt);
+      else
+        snapshotStep<3>(scene.bodies[i], bodyView, b.marked, !isLast && spec.uniform, snap, fin, std::nullopt);
+      if (write) {
+        char name[64];
+        std::snprintf(name, sizeof name, "step_%03d_", v.record.step);
+        const std::string file = name + scene.bodies[i].name + ".vtu";
+        writeVtu(dir / file, snap.mesh, snap.points, snap.cells);
+        vtkFiles.push_back(PvdEntry{static_cast<double>(v.record.step), static_cast<int>(i), file});
+      }
+      BodyReport br;
+      br.name = scene.bodies[i].name;
+      br.vertices = b.view.mesh.numVertices();
+      br.cells = b.view.mesh.numCells();
+      br.maxDisplacement = fin.maxDisplacement;
+      br.maxVonMises = fin.maxVonMises;
+      finalBodies.push_back(br);
+      for (std::size_t k = 0; k < cellsPerType.size(); ++k) cellsPerType[k] += fin.cellsPerType[k];
+    }
+    if (options.stepProgress) options.stepProgress(stepLine(v.record, spec.steps));
+  });
+  const std::vector<est::AdaptiveStep> steps = loop.run();
+  const est::AdaptiveStep& final = steps.back();
+
+  t = Clock::now();
+  if (!vtkFiles.empty()) {
+    const fs::path pvd = dir / (scene.name + ".pvd");
+    writePvdCollection(pvd, vtkFiles);
+    for (const PvdEntry& e : vtkFiles) r.outputFiles.push_back(dir / e.file);
+    r.outputFiles.push_back(pvd);
+  }
+  const fs::path stepsCsv = dir / "steps.csv";
+  writeStepsCsv(stepsCsv, steps, {});
+  r.outputFiles.push_back(stepsCsv);
+
+  r.vertices = final.vertices;
+  r.cells = final.cells;
+  r.cellsPerType = cellsPerType;
+  r.dofs = final.unknowns;
+  r.freeDofs = final.unknowns;
+  for (const auto& s : steps) {
+    r.assemblySeconds += s.assemblySeconds;
+    r.solveSeconds += s.solverSeconds;
+  }
+  r.bodies = finalBodies;
+  for (const BodyReport& b : r.bodies) {
+    r.maxDisplacement = std::max(r.maxDisplacement, b.maxDisplacement);
+    r.maxVonMises = std::max(r.maxVonMises, b.maxVonMises);
+  }
+  const std::string type = scene.solverType();
+  r.solver.type = contact ? type : "direct";
+  r.solver.iterations = final.solverIterations;
+  r.solver.converged = final.converged;
+  r.solver.seconds = final.solverSeconds;
+  r.solver.tolerance = contact && type == "tnnmg" ? o.solverTolerance : 0.0;
+  for (std::size_t k = 0; k < final.couplings.size(); ++k) {
+    const CouplingRecord& c = final.couplings[k];
+    PairReport p;
+    p.slave = sides[k].first;
+    p.master = sides[k].second;
+    p.slaveVertices = c.slaveVertices;
+    p.potentialVertices = c.potentialVertices;
+    p.actualVertices = c.actualVertices;
+    for (int a = 0; a < 3; ++a) {
+      p.forceSlave[a] = c.forceSlave[a];
+      p.forceMaster[a] = c.forceMaster[a];
+    }
+    p.load = c.load;
+    p.pressureMin = c.pressureMin;
+    p.pressureMax = c.pressureMax;
+    p.area = c.area;
+    p.radius = dim == 3 ? std::sqrt(c.area / std::numbers::pi) : c.area / 2;
+    p.maxViolation = c.maxViolation;
+    p.segments = c.segments;
+    p.uncovered = c.uncovered;
+    p.mortarSeconds = c.mortarSeconds;
+    r.pairs.push_back(p);
+  }
+  finishAdaptiveRun(scene, options, dir, stepsCsv, steps, {}, est::MarkingStrategy(spec.marking, spec.theta).parameter(),
+                    r, t, start);
+  return r;
 }
 
 }  // namespace
@@ -353,6 +617,7 @@ std::string stepsCsvHeader(const std::vector<std::string>& contributions) {
 }
 
 RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
+  if (scene.multiBody()) return runAdaptiveMultiBody(scene, options);
   const auto start = Clock::now();
   const AdaptivitySpec& spec = *scene.adaptivity;
   auto progress = [&](const std::string& line) {
@@ -372,35 +637,8 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
   r.dimension = dim;
   r.refine = options.refine.value_or(scene.mesh.refine);
 
-  est::AdaptiveLoopOptions o;
-  o.mode = spec.uniform ? est::RefinementMode::Uniform : est::RefinementMode::Adaptive;
-  o.estimator = spec.estimator;
-  o.marking = spec.marking;
-  o.markingParameter = spec.theta;
-  o.estimateUniform = true;
-  o.maxSteps = spec.steps;
-  o.targetVertices = static_cast<Index>(spec.maxVertices);
-  o.etaTolerance = spec.etaTolerance;
-  o.warmStart = spec.warmStart;
-  o.inexactFraction = spec.inexact;
+  const est::AdaptiveLoopOptions o = adaptiveLoopOptions(scene, scene.contact.has_value());
   const std::string type = scene.solverType();
-  if (scene.contact) {
-    if (type == "tnnmg")
-      o.solver = est::ContactSolverKind::TNNMG;
-    else if (type == "pdas" && spec.inexact > 0)
-      throw Error(scene.where(scene.solver.line) + "[solver] type = \"pdas\" solves every step exactly; "
-                  "[adaptivity] inexact applies to tnnmg only");
-    else if (type == "pdas")
-      o.solver = est::ContactSolverKind::PrimalDualActiveSet;
-    else
-      throw Error(scene.where(scene.solver.line) + "[solver] type = \"" + type +
-                  "\" is not available with [adaptivity] (use tnnmg or pdas)");
-  }
-  o.solverTolerance = scene.solver.tolerance.value_or(o.solverTolerance);
-  o.maxSolverIterations = scene.solver.maxIterations.value_or(o.maxSolverIterations);
-  o.preSmoothing = scene.solver.preSmoothing.value_or(o.preSmoothing);  // were ignored before
-  o.postSmoothing = scene.solver.postSmoothing.value_or(o.postSmoothing);
-
   std::unique_ptr<Obstacle> obstacle;
   std::optional<est::ContactReference> reference;
   est::AdaptiveLoop loop(grid, scene.material, bc, o);
@@ -483,61 +721,7 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
   r.solver.tolerance = scene.contact && type == "tnnmg" ? o.solverTolerance : 0.0;
   r.contact = fin.contact;
 
-  if (scene.output.plots || options.plots) {
-    std::vector<std::string> args = {"--output", dir.string(), "--label", scene.name};
-    if (scene.contact) args.insert(args.end(), {"--pressure", (dir / "pressure.csv").string()});
-    args.push_back(stepsCsv.string());
-    const fs::path script = plotScript();
-    const PlotScriptRun plot = runPlotScript(script, args);
-    std::ofstream(dir / "plots.log") << plot.command << "\n" << plot.output << "\n";
-    if (!plot.ok) {
-      if (options.stepProgress)
-        options.stepProgress("warning: no plots (python3 with matplotlib needed to run " + script.string() +
-                             "; see " + (dir / "plots.log").string() + ")");
-    } else {
-      for (const char* png : {"estimator.png", "pressure.png", "pressure_error.png"})
-        if (fs::exists(dir / png)) r.outputFiles.push_back(dir / png);
-    }
-  }
-
-  recordRunRow(scene, dir, r, t, start);
-  const fs::path summary = dir / "summary.json";
-  r.outputFiles.push_back(summary);
-  r.outputSeconds = secondsSince(t);
-  r.totalSeconds = secondsSince(start);
-  nlohmann::json j = summaryJson(r);
-  nlohmann::json a;
-  a["refinement"] = spec.uniform ? "uniform" : "adaptive";
-  a["estimator"] = spec.estimator;
-  a["marking"] = spec.marking;
-  a["theta"] = marking.parameter();
-  a["max_steps"] = spec.steps;
-  a["max_vertices"] = spec.maxVertices;
-  a["eta_tolerance"] = spec.etaTolerance;
-  a["reference"] = spec.reference.empty() ? nlohmann::json(nullptr) : nlohmann::json(spec.reference);
-  a["steps"] = nlohmann::json::array();
-  for (const auto& s : steps)
-    a["steps"].push_back(
-        stepJson(s, static_cast<std::size_t>(s.step) < nodalErrors.size() ? nodalErrors[s.step] : std::nan("")));
-  j["adaptivity"] = a;
-  {
-    std::ofstream out(summary);
-    out << j.dump(2) << "\n";
-    if (!out) throw Error(summary.string() + ": cannot write the summary");
-  }
-
-  std::string written;
-  for (const auto& f : r.outputFiles) written += (written.empty() ? "" : ", ") + f.string();
-  progress("written: " + written);
-  if (!final.converged) {
-    std::ostringstream os;
-    os << scene.where(scene.solver.line) << "[solver] " << final.solver << " did not converge in step "
-       << final.step << " (" << final.solverIterations
-       << " iterations), so the adaptive loop stopped there without estimating on it; raise [solver] "
-          "max_iterations or tolerance (outputs written to "
-       << dir.string() << ")";
-    throw Error(os.str());
-  }
+  finishAdaptiveRun(scene, options, dir, stepsCsv, steps, nodalErrors, marking.parameter(), r, t, start);
   return r;
 }
 

@@ -42,18 +42,6 @@ std::string describeCells(const RunResult& r) {
   return std::to_string(r.cells) + " cells (" + types + ")";
 }
 
-/// A .pvd collection of the bodies' .vtu files (one part per body), for ParaView to open in one go.
-void writePartsPvd(const std::filesystem::path& path, const std::vector<std::filesystem::path>& files) {
-  std::ofstream out(path);
-  if (!out) throw Error(path.string() + ": cannot write the .pvd collection");
-  out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
-         "  <Collection>\n";
-  for (std::size_t i = 0; i < files.size(); ++i)
-    out << "    <DataSet timestep=\"0\" part=\"" << i << "\" file=\"" << files[i].filename().string() << "\"/>\n";
-  out << "  </Collection>\n</VTKFile>\n";
-  if (!out) throw Error(path.string() + ": cannot write the .pvd collection");
-}
-
 /// `obs run` of a multi-body scene (Scene::bodies): every body's grid, then the same contact model
 /// path as a one-body contact scene (SceneSolver.hpp), outputs per body and per pair.
 RunResult runMultiBodyScene(const Scene& scene, const RunOptions& options) {
@@ -64,24 +52,9 @@ RunResult runMultiBodyScene(const Scene& scene, const RunOptions& options) {
   RunResult r;
   r.scene = scene.fileName;
   auto t = Clock::now();
-  std::vector<mesh::Grid> grids;
-  std::vector<mesh::Mesh> meshes;
-  std::vector<BoundaryConditions> bcs;
-  grids.reserve(scene.bodies.size());
-  for (const Scene& body : scene.bodies) {
-    try {
-      grids.push_back(buildGrid(body, options.refine));
-      meshes.push_back(grids.back().leafView().mesh);
-      validateScene(body, meshes.back());
-      bcs.push_back(makeBoundaryConditions(body, meshes.back()));
-    } catch (const Error& e) {
-      throw Error(std::string(e.what()) + " (in [[body]] '" + body.name + "')");
-    }
-    if (meshes.back().dimension() != meshes.front().dimension())
-      throw Error(scene.where(body.bodyLine) + "[[body]] '" + body.name + "' has dimension " +
-                  std::to_string(meshes.back().dimension()) + ", body '" + scene.bodies.front().name + "' " +
-                  std::to_string(meshes.front().dimension()) + " (all bodies must have the same dimension)");
-  }
+  const BodyGrids built = buildBodyGrids(scene, options.refine);
+  const std::vector<mesh::Mesh>& meshes = built.meshes;
+  const std::vector<BoundaryConditions>& bcs = built.bcs;
   r.meshSeconds = secondsSince(t);
   r.dimension = meshes.front().dimension();
   r.refine = options.refine.value_or(scene.bodies.front().mesh.refine);
@@ -94,12 +67,8 @@ RunResult runMultiBodyScene(const Scene& scene, const RunOptions& options) {
   progress("meshes built: " + std::to_string(meshes.size()) + " bodies, " + describeCells(r) + " / " +
            std::to_string(r.vertices) + " vertices (" + std::to_string(r.dimension) + "D, " + seconds(r.meshSeconds) + ")");
 
-  std::vector<const mesh::Grid*> gridPtrs;
-  std::vector<const mesh::Mesh*> meshPtrs;
-  for (std::size_t i = 0; i < grids.size(); ++i) {
-    gridPtrs.push_back(&grids[i]);
-    meshPtrs.push_back(&meshes[i]);
-  }
+  const std::vector<const mesh::Grid*> gridPtrs = built.gridPointers();
+  const std::vector<const mesh::Mesh*> meshPtrs = built.meshPointers();
   if (scene.dynamics) return runDynamicScene(scene, gridPtrs, meshPtrs, bcs, options, std::move(r), start);
   const MultiBodySolution solved = solveMultiBodyScene(scene, gridPtrs, meshPtrs, bcs, options.iterationProgress);
   r.dofs = solved.dofs;
@@ -138,18 +107,18 @@ RunResult runMultiBodyScene(const Scene& scene, const RunOptions& options) {
   std::filesystem::create_directories(dir, ec);
   if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
   if (scene.output.vtk) {
-    std::vector<std::filesystem::path> parts;
+    std::vector<PvdEntry> parts;
     for (std::size_t i = 0; i < meshes.size(); ++i) {
       const auto path = dir / (scene.name + "_" + scene.bodies[i].name + ".vtu");
       auto pf = pointFields(meshes[i], solved.bodies[i]);
       pf.insert(pf.end(), solved.contactFields[i].begin(), solved.contactFields[i].end());
       const auto cf = cellFields(meshes[i], solved.bodies[i]);
       writeVtu(path, meshes[i], pf, cf);
-      parts.push_back(path);
+      parts.push_back(PvdEntry{0, static_cast<int>(i), path.filename().string()});
       r.outputFiles.push_back(path);
     }
     const auto pvd = dir / (scene.name + ".pvd");
-    writePartsPvd(pvd, parts);
+    writePvdCollection(pvd, parts);
     r.outputFiles.push_back(pvd);
   }
   recordRunRow(scene, dir, r, t, start);

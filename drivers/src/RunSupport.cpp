@@ -2,7 +2,11 @@
 
 #include <sys/resource.h>
 
+#include <fstream>
+
 #include "obs/drivers/CsvWriter.hpp"
+#include "obs/drivers/SceneSetup.hpp"
+#include "obs/mesh/Error.hpp"
 
 namespace obs::drivers {
 
@@ -25,6 +29,49 @@ void recordRunRow(const Scene& scene, const std::filesystem::path& dir, RunResul
   r.totalSeconds = secondsSince(start);
   appendCsvRow(path, r);
   r.outputFiles.push_back(path);
+}
+
+std::vector<const mesh::Grid*> BodyGrids::gridPointers() const {
+  std::vector<const mesh::Grid*> p;
+  for (const mesh::Grid& g : grids) p.push_back(&g);
+  return p;
+}
+
+std::vector<const mesh::Mesh*> BodyGrids::meshPointers() const {
+  std::vector<const mesh::Mesh*> p;
+  for (const mesh::Mesh& m : meshes) p.push_back(&m);
+  return p;
+}
+
+BodyGrids buildBodyGrids(const Scene& scene, const std::optional<int>& refine) {
+  BodyGrids b;
+  b.grids.reserve(scene.bodies.size());
+  for (const Scene& body : scene.bodies) {
+    try {
+      b.grids.push_back(buildGrid(body, refine));
+      b.meshes.push_back(b.grids.back().leafView().mesh);
+      validateScene(body, b.meshes.back());
+      b.bcs.push_back(makeBoundaryConditions(body, b.meshes.back()));
+    } catch (const Error& e) {
+      throw Error(std::string(e.what()) + " (in [[body]] '" + body.name + "')");
+    }
+    if (b.meshes.back().dimension() != b.meshes.front().dimension())
+      throw Error(scene.where(body.bodyLine) + "[[body]] '" + body.name + "' has dimension " +
+                  std::to_string(b.meshes.back().dimension()) + ", body '" + scene.bodies.front().name + "' " +
+                  std::to_string(b.meshes.front().dimension()) + " (all bodies must have the same dimension)");
+  }
+  return b;
+}
+
+void writePvdCollection(const std::filesystem::path& path, const std::vector<PvdEntry>& entries) {
+  std::ofstream out(path);
+  if (!out) throw Error(path.string() + ": cannot write the .pvd collection");
+  out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
+         "  <Collection>\n";
+  for (const PvdEntry& e : entries)
+    out << "    <DataSet timestep=\"" << e.time << "\" part=\"" << e.part << "\" file=\"" << e.file << "\"/>\n";
+  out << "  </Collection>\n</VTKFile>\n";
+  if (!out) throw Error(path.string() + ": cannot write the .pvd collection");
 }
 
 }  // namespace obs::drivers

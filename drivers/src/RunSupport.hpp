@@ -4,6 +4,11 @@
 /// timing, peak memory and the final runs.csv row.
 #include <chrono>
 #include <filesystem>
+#include <optional>
+#include <vector>
+
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/BoundaryConditions.hpp"
 
 #include "obs/drivers/RunResult.hpp"
 #include "obs/drivers/Scene.hpp"
@@ -23,5 +28,25 @@ double peakMemoryMB();
 /// outputStart: when the run began writing outputs; start: when the run began.
 void recordRunRow(const Scene& scene, const std::filesystem::path& dir, RunResult& r, Clock::time_point outputStart,
                   Clock::time_point start);
+
+/// The bodies of a multi-body scene, built and checked (buildGrid, validateScene,
+/// makeBoundaryConditions per body; one dimension for all): their grids, coarse leaf meshes and
+/// boundary conditions in the order of Scene::bodies. Errors name the body.
+struct BodyGrids {
+  std::vector<mesh::Grid> grids;
+  std::vector<mesh::Mesh> meshes;
+  std::vector<BoundaryConditions> bcs;
+  std::vector<const mesh::Grid*> gridPointers() const;
+  std::vector<const mesh::Mesh*> meshPointers() const;
+};
+BodyGrids buildBodyGrids(const Scene& scene, const std::optional<int>& refine);
+
+/// A .pvd collection of .vtu files: (time step, part, file name relative to the .pvd) each.
+struct PvdEntry {
+  double time = 0;
+  int part = 0;
+  std::string file;
+};
+void writePvdCollection(const std::filesystem::path& path, const std::vector<PvdEntry>& entries);
 
 }  // namespace obs::drivers

@@ -469,6 +469,18 @@ OutputSpec parseOutput(const Scene& scene, const toml::value* table) {
   return out;
 }
 
+/// Checks of a scene (or a body of a multi-body scene) with [adaptivity]: the estimators use the
+/// standard stress, and an adaptive run is static (`dynamics`: the scene's [dynamics] table, if any).
+void checkAdaptiveScene(const Scene& scene, const toml::value* dynamics) {
+  if (scene.material.formulation != VolumetricFormulation::Standard)
+    throw Error(scene.where(scene.formulationLine) +
+                "[material] formulation = \"bbar\" is not supported by the estimators of [adaptivity] yet "
+                "(their residuals use the standard stress); use it in static or dynamic runs");
+  if (dynamics)
+    throw Error(scene.where(scene.adaptivity->line) +
+                "[adaptivity] and [dynamics] cannot be combined (adaptive runs are static; remove one of them)");
+}
+
 }  // namespace
 
 /// The sections that describe one body (top level of a one-body scene, or one [[body]] entry):
@@ -658,12 +670,18 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
         throw Error(whereOf(fileName, *v) + "[" + std::string(key) +
                     "] at the top level cannot be combined with [[body]] entries (put it inside the body: [body." +
                     key + "])");
-    if (const toml::value* v = find("adaptivity"))
-      throw Error(whereOf(fileName, *v) +
-                  "[adaptivity] is not available for multi-body scenes yet (static and dynamic two-body contact only)");
     parseMultiBody(scene, *bodies, find("contact"));
     if (const toml::value* sv = find("solver")) scene.solver = parseSolver(scene, *sv, true);
     scene.output = parseOutput(scene, find("output"));
+    if (const toml::value* a = find("adaptivity")) {
+      scene.adaptivity = parseAdaptivity(scene, *a, true);
+      checkAdaptiveScene(scene, find("dynamics"));
+      if (!scene.adaptivity->reference.empty())
+        throw Error(scene.where(scene.adaptivity->referenceLine) + "[adaptivity] reference = \"" +
+                    scene.adaptivity->reference +
+                    "\" is a one-body solution (a body against a rigid obstacle); a multi-body scene has none");
+      for (const Scene& b : scene.bodies) checkAdaptiveScene(b, nullptr);
+    }
     if (const toml::value* dy = find("dynamics")) {
       scene.dynamics = parseDynamics(scene, *dy);
       checkDynamicScene(scene);
@@ -686,10 +704,7 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
   scene.output = parseOutput(scene, find("output"));
   if (const toml::value* a = find("adaptivity")) {
     scene.adaptivity = parseAdaptivity(scene, *a, scene.contact.has_value());
-    if (scene.material.formulation != VolumetricFormulation::Standard)
-      throw Error(scene.where(scene.formulationLine) +
-                  "[material] formulation = \"bbar\" is not supported by the estimators of [adaptivity] yet "
-                  "(their residuals use the standard stress); use it in static or dynamic runs");
+    checkAdaptiveScene(scene, find("dynamics"));
   }
   if (const toml::value* dy = find("dynamics")) {
     scene.dynamics = parseDynamics(scene, *dy);

@@ -330,84 +330,66 @@ MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mes
                                Field{"constraint_direction", 3, std::vector<double>(3 * n, 0.0), false},
                                Field{"contact_force", 3, std::vector<double>(3 * n, 0.0), false}});
   }
+  // the figures per pair from the model (one report for every runner), the fields per body here
+  const std::vector<CouplingRecord> records = couplingRecords(model, *problem, x, out);
   std::size_t mortarIndex = 0, obstacleIndex = 0;  // couplings: the pairs in scene order, then obstacles
-  for (const auto& c : model.couplings()) {
+  for (std::size_t j = 0; j < model.couplings().size(); ++j) {
+    const auto& c = model.couplings()[j];
+    const CouplingRecord& rec = records[j];
     PairReport r;
-    // the coupling's nodes: stacked vertex, direction, multiplier mu = D_pp lambda_p (mortar) or the
-    // nodal force (obstacle), its body and the faces
-    const int slaveBody = c.mortar ? c.slave : c.body;
-    const Index count = c.mortar ? c.coupling->size() : c.obstacleSet->size();
     if (c.mortar) {
       const MortarCouplingSpecLabels labels = pairLabels(scene.pairs[mortarIndex++]);
       r.slave = labels.slave;
       r.master = labels.master;
-      const MortarCoupling& mc = *c.coupling;
-      r.slaveVertices = mc.size() + mc.statistics().uncoveredNodes;
-      r.segments = mc.statistics().segments;
-      r.uncovered = mc.statistics().uncoveredNodes;
-      r.mortarSeconds = mc.statistics().seconds;
     } else {
       const Scene& body = scene.bodies[obstacleBody[obstacleIndex++]];
       r.slave = sideLabel(body.name, body.contact->boundary);
       r.master = "obstacle " + body.contact->obstacle;
-      r.slaveVertices = count;
     }
-    Eigen::VectorXd mu(count);
-    Eigen::Vector3d slaveForce = Eigen::Vector3d::Zero();
-    double pmin = std::numeric_limits<double>::infinity(), pmax = -pmin;
-    std::vector<char> in(count, 0);
+    r.slaveVertices = rec.slaveVertices;
+    r.potentialVertices = rec.potentialVertices;
+    r.actualVertices = rec.actualVertices;
+    for (int a = 0; a < 3; ++a) {
+      r.forceSlave[a] = rec.forceSlave[a];
+      r.forceMaster[a] = rec.forceMaster[a];
+    }
+    r.load = rec.load;
+    r.pressureMin = rec.pressureMin;
+    r.pressureMax = rec.pressureMax;
+    r.area = rec.area;
+    r.radius = d == 3 ? std::sqrt(r.area / std::numbers::pi) : r.area / 2;
+    r.maxViolation = rec.maxViolation;
+    r.segments = rec.segments;
+    r.uncovered = rec.uncovered;
+    r.mortarSeconds = rec.mortarSeconds;
+    // point fields: the coupling's nodes (stacked vertex, direction, multiplier mu = D_pp lambda_p
+    // for mortar, the nodal force for obstacles) on the constrained body, master forces on the master
+    const int slaveBody = c.mortar ? c.slave : c.body;
+    const Index count = static_cast<Index>(c.nodes.size());
+    Eigen::VectorXd mu = Eigen::VectorXd::Zero(count);
     const Index offS = model.bodies()[slaveBody].offset;
     auto& fs = s.contactFields[slaveBody];
     for (Index k = 0; k < count; ++k) {
       const Index node = c.nodes[k];
-      if (!problem->constraint(node).bounded()) {
-        mu[k] = 0;
-        continue;
-      }
-      ++r.potentialVertices;
+      if (!problem->constraint(node).bounded()) continue;
       mu[k] = out.multiplier[node];
-      slaveForce -= mu[k] * cs.direction(node);
-      r.load += mu[k];
-      in[k] = out.inContact[node];
-      r.actualVertices += in[k];
-      if (in[k]) {
-        pmin = std::min(pmin, out.pressure[node]);
-        pmax = std::max(pmax, out.pressure[node]);
-      }
       const auto v = static_cast<std::size_t>(cs.vertex(node) - offS);
       const Point& nu = cs.direction(node);
       for (int a = 0; a < 3; ++a) fs[4].values[3 * v + a] = nu[a];
       fs[0].values[v] = cs.gap(node);
       fs[1].values[v] = nu.template head<d>().dot(x.template segment<d>(static_cast<Eigen::Index>(cs.vertex(node)) * d));
       fs[2].values[v] = out.pressure[node];
-      fs[3].values[v] = in[k] ? 2 : 1;
+      fs[3].values[v] = out.inContact[node] ? 2 : 1;
       for (int a = 0; a < d; ++a) fs[5].values[3 * v + a] = -mu[k] * nu[a];
-      r.maxViolation = std::max(r.maxViolation, fs[1].values[v] - cs.gap(node));
     }
-    if (r.actualVertices > 0) {
-      r.pressureMin = pmin;
-      r.pressureMax = pmax;
-    }
-    Eigen::Vector3d masterForce = -slaveForce;  // a rigid obstacle takes the reaction
     if (c.mortar) {
       const Eigen::VectorXd fm = c.coupling->masterForces(mu);
-      masterForce.setZero();
       const Index offM = model.bodies()[c.master].offset;
       auto& fmField = s.contactFields[c.master];
-      for (Index v = 0; v < meshes[c.master]->numVertices(); ++v) {
-        const auto f = fm.template segment<d>(static_cast<Eigen::Index>(offM + v) * d);
-        masterForce.template head<d>() += f;
-        for (int a = 0; a < d; ++a) fmField[5].values[3 * static_cast<std::size_t>(v) + a] += f[a];
-      }
+      for (Index v = 0; v < meshes[c.master]->numVertices(); ++v)
+        for (int a = 0; a < d; ++a)
+          fmField[5].values[3 * static_cast<std::size_t>(v) + a] += fm[static_cast<Eigen::Index>(offM + v) * d + a];
     }
-    for (int a = 0; a < 3; ++a) {
-      r.forceSlave[a] = slaveForce[a];
-      r.forceMaster[a] = masterForce[a];
-    }
-    const ContactSet pairSet = c.mortar ? c.coupling->contactSet() : *c.obstacleSet;
-    for (const ContactSet::Face& f : pairSet.faces())
-      if (std::all_of(f.nodes.begin(), f.nodes.end(), [&](Index k) { return in[k] != 0; })) r.area += f.measure;
-    r.radius = d == 3 ? std::sqrt(r.area / std::numbers::pi) : r.area / 2;
     s.pairs.push_back(r);
   }
   return s;
@@ -415,12 +397,8 @@ MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mes
 
 }  // namespace
 
-template <int d>
-std::vector<int> buildContactModel(const Scene& scene, const std::vector<const mesh::Mesh*>& meshes,
-                                   const std::vector<BoundaryConditions>& bcs, ContactModel<d>& model,
-                                   std::vector<std::unique_ptr<Obstacle>>& obstacles) {
-  for (std::size_t i = 0; i < scene.bodies.size(); ++i)
-    model.addBody(scene.bodies[i].name, *meshes[i], scene.bodies[i].material, bcs[i]);
+std::vector<int> visitCouplings(const Scene& scene, const std::vector<const mesh::Mesh*>& meshes,
+                                std::vector<std::unique_ptr<Obstacle>>& obstacles, const CouplingVisitor& visit) {
   for (const MortarPairSpec& p : scene.pairs) {
     const Scene& sb = scene.bodies[p.slaveIndex];
     const Scene& mb = scene.bodies[p.masterIndex];
@@ -429,19 +407,37 @@ std::vector<int> buildContactModel(const Scene& scene, const std::vector<const m
     MortarOptions o;
     o.minCoverage = p.minCoverage;
     o.searchDistance = p.searchDistance;
-    model.addMortarPair(p.slaveIndex, sid, p.masterIndex, mid, sideLabel(p.slaveBody, p.slave) + " / " + sideLabel(p.masterBody, p.master), o);
+    const std::string slave = sideLabel(p.slaveBody, p.slave), master = sideLabel(p.masterBody, p.master);
+    visit.pair(p.slaveIndex, sid, p.masterIndex, mid, slave + " / " + master, o, slave, master);
   }
   // rigid obstacles of single bodies ([[contact]] with body = ...), after the pairs
   std::vector<int> obstacleBody;
   for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
     const Scene& body = scene.bodies[i];
     if (!body.contact) continue;
-    obstacles.push_back(makeObstacle(body, d));
-    model.addObstacleContact(static_cast<int>(i), makeContactSet(body, *meshes[i], *obstacles.back()),
-                             sideLabel(body.name, body.contact->boundary) + " / obstacle " + body.contact->obstacle);
+    obstacles.push_back(makeObstacle(body, meshes[i]->dimension()));
+    const std::string slave = sideLabel(body.name, body.contact->boundary);
+    visit.obstacle(static_cast<int>(i), *obstacles.back(), slave + " / obstacle " + body.contact->obstacle, slave,
+                   "obstacle " + body.contact->obstacle);
     obstacleBody.push_back(static_cast<int>(i));
   }
   return obstacleBody;
+}
+
+template <int d>
+std::vector<int> buildContactModel(const Scene& scene, const std::vector<const mesh::Mesh*>& meshes,
+                                   const std::vector<BoundaryConditions>& bcs, ContactModel<d>& model,
+                                   std::vector<std::unique_ptr<Obstacle>>& obstacles) {
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i)
+    model.addBody(scene.bodies[i].name, *meshes[i], scene.bodies[i].material, bcs[i]);
+  CouplingVisitor visit;
+  visit.pair = [&](int slave, int sid, int master, int mid, const std::string& label, const MortarOptions& o,
+                   const std::string&, const std::string&) { model.addMortarPair(slave, sid, master, mid, label, o); };
+  visit.obstacle = [&](int body, const Obstacle& obstacle, const std::string& label, const std::string&,
+                       const std::string&) {
+    model.addObstacleContact(body, makeContactSet(scene.bodies[body], *meshes[body], obstacle), label);
+  };
+  return visitCouplings(scene, meshes, obstacles, visit);
 }
 
 template std::vector<int> buildContactModel<2>(const Scene&, const std::vector<const mesh::Mesh*>&,

@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <numbers>
 
 #include "obs/estimators/EstimatorRegistry.hpp"
 #include "obs/estimators/Marking.hpp"
@@ -15,6 +16,8 @@
 #include "obs/obs/CholmodSolver.hpp"
 #include "obs/obs/ContactSet.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
+#include "obs/obs/MultiBody.hpp"
+#include "obs/obs/SurfaceObstacle.hpp"
 #include "obs/obs/PrimalDualActiveSet.hpp"
 #include "obs/obs/TNNMG.hpp"
 
@@ -98,18 +101,62 @@ ReferenceErrors referenceErrors(const mesh::Mesh& mesh, const ContactSet& set, c
 
 AdaptiveLoop::AdaptiveLoop(mesh::Grid& grid, const Material& material, const BoundaryConditions& bc,
                            AdaptiveLoopOptions options)
-    : grid_(grid), material_(material), bc_(bc), options_(std::move(options)) {
+    : AdaptiveLoop(std::vector<AdaptiveBody>{AdaptiveBody{"body", &grid, &material, &bc}}, std::move(options)) {}
+
+AdaptiveLoop::AdaptiveLoop(std::vector<AdaptiveBody> bodies, AdaptiveLoopOptions options)
+    : bodies_(std::move(bodies)), options_(std::move(options)) {
+  if (bodies_.empty()) throw Error("adaptive loop: no body");
+  for (const AdaptiveBody& b : bodies_) {
+    if (!b.grid || !b.material || !b.bc)
+      throw Error("adaptive loop: body '" + b.name + "' lacks its grid, material or boundary conditions");
+    if (b.grid->dimension() != bodies_.front().grid->dimension())
+      throw Error("adaptive loop: body '" + b.name + "' has dimension " + std::to_string(b.grid->dimension()) +
+                  ", body '" + bodies_.front().name + "' " + std::to_string(bodies_.front().grid->dimension()));
+  }
   if (options_.maxSteps < 1)
     throw Error("adaptive loop: maxSteps must be at least 1, got " + std::to_string(options_.maxSteps));
-  material_.validate();
+  for (const AdaptiveBody& b : bodies_) b.material->validate();
   const bool needEstimator = options_.mode == RefinementMode::Adaptive || options_.estimateUniform;
   if (needEstimator) registryOf(options_).description(options_.estimator);  // throws, listing the names
   if (options_.mode == RefinementMode::Adaptive) MarkingStrategy(options_.marking, options_.markingParameter);
 }
 
+void AdaptiveLoop::checkBody(int body, const std::string& what) const {
+  if (body < 0 || body >= static_cast<int>(bodies_.size()))
+    throw Error("adaptive loop: " + what + " names body " + std::to_string(body) + " (the loop has " +
+                std::to_string(bodies_.size()) + ")");
+}
+
 void AdaptiveLoop::setContact(const Obstacle& obstacle, int boundaryId) {
-  obstacle_ = &obstacle;
-  contactId_ = boundaryId;
+  couplings_.clear();
+  addObstacleContact(0, obstacle, boundaryId);
+}
+
+void AdaptiveLoop::addObstacleContact(int body, const Obstacle& obstacle, int boundaryId, std::string label) {
+  checkBody(body, "obstacle contact '" + label + "'");
+  CouplingSpec c;
+  c.label = std::move(label);
+  c.body = body;
+  c.boundaryId = boundaryId;
+  c.obstacle = &obstacle;
+  couplings_.push_back(std::move(c));
+}
+
+void AdaptiveLoop::addMortarContact(int slave, int slaveId, int master, int masterId, std::string label,
+                                    const MortarOptions& options) {
+  checkBody(slave, "mortar pair '" + label + "'");
+  checkBody(master, "mortar pair '" + label + "'");
+  if (slave == master)
+    throw Error("adaptive loop: mortar pair '" + label + "': slave and master belong to the same body");
+  CouplingSpec c;
+  c.label = std::move(label);
+  c.mortar = true;
+  c.body = slave;
+  c.boundaryId = slaveId;
+  c.master = master;
+  c.masterId = masterId;
+  c.options = options;
+  couplings_.push_back(std::move(c));
 }
 
 void AdaptiveLoop::setReference(ContactReference reference) { reference_ = std::move(reference); }
@@ -117,7 +164,7 @@ void AdaptiveLoop::setReference(ContactReference reference) { reference_ = std::
 void AdaptiveLoop::setCallback(Callback callback) { callback_ = std::move(callback); }
 
 std::vector<AdaptiveStep> AdaptiveLoop::run() {
-  return grid_.dimension() == 2 ? runDim<2>() : runDim<3>();
+  return bodies_.front().grid->dimension() == 2 ? runDim<2>() : runDim<3>();
 }
 
 namespace {
@@ -152,6 +199,263 @@ double AdaptiveLoop::inexactTolerance(const std::vector<AdaptiveStep>& steps, co
   return std::clamp(tolerance, base, 1e-2);
 }
 
+namespace {
+
+/// The smallest gap of several obstacles (a body with more than one constrained boundary: at each
+/// point the nearest obstacle along its direction constrains).
+class MinimumGapObstacle : public Obstacle {
+public:
+  explicit MinimumGapObstacle(std::vector<const Obstacle*> parts) : parts_(std::move(parts)) {}
+  double gap(const Point& x) const override {
+    double g = std::numeric_limits<double>::infinity();
+    for (const Obstacle* o : parts_) g = std::min(g, o->gap(x));
+    return g;
+  }
+  Point direction(const Point& x) const override {
+    const Obstacle* best = parts_.front();
+    for (const Obstacle* o : parts_)
+      if (o->gap(x) < best->gap(x)) best = o;
+    return best->direction(x);
+  }
+  std::string name() const override { return "several"; }
+
+private:
+  std::vector<const Obstacle*> parts_;
+};
+
+/// The boundary faces with id `id` of `m` as a surface mesh; meshVertex (if given) receives the
+/// mesh vertex of each surface vertex.
+mesh::SurfaceMesh boundarySurface(const mesh::Mesh& m, int id, const std::string& label,
+                                  std::vector<Index>* meshVertex = nullptr) {
+  mesh::SurfaceMesh s;
+  s.dimension = m.dimension();
+  s.source = label;
+  std::vector<Index> local(static_cast<std::size_t>(m.numVertices()), -1);
+  for (Index f = 0; f < m.numBoundaryFaces(); ++f) {
+    if (m.boundaryFaceId(f) != id) continue;
+    const auto fv = m.boundaryFaceVertices(f);
+    std::array<Index, 4> face{};
+    for (std::size_t i = 0; i < fv.size(); ++i) {
+      Index& l = local[static_cast<std::size_t>(fv[i])];
+      if (l < 0) {
+        l = static_cast<Index>(s.vertices.size());
+        s.vertices.push_back(m.vertex(fv[i]));
+        if (meshVertex) meshVertex->push_back(fv[i]);
+      }
+      face[i] = l;
+    }
+    s.types.push_back(mesh::faceTypeFromVertexCount(static_cast<int>(fv.size())));
+    s.faces.push_back(face);
+  }
+  return s;
+}
+
+/// int_{Gamma} phi_q over the boundary faces with id `id`, per vertex (0 elsewhere).
+std::vector<double> boundaryLumpedMass(const mesh::Mesh& m, int id) {
+  std::vector<double> mass(static_cast<std::size_t>(m.numVertices()), 0.0);
+  double shape[4], grad[8];
+  for (Index f = 0; f < m.numBoundaryFaces(); ++f) {
+    if (m.boundaryFaceId(f) != id) continue;
+    const auto fv = m.boundaryFaceVertices(f);
+    const mesh::CellType ft = mesh::faceTypeFromVertexCount(static_cast<int>(fv.size()));
+    const auto& ref = mesh::referenceElement(ft);
+    const auto& rule = mesh::quadratureRule(ft, 2);
+    for (std::size_t q = 0; q < rule.size(); ++q) {
+      ref.values(rule.points[q], std::span<double>(shape, fv.size()));
+      ref.gradients(rule.points[q], std::span<double>(grad, fv.size() * ref.dim));
+      Point ds = Point::Zero(), dt = Point::Zero();
+      for (std::size_t i = 0; i < fv.size(); ++i) {
+        ds += grad[i * ref.dim] * m.vertex(fv[i]);
+        if (ref.dim == 2) dt += grad[i * ref.dim + 1] * m.vertex(fv[i]);
+      }
+      const double w = rule.weights[q] * (ref.dim == 1 ? ds.norm() : ds.cross(dt).norm());
+      for (std::size_t i = 0; i < fv.size(); ++i) mass[static_cast<std::size_t>(fv[i])] += w * shape[i];
+    }
+  }
+  return mass;
+}
+
+/// The exact gap of the slave side of a mortar pair (docs/theory.md#two-body-estimator), in the
+/// linearisation of the mortar constraint: at a point x of the slave surface with the slave face
+/// normal n (of the face nearest to x; the mortar projection direction), the distance t along n to
+/// the undeformed, faceted master surface plus the master displacement there along n,
+/// g(x) = t + n . u_M(x + t n).
+class MortarGapObstacle : public Obstacle {
+public:
+  /// `probe`, `probeNormal`: a slave node and its mortar normal (orients the face normals); um: the
+  /// master body's displacement (vertex-major, d per vertex).
+  MortarGapObstacle(const mesh::Mesh& slave, int slaveId, const mesh::Mesh& master, int masterId,
+                    const Eigen::VectorXd& um, const Point& probe, const Point& probeNormal, const std::string& label)
+      : slave_(boundarySurface(slave, slaveId, "the slave surface of '" + label + "'"), SurfaceObstacle::ClosestPoint{}),
+        master_(boundarySurface(master, masterId, "the master surface of '" + label + "'", &masterVertex_), probeNormal),
+        d_(master.dimension()) {
+    flip_ = slave_.nearest(probe).normal.dot(probeNormal) < 0 ? -1.0 : 1.0;
+    for (Index v : masterVertex_) {
+      Point u = Point::Zero();
+      u.head(d_) = um.segment(static_cast<Eigen::Index>(v) * d_, d_);
+      displacement_.push_back(u);
+    }
+  }
+  double gap(const Point& x) const override {
+    const Point n = direction(x);
+    const auto hit = master_.hitAlong(x, n);
+    if (!hit) return std::numeric_limits<double>::infinity();
+    Point u = Point::Zero();
+    for (int i = 0; i < 3; ++i)
+      if (hit->vertices[static_cast<std::size_t>(i)] >= 0)
+        u += hit->weights[static_cast<std::size_t>(i)] * displacement_[static_cast<std::size_t>(hit->vertices[static_cast<std::size_t>(i)])];
+    return hit->t + n.dot(u);
+  }
+  Point direction(const Point& x) const override {
+    const Point n = slave_.nearest(x).normal;
+    return flip_ * n.normalized();
+  }
+  std::string name() const override { return "mortar"; }
+
+private:
+  std::vector<Index> masterVertex_;  // (declared before master_: filled by its initialiser)
+  SurfaceObstacle slave_, master_;
+  int d_ = 3;
+  double flip_ = 1;
+  std::vector<Point> displacement_;
+};
+
+/// What the loop keeps of one body in a step.
+struct BodyState {
+  Index offset = 0;                     ///< first stacked vertex
+  Eigen::VectorXd u;                    ///< displacement on the leaf view
+  std::vector<int> contactIds;          ///< obstacle and slave boundaries (node classes)
+  std::vector<int> estimatorIds;        ///< ... and master boundaries (EstimatorInput)
+  std::optional<ContactSet> ownSet;     ///< restricted set (several couplings or mortar)
+  const ContactSet* set = nullptr;      ///< the body's constrained nodes (ownSet or an obstacle set)
+  std::vector<Index> stackedNodes;      ///< node k of set -> node of the stacked problem
+  std::optional<ContactOutputs> outputs;
+  std::vector<const Obstacle*> obstacles;
+  std::vector<std::unique_ptr<Obstacle>> ownObstacles;  ///< displaced master surfaces, minimum
+  const Obstacle* gap = nullptr;        ///< the exact gap for the estimator
+  Eigen::VectorXd traction;             ///< master sides: mortar traction by vertex (empty: none)
+  std::vector<int> masterIds;
+  ContactNodeClasses classes;
+  std::optional<EstimatorResult> estimate;
+  std::vector<Index> marked;
+};
+
+/// Fills the contact data of every body (BodyState: its constrained nodes as a ContactSet on its
+/// mesh, their outputs, the exact gap, the master traction; docs/theory.md#two-body-estimator) from
+/// the solution (u displacements, x problem unknowns) of the model's problem. `obstacles` holds the
+/// obstacle of each coupling (null for mortar pairs).
+template <int d>
+void bodyContactData(const ContactModel<d>& model, const ContactProblem<d>& problem, const Eigen::VectorXd& u,
+                     const Eigen::VectorXd& x, const ContactOutputs& out, const std::vector<const Obstacle*>& obstacles,
+                     const std::vector<mesh::GridView>& views, std::vector<BodyState>& body) {
+  const auto& couplings = model.couplings();
+  const ContactSet& cs = problem.contactSet();
+  for (std::size_t i = 0; i < body.size(); ++i) {
+    BodyState& b = body[i];
+    const mesh::Mesh& m = views[i].mesh;
+    const Index n = m.numVertices();
+    std::vector<std::size_t> constrained;
+    for (std::size_t j = 0; j < couplings.size(); ++j) {
+      const auto& c = couplings[j];
+      if (c.mortar && c.master == static_cast<int>(i)) {
+        b.estimatorIds.push_back(c.masterId);
+        b.masterIds.push_back(c.masterId);
+        Eigen::VectorXd mu = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(c.nodes.size()));
+        for (std::size_t k = 0; k < c.nodes.size(); ++k)
+          if (problem.constraint(c.nodes[k]).bounded()) mu[static_cast<Eigen::Index>(k)] = out.multiplier[c.nodes[k]];
+        const Eigen::VectorXd force = c.coupling->masterForces(mu);
+        const std::vector<double> mass = boundaryLumpedMass(m, c.masterId);
+        if (b.traction.size() == 0) b.traction = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n) * d);
+        for (Index q = 0; q < n; ++q)
+          if (mass[static_cast<std::size_t>(q)] > 0)
+            b.traction.template segment<d>(static_cast<Eigen::Index>(q) * d) +=
+                force.template segment<d>(static_cast<Eigen::Index>(b.offset + q) * d) / mass[static_cast<std::size_t>(q)];
+      }
+      if ((c.mortar ? c.slave : c.body) != static_cast<int>(i)) continue;
+      constrained.push_back(j);
+      if (c.mortar) {
+        b.contactIds.push_back(c.slaveId);
+        const auto& master = model.bodies()[c.master];
+        const Eigen::VectorXd um =
+            u.segment(static_cast<Eigen::Index>(master.offset) * d, static_cast<Eigen::Index>(master.mesh->numVertices()) * d);
+        try {
+          const ContactSet probe = c.coupling->contactSet();
+          if (probe.size() == 0) throw Error("no constrained slave node");
+          b.ownObstacles.push_back(std::make_unique<MortarGapObstacle>(
+              m, c.slaveId, *master.mesh, c.masterId, um, probe.position(0), probe.direction(0), c.label));
+        } catch (const Error& e) {
+          throw Error("adaptive loop: the exact gap of mortar pair '" + c.label + "' (the distance to the "
+                      "displaced master surface) cannot be built: " + e.what());
+        }
+        b.obstacles.push_back(b.ownObstacles.back().get());
+      } else {
+        b.contactIds.push_back(c.obstacleSet->boundaryId());
+        b.obstacles.push_back(obstacles[j]);
+      }
+    }
+    b.estimatorIds.insert(b.estimatorIds.end(), b.contactIds.begin(), b.contactIds.end());
+    if (constrained.empty()) continue;
+    if (b.obstacles.size() == 1) {
+      b.gap = b.obstacles.front();
+    } else {
+      b.ownObstacles.push_back(std::make_unique<MinimumGapObstacle>(b.obstacles));
+      b.gap = b.ownObstacles.back().get();
+    }
+    if (body.size() == 1 && constrained.size() == 1 && !couplings[constrained[0]].mortar) {
+      // one body, one obstacle: the set and outputs of the problem itself
+      b.set = couplings[constrained[0]].obstacleSet.get();
+      b.stackedNodes = couplings[constrained[0]].nodes;
+      b.outputs = out;
+      continue;
+    }
+    // the stacked nodes on this body's vertices, with the gaps relative to the displaced master
+    ContactSet::Data data;
+    data.dimension = d;
+    data.numMeshVertices = n;
+    for (std::size_t j : constrained) data.label += (data.label.empty() ? "" : ", ") + couplings[j].label;
+    data.obstacleName = b.obstacles.size() == 1 && !couplings[constrained[0]].mortar
+                            ? couplings[constrained[0]].obstacleSet->obstacleName()
+                            : (b.obstacles.size() == 1 ? "mortar" : "several");
+    std::vector<Index> local(static_cast<std::size_t>(cs.size()), -1);
+    for (Index node = 0; node < cs.size(); ++node) {
+      const Index v = cs.vertex(node) - b.offset;
+      if (v < 0 || v >= n) continue;
+      local[static_cast<std::size_t>(node)] = static_cast<Index>(data.vertices.size());
+      b.stackedNodes.push_back(node);
+      const Point& nu = cs.direction(node);
+      const auto at = static_cast<Eigen::Index>(cs.vertex(node)) * d;
+      data.vertices.push_back(v);
+      data.positions.push_back(cs.position(node));
+      data.directions.push_back(nu);
+      data.gaps.push_back(cs.gap(node) + nu.template head<d>().dot(u.template segment<d>(at) - x.template segment<d>(at)));
+      data.masses.push_back(cs.boundaryMass(node));
+    }
+    for (const ContactSet::Face& f : cs.faces()) {
+      ContactSet::Face g{{}, f.measure};
+      for (Index node : f.nodes) g.nodes.push_back(local[static_cast<std::size_t>(node)]);
+      if (std::all_of(g.nodes.begin(), g.nodes.end(), [](Index k) { return k >= 0; })) data.faces.push_back(std::move(g));
+    }
+    b.ownSet.emplace(std::move(data));
+    b.set = &*b.ownSet;
+    ContactOutputs o;
+    for (Index node : b.stackedNodes) {
+      const auto s = static_cast<std::size_t>(node);
+      o.inContact.push_back(out.inContact[s]);
+      o.multiplier.push_back(out.multiplier[s]);
+      o.pressure.push_back(out.pressure[s]);
+      o.contactNodes += out.inContact[s] ? 1 : 0;
+      o.force += out.multiplier[s] * cs.direction(node);
+    }
+    for (const ContactSet::Face& f : b.set->faces())
+      if (std::all_of(f.nodes.begin(), f.nodes.end(), [&](Index k) { return o.inContact[static_cast<std::size_t>(k)] != 0; }))
+        o.contactArea += f.measure;
+    o.contactRadius = d == 3 ? std::sqrt(o.contactArea / std::numbers::pi) : o.contactArea / 2;
+    b.outputs = std::move(o);
+  }
+}
+
+}  // namespace
+
 template <int d>
 std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
   const bool adaptive = options_.mode == RefinementMode::Adaptive;
@@ -160,37 +464,54 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
   if (estimate) estimator = registryOf(options_).create(options_.estimator);
   std::optional<MarkingStrategy> marking;
   if (adaptive) marking.emplace(options_.marking, options_.markingParameter);
+  const std::size_t nb = bodies_.size();
+  std::vector<const mesh::Grid*> grids;
+  for (const AdaptiveBody& b : bodies_) grids.push_back(b.grid);
+  std::vector<const Obstacle*> couplingObstacles;  // per coupling, null for mortar pairs
+  for (const CouplingSpec& c : couplings_) couplingObstacles.push_back(c.mortar ? nullptr : c.obstacle);
 
   std::vector<AdaptiveStep> steps;
   lastRate_ = lastEnergyNorm_ = 0;
-  mesh::GridView view = grid_.leafView();
-  Eigen::VectorXd start;  // empty: cold start
+  std::vector<mesh::GridView> views;
+  for (const AdaptiveBody& b : bodies_) views.push_back(b.grid->leafView());
+  Eigen::VectorXd start;  // stacked displacements; empty: cold start
   double transferSeconds = 0;
   for (int k = 0; k < options_.maxSteps; ++k) {
     AdaptiveStep rec;
     rec.step = k;
     rec.transferSeconds = transferSeconds;
-    const mesh::Mesh& m = view.mesh;
-    rec.cells = m.numCells();
-    rec.vertices = m.numVertices();
-    rec.unknowns = m.numVertices() * d;
+    std::vector<BodyState> body(nb);
+    for (std::size_t i = 0; i < nb; ++i) {
+      const mesh::Mesh& m = views[i].mesh;
+      body[i].offset = rec.vertices;
+      rec.cells += m.numCells();
+      rec.vertices += m.numVertices();
+      rec.bodies.push_back(BodyRecord{m.numCells(), m.numVertices()});
+    }
+    rec.unknowns = rec.vertices * d;
 
     // assemble and solve
     auto t = Clock::now();
-    std::optional<ContactSet> set;
+    std::optional<ContactModel<d>> model;
     std::optional<ContactProblem<d>> problem;
-    Eigen::VectorXd u = options_.warmStart && start.size() == rec.unknowns
-                            ? start
-                            : Eigen::VectorXd::Zero(rec.unknowns);
-    if (obstacle_) {
-      set.emplace(m, contactId_, *obstacle_);
-      {  // the one-body contact model, as in static and dynamic runs
-        ContactModel<d> model;
-        model.addBody("body", m, material_, bc_);
-        model.addObstacleContact(0, *set, set->boundaryLabel());
-        problem.emplace(model.assemble());
+    Eigen::VectorXd u, x;
+    const bool warm = options_.warmStart && start.size() == rec.unknowns;
+    if (!couplings_.empty()) {
+      model.emplace();  // the contact model, as in static and dynamic runs
+      for (std::size_t i = 0; i < nb; ++i)
+        model->addBody(bodies_[i].name, views[i].mesh, *bodies_[i].material, *bodies_[i].bc);
+      for (const CouplingSpec& c : couplings_) {
+        if (c.mortar) {
+          model->addMortarPair(c.body, c.boundaryId, c.master, c.masterId, c.label, c.options);
+        } else {
+          ContactSet set(views[c.body].mesh, c.boundaryId, *c.obstacle);
+          const std::string label = c.label.empty() ? set.boundaryLabel() : c.label;
+          model->addObstacleContact(c.body, std::move(set), label);
+        }
       }
+      problem.emplace(model->assemble());
       rec.assemblySeconds = since(t);
+      x = warm ? problem->fromDisplacement(start) : Eigen::VectorXd::Zero(rec.unknowns);
       t = Clock::now();
       ContactResult result;
       rec.solverTolerance = options_.solverTolerance;
@@ -201,15 +522,15 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
         o.preSmoothing = options_.preSmoothing;
         o.postSmoothing = options_.postSmoothing;
         o.recordHistory = false;
-        TNNMG<d> solver(grid_, o);
-        result = solver.solve(*problem, u);
+        TNNMG<d> solver(grids, o);
+        result = solver.solve(*problem, x);
       } else {
         typename PrimalDualActiveSet<d>::Options o;
         o.tolerance = options_.solverTolerance;
         o.maxIterations = options_.maxSolverIterations;
         o.recordHistory = false;
         PrimalDualActiveSet<d> solver(o);
-        result = solver.solve(*problem, u);
+        result = solver.solve(*problem, x);
       }
       rec.solverSeconds = since(t);
       rec.solver = result.solver;
@@ -218,54 +539,80 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
       rec.kkt = result.kkt.max();
       if (options_.inexactFraction > 0) {  // inputs of the next step's tolerance (inexactTolerance)
         lastRate_ = result.convergenceRate;
-        lastEnergyNorm_ = freeEnergyNorm<d>(problem->matrix(), u, collectDirichlet(m, bc_.dirichlet));
+        lastEnergyNorm_ = freeEnergyNorm<d>(problem->matrix(), x, problem->dirichlet());
       }
+      u = problem->toDisplacement(x);
     } else {
-      BlockSparseMatrix<d> A = assembleStiffness<d>(m, material_);
-      Eigen::VectorXd b = assembleLoad<d>(m, bc_);
-      const DirichletValues dirichlet = collectDirichlet(m, bc_.dirichlet);
-      applyDirichlet(A, b, dirichlet);
+      std::vector<BodySystem<d>> systems;
+      for (std::size_t i = 0; i < nb; ++i)
+        systems.push_back(assembleBody<d>(views[i].mesh, *bodies_[i].material, *bodies_[i].bc));
+      BodySystem<d> sys = stackBodies<d>(systems);
+      systems.clear();
+      applyDirichlet(sys.stiffness, sys.load, sys.dirichlet);
       rec.assemblySeconds = since(t);
       t = Clock::now();
-      const CholmodSolver cholmod(A);
-      u = cholmod.solve(b);
+      const CholmodSolver cholmod(sys.stiffness);
+      u = cholmod.solve(sys.load);
       rec.solverSeconds = since(t);
       rec.solver = "cholmod";
       rec.solverIterations = 1;
       rec.converged = u.allFinite();
       if (!rec.converged) throw Error("adaptive loop, step " + std::to_string(k) + ": the direct solve gave NaN");
     }
+    for (std::size_t i = 0; i < nb; ++i)
+      body[i].u = u.segment(static_cast<Eigen::Index>(body[i].offset) * d, views[i].mesh.numVertices() * d);
 
-    // contact quantities
+    // contact quantities, per coupling and per body
     std::optional<ContactOutputs> outputs;
-    if (problem) outputs = computeContactOutputs(*problem, u, options_.contactTolerance);
-    const ContactNodeClasses classes =
-        classifyContactNodes(m, obstacle_ ? std::vector<int>{contactId_} : std::vector<int>{},
-                             set ? &*set : nullptr, u, options_.contactTolerance);
-    rec.potentialContact = classes.potential;
-    rec.actualContact = classes.actual;
-    rec.semiContact = classes.semi;
-    rec.fullContact = classes.full;
+    if (problem) {
+      outputs = computeContactOutputs(*problem, x, options_.contactTolerance);
+      rec.couplings = couplingRecords(*model, *problem, x, *outputs);
+      bodyContactData(*model, *problem, u, x, *outputs, couplingObstacles, views, body);
+    }
+    for (std::size_t i = 0; i < nb; ++i) {
+      BodyState& b = body[i];
+      b.classes = classifyContactNodes(views[i].mesh, b.contactIds, b.set, b.u, options_.contactTolerance);
+      rec.potentialContact += b.classes.potential;
+      rec.actualContact += b.classes.actual;
+      rec.semiContact += b.classes.semi;
+      rec.fullContact += b.classes.full;
+    }
     if (outputs)
       for (double mu : outputs->multiplier) rec.load += mu;
-    if (reference_ && outputs) rec.reference = referenceErrors(m, *set, *outputs, *reference_);
+    if (reference_ && nb == 1 && couplings_.size() == 1 && !couplings_[0].mortar)
+      rec.reference = referenceErrors(views[0].mesh, *body[0].set, *body[0].outputs, *reference_);
 
     // estimate (not on an unconverged solution: its residual is the solver's, not the
     // discretisation's, and marking on it would refine the wrong cells; the loop stops there)
-    std::optional<EstimatorResult> result;
     if (estimator && rec.converged) {
       t = Clock::now();
-      EstimatorInput in(m, material_, bc_, u);
-      in.meshRevision = static_cast<std::uint64_t>(k);
-      ContactData data;
-      if (set) {
-        data = ContactData{&*set, &*outputs, obstacle_};
-        in.contact = &data;
+      double eta2 = 0;
+      std::vector<Contribution> contributions;
+      for (std::size_t i = 0; i < nb; ++i) {
+        BodyState& b = body[i];
+        EstimatorInput in(views[i].mesh, *bodies_[i].material, *bodies_[i].bc, b.u);
+        in.meshRevision = static_cast<std::uint64_t>(k);
+        in.contactBoundaryIds = b.estimatorIds;
+        ContactData data;
+        if (b.set || b.traction.size() > 0) {
+          data = ContactData{b.set, b.outputs ? &*b.outputs : nullptr, b.gap,
+                             b.traction.size() > 0 ? &b.traction : nullptr, b.masterIds};
+          in.contact = &data;
+        }
+        b.estimate = estimator->estimate(in);
+        rec.bodies[i].eta = b.estimate->total;
+        eta2 += b.estimate->total * b.estimate->total;
+        for (const Contribution& c : b.estimate->contributions) {
+          auto it = std::find_if(contributions.begin(), contributions.end(),
+                                 [&](const Contribution& e) { return e.name == c.name; });
+          if (it == contributions.end()) it = contributions.insert(contributions.end(), Contribution{c.name, 0});
+          it->value += c.value * c.value;
+        }
       }
-      result = estimator->estimate(in);
+      for (Contribution& c : contributions) c.value = std::sqrt(c.value);
       rec.estimatorSeconds = since(t);
-      rec.eta = result->total;
-      rec.contributions = result->contributions;
+      rec.eta = nb == 1 ? body[0].estimate->total : std::sqrt(eta2);
+      rec.contributions = nb == 1 ? body[0].estimate->contributions : contributions;
       if (!steps.empty())
         rec.eoc = experimentalOrder(steps.back().eta, static_cast<double>(steps.back().vertices), rec.eta,
                                     static_cast<double>(rec.vertices));
@@ -274,44 +621,88 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
     // stop?
     bool last = !rec.converged || k + 1 == options_.maxSteps ||
                 (options_.targetVertices > 0 && rec.vertices >= options_.targetVertices) ||
-                (options_.etaTolerance > 0 && result && rec.eta <= options_.etaTolerance);
-    // marking (the refinement itself follows the callback, so that it sees the grid of the step)
-    std::vector<Index> cells;
+                (options_.etaTolerance > 0 && body[0].estimate && rec.eta <= options_.etaTolerance);
+    // marking among the cells of all bodies (the refinement itself follows the callback, so that it
+    // sees the grids of the step)
     double markSeconds = 0;
     if (!last && adaptive) {
       t = Clock::now();
-      cells = marking->mark(result->indicators);
+      std::vector<double> indicators;
+      for (const BodyState& b : body)
+        indicators.insert(indicators.end(), b.estimate->indicators.begin(), b.estimate->indicators.end());
+      std::vector<Index> cells = marking->mark(indicators);
+      std::sort(cells.begin(), cells.end());
+      std::size_t i = 0;
+      Index first = 0;
+      for (Index c : cells) {
+        while (c >= first + rec.bodies[i].cells) first += rec.bodies[i++].cells;
+        body[i].marked.push_back(c - first);
+      }
       rec.marked = static_cast<Index>(cells.size());
+      for (std::size_t j = 0; j < nb; ++j) rec.bodies[j].marked = static_cast<Index>(body[j].marked.size());
       if (cells.empty()) last = true;
       markSeconds = since(t);
     } else if (!last) {
-      rec.marked = m.numCells();
+      rec.marked = rec.cells;
+      for (BodyRecord& br : rec.bodies) br.marked = br.cells;
     }
 
     steps.push_back(rec);
-    if (callback_)
-      callback_(AdaptiveStepView{steps.back(), grid_, view, u, set ? &*set : nullptr,
-                                 outputs ? &*outputs : nullptr, classes, result ? &*result : nullptr});
+    if (callback_) {
+      std::vector<AdaptiveBodyView> bodyViews;
+      for (std::size_t i = 0; i < nb; ++i) {
+        const BodyState& b = body[i];
+        bodyViews.push_back(AdaptiveBodyView{*bodies_[i].grid, views[i], b.u, b.set, b.outputs ? &*b.outputs : nullptr,
+                                             b.classes, b.estimate ? &*b.estimate : nullptr, b.marked});
+      }
+      const BodyState& b0 = body[0];
+      callback_(AdaptiveStepView{steps.back(), *bodies_[0].grid, views[0], b0.u, b0.set,
+                                 b0.outputs ? &*b0.outputs : nullptr, b0.classes,
+                                 b0.estimate ? &*b0.estimate : nullptr, bodyViews});
+    }
     if (last) {
       u_ = std::move(u);
       break;
     }
     t = Clock::now();
-    if (adaptive) {
-      for (Index c : cells) grid_.mark(view.elements[c]);
-      grid_.adapt();
-    } else {
-      grid_.refineUniformly();
+    for (std::size_t i = 0; i < nb; ++i) {
+      mesh::Grid& grid = *bodies_[i].grid;
+      if (adaptive) {
+        if (body[i].marked.empty()) continue;
+        for (Index c : body[i].marked) grid.mark(views[i].elements[c]);
+        grid.adapt();
+      } else {
+        grid.refineUniformly();
+      }
     }
     steps.back().refinementSeconds = markSeconds + since(t);
 
-    // the next leaf view and the start vector on it
-    mesh::GridView next = grid_.leafView();
+    // the next leaf views and the start vector on them
     t = Clock::now();
+    std::vector<mesh::GridView> next;
+    std::vector<Eigen::VectorXd> parts;
+    Index total = 0;
+    for (std::size_t i = 0; i < nb; ++i) {
+      next.push_back(bodies_[i].grid->leafView());
+      total += next.back().mesh.numVertices();
+      if (options_.warmStart)
+        parts.push_back(transfer(mesh::transferMatrix(*bodies_[i].grid, views[i], next.back()), body[i].u, d));
+    }
     start.resize(0);
-    if (options_.warmStart) start = transfer(mesh::transferMatrix(grid_, view, next), u, d);
+    if (options_.warmStart) {
+      if (nb == 1) {
+        start = std::move(parts.front());
+      } else {
+        start.resize(static_cast<Eigen::Index>(total) * d);
+        Eigen::Index at = 0;
+        for (const Eigen::VectorXd& p : parts) {
+          start.segment(at, p.size()) = p;
+          at += p.size();
+        }
+      }
+    }
     transferSeconds = since(t);
-    view = std::move(next);
+    views = std::move(next);
     u_ = std::move(u);
   }
   return steps;

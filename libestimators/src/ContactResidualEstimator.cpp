@@ -119,6 +119,23 @@ std::vector<double> pressures(const EstimatorInput& in, const ContactNodeClasses
   return s;
 }
 
+/// ||w.n||_F^2 and ||w - (w.n) n||_F^2 of w = t_h - sigma_h n on a master face (Dirichlet-fixed
+/// components dropped), t_h = sum_j phi_j t_j the interpolated nodal traction, n the outward normal.
+void masterTractionSquares(int d, const ContactFace& face, const Eigen::VectorXd& traction, double& tangential,
+                           double& normal) {
+  tangential = normal = 0;
+  for (const ContactFacePoint& q : face.points) {
+    Eigen::Vector3d w = -q.traction;
+    for (std::size_t j = 0; j < face.vertices.size(); ++j)
+      w.head(d) += q.shape[j] * traction.segment(static_cast<Eigen::Index>(face.vertices[j]) * d, d);
+    for (int c = 0; c < 3; ++c)
+      if (c >= d || face.fixed[c]) w[c] = 0;
+    const double wn = w.dot(q.normal);
+    normal += q.weight * wn * wn;
+    tangential += q.weight * (w - wn * q.normal).squaredNorm();
+  }
+}
+
 }  // namespace
 
 ContactNodeClasses classifyContactNodes(const mesh::Mesh& mesh, const std::vector<int>& contactIds,
@@ -201,10 +218,30 @@ void ContactResidualEstimator::addContactFaces(const EstimatorInput& input,
   const NodalData nd = nodalData(m, set, input.displacement);
   auto cls = [&](Index v) { return classes.ofVertex[v]; };
 
-  // eta_4 over N^C, eta_5 over N^C \ N^fC
+  // master sides of mortar pairs: w = t_h - sigma_h n, t_h the interpolated mortar traction
+  const Eigen::VectorXd* traction = input.contact ? input.contact->masterTraction : nullptr;
+  const std::vector<int> noIds;
+  const std::vector<int>& masterIds = input.contact ? input.contact->masterBoundaryIds : noIds;
+  if (traction && traction->size() != static_cast<Eigen::Index>(nv) * m.dimension())
+    throw Error("estimator 'contact-residual': the master traction has " + std::to_string(traction->size()) +
+                " entries, the mesh needs " + std::to_string(static_cast<long long>(nv) * m.dimension()));
+  auto onMaster = [&](const ContactFace& f) {
+    return traction && std::find(masterIds.begin(), masterIds.end(), f.boundaryId) != masterIds.end();
+  };
+
+  // eta_4 over N^C, eta_5 over N^C \ N^fC; on master faces the tangential and normal parts of
+  // t_h - sigma_h n at every vertex (docs/theory.md#two-body-estimator)
   std::vector<int> faceCount(static_cast<std::size_t>(nv), 0);
   for (const ContactFace& face : faces) {
     double tangential = 0, normal = 0;
+    if (onMaster(face)) {
+      masterTractionSquares(m.dimension(), face, *traction, tangential, normal);
+      for (Index p : face.vertices) {
+        table.add(kEta4, p, face.cell, h[p] * tangential);
+        table.add(kEta5, p, face.cell, h[p] * normal);
+      }
+      continue;
+    }
     boundaryStressSquares(input, face, tangential, normal);
     for (Index p : face.vertices) {
       ++faceCount[p];
@@ -231,7 +268,7 @@ void ContactResidualEstimator::addContactFaces(const EstimatorInput& input,
     const ContactFace& face = faces[fi];
     const std::vector<Index>& fv = face.vertices;
     const bool inSet = std::all_of(fv.begin(), fv.end(), [&](Index v) { return nd.inSet[v] != 0; });
-    if (!inSet) continue;
+    if (!inSet || onMaster(face)) continue;
     const bool gapDefined = std::all_of(fv.begin(), fv.end(), [&](Index v) { return std::isfinite(nd.gap[v]); });
     const mesh::CellType ft = mesh::faceTypeFromVertexCount(static_cast<int>(fv.size()));
     const auto& ref = mesh::referenceElement(ft);
@@ -327,6 +364,7 @@ void ContactResidualEstimator::addContactFaces(const EstimatorInput& input,
   }
   for (std::size_t fi = 0; fi < faces.size(); ++fi) {
     const ContactFace& face = faces[fi];
+    if (onMaster(face)) continue;
     const double nf = static_cast<double>(face.vertices.size());
     for (Index p : face.vertices) {
       if (e6[p] > 0) table.add(kEta6, p, face.cell, e6[p] / faceCount[p]);

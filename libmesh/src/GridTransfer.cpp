@@ -149,26 +149,27 @@ CsrMatrix transferMatrix(const Grid& grid, const GridView& coarse, const GridVie
       if (!inCoarse[grid.child(e, k)]) kids.push_back(grid.child(e, k));
   };
 
-  // The coarse element below e (inclusive) that contains x, with the reference coordinates of x.
-  std::function<std::optional<std::pair<Index, Point>>(Index, const Point&)> descend =
-      [&](Index e, const Point& x) -> std::optional<std::pair<Index, Point>> {
+  // The coarse element below e (inclusive) that contains x (within `tol` in reference
+  // coordinates), with the reference coordinates of x.
+  std::function<std::optional<std::pair<Index, Point>>(Index, const Point&, double)> descend =
+      [&](Index e, const Point& x, double tol) -> std::optional<std::pair<Index, Point>> {
     if (inCoarse[e]) {
       const auto eta = locate(grid, e, x);
-      if (!eta || outside(grid.type(e), *eta) > 1e-6) return std::nullopt;
+      if (!eta || outside(grid.type(e), *eta) > tol) return std::nullopt;
       return std::make_pair(e, *eta);
     }
-    coarseChildren(e);
     std::vector<std::pair<double, Index>> candidates;  // (distance outside, child), nearest first
+    coarseChildren(e);
     for (Index c : kids) {
       const auto eta = locate(grid, c, x);
       if (!eta) continue;
       const double out = outside(grid.type(c), *eta);
-      if (out <= 1e-6) candidates.push_back({std::max(out, 0.0), c});
+      if (out <= tol) candidates.push_back({std::max(out, 0.0), c});
     }
     std::stable_sort(candidates.begin(), candidates.end(),
                      [](const auto& a, const auto& b) { return a.first < b.first; });
     for (const auto& [out, c] : candidates)
-      if (auto r = descend(c, x)) return r;
+      if (auto r = descend(c, x, tol)) return r;
     return std::nullopt;
   };
   // Level-0 elements sharing a vertex with a level-0 element (built on first use). Green closures
@@ -187,6 +188,20 @@ CsrMatrix transferMatrix(const Grid& grid, const GridView& coarse, const GridVie
       for (Index r : rootsAtVertex[w])
         if (r != root && std::find(out.begin(), out.end(), r) == out.end()) out.push_back(r);
     return out;
+  };
+
+  // Exact search first; then, for a vertex that lies outside every coarse element (on a curved
+  // boundary with a projection: the corners of the element that created it were moved onto the
+  // curve in the same adapt()), the nearest coarse element, extrapolated.
+  auto locateInCoarse = [&](Index e, const Point& x) {
+    for (const double tol : {1e-6, std::numeric_limits<double>::infinity()}) {
+      auto found = descend(e, x, tol);
+      if (!found && grid.level(e) == 0)
+        for (Index r : neighbourRoots(e))
+          if ((found = descend(r, x, tol))) break;
+      if (found) return found;
+    }
+    return std::optional<std::pair<Index, Point>>{};
   };
 
   CsrMatrix P;
@@ -230,10 +245,7 @@ CsrMatrix transferMatrix(const Grid& grid, const GridView& coarse, const GridVie
       // (x on a shared face, old green and new red children of one father); a branch can end in
       // new leaves that are not in the coarse view, so the search backtracks.
       if (!inCoarse[e]) {
-        auto found = descend(e, x);
-        if (!found && grid.level(e) == 0)
-          for (Index r : neighbourRoots(e))
-            if ((found = descend(r, x))) break;
+        const auto found = locateInCoarse(e, x);
         if (!found)
           throw Error("transferMatrix: fine vertex " + std::to_string(v) +
                       " is not covered by the coarse view (views not nested)");

@@ -1,7 +1,9 @@
 #include "obs/obs/ContactModel.hpp"
 
 #include <algorithm>
+#include <limits>
 #include <numeric>
+#include <optional>
 
 #include "obs/mesh/Error.hpp"
 
@@ -152,7 +154,76 @@ typename ContactModel<d>::Parts ContactModel<d>::assembleParts() {
   return Parts{std::move(system), ContactSet(std::move(merged)), std::move(basis)};
 }
 
+template <int d>
+std::vector<CouplingRecord> couplingRecords(const ContactModel<d>& model, const ContactProblem<d>& problem,
+                                            const Eigen::VectorXd& x, const ContactOutputs& out) {
+  if (x.size() != static_cast<Eigen::Index>(model.numVertices()) * d || out.multiplier.size() != static_cast<std::size_t>(problem.contactSet().size()))
+    throw Error("contact model: coupling records need the solution and outputs of the assembled problem");
+  std::vector<CouplingRecord> records;
+  const ContactSet& cs = problem.contactSet();
+  for (const auto& c : model.couplings()) {
+    CouplingRecord r;
+    r.label = c.label;
+    r.mortar = c.mortar;
+    r.slaveBody = c.mortar ? c.slave : c.body;
+    r.masterBody = c.mortar ? c.master : -1;
+    const Index count = static_cast<Index>(c.nodes.size());
+    r.slaveVertices = count;
+    if (c.mortar) {
+      const MortarCoupling::Statistics& st = c.coupling->statistics();
+      r.slaveVertices += st.uncoveredNodes;
+      r.segments = st.segments;
+      r.uncovered = st.uncoveredNodes;
+      r.mortarSeconds = st.seconds;
+    }
+    Eigen::VectorXd mu = Eigen::VectorXd::Zero(count);
+    std::vector<char> in(static_cast<std::size_t>(count), 0);
+    double pmin = std::numeric_limits<double>::infinity(), pmax = -pmin;
+    for (Index k = 0; k < count; ++k) {
+      const Index node = c.nodes[k];
+      if (!problem.constraint(node).bounded()) continue;
+      ++r.potentialVertices;
+      mu[k] = out.multiplier[node];
+      r.forceSlave -= mu[k] * cs.direction(node);
+      r.load += mu[k];
+      in[k] = out.inContact[node];
+      if (in[k]) {
+        ++r.actualVertices;
+        pmin = std::min(pmin, out.pressure[node]);
+        pmax = std::max(pmax, out.pressure[node]);
+      }
+      const Point& nu = cs.direction(node);
+      const double xn = nu.template head<d>().dot(x.template segment<d>(static_cast<Eigen::Index>(cs.vertex(node)) * d));
+      r.maxViolation = std::max(r.maxViolation, xn - cs.gap(node));
+    }
+    if (r.actualVertices > 0) {
+      r.pressureMin = pmin;
+      r.pressureMax = pmax;
+    }
+    r.forceMaster = -r.forceSlave;  // a rigid obstacle takes the reaction
+    if (c.mortar) {
+      const Eigen::VectorXd fm = c.coupling->masterForces(mu);
+      r.forceMaster.setZero();
+      const auto& master = model.bodies()[c.master];
+      for (Index v = 0; v < master.mesh->numVertices(); ++v)
+        r.forceMaster.template head<d>() += fm.template segment<d>(static_cast<Eigen::Index>(master.offset + v) * d);
+    }
+    std::optional<ContactSet> mortarSet;  // (built on demand: MortarCoupling returns it by value)
+    if (c.mortar) mortarSet.emplace(c.coupling->contactSet());
+    const std::vector<ContactSet::Face>& faces = c.mortar ? mortarSet->faces() : c.obstacleSet->faces();
+    for (const ContactSet::Face& f : faces)
+      if (std::all_of(f.nodes.begin(), f.nodes.end(), [&](Index n) { return in[static_cast<std::size_t>(n)] != 0; }))
+        r.area += f.measure;
+    records.push_back(std::move(r));
+  }
+  return records;
+}
+
 template class ContactModel<2>;
+template std::vector<CouplingRecord> couplingRecords<2>(const ContactModel<2>&, const ContactProblem<2>&,
+                                                        const Eigen::VectorXd&, const ContactOutputs&);
+template std::vector<CouplingRecord> couplingRecords<3>(const ContactModel<3>&, const ContactProblem<3>&,
+                                                        const Eigen::VectorXd&, const ContactOutputs&);
 template class ContactModel<3>;
 
 }  // namespace obs

@@ -65,6 +65,7 @@ struct SurfaceObstacle::Impl {
     Point a, b, c;
     bool entry;
     Point normal;  ///< outward unit normal
+    std::array<Index, 3> vertices{-1, -1, -1};  ///< surface vertices of a, b, c (c: -1 in 2D)
   };
   struct Node {
     Box box;
@@ -118,7 +119,7 @@ struct SurfaceObstacle::Impl {
   }
 
   /// Does the whole line x + t nu (t in R) meet the box? Slab test.
-  bool meets(const Box& box, const Point& x) const {
+  bool meets(const Box& box, const Point& x, const Point& nu) const {
     double tmin = -kInf, tmax = kInf;
     for (int a = 0; a < dim; ++a) {
       if (nu[a] == 0) {
@@ -134,15 +135,16 @@ struct SurfaceObstacle::Impl {
     return true;
   }
 
-  /// The crossing of the line with face f, if any (Moeller-Trumbore in 3D, a 2x2 solve in 2D).
-  bool cross(const Face& f, const Point& x, Crossing& out) const {
+  /// The crossing of the line x + t nu with face f, if any (Moeller-Trumbore in 3D, a 2x2 solve
+  /// in 2D); an entry if the face's outward normal opposes nu.
+  bool cross(const Face& f, const Point& x, const Point& nu, Crossing& out) const {
     if (dim == 2) {
       const Point e = f.b - f.a;
       const double det = cross2(nu, e);  // = n . nu with the outward normal n = (e_y, -e_x)
       if (std::abs(det) <= 1e-14 * e.norm()) return false;  // segment along the line
       const double s = cross2(x - f.a, nu) / cross2(e, nu);
       if (s < -kParamSlack || s > 1 + kParamSlack) return false;
-      out = {cross2(f.a - x, e) / det, det < 0};
+      out = {cross2(f.a - x, e) / det, det < 0, -1};
       return true;
     }
     const Point e1 = f.b - f.a, e2 = f.c - f.a;
@@ -156,7 +158,7 @@ struct SurfaceObstacle::Impl {
     const Point q = s.cross(e1);
     const double v = nu.dot(q) * inv;
     if (v < -kParamSlack || u + v > 1 + kParamSlack) return false;
-    out = {e2.dot(q) * inv, det > 0};
+    out = {e2.dot(q) * inv, det > 0, -1};
     return true;
   }
 
@@ -170,12 +172,13 @@ struct SurfaceObstacle::Impl {
       std::size_t j = i;
       bool entry = false, exit = false;
       double tEntry = 0, tExit = 0;
+      int pEntry = -1, pExit = -1;
       for (; j < c.size() && c[j].t - c[i].t <= mergeSlack; ++j) {
-        if (c[j].entry && !entry) entry = true, tEntry = c[j].t;
-        if (!c[j].entry && !exit) exit = true, tExit = c[j].t;
+        if (c[j].entry && !entry) entry = true, tEntry = c[j].t, pEntry = c[j].piece;
+        if (!c[j].entry && !exit) exit = true, tExit = c[j].t, pExit = c[j].piece;
       }
-      if (entry) out.push_back({tEntry, true});
-      if (exit) out.push_back({tExit, false});
+      if (entry) out.push_back({tEntry, true, pEntry});
+      if (exit) out.push_back({tExit, false, pExit});
       i = j;
     }
     return out;
@@ -251,16 +254,18 @@ void SurfaceObstacle::build(const mesh::SurfaceMesh& surface, bool reverse) {
     if (dimension_ == 2) {
       const Point e = at(1) - at(0);
       if (!(e.norm() > 1e-14 * size)) degenerate();
-      m.faces.push_back({at(0), at(1), Point::Zero(), cross2(nu_, e) < 0, Point(e[1], -e[0], 0).normalized()});
+      m.faces.push_back({at(0), at(1), Point::Zero(), cross2(nu_, e) < 0, Point(e[1], -e[0], 0).normalized(),
+                         {c[0], c[1], -1}});
       continue;
     }
-    auto addTriangle = [&](const Point& a, const Point& b, const Point& cc) {
+    auto addTriangle = [&](std::size_t i, std::size_t j, std::size_t k) {
+      const Point a = at(i), b = at(j), cc = at(k);
       const Point n = (b - a).cross(cc - a);
       if (!(n.norm() > 1e-12 * (b - a).norm() * (cc - a).norm()) || !(n.norm() > 0)) degenerate();
-      m.faces.push_back({a, b, cc, n.dot(nu_) < 0, n.normalized()});
+      m.faces.push_back({a, b, cc, n.dot(nu_) < 0, n.normalized(), {c[i], c[j], c[k]}});
     };
-    addTriangle(at(0), at(1), at(2));
-    if (c.size() == 4) addTriangle(at(0), at(2), at(3));
+    addTriangle(0, 1, 2);
+    if (c.size() == 4) addTriangle(0, 2, 3);
   }
 
   // Topology: every edge (3D) / vertex (2D) is shared by at most two faces, which traverse it in
@@ -345,6 +350,10 @@ SurfaceObstacle::~SurfaceObstacle() = default;
 mesh::Index SurfaceObstacle::numTriangles() const { return static_cast<Index>(impl_->faces.size()); }
 
 std::vector<SurfaceObstacle::Crossing> SurfaceObstacle::crossings(const Point& x) const {
+  return crossings(x, nu_);
+}
+
+std::vector<SurfaceObstacle::Crossing> SurfaceObstacle::crossings(const Point& x, const Point& direction) const {
   const Impl& m = *impl_;
   std::vector<Crossing> found;
   int stack[128];
@@ -352,12 +361,15 @@ std::vector<SurfaceObstacle::Crossing> SurfaceObstacle::crossings(const Point& x
   stack[top++] = 0;
   while (top > 0) {
     const Impl::Node& node = m.nodes[static_cast<std::size_t>(stack[--top])];
-    if (!m.meets(node.box, x)) continue;
+    if (!m.meets(node.box, x, direction)) continue;
     if (node.left < 0) {
       for (int i = node.begin; i < node.end; ++i) {
         Crossing c{};
-        if (m.cross(m.faces[static_cast<std::size_t>(m.order[static_cast<std::size_t>(i)])], x, c))
+        const int piece = m.order[static_cast<std::size_t>(i)];
+        if (m.cross(m.faces[static_cast<std::size_t>(piece)], x, direction, c)) {
+          c.piece = piece;
           found.push_back(c);
+        }
       }
       continue;
     }
@@ -372,7 +384,7 @@ std::vector<SurfaceObstacle::Crossing> SurfaceObstacle::crossingsBruteForce(cons
   std::vector<Crossing> found;
   for (const Impl::Face& f : m.faces) {
     Crossing c{};
-    if (m.cross(f, x, c)) found.push_back(c);
+    if (m.cross(f, x, nu_, c)) found.push_back(c);
   }
   return m.finish(std::move(found));
 }
@@ -471,24 +483,66 @@ Point SurfaceObstacle::direction(const Point& x) const {
   return n.signedDistance >= 0 ? Point(d.normalized()) : Point(-d.normalized());
 }
 
-double SurfaceObstacle::gap(const Point& x) const {
-  if (closest_) return nearest(x).signedDistance;
-  // The obstacle occupies [entry, next exit) along the line; the first such interval that does
-  // not end behind x gives the gap (its entry, <= 0 if x lies inside it).
-  bool open = false;
-  double entry = 0;
-  for (const Crossing& c : crossings(x)) {
+namespace {
+
+/// The crossing that gives the gap of a line: the obstacle occupies [entry, next exit) along it;
+/// the entry of the first such interval that does not end behind x (t = 0; the gap is <= 0 if x lies
+/// inside it); null if there is none (gap +infinity).
+const SurfaceObstacle::Crossing* gapCrossing(const std::vector<SurfaceObstacle::Crossing>& crossings) {
+  const SurfaceObstacle::Crossing* entry = nullptr;
+  for (const SurfaceObstacle::Crossing& c : crossings) {
     if (c.entry) {
-      if (!open) {
-        open = true;
-        entry = c.t;
-      }
-    } else if (open) {
+      if (!entry) entry = &c;
+    } else if (entry) {
       if (c.t >= 0) return entry;
-      open = false;
+      entry = nullptr;
     }
   }
-  return open ? entry : kInf;
+  return entry;
+}
+
+double gapOfCrossings(const std::vector<SurfaceObstacle::Crossing>& crossings) {
+  const SurfaceObstacle::Crossing* c = gapCrossing(crossings);
+  return c ? c->t : kInf;
+}
+
+}  // namespace
+
+double SurfaceObstacle::gap(const Point& x) const {
+  if (closest_) return nearest(x).signedDistance;
+  return gapOfCrossings(crossings(x));
+}
+
+double SurfaceObstacle::gapAlong(const Point& x, const Point& direction) const {
+  const double n = direction.norm();
+  if (!(n > 0) || !direction.allFinite()) throw Error("surface obstacle " + source_ + ": gapAlong needs a non-zero direction");
+  return gapOfCrossings(crossings(x, direction / n));
+}
+
+std::optional<SurfaceObstacle::Hit> SurfaceObstacle::hitAlong(const Point& x, const Point& direction) const {
+  const double n = direction.norm();
+  if (!(n > 0) || !direction.allFinite()) throw Error("surface obstacle " + source_ + ": hitAlong needs a non-zero direction");
+  const Point nu = direction / n;
+  const std::vector<Crossing> c = crossings(x, nu);
+  const Crossing* k = gapCrossing(c);
+  if (!k || k->piece < 0) return std::nullopt;
+  const Impl::Face& f = impl_->faces[static_cast<std::size_t>(k->piece)];
+  const Point y = x + k->t * nu;
+  Hit hit{k->t, f.vertices, {0, 0, 0}};
+  if (dimension_ == 2) {
+    const Point e = f.b - f.a;
+    const double s = std::clamp((y - f.a).dot(e) / e.squaredNorm(), 0.0, 1.0);
+    hit.weights = {1 - s, s, 0};
+  } else {  // barycentric coordinates in the triangle, clamped to it
+    const Point e1 = f.b - f.a, e2 = f.c - f.a, r = y - f.a;
+    const double a11 = e1.dot(e1), a12 = e1.dot(e2), a22 = e2.dot(e2), b1 = r.dot(e1), b2 = r.dot(e2);
+    const double det = a11 * a22 - a12 * a12;
+    double u = (a22 * b1 - a12 * b2) / det, v = (a11 * b2 - a12 * b1) / det;
+    u = std::clamp(u, 0.0, 1.0);
+    v = std::clamp(v, 0.0, 1.0 - u);
+    hit.weights = {1 - u - v, u, v};
+  }
+  return hit;
 }
 
 bool SurfaceObstacle::seesOnlyBackFaces(const Point& x) const {

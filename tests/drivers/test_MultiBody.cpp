@@ -271,6 +271,47 @@ TEST(MultiBodyScene, DynamicImpactConservesMomentumAndWritesEveryBody) {
   }
 }
 
+TEST(MultiBodyScene, AdaptiveCylinderSceneRefinesBothBodies) {
+  RunOptions o;
+  o.outputDirectory = kTmp / "cyl_adaptive";
+  o.overrides = {"adaptivity.steps=4", "adaptivity.vtk=\"every\""};
+  const RunResult r = runScene(kScenes / "twobody_cylinders_adaptive.toml", o);
+  EXPECT_TRUE(r.solver.converged);
+  ASSERT_EQ(r.pairs.size(), 1u);
+  const PairReport& p = r.pairs.front();
+  EXPECT_EQ(p.slave, "cylinder:arc");
+  EXPECT_EQ(p.master, "block:top");
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(p.forceSlave[a] + p.forceMaster[a], 0.0, 1e-10 * p.load);
+  EXPECT_GT(p.actualVertices, 3);
+  ASSERT_EQ(r.bodies.size(), 2u);
+  EXPECT_EQ(r.vertices, r.bodies[0].vertices + r.bodies[1].vertices);
+  const nlohmann::json j = summaryOf(kTmp / "cyl_adaptive");
+  const auto& steps = j["adaptivity"]["steps"];
+  ASSERT_EQ(steps.size(), 4u);
+  // both bodies grow, eta decreases, per-body estimates add up in squares
+  EXPECT_GT(steps[3]["bodies"][0]["vertices"].get<long long>(), steps[0]["bodies"][0]["vertices"].get<long long>());
+  EXPECT_GT(steps[3]["bodies"][1]["vertices"].get<long long>(), steps[0]["bodies"][1]["vertices"].get<long long>());
+  EXPECT_LT(steps[3]["eta"].get<double>(), steps[0]["eta"].get<double>());
+  for (const auto& s : steps) {
+    const double e0 = s["bodies"][0]["eta"], e1 = s["bodies"][1]["eta"], e = s["eta"];
+    EXPECT_NEAR(e * e, e0 * e0 + e1 * e1, 1e-12 * e * e);
+  }
+  EXPECT_EQ(j["pairs"][0]["actual_vertices"].get<long long>(), p.actualVertices);
+  // one .vtu per body and step, parts of one .pvd
+  for (int k = 0; k < 4; ++k)
+    for (const char* b : {"block", "cylinder"}) {
+      char name[64];
+      std::snprintf(name, sizeof name, "step_%03d_%s.vtu", k, b);
+      EXPECT_TRUE(fs::exists(kTmp / "cyl_adaptive" / name)) << name;
+    }
+  const std::string pvd = slurp(kTmp / "cyl_adaptive" / "twobody_cylinders_adaptive.pvd");
+  EXPECT_NE(pvd.find("timestep=\"3\" part=\"1\" file=\"step_003_cylinder.vtu\""), std::string::npos) << pvd;
+  const std::string vtu = slurp(kTmp / "cyl_adaptive" / "step_003_cylinder.vtu");
+  for (const char* field : {"contact_pressure", "node_class", "indicator", "eta_6", "marked"})
+    EXPECT_NE(vtu.find(std::string("Name=\"") + field + "\""), std::string::npos) << field;
+  EXPECT_TRUE(fs::exists(kTmp / "cyl_adaptive" / "steps.csv"));
+}
+
 TEST(MultiBodyScene, ValidSceneChecks) {
   EXPECT_EQ(errorOf(kLower + upper() + kPair), "no error");
 }
@@ -300,7 +341,12 @@ point = [-0.5, 0.0]
 direction = [-1.0, 0.0]
 )", "already has a rigid obstacle");
   expect(kLower + upper() + kPair + "\n[mesh]\ngenerator = \"box\"\n", "cannot be combined with [[body]]");
-  expect(kLower + upper() + kPair + "\n[adaptivity]\nsteps = 2\n", "[adaptivity] is not available for multi-body scenes");
+  expect(kLower + upper() + kPair + "\n[adaptivity]\nsteps = 2\nreference = \"punch\"\n",
+         "[adaptivity] reference = \"punch\" is a one-body solution");
+  expect(kLower + upper() + kPair + "\n[adaptivity]\nsteps = 2\n[dynamics]\ntau = 0.1\nsteps = 2\n",
+         "[adaptivity] and [dynamics] cannot be combined");
+  expect(kLower + upper() + kPair + "\n[adaptivity]\nsteps = 2\n[solver]\ntype = \"pgs\"\n",
+         "is not available with [adaptivity]", true);
   expect(kLower + upper() + kPair + "\n[dynamics]\ntau = 0.1\nsteps = 2\n", "[[body]] 'lower': [material] density is missing");
   {
     std::string withVelocity = kLower + upper() + kPair;

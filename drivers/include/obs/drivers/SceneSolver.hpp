@@ -66,6 +66,26 @@ struct MultiBodySolution {
   double assemblySeconds = 0, solveSeconds = 0;
 };
 
+/// What visitCouplings reports of each coupling of a multi-body scene: a mortar pair (slave body
+/// and boundary id, master body and boundary id, label "slave / master", options, the two side
+/// labels "body:boundary") or a rigid obstacle of one body (the obstacle, label, side labels).
+struct CouplingVisitor {
+  std::function<void(int slave, int slaveId, int master, int masterId, const std::string& label,
+                     const MortarOptions& options, const std::string& slaveLabel, const std::string& masterLabel)>
+      pair;
+  std::function<void(int body, const Obstacle& obstacle, const std::string& label, const std::string& slaveLabel,
+                     const std::string& masterLabel)>
+      obstacle;
+};
+
+/// The couplings of a multi-body scene in the order every runner uses: the [[contact]] mortar pairs
+/// in scene order, then the rigid obstacles of single bodies (created with makeObstacle and kept in
+/// `obstacles`, which must outlive their use). Boundaries are resolved on `meshes` (the bodies'
+/// meshes; obs::Error naming the scene line if one does not exist). Returns the body of each
+/// obstacle coupling, in order. buildContactModel and the adaptive runner build on it.
+std::vector<int> visitCouplings(const Scene& scene, const std::vector<const mesh::Mesh*>& meshes,
+                                std::vector<std::unique_ptr<Obstacle>>& obstacles, const CouplingVisitor& visit);
+
 /// The contact model of a multi-body scene, built once for every runner (static, dynamic): the
 /// bodies (scene.bodies[i] on meshes[i] with bcs[i]), the [[contact]] mortar pairs in scene order,
 /// then the rigid obstacles of single bodies (their obstacles are kept in `obstacles`, which must

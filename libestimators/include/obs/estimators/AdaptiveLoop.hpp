@@ -1,25 +1,30 @@
 #pragma once
 /// \file AdaptiveLoop.hpp
 /// The adaptive loop solve -> estimate -> mark -> refine (thesis Sec. 4.1, 4.2; docs/theory.md#adaptive-loop;
-/// docs/architecture.md#libestimators) on a mesh::Grid, for a Signorini problem (an obstacle on one
-/// boundary id) or plain linear elasticity (no obstacle), with a per-step record and an optional
-/// callback. No printing: drivers report through the callback.
+/// docs/architecture.md#libestimators) on the grids of one or several bodies: a Signorini problem
+/// (an obstacle on one boundary id), two-body contact (dual-mortar pairs between bodies,
+/// docs/theory.md#two-body-estimator) or plain linear elasticity (no coupling), with a per-step
+/// record and an optional callback. No printing: drivers report through the callback.
 ///
 /// Step k (k = 0, 1, ...):
-///  1. assemble on the leaf view: ContactSet, ContactProblem (A, b with Dirichlet values);
-///  2. solve: TNNMG (default) or the primal-dual active set method; without an obstacle a direct
-///     CHOLMOD solve. Warm start (default): the start is the previous solution interpolated to the
-///     new leaf view (mesh::transferMatrix, exact where the grids are nested), which the solvers
-///     project onto the admissible set; a cold start begins at 0;
+///  1. assemble on the leaf views: the ContactModel of the bodies and couplings (ContactModel.hpp;
+///     one body with one obstacle is its one-element case) -> ContactProblem (A, b with Dirichlet
+///     values, the mortar basis transformation);
+///  2. solve: TNNMG on the bodies' grid hierarchies (default) or the primal-dual active set method;
+///     without a coupling a direct CHOLMOD solve. Warm start (default): the start is the previous
+///     solution interpolated to the new leaf views (mesh::transferMatrix per body, exact where the
+///     grids are nested), which the solvers project onto the admissible set; a cold start begins at 0;
 ///  3. contact outputs (computeContactOutputs: actual contact, s_p, load), node classes
 ///     (classifyContactNodes: actual / semi / full), optional reference errors;
-///  4. estimate with the registry estimator `estimator` (EstimatorInput with the contact data);
-///     in Uniform mode only if `estimateUniform`;
-///  5. record + callback; stop if k + 1 = maxSteps, the leaf view has >= targetVertices vertices,
-///     eta <= etaTolerance, or (adaptive) nothing was marked;
+///  4. estimate with the registry estimator `estimator`, body by body (EstimatorInput with the
+///     body's contact data: its obstacle or slave nodes as a ContactSet on its mesh, the pressures,
+///     the exact gap, and on a master side the mortar traction; docs/theory.md#two-body-estimator);
+///     eta^2 is the sum over the bodies; in Uniform mode only if `estimateUniform`;
+///  5. record + callback; stop if k + 1 = maxSteps, the leaf views have >= targetVertices vertices
+///     together, eta <= etaTolerance, or (adaptive) nothing was marked;
 ///  6. refine: Adaptive: mark the cells chosen by the marking strategy (MarkingStrategy, default
-///     "mean" with theta = 1.1) and Grid::adapt() (boundary projections of the grid apply);
-///     Uniform: Grid::refineUniformly().
+///     "mean" with theta = 1.1) among the cells of all bodies together and Grid::adapt() every
+///     grid (boundary projections of the grid apply); Uniform: Grid::refineUniformly().
 /// eoc (docs/theory.md#eoc, on the vertex count N): eoc_k = (ln eta_{k-1} - ln eta_k) /
 /// (ln N_k - ln N_{k-1}), NaN at k = 0 or without estimates.
 ///
@@ -55,8 +60,10 @@
 #include "obs/estimators/Estimator.hpp"
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/ContactModel.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/Material.hpp"
+#include "obs/obs/MortarCoupling.hpp"
 
 namespace obs::estimators {
 
@@ -106,7 +113,14 @@ struct ReferenceErrors {
   double centreError = 0;        ///< |s_c - p(x_c)| / p(x_c)
 };
 
-/// The record of one step.
+/// The share of one body in a step.
+struct BodyRecord {
+  Index cells = 0, vertices = 0;
+  double eta = std::numeric_limits<double>::quiet_NaN();  ///< the body's estimate (NaN if none)
+  Index marked = 0;                                       ///< its cells marked after the step
+};
+
+/// The record of one step (cells, vertices, unknowns, contact counts and eta summed over the bodies).
 struct AdaptiveStep {
   static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();  ///< "not computed"
   int step = 0;                            ///< k = 0, 1, ...
@@ -135,9 +149,26 @@ struct AdaptiveStep {
   double transferSeconds = 0;              ///< building the start vector of this step
   Index marked = 0;                        ///< cells marked after this step
   std::optional<ReferenceErrors> reference;  ///< with a ContactReference (setReference) only
+  std::vector<BodyRecord> bodies;          ///< per body, in the order of the bodies
+  std::vector<CouplingRecord> couplings;   ///< per coupling, in the order they were added
 };
 
-/// What the callback sees after step k, before the grid is refined (valid during the call only).
+/// What the callback sees of one body (valid during the call only).
+struct AdaptiveBodyView {
+  const mesh::Grid& grid;                   ///< the body's grid, not yet refined
+  const mesh::GridView& view;               ///< its leaf view of the step
+  const Eigen::VectorXd& displacement;      ///< on view.mesh, vertex-major
+  const ContactSet* contactSet;             ///< the body's constrained nodes on view.mesh (obstacle or
+                                            ///< mortar slave side; null if none)
+  const ContactOutputs* outputs;            ///< for contactSet (pressure s_p = mortar lambda_p)
+  const ContactNodeClasses& classes;        ///< node classes of view.mesh
+  const EstimatorResult* estimate;          ///< null if not estimated
+  const std::vector<Index>& marked;         ///< cells (of view.mesh) to be refined after the step
+};
+
+/// What the callback sees after step k, before the grids are refined (valid during the call only).
+/// The members after `record` describe the first body (the only one of a one-body loop); `bodies`
+/// describes every body.
 struct AdaptiveStepView {
   const AdaptiveStep& record;               ///< the step's record (refinementSeconds not yet set)
   const mesh::Grid& grid;                   ///< the grid, not yet refined
@@ -147,6 +178,16 @@ struct AdaptiveStepView {
   const ContactOutputs* outputs;            ///< null without contact
   const ContactNodeClasses& classes;        ///< node classes of view.mesh (all None without contact)
   const EstimatorResult* estimate;          ///< null if not estimated
+  const std::vector<AdaptiveBodyView>& bodies;  ///< every body, in order
+};
+
+/// One body of the loop: its grid (refined in place), material and boundary conditions (not
+/// copied: they must outlive the loop).
+struct AdaptiveBody {
+  std::string name;
+  mesh::Grid* grid = nullptr;
+  const Material* material = nullptr;
+  const BoundaryConditions* bc = nullptr;
 };
 
 /// The adaptive loop (see the file comment); examples/adaptive_custom_estimator.cpp shows it in use.
@@ -160,10 +201,20 @@ public:
   /// parameter.
   AdaptiveLoop(mesh::Grid& grid, const Material& material, const BoundaryConditions& bc,
                AdaptiveLoopOptions options = {});
+  /// Several bodies (at least one; grids of one dimension). Throws what the one-body constructor
+  /// throws, and obs::Error for an empty list, a null pointer or grids of different dimensions.
+  AdaptiveLoop(std::vector<AdaptiveBody> bodies, AdaptiveLoopOptions options = {});
 
-  /// Contact with a rigid obstacle on the boundary faces with this id (the obstacle must outlive
-  /// the loop). Without it the loop solves linear elasticity.
+  /// Contact of the first body with a rigid obstacle on the boundary faces with this id (the
+  /// obstacle must outlive the loop); replaces the couplings given before. Without any coupling
+  /// the loop solves linear elasticity.
   void setContact(const Obstacle& obstacle, int boundaryId);
+  /// Adds contact of body `body` with a rigid obstacle on its boundary faces with this id.
+  void addObstacleContact(int body, const Obstacle& obstacle, int boundaryId, std::string label = {});
+  /// Adds a dual-mortar pair: boundary `slaveId` of body `slave` against `masterId` of body
+  /// `master` (MortarCoupling.hpp), rebuilt on the leaf views of every step.
+  void addMortarContact(int slave, int slaveId, int master, int masterId, std::string label = {},
+                        const MortarOptions& options = {});
   /// An analytic reference (AnalyticContact.hpp): every step then records ReferenceErrors.
   void setReference(ContactReference reference);
   /// The function called after every step (replaces an earlier one).
@@ -173,7 +224,8 @@ public:
   /// not converge is the last: it is recorded (converged = false) and passed to the callback, but
   /// not estimated (eta NaN) and not refined, so the caller can report it.
   std::vector<AdaptiveStep> run();
-  /// The solution on the final leaf view (after run()).
+  /// The solution on the final leaf view (after run()): the bodies' displacements stacked in the
+  /// order of the bodies (for one body, its displacement).
   const Eigen::VectorXd& displacement() const { return u_; }
   /// The options given to the constructor.
   const AdaptiveLoopOptions& options() const { return options_; }
@@ -184,12 +236,21 @@ private:
   /// The relative solver tolerance of step rec (AdaptiveLoopOptions::inexactFraction).
   double inexactTolerance(const std::vector<AdaptiveStep>& steps, const AdaptiveStep& rec, int d) const;
 
-  mesh::Grid& grid_;
-  const Material& material_;
-  const BoundaryConditions& bc_;
+  /// A coupling as given (rebuilt on the leaf views of every step).
+  struct CouplingSpec {
+    std::string label;
+    bool mortar = false;
+    int body = -1;             ///< obstacle: the body; mortar: the slave body
+    int boundaryId = 0;        ///< obstacle: the contact boundary; mortar: the slave boundary
+    const Obstacle* obstacle = nullptr;
+    int master = -1, masterId = 0;
+    MortarOptions options;
+  };
+  void checkBody(int body, const std::string& what) const;
+
+  std::vector<AdaptiveBody> bodies_;
   AdaptiveLoopOptions options_;
-  const Obstacle* obstacle_ = nullptr;
-  int contactId_ = 0;
+  std::vector<CouplingSpec> couplings_;
   std::optional<ContactReference> reference_;
   Callback callback_;
   Eigen::VectorXd u_;

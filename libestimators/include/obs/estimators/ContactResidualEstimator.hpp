@@ -52,8 +52,16 @@
 /// face split equally over its vertices and given to the face's cell. So sum_e eta_e^2 =
 /// sum_k eta_k^2 = sum_p sum_k eta_{k,p}^2.
 ///
-/// Input: EstimatorInput with contact data {set, outputs, obstacle}; outputs (pressures s_p,
-/// computeContactOutputs) is required when some node is in actual contact.
+/// Two-body contact (docs/theory.md#two-body-estimator): the slave side of a mortar pair is the
+/// contact set above (mortar normals, gaps relative to the displaced master, D_pp, dual-mortar
+/// pressures, the exact gap to the master surface); on the faces of ContactData::masterBoundaryIds
+/// (master sides) eta_4 and eta_5 are the tangential and normal parts (outward normal) of
+/// t_h - sigma_h n, t_h the interpolated mortar traction ContactData::masterTraction, at every
+/// vertex of the face; those faces add nothing to eta_6 ... eta_8.
+///
+/// Input: EstimatorInput with contact data {set, outputs, obstacle} (and for master sides
+/// masterTraction, masterBoundaryIds); outputs (pressures s_p, computeContactOutputs) is required
+/// when some node is in actual contact.
 /// Result: contributions "eta_1" ... "eta_8"; cell fields eta_{k,e}; vertex fields eta_{k,p},
 /// "eta", "h", "s" (s_p, 0 off the ContactSet or without outputs), "contact_class" (NodeClass).
 #include <string>

@@ -63,10 +63,20 @@ MeshStamp meshStamp(const mesh::Mesh& mesh, std::uint64_t revision = 0);
 /// `contact-residual` (ContactResidualEstimator.hpp) also the pressures s_p of `outputs` (required
 /// once a node is in actual contact) and the exact gap of `obstacle` (eta_7, eta_8; required with a
 /// set).
+///
+/// Two-body contact (docs/theory.md#two-body-estimator): on the slave side of a mortar pair, `set`
+/// holds the slave nodes with their mortar normals, the gaps relative to the displaced master
+/// (g_p + n_p'(C u)_p) and D_pp, `outputs` the dual-mortar pressures lambda_p, and `obstacle` the
+/// signed distance to the displaced master surface. On the master side, `masterTraction` is the
+/// contact traction the mortar coupling exerts on the body, by vertex (vertex-major, d entries per
+/// vertex: nodal force / int phi_q), on the boundary faces with an id in `masterBoundaryIds`;
+/// `contact-residual` measures sigma(u_h) n against it there, `residual` ignores it.
 struct ContactData {
   const ContactSet* set = nullptr;          ///< potential contact nodes N^C, nu_p, g_p, m_p^C
   const ContactOutputs* outputs = nullptr;  ///< actual contact, multipliers, pressures s_p
   const Obstacle* obstacle = nullptr;       ///< the exact gap g (eta_7, eta_8)
+  const Eigen::VectorXd* masterTraction = nullptr;  ///< master side of mortar pairs (see above)
+  std::vector<int> masterBoundaryIds;               ///< the faces masterTraction acts on
 };
 
 /// What an estimator needs: the problem (mesh, material, boundary conditions) and the discrete

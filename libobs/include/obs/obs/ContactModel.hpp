@@ -10,6 +10,8 @@
 /// from assembleParts(). A one-body Signorini problem is the model with one body
 /// and one obstacle coupling, and gives the same ContactProblem as ContactProblem(mesh, material,
 /// bc, contactSet).
+#include <Eigen/Core>
+
 #include <memory>
 #include <string>
 #include <vector>
@@ -81,6 +83,34 @@ private:
   std::vector<Coupling> couplings_;
   Index numVertices_ = 0;
 };
+
+/// The figures of one coupling of a solved model (an obstacle on a body's boundary or a mortar pair),
+/// reported per pair by every runner (couplingRecords).
+struct CouplingRecord {
+  std::string label;                ///< as given to addObstacleContact / addMortarContact
+  bool mortar = false;
+  int slaveBody = -1;               ///< the constrained body (the obstacle's body for obstacles)
+  int masterBody = -1;              ///< -1 for obstacles
+  Index slaveVertices = 0;          ///< vertices of the constrained boundary
+  Index potentialVertices = 0;      ///< constrained nodes (finite gap, covered by the master)
+  Index actualVertices = 0;         ///< in actual contact
+  Eigen::Vector3d forceSlave = Eigen::Vector3d::Zero();   ///< total force on the constrained body
+  Eigen::Vector3d forceMaster = Eigen::Vector3d::Zero();  ///< on the master body (the obstacle's reaction)
+  double load = 0;                  ///< sum of the multipliers mu_p
+  double pressureMin = 0, pressureMax = 0;  ///< over the actual contact nodes (0 without contact)
+  double area = 0;                  ///< measure of the faces with all nodes in contact
+  double maxViolation = 0;          ///< max (nu_p'x_p - g_p)^+ of the problem unknowns x
+  Index segments = 0, uncovered = 0;  ///< mortar statistics (MortarCoupling::Statistics)
+  double mortarSeconds = 0;
+};
+
+/// The CouplingRecord of every coupling of `model` (after assemble()/assembleParts()) for the problem
+/// unknowns x of the assembled problem and their contact outputs (computeContactOutputs): nodes,
+/// forces on both sides (the master's from MortarCoupling::masterForces, equal and opposite), the
+/// sum of the multipliers, pressure range and area over the actual contact nodes, mortar statistics.
+template <int d>
+std::vector<CouplingRecord> couplingRecords(const ContactModel<d>& model, const ContactProblem<d>& problem,
+                                            const Eigen::VectorXd& x, const ContactOutputs& outputs);
 
 extern template class ContactModel<2>;
 extern template class ContactModel<3>;

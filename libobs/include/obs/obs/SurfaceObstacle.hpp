@@ -22,7 +22,9 @@
 /// of a 3D surface whose boundary consists of more than one closed loop (a line through the hole
 /// would miss the obstacle). `reverse` flips every face (for a surface whose faces are ordered
 /// clockwise seen from outside the obstacle).
+#include <array>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -55,11 +57,28 @@ public:
   /// One crossing of the line x + t nu with the surface.
   struct Crossing {
     double t;
-    bool entry;  ///< the face's outward normal opposes nu
+    bool entry;      ///< the face's outward normal opposes nu
+    int piece = -1;  ///< the planar piece crossed (internal numbering; -1 if not recorded)
   };
   /// All crossings of the line through x, sorted by t (entries first at equal t), duplicates through
   /// shared edges removed. gap() is computed from these.
   std::vector<Crossing> crossings(const Point& x) const;
+  /// The same along another (unit) direction.
+  std::vector<Crossing> crossings(const Point& x, const Point& direction) const;
+  /// The gap of the fixed-direction mode along `direction` instead of the obstacle's own (in either
+  /// mode): the distance from x along the line x + t direction to the obstacle, as gap() describes.
+  /// Used for the gap to a mortar master surface along the slave normals (AdaptiveLoop.hpp).
+  double gapAlong(const Point& x, const Point& direction) const;
+  /// Where the line of gapAlong() meets the surface: its t (= the gap), and the point as weights
+  /// of surface vertices (the corners of the segment, or of the triangle of a quadrilateral split
+  /// along its first diagonal; unused entries -1 / 0), to interpolate vertex data there. nullopt
+  /// where the gap is +infinity.
+  struct Hit {
+    double t;
+    std::array<mesh::Index, 3> vertices;
+    std::array<double, 3> weights;
+  };
+  std::optional<Hit> hitAlong(const Point& x, const Point& direction) const;
   /// The same by testing every face (no hierarchy): for tests of the hierarchy.
   std::vector<Crossing> crossingsBruteForce(const Point& x) const;
   /// True if the line through x meets the surface but only from the back (exits, no entry): the
