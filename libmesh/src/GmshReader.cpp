@@ -100,6 +100,12 @@ std::string quoted(std::string_view text) {
   return out + "'";
 }
 
+/// `text` as quoted() shortens it, without the quotes (for names and numbers inside a message).
+std::string shortened(std::string_view text) {
+  const std::string q = quoted(text);
+  return q.substr(1, q.size() - 2);
+}
+
 constexpr bool isSpace(char c) {
   return c == ' ' || c == '\t' || c == '\r' || c == '\v' || c == '\f';
 }
@@ -274,7 +280,7 @@ private:
         in_.fail("expected a section header such as $Nodes, found " + quoted(header));
       const std::string_view name = header.substr(1);
       if (name.starts_with("End"))
-        in_.fail(quoted(header) + " without a matching $" + std::string(name.substr(3)));
+        in_.fail(quoted(header) + " without a matching $" + shortened(name.substr(3)));
       if (name == "MeshFormat")
         in_.fail("second $MeshFormat section");
       else if (name == "PhysicalNames")
@@ -311,7 +317,7 @@ private:
     else if (version == 2.2 || version == 2.1 || version == 2.0)
       v4_ = false;
     else
-      in_.fail("unsupported .msh format version " + std::string(in_.token(0)) +
+      in_.fail("unsupported .msh format version " + shortened(in_.token(0)) +
                " (readable: 4.1 and 2.2, ASCII)");
     if (fileType == 1)
       in_.fail(
@@ -534,8 +540,7 @@ private:
     while (in_.next())
       if (in_.line() == end) return;
     // the name as quoted (at most 40 characters): an unknown section can be any line
-    const std::string shown = quoted(name);
-    const std::string bare = shown.substr(1, shown.size() - 2);
+    const std::string bare = shortened(name);
     in_.fail("unexpected end of file: missing $End" + bare + " (section $" + bare +
              " starts at line " + std::to_string(start) + ")");
   }

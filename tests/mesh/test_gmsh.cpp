@@ -714,6 +714,28 @@ TEST(Gmsh, UnterminatedLongSectionNameIsShortenedInTheMessage) {
   }
 }
 
+// Found by fuzz_parsers on a corpus with two-body files (seeds 2 and 4): an end marker without its
+// section and an unsupported version number were quoted in full (messages of 27,000 and 9,000
+// characters).
+TEST(Gmsh, LongEndMarkerAndVersionAreShortenedInTheMessage) {
+  const std::string end = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$End" + std::string(5000, 'X') + "\n";
+  const std::string version = "$MeshFormat\n4." + std::string(5000, '1') + " 0 8\n$EndMeshFormat\n";
+  for (const std::string* text : {&end, &version}) {
+    try {
+      readGmshString(*text, "long.msh");
+      ADD_FAILURE() << "accepted";
+    } catch (const obs::Error& e) {
+      const std::string msg = e.what();
+      EXPECT_LT(msg.size(), 200u) << msg.substr(0, 300);
+      EXPECT_TRUE(contains(msg, text == &end ? "without a matching $XXXX" : "unsupported .msh format version 4.111"))
+          << msg.substr(0, 300);
+    }
+  }
+  // short tokens are shown unchanged
+  EXPECT_TRUE(contains(readError(writeText("v3.msh", "$MeshFormat\n3.0 0 8\n$EndMeshFormat\n")),
+                       "unsupported .msh format version 3.0 (readable"));
+}
+
 // --- several bodies in one file: cell groups ------------------------------------------------------
 
 namespace {
