@@ -84,7 +84,9 @@ int checkCommand(const std::vector<std::string>& scenes, std::optional<int> refi
     try {
       const obs::drivers::Scene scene = obs::drivers::parseScene(file);
       if (scene.multiBody()) {
-        std::cout << file << ": valid (" << obs::drivers::checkMultiBodyScene(scene, refine) << ")" << std::endl;
+        // checked before anything is printed: an invalid scene prints no "valid (" on stdout
+        const std::string report = obs::drivers::checkMultiBodyScene(scene, refine);
+        std::cout << file << ": valid (" << report << ")" << std::endl;
         continue;
       }
       const obs::mesh::Mesh mesh = obs::drivers::buildMesh(scene, refine);

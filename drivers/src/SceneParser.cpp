@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <sstream>
 
 #include "DynamicsParser.hpp"
@@ -125,13 +126,15 @@ void parseBox(const TomlSection& s, MeshSpec& spec) {
 }
 
 MeshSpec parseMesh(const Scene& scene, const toml::value& table) {
-  std::vector<std::string> keys = {"generator", "type", "cells", "lower", "upper", "file", "refine"};
+  std::vector<std::string> keys = {"generator", "type", "cells", "lower", "upper", "file", "physical", "refine"};
   keys.insert(keys.end(), curvedMeshKeys().begin(), curvedMeshKeys().end());
   const TomlSection s(scene.fileName, "[mesh]", table, keys);
   MeshSpec spec;
   spec.line = s.line();
   if (s.has("generator") && s.has("file"))
     s.fail("file", "cannot be combined with generator (give one of them)");
+  if (s.has("physical") && !s.has("file"))
+    s.fail("physical", "needs file = \"mesh.msh\": it selects the cells of one physical group of a Gmsh file");
   if (s.has("file")) {
     for (const char* key : {"type", "cells", "lower", "upper"})
       if (s.has(key)) s.fail(key, "only applies to generator = \"box\", not to a mesh file");
@@ -147,6 +150,21 @@ MeshSpec parseMesh(const Scene& scene, const toml::value& table) {
       s.fail("file", "= \"" + file + "\": no such file (looked for " + path.string() + ")");
     spec.source = MeshSpec::Source::File;
     spec.file = path;
+    if (s.has("physical")) {
+      const toml::value& p = s.at("physical");
+      spec.physicalLine = s.line("physical");
+      if (p.is_string()) {
+        spec.physicalName = s.string("physical");
+        if (spec.physicalName->empty()) s.fail("physical", "must not be empty (a physical group name or tag)");
+      } else if (p.is_integer()) {
+        const long long tag = p.as_integer();
+        if (tag < std::numeric_limits<int>::min() || tag > std::numeric_limits<int>::max())
+          s.fail("physical", "= " + literalOf(p) + " is not a physical tag (out of range)");
+        spec.physicalTag = static_cast<int>(tag);
+      } else {
+        s.fail("physical", "must be a physical group name (string) or tag (integer), got " + typeNameOf(p));
+      }
+    }
   } else if (s.has("generator") && isCurvedGenerator(s.string("generator"))) {
     parseCurvedMesh(s, spec);
   } else if (s.has("generator")) {

@@ -133,6 +133,23 @@ std::vector<DirichletCondition> dirichletConditions(const Scene& scene, const me
   return out;
 }
 
+/// The mesh of [mesh] file = "...": the whole file, or with physical = ... the cells of one
+/// physical group (docs/scenes.md#gmsh-bodies). Errors in the file name it; errors of the group
+/// selection name the scene line and key too.
+mesh::Mesh readMeshFile(const Scene& scene) {
+  const MeshSpec& spec = scene.mesh;
+  if (!spec.physicalName && !spec.physicalTag) return mesh::readGmsh(spec.file);
+  const mesh::GmshMesh file = mesh::readGmshGroups(spec.file);
+  try {
+    return spec.physicalName ? mesh::extractCellGroup(file, *spec.physicalName)
+                             : mesh::extractCellGroup(file, *spec.physicalTag);
+  } catch (const Error& e) {
+    const std::string value =
+        spec.physicalName ? "\"" + *spec.physicalName + "\"" : std::to_string(*spec.physicalTag);
+    throw Error(scene.where(spec.physicalLine) + "[mesh] physical = " + value + ": " + e.what());
+  }
+}
+
 }  // namespace
 
 mesh::Grid buildGrid(const Scene& scene, std::optional<int> refineOverride) {
@@ -183,7 +200,7 @@ mesh::Grid buildGrid(const Scene& scene, std::optional<int> refineOverride) {
   }
   mesh::Mesh m = spec.source == MeshSpec::Source::Box
                      ? mesh::boxMesh(spec.cellType, spec.cells, spec.lower, spec.upper)
-                 : spec.source == MeshSpec::Source::File ? mesh::readGmsh(spec.file)
+                 : spec.source == MeshSpec::Source::File ? readMeshFile(scene)
                                                          : curved.mesh;
   const auto counts = m.cellCounts();
   double predicted = 0;

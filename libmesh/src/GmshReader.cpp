@@ -28,6 +28,7 @@
 
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Gmsh.hpp"
+#include "obs/mesh/MeshTopology.hpp"
 #include "obs/mesh/SurfaceMesh.hpp"
 
 namespace obs::mesh {
@@ -97,6 +98,12 @@ std::string quoted(std::string_view text) {
   }
   if (text.size() > maxLength) out += "...";
   return out + "'";
+}
+
+/// `text` as quoted() shortens it, without the quotes (for names and numbers inside a message).
+std::string shortened(std::string_view text) {
+  const std::string q = quoted(text);
+  return q.substr(1, q.size() - 2);
 }
 
 constexpr bool isSpace(char c) {
@@ -251,6 +258,14 @@ public:
     return assemble();
   }
 
+  /// The Mesh of parse() with the physical groups of its cells (readGmshGroups).
+  GmshMesh parseGroups() {
+    parseSections();
+    GmshMesh out;
+    out.mesh = assemble(&out);
+    return out;
+  }
+
   SurfaceMesh parseSurface() {
     parseSections();
     return assembleSurface();
@@ -265,7 +280,7 @@ private:
         in_.fail("expected a section header such as $Nodes, found " + quoted(header));
       const std::string_view name = header.substr(1);
       if (name.starts_with("End"))
-        in_.fail(quoted(header) + " without a matching $" + std::string(name.substr(3)));
+        in_.fail(quoted(header) + " without a matching $" + shortened(name.substr(3)));
       if (name == "MeshFormat")
         in_.fail("second $MeshFormat section");
       else if (name == "PhysicalNames")
@@ -302,7 +317,7 @@ private:
     else if (version == 2.2 || version == 2.1 || version == 2.0)
       v4_ = false;
     else
-      in_.fail("unsupported .msh format version " + std::string(in_.token(0)) +
+      in_.fail("unsupported .msh format version " + shortened(in_.token(0)) +
                " (readable: 4.1 and 2.2, ASCII)");
     if (fileType == 1)
       in_.fail(
@@ -525,8 +540,7 @@ private:
     while (in_.next())
       if (in_.line() == end) return;
     // the name as quoted (at most 40 characters): an unknown section can be any line
-    const std::string shown = quoted(name);
-    const std::string bare = shown.substr(1, shown.size() - 2);
+    const std::string bare = shortened(name);
     in_.fail("unexpected end of file: missing $End" + bare + " (section $" + bare +
              " starts at line " + std::to_string(start) + ")");
   }
@@ -630,7 +644,9 @@ private:
                                  std::to_string(b.entityTag) + "), which $Entities does not list");
   }
 
-  Mesh assemble() {
+  /// The Mesh (see Gmsh.hpp); with `groups`, also the physical tags of the cells and the list of
+  /// physical groups (which do not change the Mesh).
+  Mesh assemble(GmshMesh* groups = nullptr) {
     resolveNodes();
     int dim = 0;
     for (const RawElement& e : elements_) dim = std::max(dim, e.dim);
@@ -660,6 +676,10 @@ private:
       if (e.dim == dim) {
         collect(e);
         mesh.addCell(*cellTypeFromGmsh(e.gmshType), vertices);
+        if (groups) {
+          for (int p : physicalTags(e)) groups->cellGroupTags.push_back(p);
+          groups->cellGroupOffsets.push_back(static_cast<Index>(groups->cellGroupTags.size()));
+        }
       }
 
     // Boundary faces: elements of dimension dim - 1 in physical groups, one face per group.
@@ -679,7 +699,24 @@ private:
 
     for (const auto& [key, name] : physicalNames_)
       if (key.first == dim - 1) mesh.setBoundaryName(key.second, name);
+    if (groups) listGroups(*groups);
     return mesh;
+  }
+
+  /// Every physical group of the file with its name and number of elements: the groups named in
+  /// $PhysicalNames, listed by an entity (4.1) or used by an element (2.2).
+  void listGroups(GmshMesh& out) const {
+    std::map<EntityKey, Index> count;
+    for (const auto& [key, name] : physicalNames_) count.emplace(key, 0);
+    for (const auto& [entity, physicals] : entities_)
+      for (int p : physicals) count.emplace(EntityKey{entity.first, p}, 0);
+    for (const RawElement& e : elements_)
+      for (int p : physicalTags(e)) ++count[{e.dim, p}];
+    for (const auto& [key, n] : count) {
+      const auto name = physicalNames_.find(key);
+      out.groups.push_back(
+          {key.first, key.second, name != physicalNames_.end() ? name->second : std::string(), n});
+    }
   }
 
   /// The elements of the highest dimension as the faces of a surface mesh (SurfaceMesh.hpp).
@@ -772,6 +809,144 @@ SurfaceMesh readGmshSurfaceString(std::string text, const std::string& fileName)
 Mesh readGmshString(std::string text, const std::string& fileName) {
   LineReader lines(std::move(text), fileName);
   return Parser(lines).parse();
+}
+
+GmshMesh readGmshGroups(const std::filesystem::path& file) {
+  return readGmshGroupsString(readMshText(file), file.string());
+}
+
+GmshMesh readGmshGroupsString(std::string text, const std::string& fileName) {
+  LineReader lines(std::move(text), fileName);
+  GmshMesh out = Parser(lines).parseGroups();
+  out.fileName = fileName;
+  return out;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Cell groups
+
+namespace {
+
+std::string describeGroup(const GmshPhysicalGroup& g) {
+  return std::to_string(g.tag) + (g.name.empty() ? "" : " \"" + g.name + "\"");
+}
+
+std::string dimensionWord(int dim) {
+  static const char* const words[] = {"points", "curves", "surfaces", "volumes"};
+  return std::to_string(dim) + " (" + words[dim] + ")";
+}
+
+}  // namespace
+
+std::string GmshMesh::describeCellGroups() const {
+  std::string out;
+  for (const GmshPhysicalGroup& g : groups)
+    if (g.dimension == mesh.dimension())
+      out += (out.empty() ? "" : ", ") + describeGroup(g) + " (" + std::to_string(g.elements) +
+             (g.elements == 1 ? " cell)" : " cells)");
+  return out.empty() ? "none" : out;
+}
+
+namespace {
+
+/// The checks shared by both cellGroup overloads once a group of the mesh dimension is found.
+const GmshPhysicalGroup& nonEmpty(const GmshMesh& file, const GmshPhysicalGroup& g) {
+  if (g.elements == 0)
+    throw Error(file.fileName + ": physical group " + describeGroup(g) + " (dimension " +
+                std::to_string(g.dimension) + ") holds no cells (cell groups: " +
+                file.describeCellGroups() + ")");
+  return g;
+}
+
+}  // namespace
+
+const GmshPhysicalGroup& GmshMesh::cellGroup(int tag) const {
+  const int dim = mesh.dimension();
+  std::string others;
+  for (const GmshPhysicalGroup& g : groups) {
+    if (g.tag != tag) continue;
+    if (g.dimension == dim) return nonEmpty(*this, g);
+    others += (others.empty() ? "" : ", ") + std::to_string(g.dimension);
+  }
+  if (!others.empty())
+    throw Error(fileName + ": physical tag " + std::to_string(tag) + " is a group of dimension " +
+                others + " only, not of the mesh dimension " + std::to_string(dim) +
+                ": it holds no cells (cell groups of dimension " + dimensionWord(dim) +
+                ": " + describeCellGroups() + ")");
+  throw Error(fileName + ": no physical group of dimension " + dimensionWord(dim) +
+              " with tag " + std::to_string(tag) + " (cell groups: " + describeCellGroups() + ")");
+}
+
+const GmshPhysicalGroup& GmshMesh::cellGroup(const std::string& name) const {
+  const int dim = mesh.dimension();
+  const GmshPhysicalGroup* found = nullptr;
+  const GmshPhysicalGroup* other = nullptr;
+  for (const GmshPhysicalGroup& g : groups) {
+    if (g.name != name) continue;
+    if (g.dimension != dim) {
+      if (!other) other = &g;
+      continue;
+    }
+    if (found)
+      throw Error(fileName + ": the name \"" + name + "\" belongs to two physical groups of dimension " +
+                  std::to_string(dim) + " (tags " + std::to_string(found->tag) + " and " +
+                  std::to_string(g.tag) + "); select the group by its tag");
+    found = &g;
+  }
+  if (found) return nonEmpty(*this, *found);
+  if (other)
+    throw Error(fileName + ": physical group \"" + name + "\" (tag " + std::to_string(other->tag) +
+                ") has dimension " + std::to_string(other->dimension) + ", not the mesh dimension " +
+                std::to_string(dim) + ": it holds no cells (cell groups of dimension " +
+                dimensionWord(dim) + ": " + describeCellGroups() + ")");
+  throw Error(fileName + ": no physical group named \"" + name + "\" (cell groups of dimension " +
+              dimensionWord(dim) + ": " + describeCellGroups() + ")");
+}
+
+Mesh extractCellGroup(const GmshMesh& file, const std::string& name) {
+  return extractCellGroup(file, file.cellGroup(name).tag);
+}
+
+Mesh extractCellGroup(const GmshMesh& file, int tag) {
+  file.cellGroup(tag);  // throws for an unknown, lower-dimensional or empty group
+  const Mesh& all = file.mesh;
+  const int dim = all.dimension();
+  std::vector<char> selected(static_cast<std::size_t>(all.numCells()), 0);
+  std::vector<Index> vertexOf(static_cast<std::size_t>(all.numVertices()), -1);
+  for (Index c = 0; c < all.numCells(); ++c) {
+    const auto tags = file.cellGroups(c);
+    if (std::find(tags.begin(), tags.end(), tag) == tags.end()) continue;
+    selected[static_cast<std::size_t>(c)] = 1;
+    for (Index v : all.cellVertices(c)) vertexOf[static_cast<std::size_t>(v)] = 0;
+  }
+  Mesh body(dim);
+  for (Index v = 0; v < all.numVertices(); ++v)
+    if (vertexOf[static_cast<std::size_t>(v)] >= 0)
+      vertexOf[static_cast<std::size_t>(v)] = body.addVertex(all.vertex(v));
+  std::vector<Index> vertices;
+  auto map = [&](std::span<const Index> in) {
+    vertices.clear();
+    for (Index v : in) vertices.push_back(vertexOf[static_cast<std::size_t>(v)]);
+  };
+  for (Index c = 0; c < all.numCells(); ++c)
+    if (selected[static_cast<std::size_t>(c)]) {
+      map(all.cellVertices(c));
+      body.addCell(all.cellType(c), vertices);
+    }
+  // Boundary faces of the file that are faces of the body's cells, with their ids and names.
+  const FaceTable faces(body);
+  std::map<int, std::string> names;
+  for (Index f = 0; f < all.numBoundaryFaces(); ++f) {
+    map(all.boundaryFaceVertices(f));
+    if (std::find(vertices.begin(), vertices.end(), Index{-1}) != vertices.end()) continue;
+    if (faces.find(vertices) < 0) continue;
+    const int id = all.boundaryFaceId(f);
+    body.addBoundaryFace(vertices, id);
+    if (const auto it = all.boundaryNames().find(id); it != all.boundaryNames().end())
+      names.emplace(id, it->second);
+  }
+  for (const auto& [id, name] : names) body.setBoundaryName(id, name);
+  return body;
 }
 
 }  // namespace obs::mesh

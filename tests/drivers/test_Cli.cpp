@@ -122,3 +122,22 @@ TEST_F(Cli, CheckValidatesSeveralScenes) {
   EXPECT_EQ(countLines(bad.out), 1) << bad.out;
   EXPECT_EQ(bad.err, "obs: error: missing.toml: cannot open the scene file\n");
 }
+
+TEST_F(Cli, CheckOfAnInvalidMultiBodySceneWritesOnlyTheError) {
+  // a body that selects a boundary group of the Gmsh file: the error names the scene line and key,
+  // and stdout stays empty (it used to get "<scene>: valid (" before the error)
+  std::string text = slurp(fs::path(OBS_DATA_DIR) / "scenes" / "twobody_gmsh.toml");
+  const std::string from = "physical = \"lower\"";
+  text.replace(text.find(from), from.size(), "physical = \"top\"");
+  const std::string meshes = "\"../meshes/";
+  for (std::size_t at; (at = text.find(meshes)) != std::string::npos;)
+    text.replace(at, meshes.size(), "\"" + (fs::path(OBS_DATA_DIR) / "meshes").string() + "/");
+  fs::create_directories(kTmp);
+  std::ofstream(kTmp / "gmsh_top.toml") << text;
+  const Output o = runObs("check gmsh_top.toml", "check_gmsh_top");
+  EXPECT_EQ(o.code, 1);
+  EXPECT_EQ(o.out, "");
+  EXPECT_EQ(countLines(o.err), 1) << o.err;
+  EXPECT_EQ(o.err.rfind("obs: error: gmsh_top.toml:15: [mesh] physical = \"top\": ", 0), 0u) << o.err;
+  EXPECT_NE(o.err.find("has dimension 2, not the mesh dimension 3"), std::string::npos) << o.err;
+}

@@ -3,6 +3,9 @@
 // cylinder scene agrees between TNNMG and PDAS and writes one .vtu per body plus a .pvd; a one-body
 // contact scene gives the same results as before the contact model (it is the one-body case of the
 // same path); every bad input of the multi-body format is a one-line error naming file and line.
+// Bodies from one Gmsh file ([body.mesh] physical = volume group): data/scenes/twobody_gmsh.toml gives
+// the results of the generator scene twobody_patch.toml bit for bit (also refined), and every bad
+// group selection is a one-line error naming the scene line and key.
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
@@ -385,6 +388,135 @@ friction = 0.3
   // a Dirichlet condition on the slave side of the interface
   expect(kLower + upper("[0.0, 0.5]", "[1.0, 1.0]", "bottom") + kPair, "mortar slave node with a Dirichlet condition",
          true);
+}
+
+// --- bodies from one Gmsh file -------------------------------------------------------------------
+
+/// Expects identical results of two runs of the same two-body problem, bit for bit.
+void expectSameResults(const RunResult& a, const RunResult& b) {
+  ASSERT_EQ(a.pairs.size(), 1u);
+  ASSERT_EQ(b.pairs.size(), 1u);
+  const PairReport &p = a.pairs[0], &q = b.pairs[0];
+  EXPECT_EQ(p.potentialVertices, q.potentialVertices);
+  EXPECT_EQ(p.actualVertices, q.actualVertices);
+  EXPECT_EQ(p.load, q.load);
+  EXPECT_EQ(p.pressureMin, q.pressureMin);
+  EXPECT_EQ(p.pressureMax, q.pressureMax);
+  EXPECT_EQ(p.area, q.area);
+  EXPECT_EQ(p.forceSlave, q.forceSlave);
+  EXPECT_EQ(p.forceMaster, q.forceMaster);
+  EXPECT_EQ(a.solver.iterations, b.solver.iterations);
+  EXPECT_EQ(a.maxDisplacement, b.maxDisplacement);
+  EXPECT_EQ(a.maxVonMises, b.maxVonMises);
+  ASSERT_EQ(a.bodies.size(), b.bodies.size());
+  for (std::size_t i = 0; i < a.bodies.size(); ++i) {
+    EXPECT_EQ(a.bodies[i].name, b.bodies[i].name);
+    EXPECT_EQ(a.bodies[i].vertices, b.bodies[i].vertices);
+    EXPECT_EQ(a.bodies[i].cells, b.bodies[i].cells);
+    EXPECT_EQ(a.bodies[i].maxDisplacement, b.bodies[i].maxDisplacement);
+    EXPECT_EQ(a.bodies[i].maxVonMises, b.bodies[i].maxVonMises);
+  }
+}
+
+TEST(MultiBodyScene, BodiesFromOneGmshFileGiveTheGeneratorResult) {
+  // data/meshes/two_blocks.msh holds the two blocks of twobody_patch.toml as physical volumes
+  const RunResult g = run(kScenes / "twobody_gmsh.toml", "gmsh");
+  const RunResult b = run(kScenes / "twobody_patch.toml", "gmsh_patch");
+  expectSameResults(g, b);
+  const PairReport& p = g.pairs.front();
+  EXPECT_EQ(p.actualVertices, 36);  // the 6 x 6 nodes of the upper block's bottom
+  EXPECT_NEAR(p.pressureMin, 10.0, 1e-8);
+  EXPECT_NEAR(p.pressureMax, 10.0, 1e-8);
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(p.forceSlave[a] + p.forceMaster[a], 0.0, 1e-11);  // action = reaction
+  EXPECT_NEAR(p.forceSlave[2], 10.0, 1e-9);
+  ASSERT_EQ(g.bodies.size(), 2u);
+  EXPECT_EQ(g.bodies[0].cells, 162);
+  EXPECT_EQ(g.bodies[1].cells, 50);
+  // the fields written are the same too
+  for (const char* body : {"lower", "upper"})
+    EXPECT_EQ(slurp(kTmp / "gmsh" / ("twobody_gmsh_" + std::string(body) + ".vtu")),
+              slurp(kTmp / "gmsh_patch" / ("twobody_patch_" + std::string(body) + ".vtu")))
+        << body;
+  // --refine refines the bodies read from the file as it refines generated ones
+  RunOptions o;
+  o.refine = 1;
+  o.outputDirectory = kTmp / "gmsh_refined";
+  const RunResult gr = runScene(kScenes / "twobody_gmsh.toml", o);
+  o.outputDirectory = kTmp / "gmsh_patch_refined";
+  const RunResult br = runScene(kScenes / "twobody_patch.toml", o);
+  expectSameResults(gr, br);
+  EXPECT_EQ(gr.bodies[0].cells, 8 * 162);
+  EXPECT_EQ(gr.pairs[0].actualVertices, 11 * 11);
+}
+
+TEST(MultiBodyScene, OneBodySceneTakesOneGroupOfAGmshFile) {
+  // the key works in a one-body [mesh] as well; refine applies to the group's cells
+  const fs::path dir = kTmp / "one_group";
+  fs::create_directories(dir);
+  const fs::path scene = dir / "upper.toml";
+  std::ofstream(scene) << "[mesh]\nfile = \"" << (fs::path(OBS_DATA_DIR) / "meshes" / "two_blocks.msh").string()
+                       << "\"\nphysical = \"upper\"\nrefine = 1\n[material]\nE = 1\nnu = 0.3\n"
+                          "[[dirichlet]]\nboundary = \"bottom\"\n";
+  const Scene s = parseScene(scene);
+  EXPECT_EQ(s.mesh.physicalName, "upper");
+  EXPECT_EQ(s.mesh.physicalLine, 3);
+  const obs::mesh::Mesh m = buildMesh(s);
+  EXPECT_EQ(m.numCells(), 8 * 50);
+  EXPECT_EQ(buildMesh(s, 0).numCells(), 50);
+  for (obs::mesh::Index v = 0; v < m.numVertices(); ++v) EXPECT_GE(m.vertex(v).z(), 1.0);  // the upper block only
+  EXPECT_EQ(buildMesh(s, 0).numVertices(), 108);
+}
+
+/// A scene of the two blocks read from `mesh` with the given selections (TOML values).
+std::string gmshBodies(const std::string& mesh, const std::string& lower, const std::string& upper) {
+  auto body = [&](const std::string& name, const std::string& physical, const std::string& fixed) {
+    return "\n[[body]]\nname = \"" + name + "\"\n[body.mesh]\nfile = \"" + mesh + "\"\n" +
+           (physical.empty() ? "" : "physical = " + physical + "\n") +
+           "[body.material]\nE = 1.0\nnu = 0.3\n[[body.dirichlet]]\nboundary = \"" + fixed + "\"\n";
+  };
+  return body("lower", lower, "bottom") + body("upper", upper, "top") +
+         "\n[[contact]]\nslave = { body = \"upper\", boundary = \"bottom\" }\n"
+         "master = { body = \"lower\", boundary = \"top\" }\n";
+}
+
+TEST(MultiBodyScene, BadGmshGroupSelectionIsOneLineErrorWithLineAndKey) {
+  const std::string msh = (fs::path(OBS_DATA_DIR) / "meshes" / "two_blocks.msh").string();
+  // a copy with a volume group that holds no cells
+  const fs::path dir = kTmp / "bad_groups";
+  fs::create_directories(dir);
+  std::string text = slurp(msh);
+  text.replace(text.find("$PhysicalNames\n8\n"), 17, "$PhysicalNames\n9\n3 7 \"void\"\n");
+  const fs::path withVoid = dir / "with_void.msh";
+  std::ofstream(withVoid) << text;
+
+  EXPECT_EQ(errorOf(gmshBodies(msh, "\"lower\"", "\"upper\"")), "no error");
+  auto expect = [](const std::string& scene, const std::vector<std::string>& parts) {
+    const std::string m = errorOf(scene);
+    for (const std::string& part : parts) EXPECT_NE(m.find(part), std::string::npos) << m;
+    EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+  };
+  // the physical key of the lower body is on line 6 of the scene
+  const std::string groups = "(cell groups of dimension 3 (volumes): 1 \"lower\" (162 cells), 2 \"upper\" (50 cells))";
+  expect(gmshBodies(msh, "\"middle\"", "2"),
+         {"bad.toml:6: [mesh] physical = \"middle\": ", "two_blocks.msh: no physical group named \"middle\"",
+          groups, "(in [[body]] 'lower')"});
+  expect(gmshBodies(msh, "7", "2"),
+         {"bad.toml:6: [mesh] physical = 7: ", "no physical group of dimension 3 (volumes) with tag 7", "1 \"lower\""});
+  // a boundary group, by name and by tag
+  expect(gmshBodies(msh, "\"top\"", "2"),
+         {"bad.toml:6: [mesh] physical = \"top\": ", "physical group \"top\" (tag 4) has dimension 2, not the mesh dimension 3",
+          groups});
+  expect(gmshBodies(msh, "\"lower\"", "4"),
+         {"bad.toml:17: [mesh] physical = 4: ", "physical tag 4 is a group of dimension 2 only", "(in [[body]] 'upper')"});
+  // a group without cells
+  expect(gmshBodies(withVoid.string(), "\"void\"", "2"),
+         {"bad.toml:6: [mesh] physical = \"void\": ", "with_void.msh: physical group 7 \"void\" (dimension 3) holds no cells"});
+  // the key without a file, and values that are no group
+  std::string generated = kLower + upper() + kPair;
+  generated.insert(generated.find("[body.material]"), "physical = \"lower\"\n");
+  expect(generated, {"bad.toml:10: [mesh] physical needs file = \"mesh.msh\""});
+  expect(gmshBodies(msh, "1.5", "2"), {"bad.toml:6: [mesh] physical must be a physical group name (string) or tag (integer), got a float"});
+  expect(gmshBodies(msh, "\"\"", "2"), {"bad.toml:6: [mesh] physical must not be empty"});
 }
 
 }  // namespace

@@ -26,7 +26,8 @@ Accepted runScene(const std::string& text, const std::filesystem::path& director
 Accepted runExpression(const std::string& text);
 
 /// A .msh file: readGmshString, then the hierarchical grid (its coarse-mesh checks) and, for small
-/// meshes, one uniform refinement.
+/// meshes, one uniform refinement; then readGmshGroupsString and the grid of each of (up to 4) cell
+/// groups extracted with extractCellGroup.
 Accepted runGmsh(const std::string& text);
 
 }  // namespace obs::fuzz

@@ -35,7 +35,8 @@ struct BoundaryRef {
   std::string describe() const;  ///< "\"left\"" or "3", as written in the scene
 };
 
-/// [mesh]: a generated box, ball, rounded block, disk or half disk, or a Gmsh file, then `refine` uniform
+/// [mesh]: a generated box, ball, rounded block, disk or half disk, or a Gmsh file (or one physical
+/// group of its cells), then `refine` uniform
 /// refinements (new vertices on curved boundaries are projected onto the exact surface).
 struct MeshSpec {
   enum class Source { Box, File, Ball, RoundedBlock, Disk, HalfDisk, HalfBall };
@@ -51,6 +52,11 @@ struct MeshSpec {
   double radius = 1, width = 1, height = 1, depth = 1, arcRadius = 1;
   // file = "..."
   std::filesystem::path file;  ///< resolved against the scene file's directory
+  /// physical = "name" or tag: only the cells of this physical group of the mesh dimension
+  /// (mesh::extractCellGroup; docs/scenes.md#gmsh-bodies). Unset: every cell of the file.
+  std::optional<std::string> physicalName;
+  std::optional<int> physicalTag;
+  int physicalLine = 0;  ///< line of physical (0: not given)
   int refine = 0;
   int line = 0;        ///< line of [mesh]
   int refineLine = 0;  ///< line of refine (0: not given)
