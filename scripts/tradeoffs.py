@@ -2,6 +2,8 @@
 """Regenerates docs/tradeoffs.md and its figures from `obs sweep` runs (about two minutes, 2 GB).
 
     python3 scripts/tradeoffs.py [build/drivers/obs]
+    python3 scripts/tradeoffs.py [build/drivers/obs] --section dynamic-inexact
+                                     # only that section: its sweeps, spliced into the existing page
 
 Sweeps (outputs in out/tradeoffs/<name>/, figures copied to docs/figures/tradeoffs_<name>_*.png):
   hertz   data/scenes/hertz.toml: cell type x uniform refinements 1..3, against a reference run on
@@ -15,15 +17,23 @@ Sweeps (outputs in out/tradeoffs/<name>/, figures copied to docs/figures/tradeof
   dynamic data/scenes/dynamics_block.toml (the thesis' Geometry 1) to t = 0.2 with three schemes and
           four time steps; accuracy = |E_end/E_0 - 1| (the continuous problem conserves energy),
           oscillation = total variation of the contact force
+  dynamic-inexact
+          Geometry 1 (refine 2 and 3), Geometry A (the ball) and Geometry B (two bodies, dual mortar)
+          with and without inexact solves
+          ([dynamics] inexact, docs/theory.md#dynamic-inexact-solves), each setting five times
 """
 import csv
+import json
 import os
 import shutil
 import subprocess
 import sys
 
-OBS = sys.argv[1] if len(sys.argv) > 1 else "build/drivers/obs"
+SECTION = sys.argv[sys.argv.index("--section") + 1] if "--section" in sys.argv[:-1] else None
+ARGS = [a for i, a in enumerate(sys.argv[1:], 1) if a != "--section" and sys.argv[i - 1] != "--section"]
+OBS = ARGS[0] if ARGS else "build/drivers/obs"
 OUT = "out/tradeoffs"
+INEXACT_ANCHOR = '<a id="inexact-solves-in-time-stepping"></a>'
 
 
 def sweep(name, scene, vary, extra=(), figures=("accuracy_vs_time", "accuracy_vs_memory")):
@@ -54,7 +64,92 @@ def command_text(cmd):
     return " ".join(a if " " not in a and '"' not in a else "'" + a + "'" for a in cmd).replace(OBS, "obs")
 
 
+def dynamic_inexact():
+    """The section on [dynamics] inexact as Markdown lines (runs its sweeps)."""
+    cases = [("inexact_block", "data/scenes/dynamics_block.toml", [], "Geometry 1, refine 2"),
+             ("inexact_block_r3", "data/scenes/dynamics_block.toml", ["--set", "mesh.refine=3"], "Geometry 1, refine 3"),
+             ("inexact_ball", "data/scenes/dynamics_ball.toml", [], "Geometry A (ball)"),
+             ("inexact_two_body", "data/scenes/dynamics_two_body.toml", [], "Geometry B (two bodies)")]
+    results = []
+    for name, scene, extra, label in cases:
+        cmd, rows = sweep(name, scene, ["dynamics.inexact=0,0.1"], extra + ["--repeat", "5"], figures=())
+        best = {}
+        for r in rows:
+            if r["status"] != "ok":
+                continue
+            with open(f"{OUT}/{name}/run_{int(r['run']):03d}/summary.json") as f:
+                d = json.load(f)["dynamics"]
+            b = best.setdefault(r["dynamics.inexact"], {"row": r, "dyn": d, "tnnmg_s": [], "wall_s": []})
+            b["tnnmg_s"].append(d["solver_s"])
+            b["wall_s"].append(float(r["wall_s"]))
+        results.append((label, cmd, best))
+    md = ["", INEXACT_ANCHOR, "## Inexact solves in time stepping", "",
+          "`[dynamics] inexact = 0.1` solves each step (from the third) only until TNNMG's estimated",
+          "algebraic error is below a tenth of the previous step's local time-error estimate, the",
+          "tolerance clamped to [`[solver] tolerance`, 1e-2] (docs/theory.md#dynamic-inexact-solves);",
+          "`inexact = 0` solves every step to `[solver] tolerance` (1e-11 for Geometry 1 and A, 1e-10 for",
+          "B). Each setting ran five times; times are the smallest of the five and, for TNNMG, the largest",
+          "in brackets (TNNMG = the time in the solver, summed over the steps; wall = the whole `obs run`).",
+          "The iteration counts are exact; the times were taken on a machine shared with other builds.",
+          "`python3 scripts/tradeoffs.py build/drivers/obs --section dynamic-inexact` regenerates this",
+          "section alone; its commands:", ""]
+    for label, cmd, best in results:
+        md.append("    " + command_text(cmd))
+    md += ["", "| scene | inexact | unknowns | TNNMG it (per step) | tolerance min / max | TNNMG [s] (max) | wall [s] | "
+               "E_end/E_0 | max penetration | max contact force | force variation | iterations saved | TNNMG time saved |",
+           "|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|"]
+    for label, cmd, best in results:
+        base = min(best["0"]["tnnmg_s"]) if "0" in best else None
+        base_it = float(best["0"]["row"]["iterations"]) if "0" in best else None
+        for key, b in best.items():
+            r, d = b["row"], b["dyn"]
+            t = min(b["tnnmg_s"])
+            saved = "" if key == "0" or base is None else f"{100 * (1 - t / base):.0f} %"
+            saved_it = "" if key == "0" or base_it is None else f"{100 * (1 - float(r['iterations']) / base_it):.0f} %"
+            md.append(f"| {label} | {key} | {r['unknowns']} | {r['iterations']} ({fmt(d['mean_iterations_per_step'])}) | "
+                      f"{fmt(d['min_solver_tolerance'], 2)} / {fmt(d['max_solver_tolerance'], 2)} | {fmt(t)} ({fmt(max(b['tnnmg_s']))}) | "
+                      f"{fmt(min(b['wall_s']))} | {fmt(d['energy_ratio'], 6)} | {fmt(d['max_penetration'], 2)} | "
+                      f"{fmt(d['max_contact_force'], 5)} | {fmt(d['contact_force_variation'], 4)} | {saved_it} | {saved} |")
+    md += ["", "The time error is so much larger than 1e-11 that the tolerance sits at the cap 1e-2 in",
+           "almost every step (the rows' maximum; the minimum is the first two steps). What that saves is",
+           "bounded from below by the stopping test itself: TNNMG starts each step from the predictor, its",
+           "first relative correction is 1, so a step takes at least 2 iterations. Geometry 1 already",
+           "converges to 1e-11 in those 2 (the step matrix M + tau^2/4 A is dominated by the lumped mass at",
+           "tau = 1e-3), so inexact solves change nothing there: both runs write bitwise the same",
+           "results, and the difference of their times is the noise of the machine. The saving is where",
+           "the exact solves need more (the ball: 3 -> 2 per step, Geometry B: 6 -> ~2). Energy,",
+           "penetration and contact forces agree to the digits shown for the ball and to five digits for",
+           "Geometry B (the second iteration is already accurate far below the time error). Against the",
+           "issue's goal of 30 % less solver time: nothing on Geometry 1, about 20 % on the ball, about",
+           "half on Geometry B. Solver time falls less than the iteration count: every solve has fixed",
+           "costs (right-hand side and bounds in the rotated basis, KKT residuals of the result), and the",
+           "estimate costs two products with S per step outside the solver."]
+    return md
+
+
+def splice_inexact_section(md):
+    """Replaces the section of dynamic_inexact() in the existing page (or adds it before step-42)."""
+    with open("docs/tradeoffs.md") as f:
+        page = f.read()
+    text = "\n".join(md[1:]) + "\n"  # md[0] is the blank line before the anchor
+    if INEXACT_ANCHOR in page:
+        start = page.index(INEXACT_ANCHOR)
+        end = page.find("\n## ", page.index("\n## ", start) + 1)
+        page = page[:start] + text + ("" if end < 0 else "\n" + page[end + 1:])
+    else:
+        at = page.find("## step-42")
+        page = page + "\n" + text if at < 0 else page[:at] + text + "\n" + page[at:]
+    with open("docs/tradeoffs.md", "w") as f:
+        f.write(page)
+    print("written: docs/tradeoffs.md (section dynamic-inexact)", file=sys.stderr)
+
+
 def main():
+    if SECTION is not None:
+        if SECTION != "dynamic-inexact":
+            sys.exit(f"tradeoffs.py: unknown section '{SECTION}' (known: dynamic-inexact)")
+        splice_inexact_section(dynamic_inexact())
+        return
     os.makedirs("docs/figures", exist_ok=True)
     hertz_cmd, hertz = sweep("hertz", "data/scenes/hertz.toml",
                              ['mesh.type="hexahedron","tetrahedron","prism"', "mesh.refine=1,2,3"],
@@ -196,8 +291,9 @@ def main():
            "costs time; the improved contact-stabilized scheme has the smoothest contact force by an order",
            "of magnitude. The classical scheme gains energy at every release of a loaded node (identity",
            "(5.24), docs/dynamics.md) while it chatters; its error is large and does not decrease with tau.", "",
-           "![energy error against wall time](figures/tradeoffs_dynamic_accuracy_vs_time.png)", "",
-           "## step-42 (3D): mesh size", "",
+           "![energy error against wall time](figures/tradeoffs_dynamic_accuracy_vs_time.png)"]
+    md += dynamic_inexact()
+    md += ["", "## step-42 (3D): mesh size", "",
            "`data/scenes/step42.toml` (the linear-elastic version of deal.II's step-42: a ball pressed",
            "0.01 into the top of a cube of hexahedra), uniform refinements against the 64^3 run (`ref`).",
            "The command:", "", "    " + command_text(step42_cmd), "",

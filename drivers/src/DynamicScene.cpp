@@ -76,6 +76,8 @@ struct SchemeRun {
   double forceVariation = 0;  ///< sum_n |F^{n+1} - F^n| (total variation of the contact force)
   double maxForce = 0;        ///< max_n |F^n|
   long long maxActive = 0;
+  /// smallest and largest TNNMG tolerance of a step (they differ only with [dynamics] inexact)
+  double minTolerance = std::numeric_limits<double>::infinity(), maxTolerance = 0;
   std::vector<TrackedTimes> times;
   StepRecord last;
   Eigen::VectorXd u, v;
@@ -130,6 +132,10 @@ void storeSchemeRun(CheckpointRecord& cp, const SchemeRun& run, long long csvByt
   cp.set("run/contact_force_variation", run.forceVariation, "sum_n |F^{n+1} - F^n| so far");
   cp.set("run/max_contact_force", run.maxForce, "max_n |F^n| so far");
   cp.set("run/max_active_nodes", run.maxActive, "max nodes in contact so far");
+  if (run.steps > 0) {
+    cp.set("run/min_solver_tolerance", run.minTolerance, "smallest TNNMG tolerance of a step so far");
+    cp.set("run/max_solver_tolerance", run.maxTolerance, "largest TNNMG tolerance of a step so far");
+  }
   Eigen::VectorXd first(run.times.size()), detach(run.times.size()), release(run.times.size()),
       scale(run.times.size());
   for (std::size_t k = 0; k < run.times.size(); ++k) {
@@ -167,6 +173,10 @@ void restoreSchemeRun(const CheckpointRecord& cp, SchemeRun& run, const fs::path
   run.forceVariation = cp.real("run/contact_force_variation");
   run.maxForce = cp.real("run/max_contact_force");
   run.maxActive = cp.integer("run/max_active_nodes");
+  if (cp.has("run/min_solver_tolerance")) {
+    run.minTolerance = cp.real("run/min_solver_tolerance");
+    run.maxTolerance = cp.real("run/max_solver_tolerance");
+  }
   const Eigen::VectorXd& first = cp.vector("run/tracked_first_contact_time");
   const Eigen::VectorXd& detach = cp.vector("run/tracked_detachment_time");
   const Eigen::VectorXd& release = cp.vector("run/tracked_release_time");
@@ -193,7 +203,8 @@ std::string csvHeaderLine(std::size_t tracked) {
   std::string h =
       "t,step,energy,energy_redistributed,kinetic_energy,elastic_energy,momentum_x,momentum_y,"
       "momentum_z,contact_force_x,contact_force_y,contact_force_z,active_solution,active_predictor,"
-      "predictor_only,solution_only,max_penetration,solver_iterations,solver_seconds,step_seconds";
+      "predictor_only,solution_only,max_penetration,solver_iterations,solver_seconds,step_seconds,"
+      "solver_tolerance,time_error";
   for (std::size_t k = 0; k < tracked; ++k) {
     const std::string p = ",tracked" + std::to_string(k) + "_";
     h += p + "normal_displacement" + p + "normal_velocity" + p + "gap";
@@ -210,7 +221,11 @@ std::string csvLine(const StepRecord& r) {
   for (int i = 0; i < 3; ++i) os << "," << r.contactForce[i];
   os << "," << r.activeSolution << "," << r.activePredictor << "," << r.predictorOnly << ","
      << r.solutionOnly << "," << r.maxPenetration << "," << r.solverIterations << ","
-     << r.solverSeconds << "," << r.stepSeconds;
+     << r.solverSeconds << "," << r.stepSeconds << ",";
+  // NaN (initial state; time error without [dynamics] inexact or before the third level): empty
+  if (!std::isnan(r.solverTolerance)) os << r.solverTolerance;
+  os << ",";
+  if (!std::isnan(r.timeError)) os << r.timeError;
   for (const TrackedVertex& t : r.tracked)
     os << "," << t.normalDisplacement << "," << t.normalVelocity << "," << t.gap;
   return os.str();
@@ -303,6 +318,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
   if (scene.solver.maxIterations) o.maxSolverIterations = *scene.solver.maxIterations;
   if (scene.solver.preSmoothing) o.preSmoothing = *scene.solver.preSmoothing;
   if (scene.solver.postSmoothing) o.postSmoothing = *scene.solver.postSmoothing;
+  o.inexactFraction = dyn.inexact;
   for (const TrackedInfo& t : c.tracked) o.trackedVertices.push_back(t.vertex);
 
   const auto t0 = Clock::now();
@@ -478,6 +494,8 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
     run.forceVariation += (r.contactForce - previous.contactForce).norm();
     run.maxForce = std::max(run.maxForce, r.contactForce.norm());
     run.maxActive = std::max<long long>(run.maxActive, r.activeSolution);
+    run.minTolerance = std::min(run.minTolerance, r.solverTolerance);
+    run.maxTolerance = std::max(run.maxTolerance, r.solverTolerance);
     track(r);
     if (k % dyn.outputStride == 0 || k == c.steps) writeState(r);
     if (c.options.stepProgress && (secondsSince(lastReport) >= 2.0 || k == c.steps)) {
@@ -558,6 +576,9 @@ nlohmann::json schemeJson(const Context& c, const SchemeRun& run) {
       {"final_active_nodes", run.last.activeSolution},
       {"mean_iterations_per_step", run.steps ? static_cast<double>(run.iterations) / run.steps : 0.0},
       {"max_iterations_per_step", run.maxIterations},
+      {"inexact", dyn.inexact},
+      {"min_solver_tolerance", run.steps ? nlohmann::json(run.minTolerance) : nlohmann::json(nullptr)},
+      {"max_solver_tolerance", run.steps ? nlohmann::json(run.maxTolerance) : nlohmann::json(nullptr)},
       {"setup_s", run.setupSeconds},
       {"total_step_s", run.stepSeconds},
       {"solver_s", run.solverSeconds},

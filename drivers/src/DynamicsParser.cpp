@@ -150,7 +150,7 @@ void parseCurvedMesh(const TomlSection& s, MeshSpec& spec) {
 DynamicsSpec parseDynamics(const Scene& scene, const toml::value& table) {
   const TomlSection s(scene.fileName, "[dynamics]", table,
                       {"scheme", "tau", "end_time", "steps", "initial_velocity",
-                       "initial_displacement", "mass", "tracked", "output_stride", "compare"});
+                       "initial_displacement", "mass", "tracked", "output_stride", "compare", "inexact"});
   DynamicsSpec spec;
   spec.line = s.line();
   if (s.has("scheme")) {
@@ -243,6 +243,14 @@ DynamicsSpec parseDynamics(const Scene& scene, const toml::value& table) {
     } else {
       s.fail("compare", "must be \"all\" or an array of scheme names, got " + typeNameOf(v));
     }
+  }
+  if (s.has("inexact")) {
+    const double f = s.number("inexact");
+    if (!(f >= 0 && f < 1))
+      s.fail("inexact", "= " + literalOf(s.at("inexact")) +
+                            " must lie in [0, 1) (the fraction of the time-error estimate; 0: off)");
+    spec.inexact = f;
+    spec.inexactLine = s.line("inexact");
   }
   return spec;
 }

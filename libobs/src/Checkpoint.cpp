@@ -397,6 +397,11 @@ void storeNewmarkState(CheckpointRecord& r, const NewmarkSchemeState& s) {
   r.set("scheme/last_step_counters",
         std::vector<long long>{s.activePredictor, s.predictorOnly, s.solutionOnly, s.solverIterations},
         "last step: nodes active in the predictor, in the predictor only, in the solution only; TNNMG iterations");
+  if (s.previousVelocity.size() > 0 || s.nextSolverTolerance > 0) {  // inexact solves only
+    r.set("scheme/previous_velocity", s.previousVelocity, "inexact solves: v^{n-1}, vertex-major (time-error estimate)");
+    r.set("scheme/next_solver_tolerance", s.nextSolverTolerance,
+          "inexact solves: TNNMG tolerance of the next step (0: the solver tolerance)");
+  }
 }
 
 NewmarkSchemeState loadNewmarkState(const CheckpointRecord& r) {
@@ -415,6 +420,10 @@ NewmarkSchemeState loadNewmarkState(const CheckpointRecord& r) {
   s.predictorOnly = static_cast<Index>(c[1]);
   s.solutionOnly = static_cast<Index>(c[2]);
   s.solverIterations = static_cast<int>(c[3]);
+  if (r.has("scheme/previous_velocity")) {
+    s.previousVelocity = r.vector("scheme/previous_velocity");
+    s.nextSolverTolerance = r.real("scheme/next_solver_tolerance");
+  }
   return s;
 }
 

@@ -152,6 +152,8 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
     throw Error("time stepping: active tolerance must be non-negative and finite");
   if (!(options.predictorTolerance > 0) || options.maxPredictorSweeps < 1)
     throw Error("time stepping: the predictor tolerance must be positive and the sweep cap at least 1");
+  if (!(options.inexactFraction >= 0 && options.inexactFraction < 1))
+    throw Error("time stepping: the inexact fraction must lie in [0, 1), got " + num(options.inexactFraction));
 
   typename ContactModel<d>::Parts parts = model.assembleParts();
   const ContactSet& contact = parts.contact;
@@ -403,6 +405,18 @@ double NewmarkFamily<d>::activeTolerance(const Eigen::VectorXd& u) const {
 }
 
 template <int d>
+double NewmarkFamily<d>::inexactTolerance(double timeError, double incrementNorm, double rate) const {
+  const double base = options_.solverTolerance;
+  const double ratio = timeError / incrementNorm;
+  if (!(options_.inexactFraction > 0) || !(timeError > 0) || !(incrementNorm > 0) || !std::isfinite(ratio)) return base;
+  // algebraic error ~ rho / (1 - rho) * last correction (geometric convergence with rate rho), as in
+  // the adaptive loop (docs/estimators.md#inexact-solves)
+  const double rho = std::clamp(rate, 0.05, 0.9);
+  const double tolerance = options_.inexactFraction * ratio * (1 - rho) / rho;
+  return std::max(base, std::min(tolerance, 1e-2));
+}
+
+template <int d>
 void NewmarkFamily<d>::checkInitialized() const {
   if (!initialized_) throw Error("time stepping: step() before initialize() (no initial state)");
 }
@@ -440,6 +454,8 @@ void NewmarkFamily<d>::initialize(const Eigen::VectorXd& u0, const Eigen::Vector
   state_ = DynamicState{0, 0.0, u0, v0, Eigen::VectorXd()};
   previousMultiplier_ = Eigen::VectorXd::Zero(n);
   multiplier_ = Eigen::VectorXd::Zero(n);
+  previousVelocity_.resize(0);
+  nextTolerance_ = 0;
   if (options_.scheme == NewmarkScheme::KhenousLabordeRenard) {
     // a^0: M~ a^0 = f - A u^0 on the vertices with mass, per component (Dirichlet components 0)
     state_.a = Eigen::VectorXd::Zero(n);
@@ -613,6 +629,10 @@ StepRecord NewmarkFamily<d>::step() {
   }
   problem_->setLoad(rhs - S_ * base);
 
+  // inexact solves: the tolerance predicted from the previous step (docs/theory.md#dynamic-inexact-solves)
+  const bool inexact = options_.inexactFraction > 0;
+  const double tolerance = inexact && nextTolerance_ > 0 ? nextTolerance_ : options_.solverTolerance;
+  if (inexact) solver_->setTolerance(tolerance);
   Eigen::VectorXd increment = Eigen::VectorXd::Zero(n);  // problem unknowns (relative for mortar pairs)
   const ContactResult result = solver_->solve(*problem_, increment);
   const Eigen::VectorXd unew = base + (basis_.rows > 0 ? problem_->toDisplacement(increment) : increment);
@@ -677,6 +697,19 @@ StepRecord NewmarkFamily<d>::step() {
     throw Error("time stepping: step " + std::to_string(state_.step + 1) + ": non-finite velocity");
   if (scheme == NewmarkScheme::Classical) previousMultiplier_ = multiplier_;
 
+  // inexact solves: local time-error estimate of this step (Zienkiewicz-Xie, accelerations from
+  // velocity differences) and the tolerance of the next one, both in the S-norm of TNNMG's test
+  double timeError = std::numeric_limits<double>::quiet_NaN();
+  if (inexact) {
+    auto normS = [&](const Eigen::VectorXd& x) { return std::sqrt(std::max(0.0, x.dot(S_ * x))); };
+    if (previousVelocity_.size() == n) {
+      const double c = scheme == NewmarkScheme::KhenousLabordeRenard ? 1.0 / 3.0 : 1.0 / 12.0;  // |beta - 1/6|
+      timeError = c * tau * normS(vnew - 2 * v + previousVelocity_);
+    }
+    nextTolerance_ = inexactTolerance(timeError, normS(unew - base), result.convergenceRate);
+    previousVelocity_ = v;  // v^n (v refers to state_.v, replaced below)
+  }
+
   state_.u = unew;
   state_.v = vnew;
   if (scheme == NewmarkScheme::KhenousLabordeRenard) state_.a = anew;
@@ -691,6 +724,8 @@ StepRecord NewmarkFamily<d>::step() {
   }
   r.solverIterations = result.iterations;
   r.solverSeconds = result.seconds;
+  r.solverTolerance = tolerance;
+  r.timeError = timeError;
   r.stepSeconds = seconds(start);
   last_ = r;
   return r;
@@ -708,6 +743,8 @@ NewmarkSchemeState NewmarkFamily<d>::schemeState() const {
   s.predictorOnly = last_.predictorOnly;
   s.solutionOnly = last_.solutionOnly;
   s.solverIterations = last_.solverIterations;
+  s.previousVelocity = previousVelocity_;
+  s.nextSolverTolerance = nextTolerance_;
   return s;
 }
 
@@ -729,11 +766,16 @@ void NewmarkFamily<d>::setSchemeState(const NewmarkSchemeState& s) {
   check(s.state.a, withAcceleration ? n : 0, "a");
   check(s.multiplier, n, "multiplier");
   check(s.previousMultiplier, n, "previous multiplier");
+  if (s.previousVelocity.size() != 0) check(s.previousVelocity, n, "previous velocity");
+  if (!(s.nextSolverTolerance >= 0) || !std::isfinite(s.nextSolverTolerance))
+    throw Error("time stepping: state with the next solver tolerance " + num(s.nextSolverTolerance));
   if (s.state.step < 0 || !std::isfinite(s.state.time))
     throw Error("time stepping: state with step " + std::to_string(s.state.step) + ", time " + num(s.state.time));
   state_ = s.state;
   multiplier_ = s.multiplier;
   previousMultiplier_ = s.previousMultiplier;
+  previousVelocity_ = s.previousVelocity;
+  nextTolerance_ = s.nextSolverTolerance;
   initialized_ = true;
   last_ = makeRecord();
   last_.activePredictor = s.activePredictor;

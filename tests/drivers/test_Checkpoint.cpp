@@ -362,6 +362,32 @@ TEST(CheckpointRestart, StoppedAndRestartedRunEqualsTheUninterruptedOneBitwise) 
   }
 }
 
+TEST(CheckpointRestart, InexactSolvesContinueBitwise) {
+  // [dynamics] inexact: the checkpoint carries v^{n-1} and the next step's tolerance
+  // (docs/checkpoint.md), so the restarted run solves every step to the same tolerance
+  const fs::path scene = writeScene("bar_inexact", barScene(450));
+  const std::vector<std::string> inexact = {"dynamics.inexact=0.1"};
+  const fs::path a = kTmp / "full_inexact", b = kTmp / "restarted_inexact";
+  fs::remove_all(a);
+  RunOptions full = quiet(a);
+  full.overrides = inexact;
+  runScene(scene, full);
+  EXPECT_GT(summaryOf(a).at("dynamics").at("max_solver_tolerance").get<double>(),
+            summaryOf(a).at("dynamics").at("min_solver_tolerance").get<double>());
+  const fs::path cp = stopAt(scene, b, 250, inexact);
+  const obs::CheckpointRecord rec = obs::readCheckpoint(cp);
+  EXPECT_EQ(rec.vector("scheme/previous_velocity").size(), 42 * 2);
+  EXPECT_GT(rec.real("scheme/next_solver_tolerance"), 0);
+  RunOptions o = quiet(b);
+  o.restart = cp;
+  o.overrides = inexact;
+  runScene(scene, o);
+  expectSameRun(a, b);
+  // without inexact solves the entries are not written
+  const fs::path c = kTmp / "stopped_exact";
+  EXPECT_FALSE(obs::readCheckpoint(stopAt(scene, c, 250)).has("scheme/previous_velocity"));
+}
+
 TEST(CheckpointRestart, EveryNStepsAndARestartFromTheLastOne) {
   const fs::path scene = writeScene("bar_every", barScene(300, "checkpoint = { every = 40 }\n"));
   const fs::path a = kTmp / "every_full", b = kTmp / "every_stopped";

@@ -5,7 +5,8 @@
 // h0/v0 + 2L/c0; a comparison writes one series per scheme (scene option and --compare-schemes on
 // the command line); bad input (tau <= 0, missing density, unknown scheme, end_time and steps,
 // an initial state violating the constraint, ...) is a one-line error with file:line and key
-// before the first step; static scenes assemble no mass matrix.
+// before the first step; static scenes assemble no mass matrix; [dynamics] inexact records the
+// tolerance of every step, saves iterations, and off (the default) changes nothing.
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
@@ -18,6 +19,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -314,6 +316,14 @@ TEST(DynamicScenes, BadInputIsAnErrorWithFileLineAndKey) {
   expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\ncompare = [\"all-of-them\"]\n")),
                  {"bad.toml:22:", "[dynamics] compare[0]", "is unknown"});
   expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\noutput_stride = 0\n")), {"bad.toml:22:", "output_stride"});
+  EXPECT_EQ(errorOf(barScene("tau = 1e-3\nsteps = 3\ninexact = 1\n")),
+            "bad.toml:22: [dynamics] inexact = 1 must lie in [0, 1) (the fraction of the time-error estimate; 0: off)");
+  expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\ninexact = -0.1\n")),
+                 {"bad.toml:22:", "[dynamics] inexact = -0.1 must lie in [0, 1)"});
+  expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\ninexact = \"yes\"\n")),
+                 {"bad.toml:22:", "[dynamics] inexact", "must be a number"});
+  expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\ninexact = nan\n")),
+                 {"bad.toml:22:", "[dynamics] inexact", "must be finite"});
   expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\n") + "\n[solver]\ntype = \"pdas\"\n"),
                  {"bad.toml:23:", "[solver] type = \"pdas\" is not available with [dynamics]"});
   // [mesh] generators
@@ -324,6 +334,76 @@ TEST(DynamicScenes, BadInputIsAnErrorWithFileLineAndKey) {
   expectContains(errorOf("[mesh]\ngenerator = \"rounded_block\"\ntype = \"hexahedron\"\ncells = [1, 1, 1]\n"
                          "width = 2\nheight = 1\ndepth = 1\narc_radius = 0.5\n[material]\nE = 1\nnu = 0\n"),
                  {"bad.toml:8:", "[mesh] arc_radius", "at least width / 2"});
+}
+
+TEST(DynamicScenes, InexactSolvesRecordTheirToleranceAndOffIsTheDefault) {
+  // [dynamics] inexact (docs/theory.md#dynamic-inexact-solves) on Geometry A (the ball; impact from
+  // step 2), 100 steps: absent, = 0 and = 0.1. (On Geometry 1 every step takes 2 TNNMG iterations,
+  // the least the relative stopping test allows, so inexact solves change nothing there.)
+  auto run = [](const std::string& out, std::optional<double> inexact) {
+    Scene scene = parseScene(kScenes / "dynamics_ball.toml");
+    scene.dynamics->steps = 100;
+    if (inexact) scene.dynamics->inexact = *inexact;
+    const fs::path dir = kTmp / out;
+    fs::remove_all(dir);
+    RunOptions o;
+    o.outputDirectory = dir;
+    runScene(scene, o);
+    return dir;
+  };
+  const fs::path absent = run("inexact_absent", std::nullopt), zero = run("inexact_zero", 0.0),
+                 on = run("inexact_on", 0.1);
+  const Table a = readCsv(absent / "timeseries.csv"), z = readCsv(zero / "timeseries.csv"),
+              i = readCsv(on / "timeseries.csv");
+  ASSERT_EQ(a.rows, 101u);
+  ASSERT_EQ(z.rows, 101u);
+  ASSERT_EQ(i.rows, 101u);
+  const nlohmann::json sa = summaryOf(absent), si = summaryOf(on);
+  const double base = sa.at("solver").at("tolerance").get<double>();
+  // off (absent or 0): every column but the timings bitwise equal, the tolerance of every step the
+  // solver tolerance, no time-error estimate
+  for (const std::string& col : a.header) {
+    if (col == "solver_seconds" || col == "step_seconds") continue;
+    for (std::size_t k = 0; k < a.rows; ++k) {
+      if (std::isnan(a[col][k])) {
+        EXPECT_TRUE(std::isnan(z[col][k])) << col << " row " << k;
+      } else {
+        EXPECT_EQ(a[col][k], z[col][k]) << col << " row " << k;
+      }
+    }
+  }
+  EXPECT_TRUE(std::isnan(a["solver_tolerance"][0]));  // the initial state was not solved
+  for (std::size_t k = 1; k < a.rows; ++k) {
+    EXPECT_EQ(a["solver_tolerance"][k], base) << k;
+    EXPECT_TRUE(std::isnan(a["time_error"][k])) << k;
+  }
+  const nlohmann::json& da = sa.at("dynamics");
+  EXPECT_EQ(da.at("inexact").get<double>(), 0.0);
+  EXPECT_EQ(da.at("min_solver_tolerance").get<double>(), base);
+  EXPECT_EQ(da.at("max_solver_tolerance").get<double>(), base);
+  // on: steps 1 and 2 at the solver tolerance, later ones looser but at most 1e-2; the estimate from
+  // step 2 on; fewer iterations; energy, penetration and contact force close to the exact solves
+  int loose = 0;
+  double iterationsOff = 0, iterationsOn = 0;
+  for (std::size_t k = 1; k < i.rows; ++k) {
+    if (k <= 2) EXPECT_EQ(i["solver_tolerance"][k], base) << k;
+    EXPECT_GE(i["solver_tolerance"][k], base) << k;
+    EXPECT_LE(i["solver_tolerance"][k], 1e-2) << k;
+    EXPECT_EQ(std::isnan(i["time_error"][k]), k == 1) << k;
+    loose += i["solver_tolerance"][k] > base;
+    iterationsOff += a["solver_iterations"][k];
+    iterationsOn += i["solver_iterations"][k];
+  }
+  EXPECT_GT(loose, 50);
+  EXPECT_LT(iterationsOn, iterationsOff);
+  const nlohmann::json& di = si.at("dynamics");
+  EXPECT_EQ(di.at("inexact").get<double>(), 0.1);
+  EXPECT_EQ(di.at("min_solver_tolerance").get<double>(), base);
+  EXPECT_GT(di.at("max_solver_tolerance").get<double>(), base);
+  EXPECT_NEAR(di.at("energy_ratio").get<double>(), da.at("energy_ratio").get<double>(), 1e-3);
+  EXPECT_LE(di.at("max_penetration").get<double>(), 1e-12);
+  EXPECT_NEAR(di.at("max_contact_force").get<double>(), da.at("max_contact_force").get<double>(),
+              0.02 * da.at("max_contact_force").get<double>());
 }
 
 TEST(DynamicScenes, InadmissibleInitialStateFailsBeforeTheFirstStep) {

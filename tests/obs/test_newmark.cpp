@@ -2,7 +2,8 @@
 // contact, dissipativity of the contact-implicit / contact-stabilized / alpha(p) / alpha = 1/2 schemes
 // on a one-vertex and a multi-vertex impact, the normal-velocity laws (thesis (5.29), (5.48)),
 // energy conservation of the persistency schemes, non-penetration, the exact 1D bar of
-// docs/theory.md#bar-reference, extreme time steps and stiffnesses, and bad input.
+// docs/theory.md#bar-reference, extreme time steps and stiffnesses, inexact solves and their
+// time-error estimate (docs/theory.md#dynamic-inexact-solves), and bad input.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -655,6 +656,117 @@ TEST(Newmark, OperatorReuseAcrossLoadsAndGaps) {
   EXPECT_NE(ContactProblem<2>(m, material(100), bc, moved).operatorId(), id);
   EXPECT_THROW(problem.setGaps(std::vector<double>(2, 0.0)), obs::Error);
   EXPECT_THROW(problem.setLoad(Eigen::VectorXd::Zero(3)), obs::Error);
+}
+
+TEST(Newmark, InexactSolvesSaveIterationsNotAccuracy) {
+  // docs/theory.md#dynamic-inexact-solves: with inexactFraction = 0.1 step n+1 (from the third) stops
+  // once the estimated algebraic error is below a tenth of step n's time-error estimate. A block of
+  // two refinement levels (multigrid) dropped onto a tilted plane: a corner hits, then the edge.
+  Block b(CellType::Quadrilateral, {4, 2, 1}, 1, 0.5, 0.02, P(-0.2, -1), 2);
+  const Index n = b.vertices();
+  for (NewmarkScheme s : {NewmarkScheme::ImprovedContactStabilized, NewmarkScheme::ContactImplicit,
+                          NewmarkScheme::Classical}) {
+    SCOPED_TRACE(std::string(name(s)));
+    const NewmarkOptions exactOptions = opts(s, 0.005);
+    NewmarkOptions inexactOptions = exactOptions;
+    inexactOptions.inexactFraction = 0.1;
+    EXPECT_EQ(NewmarkOptions{}.inexactFraction, 0.0);  // off by default
+    NewmarkFamily<2> exact(b.grid, material(200), {}, *b.contact, exactOptions);
+    NewmarkFamily<2> inexact(b.grid, material(200), {}, *b.contact, inexactOptions);
+    const Eigen::VectorXd u0 = Eigen::VectorXd::Zero(2 * n), v0 = uniform(n, 0.1, -1.0);
+    const auto re = runSteps(exact, u0, v0, 100);
+    const auto ri = runSteps(inexact, u0, v0, 100);
+    const double base = exactOptions.solverTolerance, E0 = re.front().energy;
+    long long itExact = 0, itInexact = 0;
+    int loose = 0, contactSteps = 0;
+    double maxForce = 0, forceDifference = 0;
+    for (std::size_t k = 1; k < re.size(); ++k) {
+      // off: every step to the solver tolerance, no estimate computed
+      EXPECT_EQ(re[k].solverTolerance, base) << "step " << k;
+      EXPECT_TRUE(std::isnan(re[k].timeError)) << "step " << k;
+      // on: the first two steps to the solver tolerance, then within [solverTolerance, 1e-2]
+      EXPECT_GE(ri[k].solverTolerance, base) << "step " << k;
+      EXPECT_LE(ri[k].solverTolerance, 1e-2) << "step " << k;
+      if (k <= 2) EXPECT_EQ(ri[k].solverTolerance, base) << "step " << k;
+      EXPECT_EQ(std::isnan(ri[k].timeError), k == 1) << "step " << k;
+      if (k > 1) EXPECT_GE(ri[k].timeError, 0) << "step " << k;
+      loose += ri[k].solverTolerance > base;
+      itExact += re[k].solverIterations;
+      itInexact += ri[k].solverIterations;
+      if (s != NewmarkScheme::Classical) EXPECT_LE(ri[k].maxPenetration, 1e-9) << "step " << k;
+      contactSteps += re[k].activeSolution > 0;
+      maxForce = std::max(maxForce, re[k].contactForce.norm());
+      forceDifference = std::max(forceDifference, (ri[k].contactForce - re[k].contactForce).norm());
+    }
+    const double energyDifference = std::abs(ri.back().energy - re.back().energy) / E0;
+    if (verbose())
+      std::cout << name(s) << ": TNNMG iterations " << itExact << " -> " << itInexact << ", loose steps " << loose
+                << ", contact steps " << contactSteps << ", E_end/E_0 " << re.back().energy / E0 << " -> "
+                << ri.back().energy / E0 << " (difference " << energyDifference << "), max |F| " << maxForce
+                << ", max |F_inexact - F| " << forceDifference << "\n";
+    // measured: 300 -> 202 iterations (3 -> 2 per step from the third), energy and contact forces
+    // equal to ~1e-12 relative: TNNMG's second iteration is already at round-off here
+    EXPECT_GT(contactSteps, 20);
+    EXPECT_GT(loose, 50);
+    EXPECT_LT(itInexact, 0.75 * itExact);
+    EXPECT_LT(energyDifference, 1e-6);
+    EXPECT_LT(forceDifference, 1e-6 * maxForce);
+  }
+  // bad fractions
+  for (double f : {-0.1, 1.0, std::numeric_limits<double>::quiet_NaN()}) {
+    NewmarkOptions o = opts(NewmarkScheme::ContactStabilized, 0.1);
+    o.inexactFraction = f;
+    EXPECT_THROW(NewmarkFamily<2>(b.grid, material(1), {}, *b.contact, o), obs::Error) << f;
+  }
+}
+
+TEST(Newmark, TimeErrorEstimateMatchesTheLocalErrorOfOneStep) {
+  // docs/theory.md#dynamic-inexact-solves: eta_n = tau/12 ||v^n - 2 v^{n-1} + v^{n-2}||_S estimates the
+  // displacement error (beta - 1/6) tau^3 u''' of one trapezoidal step. Checked against the exact
+  // solution of the semi-discrete system (lumped mass, no contact: the plane is far away) for a free
+  // block vibrating in its lowest deformation mode: u(t) = sin(omega t)/omega phi.
+  Block b(CellType::Quadrilateral, {3, 2, 1}, 1, 0.5, 100);
+  const Index n = b.vertices();
+  const Eigen::Index N = 2 * n;
+  NewmarkFamily<2> probe(b.grid, material(100), {}, *b.contact, opts(NewmarkScheme::ContactImplicit, 0.01));
+  Eigen::MatrixXd A(N, N);
+  for (Eigen::Index j = 0; j < N; ++j) A.col(j) = probe.stiffness() * Eigen::VectorXd::Unit(N, j);
+  const Eigen::VectorXd m = probe.mass() * Eigen::VectorXd::Ones(N);  // lumped: the diagonal
+  const Eigen::VectorXd s = m.cwiseSqrt().cwiseInverse();
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(s.asDiagonal() * A * s.asDiagonal());
+  Eigen::Index mode = 0;
+  while (eig.eigenvalues()[mode] < 1e-8 * eig.eigenvalues()[N - 1]) ++mode;  // skip the 3 rigid motions
+  ASSERT_EQ(mode, 3);
+  const double omega = std::sqrt(eig.eigenvalues()[mode]);
+  const Eigen::VectorXd phi = s.asDiagonal() * eig.eigenvectors().col(mode);
+  auto u = [&](double t) -> Eigen::VectorXd { return std::sin(omega * t) / omega * phi; };
+  auto v = [&](double t) -> Eigen::VectorXd { return std::cos(omega * t) * phi; };
+  const double T = 0.3 / omega;  // a fixed time, reached by every tau
+  double previous = 0;
+  for (int steps : {10, 20, 40}) {
+    const double tau = T / steps;
+    NewmarkOptions o = opts(NewmarkScheme::ContactImplicit, tau);
+    o.inexactFraction = 1e-12;  // computes the estimate; every tolerance stays at solverTolerance
+    NewmarkFamily<2> st(b.grid, material(100), {}, *b.contact, o);
+    const auto rec = runSteps(st, u(0), v(0), steps);
+    EXPECT_EQ(rec.back().solverTolerance, o.solverTolerance);
+    const double eta = rec.back().timeError;
+    // the local error of the last step: one step from the exact state at t^{n-1}
+    NewmarkFamily<2> one(b.grid, material(100), {}, *b.contact, opts(NewmarkScheme::ContactImplicit, tau));
+    one.initialize(u(T - tau), v(T - tau));
+    one.step();
+    const Eigen::VectorXd e = one.state().u - u(T);
+    const Eigen::VectorXd Se = probe.mass() * e + (0.25 * tau * tau) * (probe.stiffness() * e);
+    const double local = std::sqrt(e.dot(Se));
+    if (verbose())
+      std::cout << "tau omega = " << tau * omega << ": eta " << eta << ", local error " << local << ", ratio "
+                << eta / local << (previous > 0 ? ", eta(2 tau)/eta(tau) " + std::to_string(previous / eta) : "")
+                << "\n";
+    // measured: ratio 1.009, 1.005, 1.002 at tau omega = 0.03, 0.015, 0.0075; eta(2 tau)/eta(tau) 8.03, 8.02
+    EXPECT_NEAR(eta / local, 1.0, 0.02) << "tau omega = " << tau * omega;
+    if (previous > 0) EXPECT_NEAR(previous / eta, 8.0, 0.2);  // third order in tau
+    previous = eta;
+  }
 }
 
 TEST(Newmark, BadInput) {

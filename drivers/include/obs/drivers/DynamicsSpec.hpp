@@ -39,6 +39,10 @@ struct DynamicsSpec {
   /// Schemes to run besides `scheme` (names; "all" expands to every scheme). Empty: no comparison.
   std::vector<std::string> compare;
   int compareLine = 0;
+  /// Inexact solves (NewmarkOptions::inexactFraction, docs/theory.md#dynamic-inexact-solves): in
+  /// [0, 1); > 0 solves each step only to this fraction of the previous step's time-error estimate.
+  double inexact = 0;
+  int inexactLine = 0;
   int line = 0;  ///< line of [dynamics]
 };
 

@@ -91,7 +91,7 @@ std::string hexHash(std::uint64_t hash);
 
 /// Stores a Newmark stepper's state (NewmarkFamily::schemeState) under "scheme/": name, step, time,
 /// displacement, velocity, acceleration, multiplier, previous_multiplier and the counters of the
-/// last step.
+/// last step; with inexact solves also previous_velocity and next_solver_tolerance (loaded when present).
 void storeNewmarkState(CheckpointRecord& record, const NewmarkSchemeState& state);
 /// The state stored by storeNewmarkState (obs::Error naming a missing entry).
 NewmarkSchemeState loadNewmarkState(const CheckpointRecord& record);

@@ -63,6 +63,7 @@
 /// gravity and second moments).
 #include <Eigen/Core>
 
+#include <limits>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -115,6 +116,12 @@ struct NewmarkOptions {
   int maxSolverIterations = 200;
   int preSmoothing = 3;
   int postSmoothing = 0;
+  /// Inexact solves (docs/theory.md#dynamic-inexact-solves): f > 0 solves step n+1 only to the
+  /// relative tolerance clamp(f * eta_n / ||w_n||_S * (1 - rho_n) / rho_n, solverTolerance, 1e-2),
+  /// eta_n the local time-error estimate of step n (StepRecord::timeError), w_n its increment,
+  /// rho_n its TNNMG convergence rate (clamped to [0.05, 0.9]); the first two steps (no estimate
+  /// yet) use solverTolerance. 0 (default): every step to solverTolerance. Must lie in [0, 1).
+  double inexactFraction = 0;
   /// A node counts as active (in contact) if g_p - nu_p'u_p <= activeTolerance * U, U = max(|u|_inf,
   /// finite |g_p|, 1e-300).
   double activeTolerance = 1e-8;
@@ -172,6 +179,12 @@ struct StepRecord {
   int solverIterations = 0;
   double solverSeconds = 0;
   double stepSeconds = 0;
+  /// The relative TNNMG tolerance this step was solved to (NaN in the record of the initial state).
+  double solverTolerance = std::numeric_limits<double>::quiet_NaN();
+  /// Local time-error estimate eta = |beta - 1/6| tau ||v^{n+1} - 2 v^n + v^{n-1}||_S of the step
+  /// (docs/theory.md#dynamic-inexact-solves); computed only with NewmarkOptions::inexactFraction > 0
+  /// and from the second step on, NaN otherwise.
+  double timeError = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// Everything a NewmarkFamily carries from one step to the next, for checkpoint/restart
@@ -186,6 +199,10 @@ struct NewmarkSchemeState {
   /// Counters of the last step's StepRecord that the state alone does not determine.
   Index activePredictor = 0, predictorOnly = 0, solutionOnly = 0;
   int solverIterations = 0;
+  /// Inexact solves (NewmarkOptions::inexactFraction > 0; empty / 0 otherwise): v^{n-1} and the
+  /// tolerance of the next step, so that a restarted run continues bitwise.
+  Eigen::VectorXd previousVelocity;
+  double nextSolverTolerance = 0;
 };
 
 /// A time integrator for dynamic contact: initialise with u^0, v^0, then step().
@@ -275,6 +292,9 @@ private:
   /// M x with the standard (redistributed: false) or the system's mass (redistributed: true).
   Eigen::VectorXd applyMass(const Eigen::VectorXd& x, bool redistributed) const;
   double activeTolerance(const Eigen::VectorXd& u) const;
+  /// The tolerance of the next step from this step's time-error estimate, increment norm and
+  /// convergence rate (NewmarkOptions::inexactFraction; docs/theory.md#dynamic-inexact-solves).
+  double inexactTolerance(double timeError, double incrementNorm, double rate) const;
   StepRecord makeRecord() const;
 
   NewmarkOptions options_;
@@ -297,6 +317,8 @@ private:
   Eigen::VectorXd previousMultiplier_;  ///< classical: tau^2/4 M F_con^n as a nodal vector
   Eigen::VectorXd multiplier_;          ///< nodal multiplier vector of the last step
   double multiplierFactor_ = 0.5;       ///< c' (lambda = c' tau^2 M F_con)
+  Eigen::VectorXd previousVelocity_;    ///< inexact solves: v^{n-1} (empty before the first step)
+  double nextTolerance_ = 0;            ///< inexact solves: tolerance of the next step (0: solverTolerance)
   StepRecord last_;
 };
 

@@ -73,6 +73,9 @@ public:
 
   const Statistics& statistics() const { return statistics_; }
   const Options& options() const { return options_; }
+  /// Changes the stopping tolerance of the following solves (everything else is kept; time stepping
+  /// with inexact solves, docs/theory.md#dynamic-inexact-solves).
+  void setTolerance(double tolerance) { options_.tolerance = tolerance; }
 
 private:
   Options options_;
