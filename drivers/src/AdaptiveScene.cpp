@@ -576,29 +576,8 @@ RunResult runAdaptiveMultiBody(const Scene& scene, const RunOptions& options) {
   r.solver.converged = final.converged;
   r.solver.seconds = final.solverSeconds;
   r.solver.tolerance = contact && type == "tnnmg" ? o.solverTolerance : 0.0;
-  for (std::size_t k = 0; k < final.couplings.size(); ++k) {
-    const CouplingRecord& c = final.couplings[k];
-    PairReport p;
-    p.slave = sides[k].first;
-    p.master = sides[k].second;
-    p.slaveVertices = c.slaveVertices;
-    p.potentialVertices = c.potentialVertices;
-    p.actualVertices = c.actualVertices;
-    for (int a = 0; a < 3; ++a) {
-      p.forceSlave[a] = c.forceSlave[a];
-      p.forceMaster[a] = c.forceMaster[a];
-    }
-    p.load = c.load;
-    p.pressureMin = c.pressureMin;
-    p.pressureMax = c.pressureMax;
-    p.area = c.area;
-    p.radius = dim == 3 ? std::sqrt(c.area / std::numbers::pi) : c.area / 2;
-    p.maxViolation = c.maxViolation;
-    p.segments = c.segments;
-    p.uncovered = c.uncovered;
-    p.mortarSeconds = c.mortarSeconds;
-    r.pairs.push_back(p);
-  }
+  for (std::size_t k = 0; k < final.couplings.size(); ++k)
+    r.pairs.push_back(pairReport(final.couplings[k], sides[k].first, sides[k].second, dim));
   finishAdaptiveRun(scene, options, dir, stepsCsv, steps, {}, est::MarkingStrategy(spec.marking, spec.theta).parameter(),
                     r, t, start);
   return r;

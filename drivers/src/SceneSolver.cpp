@@ -336,32 +336,17 @@ MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mes
   for (std::size_t j = 0; j < model.couplings().size(); ++j) {
     const auto& c = model.couplings()[j];
     const CouplingRecord& rec = records[j];
-    PairReport r;
+    std::string slave, master;
     if (c.mortar) {
       const MortarCouplingSpecLabels labels = pairLabels(scene.pairs[mortarIndex++]);
-      r.slave = labels.slave;
-      r.master = labels.master;
+      slave = labels.slave;
+      master = labels.master;
     } else {
       const Scene& body = scene.bodies[obstacleBody[obstacleIndex++]];
-      r.slave = sideLabel(body.name, body.contact->boundary);
-      r.master = "obstacle " + body.contact->obstacle;
+      slave = sideLabel(body.name, body.contact->boundary);
+      master = "obstacle " + body.contact->obstacle;
     }
-    r.slaveVertices = rec.slaveVertices;
-    r.potentialVertices = rec.potentialVertices;
-    r.actualVertices = rec.actualVertices;
-    for (int a = 0; a < 3; ++a) {
-      r.forceSlave[a] = rec.forceSlave[a];
-      r.forceMaster[a] = rec.forceMaster[a];
-    }
-    r.load = rec.load;
-    r.pressureMin = rec.pressureMin;
-    r.pressureMax = rec.pressureMax;
-    r.area = rec.area;
-    r.radius = d == 3 ? std::sqrt(r.area / std::numbers::pi) : r.area / 2;
-    r.maxViolation = rec.maxViolation;
-    r.segments = rec.segments;
-    r.uncovered = rec.uncovered;
-    r.mortarSeconds = rec.mortarSeconds;
+    const PairReport r = pairReport(rec, slave, master, d);
     // point fields: the coupling's nodes (stacked vertex, direction, multiplier mu = D_pp lambda_p
     // for mortar, the nodal force for obstacles) on the constrained body, master forces on the master
     const int slaveBody = c.mortar ? c.slave : c.body;
@@ -446,6 +431,29 @@ template std::vector<int> buildContactModel<2>(const Scene&, const std::vector<c
 template std::vector<int> buildContactModel<3>(const Scene&, const std::vector<const mesh::Mesh*>&,
                                                const std::vector<BoundaryConditions>&, ContactModel<3>&,
                                                std::vector<std::unique_ptr<Obstacle>>&);
+
+PairReport pairReport(const CouplingRecord& rec, const std::string& slave, const std::string& master, int dim) {
+  PairReport r;
+  r.slave = slave;
+  r.master = master;
+  r.slaveVertices = rec.slaveVertices;
+  r.potentialVertices = rec.potentialVertices;
+  r.actualVertices = rec.actualVertices;
+  for (int a = 0; a < 3; ++a) {
+    r.forceSlave[a] = rec.forceSlave[a];
+    r.forceMaster[a] = rec.forceMaster[a];
+  }
+  r.load = rec.load;
+  r.pressureMin = rec.pressureMin;
+  r.pressureMax = rec.pressureMax;
+  r.area = rec.area;
+  r.radius = dim == 3 ? std::sqrt(r.area / std::numbers::pi) : r.area / 2;
+  r.maxViolation = rec.maxViolation;
+  r.segments = rec.segments;
+  r.uncovered = rec.uncovered;
+  r.mortarSeconds = rec.mortarSeconds;
+  return r;
+}
 
 MultiBodySolution solveMultiBodyScene(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
                                       const std::vector<const mesh::Mesh*>& meshes,

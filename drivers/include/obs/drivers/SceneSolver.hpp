@@ -86,6 +86,11 @@ struct CouplingVisitor {
 std::vector<int> visitCouplings(const Scene& scene, const std::vector<const mesh::Mesh*>& meshes,
                                 std::vector<std::unique_ptr<Obstacle>>& obstacles, const CouplingVisitor& visit);
 
+/// The report of one contact pair (summary.json "pairs") from the model's CouplingRecord, with the
+/// side labels "body:boundary" (or "obstacle <type>") and the radius of the contact zone (3D:
+/// sqrt(area / pi), 2D: area / 2); shared by the static and the adaptive runner.
+PairReport pairReport(const CouplingRecord& record, const std::string& slave, const std::string& master, int dim);
+
 /// The contact model of a multi-body scene, built once for every runner (static, dynamic): the
 /// bodies (scene.bodies[i] on meshes[i] with bcs[i]), the [[contact]] mortar pairs in scene order,
 /// then the rigid obstacles of single bodies (their obstacles are kept in `obstacles`, which must
