@@ -116,6 +116,14 @@ struct Context {
   bool multiBody() const { return !bodies.empty(); }
 };
 
+/// The bodies whose grids a checkpoint identifies, in stacked order (one body: the scene's mesh).
+std::vector<RunBody> runBodies(const mesh::Mesh& mesh, const std::vector<Context::Body>& bodies) {
+  if (bodies.empty()) return {RunBody{"", &mesh}};
+  std::vector<RunBody> out;
+  for (const Context::Body& b : bodies) out.push_back({b.spec->name, b.mesh});
+  return out;
+}
+
 /// The driver's running figures of a scheme run (SchemeRun) in a checkpoint, "run/...", with the
 /// length and hash of the time series written so far.
 void storeSchemeRun(CheckpointRecord& cp, const SchemeRun& run, long long csvBytes, std::uint64_t csvHash) {
@@ -462,7 +470,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
     if (!csv) throw Error(run.timeseries.string() + ": cannot write the time series");
     CheckpointRecord cp;
     cp.kind = "dynamic";
-    storeRunIdentity(cp, scene, c.mesh);
+    storeRunIdentity(cp, scene, runBodies(c.mesh, c.bodies));
     storeNewmarkState(cp, newmark->schemeState());
     storeSchemeRun(cp, run, csvBytes, csvHash);
     writeCheckpoint(c.checkpointFile, cp);
@@ -659,9 +667,6 @@ RunResult runDynamics(const Scene& scene, const mesh::Grid& grid, const mesh::Me
   const int dim = mesh.dimension();
   const mesh::Index n = multi ? bodies.back().offset + bodies.back().mesh->numVertices() : mesh.numVertices();
   const InterruptGuard interrupts;  // SIGINT/SIGTERM: finish the step, checkpoint, stop
-  if (multi && (options.restart || options.stopAfterStep))
-    throw Error(scene.fileName + ": " + (options.restart ? "--restart" : "--stop-after-step") +
-                ": multi-body [dynamics] scenes write no checkpoints yet");
   // the stacked vertex positions (one body: the mesh's)
   std::vector<mesh::Point> positions;
   std::vector<const Scene*> owner;  // the body description of each stacked vertex
@@ -676,11 +681,11 @@ RunResult runDynamics(const Scene& scene, const mesh::Grid& grid, const mesh::Me
     owner.assign(static_cast<std::size_t>(n), &scene);
   }
 
-  // --restart: the checkpoint must belong to this scene and grid
+  // --restart: the checkpoint must belong to this scene, its bodies and grids
   std::optional<CheckpointRecord> restart;
   if (options.restart) {
     restart = readCheckpoint(*options.restart);
-    checkRunIdentity(*restart, *options.restart, "dynamic", scene, mesh);
+    checkRunIdentity(*restart, *options.restart, "dynamic", scene, runBodies(mesh, bodies));
   }
 
   // contact set, tracked vertices, initial state (all checked before any time step)
@@ -790,7 +795,7 @@ RunResult runDynamics(const Scene& scene, const mesh::Grid& grid, const mesh::Me
     throw Error(scene.fileName + ": --stop-after-step " + std::to_string(*options.stopAfterStep) +
                 " must lie in [1, " + std::to_string(c.steps - 1) + "] (the run has " + std::to_string(c.steps) +
                 " steps)");
-  c.checkpointing = !comparison && !multi;
+  c.checkpointing = !comparison;
   c.checkpointFile = c.dir / "checkpoint.h5";
   if (restart) {
     c.restart = &*restart;

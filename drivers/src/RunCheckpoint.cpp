@@ -42,8 +42,7 @@ std::string sceneHash(const Scene& scene) {
 
 namespace {
 
-std::uint64_t gridChecksum(const mesh::Mesh& leaf) {
-  std::uint64_t h = kFnvOffset;
+std::uint64_t gridChecksum(const mesh::Mesh& leaf, std::uint64_t h = kFnvOffset) {
   for (const mesh::Point& x : leaf.vertices()) h = fnv1a(x.data(), sizeof(double) * 3, h);
   for (mesh::Index c = 0; c < leaf.numCells(); ++c) {
     const auto v = leaf.cellVertices(c);
@@ -52,25 +51,98 @@ std::uint64_t gridChecksum(const mesh::Mesh& leaf) {
   return h;
 }
 
+/// The stacked leaf grid of the bodies: vertices, cells, checksum (one body: its own).
+struct GridIdentity {
+  long long vertices = 0, cells = 0;
+  std::uint64_t checksum = kFnvOffset;
+};
+
+GridIdentity gridIdentity(const std::vector<RunBody>& bodies) {
+  GridIdentity g;
+  for (const RunBody& b : bodies) {
+    g.vertices += b.leaf->numVertices();
+    g.cells += b.leaf->numCells();
+    g.checksum = gridChecksum(*b.leaf, g.checksum);
+  }
+  return g;
+}
+
+std::string bodyGroup(std::size_t b) { return "bodies/" + std::to_string(b) + "/"; }
+
+/// "2 bodies ('lower', 'upper')"
+std::string bodyList(const std::vector<std::string>& names) {
+  std::string s = std::to_string(names.size()) + (names.size() == 1 ? " body (" : " bodies (");
+  for (std::size_t b = 0; b < names.size(); ++b) s += (b ? ", '" : "'") + names[b] + "'";
+  return s + ")";
+}
+
+std::string gridMismatch(long long nv, long long nc, const mesh::Mesh& leaf) {
+  return "written for a grid of " + std::to_string(nv) + " vertices / " + std::to_string(nc) + " cells, this run has " +
+         std::to_string(leaf.numVertices()) + " / " + std::to_string(leaf.numCells()) + " (another --refine?)";
+}
+
 }  // namespace
 
-void storeRunIdentity(CheckpointRecord& r, const Scene& scene, const mesh::Mesh& leaf) {
+void storeRunIdentity(CheckpointRecord& r, const Scene& scene, const std::vector<RunBody>& bodies) {
   r.set("scene/text", scene.text, "the scene file as read (TOML)");
   r.set("scene/overrides", overridesText(scene.overrides), "the obs run --set overrides, one '--set ...' per line");
   r.set("scene/hash", sceneHash(scene), "FNV-1a 64 of scene/text followed by scene/overrides");
-  r.set("grid/leaf_vertices", static_cast<long long>(leaf.numVertices()), "vertices of the leaf mesh");
-  r.set("grid/leaf_cells", static_cast<long long>(leaf.numCells()), "cells of the leaf mesh");
-  r.set("grid/leaf_checksum", hexHash(gridChecksum(leaf)),
-        "FNV-1a 64 of the leaf vertex coordinates and cell vertex lists (the grid is rebuilt from the scene)");
+  const GridIdentity g = gridIdentity(bodies);
+  if (!scene.multiBody()) {
+    r.set("grid/leaf_vertices", g.vertices, "vertices of the leaf mesh");
+    r.set("grid/leaf_cells", g.cells, "cells of the leaf mesh");
+    r.set("grid/leaf_checksum", hexHash(g.checksum),
+          "FNV-1a 64 of the leaf vertex coordinates and cell vertex lists (the grid is rebuilt from the scene)");
+    return;
+  }
+  r.set("grid/leaf_vertices", g.vertices, "vertices of the leaf meshes of all bodies (the stacked problem)");
+  r.set("grid/leaf_cells", g.cells, "cells of the leaf meshes of all bodies");
+  r.set("grid/leaf_checksum", hexHash(g.checksum),
+        "FNV-1a 64 of the leaf vertex coordinates and cell vertex lists of the bodies in stacked order (the "
+        "grids are rebuilt from the scene)");
+  r.set("bodies/count", static_cast<long long>(bodies.size()),
+        "bodies ([[body]] sections), stacked in this order in the scheme/ and run/ vectors");
+  long long offset = 0;
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    const mesh::Mesh& leaf = *bodies[b].leaf;
+    const std::string g0 = bodyGroup(b);
+    r.set(g0 + "name", bodies[b].name, "the [[body]] name");
+    r.set(g0 + "vertex_offset", offset,
+          "first stacked vertex of the body: its entries of a scheme/ vector are [offset * d, (offset + "
+          "leaf_vertices) * d)");
+    r.set(g0 + "leaf_vertices", static_cast<long long>(leaf.numVertices()), "vertices of the body's leaf mesh");
+    r.set(g0 + "leaf_cells", static_cast<long long>(leaf.numCells()), "cells of the body's leaf mesh");
+    r.set(g0 + "leaf_checksum", hexHash(gridChecksum(leaf)),
+          "FNV-1a 64 of the body's leaf vertex coordinates and cell vertex lists");
+    offset += leaf.numVertices();
+  }
 }
 
 void checkRunIdentity(const CheckpointRecord& r, const std::filesystem::path& file, const std::string& kind,
-                      const Scene& scene, const mesh::Mesh& leaf) {
+                      const Scene& scene, const std::vector<RunBody>& bodies) {
   const std::string where = file.string() + ": ";
   if (r.kind != kind)
     throw Error(where + "a checkpoint of a " + (r.kind.empty() ? "unknown" : r.kind) + " run, this is a " + kind +
                 " run");
   try {
+    // the bodies first: one body against several, their number and names
+    std::vector<std::string> stored, now;
+    if (r.has("bodies/count"))
+      for (long long b = 0; b < r.integer("bodies/count"); ++b)
+        stored.push_back(r.text(bodyGroup(static_cast<std::size_t>(b)) + "name"));
+    if (scene.multiBody())
+      for (const RunBody& b : bodies) now.push_back(b.name);
+    if (stored.empty() != now.empty())
+      throw Error(stored.empty() ? "a checkpoint of a one-body run, " + scene.fileName + " is a multi-body scene with " +
+                                       bodyList(now)
+                                 : "a checkpoint of a multi-body run with " + bodyList(stored) + ", " + scene.fileName +
+                                       " is a one-body scene");
+    if (stored.size() != now.size())
+      throw Error("a checkpoint of " + bodyList(stored) + ", " + scene.fileName + " has " + bodyList(now));
+    for (std::size_t b = 0; b < stored.size(); ++b)
+      if (stored[b] != now[b])
+        throw Error("body " + std::to_string(b + 1) + " is '" + stored[b] + "' in the checkpoint, '" + now[b] + "' in " +
+                    scene.fileName + " (checkpoint: " + bodyList(stored) + ", scene: " + bodyList(now) + ")");
     const std::string hash = sceneHash(scene);
     if (r.text("scene/hash") != hash) {
       std::string what;
@@ -81,23 +153,45 @@ void checkRunIdentity(const CheckpointRecord& r, const std::filesystem::path& fi
           what = "line " + std::to_string(i + 1) + " is " + quoted(y) + " in " + scene.fileName + ", " + quoted(x) +
                  " in the checkpoint's scene";
       }
-      if (what.empty()) {
-        const std::string o = overridesText(scene.overrides);
-        what = "the --set overrides differ (" + quoted(o.empty() ? "none" : o.substr(1)) + " now, " +
-               quoted(r.text("scene/overrides").empty() ? "none" : r.text("scene/overrides").substr(1)) +
-               " in the checkpoint)";
+      if (what.empty()) {  // the first override that differs (one line: the texts hold one per line)
+        auto list = [](const std::string& text) {
+          std::vector<std::string> out;
+          for (const std::string& l : lines(text))
+            if (!l.empty()) out.push_back(l);
+          return out;
+        };
+        const std::vector<std::string> a = list(r.text("scene/overrides")), b = list(overridesText(scene.overrides));
+        std::size_t i = 0;
+        while (i < a.size() && i < b.size() && a[i] == b[i]) ++i;
+        what = "the --set overrides differ: " + (i < b.size() ? quoted(b[i]) : std::string("none")) + " now, " +
+               (i < a.size() ? quoted(a[i]) : std::string("none")) + " in the checkpoint (override " +
+               std::to_string(i + 1) + ")";
       }
       throw Error("written for another scene (scene hash " + r.text("scene/hash") + ", " + scene.fileName +
                   " has " + hash + "): " + what);
     }
+    if (!stored.empty()) {  // several bodies: the grid of each
+      for (std::size_t b = 0; b < bodies.size(); ++b) {
+        const mesh::Mesh& leaf = *bodies[b].leaf;
+        const std::string g0 = bodyGroup(b);
+        const long long nv = r.integer(g0 + "leaf_vertices"), nc = r.integer(g0 + "leaf_cells");
+        if (nv != leaf.numVertices() || nc != leaf.numCells())
+          throw Error("body '" + bodies[b].name + "' " + gridMismatch(nv, nc, leaf));
+        if (r.text(g0 + "leaf_checksum") != hexHash(gridChecksum(leaf)))
+          throw Error("body '" + bodies[b].name + "': the grid checksum differs (" + r.text(g0 + "leaf_checksum") +
+                      " in the checkpoint, " + hexHash(gridChecksum(leaf)) + " now): the mesh was built differently");
+      }
+    }
+    const GridIdentity g = gridIdentity(bodies);
     const long long nv = r.integer("grid/leaf_vertices"), nc = r.integer("grid/leaf_cells");
-    if (nv != leaf.numVertices() || nc != leaf.numCells())
-      throw Error("written for a grid of " + std::to_string(nv) + " vertices / " + std::to_string(nc) +
-                  " cells, this run has " + std::to_string(leaf.numVertices()) + " / " +
-                  std::to_string(leaf.numCells()) + " (another --refine?)");
-    if (r.text("grid/leaf_checksum") != hexHash(gridChecksum(leaf)))
+    if (nv != g.vertices || nc != g.cells) {
+      if (bodies.size() == 1) throw Error(gridMismatch(nv, nc, *bodies.front().leaf));
+      throw Error("written for grids of " + std::to_string(nv) + " vertices / " + std::to_string(nc) +
+                  " cells in all, this run has " + std::to_string(g.vertices) + " / " + std::to_string(g.cells));
+    }
+    if (r.text("grid/leaf_checksum") != hexHash(g.checksum))
       throw Error("the grid checksum differs (" + r.text("grid/leaf_checksum") + " in the checkpoint, " +
-                  hexHash(gridChecksum(leaf)) + " now): the mesh was built differently");
+                  hexHash(g.checksum) + " now): the mesh was built differently");
   } catch (const Error& e) {
     throw Error(where + e.what());
   }

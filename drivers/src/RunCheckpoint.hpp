@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "obs/drivers/Scene.hpp"
 #include "obs/mesh/Mesh.hpp"
@@ -20,15 +21,26 @@ namespace obs::drivers {
 /// each): two runs with the same hash read the same scene.
 std::string sceneHash(const Scene& scene);
 
+/// A body of the run whose grid a checkpoint identifies: its name ([[body]] name; empty for a
+/// one-body scene) and leaf mesh. A multi-body run lists its bodies in stacked order.
+struct RunBody {
+  std::string name;
+  const mesh::Mesh* leaf = nullptr;
+};
+
 /// Stores "scene/text", "scene/overrides", "scene/hash", "grid/leaf_vertices", "grid/leaf_cells"
-/// and "grid/leaf_checksum" (FNV-1a of the leaf vertex coordinates and cell vertex lists).
-void storeRunIdentity(CheckpointRecord& record, const Scene& scene, const mesh::Mesh& leaf);
+/// and "grid/leaf_checksum" (FNV-1a of the leaf vertex coordinates and cell vertex lists; several
+/// bodies: of all bodies in stacked order). A multi-body scene (scene.multiBody()) adds
+/// "bodies/count" and per body b "bodies/<b>/name", "vertex_offset", "leaf_vertices", "leaf_cells",
+/// "leaf_checksum" (docs/checkpoint.md#several-bodies); a one-body checkpoint has no "bodies/".
+void storeRunIdentity(CheckpointRecord& record, const Scene& scene, const std::vector<RunBody>& bodies);
 
 /// Throws a one-line obs::Error "<file>: ..." naming what differs if the checkpoint was written for
-/// another kind of run, another scene (first differing line of the text, or the overrides) or
-/// another grid (vertex/cell counts or checksum, e.g. another --refine).
-void checkRunIdentity(const CheckpointRecord& record, const std::filesystem::path& file,
-                      const std::string& kind, const Scene& scene, const mesh::Mesh& leaf);
+/// another kind of run, another set of bodies (one body against several, their number or names),
+/// another scene (first differing line of the text, or the overrides) or another grid (vertex/cell
+/// counts or checksum, e.g. another --refine; several bodies: naming the body).
+void checkRunIdentity(const CheckpointRecord& record, const std::filesystem::path& file, const std::string& kind,
+                      const Scene& scene, const std::vector<RunBody>& bodies);
 
 /// [output] checkpoint: due after step k if k is a multiple of `every`, or if `seconds` have passed
 /// since the schedule began or the last checkpoint.

@@ -710,9 +710,9 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
           throw Error(scene.where(b.bodyInitialVelocityLine ? b.bodyInitialVelocityLine : b.bodyInitialDisplacementLine) +
                       "[[body]] '" + b.name + "': initial_velocity / initial_displacement need a [dynamics] section");
     }
-    if (scene.output.checkpoint)
+    if (scene.output.checkpoint && !scene.dynamics)
       throw Error(scene.where(scene.output.checkpoint->line) +
-                  "[output] checkpoint is not available for multi-body scenes yet (one-body [dynamics] scenes only)");
+                  "[output] checkpoint applies to [dynamics] scenes only (static and adaptive runs write none)");
     return scene;
   }
   parseBodySections(scene, t, "", 0);

@@ -9,7 +9,11 @@
 //    by SIGKILL at arbitrary times (checkpoints every step) never leaves an unreadable checkpoint.h5;
 //  - restarting with another scene, --set, --refine, a truncated, damaged or non-HDF5 file, a file of
 //    another format version or without the interrupted run's outputs is a one-line error naming
-//    what differs; bad [output] checkpoint values are file:line errors.
+//    what differs; bad [output] checkpoint values are file:line errors;
+//  - multi-body runs (twobody_impact.toml, mortar schemes with and without M~) stopped and restarted
+//    equal the uninterrupted ones bitwise; their checkpoints hold per-body groups with the offsets
+//    into the stacked vectors; a one-body checkpoint for a multi-body scene (and vice versa), other
+//    bodies or a body's other grid are one-line errors naming the difference.
 #include <gtest/gtest.h>
 
 #include <hdf5.h>
@@ -577,6 +581,146 @@ TEST(CheckpointRestart, RestartWithAnotherSceneGridOrOutputIsAnErrorNamingTheDif
     EXPECT_EQ(std::count(out.err.begin() + static_cast<std::ptrdiff_t>(at), out.err.end(), '\n'), 1) << out.err;
     expectContains(out.err.substr(at), {"obs: error: ", "another scene"});
   }
+}
+
+// --- several bodies ([[body]] + [[contact]], dual mortar) ----------------------------------------
+
+namespace {
+
+/// data/scenes/twobody_impact.toml (impact after step 10, separation near step 50), shortened.
+const fs::path kTwoBody = fs::path(OBS_DATA_DIR) / "scenes" / "twobody_impact.toml";
+
+std::vector<std::string> twoBodyOverrides(const std::string& scheme, std::vector<std::string> more = {}) {
+  std::vector<std::string> o = {"dynamics.steps=60", "dynamics.output_stride=10", "dynamics.scheme=\"" + scheme + "\""};
+  o.insert(o.end(), more.begin(), more.end());
+  return o;
+}
+
+}  // namespace
+
+TEST(CheckpointMultiBody, StoppedAndRestartedTwoBodyRunEqualsTheUninterruptedOneBitwise) {
+  // mortar schemes without (contact-implicit, improved-contact-stabilized with inexact solves) and
+  // with redistributed masses (khenous-laborde-renard: a^n; hager-huebner-wohlmuth), stopped in
+  // contact (after the impact at step 10) or at an output step
+  struct Case {
+    std::string scheme;
+    int k;
+    std::vector<std::string> more;
+  };
+  const std::vector<Case> cases = {{"contact-implicit", 17, {}},
+                                   {"khenous-laborde-renard", 20, {}},
+                                   {"hager-huebner-wohlmuth", 13, {}},
+                                   {"improved-contact-stabilized", 23, {"dynamics.inexact=0.1"}}};
+  for (const Case& t : cases) {
+    SCOPED_TRACE(t.scheme + " stopped after step " + std::to_string(t.k));
+    const std::vector<std::string> overrides = twoBodyOverrides(t.scheme, t.more);
+    const fs::path a = kTmp / ("twobody_full_" + t.scheme), b = kTmp / ("twobody_restarted_" + t.scheme);
+    fs::remove_all(a);
+    RunOptions full = quiet(a);
+    full.overrides = overrides;
+    runScene(kTwoBody, full);
+    const fs::path cp = stopAt(kTwoBody, b, t.k, overrides);
+    ASSERT_TRUE(fs::exists(cp));
+    EXPECT_FALSE(fs::exists(b / "summary.json"));
+    // the layout: stacked vectors, per-body groups with the offsets into them
+    const obs::CheckpointRecord rec = obs::readCheckpoint(cp);
+    EXPECT_EQ(rec.integer("scheme/step"), t.k);
+    EXPECT_EQ(rec.text("scheme/name"), t.scheme);
+    ASSERT_EQ(rec.integer("bodies/count"), 2);
+    EXPECT_EQ(rec.text("bodies/0/name"), "lower");
+    EXPECT_EQ(rec.text("bodies/1/name"), "upper");
+    EXPECT_EQ(rec.integer("bodies/0/vertex_offset"), 0);
+    EXPECT_EQ(rec.integer("bodies/0/leaf_vertices"), 11 * 11);  // 5 x 5 quadrilaterals, refined once
+    EXPECT_EQ(rec.integer("bodies/1/vertex_offset"), 11 * 11);
+    EXPECT_EQ(rec.integer("bodies/1/leaf_vertices"), 15 * 9);   // 7 x 4 triangles, refined once
+    EXPECT_EQ(rec.integer("grid/leaf_vertices"), 11 * 11 + 15 * 9);
+    EXPECT_EQ(rec.vector("scheme/displacement").size(), 2 * rec.integer("grid/leaf_vertices"));
+    EXPECT_EQ(rec.vector("scheme/acceleration").size(),
+              t.scheme == "khenous-laborde-renard" ? 2 * rec.integer("grid/leaf_vertices") : 0);
+    EXPECT_GT(rec.vector("scheme/multiplier").norm(), 0);  // in contact
+    EXPECT_EQ(rec.has("scheme/previous_velocity"), !t.more.empty());
+    // .vtu of both bodies up to the stop step are in the file list
+    EXPECT_NE(rec.text("run/vtu_files").find("twobody_impact_upper_000010.vtu"), std::string::npos);
+    RunOptions o = quiet(b);
+    o.restart = cp;
+    o.overrides = overrides;
+    runScene(kTwoBody, o);
+    EXPECT_EQ(summaryOf(b).at("dynamics").at("steps"), 60);
+    EXPECT_EQ(summaryOf(b).at("bodies").size(), 2u);
+    expectSameRun(a, b);
+    EXPECT_TRUE(fs::exists(b / "twobody_impact_lower_000060.vtu"));
+    EXPECT_EQ(slurp(a / "twobody_impact.pvd"), slurp(b / "twobody_impact.pvd"));
+  }
+}
+
+TEST(CheckpointMultiBody, EveryNStepsWritesMultiBodyCheckpoints) {
+  const fs::path scene = writeScene("twobody_every", slurp(kTwoBody) + "\n[output]\ncheckpoint = { every = 25 }\n");
+  int written = 0;
+  RunOptions o = quiet(kTmp / "twobody_every");
+  o.overrides = twoBodyOverrides("contact-implicit");
+  o.stepProgress = [&](const std::string& l) { written += l.starts_with("checkpoint:"); };
+  runScene(scene, o);
+  EXPECT_EQ(written, 2);  // steps 25 and 50
+  const obs::CheckpointRecord rec = obs::readCheckpoint(kTmp / "twobody_every" / "checkpoint.h5");
+  EXPECT_EQ(rec.integer("scheme/step"), 50);
+  EXPECT_EQ(rec.integer("bodies/count"), 2);
+}
+
+TEST(CheckpointMultiBody, OneBodyAgainstSeveralOrOtherBodiesAreOneLineErrors) {
+  const std::vector<std::string> overrides = twoBodyOverrides("contact-implicit");
+  const fs::path dir = kTmp / "twobody_err";
+  const fs::path cp = stopAt(kTwoBody, dir, 15, overrides);
+  ASSERT_TRUE(fs::exists(cp));
+  auto restart = [&](const fs::path& scene, const fs::path& file, RunOptions o) {
+    o.restart = file;
+    return errorOf([&] { runScene(scene, o); });
+  };
+  // a multi-body checkpoint, a one-body scene
+  const fs::path bar = writeScene("bar_vs_twobody", barScene(200));
+  expectContains(restart(bar, cp, quiet(dir)),
+                 {cp.string() + ": ", "a checkpoint of a multi-body run with 2 bodies ('lower', 'upper')",
+                  bar.string() + " is a one-body scene"});
+  // a one-body checkpoint, a multi-body scene
+  const fs::path one = stopAt(bar, kTmp / "bar_for_twobody", 50);
+  RunOptions o = quiet(kTmp / "bar_for_twobody");
+  o.overrides = overrides;
+  expectContains(restart(kTwoBody, one, o),
+                 {one.string() + ": ", "a checkpoint of a one-body run",
+                  kTwoBody.string() + " is a multi-body scene with 2 bodies ('lower', 'upper')"});
+  // a body renamed
+  std::string text = slurp(kTwoBody);
+  for (std::size_t at; (at = text.find("\"upper\"")) != std::string::npos;) text.replace(at, 7, "\"top\"");
+  const fs::path renamed = writeScene("twobody_renamed", text);
+  o = quiet(dir);
+  o.overrides = overrides;
+  expectContains(restart(renamed, cp, o), {cp.string() + ": ", "body 2 is 'upper' in the checkpoint, 'top' in " +
+                                                                   renamed.string()});
+  // a third body
+  const fs::path three = writeScene(
+      "twobody_three", slurp(kTwoBody) +
+                           "\n[[body]]\nname = \"third\"\n[body.mesh]\ngenerator = \"box\"\ntype = \"quadrilateral\"\n"
+                           "cells = [2, 2]\nlower = [3, 0]\nupper = [4, 1]\nrefine = 1\n[body.material]\nE = 1e3\nnu = 0.3\n"
+                           "density = 1\n");
+  expectContains(restart(three, cp, o), {cp.string() + ": ", "a checkpoint of 2 bodies ('lower', 'upper')",
+                                         "has 3 bodies ('lower', 'upper', 'third')"});
+  // the same scene, a body's grid differs (another --refine): names the body
+  o = quiet(dir);
+  o.overrides = overrides;
+  o.refine = 2;
+  expectContains(restart(kTwoBody, cp, o), {cp.string() + ": ", "body 'lower' written for a grid of 121 vertices",
+                                            "another --refine"});
+  // a static multi-body scene writes none: [output] checkpoint is refused as for one body
+  expectContains(errorOf([&] {
+                   parseSceneString(slurp(fs::path(OBS_DATA_DIR) / "scenes" / "twobody_patch.toml") +
+                                        "\n[output]\ncheckpoint = { every = 5 }\n",
+                                    "static2.toml", fs::path(OBS_DATA_DIR) / "scenes");
+                 }),
+                 {"static2.toml:", "[output] checkpoint applies to [dynamics] scenes only"});
+  // the same bodies, another scene text or other overrides: as for one body
+  o = quiet(dir);
+  o.overrides = twoBodyOverrides("contact-implicit", {"dynamics.output_stride=5"});
+  expectContains(restart(kTwoBody, cp, o), {cp.string() + ": ", "another scene", "--set overrides differ",
+                                            "'--set dynamics.output_stride=5' now, none in the checkpoint (override 4)"});
 }
 
 TEST(CheckpointScene, BadCheckpointKeysAreErrorsWithFileAndLine) {

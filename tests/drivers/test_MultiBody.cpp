@@ -262,16 +262,13 @@ TEST(MultiBodyScene, DynamicImpactConservesMomentumAndWritesEveryBody) {
   EXPECT_DOUBLE_EQ(klr.at("energy_ratio_redistributed").get<double>(),
                    klr.at("final_energy_redistributed").get<double>() / klr.at("initial_energy_redistributed").get<double>());
   EXPECT_LT(klr.at("max_penetration").get<double>(), 1e-10);
-  // multi-body runs write no checkpoints yet: a clear error
+  // multi-body runs stop with a checkpoint (restarts: test_Checkpoint.cpp, CheckpointMultiBody)
   RunOptions o;
   o.outputDirectory = kTmp / "impact_stop";
+  fs::remove_all(*o.outputDirectory);
   o.stopAfterStep = 10;
-  try {
-    runScene(kScenes / "twobody_impact.toml", o);
-    ADD_FAILURE() << "--stop-after-step accepted";
-  } catch (const obs::Error& e) {
-    EXPECT_NE(std::string(e.what()).find("write no checkpoints yet"), std::string::npos) << e.what();
-  }
+  EXPECT_THROW(runScene(kScenes / "twobody_impact.toml", o), RunInterrupted);
+  EXPECT_TRUE(fs::exists(kTmp / "impact_stop" / "checkpoint.h5"));
 }
 
 TEST(MultiBodyScene, AdaptiveCylinderSceneRefinesBothBodies) {

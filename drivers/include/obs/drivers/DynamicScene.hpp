@@ -55,8 +55,9 @@ RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh
 /// contact model of the scene (SceneSolver.hpp buildContactModel). Initial states per body
 /// ([[body]] initial_velocity / initial_displacement, default the [dynamics] ones); one .vtu per
 /// body and output step (<scene>_<body>_NNNNNN.vtu, parts of the .pvd); tracked points are the
-/// nearest vertex of any body (a slave node of a pair reports the normal jump [u]_nu). Multi-body
-/// runs write no checkpoints yet (--restart and --stop-after-step are errors).
+/// nearest vertex of any body (a slave node of a pair reports the normal jump [u]_nu). Checkpoints
+/// and --restart as for one body, of the stacked state with per-body grid identities
+/// (docs/checkpoint.md#several-bodies).
 RunResult runDynamicScene(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
                           const std::vector<const mesh::Mesh*>& meshes, const std::vector<BoundaryConditions>& bcs,
                           const RunOptions& options, RunResult result, std::chrono::steady_clock::time_point start);
