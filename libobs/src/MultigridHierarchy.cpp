@@ -140,20 +140,71 @@ void galerkinRows(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P, const
   }
 }
 
-/// Diagonal entries that vanish (a coarse component without untruncated fine support: zero row
-/// and column) are set to 1, keeping the operator positive definite.
-template <int d>
-double largestDiagonal(const BlockSparseMatrix<d>& C) {
-  double scale = 0;
-  for (Index I = 0; I < C.rows(); ++I) scale = std::max(scale, C.blockAt(C.diagonal(I)).diagonal().maxCoeff());
-  return scale;
-}
+/// Components of a coarse level without untruncated fine support (docs/theory.md#multigrid-dead-components):
+/// their row and column of the Galerkin product vanish. `dead` holds one bit per component (as the
+/// fine truncation bits). The rows `rows` were recomputed: their bits are determined anew, the bits
+/// of the other rows stand. Every dead diagonal entry of the level is then set to the largest live
+/// one (`scale`), so that the diagonal blocks stay invertible for the smoothers and the coarse
+/// solver; the patch is not stiffness: the next coarser product and the transfers treat dead
+/// components as truncated. `rows` must be sorted. Returns the vertices whose bits changed
+/// (`flipped`) and those outside `rows` whose patched entry changed (`repatched`, the largest live
+/// diagonal entry having moved).
+struct DeadUpdate {
+  std::vector<Index> flipped, repatched;
+};
 
 template <int d>
-void fixVanishingDiagonal(BlockSparseMatrix<d>& C, Index I, double scale) {
-  auto& D = C.blockAt(C.diagonal(I));
-  for (int c = 0; c < d; ++c)
-    if (D(c, c) <= 1e-12 * scale) D(c, c) = scale > 0 ? scale : 1.0;
+DeadUpdate markDeadComponents(BlockSparseMatrix<d>& C, std::span<const Index> rows, std::vector<std::uint8_t>& dead) {
+  std::vector<std::uint8_t> before(rows.size());
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    before[i] = dead[rows[i]];
+    dead[rows[i]] = 0;
+  }
+  double scale = 0;
+  for (Index I = 0; I < C.rows(); ++I) {
+    const auto& D = C.blockAt(C.diagonal(I));
+    for (int c = 0; c < d; ++c)
+      if (!(dead[I] & (1u << c))) scale = std::max(scale, D(c, c));
+  }
+  const double patch = scale > 0 ? scale : 1.0;
+  DeadUpdate out;
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    const Index I = rows[i];
+    const auto& D = C.blockAt(C.diagonal(I));
+    std::uint8_t b = 0;
+    for (int c = 0; c < d; ++c)
+      if (D(c, c) <= 1e-12 * scale) b |= static_cast<std::uint8_t>(1u << c);
+    dead[I] = b;
+    if (b != before[i]) out.flipped.push_back(I);
+  }
+  for (Index I = 0; I < C.rows(); ++I)
+    if (dead[I]) {
+      auto& D = C.blockAt(C.diagonal(I));
+      bool moved = false;
+      for (int c = 0; c < d; ++c)
+        if ((dead[I] & (1u << c)) && D(c, c) != patch) {
+          D(c, c) = patch;
+          moved = true;
+        }
+      if (moved && !std::binary_search(rows.begin(), rows.end(), I)) out.repatched.push_back(I);
+    }
+  return out;
+}
+
+/// The transforms E_p = T_p of a coarse level's dead components, in the slot form of the fine level.
+template <int d>
+void deadTransforms(const std::vector<std::uint8_t>& dead, std::vector<Index>& slot,
+                    std::vector<Eigen::Matrix<double, d, d>>& E) {
+  slot.assign(dead.size(), -1);
+  E.clear();
+  for (std::size_t p = 0; p < dead.size(); ++p)
+    if (dead[p]) {
+      Eigen::Matrix<double, d, d> T = Eigen::Matrix<double, d, d>::Identity();
+      for (int c = 0; c < d; ++c)
+        if (dead[p] & (1u << c)) T.col(c).setZero();
+      slot[p] = static_cast<Index>(E.size());
+      E.push_back(T);
+    }
 }
 
 }  // namespace
@@ -196,6 +247,14 @@ mesh::CsrMatrix identity(Index n) {
   for (Index i = 0; i <= n; ++i) I.rowStart[i] = i;
   for (Index i = 0; i < n; ++i) I.columns[i] = i;
   return I;
+}
+
+/// Zeroes the components of v marked in `bits` (a coarse level's dead components).
+template <int d>
+void truncateDead(std::uint8_t bits, Eigen::Matrix<double, d, 1>& v) {
+  if (bits)
+    for (int c = 0; c < d; ++c)
+      if (bits & (1u << c)) v[c] = 0;
 }
 
 }  // namespace
@@ -329,6 +388,8 @@ void MultigridHierarchy<d>::setFineOperator(const BlockSparseMatrix<d>& A, std::
 
   const auto t0 = Clock::now();
   coarse_.assign(std::max(L, 1), BlockSparseMatrix<d>());
+  dead_.assign(L, {});
+  for (int l = 0; l < L; ++l) dead_[l].assign(numVertices(l), 0);
   for (int l = L - 1; l >= 0; --l)
     coarse_[l] = galerkinPattern(l == L - 1 ? A : coarse_[l + 1], prolongations_[l], transposed_[l]);
   galerkinSeconds_ += since(t0);
@@ -414,15 +475,19 @@ void MultigridHierarchy<d>::computeCoarse(bool local) {
   // Local update: the entries of A_l that change are those (I, J) with I or J in
   // R_l = { I : P_pI != 0 for a changed vertex p of level l + 1 }; they lie in the rows of R_l and
   // of its neighbours, and R_l is the changed set for level l - 1.
-  std::vector<Index> changed = changed_, touched, rows;
+  std::vector<Index> changed = changed_, touched, rows, all;
   std::vector<char> mark;
+  std::vector<Index> deadSlot;
+  std::vector<Mat> deadE;
   for (int l = L - 1; l >= 0; --l) {
     BlockSparseMatrix<d>& C = coarse_[l];
     const bool top = l == L - 1;
     const mesh::CsrMatrix& P = prolongations_[l];
     const BlockSparseMatrix<d>& F = top ? *fine_ : coarse_[l + 1];
-    const std::vector<Index>* slot = top ? &transformSlot_ : nullptr;
-    const std::vector<Mat>* E = top ? &transform_ : nullptr;
+    // below the top: the components of level l + 1 without fine support are truncated (T_p)
+    if (!top) deadTransforms<d>(dead_[l + 1], deadSlot, deadE);
+    const std::vector<Index>* slot = top ? &transformSlot_ : &deadSlot;
+    const std::vector<Mat>* E = top ? &transform_ : &deadE;
     bool partial = local;
     if (partial) {
       mark.assign(C.rows(), 0);
@@ -446,16 +511,21 @@ void MultigridHierarchy<d>::computeCoarse(bool local) {
       std::sort(rows.begin(), rows.end());
       position_.assign(C.rows(), -1);
       galerkinRows(F, P, transposed_[l], slot, E, rows, position_, C);
-      const double scale = largestDiagonal(C);
-      for (Index I : rows) fixVanishingDiagonal(C, I, scale);
+      // the vertices whose dead bits changed (within `touched` but for round-off at the threshold)
+      // change the next product as well
+      const DeadUpdate u = markDeadComponents(C, rows, dead_[l]);
+      for (Index I : u.flipped)
+        if (std::find(touched.begin(), touched.end(), I) == touched.end()) touched.push_back(I);
       updatedRows_[l] = rows;
+      updatedRows_[l].insert(updatedRows_[l].end(), u.repatched.begin(), u.repatched.end());
       fullUpdate_[l] = 0;
       changed.swap(touched);
       rowsRecomputed_ += static_cast<long long>(rows.size());
     } else {
       galerkinProduct(F, P, slot, E, C);
-      const double scale = largestDiagonal(C);
-      for (Index I = 0; I < C.rows(); ++I) fixVanishingDiagonal(C, I, scale);
+      all.resize(C.rows());
+      for (Index I = 0; I < C.rows(); ++I) all[I] = I;
+      markDeadComponents(C, all, dead_[l]);
       rowsRecomputed_ += C.rows();
       local = false;  // all entries of this level may have changed
     }
@@ -472,6 +542,7 @@ void MultigridHierarchy<d>::restrict(int l, const Eigen::VectorXd& fine, Eigen::
   for (Index p = 0; p < P.rows; ++p) {
     Vec r = fine.template segment<d>(static_cast<Eigen::Index>(p) * d);
     if (top && transformSlot_[p] >= 0) r = transform_[transformSlot_[p]] * r;
+    if (!top) truncateDead(dead_[l + 1][p], r);
     for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k)
       coarse.template segment<d>(static_cast<Eigen::Index>(P.columns[k]) * d) += P.values[k] * r;
   }
@@ -487,6 +558,7 @@ void MultigridHierarchy<d>::prolongateAdd(int l, const Eigen::VectorXd& coarse, 
     for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k)
       s += P.values[k] * coarse.template segment<d>(static_cast<Eigen::Index>(P.columns[k]) * d);
     if (top && transformSlot_[p] >= 0) s = transform_[transformSlot_[p]].transpose() * s;
+    if (!top) truncateDead(dead_[l + 1][p], s);
     fine.template segment<d>(static_cast<Eigen::Index>(p) * d) += s;
   }
 }
@@ -501,6 +573,7 @@ std::size_t MultigridHierarchy<d>::memoryBytes() const {
   for (const auto& C : coarse_) b += C.memoryBytes();
   b += (rotation_.capacity() + transform_.capacity()) * sizeof(Mat) +
        (rotationSlot_.capacity() + transformSlot_.capacity()) * sizeof(Index) + bits_.capacity();
+  for (const auto& bits : dead_) b += bits.capacity();
   return b;
 }
 

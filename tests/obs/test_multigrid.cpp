@@ -211,6 +211,64 @@ TEST(MultigridHierarchy, LocalUpdatesEqualAFullRecomputation) {
   }
 }
 
+TEST(MultigridHierarchy, CoarseComponentsWithoutFineSupportAreTruncatedOnCoarserLevels) {
+  // docs/theory.md#multigrid-levels: truncating both components near x = 0 (component 0) and y = 0
+  // (component 1) leaves coarse components of levels 2 and 1 without any untruncated fine support
+  // (zero row and column). Their diagonal is patched to keep the smoothers defined, but the patch
+  // must not enter the next Galerkin product: every A_l equals the Galerkin product of the truncated
+  // fine problem, (P~_T P_{L-2} ... P_l)' A (P~_T P_{L-2} ... P_l), off the patched diagonal entries.
+  constexpr int d = 2;
+  const mesh::Grid grid = refinedGrid(CellType::Quadrilateral, 2, 3);
+  const mesh::Mesh m = grid.leafView().mesh;
+  const BlockSparseMatrix<d> A = assembleStiffness<d>(m, kMaterial);
+  std::vector<char> mask(m.numVertices() * d, 0);
+  for (Index v = 0; v < m.numVertices(); ++v) {
+    if (m.vertex(v)[0] < 0.2) mask[v * d] = 1;
+    if (m.vertex(v)[1] < 0.2) mask[v * d + 1] = 1;
+  }
+  MultigridHierarchy<d> h(grid);
+  h.setFineOperator(A, {}, mask);
+  ASSERT_EQ(h.maxLevel(), 3);
+
+  Eigen::MatrixXd T = Eigen::MatrixXd::Identity(mask.size(), mask.size());
+  for (std::size_t i = 0; i < mask.size(); ++i)
+    if (mask[i]) T(i, i) = 0;
+  Eigen::MatrixXd P = T * denseProlongation<d>(h.prolongation(2));  // level 2 -> fine, truncated
+  const Eigen::MatrixXd Af = dense(A);
+  const double scale = Af.cwiseAbs().maxCoeff();
+  int dead = 0;
+  for (int l = 2; l >= 0; --l) {
+    const Eigen::MatrixXd ref = P.transpose() * Af * P;  // the Galerkin product of the truncated problem
+    Eigen::MatrixXd Al = dense(h.coarseOperator(l));
+    for (Eigen::Index i = 0; i < ref.rows(); ++i)
+      if (ref(i, i) == 0) {  // no untruncated fine support: zero row and column, a positive patch
+        ++dead;
+        EXPECT_GT(Al(i, i), 0) << "level " << l << " component " << i;
+        Al(i, i) = 0;
+      }
+    EXPECT_LT((Al - ref).cwiseAbs().maxCoeff(), 1e-12 * scale) << "level " << l;
+    if (l > 0) P = P * denseProlongation<d>(h.prolongation(l - 1));
+  }
+  EXPECT_GT(dead, 20);  // components on levels 2 and 1 (x = 0, 1/8 and y = 0, 1/8 on level 2)
+
+  // the transfers between coarse levels truncate the same components: prolongating a coarse vector
+  // and restricting it back never places a value in a component without fine support
+  const Eigen::MatrixXd A2 = dense(h.coarseOperator(2));
+  const Eigen::VectorXd xc = Eigen::VectorXd::LinSpaced(h.numVertices(1) * d, 1, 2);
+  Eigen::VectorXd xf = Eigen::VectorXd::Zero(h.numVertices(2) * d), rc;
+  h.prolongateAdd(1, xc, xf);
+  h.restrict(1, xf, rc);
+  const Eigen::MatrixXd A1 = dense(h.coarseOperator(1));
+  for (Eigen::Index i = 0; i < xf.size(); ++i)
+    if (A2.row(i).cwiseAbs().sum() == A2(i, i)) {
+      EXPECT_EQ(xf[i], 0) << "level 2 component " << i;
+    }
+  for (Eigen::Index i = 0; i < rc.size(); ++i)
+    if (A1.row(i).cwiseAbs().sum() == A1(i, i)) {
+      EXPECT_EQ(rc[i], 0) << "level 1 component " << i;
+    }
+}
+
 TEST(MultigridHierarchy, FineOperatorOfAnotherMeshIsAnError) {
   const mesh::Grid grid = refinedGrid(CellType::Quadrilateral, 2, 1);
   MultigridHierarchy<2> h(grid);

@@ -23,9 +23,12 @@
 /// triple product); the full numerical product runs over fine rows, C_p = sum_q B_pq P_q (a sparse
 /// accumulator), then A_l(I, J) += P_pI C_pJ; local updates run over the coarse rows to recompute,
 /// A_l(I, :) = sum_p P_pI sum_q B_pq P_q. A coarse component whose column of P~_T is zero (all of
-/// its fine support truncated) has a zero row and column; its diagonal entry is set to the largest
-/// diagonal entry of the level so that the diagonal blocks stay invertible (the restricted defect
-/// is zero there).
+/// its fine support truncated) has a zero row and column ("dead"; deadBits(l)). Its diagonal entry
+/// is set to the largest live diagonal entry of the level so that the diagonal blocks stay
+/// invertible (the restricted defect is zero there), and the component counts as truncated below:
+/// the next product is A_{l-1} = P_{l-1}' T_l A_l T_l P_{l-1} and the transfers between levels l-1
+/// and l use T_l P_{l-1}, so the patch never acts as stiffness and every A_l is exactly the Galerkin
+/// product of the truncated fine problem.
 ///
 /// Several bodies: the hierarchy of several grids is block-stacked, level by level from the finest
 /// (the leaf views, numbered in the order of the grids) downwards; a grid with fewer levels keeps its
@@ -98,6 +101,8 @@ public:
   /// Truncation bits per fine vertex (bit c: component c truncated).
   const std::vector<std::uint8_t>& truncationBits() const { return bits_; }
   const std::vector<Index>& changedVertices() const { return changed_; }
+  /// Components of level l < L without untruncated fine support (bit c: component c), see above.
+  const std::vector<std::uint8_t>& deadBits(int l) const { return dead_[l]; }
   Index truncatedComponents() const;
 
   /// Galerkin operator of level l < L (level 0 if L = 0: the explicit truncated fine operator).
@@ -135,6 +140,7 @@ private:
   std::vector<Mat> transform_;       ///< E_p = Q_p T_p per special fine vertex
   std::vector<Index> transformSlot_;  ///< fine vertex -> index into transform_ or -1 (E_p = I)
   std::vector<std::uint8_t> bits_;
+  std::vector<std::vector<std::uint8_t>> dead_;  ///< per coarse level: components without fine support
   std::vector<Index> changed_;
   std::vector<std::vector<Index>> updatedRows_;
   std::vector<char> fullUpdate_;
