@@ -331,7 +331,7 @@ struct BodyState {
   std::vector<Index> stackedNodes;      ///< node k of set -> node of the stacked problem
   std::optional<ContactOutputs> outputs;
   std::vector<const Obstacle*> obstacles;
-  std::vector<std::unique_ptr<Obstacle>> ownObstacles;  ///< displaced master surfaces, minimum
+  std::vector<std::unique_ptr<Obstacle>> ownObstacles;  ///< mortar gaps, minimum
   const Obstacle* gap = nullptr;        ///< the exact gap for the estimator
   Eigen::VectorXd traction;             ///< master sides: mortar traction by vertex (empty: none)
   std::vector<int> masterIds;
@@ -384,8 +384,8 @@ void bodyContactData(const ContactModel<d>& model, const ContactProblem<d>& prob
           b.ownObstacles.push_back(std::make_unique<MortarGapObstacle>(
               m, c.slaveId, *master.mesh, c.masterId, um, probe.position(0), probe.direction(0), c.label));
         } catch (const Error& e) {
-          throw Error("adaptive loop: the exact gap of mortar pair '" + c.label + "' (the distance to the "
-                      "displaced master surface) cannot be built: " + e.what());
+          throw Error("adaptive loop: the exact gap of mortar pair '" + c.label + "' (the distance along the "
+                      "slave normals to the master surface) cannot be built: " + e.what());
         }
         b.obstacles.push_back(b.ownObstacles.back().get());
       } else {

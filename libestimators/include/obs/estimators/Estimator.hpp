@@ -67,7 +67,8 @@ MeshStamp meshStamp(const mesh::Mesh& mesh, std::uint64_t revision = 0);
 /// Two-body contact (docs/theory.md#two-body-estimator): on the slave side of a mortar pair, `set`
 /// holds the slave nodes with their mortar normals, the gaps relative to the displaced master
 /// (g_p + n_p'(C u)_p) and D_pp, `outputs` the dual-mortar pressures lambda_p, and `obstacle` the
-/// signed distance to the displaced master surface. On the master side, `masterTraction` is the
+/// pointwise gap of the linearised constraint (distance along the slave face normal to the master
+/// faces plus the master displacement there). On the master side, `masterTraction` is the
 /// contact traction the mortar coupling exerts on the body, by vertex (vertex-major, d entries per
 /// vertex: nodal force / int phi_q), on the boundary faces with an id in `masterBoundaryIds`;
 /// `contact-residual` measures sigma(u_h) n against it there, `residual` ignores it.
