@@ -147,7 +147,8 @@ void writeStepsCsv(const fs::path& path, const std::vector<est::AdaptiveStep>& s
     for (const auto& n : names) out << "," << num(contributionOf(s, n));
     out << "," << num(s.eoc) << "," << s.solver << "," << s.solverIterations << "," << (s.converged ? 1 : 0) << ","
         << num(s.solverSeconds) << "," << num(s.estimatorSeconds) << "," << num(s.refinementSeconds) << ","
-        << num(s.transferSeconds) << "," << s.marked;
+        << num(s.transferSeconds) << "," << s.marked << "," << s.refinedRed << "," << s.closureRed << ","
+        << s.greenClosed;
     if (s.reference) {
       const auto& r = *s.reference;
       out << "," << num(r.load) << "," << num(r.pressureError) << "," << num(r.radius) << "," << num(r.exactRadius)
@@ -187,6 +188,7 @@ nlohmann::json stepJson(const est::AdaptiveStep& s, double nodalError) {
                 {"estimator_s", s.estimatorSeconds}, {"refinement_s", s.refinementSeconds},
                 {"transfer_s", s.transferSeconds}};
   j["marked"] = s.marked;
+  j["refinement"] = {{"refined_red", s.refinedRed}, {"closure_red", s.closureRed}, {"green_closed", s.greenClosed}};
   if (s.bodies.size() > 1 || s.couplings.size() > 1 || (!s.couplings.empty() && s.couplings.front().mortar)) {
     nlohmann::json b = nlohmann::json::array();
     for (const auto& x : s.bodies)
@@ -353,6 +355,7 @@ est::AdaptiveLoopOptions adaptiveLoopOptions(const Scene& scene, bool contact) {
   o.etaTolerance = spec.etaTolerance;
   o.warmStart = spec.warmStart;
   o.inexactFraction = spec.inexact;
+  if (spec.closureAllEdges) o.closure = mesh::ClosureRule::AllEdges;
   const std::string type = scene.solverType();
   if (contact) {
     if (type == "tnnmg")
@@ -590,7 +593,7 @@ std::string stepsCsvHeader(const std::vector<std::string>& contributions) {
       "step,cells,vertices,unknowns,potential_contact,actual_contact,semi_contact,full_contact,eta";
   for (const auto& n : contributions) h += "," + n;
   h += ",eoc,solver,iterations,converged,solver_s,estimator_s,refinement_s,transfer_s,marked,"
-       "load,pressure_error,radius,exact_radius,radius_error,centre_pressure,exact_centre_pressure,centre_error,"
+       "refined_red,closure_red,green_closed,load,pressure_error,radius,exact_radius,radius_error,centre_pressure,exact_centre_pressure,centre_error,"
        "nodal_pressure_error";
   return h;
 }

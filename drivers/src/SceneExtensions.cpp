@@ -67,7 +67,7 @@ void applyOverrides(toml::value& root, const std::vector<std::string>& overrides
 AdaptivitySpec parseAdaptivity(const Scene& scene, const toml::value& table, bool contact) {
   const TomlSection s(scene.fileName, "[adaptivity]", table,
                       {"refinement", "estimator", "marking", "theta", "steps", "max_vertices",
-                       "eta_tolerance", "reference", "vtk", "warm_start", "inexact"});
+                       "eta_tolerance", "reference", "vtk", "warm_start", "inexact", "closure"});
   AdaptivitySpec spec;
   spec.line = s.line();
   if (s.has("refinement")) {
@@ -141,6 +141,12 @@ AdaptivitySpec parseAdaptivity(const Scene& scene, const toml::value& table, boo
       s.fail("inexact", "= " + literalOf(s.at("inexact")) + " must lie in [0, 1) (the fraction of the estimator; 0: off)");
     if (f > 0 && !contact) s.fail("inexact", "needs a [contact] section (it sets the tolerance of the contact solver)");
     spec.inexact = f;
+  }
+  if (s.has("closure")) {
+    const std::string c = s.string("closure");
+    if (c != "half-edges" && c != "all-edges")
+      s.fail("closure", "= \"" + c + "\" is unknown (known: half-edges, all-edges)");
+    spec.closureAllEdges = c == "all-edges";
   }
   return spec;
 }

@@ -670,7 +670,11 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
       if (adaptive) {
         if (body[i].marked.empty()) continue;
         for (Index c : body[i].marked) grid.mark(views[i].elements[c]);
-        grid.adapt();
+        grid.setClosureRule(options_.closure);
+        const mesh::AdaptResult r = grid.adapt();
+        steps.back().refinedRed += r.redRefined;
+        steps.back().closureRed += r.propagated;
+        steps.back().greenClosed += r.greenClosed;
       } else {
         grid.refineUniformly();
       }

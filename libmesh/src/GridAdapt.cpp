@@ -232,13 +232,15 @@ void Grid::propagate(Context& ctx) {
   auto refinedEdge = [&](std::uint64_t key) {
     return edgeMidpoints_.find(key) >= 0 || ctx.newEdges.find(key) >= 0;
   };
-  // Rule 2: more than half of the edges refined.
+  // Rule 2: more than half (ClosureRule::AllEdges: all) of the edges refined.
+  const bool allEdges = closureRule_ == ClosureRule::AllEdges;
   auto mostlyRefined = [&](Index g) {
     const auto gv = vertices(g);
     const auto edges = localEdges(type_[g]);
     int count = 0;
     for (const auto& le : edges) count += refinedEdge(edgeKey(gv[le[0]], gv[le[1]]));
-    return 2 * count > static_cast<int>(edges.size());
+    const int n = static_cast<int>(edges.size());
+    return allEdges ? count == n : 2 * count > n;
   };
   // Does regular element g have the corners vs[0..k-1] as an edge (k = 2) or a face?
   auto hasEntity = [&](Index g, const std::array<Index, 4>& vs, int k) {

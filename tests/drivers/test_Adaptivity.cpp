@@ -334,6 +334,9 @@ TEST(AdaptivityParser, DefaultsAndValues) {
   EXPECT_EQ(s.adaptivity->etaTolerance, 0.5);
   EXPECT_EQ(s.adaptivity->reference, "punch");
   EXPECT_EQ(s.adaptivity->vtk, AdaptivitySpec::Vtk::Every);
+  EXPECT_FALSE(s.adaptivity->closureAllEdges);  // default "half-edges"
+  EXPECT_TRUE(obs::drivers::parseSceneString(kBase + "[adaptivity]\nclosure = \"all-edges\"\n", "s.toml", ".")
+                  .adaptivity->closureAllEdges);
   // an override replaces a file value and may create the section
   const auto o = obs::drivers::parseSceneString(kBase, "s.toml", ".", {"adaptivity.steps=3", "output.plots=true"});
   ASSERT_TRUE(o.adaptivity);
@@ -358,6 +361,8 @@ TEST(AdaptivityParser, ErrorsNameLineAndKnownNames) {
             "s.toml:17: [adaptivity] vtk = \"all\" is unknown (known: every, last, none)");
   EXPECT_EQ(parseError(kBase + "[adaptivity]\nmax_vertices = -1\n"),
             "s.toml:17: [adaptivity] max_vertices = -1 must not be negative (0: off)");
+  EXPECT_EQ(parseError(kBase + "[adaptivity]\nclosure = \"green\"\n"),
+            "s.toml:17: [adaptivity] closure = \"green\" is unknown (known: half-edges, all-edges)");
   EXPECT_EQ(parseError(kBase + "[adaptivity]\ninexact = 1.5\n"),
             "s.toml:17: [adaptivity] inexact = 1.5 must lie in [0, 1) (the fraction of the estimator; 0: off)");
   // the same problems from --set name the override instead of a line

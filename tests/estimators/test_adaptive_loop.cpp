@@ -149,6 +149,13 @@ TEST(AdaptiveLoop, PunchRefinesAtTheStripEdgesAndBeatsUniform) {
     EXPECT_TRUE(a.steps[k].converged) << k;
     EXPECT_GT(a.steps[k].marked, -1);
   }
+  // the refinement after each step (the last one is not refined)
+  for (std::size_t k = 0; k + 1 < a.steps.size(); ++k) {
+    EXPECT_GE(a.steps[k].refinedRed, 1) << k;
+    EXPECT_LE(a.steps[k].closureRed, a.steps[k].refinedRed) << k;
+    EXPECT_LE(a.steps[k].refinedRed - a.steps[k].closureRed, a.steps[k].marked) << k;
+  }
+  EXPECT_EQ(a.steps.back().refinedRed + a.steps.back().closureRed + a.steps.back().greenClosed, 0);
   EXPECT_TRUE(std::isnan(a.steps[0].eoc));
   EXPECT_EQ(a.steps[0].contributions.size(), 8u);
   // the finest leaves sit at the strip edges x = 0.4375 and 0.5625 on the contact boundary
@@ -195,6 +202,31 @@ TEST(AdaptiveLoop, PunchRefinesAtTheStripEdgesAndBeatsUniform) {
   // the load converges towards the thesis' fine-grid value 1549.10
   EXPECT_NEAR(af.load, 1549.10, 0.01 * 1549.10);
   EXPECT_EQ(af.reference->radiusError, 0.0);  // the strip edges are vertices and in contact
+}
+
+// [adaptivity] closure = "all-edges": the loop passes the rule to the grid (conforming grids are
+// checked in runPunch's callback); quadrilaterals with three refined edges are then closed green
+// instead of refined red, so the closure adds fewer red refinements (16 against 24 here).
+TEST(AdaptiveLoop, ClosureRuleReachesTheGrid) {
+  AdaptiveLoopOptions o;
+  o.maxSteps = 5;
+  const PunchRun half = runPunch(o);
+  o.closure = mesh::ClosureRule::AllEdges;
+  const PunchRun all = runPunch(o);
+  Index closureHalf = 0, closureAll = 0, greenHalf = 0, greenAll = 0;
+  for (std::size_t k = 0; k < half.steps.size(); ++k) {
+    closureHalf += half.steps[k].closureRed;
+    greenHalf += half.steps[k].greenClosed;
+  }
+  for (std::size_t k = 0; k < all.steps.size(); ++k) {
+    EXPECT_TRUE(all.steps[k].converged) << k;
+    closureAll += all.steps[k].closureRed;
+    greenAll += all.steps[k].greenClosed;
+  }
+  if (verbose())
+    std::cout << "closure red / green closures: half-edges " << closureHalf << " / " << greenHalf << ", all-edges "
+              << closureAll << " / " << greenAll << "\n";
+  EXPECT_LT(closureAll, closureHalf);
 }
 
 TEST(AdaptiveLoop, WarmStartSavesIterations) {

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstdio>
 #include <functional>
@@ -146,6 +147,44 @@ TEST_P(GridTest, RandomLocalRefinementStaysConforming) {
   EXPECT_GT(greenSeen, 0);
   EXPECT_GT(removedSeen, 0);
   EXPECT_GT(propagated, 0);
+}
+
+// ClosureRule::AllEdges: the same random refinement stays conforming, no green father has all of
+// its edges refined, and some have more than half (which the default rule refines red); with the
+// default rule no green father has more than half of its edges refined.
+TEST_P(GridTest, ClosureRulesDecideWhichPatternsAreClosedGreen) {
+  const Mesh coarse = GetParam().make();
+  const double vol = totalVolume(coarse);
+  const auto area = boundaryMeasureById(coarse);
+  const int cap = coarse.dimension() == 2 ? 1 << 30 : 15;
+  for (ClosureRule rule : {ClosureRule::MoreThanHalfEdges, ClosureRule::AllEdges}) {
+    const bool all = rule == ClosureRule::AllEdges;
+    SCOPED_TRACE(all ? "all-edges" : "more-than-half");
+    Grid g(coarse);
+    g.setClosureRule(rule);
+    EXPECT_EQ(g.closureRule(), rule);
+    std::mt19937 gen(2024);
+    int aboveHalf = 0;
+    for (int cycle = 0; cycle < 8; ++cycle) {
+      int marked = 0;
+      for (Index e : g.leafElements())
+        if (gen() % 10 == 0 && marked < cap) {
+          g.mark(e);
+          ++marked;
+        }
+      EXPECT_EQ(g.adapt().invertedElements, 0);
+      for (Index e = 0; e < g.numElements(); ++e) {
+        if (g.isRemoved(e) || g.refinement(e) != Refinement::Green) continue;
+        const int refined = std::popcount(g.edgePattern(e));
+        const int edges = static_cast<int>(localEdges(g.type(e)).size());
+        EXPECT_LT(refined, edges) << "green father " << e;
+        if (!all) EXPECT_LE(2 * refined, edges) << "green father " << e;
+        aboveHalf += 2 * refined > edges;
+      }
+    }
+    checkGrid(g, vol, area);
+    if (all) EXPECT_GT(aboveHalf, 0) << "the rule never mattered in this run";
+  }
 }
 
 // The same on distorted meshes (random interior vertex moves: non-planar faces, non-affine cells).

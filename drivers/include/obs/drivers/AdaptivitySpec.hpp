@@ -36,6 +36,7 @@ struct AdaptivitySpec {
   Vtk vtk = Vtk::Last;
   bool warmStart = true;
   double inexact = 0;              ///< AdaptiveLoopOptions::inexactFraction
+  bool closureAllEdges = false;    ///< closure = "all-edges" (mesh::ClosureRule::AllEdges)
   int line = 0;                    ///< line of [adaptivity] (0: from --set only)
   int referenceLine = 0;
 };

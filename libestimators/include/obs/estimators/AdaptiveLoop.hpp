@@ -95,6 +95,9 @@ struct AdaptiveLoopOptions {
   /// previous step's eta and eoc); steps that are known to be the last (maxSteps, targetVertices)
   /// and the first step use solverTolerance. 0: every step to solverTolerance.
   double inexactFraction = 0;
+  /// Rule 2 of the marking closure of every grid's adapt() (mesh::ClosureRule; the loop sets it on
+  /// the grids before refining them). docs/estimators.md#closure-overhead compares the two.
+  mesh::ClosureRule closure = mesh::ClosureRule::MoreThanHalfEdges;
   double contactTolerance = 1e-8;  ///< relative tolerance of actual contact
   /// Registry to create the estimator from (null: EstimatorRegistry::global()).
   const EstimatorRegistry* registry = nullptr;
@@ -148,6 +151,14 @@ struct AdaptiveStep {
                                            ///< filled after the callback of the step)
   double transferSeconds = 0;              ///< building the start vector of this step
   Index marked = 0;                        ///< cells marked after this step
+  /// The refinement after this step, summed over the bodies (mesh::AdaptResult; 0 for the last
+  /// step and for uniform refinement): elements refined red (marked leaves, fathers of marked
+  /// green leaves and the closure's additions), of these the ones only the closure rules
+  /// refined, and elements given a green closure. cells of the next step minus cells of this one
+  /// is the growth; docs/estimators.md#closure-overhead explains the split.
+  Index refinedRed = 0;
+  Index closureRed = 0;
+  Index greenClosed = 0;
   std::optional<ReferenceErrors> reference;  ///< with a ContactReference (setReference) only
   std::vector<BodyRecord> bodies;          ///< per body, in the order of the bodies
   std::vector<CouplingRecord> couplings;   ///< per coupling, in the order they were added

@@ -29,6 +29,9 @@
 ///      views are conforming (Bank et al.: 1-irregular red refinement plus green closure);
 ///   2. closure economy (as in UG): a regular element with more than half of its edges refined is
 ///      refined red (in 2D the classical rule: a triangle with two refined edges is refined red).
+///      setClosureRule(ClosureRule::AllEdges) restricts the rule to elements with all edges
+///      refined, so every other edge pattern is closed green (fewer unknowns per step on
+///      hexahedra, more on tetrahedra: docs/estimators.md#closure-overhead).
 /// Every other regular element with refined edges gets the green closure of its edge pattern
 /// (below), as do red children created by this adapt() that already have refined edges (from finer
 /// neighbours refined at the same time). The least fixed point of the rules is computed with a work
@@ -129,6 +132,13 @@ struct GridInputReport {
 inline constexpr int kUnlistedBoundaryId = 0;
 
 /// Statistics of one adapt() call.
+/// When adapt() refines an unmarked regular element with refined edges red instead of closing it
+/// green (rule 2 of the marking closure, see Grid).
+enum class ClosureRule {
+  MoreThanHalfEdges,  ///< red when more than half of its edges are refined (default)
+  AllEdges,           ///< red only when all of its edges are refined
+};
+
 struct AdaptResult {
   Index marked = 0;           ///< marked leaves
   Index redRefined = 0;       ///< elements refined red
@@ -309,11 +319,18 @@ public:
   // --- refinement --------------------------------------------------------------------------------
   /// Moves vertices created later on boundary faces with this id to projection(x) (nullptr: off).
   void setBoundaryProjection(int id, Projection projection);
+  /// Rule 2 of adapt() (see the file comment): which unmarked elements with refined edges are
+  /// refined red instead of closed green. Applies to later adapt() calls.
+  void setClosureRule(ClosureRule rule) { closureRule_ = rule; }
+  ClosureRule closureRule() const { return closureRule_; }
   /// Marks a leaf for refinement (a green leaf: its father is refined red). Throws for non-leaves.
   void mark(Index e);
   /// Marks every leaf.
   void markAll();
   bool isMarked(Index e) const { return marks_[e] != 0; }
+  /// Refined edges of element e: bit k is set when local edge k (localEdges order) has a midpoint
+  /// vertex (for a green father: the pattern its closure fits).
+  unsigned edgePattern(Index e) const;
   void clearMarks();
   /// Refines the marked leaves, propagates and closes (see the file comment); clears the marks.
   AdaptResult adapt();
@@ -358,7 +375,6 @@ private:
   void refineRed(Index e);
   void closeGreen(Index e, unsigned pattern, std::vector<LocalChild>& scratch);
   void removeChildren(Index e);
-  unsigned edgePattern(Index e) const;
   Index edgeMidpoint(Index e, int localEdge);
   void edgeBoundaryIds(Index e, int localEdge, std::vector<int>& ids) const;
   Index faceCentre(Index e, int localFace);
@@ -372,6 +388,7 @@ private:
   GridInputReport report_;
   std::map<int, std::string> names_;
   std::map<int, Projection> projections_;
+  ClosureRule closureRule_ = ClosureRule::MoreThanHalfEdges;
 
   // vertices
   std::vector<Point> x_;
