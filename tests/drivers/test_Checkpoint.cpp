@@ -1004,12 +1004,14 @@ TEST(CheckpointAdaptive, StoppedAndRestartedOneBodyRunEqualsTheUninterruptedOneB
 
 TEST(CheckpointAdaptive, InexactSolvesContinueBitwise) {
   // [adaptivity] inexact: step 2's TNNMG tolerance comes from step 1's eta, eoc, convergence rate
-  // and energy norm, which the checkpoint after step 1 carries
-  const std::vector<std::string> overrides = adaptiveOverrides(4, {"adaptivity.inexact=0.1"});
+  // and energy norm, which the checkpoint after step 1 carries (the fraction is small enough that
+  // the tolerance lies strictly between its bounds 1e-10 and 1e-2, so every input changes it)
+  const std::vector<std::string> overrides = adaptiveOverrides(4, {"adaptivity.inexact=1e-7"});
   const fs::path a = kTmp / "punch_inexact_full", b = kTmp / "punch_inexact_restarted";
   fullRun(kPunch, a, overrides);
   const nlohmann::json steps = summaryOf(a).at("adaptivity").at("steps");
   EXPECT_GT(steps[2].at("solver_tolerance").get<double>(), 1e-10);  // an inexact step after the restart
+  EXPECT_LT(steps[2].at("solver_tolerance").get<double>(), 1e-2);
   const fs::path cp = stopAt(kPunch, b, 1, overrides);
   const obs::CheckpointRecord rec = obs::readCheckpoint(cp);
   EXPECT_GT(rec.real("adaptivity/inexact/last_rate"), 0);
