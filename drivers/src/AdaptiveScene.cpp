@@ -490,11 +490,13 @@ public:
         options_.stepProgress("checkpoint: step " + std::to_string(k) + " -> " + file_.string());
     }
     if (!stop) return;
+    Index vertices = 0;
+    for (const mesh::Grid* g : grids_) vertices += g->leafView().mesh.numVertices();
     std::ostringstream os;
     os << (signalled ? "interrupted by " + InterruptGuard::signalName() : std::string("stopped (--stop-after-step)"))
-       << " after adaptive step " << k << " of " << scene_.adaptivity->steps - 1 << " (" << state.steps.back().vertices
-       << " vertices, refined): checkpoint written to " << file_.string() << "; continue with: obs run "
-       << scene_.fileName << " --restart " << file_.string() << " (and the same --output, --refine and --set options)";
+       << " after adaptive step " << k << " of " << scene_.adaptivity->steps - 1 << " (refined to " << vertices
+       << " vertices): checkpoint written to " << file_.string() << "; continue with: obs run " << scene_.fileName
+       << " --restart " << file_.string() << " (and the same --output, --refine and --set options)";
     throw RunInterrupted(os.str());
   }
 

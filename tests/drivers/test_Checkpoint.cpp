@@ -13,7 +13,14 @@
 //  - multi-body runs (twobody_impact.toml, mortar schemes with and without M~) stopped and restarted
 //    equal the uninterrupted ones bitwise; their checkpoints hold per-body groups with the offsets
 //    into the stacked vectors; a one-body checkpoint for a multi-body scene (and vice versa), other
-//    bodies or a body's other grid are one-line errors naming the difference.
+//    bodies or a body's other grid are one-line errors naming the difference; SIGINT/SIGTERM stop a
+//    multi-body run with exit code 3 and a restartable checkpoint, SIGKILL during checkpoint
+//    writing never leaves an unreadable checkpoint.h5 (the one-body tests' scheme, two bodies);
+//  - adaptive runs ([adaptivity], docs/checkpoint.md#adaptive-runs; one body: the punch, two
+//    bodies: the cylinders) stopped after step k (--stop-after-step, SIGINT) and restarted give the
+//    same .vtu/.pvd, steps.csv (timings aside), pressure.csv and summary.json as the uninterrupted
+//    run; the loop state round-trips through the record; every = N; another scene, --set, --refine,
+//    kind of run, a truncated or damaged file are one-line errors.
 #include <gtest/gtest.h>
 
 #include <hdf5.h>
