@@ -939,7 +939,9 @@ void expectSameAdaptiveRun(const fs::path& a, const fs::path& b, int files) {
   EXPECT_GT(steps.size(), 100u);
   EXPECT_EQ(steps, stepsWithoutTimings(b / "steps.csv"));
   EXPECT_EQ(fs::exists(a / "pressure.csv"), fs::exists(b / "pressure.csv"));
-  if (fs::exists(a / "pressure.csv")) EXPECT_TRUE(slurp(a / "pressure.csv") == slurp(b / "pressure.csv"));
+  if (fs::exists(a / "pressure.csv")) {
+    EXPECT_TRUE(slurp(a / "pressure.csv") == slurp(b / "pressure.csv"));
+  }
   EXPECT_EQ(comparable(summaryOf(a)).dump(1), comparable(summaryOf(b)).dump(1));
 }
 
@@ -1023,6 +1025,19 @@ TEST(CheckpointAdaptive, InexactSolvesContinueBitwise) {
   const obs::CheckpointRecord rec = obs::readCheckpoint(cp);
   EXPECT_GT(rec.real("adaptivity/inexact/last_rate"), 0);
   EXPECT_GT(rec.real("adaptivity/inexact/last_energy_norm"), 0);
+  restartRun(kPunch, b, cp, overrides);
+  expectSameAdaptiveRun(a, b, 5);
+}
+
+TEST(CheckpointAdaptive, UniformRefinementRestartsBitwise) {
+  // refinement = "uniform": no marks are stored, the restart refines every cell as often again
+  const std::vector<std::string> overrides = adaptiveOverrides(4, {"adaptivity.refinement=\"uniform\""});
+  const fs::path a = kTmp / "punch_uniform_full", b = kTmp / "punch_uniform_restarted";
+  fullRun(kPunch, a, overrides);
+  const fs::path cp = stopAt(kPunch, b, 1, overrides);
+  const obs::CheckpointRecord rec = obs::readCheckpoint(cp);
+  EXPECT_EQ(rec.integers("adaptivity/refinement/marked_counts"), (std::vector<long long>{0, 0}));
+  EXPECT_EQ(rec.integer("grid/leaf_cells"), 256 * 16);  // refined twice
   restartRun(kPunch, b, cp, overrides);
   expectSameAdaptiveRun(a, b, 5);
 }
