@@ -20,8 +20,8 @@
 // `obs estimators [--plugin lib.so]...` lists the registered error estimators (after loading plugins).
 //
 // Exit codes: 0 success, 1 error (invalid scene, solver or I/O failure), 2 command-line misuse,
-// 3 a [dynamics] run stopped early (SIGINT/SIGTERM or --stop-after-step) with a checkpoint to continue
-// it with --restart (docs/checkpoint.md); scheme comparisons stop without one.
+// 3 a [dynamics] or [adaptivity] run stopped early (SIGINT/SIGTERM or --stop-after-step) with a
+// checkpoint to continue it with --restart (docs/checkpoint.md); scheme comparisons stop without one.
 // Every error is one line "obs: error: ..." on stderr.
 #include <CLI/CLI.hpp>
 
@@ -192,11 +192,12 @@ int main(int argc, char** argv) {
   run->add_flag("--compare-schemes", compareSchemes,
                 "[dynamics] scenes: also run every other Newmark scheme (timeseries_<scheme>.csv each)");
   run->add_option("--restart", restart,
-                  "[dynamics] scenes: continue from a checkpoint written by an interrupted run of the same "
-                  "scene, into its output directory (docs/checkpoint.md)")
+                  "[dynamics] and [adaptivity] scenes: continue from a checkpoint written by an interrupted "
+                  "run of the same scene, into its output directory (docs/checkpoint.md)")
       ->type_name("FILE.h5");
   run->add_option("--stop-after-step", stopAfterStep,
-                  "[dynamics] scenes: stop after time step K with a checkpoint (as on SIGINT/SIGTERM; exit code 3)")
+                  "[dynamics] scenes: stop after time step K, [adaptivity] scenes after adaptive step K (0, 1, "
+                  "...; its refinement included), with a checkpoint (as on SIGINT/SIGTERM; exit code 3)")
       ->type_name("K");
   run->add_flag("--quiet,-q", quiet, "Print nothing but errors");
   run->add_flag("--verbose,-v", verbose,
@@ -216,8 +217,9 @@ int main(int argc, char** argv) {
       "With [dynamics] the time steppers run (progress on stderr) and write timeseries.csv,\n"
       "<scene name>_NNNNNN.vtu + <scene name>.pvd and summary.json \"dynamics\".\n"
       "Example: obs run data/scenes/dynamics_ball.toml --compare-schemes --plots\n"
-      "SIGINT/SIGTERM stop a [dynamics] run after the current step with <output>/checkpoint.h5 (exit\n"
-      "code 3; [output] checkpoint = { every = N } writes one every N steps); continue with\n"
+      "SIGINT/SIGTERM stop a [dynamics] or [adaptivity] run after the current step with\n"
+      "<output>/checkpoint.h5 (exit code 3; [output] checkpoint = { every = N } writes one every N\n"
+      "steps); continue with\n"
       "  obs run SCENE --restart <output>/checkpoint.h5\n"
       "The scene file format is documented in docs/scenes.md.\n");
 

@@ -22,8 +22,10 @@
 #include "obs/estimators/AdaptiveLoop.hpp"
 #include "obs/estimators/Marking.hpp"
 #include "obs/mesh/Error.hpp"
+#include "obs/obs/Checkpoint.hpp"
 #include "PlotScript.hpp"
 #include "obs/obs/LinearElasticity.hpp"
+#include "RunCheckpoint.hpp"
 #include "RunSupport.hpp"
 
 namespace obs::drivers {
@@ -214,13 +216,14 @@ nlohmann::json stepJson(const est::AdaptiveStep& s, double nodalError) {
   return j;
 }
 
-void writePvd(const fs::path& path, const std::vector<std::pair<int, std::string>>& files) {
+void writePvd(const fs::path& path, const std::vector<PvdEntry>& files) {
   std::ofstream out(path);
   if (!out) throw Error(path.string() + ": cannot write the VTK collection");
   out << "<?xml version=\"1.0\"?>\n"
       << "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n";
-  for (const auto& [step, file] : files)
-    out << "    <DataSet timestep=\"" << step << "\" group=\"\" part=\"0\" file=\"" << file << "\"/>\n";
+  for (const PvdEntry& e : files)
+    out << "    <DataSet timestep=\"" << static_cast<int>(e.time) << "\" group=\"\" part=\"0\" file=\"" << e.file
+        << "\"/>\n";
   out << "  </Collection>\n</VTKFile>\n";
   if (!out) throw Error(path.string() + ": cannot write the VTK collection");
 }
@@ -390,6 +393,133 @@ std::string stepLine(const est::AdaptiveStep& s, int steps) {
   return os.str();
 }
 
+/// Checkpoints of an adaptive run, one body or several (docs/checkpoint.md#adaptive-runs): a
+/// checkpoint after step k (on the [output] checkpoint schedule, at --stop-after-step and on
+/// SIGINT/SIGTERM) holds the loop's state (estimators AdaptiveLoopState: the step records, the
+/// refinement history, the start vector), the identity of the scene and of the initial and refined
+/// grids, and the outputs written so far (the .vtu files, the nodal pressure errors); --restart
+/// checks the scene and the initial grids, replays the refinements, checks the refined grids and
+/// continues with step k + 1.
+class AdaptiveCheckpoints {
+public:
+  /// What the runner has written or collected so far besides the loop's records.
+  struct Outputs {
+    std::vector<PvdEntry> vtu;        ///< .vtu files (time = step, part = body)
+    std::vector<double> nodalErrors;  ///< per step (one body with a reference; else empty)
+  };
+
+  AdaptiveCheckpoints(const Scene& scene, const RunOptions& options, fs::path dir, std::vector<mesh::Grid*> grids,
+                      std::vector<std::string> names)
+      : scene_(scene), options_(options), dir_(std::move(dir)), grids_(std::move(grids)),
+        names_(std::move(names)), schedule_(scene.output.checkpoint), file_(dir_ / "checkpoint.h5") {
+    const int steps = scene.adaptivity->steps;
+    if (options.stopAfterStep && (*options.stopAfterStep < 0 || *options.stopAfterStep > steps - 2))
+      throw Error(scene.fileName + ": --stop-after-step " + std::to_string(*options.stopAfterStep) +
+                  (steps < 2 ? " needs at least two adaptive steps (the run has " + std::to_string(steps) + ")"
+                             : " must lie in [0, " + std::to_string(steps - 2) + "] (the run has steps 0 to " +
+                                   std::to_string(steps - 1) + ")"));
+    for (const mesh::Grid* g : grids_) initial_.push_back(g->leafView().mesh);
+  }
+
+  /// --restart: checks the checkpoint against the scene and the initial grids, restores the loop
+  /// (replaying the refinements) and the outputs, and checks the refined grids; nothing otherwise.
+  void restore(est::AdaptiveLoop& loop, Outputs& outputs, const std::function<void(const std::string&)>& progress) {
+    if (!options_.restart) return;
+    const fs::path& file = *options_.restart;
+    const CheckpointRecord cp = readCheckpoint(file);
+    checkRunScene(cp, file, "adaptive", scene_, names_);
+    checkInitialGrid(cp, file, runBodies(initial_));
+    try {
+      est::AdaptiveLoopState state = est::loadAdaptiveState(cp);
+      const int next = state.nextStep;
+      loop.restore(std::move(state));
+      // the outputs of the interrupted run
+      std::istringstream files(cp.text("run/vtu_files"));
+      for (std::string f; std::getline(files, f);) {
+        if (!fs::exists(dir_ / f))
+          throw Error("the interrupted run's " + (dir_ / f).string() +
+                      " is missing (restart into the output directory of the interrupted run)");
+        outputs.vtu.push_back(PvdEntry{0, 0, f});
+      }
+      const std::vector<long long>& steps = cp.integers("run/vtu_steps");
+      const std::vector<long long>& parts = cp.integers("run/vtu_parts");
+      if (steps.size() != outputs.vtu.size() || parts.size() != outputs.vtu.size())
+        throw Error("run/vtu_files, run/vtu_steps and run/vtu_parts differ in length");
+      for (std::size_t i = 0; i < steps.size(); ++i) {
+        outputs.vtu[i].time = static_cast<double>(steps[i]);
+        outputs.vtu[i].part = static_cast<int>(parts[i]);
+      }
+      const Eigen::VectorXd& e = cp.vector("run/nodal_pressure_errors");
+      outputs.nodalErrors.assign(e.data(), e.data() + e.size());
+      progress("restart from " + file.string() + " at step " + std::to_string(next));
+    } catch (const Error& e) {
+      throw Error(file.string() + ": " + e.what());
+    }
+    std::vector<mesh::Mesh> refined;
+    for (const mesh::Grid* g : grids_) refined.push_back(g->leafView().mesh);
+    checkRunIdentity(cp, file, "adaptive", scene_, runBodies(refined));
+  }
+
+  /// The loop's state hook after step k = state.nextStep - 1: writes a checkpoint if it is due or
+  /// the run stops here, and stops it (RunInterrupted) on a signal or at --stop-after-step.
+  void after(const est::AdaptiveLoopState& state, const Outputs& outputs) {
+    const int k = state.nextStep - 1;
+    const bool signalled = InterruptGuard::requested();
+    const bool stop = signalled || (options_.stopAfterStep && k >= *options_.stopAfterStep);
+    if (stop || schedule_.due(k + 1)) {
+      CheckpointRecord cp;
+      cp.kind = "adaptive";
+      std::vector<mesh::Mesh> refined;
+      for (const mesh::Grid* g : grids_) refined.push_back(g->leafView().mesh);
+      storeRunIdentity(cp, scene_, runBodies(refined));
+      storeInitialGrid(cp, runBodies(initial_));
+      est::storeAdaptiveState(cp, state);
+      std::string files;
+      std::vector<long long> steps, parts;
+      for (const PvdEntry& e : outputs.vtu) {
+        files += e.file + "\n";
+        steps.push_back(static_cast<long long>(e.time));
+        parts.push_back(e.part);
+      }
+      cp.set("run/vtu_files", files, "the .vtu files written so far (one name per line)");
+      cp.set("run/vtu_steps", steps, "the step of each .vtu file");
+      cp.set("run/vtu_parts", parts, "the body of each .vtu file (its part in the .pvd)");
+      Eigen::VectorXd e(static_cast<Eigen::Index>(outputs.nodalErrors.size()));
+      for (std::size_t i = 0; i < outputs.nodalErrors.size(); ++i) e[static_cast<Eigen::Index>(i)] = outputs.nodalErrors[i];
+      cp.set("run/nodal_pressure_errors", e, "the nodal pressure error of each step so far (with a reference; NaN: none)");
+      writeCheckpoint(file_, cp);
+      schedule_.written();
+      if (options_.stepProgress)
+        options_.stepProgress("checkpoint: step " + std::to_string(k) + " -> " + file_.string());
+    }
+    if (!stop) return;
+    Index vertices = 0;
+    for (const mesh::Grid* g : grids_) vertices += g->leafView().mesh.numVertices();
+    std::ostringstream os;
+    os << (signalled ? "interrupted by " + InterruptGuard::signalName() : std::string("stopped (--stop-after-step)"))
+       << " after adaptive step " << k << " of " << scene_.adaptivity->steps - 1 << " (refined to " << vertices
+       << " vertices): checkpoint written to " << file_.string() << "; continue with: obs run " << scene_.fileName
+       << " --restart " << file_.string() << " (and the same --output, --refine and --set options)";
+    throw RunInterrupted(os.str());
+  }
+
+private:
+  std::vector<RunBody> runBodies(const std::vector<mesh::Mesh>& meshes) const {
+    std::vector<RunBody> bodies;
+    for (std::size_t i = 0; i < meshes.size(); ++i) bodies.push_back(RunBody{names_[i], &meshes[i]});
+    return bodies;
+  }
+
+  const Scene& scene_;
+  const RunOptions& options_;
+  fs::path dir_;
+  std::vector<mesh::Grid*> grids_;
+  std::vector<std::string> names_;
+  CheckpointSchedule schedule_;
+  fs::path file_;
+  std::vector<mesh::Mesh> initial_;
+};
+
 /// The common end of the one-body and multi-body adaptive runs: plots, runs.csv row, summary.json
 /// (the run plus "adaptivity"), the "written" line, and the error of an unconverged last step.
 void finishAdaptiveRun(const Scene& scene, const RunOptions& options, const fs::path& dir, const fs::path& stepsCsv,
@@ -509,7 +639,18 @@ RunResult runAdaptiveMultiBody(const Scene& scene, const RunOptions& options) {
   fs::create_directories(dir, ec);
   if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
 
-  std::vector<PvdEntry> vtkFiles;
+  const InterruptGuard interrupts;  // SIGINT/SIGTERM: finish the step, checkpoint, stop
+  std::vector<mesh::Grid*> gridList;
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+    gridList.push_back(&built.grids[i]);
+    names.push_back(scene.bodies[i].name);
+  }
+  AdaptiveCheckpoints checkpoints(scene, options, dir, gridList, names);
+  AdaptiveCheckpoints::Outputs written;
+  std::vector<PvdEntry>& vtkFiles = written.vtu;
+  checkpoints.restore(loop, written, progress);
+  loop.setStateHook([&](const est::AdaptiveLoopState& state) { checkpoints.after(state, written); });
   std::vector<BodyReport> finalBodies;
   std::array<long long, 7> cellsPerType{};
   loop.setCallback([&](const est::AdaptiveStepView& v) {
@@ -639,8 +780,14 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
   fs::create_directories(dir, ec);
   if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
 
-  std::vector<std::pair<int, std::string>> vtkFiles;
-  std::vector<double> nodalErrors;
+  // checkpoints: the same as for several bodies, with the one body's grid
+  const InterruptGuard interrupts;  // SIGINT/SIGTERM: finish the step, checkpoint, stop
+  AdaptiveCheckpoints checkpoints(scene, options, dir, {&grid}, {std::string()});
+  AdaptiveCheckpoints::Outputs written;
+  std::vector<PvdEntry>& vtkFiles = written.vtu;
+  std::vector<double>& nodalErrors = written.nodalErrors;
+  checkpoints.restore(loop, written, progress);
+  loop.setStateHook([&](const est::AdaptiveLoopState& state) { checkpoints.after(state, written); });
   FinalState fin;
   const est::MarkingStrategy marking(spec.marking, spec.theta);
   loop.setCallback([&](const est::AdaptiveStepView& v) {
@@ -657,7 +804,7 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
       char name[32];
       std::snprintf(name, sizeof name, "step_%03d.vtu", v.record.step);
       writeVtu(dir / name, snap.mesh, snap.points, snap.cells);
-      vtkFiles.emplace_back(v.record.step, name);
+      vtkFiles.push_back(PvdEntry{static_cast<double>(v.record.step), 0, name});
     }
     if (reference && v.contactSet && v.outputs && v.record.reference) {
       nodalErrors.resize(static_cast<std::size_t>(v.record.step) + 1, std::nan(""));
@@ -673,7 +820,7 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
   if (!vtkFiles.empty()) {
     const fs::path pvd = dir / (scene.name + ".pvd");
     writePvd(pvd, vtkFiles);
-    for (const auto& [step, file] : vtkFiles) r.outputFiles.push_back(dir / file);
+    for (const PvdEntry& e : vtkFiles) r.outputFiles.push_back(dir / e.file);
     r.outputFiles.push_back(pvd);
   }
   const fs::path stepsCsv = dir / "steps.csv";

@@ -28,6 +28,11 @@ std::vector<std::string> lines(const std::string& text) {
   return out;
 }
 
+/// "a dynamic", "an adaptive"
+std::string article(const std::string& word) {
+  return (!word.empty() && std::string("aeiou").find(word[0]) != std::string::npos ? "an " : "a ") + word;
+}
+
 std::string quoted(std::string s) {
   if (s.size() > 60) s = s.substr(0, 57) + "...";
   return "'" + s + "'";
@@ -118,20 +123,19 @@ void storeRunIdentity(CheckpointRecord& r, const Scene& scene, const std::vector
   }
 }
 
-void checkRunIdentity(const CheckpointRecord& r, const std::filesystem::path& file, const std::string& kind,
-                      const Scene& scene, const std::vector<RunBody>& bodies) {
+void checkRunScene(const CheckpointRecord& r, const std::filesystem::path& file, const std::string& kind,
+                   const Scene& scene, const std::vector<std::string>& bodyNames) {
   const std::string where = file.string() + ": ";
   if (r.kind != kind)
-    throw Error(where + "a checkpoint of a " + (r.kind.empty() ? "unknown" : r.kind) + " run, this is a " + kind +
-                " run");
+    throw Error(where + "a checkpoint of " + article(r.kind.empty() ? "unknown" : r.kind) + " run, this is " +
+                article(kind) + " run");
   try {
     // the bodies first: one body against several, their number and names
     std::vector<std::string> stored, now;
     if (r.has("bodies/count"))
       for (long long b = 0; b < r.integer("bodies/count"); ++b)
         stored.push_back(r.text(bodyGroup(static_cast<std::size_t>(b)) + "name"));
-    if (scene.multiBody())
-      for (const RunBody& b : bodies) now.push_back(b.name);
+    if (scene.multiBody()) now = bodyNames;
     if (stored.empty() != now.empty())
       throw Error(stored.empty() ? "a checkpoint of a one-body run, " + scene.fileName + " is a multi-body scene with " +
                                        bodyList(now)
@@ -170,7 +174,19 @@ void checkRunIdentity(const CheckpointRecord& r, const std::filesystem::path& fi
       throw Error("written for another scene (scene hash " + r.text("scene/hash") + ", " + scene.fileName +
                   " has " + hash + "): " + what);
     }
-    if (!stored.empty()) {  // several bodies: the grid of each
+  } catch (const Error& e) {
+    throw Error(where + e.what());
+  }
+}
+
+void checkRunIdentity(const CheckpointRecord& r, const std::filesystem::path& file, const std::string& kind,
+                      const Scene& scene, const std::vector<RunBody>& bodies) {
+  std::vector<std::string> names;
+  for (const RunBody& b : bodies) names.push_back(b.name);
+  checkRunScene(r, file, kind, scene, names);
+  const std::string where = file.string() + ": ";
+  try {
+    if (r.has("bodies/count")) {  // several bodies: the grid of each
       for (std::size_t b = 0; b < bodies.size(); ++b) {
         const mesh::Mesh& leaf = *bodies[b].leaf;
         const std::string g0 = bodyGroup(b);
@@ -192,6 +208,32 @@ void checkRunIdentity(const CheckpointRecord& r, const std::filesystem::path& fi
     if (r.text("grid/leaf_checksum") != hexHash(g.checksum))
       throw Error("the grid checksum differs (" + r.text("grid/leaf_checksum") + " in the checkpoint, " +
                   hexHash(g.checksum) + " now): the mesh was built differently");
+  } catch (const Error& e) {
+    throw Error(where + e.what());
+  }
+}
+
+void storeInitialGrid(CheckpointRecord& r, const std::vector<RunBody>& bodies) {
+  const GridIdentity g = gridIdentity(bodies);
+  r.set("initial_grid/leaf_vertices", g.vertices, "vertices of the initial leaf meshes (all bodies), before any refinement");
+  r.set("initial_grid/leaf_cells", g.cells, "cells of the initial leaf meshes (all bodies)");
+  r.set("initial_grid/leaf_checksum", hexHash(g.checksum),
+        "FNV-1a 64 of the initial leaf vertex coordinates and cell vertex lists (bodies in stacked order): the "
+        "grids the refinement history is replayed on");
+}
+
+void checkInitialGrid(const CheckpointRecord& r, const std::filesystem::path& file, const std::vector<RunBody>& bodies) {
+  const std::string where = file.string() + ": ";
+  try {
+    const GridIdentity g = gridIdentity(bodies);
+    const long long nv = r.integer("initial_grid/leaf_vertices"), nc = r.integer("initial_grid/leaf_cells");
+    if (nv != g.vertices || nc != g.cells)
+      throw Error("written for an initial grid of " + std::to_string(nv) + " vertices / " + std::to_string(nc) +
+                  " cells, this run starts from " + std::to_string(g.vertices) + " / " + std::to_string(g.cells) +
+                  " (another --refine?)");
+    if (r.text("initial_grid/leaf_checksum") != hexHash(g.checksum))
+      throw Error("the initial grid's checksum differs (" + r.text("initial_grid/leaf_checksum") +
+                  " in the checkpoint, " + hexHash(g.checksum) + " now): the mesh was built differently");
   } catch (const Error& e) {
     throw Error(where + e.what());
   }

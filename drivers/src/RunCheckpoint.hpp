@@ -35,6 +35,19 @@ struct RunBody {
 /// "leaf_checksum" (docs/checkpoint.md#several-bodies); a one-body checkpoint has no "bodies/".
 void storeRunIdentity(CheckpointRecord& record, const Scene& scene, const std::vector<RunBody>& bodies);
 
+/// The first part of checkRunIdentity: the kind of run, the bodies (names in stacked order; ignored
+/// for a one-body scene) and the scene text and overrides, without the grid (an adaptive restart
+/// checks the scene before it replays the refinements, and the grids after).
+void checkRunScene(const CheckpointRecord& record, const std::filesystem::path& file, const std::string& kind,
+                   const Scene& scene, const std::vector<std::string>& bodyNames);
+
+/// Adaptive runs: "initial_grid/leaf_vertices", "leaf_cells", "leaf_checksum" of the bodies' grids
+/// before any refinement (stacked), and the one-line obs::Error "<file>: ..." of a restart whose
+/// initial grids differ (another --refine).
+void storeInitialGrid(CheckpointRecord& record, const std::vector<RunBody>& bodies);
+void checkInitialGrid(const CheckpointRecord& record, const std::filesystem::path& file,
+                      const std::vector<RunBody>& bodies);
+
 /// Throws a one-line obs::Error "<file>: ..." naming what differs if the checkpoint was written for
 /// another kind of run, another set of bodies (one body against several, their number or names),
 /// another scene (first differing line of the text, or the overrides) or another grid (vertex/cell

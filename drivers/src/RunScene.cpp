@@ -175,9 +175,9 @@ RunResult runScene(const std::filesystem::path& sceneFile, const RunOptions& opt
 }
 
 RunResult runScene(const Scene& scene, const RunOptions& options) {
-  if (!scene.dynamics && (options.restart || options.stopAfterStep))
+  if (!scene.dynamics && !scene.adaptivity && (options.restart || options.stopAfterStep))
     throw Error(scene.fileName + ": " + (options.restart ? "--restart" : "--stop-after-step") +
-                " applies to [dynamics] scenes only (static and adaptive runs write no checkpoints)");
+                " applies to [dynamics] and [adaptivity] scenes only (static runs write no checkpoints)");
   if (scene.adaptivity) return runAdaptiveScene(scene, options);
   if (scene.multiBody()) return runMultiBodyScene(scene, options);
   const auto start = Clock::now();

@@ -710,9 +710,9 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
           throw Error(scene.where(b.bodyInitialVelocityLine ? b.bodyInitialVelocityLine : b.bodyInitialDisplacementLine) +
                       "[[body]] '" + b.name + "': initial_velocity / initial_displacement need a [dynamics] section");
     }
-    if (scene.output.checkpoint && !scene.dynamics)
+    if (scene.output.checkpoint && !scene.dynamics && !scene.adaptivity)
       throw Error(scene.where(scene.output.checkpoint->line) +
-                  "[output] checkpoint applies to [dynamics] scenes only (static and adaptive runs write none)");
+                  "[output] checkpoint applies to [dynamics] and [adaptivity] scenes only (static runs write none)");
     return scene;
   }
   parseBodySections(scene, t, "", 0);
@@ -728,9 +728,9 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
     scene.dynamics = parseDynamics(scene, *dy);
     checkDynamicScene(scene);
   }
-  if (scene.output.checkpoint && !scene.dynamics)
+  if (scene.output.checkpoint && !scene.dynamics && !scene.adaptivity)
     throw Error(scene.where(scene.output.checkpoint->line) +
-                "[output] checkpoint applies to [dynamics] scenes only (static and adaptive runs write none)");
+                "[output] checkpoint applies to [dynamics] and [adaptivity] scenes only (static runs write none)");
   return scene;
 }
 

@@ -163,6 +163,50 @@ void AdaptiveLoop::setReference(ContactReference reference) { reference_ = std::
 
 void AdaptiveLoop::setCallback(Callback callback) { callback_ = std::move(callback); }
 
+void AdaptiveLoop::setStateHook(StateHook hook) { stateHook_ = std::move(hook); }
+
+void AdaptiveLoop::restore(AdaptiveLoopState state) {
+  const std::size_t nb = bodies_.size();
+  const int k = state.nextStep;
+  if (k < 1 || k >= options_.maxSteps)
+    throw Error("adaptive loop: cannot continue with step " + std::to_string(k) + " (the loop has steps 0 to " +
+                std::to_string(options_.maxSteps - 1) + ")");
+  if (state.steps.size() != static_cast<std::size_t>(k) || state.refinements.size() != static_cast<std::size_t>(k))
+    throw Error("adaptive loop: a state before step " + std::to_string(k) + " needs " + std::to_string(k) +
+                " step records and refinements, it has " + std::to_string(state.steps.size()) + " and " +
+                std::to_string(state.refinements.size()));
+  for (int j = 0; j < k; ++j) {
+    const std::size_t sj = static_cast<std::size_t>(j);
+    if (state.refinements[sj].size() != nb || state.steps[sj].bodies.size() != nb)
+      throw Error("adaptive loop: the state of step " + std::to_string(j) + " has " +
+                  std::to_string(state.refinements[sj].size()) + " bodies, the loop " + std::to_string(nb));
+  }
+  // replay the refinements: the grids of step k, as the interrupted loop refined them
+  for (int j = 0; j < k; ++j)
+    for (std::size_t i = 0; i < nb; ++i) {
+      mesh::Grid& grid = *bodies_[i].grid;
+      if (options_.mode == RefinementMode::Uniform) {
+        grid.refineUniformly();
+        continue;
+      }
+      const std::vector<Index>& marked = state.refinements[static_cast<std::size_t>(j)][i];
+      if (marked.empty()) continue;
+      const mesh::GridView view = grid.leafView();
+      if (view.mesh.numCells() != state.steps[static_cast<std::size_t>(j)].bodies[i].cells)
+        throw Error("adaptive loop: replaying the refinement after step " + std::to_string(j) + ": body '" +
+                    bodies_[i].name + "' has " + std::to_string(view.mesh.numCells()) + " leaf cells, the record " +
+                    std::to_string(state.steps[static_cast<std::size_t>(j)].bodies[i].cells));
+      for (Index c : marked) {
+        if (c < 0 || c >= view.mesh.numCells())
+          throw Error("adaptive loop: replaying the refinement after step " + std::to_string(j) + ": body '" +
+                      bodies_[i].name + "' has no leaf cell " + std::to_string(c));
+        grid.mark(view.elements[static_cast<std::size_t>(c)]);
+      }
+      grid.adapt();
+    }
+  resume_ = std::move(state);
+}
+
 std::vector<AdaptiveStep> AdaptiveLoop::run() {
   return bodies_.front().grid->dimension() == 2 ? runDim<2>() : runDim<3>();
 }
@@ -476,7 +520,25 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
   for (const AdaptiveBody& b : bodies_) views.push_back(b.grid->leafView());
   Eigen::VectorXd start;  // stacked displacements; empty: cold start
   double transferSeconds = 0;
-  for (int k = 0; k < options_.maxSteps; ++k) {
+  std::vector<std::vector<std::vector<Index>>> refinements;  // [step][body]: marked leaf cells
+  int firstStep = 0;
+  if (resume_) {  // restore(): the grids are those of step nextStep already
+    firstStep = resume_->nextStep;
+    steps = std::move(resume_->steps);
+    refinements = std::move(resume_->refinements);
+    start = std::move(resume_->start);
+    transferSeconds = resume_->transferSeconds;
+    lastRate_ = resume_->lastRate;
+    lastEnergyNorm_ = resume_->lastEnergyNorm;
+    resume_.reset();
+    Index total = 0;
+    for (const mesh::GridView& v : views) total += v.mesh.numVertices();
+    if (start.size() != 0 && start.size() != static_cast<Eigen::Index>(total) * d)
+      throw Error("adaptive loop: the restored start vector has " + std::to_string(start.size()) +
+                  " entries, the leaf views of step " + std::to_string(firstStep) + " " + std::to_string(total * d) +
+                  " unknowns");
+  }
+  for (int k = firstStep; k < options_.maxSteps; ++k) {
     AdaptiveStep rec;
     rec.step = k;
     rec.transferSeconds = transferSeconds;
@@ -665,8 +727,10 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
       break;
     }
     t = Clock::now();
+    refinements.emplace_back(nb);
     for (std::size_t i = 0; i < nb; ++i) {
       mesh::Grid& grid = *bodies_[i].grid;
+      if (adaptive) refinements.back()[i] = body[i].marked;
       if (adaptive) {
         if (body[i].marked.empty()) continue;
         for (Index c : body[i].marked) grid.mark(views[i].elements[c]);
@@ -708,6 +772,17 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
     transferSeconds = since(t);
     views = std::move(next);
     u_ = std::move(u);
+    if (stateHook_) {
+      AdaptiveLoopState state;
+      state.nextStep = k + 1;
+      state.steps = steps;
+      state.refinements = refinements;
+      state.start = start;
+      state.transferSeconds = transferSeconds;
+      state.lastRate = lastRate_;
+      state.lastEnergyNorm = lastEnergyNorm_;
+      stateHook_(state);
+    }
   }
   return steps;
 }

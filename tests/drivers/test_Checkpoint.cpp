@@ -13,7 +13,14 @@
 //  - multi-body runs (twobody_impact.toml, mortar schemes with and without M~) stopped and restarted
 //    equal the uninterrupted ones bitwise; their checkpoints hold per-body groups with the offsets
 //    into the stacked vectors; a one-body checkpoint for a multi-body scene (and vice versa), other
-//    bodies or a body's other grid are one-line errors naming the difference.
+//    bodies or a body's other grid are one-line errors naming the difference; SIGINT/SIGTERM stop a
+//    multi-body run with exit code 3 and a restartable checkpoint, SIGKILL during checkpoint
+//    writing never leaves an unreadable checkpoint.h5 (the one-body tests' scheme, two bodies);
+//  - adaptive runs ([adaptivity], docs/checkpoint.md#adaptive-runs; one body: the punch, two
+//    bodies: the cylinders) stopped after step k (--stop-after-step, SIGINT) and restarted give the
+//    same .vtu/.pvd, steps.csv (timings aside), pressure.csv and summary.json as the uninterrupted
+//    run; the loop state round-trips through the record; every = N; another scene, --set, --refine,
+//    kind of run, a truncated or damaged file are one-line errors.
 #include <gtest/gtest.h>
 
 #include <hdf5.h>
@@ -40,6 +47,7 @@
 #include "obs/drivers/RunScene.hpp"
 #include "obs/drivers/SceneParser.hpp"
 #include "obs/drivers/SceneSetup.hpp"
+#include "obs/estimators/AdaptiveLoop.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/Checkpoint.hpp"
 #include "obs/obs/Newmark.hpp"
@@ -556,7 +564,7 @@ TEST(CheckpointRestart, RestartWithAnotherSceneGridOrOutputIsAnErrorNamingTheDif
   // a checkpoint of a static scene cannot exist; a static scene with --restart is refused
   const fs::path plain = writeScene("plain", "[mesh]\ngenerator = \"box\"\ntype = \"quadrilateral\"\ncells = [2, 2]\n[material]\nE = 1\nnu = 0.3\n"
                                              "[[dirichlet]]\nboundary = \"left\"\n");
-  expectContains(restart(plain, quiet(kTmp / "plain")), {"--restart applies to [dynamics] scenes only"});
+  expectContains(restart(plain, quiet(kTmp / "plain")), {"--restart applies to [dynamics] and [adaptivity] scenes only"});
   // --stop-after-step beyond the run
   o = quiet(kTmp / "err_stop");
   o.stopAfterStep = 200;
@@ -715,7 +723,7 @@ TEST(CheckpointMultiBody, OneBodyAgainstSeveralOrOtherBodiesAreOneLineErrors) {
                                         "\n[output]\ncheckpoint = { every = 5 }\n",
                                     "static2.toml", fs::path(OBS_DATA_DIR) / "scenes");
                  }),
-                 {"static2.toml:", "[output] checkpoint applies to [dynamics] scenes only"});
+                 {"static2.toml:", "[output] checkpoint applies to [dynamics] and [adaptivity] scenes only"});
   // the same bodies, another scene text or other overrides: as for one body
   o = quiet(dir);
   o.overrides = twoBodyOverrides("contact-implicit", {"dynamics.output_stride=5"});
@@ -739,7 +747,7 @@ TEST(CheckpointScene, BadCheckpointKeysAreErrorsWithFileAndLine) {
                                     "checkpoint = { every = 5 }\n",
                                     "static.toml", kTmp);
                  }),
-                 {"static.toml:9: [output] checkpoint applies to [dynamics] scenes only"});
+                 {"static.toml:9: [output] checkpoint applies to [dynamics] and [adaptivity] scenes only"});
   const fs::path scene =
       writeScene("bar_compare", barScene(10, "checkpoint = { every = 5 }\n") + "compare = [\"classical\"]\n");
   expectContains(errorOf([&] { runScene(scene, quiet(kTmp / "compare")); }),
@@ -749,4 +757,460 @@ TEST(CheckpointScene, BadCheckpointKeysAreErrorsWithFileAndLine) {
   ASSERT_TRUE(s.output.checkpoint);
   EXPECT_EQ(*s.output.checkpoint->every, 5);
   EXPECT_EQ(*s.output.checkpoint->seconds, 600);
+}
+
+// --- several bodies: signals and SIGKILL during writing ---------------------------------------------
+
+namespace {
+
+/// Runs `obs run <scene> --output <dir> <args>` in a child process (stderr to dir/run.err, stdout
+/// discarded); returns its pid.
+pid_t startObs(const fs::path& scene, const fs::path& dir, const std::vector<std::string>& args) {
+  fs::create_directories(dir);
+  std::vector<std::string> argv = {"obs", "run", scene.string(), "--output", dir.string()};
+  argv.insert(argv.end(), args.begin(), args.end());
+  const std::string err = (dir / "run.err").string();
+  const pid_t pid = fork();
+  if (pid == 0) {
+    (void)!freopen(err.c_str(), "w", stderr);
+    (void)!freopen("/dev/null", "w", stdout);
+    std::vector<char*> c;
+    for (std::string& a : argv) c.push_back(a.data());
+    c.push_back(nullptr);
+    execv(OBS_BINARY, c.data());
+    _exit(127);
+  }
+  return pid;
+}
+
+/// `--set` arguments of a list of overrides.
+std::vector<std::string> setArgs(const std::vector<std::string>& overrides) {
+  std::vector<std::string> a;
+  for (const std::string& o : overrides) a.insert(a.end(), {"--set", o});
+  return a;
+}
+
+/// Waits until `file` exists (at most ~20 s).
+void waitFor(const fs::path& file) {
+  for (int i = 0; i < 40000 && !fs::exists(file); ++i) std::this_thread::sleep_for(std::chrono::microseconds(500));
+}
+
+/// The exit code of a child (-1 if it did not exit normally).
+int exitCodeOf(pid_t pid) {
+  int status = 0;
+  waitpid(pid, &status, 0);
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+}  // namespace
+
+TEST(CheckpointMultiBody, SigintAndSigtermFinishTheStepWriteACheckpointAndExitWith3) {
+  if (!fs::exists(OBS_BINARY)) GTEST_SKIP() << "obs not built: " << OBS_BINARY;
+  // the two-body impact, long enough that the signal arrives during the time stepping; one
+  // uninterrupted run to compare both restarted runs with
+  const std::vector<std::string> overrides = twoBodyOverrides("contact-implicit", {"dynamics.steps=400",
+                                                                                    "dynamics.output_stride=100"});
+  const fs::path a = kTmp / "twobody_signal_full";
+  fs::remove_all(a);
+  RunOptions full = quiet(a);
+  full.overrides = overrides;
+  runScene(kTwoBody, full);
+  for (const int signal : {SIGINT, SIGTERM}) {
+    const std::string name = signal == SIGINT ? "SIGINT" : "SIGTERM";
+    SCOPED_TRACE(name);
+    const fs::path b = kTmp / ("twobody_signal_" + name);
+    fs::remove_all(b);
+    const pid_t pid = startObs(kTwoBody, b, setArgs(overrides));
+    ASSERT_GT(pid, 0);
+    // signal once the time stepping has begun (the time series has rows)
+    for (int i = 0; i < 20000; ++i) {
+      std::ifstream in(b / "timeseries.csv");
+      std::string line;
+      int rows = 0;
+      while (rows < 5 && std::getline(in, line)) ++rows;
+      if (rows >= 5) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    kill(pid, signal);
+    ASSERT_EQ(exitCodeOf(pid), 3) << slurp(b / "run.err");
+    const std::string err = slurp(b / "run.err");
+    ASSERT_NE(err.find("obs: error:"), std::string::npos) << err;
+    expectContains(err.substr(err.find("obs: error:")),
+                   {"interrupted by " + name + " after step", "checkpoint written to", "--restart"});
+    const obs::CheckpointRecord rec = obs::readCheckpoint(b / "checkpoint.h5");
+    EXPECT_EQ(rec.integer("bodies/count"), 2);
+    const long long k = rec.integer("scheme/step");
+    EXPECT_GT(k, 0);
+    EXPECT_LT(k, 400);
+    std::vector<std::string> args = setArgs(overrides);
+    std::string restartArgs = "run '" + kTwoBody.string() + "' --output '" + b.string() + "' --restart '" +
+                              (b / "checkpoint.h5").string() + "' -q";
+    for (const std::string& o : overrides) restartArgs += " --set '" + o + "'";
+    const auto restarted = obs::test::runObs(kTmp, restartArgs, "twobody_signal_restart_" + name);
+    ASSERT_EQ(restarted.code, 0) << restarted.err;
+    expectSameRun(a, b);
+    EXPECT_EQ(slurp(a / "twobody_impact.pvd"), slurp(b / "twobody_impact.pvd"));
+  }
+}
+
+TEST(CheckpointMultiBody, KillDuringCheckpointWritingNeverLeavesACorruptLatestFile) {
+  if (!fs::exists(OBS_BINARY)) GTEST_SKIP() << "obs not built: " << OBS_BINARY;
+  // a checkpoint after every step of the two-body impact; SIGKILL 0, 3, 6, ... ms after the first
+  // checkpoint appeared lands during writes, between them and during renames
+  const fs::path scene = writeScene("twobody_kill", slurp(kTwoBody) + "\n[output]\ncheckpoint = { every = 1 }\nvtk = false\n");
+  const std::vector<std::string> overrides = twoBodyOverrides("contact-implicit");
+  int checked = 0, withTemporary = 0;
+  for (int delayMs = 0; delayMs <= 21; delayMs += 3) {
+    SCOPED_TRACE(delayMs);
+    const fs::path dir = kTmp / "twobody_kill";
+    fs::remove_all(dir);
+    const pid_t pid = startObs(scene, dir, setArgs(overrides));
+    ASSERT_GT(pid, 0);
+    waitFor(dir / "checkpoint.h5");
+    std::this_thread::sleep_for(std::chrono::milliseconds(delayMs));
+    kill(pid, SIGKILL);
+    exitCodeOf(pid);
+    ASSERT_TRUE(fs::exists(dir / "checkpoint.h5"));
+    withTemporary += fs::exists(dir / "checkpoint.h5.tmp");
+    const obs::CheckpointRecord r = obs::readCheckpoint(dir / "checkpoint.h5");  // throws if damaged
+    EXPECT_GE(r.integer("scheme/step"), 1);
+    EXPECT_EQ(r.integer("bodies/count"), 2);
+    ++checked;
+    if (delayMs == 9) {  // a restart after SIGKILL completes the run
+      RunOptions o = quiet(dir);
+      o.restart = dir / "checkpoint.h5";
+      o.overrides = overrides;
+      runScene(scene, o);
+      EXPECT_EQ(summaryOf(dir).at("dynamics").at("steps"), 60);
+    }
+  }
+  std::cout << "[ info ] " << checked << " two-body runs killed, " << withTemporary
+            << " of them while checkpoint.h5.tmp existed; every checkpoint.h5 was readable\n";
+}
+
+// --- adaptive runs ([adaptivity], one body and several) ------------------------------------------
+
+namespace {
+
+/// The flat punch (example 1A, 256 quadrilaterals to start) and the two cylinders (two bodies,
+/// dual mortar), shortened, with a .vtu of every step.
+const fs::path kPunch = fs::path(OBS_DATA_DIR) / "scenes" / "example1a.toml";
+const fs::path kCylinders = fs::path(OBS_DATA_DIR) / "scenes" / "twobody_cylinders_adaptive.toml";
+
+std::vector<std::string> adaptiveOverrides(int steps, std::vector<std::string> more = {}) {
+  std::vector<std::string> o = {"adaptivity.steps=" + std::to_string(steps), "adaptivity.vtk=\"every\""};
+  o.insert(o.end(), more.begin(), more.end());
+  return o;
+}
+
+/// steps.csv without its four wall-time columns.
+std::string stepsWithoutTimings(const fs::path& csv) {
+  std::istringstream in(slurp(csv));
+  std::string out;
+  std::vector<bool> timing;
+  for (std::string line; std::getline(in, line);) {
+    std::vector<std::string> f;
+    std::stringstream ls(line);
+    for (std::string x; std::getline(ls, x, ',');) f.push_back(x);
+    if (timing.empty())
+      for (const std::string& h : f)
+        timing.push_back(h == "solver_s" || h == "estimator_s" || h == "refinement_s" || h == "transfer_s");
+    for (std::size_t k = 0; k < f.size(); ++k)
+      if (k >= timing.size() || !timing[k]) out += f[k] + ",";
+    out += "\n";
+  }
+  return out;
+}
+
+/// Every .vtu/.pvd of `a` exists in `b` with the same bytes (at least `files` of them); the same
+/// steps.csv (timings aside), pressure.csv and summary.json (timings and paths aside).
+void expectSameAdaptiveRun(const fs::path& a, const fs::path& b, int files) {
+  int n = 0;
+  for (const auto& e : fs::directory_iterator(a)) {
+    const std::string ext = e.path().extension().string();
+    if (ext != ".vtu" && ext != ".pvd") continue;
+    ++n;
+    const fs::path other = b / e.path().filename();
+    ASSERT_TRUE(fs::exists(other)) << other;
+    EXPECT_TRUE(slurp(e.path()) == slurp(other)) << e.path().filename() << " differs";
+  }
+  EXPECT_GE(n, files);
+  const std::string steps = stepsWithoutTimings(a / "steps.csv");
+  EXPECT_GT(steps.size(), 100u);
+  EXPECT_EQ(steps, stepsWithoutTimings(b / "steps.csv"));
+  EXPECT_EQ(fs::exists(a / "pressure.csv"), fs::exists(b / "pressure.csv"));
+  if (fs::exists(a / "pressure.csv")) {
+    EXPECT_TRUE(slurp(a / "pressure.csv") == slurp(b / "pressure.csv"));
+  }
+  EXPECT_EQ(comparable(summaryOf(a)).dump(1), comparable(summaryOf(b)).dump(1));
+}
+
+/// The uninterrupted run of `scene` with `overrides` into dir.
+void fullRun(const fs::path& scene, const fs::path& dir, const std::vector<std::string>& overrides) {
+  fs::remove_all(dir);
+  RunOptions o = quiet(dir);
+  o.overrides = overrides;
+  runScene(scene, o);
+}
+
+/// Restarts `scene` from `checkpoint` into dir.
+void restartRun(const fs::path& scene, const fs::path& dir, const fs::path& checkpoint,
+                const std::vector<std::string>& overrides) {
+  RunOptions o = quiet(dir);
+  o.overrides = overrides;
+  o.restart = checkpoint;
+  runScene(scene, o);
+}
+
+}  // namespace
+
+TEST(CheckpointAdaptive, StoppedAndRestartedOneBodyRunEqualsTheUninterruptedOneBitwise) {
+  // the punch, 4 solves; stopped after step 0 (one refinement), 1 and 2 (the last refinement)
+  const std::vector<std::string> overrides = adaptiveOverrides(4);
+  const fs::path a = kTmp / "punch_full";
+  fullRun(kPunch, a, overrides);
+  const nlohmann::json full = summaryOf(a).at("adaptivity").at("steps");
+  ASSERT_EQ(full.size(), 4u);
+  for (int k : {0, 1, 2}) {
+    SCOPED_TRACE("stopped after step " + std::to_string(k));
+    const fs::path b = kTmp / ("punch_restarted_" + std::to_string(k));
+    const fs::path cp = stopAt(kPunch, b, k, overrides);
+    ASSERT_TRUE(fs::exists(cp));
+    EXPECT_FALSE(fs::exists(b / "summary.json"));
+    EXPECT_FALSE(fs::exists(b / "steps.csv"));
+    // the layout (docs/checkpoint.md#adaptive-runs)
+    const obs::CheckpointRecord rec = obs::readCheckpoint(cp);
+    EXPECT_EQ(rec.kind, "adaptive");
+    EXPECT_EQ(rec.text("scene/text"), slurp(kPunch));
+    EXPECT_FALSE(rec.has("bodies/count"));
+    EXPECT_EQ(rec.integer("adaptivity/next_step"), k + 1);
+    EXPECT_EQ(rec.integer("adaptivity/body_count"), 1);
+    EXPECT_EQ(rec.integer("initial_grid/leaf_vertices"), 17 * 17);
+    // the grid is the one step k + 1 of the full run computed on
+    EXPECT_EQ(rec.integer("grid/leaf_vertices"), full[k + 1].at("vertices").get<long long>());
+    EXPECT_EQ(rec.integer("grid/leaf_cells"), full[k + 1].at("cells").get<long long>());
+    const std::vector<long long>& counts = rec.integers("adaptivity/refinement/marked_counts");
+    ASSERT_EQ(counts.size(), static_cast<std::size_t>(k + 1));
+    long long marked = 0;
+    for (int j = 0; j <= k; ++j) {
+      EXPECT_EQ(counts[j], full[j].at("marked").get<long long>());
+      EXPECT_EQ(rec.vector("adaptivity/steps/eta")[j], full[j].at("eta").get<double>());
+      marked += counts[j];
+    }
+    EXPECT_EQ(rec.integers("adaptivity/refinement/marked_cells").size(), static_cast<std::size_t>(marked));
+    EXPECT_EQ(rec.vector("adaptivity/start").size(), 2 * rec.integer("grid/leaf_vertices"));
+    EXPECT_EQ(rec.integers("adaptivity/steps/has_reference").size(), static_cast<std::size_t>(k + 1));
+    EXPECT_EQ(rec.text("run/vtu_files"), [&] {
+      std::string s;
+      for (int j = 0; j <= k; ++j) s += "step_00" + std::to_string(j) + ".vtu\n";
+      return s;
+    }());
+    EXPECT_EQ(rec.vector("run/nodal_pressure_errors").size(), k + 1);
+    restartRun(kPunch, b, cp, overrides);
+    expectSameAdaptiveRun(a, b, 5);
+  }
+}
+
+TEST(CheckpointAdaptive, InexactSolvesContinueBitwise) {
+  // [adaptivity] inexact: step 2's TNNMG tolerance comes from step 1's eta, eoc, convergence rate
+  // and energy norm, which the checkpoint after step 1 carries (the fraction is small enough that
+  // the tolerance lies strictly between its bounds 1e-10 and 1e-2, so every input changes it)
+  const std::vector<std::string> overrides = adaptiveOverrides(4, {"adaptivity.inexact=1e-7"});
+  const fs::path a = kTmp / "punch_inexact_full", b = kTmp / "punch_inexact_restarted";
+  fullRun(kPunch, a, overrides);
+  const nlohmann::json steps = summaryOf(a).at("adaptivity").at("steps");
+  EXPECT_GT(steps[2].at("solver_tolerance").get<double>(), 1e-10);  // an inexact step after the restart
+  EXPECT_LT(steps[2].at("solver_tolerance").get<double>(), 1e-2);
+  const fs::path cp = stopAt(kPunch, b, 1, overrides);
+  const obs::CheckpointRecord rec = obs::readCheckpoint(cp);
+  EXPECT_GT(rec.real("adaptivity/inexact/last_rate"), 0);
+  EXPECT_GT(rec.real("adaptivity/inexact/last_energy_norm"), 0);
+  restartRun(kPunch, b, cp, overrides);
+  expectSameAdaptiveRun(a, b, 5);
+}
+
+TEST(CheckpointAdaptive, UniformRefinementRestartsBitwise) {
+  // refinement = "uniform": no marks are stored, the restart refines every cell as often again
+  const std::vector<std::string> overrides = adaptiveOverrides(4, {"adaptivity.refinement=\"uniform\""});
+  const fs::path a = kTmp / "punch_uniform_full", b = kTmp / "punch_uniform_restarted";
+  fullRun(kPunch, a, overrides);
+  const fs::path cp = stopAt(kPunch, b, 1, overrides);
+  const obs::CheckpointRecord rec = obs::readCheckpoint(cp);
+  EXPECT_EQ(rec.integers("adaptivity/refinement/marked_counts"), (std::vector<long long>{0, 0}));
+  EXPECT_EQ(rec.integer("grid/leaf_cells"), 256 * 16);  // refined twice
+  restartRun(kPunch, b, cp, overrides);
+  expectSameAdaptiveRun(a, b, 5);
+}
+
+TEST(CheckpointAdaptive, StoppedAndRestartedTwoBodyRunEqualsTheUninterruptedOneBitwise) {
+  // two bodies refined together (dual mortar between them); stopped after step 0 and 1
+  const std::vector<std::string> overrides = adaptiveOverrides(3);
+  const fs::path a = kTmp / "cylinders_full";
+  fullRun(kCylinders, a, overrides);
+  const nlohmann::json full = summaryOf(a).at("adaptivity").at("steps");
+  ASSERT_EQ(full.size(), 3u);
+  for (int k : {0, 1}) {
+    SCOPED_TRACE("stopped after step " + std::to_string(k));
+    const fs::path b = kTmp / ("cylinders_restarted_" + std::to_string(k));
+    const fs::path cp = stopAt(kCylinders, b, k, overrides);
+    ASSERT_TRUE(fs::exists(cp));
+    EXPECT_FALSE(fs::exists(b / "summary.json"));
+    const obs::CheckpointRecord rec = obs::readCheckpoint(cp);
+    EXPECT_EQ(rec.kind, "adaptive");
+    ASSERT_EQ(rec.integer("bodies/count"), 2);
+    EXPECT_EQ(rec.text("bodies/0/name"), "block");
+    EXPECT_EQ(rec.text("bodies/1/name"), "cylinder");
+    EXPECT_EQ(rec.integer("adaptivity/body_count"), 2);
+    EXPECT_EQ(rec.integer("grid/leaf_vertices"), full[k + 1].at("vertices").get<long long>());
+    for (int body : {0, 1})
+      EXPECT_EQ(rec.integer("bodies/" + std::to_string(body) + "/leaf_vertices"),
+                full[k + 1].at("bodies")[body].at("vertices").get<long long>());
+    const std::vector<long long>& counts = rec.integers("adaptivity/refinement/marked_counts");
+    ASSERT_EQ(counts.size(), static_cast<std::size_t>(2 * (k + 1)));
+    for (int j = 0; j <= k; ++j)
+      for (int body : {0, 1}) EXPECT_EQ(counts[2 * j + body], full[j].at("bodies")[body].at("marked").get<long long>());
+    EXPECT_EQ(rec.integers("adaptivity/steps/bodies/cells").size(), static_cast<std::size_t>(2 * (k + 1)));
+    EXPECT_EQ(rec.integers("adaptivity/steps/coupling_counts")[0], 1);
+    EXPECT_EQ(rec.text("adaptivity/steps/couplings/label").find('\n') != std::string::npos, k > 0);
+    restartRun(kCylinders, b, cp, overrides);
+    expectSameAdaptiveRun(a, b, 7);
+  }
+}
+
+TEST(CheckpointAdaptive, TheLoopStateRoundTripsThroughTheRecordBitwise) {
+  // loadAdaptiveState(storeAdaptiveState(s)) stores the same entries again, byte for byte
+  const std::vector<std::string> overrides = adaptiveOverrides(3);
+  for (const fs::path& scene : {kPunch, kCylinders}) {
+    SCOPED_TRACE(scene.filename().string());
+    const fs::path cp = stopAt(scene, kTmp / "roundtrip", 1, overrides);
+    const obs::CheckpointRecord rec = obs::readCheckpoint(cp);
+    obs::CheckpointRecord original, again;
+    for (const auto& [name, e] : rec.entries())
+      if (name.starts_with("adaptivity/")) original.set(name, e.value, e.description);
+    obs::estimators::storeAdaptiveState(again, obs::estimators::loadAdaptiveState(rec));
+    EXPECT_EQ(again.entries().size(), original.entries().size());
+    EXPECT_EQ(obs::hexHash(again.contentHash()), obs::hexHash(original.contentHash()));
+  }
+}
+
+TEST(CheckpointAdaptive, EveryNStepsAndARestartFromAnOlderCheckpoint) {
+  // [output] checkpoint = { every = 2 }: after every second solve (steps 1 and 3 of 0..4)
+  std::string text = slurp(kPunch);
+  text.replace(text.find("[output]\n"), 9, "[output]\ncheckpoint = { every = 2 }\n");
+  const fs::path scene = writeScene("punch_every", text);
+  const std::vector<std::string> overrides = adaptiveOverrides(5);
+  const fs::path a = kTmp / "punch_every_full", b = kTmp / "punch_every_restarted";
+  fs::remove_all(a);
+  std::vector<std::string> lines;
+  RunOptions o = quiet(a);
+  o.overrides = overrides;
+  o.stepProgress = [&](const std::string& l) {
+    if (l.starts_with("checkpoint:")) lines.push_back(l);
+  };
+  runScene(scene, o);
+  ASSERT_EQ(lines.size(), 2u);
+  EXPECT_NE(lines[0].find("step 1 "), std::string::npos) << lines[0];
+  EXPECT_NE(lines[1].find("step 3 "), std::string::npos) << lines[1];
+  EXPECT_EQ(obs::readCheckpoint(a / "checkpoint.h5").integer("adaptivity/next_step"), 4);
+  // a copy of the finished run restarted from its checkpoint after step 3: the outputs of step 4
+  // (written after the checkpoint) are written again, the same
+  fs::remove_all(b);
+  fs::copy(a, b);
+  fs::remove(b / "summary.json");
+  fs::remove(b / "steps.csv");
+  restartRun(scene, b, b / "checkpoint.h5", overrides);
+  expectSameAdaptiveRun(a, b, 6);
+}
+
+TEST(CheckpointAdaptive, SigintFinishesTheStepWritesACheckpointAndExitsWith3) {
+  if (!fs::exists(OBS_BINARY)) GTEST_SKIP() << "obs not built: " << OBS_BINARY;
+  // the punch with 8 solves (the last ones take longest); SIGINT once step 1 is written
+  const std::vector<std::string> overrides = adaptiveOverrides(8);
+  const fs::path a = kTmp / "punch_signal_full", b = kTmp / "punch_signal_stopped";
+  fs::remove_all(b);
+  const pid_t pid = startObs(kPunch, b, setArgs(overrides));
+  ASSERT_GT(pid, 0);
+  waitFor(b / "step_001.vtu");
+  kill(pid, SIGINT);
+  ASSERT_EQ(exitCodeOf(pid), 3) << slurp(b / "run.err");
+  const std::string err = slurp(b / "run.err");
+  ASSERT_NE(err.find("obs: error:"), std::string::npos) << err;
+  expectContains(err.substr(err.find("obs: error:")),
+                 {"interrupted by SIGINT after adaptive step", "checkpoint written to", "--restart"});
+  const long long next = obs::readCheckpoint(b / "checkpoint.h5").integer("adaptivity/next_step");
+  EXPECT_GE(next, 2);
+  EXPECT_LT(next, 8);
+  EXPECT_FALSE(fs::exists(b / "summary.json"));
+  std::string args = "run '" + kPunch.string() + "' --output '" + b.string() + "' --restart '" +
+                     (b / "checkpoint.h5").string() + "' -q";
+  for (const std::string& o : overrides) args += " --set '" + o + "'";
+  const auto restarted = obs::test::runObs(kTmp, args, "punch_signal_restart");
+  ASSERT_EQ(restarted.code, 0) << restarted.err;
+  fullRun(kPunch, a, overrides);
+  expectSameAdaptiveRun(a, b, 9);
+}
+
+TEST(CheckpointAdaptive, RestartWithAnotherSceneGridOrDamagedFileIsAOneLineError) {
+  const std::vector<std::string> overrides = adaptiveOverrides(4);
+  const fs::path dir = kTmp / "punch_errors";
+  const fs::path cp = stopAt(kPunch, dir, 1, overrides);
+  ASSERT_TRUE(fs::exists(cp));
+  auto restart = [&](const fs::path& scene, const fs::path& file, RunOptions o) {
+    o.restart = file;
+    return errorOf([&] { runScene(scene, o); });
+  };
+  RunOptions o = quiet(dir);
+  o.overrides = overrides;
+  // another --set
+  RunOptions other = o;
+  other.overrides.push_back("adaptivity.theta=1.2");
+  expectContains(restart(kPunch, cp, other), {cp.string() + ": ", "written for another scene", "--set overrides differ",
+                                              "'--set adaptivity.theta=1.2' now, none in the checkpoint (override 3)"});
+  // another scene text
+  std::string text = slurp(kPunch);
+  text.replace(text.find("\nE = 3e5") + 1, 7, "E = 2e5");  // the [material] line
+  const fs::path changed = writeScene("punch_changed", text);
+  expectContains(restart(changed, cp, o), {cp.string() + ": ", "written for another scene", "is 'E = 2e5' in " +
+                                                                                                  changed.string()});
+  // another --refine: the initial grid differs
+  RunOptions refined = o;
+  refined.refine = 3;
+  expectContains(restart(kPunch, cp, refined), {cp.string() + ": ", "initial grid of 289 vertices / 256 cells",
+                                                "starts from 1089 / 1024", "another --refine"});
+  // a two-body checkpoint for the one-body scene, a dynamic checkpoint for an adaptive scene
+  const fs::path twoCp = stopAt(kCylinders, kTmp / "cylinders_errors", 0, adaptiveOverrides(3));
+  expectContains(restart(kPunch, twoCp, o), {twoCp.string() + ": ", "a checkpoint of a multi-body run with 2 bodies",
+                                             "is a one-body scene"});
+  const fs::path bar = writeScene("bar_for_adaptive", barScene(100));
+  const fs::path dynCp = stopAt(bar, kTmp / "bar_for_adaptive", 10);
+  expectContains(restart(kPunch, dynCp, o), {dynCp.string() + ": ", "a checkpoint of a dynamic run, this is an adaptive run"});
+  expectContains(restart(bar, cp, quiet(kTmp / "bar_for_adaptive")),
+                 {cp.string() + ": ", "a checkpoint of an adaptive run, this is a dynamic run"});
+  // a truncated and a damaged file
+  const std::string bytes = slurp(cp);
+  const fs::path cut = kTmp / "punch_truncated.h5";
+  std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() / 2);
+  expectContains(restart(kPunch, cut, o), {cut.string() + ": "});
+  {
+    // flip a byte inside the data of the refinement history (found by its value in the file)
+    const obs::CheckpointRecord rec = obs::readCheckpoint(cp);
+    const std::vector<long long>& cells = rec.integers("adaptivity/refinement/marked_cells");
+    ASSERT_GE(cells.size(), 4u);
+    std::string damaged = bytes;
+    const std::string needle(reinterpret_cast<const char*>(cells.data()), 4 * sizeof(long long));
+    const std::size_t at = damaged.find(needle);
+    ASSERT_NE(at, std::string::npos);
+    damaged[at] = static_cast<char>(damaged[at] ^ 0x01);
+    const fs::path f = kTmp / "punch_damaged.h5";
+    std::ofstream(f, std::ios::binary) << damaged;
+    expectContains(restart(kPunch, f, o), {f.string() + ": ", "content hash", "damaged"});
+  }
+  // outputs of the interrupted run missing
+  fs::remove(dir / "step_000.vtu");
+  expectContains(restart(kPunch, cp, o), {cp.string() + ": ", "step_000.vtu is missing", "output directory"});
+  // --stop-after-step outside the steps that can be continued
+  RunOptions late = o;
+  late.stopAfterStep = 3;
+  expectContains(errorOf([&] { runScene(kPunch, late); }),
+                 {"--stop-after-step 3 must lie in [0, 2] (the run has steps 0 to 3)"});
 }

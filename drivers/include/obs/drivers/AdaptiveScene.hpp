@@ -32,6 +32,12 @@
 ///   PNG plots      with [output] plots = true or RunOptions::plots: scripts/plot_adaptivity.py
 ///                  (python3 + matplotlib; if either is missing a warning line, not an error).
 /// Progress: RunOptions::progress gets the usual lines, RunOptions::stepProgress one line per step.
+/// Checkpoints (docs/checkpoint.md#adaptive-runs), the same for one body and several:
+///   checkpoint.h5  after step k (its refinement done) on the [output] checkpoint schedule (every N
+///                  solves / S seconds), at RunOptions::stopAfterStep and on SIGINT/SIGTERM (the
+///                  last two then throw RunInterrupted); RunOptions::restart continues such a run
+///                  with step k + 1 into its output directory, with the same outputs, bit for bit
+///                  (wall times aside), as a run that was never interrupted.
 #include "obs/drivers/RunResult.hpp"
 #include "obs/drivers/RunScene.hpp"
 #include "obs/drivers/Scene.hpp"

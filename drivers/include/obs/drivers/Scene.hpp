@@ -131,8 +131,9 @@ struct SolverSpec {
 };
 
 /// [output] checkpoint = { every = N, seconds = S }: write <output>/checkpoint.h5 every N time
-/// steps and/or when S seconds of wall time have passed since the last one ([dynamics] scenes;
-/// docs/checkpoint.md). At least one of the two is given.
+/// steps ([dynamics]) or every N solves ([adaptivity]: after steps N - 1, 2N - 1, ...) and/or when S
+/// seconds of wall time have passed since the last one (docs/checkpoint.md). At least one of the
+/// two is given.
 struct CheckpointSpec {
   std::optional<int> every;        ///< steps, >= 1
   std::optional<double> seconds;   ///< wall-clock seconds, > 0

@@ -60,6 +60,7 @@
 #include "obs/estimators/Estimator.hpp"
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/Checkpoint.hpp"
 #include "obs/obs/ContactModel.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/Material.hpp"
@@ -192,6 +193,31 @@ struct AdaptiveStepView {
   const std::vector<AdaptiveBodyView>& bodies;  ///< every body, in order
 };
 
+/// What the loop needs to continue after step k (docs/checkpoint.md#adaptive-runs): taken by the
+/// state hook (AdaptiveLoop::setStateHook) once the grids are refined after step k, given to
+/// AdaptiveLoop::restore in another process to continue with step k + 1 exactly as the first run
+/// would have. The grids are not part of it: they are rebuilt by replaying `refinements` on the
+/// bodies' initial grids (Grid::adapt is deterministic: same grid and marks, same grid, vertex
+/// numbering and level views).
+struct AdaptiveLoopState {
+  int nextStep = 0;                ///< k + 1: the step the loop continues with
+  std::vector<AdaptiveStep> steps;  ///< the records of steps 0..k (refinementSeconds set)
+  /// [step j][body b]: the cells of body b's leaf view of step j marked for refinement after step j
+  /// (Adaptive mode; Uniform mode refines every cell and leaves the lists empty).
+  std::vector<std::vector<std::vector<Index>>> refinements;
+  Eigen::VectorXd start;       ///< start vector of step k + 1 on the refined leaf views (empty: cold start)
+  double transferSeconds = 0;  ///< the time taken to build `start` (reported by step k + 1)
+  double lastRate = 0;         ///< convergence rate of step k's contact solve (inexact solves)
+  double lastEnergyNorm = 0;   ///< energy norm of step k's solution (inexact solves)
+};
+
+/// Stores an AdaptiveLoopState under "adaptivity/" of a checkpoint record (obs/obs/Checkpoint.hpp;
+/// the entries are listed in docs/checkpoint.md#adaptive-runs): the step records as one column per
+/// field, the refinement history, the start vector and the inexact-solve inputs.
+void storeAdaptiveState(CheckpointRecord& record, const AdaptiveLoopState& state);
+/// The state stored by storeAdaptiveState; obs::Error naming a missing or inconsistent entry.
+AdaptiveLoopState loadAdaptiveState(const CheckpointRecord& record);
+
 /// One body of the loop: its grid (refined in place), material and boundary conditions (not
 /// copied: they must outlive the loop).
 struct AdaptiveBody {
@@ -230,6 +256,17 @@ public:
   void setReference(ContactReference reference);
   /// The function called after every step (replaces an earlier one).
   void setCallback(Callback callback);
+  /// Called with the loop's state after the grids were refined after a step and the next start
+  /// vector was built (not after the last step): a checkpoint there lets a restart continue with
+  /// the next step (restore). An exception thrown by the hook ends run() (e.g. to stop on a signal).
+  using StateHook = std::function<void(const AdaptiveLoopState&)>;
+  void setStateHook(StateHook hook);
+  /// Continues a loop from a state its state hook gave: replays state.refinements on the bodies'
+  /// grids (which must be the initial grids of that loop, not yet refined) at once, so that the
+  /// grids can be checked before run(); run() then begins with step state.nextStep and returns the
+  /// records of all steps, state.steps first. obs::Error if the state does not fit the loop (another
+  /// number of bodies, a marked cell outside its leaf view, nextStep outside [1, maxSteps - 1]).
+  void restore(AdaptiveLoopState state);
 
   /// Runs the loop (see the file comment) and returns the records. A step whose contact solve did
   /// not converge is the last: it is recorded (converged = false) and passed to the callback, but
@@ -264,6 +301,8 @@ private:
   std::vector<CouplingSpec> couplings_;
   std::optional<ContactReference> reference_;
   Callback callback_;
+  StateHook stateHook_;
+  std::optional<AdaptiveLoopState> resume_;  ///< set by restore(), used by the next run()
   Eigen::VectorXd u_;
   double lastRate_ = 0;        ///< convergence rate of the previous step's contact solve
   double lastEnergyNorm_ = 0;  ///< free-component energy norm of the previous step's solution
