@@ -11,10 +11,14 @@
 // Options:
 //   --obs PATH         the obs binary measured (default build/drivers/obs)
 //   --baseline PATH    a second obs binary run first on the same scene (side by side in one run)
-//   --scene FILE       default data/scenes/example3b.toml; repeat for several scenes (one table each)
+//   --scene FILE       default data/scenes/example3b.toml; repeat for several scenes (one table each);
+//                      each scene takes the --steps given before it (or the default)
 //   --refine N         --refine of obs run (default 1)
 //   --steps N          adaptivity.steps (default 6)
+//   --repeat N         runs per binary and scene, alternating baseline and measured; the table keeps
+//                      the smallest time of each step over the runs (default 1)
 //   --work DIR         output directories of the runs (default out/estimator_cost)
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -24,6 +28,7 @@
 #include <iostream>
 #include <sstream>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -91,7 +96,8 @@ bool bitwiseEqual(const Step& a, const Step& b) {
 
 int main(int argc, char** argv) {
   std::string page, obs = "build/drivers/obs", baseline, work = "out/estimator_cost";
-  std::vector<std::string> scenes;
+  std::vector<std::pair<std::string, int>> scenes;  // scene, steps
+  int repeat = 1;
   int refine = 1, steps = 6;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
@@ -105,14 +111,15 @@ int main(int argc, char** argv) {
     try {
       if (a == "--obs") obs = next();
       else if (a == "--baseline") baseline = next();
-      else if (a == "--scene") scenes.push_back(next());
+      else if (a == "--scene") scenes.emplace_back(next(), steps);
+      else if (a == "--repeat") repeat = std::stoi(next());
       else if (a == "--refine") refine = std::stoi(next());
       else if (a == "--steps") steps = std::stoi(next());
       else if (a == "--work") work = next();
       else if (!a.starts_with("-") && page.empty()) page = a;
       else {
         std::cerr << "usage: estimator_cost [OUTPUT.md] [--obs PATH] [--baseline PATH] [--scene FILE] "
-                     "[--refine N] [--steps N] [--work DIR]\n";
+                     "[--refine N] [--steps N] [--repeat N] [--work DIR]\n";
         return 2;
       }
     } catch (const std::exception&) {
@@ -120,22 +127,43 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (steps < 1 || refine < 0) {
-    std::cerr << "estimator_cost: --steps must be >= 1 and --refine >= 0\n";
+  if (steps < 1 || refine < 0 || repeat < 1) {
+    std::cerr << "estimator_cost: --steps and --repeat must be >= 1, --refine >= 0\n";
     return 2;
   }
-  if (scenes.empty()) scenes.push_back("data/scenes/example3b.toml");
+  for (const auto& [scene, n] : scenes)
+    if (n < 1) {
+      std::cerr << "estimator_cost: --steps must be >= 1\n";
+      return 2;
+    }
+  if (scenes.empty()) scenes.emplace_back("data/scenes/example3b.toml", steps);
   std::ostringstream md;
   md << "`build/bench/estimator_cost" << (baseline.empty() ? "" : " --baseline OLD_OBS") << "`: `obs run SCENE --refine "
-     << refine << " --set adaptivity.steps=" << steps << "`, wall times of summary.json, ratio = estimator / solve"
-     << (baseline.empty() ? "" : "; OLD_OBS runs first, then the measured obs, on the same scene") << ".\n";
+     << refine << " --set adaptivity.steps=N`, wall times of summary.json";
+  if (repeat > 1) md << ", the smallest of " << repeat << " runs per step";
+  md << ", ratio = estimator / solve"
+     << (baseline.empty() ? "" : "; OLD_OBS and the measured obs alternate on the same scene") << ".\n";
   char line[512];
-  for (const std::string& scene : scenes) {
+  // the smallest time of each step over the runs (the results themselves must agree)
+  auto keepFastest = [](std::vector<Step>& best, const std::vector<Step>& next) {
+    if (best.empty()) {
+      best = next;
+      return;
+    }
+    for (std::size_t k = 0; k < best.size() && k < next.size(); ++k) {
+      best[k].solve = std::min(best[k].solve, next[k].solve);
+      best[k].estimator = std::min(best[k].estimator, next[k].estimator);
+    }
+  };
+  for (const auto& [scene, sceneSteps] : scenes) {
     const std::string stem = std::filesystem::path(scene).stem().string();
-    std::vector<Step> before;
-    if (!baseline.empty()) before = run(baseline, scene, refine, steps, std::filesystem::path(work) / (stem + "-baseline"));
-    const std::vector<Step> after = run(obs, scene, refine, steps, std::filesystem::path(work) / (stem + "-measured"));
-    md << "\n" << scene << ":\n\n";
+    std::vector<Step> before, after;
+    for (int r = 0; r < repeat; ++r) {
+      if (!baseline.empty())
+        keepFastest(before, run(baseline, scene, refine, sceneSteps, std::filesystem::path(work) / (stem + "-baseline")));
+      keepFastest(after, run(obs, scene, refine, sceneSteps, std::filesystem::path(work) / (stem + "-measured")));
+    }
+    md << "\n" << scene << ", " << sceneSteps << " steps:\n\n";
     if (before.empty()) {
       md << "| step | unknowns | TNNMG it. | solve s | estimator s | ratio |\n|---:|---:|---:|---:|---:|---:|\n";
       for (std::size_t k = 0; k < after.size(); ++k) {
