@@ -9,49 +9,71 @@
 namespace obs::estimators {
 
 std::vector<Index> cellFaceVertices(const mesh::Mesh& mesh, Index cell, int localFace) {
+  std::vector<Index> fv;
+  cellFaceVertices(mesh, cell, localFace, fv);
+  return fv;
+}
+
+void cellFaceVertices(const mesh::Mesh& mesh, Index cell, int localFace, std::vector<Index>& fv) {
   const auto faces = mesh::localFaces(mesh.cellType(cell));
   if (localFace < 0 || localFace >= static_cast<int>(faces.size()))
     throw Error("cell " + std::to_string(cell) + " has no local face " + std::to_string(localFace));
   const auto verts = mesh.cellVertices(cell);
-  std::vector<Index> fv;
+  fv.clear();
   for (int lv : faces[localFace].span()) fv.push_back(verts[lv]);
-  return fv;
 }
 
 std::vector<CellFacePoint> cellFaceQuadrature(const mesh::Mesh& mesh, Index cell, int localFace,
                                               int degree) {
+  std::vector<CellFacePoint> pts;
+  cellFaceQuadrature(mesh, cell, localFace, degree, pts);
+  return pts;
+}
+
+void cellFaceQuadrature(const mesh::Mesh& mesh, Index cell, int localFace, int degree,
+                        std::vector<CellFacePoint>& pts) {
   const mesh::LocalFace& lf = mesh::localFaces(mesh.cellType(cell))[localFace];
   const auto& cellRef = mesh::referenceElement(mesh.cellType(cell));
   const auto& faceRef = mesh::referenceElement(lf.type);
   const auto& rule = mesh::quadratureRule(lf.type, degree);
   const auto verts = mesh.cellVertices(cell);
   const int n = lf.size, fd = faceRef.dim;
-  std::vector<CellFacePoint> pts(rule.size());
+  pts.assign(rule.size(), CellFacePoint{});
   double g[4 * 2];
+  // segments and triangles are flat with constant reference gradients: the normal and the surface
+  // element of the first point hold at all points (the same numbers a re-evaluation would give)
+  const bool flat = lf.type == mesh::CellType::Segment || lf.type == mesh::CellType::Triangle;
+  double J = 0;
+  Point unitNormal = Point::Zero();
   for (std::size_t q = 0; q < rule.size(); ++q) {
     CellFacePoint& p = pts[q];
     faceRef.values(rule.points[q], std::span<double>(p.shape.data(), n));
-    faceRef.gradients(rule.points[q], std::span<double>(g, n * fd));
+    const bool geometry = q == 0 || !flat;
+    if (geometry) faceRef.gradients(rule.points[q], std::span<double>(g, n * fd));
     Point x = Point::Zero(), xi = Point::Zero(), ds = Point::Zero(), dt = Point::Zero();
     for (int j = 0; j < n; ++j) {
       const Point& xj = mesh.vertex(verts[lf.vertices[j]]);
       x += p.shape[j] * xj;
       xi += p.shape[j] * cellRef.vertices[lf.vertices[j]];
-      ds += g[j * fd] * xj;
-      if (fd == 2) dt += g[j * fd + 1] * xj;
+      if (geometry) {
+        ds += g[j * fd] * xj;
+        if (fd == 2) dt += g[j * fd + 1] * xj;
+      }
     }
-    // right-hand normal of the face's vertex cycle = outward normal (MeshTopology.hpp)
-    const Point normal = fd == 1 ? Point(ds[1], -ds[0], 0) : Point(ds.cross(dt));
-    const double J = normal.norm();
-    if (!(J > 0))
-      throw Error("face " + std::to_string(localFace) + " of cell " + std::to_string(cell) +
-                  " is degenerate");
+    if (geometry) {
+      // right-hand normal of the face's vertex cycle = outward normal (MeshTopology.hpp)
+      const Point normal = fd == 1 ? Point(ds[1], -ds[0], 0) : Point(ds.cross(dt));
+      J = normal.norm();
+      if (!(J > 0))
+        throw Error("face " + std::to_string(localFace) + " of cell " + std::to_string(cell) +
+                    " is degenerate");
+      unitNormal = normal / J;
+    }
     p.xi = xi;
     p.x = x;
     p.weight = J * rule.weights[q];
-    p.normal = normal / J;
+    p.normal = unitNormal;
   }
-  return pts;
 }
 
 Point referencePointOnFace(const mesh::Mesh& mesh, Index cell, std::span<const Index> faceVertices,

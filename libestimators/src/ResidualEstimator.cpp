@@ -169,9 +169,14 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
     const auto& rule = mesh::quadratureRule(m.cellType(c), options_.elementDegree);
     const auto verts = m.cellVertices(c);
     double r2 = 0;
+    // on an affine cell div sigma_h and the determinant are constant: without a body force the
+    // point itself is not needed after the first quadrature point
+    const bool affine = affineCellType(m.cellType(c));
+    Vec div = Vec::Zero();
     for (std::size_t q = 0; q < rule.size(); ++q) {
-      pv.reinit(m, c, rule.points[q], true);
-      Vec r = F::divergence(pv, u, verts, lambda, mu);
+      if (q == 0 || !affine || in.boundaryConditions.bodyForce) pv.reinit(m, c, rule.points[q], true);
+      if (q == 0 || !affine) div = F::divergence(pv, u, verts, lambda, mu);
+      Vec r = div;
       if (in.boundaryConditions.bodyForce)
         r += in.boundaryConditions.bodyForce(toPoint(pv.point())).template head<d>();
       r2 += pv.determinant() * rule.weights[q] * r.squaredNorm();
@@ -189,6 +194,8 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
 
   // faces: eta_2 (interior jumps), eta_3 (Neumann jumps), contact faces through the hook
   std::vector<ContactFace> contactFaces;
+  std::vector<Index> fv;          // vertices and quadrature of the current face (buffers reused)
+  std::vector<CellFacePoint> pts;
   for (Index f = 0; f < faces.numFaces(); ++f) {
     if (faces.numCells(f) > 2)
       throw Error("estimator '" + name() + "': face " + std::to_string(f) + " is shared by " +
@@ -196,20 +203,28 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
     const auto side0 = faces.side(f, 0);
     const Index c0 = side0.cell;
     const auto verts0 = m.cellVertices(c0);
-    const std::vector<Index> fv = cellFaceVertices(m, c0, side0.localFace);
-    const auto pts = cellFaceQuadrature(m, c0, side0.localFace, options_.faceDegree);
+    cellFaceVertices(m, c0, side0.localFace, fv);
+    cellFaceQuadrature(m, c0, side0.localFace, options_.faceDegree, pts);
 
     if (faces.numCells(f) == 2) {
       const Index c1 = faces.side(f, 1).cell;
       const auto verts1 = m.cellVertices(c1);
       double j2 = 0;
-      for (const CellFacePoint& q : pts) {
-        pv.reinit(m, c0, q.xi, false);
-        const Mat s0 = F::stress(pv, u, verts0, lambda, mu);
-        const Point xi1 = referencePointOnFace(
-            m, c1, fv, std::span<const double>(q.shape.data(), fv.size()));
-        pv1.reinit(m, c1, xi1, false);
-        const Mat s1 = F::stress(pv1, u, verts1, lambda, mu);
+      // on affine cells sigma_h is constant: evaluated once per face and side
+      const bool affine0 = affineCellType(m.cellType(c0)), affine1 = affineCellType(m.cellType(c1));
+      Mat s0, s1;
+      for (std::size_t k = 0; k < pts.size(); ++k) {
+        const CellFacePoint& q = pts[k];
+        if (k == 0 || !affine0) {
+          pv.reinit(m, c0, q.xi, false);
+          s0 = F::stress(pv, u, verts0, lambda, mu);
+        }
+        if (k == 0 || !affine1) {
+          const Point xi1 = referencePointOnFace(
+              m, c1, fv, std::span<const double>(q.shape.data(), fv.size()));
+          pv1.reinit(m, c1, xi1, false);
+          s1 = F::stress(pv1, u, verts1, lambda, mu);
+        }
         const Vec n = q.normal.template head<d>();
         j2 += q.weight * ((s0 - s1) * n).squaredNorm();
       }

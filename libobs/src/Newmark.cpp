@@ -725,6 +725,7 @@ StepRecord NewmarkFamily<d>::step() {
   r.solverIterations = result.iterations;
   r.solverSeconds = result.seconds;
   r.solverTolerance = tolerance;
+  r.solverKkt = result.kkt.max();
   r.timeError = timeError;
   r.stepSeconds = seconds(start);
   last_ = r;

@@ -487,3 +487,87 @@ TEST_P(TnnmgExtremes, ThinPlateWithCellAspectRatio1To1000) {
 
 INSTANTIATE_TEST_SUITE_P(AllTypes, TnnmgExtremes, ::testing::ValuesIn(mesh::kVolumeCellTypes),
                          [](const auto& info) { return std::string(mesh::name(info.param)); });
+
+// --- stopping: the correction test alone is not enough (docs/theory.md#tnnmg-stopping) -------------
+
+namespace {
+
+/// A deliberately weak linear correction: c = r (one Richardson step; the exact line search picks the
+/// length). With one nonsmooth Gauss-Seidel sweep per iteration TNNMG then contracts like a smoother,
+/// slowly on a fine grid, so the relative correction is small long before the iterate is accurate.
+template <int d>
+class RichardsonCorrection : public LinearCorrection<d> {
+public:
+  void setOperator(const BlockSparseMatrix<d>&, std::vector<VertexRotation<d>>, const std::vector<char>&) override {}
+  Index truncate(const std::vector<char>&) override { return 0; }
+  void apply(const Eigen::VectorXd& r, Eigen::VectorXd& c) override { c = r; }  // r is 0 where truncated
+  int operatorUpdates() const override { return 0; }
+};
+
+}  // namespace
+
+TEST(TnnmgStopping, SmallCorrectionWithLargeKktResidualGoesOn) {
+  const mesh::Grid grid = uniformGrid(CellType::Quadrilateral, 2, 3);
+  const mesh::Mesh m = grid.leafView().mesh;
+  const ContactSet cs(m, mesh::kBottom, DiskObstacle(P(0.5, -0.5), 0.5));
+  const ContactProblem<2> problem(m, kMaterial, pressedFromTop(P(0, -0.03)), cs);
+  PrimalDualActiveSet<2> pdas;
+  Eigen::VectorXd ref;
+  ASSERT_TRUE(pdas.solve(problem, ref).converged);
+  auto o = tightOptions<2>();
+  o.tolerance = 1e-4;
+  o.preSmoothing = 1;
+  o.maxIterations = 3000;
+
+  // the correction test alone (KKT bound 1, i.e. off) stops with a KKT residual several times the
+  // tolerance (a multigrid TNNMG solve stops with one far below it, see the next test)
+  auto off = o;
+  off.kktTolerance = 1;
+  TNNMG<2> early(grid, off, std::make_unique<RichardsonCorrection<2>>());
+  Eigen::VectorXd u1;
+  const ContactResult r1 = early.solve(problem, u1);
+  ASSERT_TRUE(r1.converged);
+  EXPECT_LT(r1.correction, o.tolerance);
+  EXPECT_GT(r1.kkt.max(), 3 * o.tolerance);
+  EXPECT_EQ(r1.kktRejections, 0);
+
+  // with the KKT test (default kktTolerance 1e-8, bound max(1e-8, 1e-4)) the same iteration goes on
+  // until the KKT residual is below the bound, and ends closer to the PDAS solution
+  TNNMG<2> checked(grid, o, std::make_unique<RichardsonCorrection<2>>());
+  Eigen::VectorXd u2;
+  const ContactResult r2 = checked.solve(problem, u2);
+  ASSERT_TRUE(r2.converged);
+  EXPECT_GT(r2.iterations, r1.iterations);
+  EXPECT_GT(r2.kktRejections, 0);
+  EXPECT_LE(r2.kkt.max(), o.tolerance);
+  EXPECT_LT((u2 - ref).norm(), (u1 - ref).norm());
+
+  // capped right after the early stop: not converged, with the KKT residual that says why
+  auto capped = o;
+  capped.maxIterations = r1.iterations + 1;
+  TNNMG<2> short_(grid, capped, std::make_unique<RichardsonCorrection<2>>());
+  Eigen::VectorXd u3;
+  const ContactResult r3 = short_.solve(problem, u3);
+  EXPECT_FALSE(r3.converged);
+  EXPECT_EQ(r3.iterations, capped.maxIterations);
+  EXPECT_GT(r3.kkt.max(), o.tolerance);
+  EXPECT_GT(r3.kktRejections, 0);
+  if (verbose())
+    std::cout << "  correction test alone: " << r1.iterations << " it, KKT " << r1.kkt.max() << ", |u - u_pdas| "
+              << (u1 - ref).norm() << "; with the KKT test: " << r2.iterations << " it, KKT " << r2.kkt.max()
+              << ", |u - u_pdas| " << (u2 - ref).norm() << ", " << r2.kktRejections << " rejections\n";
+}
+
+TEST(TnnmgStopping, KktTestCostsNoIterationsOnAStandardSolve) {
+  // multigrid TNNMG at the default tolerance: when the correction passes, the KKT residual is far
+  // below its bound, so the first check accepts and the iteration count is that of the correction test
+  const mesh::Grid grid = uniformGrid(CellType::Triangle, 2, 4);
+  const mesh::Mesh m = grid.leafView().mesh;
+  const ContactSet cs(m, mesh::kBottom, DiskObstacle(P(0.5, -0.5), 0.5));
+  const ContactProblem<2> problem(m, kMaterial, pressedFromTop(P(0, -0.03)), cs);
+  const Outcome<2> r = solve(grid, problem, false);
+  EXPECT_TRUE(r.tnnmg.converged);
+  EXPECT_EQ(r.tnnmg.kktRejections, 0);
+  EXPECT_LT(r.tnnmg.history.back().correction, 1e-10);
+  EXPECT_LE(r.tnnmg.kkt.max(), 1e-8);
+}

@@ -34,7 +34,20 @@ namespace obs::estimators {
 using mesh::Index;
 using mesh::Point;
 
+/// Whether the cell map of a cell type is affine (first-order simplices: constant Jacobian,
+/// physical gradients and zero second derivatives).
+inline bool affineCellType(mesh::CellType type) {
+  return type == mesh::CellType::Triangle || type == mesh::CellType::Tetrahedron;
+}
+
 /// Shape functions of one cell at one reference point.
+///
+/// Affine cells (affineCellType): a reinit for the same mesh and cell as the previous one only
+/// re-evaluates the values and the point; the Jacobian, the gradients and the Hessians are
+/// constant on the cell and kept (the reference gradients of P1 do not depend on xi, so the kept
+/// numbers are bitwise those a full re-evaluation would give), and the Hessians are set to zero
+/// without the chain rule below. The mesh must not change between two such calls (the estimators
+/// use one PointValues per run on a const mesh).
 template <int d>
 class PointValues {
 public:
@@ -46,6 +59,20 @@ public:
   void reinit(const mesh::Mesh& m, Index c, const Point& xi, bool withHessians) {
     const auto& ref = mesh::referenceElement(m.cellType(c));
     const auto verts = m.cellVertices(c);
+    const bool same = affine_ && mesh_ == &m && cell_ == c;
+    if (same && (hessiansValid_ || !withHessians)) {
+      ref.values(xi, std::span<double>(values_.data(), n_));
+      x_.setZero();
+      for (int i = 0; i < n_; ++i) {
+        const Vec xi_i = m.vertex(verts[i]).template head<d>();
+        x_ += values_[i] * xi_i;
+      }
+      return;
+    }
+    mesh_ = &m;
+    cell_ = c;
+    affine_ = affineCellType(ref.type);
+    hessiansValid_ = false;
     n_ = ref.numVertices;
     double g[8 * 3];
     ref.values(xi, std::span<double>(values_.data(), n_));
@@ -64,6 +91,11 @@ public:
     const Mat Jinv = J_.inverse();
     for (int i = 0; i < n_; ++i) grads_[i] = Jinv.transpose() * Eigen::Map<const Vec>(&g[i * d]);
     if (!withHessians) return;
+    hessiansValid_ = true;
+    if (affine_) {  // Hhat = X = 0: the second derivatives vanish
+      for (int i = 0; i < n_; ++i) hessians_[i].setZero();
+      return;
+    }
     double h[8 * 9];
     ref.hessians(xi, std::span<double>(h, n_ * d * d));
     std::array<Mat, d> X;  // X^m_kl = d2 x_m / dxi_k dxi_l
@@ -79,6 +111,10 @@ public:
       hessians_[i] = Jinv.transpose() * M * Jinv;
     }
   }
+
+  /// Whether the cell of the last reinit is affine (everything but values() and point() is
+  /// constant on it).
+  bool affine() const { return affine_; }
 
   int numVertices() const { return n_; }
   double value(int i) const { return values_[i]; }
@@ -97,6 +133,9 @@ private:
   Vec x_;
   Mat J_;
   double det_ = 0;
+  const mesh::Mesh* mesh_ = nullptr;  ///< mesh and cell of the last reinit (cache of affine cells)
+  Index cell_ = -1;
+  bool affine_ = false, hessiansValid_ = false;
 };
 
 /// A quadrature point on a face of a cell.
@@ -111,6 +150,8 @@ struct CellFacePoint {
 /// Global vertex numbers of local face `localFace` of `cell`, in outward orientation
 /// (MeshTopology localFaces()).
 std::vector<Index> cellFaceVertices(const mesh::Mesh& mesh, Index cell, int localFace);
+/// The same into `out` (its storage reused: no allocation in loops over faces).
+void cellFaceVertices(const mesh::Mesh& mesh, Index cell, int localFace, std::vector<Index>& out);
 
 /// Quadrature of exactness `degree` on local face `localFace` of `cell` (face shape functions
 /// are those of the face's reference element with the face vertices in cellFaceVertices() order;
@@ -118,6 +159,9 @@ std::vector<Index> cellFaceVertices(const mesh::Mesh& mesh, Index cell, int loca
 /// degenerate face.
 std::vector<CellFacePoint> cellFaceQuadrature(const mesh::Mesh& mesh, Index cell, int localFace,
                                               int degree);
+/// The same into `out` (its storage reused).
+void cellFaceQuadrature(const mesh::Mesh& mesh, Index cell, int localFace, int degree,
+                        std::vector<CellFacePoint>& out);
 
 /// Reference coordinates in `cell` of the face point sum_j shape[j] x(faceVertices[j]), where all
 /// faceVertices are vertices of `cell` (the matching point on the neighbour's side of a face:

@@ -5,8 +5,11 @@
 /// residuals, per-iteration history) in the spirit of DUNE's InverseOperatorResult, never print.
 /// Iterative solvers stop when the relative energy-norm correction (docs/theory.md#tnnmg-stopping)
 ///   ||u^{k+1} - u^k||_A / ||u^{k+1}||_A < tolerance
-/// (solvers with an exact stopping rule, like the active-set method, say so). Reaching maxIterations
-/// returns converged = false; NaN/Inf, divergence and stagnation throw obs::Error saying what happened.
+/// (solvers with an exact stopping rule, like the active-set method, say so); TNNMG in addition
+/// requires the KKT residual KktResiduals::max() of the iterate <= max(kktTolerance, tolerance),
+/// checked only in the iterations whose correction passes (docs/theory.md#tnnmg-stopping). Reaching
+/// maxIterations returns converged = false; NaN/Inf, divergence and stagnation throw obs::Error
+/// saying what happened.
 ///
 /// IterationMonitor is the shared bookkeeping (cf. dune-solvers' LoopSolver with its criteria):
 /// history, tolerance, NaN, divergence, stagnation and energy-monotonicity checks.
@@ -33,6 +36,10 @@ struct IterationRecord {
 struct ContactSolverOptions {
   /// Relative energy-norm correction at which an iterative solver stops.
   double tolerance = 1e-10;
+  /// Bound on the KKT residual KktResiduals::max() of the solution for converged = true (the
+  /// active-set method: its criterion next to the repeated active set; TNNMG: next to the correction
+  /// test, with max(kktTolerance, tolerance), so that a looser correction tolerance loosens it too).
+  double kktTolerance = 1e-8;
   /// Iteration cap; reaching it without convergence returns converged = false.
   int maxIterations = 1000;
   /// Stagnation: obs::Error if in this many consecutive iterations neither the energy decreased by
@@ -58,6 +65,9 @@ struct ContactResult {
   double energy = 0;           ///< final J(u)
   Index activeSetSize = 0;     ///< final number of nodes at their bound
   KktResiduals kkt;            ///< of the returned u
+  /// TNNMG: iterations whose correction passed the tolerance but whose KKT residual did not (the
+  /// solve went on); 0 for the other solvers.
+  int kktRejections = 0;
   std::vector<IterationRecord> history;
 };
 

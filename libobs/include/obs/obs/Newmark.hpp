@@ -181,6 +181,9 @@ struct StepRecord {
   double stepSeconds = 0;
   /// The relative TNNMG tolerance this step was solved to (NaN in the record of the initial state).
   double solverTolerance = std::numeric_limits<double>::quiet_NaN();
+  /// KKT residual KktResiduals::max() of the step's contact solve (NaN in the record of the initial
+  /// state and after a restart).
+  double solverKkt = std::numeric_limits<double>::quiet_NaN();
   /// Local time-error estimate eta = |beta - 1/6| tau ||v^{n+1} - 2 v^n + v^{n-1}||_S of the step
   /// (docs/theory.md#dynamic-inexact-solves); computed only with NewmarkOptions::inexactFraction > 0
   /// and from the second step on, NaN otherwise.

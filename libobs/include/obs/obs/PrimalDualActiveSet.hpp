@@ -26,7 +26,7 @@ public:
   struct Options : ContactSolverOptions {
     Options() { maxIterations = 100; }
     double c = 1.0;              ///< complementarity constant, relative to the diagonal entries
-    double kktTolerance = 1e-8;  ///< bound on KktResiduals::max() for converged = true
+    // kktTolerance (ContactSolverOptions, default 1e-8): bound on KktResiduals::max() for converged
   };
   PrimalDualActiveSet() = default;
   explicit PrimalDualActiveSet(const Options& options) : options_(options) {}
