@@ -41,6 +41,9 @@ void stepFields(S& s, F& f) {
   f("refinement_seconds", "wall time of marking and refinement after the step", s.refinementSeconds);
   f("transfer_seconds", "wall time of building the step's start vector", s.transferSeconds);
   f("marked", "cells marked after the step (all bodies)", s.marked);
+  f("refined_red", "elements refined red after the step (all bodies)", s.refinedRed);
+  f("closure_red", "of these, the ones only the marking closure refined", s.closureRed);
+  f("green_closed", "elements given a green closure after the step", s.greenClosed);
 }
 
 template <class S, class F>

@@ -202,6 +202,7 @@ void AdaptiveLoop::restore(AdaptiveLoopState state) {
                       bodies_[i].name + "' has no leaf cell " + std::to_string(c));
         grid.mark(view.elements[static_cast<std::size_t>(c)]);
       }
+      grid.setClosureRule(options_.closure);
       grid.adapt();
     }
   resume_ = std::move(state);

@@ -1042,6 +1042,17 @@ TEST(CheckpointAdaptive, UniformRefinementRestartsBitwise) {
   expectSameAdaptiveRun(a, b, 5);
 }
 
+TEST(CheckpointAdaptive, TheClosureRuleIsReplayed) {
+  // closure = "all-edges" changes the grids (docs/estimators.md#closure-overhead); the replay of the
+  // marks must use it too, else the refined grid's checksum differs from the stored one
+  const std::vector<std::string> overrides = adaptiveOverrides(4, {"adaptivity.closure=\"all-edges\""});
+  const fs::path a = kTmp / "punch_all_edges_full", b = kTmp / "punch_all_edges_restarted";
+  fullRun(kPunch, a, overrides);
+  const fs::path cp = stopAt(kPunch, b, 2, overrides);
+  restartRun(kPunch, b, cp, overrides);
+  expectSameAdaptiveRun(a, b, 4);
+}
+
 TEST(CheckpointAdaptive, StoppedAndRestartedTwoBodyRunEqualsTheUninterruptedOneBitwise) {
   // two bodies refined together (dual mortar between them); stopped after step 0 and 1
   const std::vector<std::string> overrides = adaptiveOverrides(3);
