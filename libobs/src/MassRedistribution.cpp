@@ -146,9 +146,9 @@ RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vecto
           << options.maxIterations << " iterations (relative constraint residual " << out.residual << ")";
       if (cur.bounded > 0)
         msg << "; " << cur.bounded << " entries are at the bound M~_ij = " << theta
-            << " M_ij: probably no such M~ keeps the total mass and the first and second moments with the mass "
-               "left off the contact boundary (too few cell layers behind it); refine the mesh near the contact "
-               "boundary or use a scheme without mass redistribution";
+            << " M_ij: probably no redistributed mass matrix with these bounds keeps the total mass and the first "
+               "and second moments with the mass left off the contact boundary (too few cell layers behind it); "
+               "refine the mesh near the contact boundary or use a scheme without mass redistribution";
       throw Error(msg.str());
     }
     previous = out.residual;
