@@ -15,7 +15,10 @@ Definitions (fixed before any measurement; docs/dynamics.md repeats them):
     their largest count in one step;
   * force extrema: the number of strict local extrema of the total normal contact force inside the
     episode (differences below 1e-6 of the peak force ignored): 1 for a single smooth hump, every
-    kink or oscillation adds two;
+    oscillation adds two;
+  * kink: the largest second difference |F_{n+1} - 2 F_n + F_{n-1}| of the total force in the episode,
+    in % of the peak force, its time, and the number of steps where it exceeds 1 % (a kink = a jump of
+    the slope, which need not be an extremum);
   * tracked node (the lowest point of Geometry 1): velocity at the step of its first contact and the
     number of steps after it until its normal velocity is zero (|v| <= 1e-9 v0); the number of
     strict local extrema of its normal displacement while it is in contact.
@@ -78,6 +81,9 @@ def analyse(s, v0):
                loss_impact=(E0 - E[peak]) / E0, loss_detach=None if free is None else (E[peak] - E[free]) / E0,
                loss_after=None if free is None else (E[free] - E[-1]) / E0, ratio=E[-1] / E0,
                max_force=F[peak], force_extrema=extrema(F[first:last + 1], 1e-6 * F[peak]))
+    d2 = [abs(F[k + 1] - 2 * F[k] + F[k - 1]) / F[peak] for k in range(max(1, first), min(n - 1, last + 2))]
+    k2 = max(range(len(d2)), key=lambda k: d2[k])
+    out.update(kink=d2[k2], t_kink=s["t"][max(1, first) + k2], kinks=sum(1 for x in d2 if x > 0.01))
     for key in ("predictor_only", "solution_only"):
         c = s[key]
         out[key + "_impact"] = sum(c[first:peak + 1])
@@ -166,8 +172,8 @@ def main():
                 f"`--set dynamics.tau={tau}`; run time {open(os.path.join(work, d, 'wall_s')).read().strip()} s "
                 f"for the {len(s['dynamics_comparison'])} schemes.", "",
                 "| scheme | lost at impact % | at detachment % | after % | E_end/E_0 | first contact | peak force (t) | free at | "
-                "predictor-only impact / detachment | solution-only impact / detachment | force extrema | active-count extrema | ms/step |",
-                "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+                "predictor-only impact / detachment | solution-only impact / detachment | force extrema | kink % (t; steps > 1 %) | active-count extrema | ms/step |",
+                "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
         per = {}
         for c in s["dynamics_comparison"]:
             sc = c["scheme"]
@@ -181,14 +187,14 @@ def main():
                 continue
             r = per[sc][0]
             if not r.get("contact"):
-                out.append(f"| {lab} | no contact | | | | | | | | | | | |")
+                out.append(f"| {lab} | no contact | | | | | | | | | | | | |")
                 continue
             out.append(
                 f"| {lab} | {pct(r['loss_impact'])} | {pct(r['loss_detach'])} | {pct(r['loss_after'])} | {r['ratio']:.5f} | "
                 f"{r['t_first']:.4g} | {r['max_force']:.4g} ({r['t_peak']:.4g}) | {fmt(r['t_free'], 4)} | "
                 f"{r['predictor_only_impact']:.0f} / {r['predictor_only_detach']:.0f} ({r['predictor_only_max']:.0f}) | "
                 f"{r['solution_only_impact']:.0f} / {r['solution_only_detach']:.0f} ({r['solution_only_max']:.0f}) | "
-                f"{r['force_extrema']} | {r['active_extrema']} | {r['ms']:.3g} |")
+                f"{r['force_extrema']} | {100 * r['kink']:.2f} ({r['t_kink']:.4g}; {r['kinks']}) | {r['active_extrema']} | {r['ms']:.3g} |")
         out += ["", "Tracked nodes (node 0: the lowest point x = (0.75, 0.5, 0), on the plane exactly at the time level "
                 "t = 0.01, tau* = 0; node 1: the bottom vertex at x = 0.875, on the plane at t = 0.0152, inside a step): "
                 "the time level at which it first lies on the plane, its normal velocity there and in the next three "
@@ -239,15 +245,19 @@ def main():
                 else:
                     ax[1].plot(ts["t"], F, color=colors[sc], label=lab)
                     ax[2].plot(ts["t"], F, color=colors[sc], label=lab, marker=".", ms=2)
-            ref = per.get("improved-contact-stabilized", (None, None))[0]
-            if ref and ref.get("contact"):
-                t0, t1 = ref["t_first"], ref["t_first"] + 0.1 * (ref["t_peak"] - ref["t_first"]) + 1e-12
-                top = max((f for sc in per if sc not in ("alpha-one-zero", "contact-implicit")
-                           for t, f in zip(per[sc][1]["t"], force(per[sc][1])) if t0 <= t <= t1), default=1)
+            ref = per.get("alpha-half", per.get("improved-contact-stabilized", (None, None)))[0]
+            if ref and ref.get("contact"):  # zoom: around the largest kink of alpha = 1/2
+                w = 0.04 * (ref["t_peak"] - ref["t_first"]) + 1e-12
+                t0, t1 = ref["t_kink"] - w, ref["t_kink"] + w
+                window = [f for sc in per if sc not in ("alpha-one-zero", "contact-implicit")
+                          for t, f in zip(per[sc][1]["t"], force(per[sc][1])) if t0 <= t <= t1] or [0, 1]
+                lo, hi = min(window), max(window)
                 ax[2].set_xlim(t0, t1)
-                ax[2].set_ylim(0, 1.05 * top)
+                ax[2].set_ylim(lo - 0.05 * (hi - lo), hi + 0.05 * (hi - lo) + 1e-12)
+            if not ax[0].lines:
+                ax[0].text(0.5, 0.5, "not run at this tau", ha="center", transform=ax[0].transAxes)
             ax[0].set_title("alpha = {1, 0} and alpha, beta = 0"); ax[1].set_title("alpha(p), alpha = 0, alpha = 1/2")
-            ax[2].set_title("zoom: beginning of the impact")
+            ax[2].set_title("zoom: around the largest kink of alpha = 1/2")
             for axis in ax:
                 axis.set_xlabel("t"); axis.set_ylabel("total normal contact force"); axis.grid(True, alpha=0.3)
                 if axis.lines:
