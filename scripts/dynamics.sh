@@ -117,8 +117,10 @@ for d in s["dynamics_comparison"]:
                f"{d['energy_ratio']:.4f} | {fmt(d['max_penetration'])} |")
 out += ["", "![bar normal velocity](figures/dyn_bar_velocity.png) ![bar energy](figures/dyn_bar_energy.png)", ""]
 
-out += ["### Energy loss against tau and h (cf. thesis Fig. 5.14)", "",
-        "Geometry A to t = 0.5 (impact and rebound), 1 - E_end/E_0 and the whole run time (setup + steps):", "",
+out += ["### Energy loss against tau and h on Geometry A", "",
+        "Geometry A to t = 0.5 (impact and rebound), 1 - E_end/E_0 and the whole run time (setup + steps). The thesis'"
+        " Fig. 5.14 itself (Geometry 1, alpha(p) and alpha = 0) is in"
+        " [Chapter 5 at the thesis' parameters](#chapter-5-of-the-thesis-at-its-parameters-one-body).", "",
         "| scheme | refine | vertices | tau | steps | 1 - E_end/E_0 | max penetration | run s |", "|---|---|---|---|---|---|---|---|"]
 rows = []
 for scheme in ("improved-contact-stabilized", "contact-implicit"):

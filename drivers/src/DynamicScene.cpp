@@ -72,6 +72,10 @@ struct SchemeRun {
   double initialEnergy = 0, finalEnergy = 0;
   bool hasRedistributed = false;
   double initialEnergyRedistributed = 0, finalEnergyRedistributed = 0;
+  /// M~ (hasRedistributed): entries at the lower bound theta M_ij, smallest M~_ij / M_ij, definiteness
+  long long redistributionBounded = 0;
+  double redistributionMinFactor = 1;
+  bool redistributionPositiveDefinite = true;
   double maxPenetration = 0;
   double forceVariation = 0;  ///< sum_n |F^{n+1} - F^n| (total variation of the contact force)
   double maxForce = 0;        ///< max_n |F^n|
@@ -371,6 +375,11 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
   run.initialEnergy = first.energy;
   run.hasRedistributed = first.hasRedistributed;
   run.initialEnergyRedistributed = first.energyRedistributed;
+  if (run.hasRedistributed && newmark) {
+    run.redistributionBounded = static_cast<long long>(newmark->redistributedMass().boundedEntries);
+    run.redistributionMinFactor = newmark->redistributedMass().minimumFactor;
+    run.redistributionPositiveDefinite = newmark->redistributedMassDefiniteness().positiveDefinite;
+  }
   run.times.assign(c.tracked.size(), TrackedTimes{});
 
   // The time series; its length and FNV-1a hash so far go into checkpoints, and a restart cuts the
@@ -602,6 +611,9 @@ nlohmann::json schemeJson(const Context& c, const SchemeRun& run) {
     j["energy_ratio_redistributed"] = run.initialEnergyRedistributed != 0
                                           ? nlohmann::json(run.finalEnergyRedistributed / run.initialEnergyRedistributed)
                                           : nlohmann::json(nullptr);
+    j["redistribution"] = {{"bounded_entries", run.redistributionBounded},
+                           {"min_factor", run.redistributionMinFactor},
+                           {"positive_definite", run.redistributionPositiveDefinite}};
   }
   return j;
 }

@@ -86,23 +86,55 @@ RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vecto
   }
   const ScalarSparseMatrix M0 = out.matrix;
   const double scale = std::max(std::abs(target[0]), 1e-300);
+  const double theta = options.minimumScale;
+  if (!(theta < 1))
+    throw Error("mass redistribution: minimumScale " + std::to_string(theta) +
+                " (theta < 1 expected; -infinity for no bound)");
 
-  // Uzawa: lambda <- lambda + G^{-1} (c - C(M0 + |M0| sum lambda_k W^k))
-  Eigen::VectorXd lambda = Eigen::VectorXd::Zero(m);
-  double previous = std::numeric_limits<double>::infinity();
-  for (int k = 0; k <= options.maxIterations; ++k) {
-    Eigen::VectorXd current = Eigen::VectorXd::Zero(m);
+  // M~(lambda) = M0 max(theta, 1 + lambda'W) written into out.matrix; returns C(M~), the dual value
+  // g(lambda) (file comment of the header) and the Gram matrix of the entries above the bound
+  struct Evaluation {
+    Eigen::VectorXd constraints;
+    Eigen::MatrixXd gram;
+    double dual = 0;
+    Eigen::Index bounded = 0;
+    double minimumFactor = std::numeric_limits<double>::infinity();
+  };
+  auto evaluate = [&](const Eigen::VectorXd& lambda) {
+    Evaluation e;
+    e.constraints = Eigen::VectorXd::Zero(m);
+    e.gram = Eigen::MatrixXd::Zero(m, m);
     for (Eigen::Index i = 0; i < n; ++i) {
       if (massless[i]) continue;
       for (ScalarSparseMatrix::InnerIterator it(out.matrix, i), it0(M0, i); it; ++it, ++it0) {
         const Eigen::Index j = it.col();
         if (massless[j]) continue;
         const Eigen::VectorXd w = weights(i, j);
-        it.valueRef() = it0.value() + std::abs(it0.value()) * lambda.dot(w);
-        current += it.value() * w;
+        const double mij = it0.value(), q = lambda.dot(w);
+        if (1 + q > theta || mij == 0) {
+          it.valueRef() = mij + std::abs(mij) * q;
+          e.gram += std::abs(mij) * w * w.transpose();
+        } else {
+          it.valueRef() = theta * mij;
+          ++e.bounded;
+        }
+        if (mij != 0) e.minimumFactor = std::min(e.minimumFactor, it.value() / mij);
+        e.constraints += it.value() * w;
+        if (mij != 0) e.dual += (it.value() - mij) * (it.value() - mij) / (2 * std::abs(mij)) - it.value() * q;
       }
     }
-    out.residual = (target - current).norm() / scale;
+    e.dual += lambda.dot(target);
+    return e;
+  };
+
+  // Newton on the dual: lambda <- lambda + t G_A^{-1} (c - C(M~(lambda))), t = 1 unless an entry is at
+  // the bound (then halved until g increases)
+  Eigen::VectorXd lambda = Eigen::VectorXd::Zero(m);
+  Evaluation cur = evaluate(lambda);
+  double previous = std::numeric_limits<double>::infinity();
+  for (int k = 0; k <= options.maxIterations; ++k) {
+    const Eigen::VectorXd gradient = target - cur.constraints;
+    out.residual = gradient.norm() / scale;
     out.iterations = k;
     if (out.residual <= options.tolerance) break;
     // round-off floor of the sums over many entries: stop when a sweep no longer halves a residual
@@ -112,11 +144,38 @@ RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vecto
       std::ostringstream msg;
       msg << "mass redistribution: the Uzawa iteration did not reach the tolerance " << options.tolerance << " in "
           << options.maxIterations << " iterations (relative constraint residual " << out.residual << ")";
+      if (cur.bounded > 0)
+        msg << "; " << cur.bounded << " entries are at the bound M~_ij = " << theta
+            << " M_ij: probably no redistributed mass matrix with these bounds keeps the total mass and the first "
+               "and second moments with the mass left off the contact boundary (too few cell layers behind it); "
+               "refine the mesh near the contact boundary or use a scheme without mass redistribution";
       throw Error(msg.str());
     }
     previous = out.residual;
-    lambda += Gfac.solve(target - current);
+    // G_A (the kept entries above the bound); if they alone cannot carry the constraints, G (an ascent
+    // direction as well)
+    Eigen::VectorXd step;
+    if (cur.bounded == 0) {
+      step = Gfac.solve(gradient);
+    } else {
+      const Eigen::LDLT<Eigen::MatrixXd> Afac(cur.gram);
+      const Eigen::VectorXd D = Afac.vectorD();
+      const bool regular = Afac.info() == Eigen::Success && D.minCoeff() > 1e-12 * D.cwiseAbs().maxCoeff();
+      step = regular ? Eigen::VectorXd(Afac.solve(gradient)) : Eigen::VectorXd(Gfac.solve(gradient));
+    }
+    double t = 1;
+    Evaluation trial = evaluate(lambda + step);
+    const double slope = gradient.dot(step);  // > 0: G_A, G positive definite
+    while (cur.bounded + trial.bounded > 0 && trial.dual < cur.dual + 1e-4 * t * slope && t > 1e-10) {
+      t *= 0.5;
+      trial = evaluate(lambda + t * step);
+    }
+    lambda += t * step;
+    cur = std::move(trial);
   }
+  // out.matrix holds M~(lambda) of the last evaluation, i.e. of the final lambda
+  out.boundedEntries = cur.bounded;
+  out.minimumFactor = cur.minimumFactor;
   out.multipliers = lambda;
   return out;
 }

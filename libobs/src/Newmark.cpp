@@ -218,6 +218,8 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
       stacked->iterations = std::max(stacked->iterations, r.iterations);
       stacked->residual = std::max(stacked->residual, r.residual);
       stacked->movedMass += r.movedMass;
+      stacked->boundedEntries += r.boundedEntries;
+      stacked->minimumFactor = std::min(stacked->minimumFactor, r.minimumFactor);
     }
     stacked->matrix = stack(tilde);
     redistributed_ = std::move(stacked);
@@ -502,7 +504,11 @@ void NewmarkFamily<d>::computePredictor(Predictor& P) const {
   P.delta.assign(nc, 0.0);
   const Eigen::VectorXd x = relative(state_.u), w = relative(state_.v);
   if (basis_.rows == 0) {
-    // rigid obstacles: B is diagonal, the lumped-mass projection is node-wise
+    // rigid obstacles: B is diagonal, the lumped-mass projection is node-wise. A node is active for the
+    // predictor if the projected predictor lies on the obstacle (thesis Sec. 5.3.1: u_pred(p) = g(p)),
+    // i.e. also if u^n + tau v^n touches it without penetrating (a node resting on it with v = 0), with
+    // the tolerance of the solution's active set; only a penetrating predictor is moved (delta < 0).
+    const double touch = activeTolerance(state_.u + tau * state_.v);
     for (std::size_t k = 0; k < nc; ++k) {
       const auto& c = constraints_[k];
       if (!c.bounded()) continue;
@@ -510,8 +516,9 @@ void NewmarkFamily<d>::computePredictor(Predictor& P) const {
       const double un = c.direction.dot(x.template segment<d>(i));
       const double vn = c.direction.dot(w.template segment<d>(i));
       const double excess = un + tau * vn - c.gap;
-      if (excess <= 0) continue;
+      if (excess < -touch) continue;
       P.active[k] = 1;
+      if (excess <= 0) continue;  // touching: delta = 0, tau* = tau (no impact inside the step)
       P.delta[k] = -excess;  // = (tau* - tau) vn
       P.tauStar[k] = vn > 0 ? std::clamp(tau - excess / vn, 0.0, tau) : 0.0;
     }

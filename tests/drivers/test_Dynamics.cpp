@@ -243,6 +243,42 @@ TEST(DynamicScenes, ComparisonWritesOneSeriesPerScheme) {
   EXPECT_EQ(dynamicSchemes(scene, true)[0], "contact-implicit");
 }
 
+TEST(DynamicScenes, BallRunsTheRedistributedSchemesAndTheSummaryKeepsBothEnergyRatios) {
+  // Geometry A at refine 2 (whole sphere massless): KLR and HHW were refused before the lower bound of
+  // the mass redistribution ("non-positive diagonal entry -5.12392e-06 at vertex 13"); now M~ has
+  // entries at the bound, is positive definite, and the comparison's summary keeps per scheme the
+  // energy ratio with the standard mass and, for the schemes with M~, the one with M~
+  Scene scene = parseScene(kScenes / "dynamics_ball.toml");
+  scene.mesh.refine = 2;
+  scene.dynamics->steps = 3;
+  scene.dynamics->endTime.reset();
+  scene.dynamics->compare = {"khenous-laborde-renard", "hager-huebner-wohlmuth"};
+  const fs::path dir = kTmp / "ball_klr";
+  fs::remove_all(dir);
+  RunOptions o;
+  o.outputDirectory = dir;
+  runScene(scene, o);
+  const nlohmann::json j = summaryOf(dir);
+  EXPECT_EQ(j.at("vertices").get<int>(), 4321);
+  const auto& cmp = j.at("dynamics_comparison");
+  ASSERT_EQ(cmp.size(), 3u);
+  EXPECT_FALSE(cmp[0].contains("error"));
+  EXPECT_FALSE(cmp[0].contains("energy_ratio_redistributed"));
+  EXPECT_FALSE(cmp[0].contains("redistribution"));
+  for (int k : {1, 2}) {
+    const auto& d = cmp[k];
+    ASSERT_FALSE(d.contains("error")) << d.at("error");
+    EXPECT_GT(d.at("energy_ratio").get<double>(), 0);
+    EXPECT_DOUBLE_EQ(d.at("energy_ratio_redistributed").get<double>(),
+                     d.at("final_energy_redistributed").get<double>() / d.at("initial_energy_redistributed").get<double>());
+    EXPECT_GT(d.at("redistribution").at("bounded_entries").get<long long>(), 0);
+    EXPECT_NEAR(d.at("redistribution").at("min_factor").get<double>(), 0.1, 1e-12);
+    EXPECT_TRUE(d.at("redistribution").at("positive_definite").get<bool>());
+  }
+  // KLR and HHW conserve E~ (+ tau^2/8 a'M~a for KLR) while the ball flies (contact starts after step 1)
+  EXPECT_NEAR(cmp[2].at("energy_ratio_redistributed").get<double>(), 1.0, 1e-3);
+}
+
 TEST(DynamicScenes, ComparedSchemeThatCannotRunIsReportedNotFatal) {
   // consistent mass: fine for contact-implicit, refused by the predictor scheme contact-stabilized
   // (Newmark.hpp); the comparison records the refusal and goes on

@@ -11,9 +11,12 @@
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
+#include <limits>
 #include <random>
 
 #include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/CurvedMeshes.hpp"
+#include "obs/mesh/RedRefinement.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/MassMatrix.hpp"
 #include "obs/obs/MassRedistribution.hpp"
@@ -156,9 +159,18 @@ TEST(MassRedistribution, DefinitenessCheckCountsNegativeEigenvalues) {
   const ScalarSparseMatrix M = assembleConsistentMass(m, Material{});
   std::vector<char> contact(m.numVertices(), 0);
   for (Index v = 0; v < m.numVertices(); ++v) contact[v] = m.vertex(v)[2] == 0.0;
-  const RedistributedMass R = redistributeMass(M, m.vertices(), 3, contact);
+  // without the lower bound (with it no M~ exists here: the constraints need a nearly massless layer)
+  MassRedistributionOptions unbounded;
+  unbounded.minimumScale = -std::numeric_limits<double>::infinity();
+  const RedistributedMass R = redistributeMass(M, m.vertices(), 3, contact, unbounded);
   const double lmin = smallestEigenvalue(R.matrix, contact);
   EXPECT_LT(lmin, -1e-5);
+  try {
+    redistributeMass(M, m.vertices(), 3, contact);
+    ADD_FAILURE() << "no error with the bound";
+  } catch (const obs::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("entries are at the bound"), std::string::npos) << e.what();
+  }
   // dense count of negative eigenvalues
   Eigen::Index negative = 0;
   {
@@ -245,6 +257,110 @@ TEST(MassRedistribution, IsTheClosestMatrixWithTheConstraints) {
     // orthogonality of the optimum: |M~ + P - M|^2 = |M~ - M|^2 + |P|^2 in the weighted norm
     EXPECT_NEAR(other, dist + distance(D0 + P), 1e-12 * other);
   }
+}
+
+/// The ball of data/scenes/dynamics_ball.toml (pyramids, 2 inner cells, radius 1) refined `levels` times
+/// with the new surface vertices projected onto the sphere; contact = the whole surface.
+mesh::Mesh refinedBall(int levels, std::vector<char>& contact) {
+  const mesh::CurvedMesh c = mesh::ballMesh(mesh::Point::Zero(), 1.0, CellType::Pyramid, 2);
+  mesh::Mesh m = c.mesh;
+  for (int l = 0; l < levels; ++l) {
+    m = mesh::refineUniformly(m);
+    for (Index f = 0; f < m.numBoundaryFaces(); ++f)
+      for (Index v : m.boundaryFaceVertices(f)) m.vertex(v) = c.projections.at(mesh::kCurvedSurface)(m.vertex(v));
+  }
+  contact.assign(m.numVertices(), 0);
+  for (Index f = 0; f < m.numBoundaryFaces(); ++f)
+    for (Index v : m.boundaryFaceVertices(f)) contact[v] = 1;
+  return m;
+}
+
+TEST(MassRedistribution, LowerBoundKeepsTheBallsDiagonalPositive) {
+  // Geometry A with the whole sphere massless (refine 2, 4321 vertices): the unbounded minimiser
+  // rescales the kept entries by 1 + q, q quadratic; keeping the second moments moves mass outwards
+  // and 1 + q < 0 at the centre, i.e. a negative diagonal entry (the KLR/HHW failure on the ball).
+  // With the bound M~_ij >= theta M_ij the constraints still hold, no entry is below the bound, the
+  // unbounded ones are M_ij (1 + q_ij) with the same polynomial form, and M~ is positive definite.
+  std::vector<char> contact;
+  const mesh::Mesh m = refinedBall(2, contact);
+  ASSERT_EQ(m.numVertices(), 4321);
+  const ScalarSparseMatrix M = assembleConsistentMass(m, Material{});
+  // without the bound: negative diagonal entries (what NewmarkFamily rejected before)
+  MassRedistributionOptions unbounded;
+  unbounded.minimumScale = -std::numeric_limits<double>::infinity();
+  const RedistributedMass R0 = redistributeMass(M, m.vertices(), 3, contact, unbounded);
+  EXPECT_EQ(R0.boundedEntries, 0);
+  EXPECT_LE(R0.residual, 1e-11);
+  Index negativeDiagonal = 0;
+  double minDiagonal0 = std::numeric_limits<double>::infinity();
+  for (Index v = 0; v < m.numVertices(); ++v)
+    if (!contact[v]) {
+      negativeDiagonal += R0.matrix.coeff(v, v) < 0;
+      minDiagonal0 = std::min(minDiagonal0, R0.matrix.coeff(v, v));
+    }
+  EXPECT_GT(negativeDiagonal, 0);
+  const RedistributedMass R = redistributeMass(M, m.vertices(), 3, contact);  // theta = 0.1
+  const double theta = MassRedistributionOptions{}.minimumScale;
+  EXPECT_EQ(theta, 0.1);
+  EXPECT_GT(R.boundedEntries, 0);
+  EXPECT_GE(R.minimumFactor, theta - 1e-15);
+  EXPECT_LE(R.residual, 1e-11);
+  EXPECT_NEAR(moment(R.matrix, m, -1), moment(M, m, -1), 1e-12);
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(moment(R.matrix, m, a), moment(M, m, a), 1e-12) << a;
+    for (int b = 0; b < 3; ++b)
+      EXPECT_NEAR(secondMoment(R.matrix, m, a, b), secondMoment(M, m, a, b), 1e-12) << a << b;
+  }
+  double minDiagonal = std::numeric_limits<double>::infinity();
+  for (Index v = 0; v < m.numVertices(); ++v)
+    if (!contact[v]) minDiagonal = std::min(minDiagonal, R.matrix.coeff(v, v));
+  EXPECT_GT(minDiagonal, 0);
+  // entries: at the bound exactly theta M_ij, elsewhere above it
+  Eigen::Index atBound = 0;
+  for (Eigen::Index i = 0; i < M.outerSize(); ++i)
+    for (ScalarSparseMatrix::InnerIterator it(M, i); it; ++it) {
+      if (contact[i] || contact[it.col()]) continue;
+      const double f = R.matrix.coeff(i, it.col()) / it.value();
+      EXPECT_GE(f, theta * (1 - 1e-14));
+      atBound += f <= theta * (1 + 1e-14);
+    }
+  EXPECT_EQ(atBound, R.boundedEntries);
+  const DefinitenessCheck pd = checkPositiveDefinite(R.matrix, contact);
+  if (verbose())
+    std::cout << "ball refine 2: without the bound " << negativeDiagonal << " negative diagonal entries (smallest "
+              << minDiagonal0 << ", factor " << R0.minimumFactor << "); entries at the bound theta = " << theta << ": " << R.boundedEntries << " of "
+              << M.nonZeros() << ", min factor " << R.minimumFactor << ", min diagonal " << minDiagonal
+              << ", sweeps " << R.iterations << ", residual " << R.residual << ", negative pivots "
+              << pd.nonPositivePivots << " of " << pd.size << " vertices with mass\n";
+  EXPECT_TRUE(pd.positiveDefinite) << pd.nonPositivePivots << " non-positive pivots";
+  EXPECT_LE(R.iterations, 20);
+}
+
+TEST(MassRedistribution, LowerBoundChangesNothingWhereItIsInactive) {
+  // the 4^3 hexahedral unit cube without mass at the bottom: every factor 1 + q is far above 0.1, so the
+  // bounded and the unbounded minimiser are the same matrix, bit for bit
+  const mesh::Mesh m = mesh::boxMesh(CellType::Hexahedron, 4);
+  const ScalarSparseMatrix M = assembleConsistentMass(m, Material{});
+  std::vector<char> contact(m.numVertices(), 0);
+  for (Index v = 0; v < m.numVertices(); ++v) contact[v] = m.vertex(v)[2] == 0.0;
+  MassRedistributionOptions zero;
+  zero.minimumScale = 0;
+  const RedistributedMass a = redistributeMass(M, m.vertices(), 3, contact, zero);
+  const RedistributedMass b = redistributeMass(M, m.vertices(), 3, contact);
+  EXPECT_EQ(a.boundedEntries, 0);
+  EXPECT_EQ(b.boundedEntries, 0);
+  EXPECT_GT(b.minimumFactor, 0.1);
+  EXPECT_EQ(Eigen::MatrixXd(a.matrix - b.matrix).cwiseAbs().maxCoeff(), 0.0);
+  EXPECT_EQ(a.iterations, b.iterations);
+  MassRedistributionOptions bad;
+  bad.minimumScale = 1;
+  EXPECT_THROW(redistributeMass(M, m.vertices(), 3, contact, bad), obs::Error);
+  bad.minimumScale = std::nan("");
+  EXPECT_THROW(redistributeMass(M, m.vertices(), 3, contact, bad), obs::Error);
+  // no bound at all: the same matrix as well
+  MassRedistributionOptions none;
+  none.minimumScale = -std::numeric_limits<double>::infinity();
+  EXPECT_EQ(Eigen::MatrixXd(redistributeMass(M, m.vertices(), 3, contact, none).matrix - b.matrix).cwiseAbs().maxCoeff(), 0.0);
 }
 
 TEST(MassLumping, HrzFallbackForNonPositiveRowSums) {

@@ -511,6 +511,48 @@ TEST(Newmark, HagerHuebnerWohlmuthLongMultiVertexImpact2D) {
   checkHagerHuebnerWohlmuthLongRun<2>(b.grid, *b.contact, uniform(n, 0.1, -1.0), 0.005, 300);
 }
 
+TEST(Newmark, PredictorActiveSetCountsNodesTouchingTheObstacle) {
+  // thesis Sec. 5.3.1/5.3.3: a node is active for the predictor if the projected predictor lies on the
+  // obstacle, u_pred(p) = g(p). A block resting on the plane (gap 0, v = 0) and pressed onto it by a body
+  // force: the predictor u^n + tau v^n = u^n touches the plane at every bottom vertex, so all of them are
+  // active for the predictor and for the solution, none only for the solution. (Counting only
+  // penetrating predictors, as before, gave activePredictor = 0 and solutionOnly = 5 here.)
+  Block b(CellType::Quadrilateral, {4, 2, 1}, 1, 0.5, 0.0);
+  BoundaryConditions bc;
+  bc.bodyForce = [](const Point&) { return Eigen::Vector3d(0, -20, 0); };
+  const Index n = b.vertices();
+  for (NewmarkScheme s : {NewmarkScheme::ImprovedContactStabilized, NewmarkScheme::ContactStabilized,
+                          NewmarkScheme::AlphaHalf, NewmarkScheme::ContactImplicit}) {
+    NewmarkFamily<2> st(b.grid, material(200), bc, *b.contact, opts(s, 0.005));
+    st.initialize(Eigen::VectorXd::Zero(2 * n), Eigen::VectorXd::Zero(2 * n));
+    const StepRecord r = st.step();
+    EXPECT_EQ(r.activeSolution, 5) << name(s);
+    EXPECT_EQ(r.activePredictor, 5) << name(s);
+    EXPECT_EQ(r.solutionOnly, 0) << name(s);
+    EXPECT_EQ(r.predictorOnly, 0) << name(s);
+  }
+  // a dropped block (multi-vertex impact): the counts are consistent in every step, and the
+  // contact-stabilized scheme, which keeps the impact velocity during contact, never has a node active
+  // only for the solution (the thesis' Fig. 5.11(c)); alpha(p) zeroes the normal velocity, so its
+  // resting nodes stay active for the predictor and only arriving nodes can be solution-only
+  Block drop(CellType::Triangle, {6, 3, 1}, 1, 0.5, 0.02);
+  const Index m = drop.vertices();
+  for (NewmarkScheme s : {NewmarkScheme::ContactStabilized, NewmarkScheme::ImprovedContactStabilized}) {
+    NewmarkFamily<2> st(drop.grid, material(200), {}, *drop.contact, opts(s, 0.005));
+    const auto rec = runSteps(st, Eigen::VectorXd::Zero(2 * m), uniform(m, 0.0, -1.0), 80);
+    Index active = 0, solutionOnly = 0;
+    for (const StepRecord& r : rec) {
+      EXPECT_EQ(r.activePredictor - r.predictorOnly, r.activeSolution - r.solutionOnly) << name(s) << " step " << r.step;
+      if (s == NewmarkScheme::ContactStabilized) { EXPECT_EQ(r.solutionOnly, 0) << "step " << r.step; }
+      active += r.activeSolution;
+      solutionOnly += r.solutionOnly;
+    }
+    if (verbose()) std::cout << name(s) << ": node-steps active " << active << ", solution only " << solutionOnly << "\n";
+    EXPECT_GT(active, 20) << name(s);
+    EXPECT_LE(solutionOnly, active / 4) << name(s);
+  }
+}
+
 TEST(Newmark, RedistributedSchemesRejectAnIndefiniteStepMatrix) {
   // 5 x 5 x 2 tetrahedral block [0, 1]^2 x [0, 0.5] without mass at the bottom: M~ has a positive
   // diagonal and one negative eigenvalue (coarser or odd layer counts give non-positive diagonal
@@ -521,6 +563,13 @@ TEST(Newmark, RedistributedSchemesRejectAnIndefiniteStepMatrix) {
   mesh::Grid grid(mesh::boxMesh(CellType::Tetrahedron, {5, 5, 2}, P(0, 0, 0), P(1, 1, 0.5)));
   PlaneObstacle plane(P(0, 0, -0.1), P(0, 0, -1));
   ContactSet contact(grid.leafView().mesh, mesh::kBottom, plane);
+  // Two cell layers: with the default lower bound M~_ij >= 0.1 M_ij no M~ keeps the second moments
+  // (MassRedistribution.hpp), a clear error; the unbounded M~ exists and is indefinite
+  auto unbounded = [](NewmarkScheme s, double tau) {
+    NewmarkOptions o = opts(s, tau);
+    o.redistribution.minimumScale = -std::numeric_limits<double>::infinity();
+    return o;
+  };
   for (NewmarkScheme s : allNewmarkSchemes()) {
     if (!usesRedistributedMass(s)) {
       NewmarkFamily<3> st(grid, material(1), {}, contact, opts(s, 1e-4));
@@ -529,6 +578,12 @@ TEST(Newmark, RedistributedSchemesRejectAnIndefiniteStepMatrix) {
     }
     try {
       NewmarkFamily<3>(grid, material(1), {}, contact, opts(s, 1e-4));
+      ADD_FAILURE() << name(s) << ": no error with the bound";
+    } catch (const obs::Error& e) {
+      EXPECT_NE(std::string(e.what()).find("entries are at the bound"), std::string::npos) << e.what();
+    }
+    try {
+      NewmarkFamily<3>(grid, material(1), {}, contact, unbounded(s, 1e-4));
       ADD_FAILURE() << name(s) << ": no error";
     } catch (const obs::Error& e) {
       const std::string what = e.what();
@@ -537,7 +592,7 @@ TEST(Newmark, RedistributedSchemesRejectAnIndefiniteStepMatrix) {
       EXPECT_NE(what.find("Refine the mesh near the contact boundary"), std::string::npos) << what;
       EXPECT_NE(what.find(std::string(name(s))), std::string::npos) << what;
     }
-    NewmarkFamily<3> stiff(grid, material(1e4), {}, contact, opts(s, 0.01));
+    NewmarkFamily<3> stiff(grid, material(1e4), {}, contact, unbounded(s, 0.01));
     EXPECT_FALSE(stiff.redistributedMassDefiniteness().positiveDefinite) << name(s);
     EXPECT_EQ(stiff.redistributedMassDefiniteness().nonPositivePivots, 1) << name(s);
   }

@@ -29,6 +29,21 @@
 /// in one or two sweeps, the extra sweeps only remove round-off). G is singular if the kept entries
 /// cannot carry the constraints (e.g. every vertex that keeps mass on one line): obs::Error.
 ///
+/// Lower bound. The problem is solved with the bounds M~_ij >= theta M_ij (MassRedistributionOptions::
+/// minimumScale, default 0.1): mass may be moved but no entry may lose more than 1 - theta of itself, so
+/// every diagonal entry stays positive. The minimiser is M~_ij = M_ij max(theta, 1 + sum_k lambda_k W^k_ij)
+/// and lambda maximises the concave, piecewise quadratic dual
+///   g(lambda) = sum_K [ (M~_ij - M_ij)^2 / (2 M_ij) - M~_ij sum_k lambda_k W^k_ij ] + lambda'c,
+/// grad g = c - C(M~(lambda)). The iteration above is Newton's method on g (G = its negative Hessian);
+/// with entries at the bound it uses the Gram matrix G_A of the entries above the bound (a semismooth
+/// Newton step) and halves the step until g increases (Armijo). Without entries at the bound g is
+/// quadratic, the first step is exact and nothing changes against the unbounded minimiser. Example:
+/// the ball of dynamics_ball.toml with its whole sphere massless, refine 2: without the bound some
+/// diagonal entries are negative; with it 5,519 of the 70,177 entries of M sit at the bound and M~ is positive
+/// definite (tests/obs/test_mass.cpp). The bound can make the constraints infeasible: with three cell
+/// layers behind a flat contact face the second moment in the normal direction needs a massless middle
+/// layer (docs/dynamics.md); the iteration then does not converge and the error says so.
+///
 /// M~ is symmetric; it is positive semidefinite on the remaining vertices when the removed mass is
 /// small against the smallest eigenvalue of M (a boundary layer of a mesh with several cells across).
 /// On coarse meshes it can be indefinite (3^3 tetrahedral unit cube with the bottom removed);
@@ -48,13 +63,22 @@ struct MassRedistributionOptions {
   /// y = (x - xbar)/L of the file comment); the iteration also stops at the round-off floor (a residual <= 1e-11 that a sweep no longer halves).
   double tolerance = 1e-14;
   int maxIterations = 50;
+  /// Lower bound theta on the rescaling: every kept entry satisfies M~_ij >= theta M_ij (theta < 1;
+  /// -infinity: no bound, the minimiser of the file comment without the bound, which can be negative).
+  /// The unconstrained minimiser rescales by 1 + q with a quadratic polynomial q; when much mass must move
+  /// outwards (a ball whose whole surface is massless) 1 + q drops below 0 near the centre and M~ gets a
+  /// negative diagonal entry. With the bound the minimiser is M~_ij = M_ij max(theta, 1 + q_ij) (see the
+  /// file comment); where 1 + q >= theta everywhere it is the unconstrained one, bit for bit.
+  double minimumScale = 0.1;
 };
 
 struct RedistributedMass {
   ScalarSparseMatrix matrix;        ///< M~ (pattern of M, zero rows/columns at the massless vertices)
   std::vector<char> massless;       ///< per vertex: in C
   Eigen::VectorXd multipliers;      ///< lambda (1 + d + d(d+1)/2, order of the file comment)
-  int iterations = 0;               ///< Uzawa sweeps
+  int iterations = 0;               ///< Uzawa (semismooth Newton) sweeps
+  double minimumFactor = 1;         ///< smallest M~_ij / M_ij over the kept entries (>= minimumScale)
+  Eigen::Index boundedEntries = 0;  ///< kept entries at the bound M~_ij = minimumScale M_ij
   double residual = 0;              ///< final relative constraint residual
   double movedMass = 0;             ///< sum of the removed entries of M (the mass taken off C)
 };
