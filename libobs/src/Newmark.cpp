@@ -321,6 +321,7 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
   so.preSmoothing = options.preSmoothing;
   so.postSmoothing = options.postSmoothing;
   so.recordHistory = false;
+  so.computeKkt = false;  // the steps do not use the KKT residuals (one product with S saved per step)
   solver_ = grids.size() == 1 ? std::make_unique<TNNMG<d>>(*grids.front(), so) : std::make_unique<TNNMG<d>>(grids, so);
 }
 

@@ -67,9 +67,12 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     std::fill(rotated_->upper.begin(), rotated_->upper.end(), std::numeric_limits<double>::infinity());
     for (const auto& c : problem.constraints())
       if (c.bounded()) rotated_->upper[c.vertex] = c.gap;
+    smoother_->setUpper(rotated_->upper);
   } else {
     operatorId_ = 0;
+    smoother_.reset();
     rotated_ = std::make_unique<RotatedProblem<d>>(problem.rotated());
+    smoother_ = std::make_unique<BlockGaussSeidelSweep<d>>(rotated_->matrix, rotated_->upper);
     correction_->setFineBasis(problem.basisTransformation());
     correction_->setOperator(rotated_->matrix, problemRotations(problem), rotated_->prescribed);
     operatorId_ = problem.operatorId();
@@ -86,7 +89,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   problem.projectToFeasible(u);
   Eigen::VectorXd w = problem.toRotated(u);
   rot.project(w);
-  const BlockGaussSeidelSweep<d> smoother(A, rot.upper);
+  const BlockGaussSeidelSweep<d>& smoother = *smoother_;
 
   const auto n = static_cast<Eigen::Index>(problem.numDofs());
   Eigen::VectorXd Aw(n), r(n), c(n), Ac(n), previous(n), delta(n), Adelta(n);
@@ -144,7 +147,8 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   statistics_.operatorUpdates = correction_->operatorUpdates() - baseUpdates;
   u = problem.fromRotated(w);
   ContactResult result = monitor.finish(converged, rot.countActive(w));
-  result.kkt = computeKktResiduals(problem, u);
+  if (options_.computeKkt) result.kkt = computeKktResiduals(problem, u);
+  else result.kkt = notComputedKktResiduals();
   return result;
 }
 
