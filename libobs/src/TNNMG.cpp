@@ -93,7 +93,8 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
 
   const auto n = static_cast<Eigen::Index>(problem.numDofs());
   Eigen::VectorXd Aw(n), r(n), c(n), Ac(n), previous(n), delta(n), Adelta(n);
-  A.multiply(w, Aw);
+  if (w.isZero(0)) Aw.setZero();  // a zero start (time steps from their predictor) needs no product
+  else A.multiply(w, Aw);
   IterationMonitor monitor(name(), options_, 0.5 * w.dot(Aw) - rot.rhs.dot(w));
   TruncatedLinearization<d> linearization;
   lap(t, statistics_.setupSeconds);
