@@ -45,6 +45,8 @@ using namespace obs;
 
 namespace {
 
+LinearMultigridOptions gMultigrid;  ///< the V-cycle of every run (--vcycle)
+
 double cpuSeconds() {
   timespec t{};
   clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
@@ -157,6 +159,7 @@ void oneBodyTable(std::ostringstream& md, Geometry& g, int steps, const std::vec
       o.scheme = s;
       o.timeStep = g.tau;
       o.start = start;
+      o.multigrid = gMultigrid;
       std::unique_ptr<NewmarkFamily<3>> stepper;
       try {
         stepper = std::make_unique<NewmarkFamily<3>>(g.grid, mat, BoundaryConditions{}, *g.contact, o);
@@ -233,6 +236,7 @@ void geometryB(std::ostringstream& md, int steps, int refine) {
     o.solverTolerance = 1e-10;
     o.inexactFraction = var.inexact;
     o.start = var.start;
+    o.multigrid = gMultigrid;
     NewmarkFamily<3> st({&lower, &upper}, model, o);
     Eigen::VectorXd v = Eigen::VectorXd::Zero(3 * n);
     for (int b = 0; b < 2; ++b) {
@@ -261,6 +265,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   int steps1 = 1000, stepsA = 100, stepsB = 40, refineB = 4;
+  LinearMultigridOptions& multigrid = gMultigrid;
   std::vector<std::string> geometries{"1", "A", "B"};
   std::vector<NewmarkScheme> schemes = allNewmarkSchemes();
   std::ostringstream command;
@@ -276,6 +281,12 @@ int main(int argc, char** argv) {
       else if (key == "--stepsB") stepsB = std::stoi(value);
       else if (key == "--refineB") refineB = std::stoi(value);
       else if (key == "--geometries") geometries = split(value);
+      else if (key == "--vcycle") {  // PRE,POST smoothing steps of the V-cycle (default 3,3)
+        const std::vector<std::string> v = split(value);
+        if (v.size() != 2) throw Error("--vcycle needs PRE,POST");
+        multigrid.preSmoothing = std::stoi(v[0]);
+        multigrid.postSmoothing = std::stoi(v[1]);
+      }
       else if (key == "--schemes") {
         if (value != "all") {
           schemes.clear();

@@ -59,6 +59,18 @@ void BlockGaussSeidelSweep<d>::sweep(const Eigen::VectorXd& b, Eigen::VectorXd& 
 }
 
 template <int d>
+void BlockGaussSeidelSweep<d>::sweepFromZero(const Eigen::VectorXd& b, Eigen::VectorXd& w) const {
+  using Vec = typename BlockLocalSolver<d>::Vec;
+  const Index n = A_.rows();
+  for (Index p = 0; p < n; ++p) {
+    Vec r = b.template segment<d>(static_cast<Eigen::Index>(p) * d);
+    for (Index k = A_.rowBegin(p); k < A_.rowEnd(p) && A_.column(k) < p; ++k)
+      r.noalias() -= A_.blockAt(k) * w.template segment<d>(static_cast<Eigen::Index>(A_.column(k)) * d);
+    w.template segment<d>(static_cast<Eigen::Index>(p) * d) = local_.solve(p, r);
+  }
+}
+
+template <int d>
 ContactResult ProjectedGaussSeidel<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd& u) {
   const RotatedProblem<d> rot = problem.rotated();
   problem.projectToFeasible(u);

@@ -93,7 +93,8 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
 
   const auto n = static_cast<Eigen::Index>(problem.numDofs());
   Eigen::VectorXd Aw(n), r(n), c(n), Ac(n), previous(n), delta(n), Adelta(n);
-  if (w.isZero(0)) Aw.setZero();  // a zero start (time steps from their predictor) needs no product
+  bool zeroStart = w.isZero(0);  // a zero start (time steps from their predictor) needs no product
+  if (zeroStart) Aw.setZero();
   else A.multiply(w, Aw);
   IterationMonitor monitor(name(), options_, 0.5 * w.dot(Aw) - rot.rhs.dot(w));
   TruncatedLinearization<d> linearization;
@@ -103,7 +104,12 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   for (int k = 0; k < options_.maxIterations && !converged; ++k) {
     previous = w;
     // 1. nonsmooth pre-smoothing
-    for (int s = 0; s < options_.preSmoothing; ++s) smoother.sweep(rot.rhs, w);
+    for (int s = 0; s < options_.preSmoothing; ++s) {
+      if (zeroStart) smoother.sweepFromZero(rot.rhs, w);  // the first sweep on w = 0: half the blocks
+      else smoother.sweep(rot.rhs, w);
+      zeroStart = false;
+    }
+    zeroStart = false;  // also without pre-smoothing: w changes below
     lap(t, statistics_.smoothingSeconds);
     // 2. truncation (operators updated only if the mask changed)
     linearization.truncate(rot, w);

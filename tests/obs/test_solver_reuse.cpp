@@ -18,6 +18,7 @@
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/LinearElasticity.hpp"
 #include "obs/obs/Newmark.hpp"
+#include "obs/obs/ProjectedGaussSeidel.hpp"
 #include "obs/obs/PrimalDualActiveSet.hpp"
 #include "obs/obs/TNNMG.hpp"
 #include "obs/obs/TruncatedGaussSeidel.hpp"
@@ -104,7 +105,8 @@ TEST(SolverReuse, KktResidualsOnlyWhenAsked) {
   EXPECT_EQ((ua - ub).lpNorm<Eigen::Infinity>(), 0.0);  // the solve itself is the same
 }
 
-// The half sweep from zero against a full sweep on x = 0 (bitwise), with truncated components.
+// The half sweeps from zero against full sweeps on zero (bitwise): the linear one with truncated
+// components, the nonsmooth one with bounds.
 TEST(SolverReuse, FirstSweepFromZeroIsTheFullSweepOnZero) {
   Pressed s;
   const BlockSparseMatrix<3>& A = s.problem->matrix();
@@ -120,6 +122,15 @@ TEST(SolverReuse, FirstSweepFromZeroIsTheFullSweepOnZero) {
   EXPECT_EQ((full - half).lpNorm<Eigen::Infinity>(), 0.0);
   for (std::size_t p = 0; p < bits.size(); p += 10) EXPECT_EQ(half.segment<3>(3 * static_cast<Eigen::Index>(p)).norm(), 0.0);
   EXPECT_GT(half.norm(), 0.0);
+  // the nonsmooth sweep of TNNMG (bounds at every second contact vertex)
+  std::vector<double> upper(static_cast<std::size_t>(A.rows()), kInf);
+  for (Index k = 0; k < s.contact->size(); k += 2) upper[static_cast<std::size_t>(s.contact->vertex(k))] = -1e-4;
+  const BlockGaussSeidelSweep<3> nonsmooth(A, upper);
+  Eigen::VectorXd w = Eigen::VectorXd::Zero(r.size()), v = Eigen::VectorXd::Constant(r.size(), -3.0);
+  nonsmooth.sweep(r, w);
+  nonsmooth.sweepFromZero(r, v);
+  EXPECT_EQ((w - v).lpNorm<Eigen::Infinity>(), 0.0);
+  EXPECT_GT(w.norm(), 0.0);
 }
 
 // A hexahedral block dropped onto a plane (impact, contact, release): the warm start from the previous

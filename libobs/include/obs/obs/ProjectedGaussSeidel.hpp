@@ -68,6 +68,10 @@ public:
   /// New bounds for the same matrix (TNNMG reuses the sweep across solves of one operator).
   void setUpper(std::vector<double> upper) { local_.setUpper(std::move(upper)); }
   void sweep(const Eigen::VectorXd& b, Eigen::VectorXd& w, bool backward = false) const;
+  /// A forward sweep on w = 0 (w of the right size, overwritten): the same result as w.setZero();
+  /// sweep(b, w), reading only the blocks left of the diagonal (columns are sorted; the others
+  /// multiply zeros).
+  void sweepFromZero(const Eigen::VectorXd& b, Eigen::VectorXd& w) const;
   const BlockLocalSolver<d>& localSolver() const { return local_; }
 
 private:
