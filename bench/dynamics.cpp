@@ -20,7 +20,8 @@
 //   build/bench/dynamics out.md --steps1 200 --geometries 1 --schemes improved-contact-stabilized
 //
 // Options: --steps1 N (1000), --stepsA N (100), --stepsB N (40), --refineB K (4), --geometries list of
-// 1, A, B (1,A,B), --schemes list of scheme names or all (all; geometries 1 and A).
+// 1, A, B (1,A,B), --schemes list of scheme names or all (all; geometries 1 and A), --vcycle
+// PRE,POST[,CYCLES] smoothing steps and V-cycles of TNNMG's linear correction (3,3,1).
 #include <time.h>
 
 #include <algorithm>
@@ -281,11 +282,12 @@ int main(int argc, char** argv) {
       else if (key == "--stepsB") stepsB = std::stoi(value);
       else if (key == "--refineB") refineB = std::stoi(value);
       else if (key == "--geometries") geometries = split(value);
-      else if (key == "--vcycle") {  // PRE,POST smoothing steps of the V-cycle (default 3,3)
+      else if (key == "--vcycle") {  // PRE,POST[,CYCLES] of the linear correction (default 3,3,1)
         const std::vector<std::string> v = split(value);
-        if (v.size() != 2) throw Error("--vcycle needs PRE,POST");
+        if (v.size() != 2 && v.size() != 3) throw Error("--vcycle needs PRE,POST[,CYCLES]");
         multigrid.preSmoothing = std::stoi(v[0]);
         multigrid.postSmoothing = std::stoi(v[1]);
+        if (v.size() == 3) multigrid.cycles = std::stoi(v[2]);
       }
       else if (key == "--schemes") {
         if (value != "all") {
@@ -303,7 +305,8 @@ int main(int argc, char** argv) {
   std::ostringstream md;
   md << "Produced by `OPENBLAS_NUM_THREADS=1 build/" << command.str()
      << "` (source: bench/dynamics.cpp; Release, one core). TNNMG tolerance 1e-11 (Geometries 1, A; 1e-10 for B, "
-        "as its scene), relative energy-norm correction, 3 pre-smoothing sweeps, V(3,3) linear correction. CPU "
+        "as its scene), relative energy-norm correction, 3 pre-smoothing sweeps, linear correction: "
+     << multigrid.cycles << " V(" << multigrid.preSmoothing << "," << multigrid.postSmoothing << ") cycle(s). CPU "
         "ms/step: process CPU time of the step loop divided by the steps. E: energy with the standard lumped mass M; "
         "E~: with the redistributed mass M~ (schemes with M~; khenous-laborde-renard: the modified energy E~ + "
         "tau^2/8 a'M~a, marked mod.). Max dev = max_n |E^n - E^0| / |E^0|. E of the M~ schemes includes the "
