@@ -16,7 +16,7 @@
 // each as end/start ratio and max |E - E_0| / E_0 over the run. The figures replace the block
 // "dynamics" of the page given (MarkdownBlock.hpp), e.g. docs/performance.md:
 //
-//   OPENBLAS_NUM_THREADS=1 build/bench/dynamics docs/performance.md      # all, about 5 minutes
+//   OPENBLAS_NUM_THREADS=1 build/bench/dynamics docs/performance.md      # all: 5 (quiet) to 15 (busy machine) minutes
 //   build/bench/dynamics out.md --steps1 200 --geometries 1 --schemes improved-contact-stabilized
 //
 // Options: --steps1 N (1000), --stepsA N (100), --stepsB N (40), --refineB K (4), --geometries list of
