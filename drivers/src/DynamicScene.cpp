@@ -333,6 +333,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
   if (scene.solver.preSmoothing) o.preSmoothing = *scene.solver.preSmoothing;
   if (scene.solver.postSmoothing) o.postSmoothing = *scene.solver.postSmoothing;
   o.inexactFraction = dyn.inexact;
+  o.start = newmarkStartFromName(dyn.warmStart);
   for (const TrackedInfo& t : c.tracked) o.trackedVertices.push_back(t.vertex);
 
   const auto t0 = Clock::now();
@@ -596,6 +597,7 @@ nlohmann::json schemeJson(const Context& c, const SchemeRun& run) {
       {"mean_iterations_per_step", run.steps ? static_cast<double>(run.iterations) / run.steps : 0.0},
       {"max_iterations_per_step", run.maxIterations},
       {"inexact", dyn.inexact},
+      {"warm_start", dyn.warmStart},
       {"min_solver_tolerance", run.steps ? nlohmann::json(run.minTolerance) : nlohmann::json(nullptr)},
       {"max_solver_tolerance", run.steps ? nlohmann::json(run.maxTolerance) : nlohmann::json(nullptr)},
       {"setup_s", run.setupSeconds},

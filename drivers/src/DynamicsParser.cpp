@@ -150,7 +150,8 @@ void parseCurvedMesh(const TomlSection& s, MeshSpec& spec) {
 DynamicsSpec parseDynamics(const Scene& scene, const toml::value& table) {
   const TomlSection s(scene.fileName, "[dynamics]", table,
                       {"scheme", "tau", "end_time", "steps", "initial_velocity",
-                       "initial_displacement", "mass", "tracked", "output_stride", "compare", "inexact"});
+                       "initial_displacement", "mass", "tracked", "output_stride", "compare", "inexact",
+                       "warm_start"});
   DynamicsSpec spec;
   spec.line = s.line();
   if (s.has("scheme")) {
@@ -251,6 +252,12 @@ DynamicsSpec parseDynamics(const Scene& scene, const toml::value& table) {
                             " must lie in [0, 1) (the fraction of the time-error estimate; 0: off)");
     spec.inexact = f;
     spec.inexactLine = s.line("inexact");
+  }
+  if (s.has("warm_start")) {
+    const std::string w = s.string("warm_start");
+    if (w != "predictor" && w != "previous-increment")
+      s.fail("warm_start", "= \"" + w + "\" must be \"predictor\" or \"previous-increment\"");
+    spec.warmStart = w;
   }
   return spec;
 }

@@ -402,6 +402,9 @@ void storeNewmarkState(CheckpointRecord& r, const NewmarkSchemeState& s) {
     r.set("scheme/next_solver_tolerance", s.nextSolverTolerance,
           "inexact solves: TNNMG tolerance of the next step (0: the solver tolerance)");
   }
+  if (s.previousIncrement.size() > 0)  // warm start from the previous increment only
+    r.set("scheme/previous_increment", s.previousIncrement,
+          "warm start previous-increment: the last step's increment u^n - base^{n-1} in the problem unknowns");
 }
 
 NewmarkSchemeState loadNewmarkState(const CheckpointRecord& r) {
@@ -424,6 +427,7 @@ NewmarkSchemeState loadNewmarkState(const CheckpointRecord& r) {
     s.previousVelocity = r.vector("scheme/previous_velocity");
     s.nextSolverTolerance = r.real("scheme/next_solver_tolerance");
   }
+  if (r.has("scheme/previous_increment")) s.previousIncrement = r.vector("scheme/previous_increment");
   return s;
 }
 

@@ -374,12 +374,16 @@ void ContactProblem<d>::projectToFeasible(Eigen::VectorXd& u) const {
 
 template <int d>
 Eigen::VectorXd ContactProblem<d>::multipliers(const Eigen::VectorXd& u) const {
-  const Eigen::VectorXd r = b_ - A_ * u;
+  // only the rows of the constrained vertices of r = b - A u (each summed as in A * u)
   Eigen::VectorXd mu = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(constraints_.size()));
   for (std::size_t k = 0; k < constraints_.size(); ++k) {
     const Constraint& c = constraints_[k];
-    if (c.bounded())
-      mu[static_cast<Eigen::Index>(k)] = c.direction.dot(r.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d));
+    if (!c.bounded()) continue;
+    Vec s = Vec::Zero();
+    for (Index m = A_.rowBegin(c.vertex); m < A_.rowEnd(c.vertex); ++m)
+      s.noalias() += A_.blockAt(m) * u.template segment<d>(static_cast<Eigen::Index>(A_.column(m)) * d);
+    const Vec r = b_.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d) - s;
+    mu[static_cast<Eigen::Index>(k)] = c.direction.dot(r);
   }
   return mu;
 }

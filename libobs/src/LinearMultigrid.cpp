@@ -107,8 +107,10 @@ void LinearMultigrid<d>::cycle(int l, const Eigen::VectorXd& r, Eigen::VectorXd&
     }
     return;
   }
-  x.setZero(r.size());
-  for (int s = 0; s < options_.preSmoothing; ++s) smoothers_[l].sweep(r, x, false);
+  x.resize(r.size());
+  if (options_.preSmoothing > 0) smoothers_[l].sweepFromZero(r, x);
+  else x.setZero();
+  for (int s = 1; s < options_.preSmoothing; ++s) smoothers_[l].sweep(r, x, false);
   // coarse-grid correction, gamma times below the finest level (gamma = 1: V-cycle, 2: W-cycle)
   const int gamma = l == 1 ? 1 : options_.cycleIndex;
   for (int g = 0; g < gamma; ++g) {

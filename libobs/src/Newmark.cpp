@@ -71,6 +71,20 @@ NewmarkScheme newmarkSchemeFromName(std::string_view n) {
   throw Error("unknown time stepping scheme '" + std::string(n) + "' (valid: " + valid + ")");
 }
 
+std::string_view name(NewmarkStart start) {
+  switch (start) {
+    case NewmarkStart::Predictor: return "predictor";
+    case NewmarkStart::PreviousIncrement: return "previous-increment";
+  }
+  return "?";
+}
+
+NewmarkStart newmarkStartFromName(std::string_view n) {
+  for (NewmarkStart s : {NewmarkStart::Predictor, NewmarkStart::PreviousIncrement})
+    if (name(s) == n) return s;
+  throw Error("unknown warm start '" + std::string(n) + "' (valid: predictor, previous-increment)");
+}
+
 bool usesRedistributedMass(NewmarkScheme s) {
   return s == NewmarkScheme::KhenousLabordeRenard || s == NewmarkScheme::HagerHuebnerWohlmuth ||
          s == NewmarkScheme::HagerHuebnerWohlmuthNonPenetration;
@@ -322,6 +336,7 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
   so.maxIterations = options.maxSolverIterations;
   so.preSmoothing = options.preSmoothing;
   so.postSmoothing = options.postSmoothing;
+  so.multigrid = options.multigrid;
   so.recordHistory = false;
   solver_ = grids.size() == 1 ? std::make_unique<TNNMG<d>>(*grids.front(), so) : std::make_unique<TNNMG<d>>(grids, so);
 }
@@ -458,6 +473,7 @@ void NewmarkFamily<d>::initialize(const Eigen::VectorXd& u0, const Eigen::Vector
   multiplier_ = Eigen::VectorXd::Zero(n);
   previousVelocity_.resize(0);
   nextTolerance_ = 0;
+  previousIncrement_.resize(0);
   if (options_.scheme == NewmarkScheme::KhenousLabordeRenard) {
     // a^0: M~ a^0 = f - A u^0 on the vertices with mass, per component (Dirichlet components 0)
     state_.a = Eigen::VectorXd::Zero(n);
@@ -492,6 +508,7 @@ void NewmarkFamily<d>::initialize(const Eigen::VectorXd& u0, const Eigen::Vector
     }
   }
   initialized_ = true;
+  A_.multiply(state_.u, Au_);
   last_ = makeRecord();
 }
 
@@ -605,7 +622,7 @@ StepRecord NewmarkFamily<d>::step() {
     }
   }
   Eigen::VectorXd rhs = applyMass(base, redistributed) + (0.5 * tau * tau) * f_;
-  if (scheme != NewmarkScheme::KhenousLabordeRenard) rhs -= (0.25 * tau * tau) * (A_ * u);
+  if (scheme != NewmarkScheme::KhenousLabordeRenard) rhs -= (0.25 * tau * tau) * Au_;  // Au_ = A u^n
   // classical (5.21): + tau^2/4 M F_con^n, the reaction of the obstacle at t^n. The solver's multiplier
   // lambda = (b - S w) along nu is the force on the obstacle (S w = b - lambda), i.e. minus the reaction:
   // the previous step's lambda enters with the sign of the new one (S u^{n+1} = ... - lambda^n - lambda^{n+1})
@@ -640,7 +657,9 @@ StepRecord NewmarkFamily<d>::step() {
   const bool inexact = options_.inexactFraction > 0;
   const double tolerance = inexact && nextTolerance_ > 0 ? nextTolerance_ : options_.solverTolerance;
   if (inexact) solver_->setTolerance(tolerance);
-  Eigen::VectorXd increment = Eigen::VectorXd::Zero(n);  // problem unknowns (relative for mortar pairs)
+  // initial iterate (NewmarkStart): zero, or the previous step's increment (projected by the solver)
+  const bool fromPrevious = options_.start == NewmarkStart::PreviousIncrement && previousIncrement_.size() == n;
+  Eigen::VectorXd increment = fromPrevious ? previousIncrement_ : Eigen::VectorXd::Zero(n);  // problem unknowns
   const ContactResult result = solver_->solve(*problem_, increment);
   const Eigen::VectorXd unew = base + (basis_.rows > 0 ? problem_->toDisplacement(increment) : increment);
   if (!result.converged)
@@ -717,7 +736,9 @@ StepRecord NewmarkFamily<d>::step() {
     previousVelocity_ = v;  // v^n (v refers to state_.v, replaced below)
   }
 
+  if (options_.start == NewmarkStart::PreviousIncrement) previousIncrement_ = increment;
   state_.u = unew;
+  A_.multiply(state_.u, Au_);
   state_.v = vnew;
   if (scheme == NewmarkScheme::KhenousLabordeRenard) state_.a = anew;
   state_.step += 1;
@@ -753,6 +774,7 @@ NewmarkSchemeState NewmarkFamily<d>::schemeState() const {
   s.solverIterations = last_.solverIterations;
   s.previousVelocity = previousVelocity_;
   s.nextSolverTolerance = nextTolerance_;
+  s.previousIncrement = previousIncrement_;
   return s;
 }
 
@@ -775,6 +797,7 @@ void NewmarkFamily<d>::setSchemeState(const NewmarkSchemeState& s) {
   check(s.multiplier, n, "multiplier");
   check(s.previousMultiplier, n, "previous multiplier");
   if (s.previousVelocity.size() != 0) check(s.previousVelocity, n, "previous velocity");
+  if (s.previousIncrement.size() != 0) check(s.previousIncrement, n, "previous increment");
   if (!(s.nextSolverTolerance >= 0) || !std::isfinite(s.nextSolverTolerance))
     throw Error("time stepping: state with the next solver tolerance " + num(s.nextSolverTolerance));
   if (s.state.step < 0 || !std::isfinite(s.state.time))
@@ -784,6 +807,8 @@ void NewmarkFamily<d>::setSchemeState(const NewmarkSchemeState& s) {
   previousMultiplier_ = s.previousMultiplier;
   previousVelocity_ = s.previousVelocity;
   nextTolerance_ = s.nextSolverTolerance;
+  previousIncrement_ = options_.start == NewmarkStart::PreviousIncrement ? s.previousIncrement : Eigen::VectorXd();
+  A_.multiply(state_.u, Au_);
   initialized_ = true;
   last_ = makeRecord();
   last_.activePredictor = s.activePredictor;
@@ -807,7 +832,7 @@ StepRecord NewmarkFamily<d>::makeRecord() const {
   r.time = state_.time;
   const Eigen::VectorXd Mv = applyMass(v, false);
   r.kineticEnergy = 0.5 * v.dot(Mv);
-  r.elasticEnergy = 0.5 * A_.energy(u);
+  r.elasticEnergy = 0.5 * u.dot(Au_);  // = A_.energy(u): Au_ is A u of the state
   r.loadPotential = -f_.dot(u);
   r.energy = r.kineticEnergy + r.elasticEnergy + r.loadPotential;
   for (Index p = 0; p < numVertices_; ++p)

@@ -26,15 +26,20 @@ BlockLocalSolver<d>::BlockLocalSolver(const BlockSparseMatrix<d>& A, std::vector
       throw Error("block Gauss-Seidel: the diagonal block of vertex " + std::to_string(p) +
                   " is not positive definite");
     inverse_[p] = llt.solve(Mat::Identity());
-    if (upper_[p] < std::numeric_limits<double>::infinity()) {
-      const Tail T = D.template bottomRightCorner<d - 1, d - 1>();
-      tail_[p] = Eigen::LLT<Tail>(T).solve(Tail::Identity());
-      coupling_[p] = D.template block<d - 1, 1>(1, 0);
-    } else {
-      tail_[p].setZero();
-      coupling_[p].setZero();
-    }
+    // the trailing part for every vertex (also unbounded ones), so that setUpper() may bound any
+    // vertex; a principal submatrix of a positive definite block is positive definite
+    const Tail T = D.template bottomRightCorner<d - 1, d - 1>();
+    tail_[p] = Eigen::LLT<Tail>(T).solve(Tail::Identity());
+    coupling_[p] = D.template block<d - 1, 1>(1, 0);
   }
+}
+
+template <int d>
+void BlockLocalSolver<d>::setUpper(std::vector<double> upper) {
+  if (upper.size() != upper_.size())
+    throw Error("block Gauss-Seidel: " + std::to_string(upper.size()) + " bounds for " +
+                std::to_string(upper_.size()) + " vertices");
+  upper_ = std::move(upper);
 }
 
 template <int d>
@@ -49,6 +54,18 @@ void BlockGaussSeidelSweep<d>::sweep(const Eigen::VectorXd& b, Eigen::VectorXd& 
       const Index q = A_.column(k);
       if (q != p) r.noalias() -= A_.blockAt(k) * w.template segment<d>(static_cast<Eigen::Index>(q) * d);
     }
+    w.template segment<d>(static_cast<Eigen::Index>(p) * d) = local_.solve(p, r);
+  }
+}
+
+template <int d>
+void BlockGaussSeidelSweep<d>::sweepFromZero(const Eigen::VectorXd& b, Eigen::VectorXd& w) const {
+  using Vec = typename BlockLocalSolver<d>::Vec;
+  const Index n = A_.rows();
+  for (Index p = 0; p < n; ++p) {
+    Vec r = b.template segment<d>(static_cast<Eigen::Index>(p) * d);
+    for (Index k = A_.rowBegin(p); k < A_.rowEnd(p) && A_.column(k) < p; ++k)
+      r.noalias() -= A_.blockAt(k) * w.template segment<d>(static_cast<Eigen::Index>(A_.column(k)) * d);
     w.template segment<d>(static_cast<Eigen::Index>(p) * d) = local_.solve(p, r);
   }
 }
@@ -85,7 +102,8 @@ ContactResult ProjectedGaussSeidel<d>::solve(const ContactProblem<d>& problem, E
   }
   u = problem.fromRotated(w);
   ContactResult result = monitor.finish(converged, rot.countActive(w));
-  result.kkt = computeKktResiduals(problem, u);
+  if (options_.computeKkt) result.kkt = computeKktResiduals(problem, u);
+  else result.kkt = notComputedKktResiduals();
   return result;
 }
 

@@ -68,9 +68,12 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     std::fill(rotated_->upper.begin(), rotated_->upper.end(), std::numeric_limits<double>::infinity());
     for (const auto& c : problem.constraints())
       if (c.bounded()) rotated_->upper[c.vertex] = c.gap;
+    smoother_->setUpper(rotated_->upper);
   } else {
     operatorId_ = 0;
+    smoother_.reset();
     rotated_ = std::make_unique<RotatedProblem<d>>(problem.rotated());
+    smoother_ = std::make_unique<BlockGaussSeidelSweep<d>>(rotated_->matrix, rotated_->upper);
     correction_->setFineBasis(problem.basisTransformation());
     correction_->setOperator(rotated_->matrix, problemRotations(problem), rotated_->prescribed);
     operatorId_ = problem.operatorId();
@@ -87,11 +90,13 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   problem.projectToFeasible(u);
   Eigen::VectorXd w = problem.toRotated(u);
   rot.project(w);
-  const BlockGaussSeidelSweep<d> smoother(A, rot.upper);
+  const BlockGaussSeidelSweep<d>& smoother = *smoother_;
 
   const auto n = static_cast<Eigen::Index>(problem.numDofs());
   Eigen::VectorXd Aw(n), r(n), c(n), Ac(n), previous(n), delta(n), Adelta(n);
-  A.multiply(w, Aw);
+  bool zeroStart = w.isZero(0);  // a zero start (time steps from their predictor) needs no product
+  if (zeroStart) Aw.setZero();
+  else A.multiply(w, Aw);
   IterationMonitor monitor(name(), options_, 0.5 * w.dot(Aw) - rot.rhs.dot(w));
   TruncatedLinearization<d> linearization;
   lap(t, statistics_.setupSeconds);
@@ -104,7 +109,12 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   for (int k = 0; k < options_.maxIterations && !converged; ++k) {
     previous = w;
     // 1. nonsmooth pre-smoothing
-    for (int s = 0; s < options_.preSmoothing; ++s) smoother.sweep(rot.rhs, w);
+    for (int s = 0; s < options_.preSmoothing; ++s) {
+      if (zeroStart) smoother.sweepFromZero(rot.rhs, w);  // the first sweep on w = 0: half the blocks
+      else smoother.sweep(rot.rhs, w);
+      zeroStart = false;
+    }
+    zeroStart = false;  // also without pre-smoothing: w changes below
     lap(t, statistics_.smoothingSeconds);
     // 2. truncation (operators updated only if the mask changed)
     linearization.truncate(rot, w);

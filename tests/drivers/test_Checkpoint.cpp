@@ -400,6 +400,31 @@ TEST(CheckpointRestart, InexactSolvesContinueBitwise) {
   EXPECT_FALSE(obs::readCheckpoint(stopAt(scene, c, 250)).has("scheme/previous_velocity"));
 }
 
+TEST(CheckpointRestart, WarmStartFromThePreviousIncrementContinuesBitwise) {
+  // [dynamics] warm_start = "previous-increment": the checkpoint carries the last step's increment
+  // (scheme/previous_increment), so the restarted run starts every solve where the full run did
+  const fs::path scene = writeScene("bar_warm", barScene(450));
+  const std::vector<std::string> warm = {"dynamics.warm_start=\"previous-increment\""};
+  const fs::path a = kTmp / "full_warm", b = kTmp / "restarted_warm";
+  fs::remove_all(a);
+  RunOptions full = quiet(a);
+  full.overrides = warm;
+  runScene(scene, full);
+  EXPECT_EQ(summaryOf(a).at("dynamics").at("warm_start"), "previous-increment");
+  const fs::path cp = stopAt(scene, b, 250, warm);
+  const obs::CheckpointRecord rec = obs::readCheckpoint(cp);
+  EXPECT_EQ(rec.vector("scheme/previous_increment").size(), 42 * 2);
+  EXPECT_GT(rec.vector("scheme/previous_increment").norm(), 0);
+  RunOptions o = quiet(b);
+  o.restart = cp;
+  o.overrides = warm;
+  runScene(scene, o);
+  expectSameRun(a, b);
+  // with the default start the entry is not written
+  const fs::path c = kTmp / "stopped_predictor";
+  EXPECT_FALSE(obs::readCheckpoint(stopAt(scene, c, 250)).has("scheme/previous_increment"));
+}
+
 TEST(CheckpointRestart, EveryNStepsAndARestartFromTheLastOne) {
   const fs::path scene = writeScene("bar_every", barScene(300, "checkpoint = { every = 40 }\n"));
   const fs::path a = kTmp / "every_full", b = kTmp / "every_stopped";

@@ -43,6 +43,8 @@ struct DynamicsSpec {
   /// [0, 1); > 0 solves each step only to this fraction of the previous step's time-error estimate.
   double inexact = 0;
   int inexactLine = 0;
+  /// Initial iterate of each step's solve (NewmarkOptions::start): "predictor" or "previous-increment".
+  std::string warmStart = "predictor";
   int line = 0;  ///< line of [dynamics]
 };
 

@@ -50,6 +50,10 @@ struct ContactSolverOptions {
   double divergenceFactor = 1e6;
   /// Keep the per-iteration history in the result.
   bool recordHistory = true;
+  /// Compute the KKT residuals of the result (one product with the matrix; ContactResult::kkt). Off:
+  /// they are NaN. Ignored by the solvers whose stopping rule needs them (TNNMG, which evaluates them
+  /// once its correction passes the tolerance, and the active-set method).
+  bool computeKkt = true;
   /// Called with the record of every iteration as soon as it is recorded (e.g. progress output of a
   /// driver); unset: nothing is called. The solvers themselves never print.
   std::function<void(const IterationRecord&)> onIteration;
@@ -64,7 +68,7 @@ struct ContactResult {
   double convergenceRate = 0;  ///< geometric mean of the correction ratios (0 if < 2 iterations)
   double energy = 0;           ///< final J(u)
   Index activeSetSize = 0;     ///< final number of nodes at their bound
-  KktResiduals kkt;            ///< of the returned u
+  KktResiduals kkt;            ///< of the returned u (NaN if not computed, see computeKkt)
   /// TNNMG: iterations whose correction passed the tolerance but whose KKT residual did not (the
   /// solve went on); 0 for the other solvers.
   int kktRejections = 0;

@@ -107,6 +107,20 @@ bool usesPersistency(NewmarkScheme scheme);
 
 enum class MassKind { Lumped, Consistent };
 
+/// Initial iterate of TNNMG in a step (docs/theory.md#dynamic-warm-start). The step problem is posed for
+/// the increment w = u^{n+1} - base, base = u^n + tau v^n (corrected by the contact predictor for the
+/// schemes with one):
+///  - Predictor: w = 0, i.e. u^{n+1} starts at base (the default);
+///  - PreviousIncrement: w = the increment the previous step solved for, w^{n-1} = u^n - base^{n-1}
+///    (about tau^2/2 times the acceleration, so it extrapolates the motion with constant acceleration;
+///    0 in the first step). The solver projects it onto the step's admissible set.
+/// Both solve the same problem to the same tolerance; they differ in the iterations needed.
+enum class NewmarkStart { Predictor, PreviousIncrement };
+/// Scene-file name ("predictor", "previous-increment").
+std::string_view name(NewmarkStart start);
+/// The start of a name; throws obs::Error listing the valid names for an unknown one.
+NewmarkStart newmarkStartFromName(std::string_view name);
+
 struct NewmarkOptions {
   NewmarkScheme scheme = NewmarkScheme::ImprovedContactStabilized;
   double timeStep = 0;  ///< tau > 0
@@ -116,12 +130,16 @@ struct NewmarkOptions {
   int maxSolverIterations = 200;
   int preSmoothing = 3;
   int postSmoothing = 0;
+  /// The V-cycle of TNNMG's linear correction (smoothing steps per level, cycles).
+  LinearMultigridOptions multigrid;
   /// Inexact solves (docs/theory.md#dynamic-inexact-solves): f > 0 solves step n+1 only to the
   /// relative tolerance clamp(f * eta_n / ||w_n||_S * (1 - rho_n) / rho_n, solverTolerance, 1e-2),
   /// eta_n the local time-error estimate of step n (StepRecord::timeError), w_n its increment,
   /// rho_n its TNNMG convergence rate (clamped to [0.05, 0.9]); the first two steps (no estimate
   /// yet) use solverTolerance. 0 (default): every step to solverTolerance. Must lie in [0, 1).
   double inexactFraction = 0;
+  /// Initial iterate of each step's solve (NewmarkStart).
+  NewmarkStart start = NewmarkStart::Predictor;
   /// A node counts as active (in contact) if g_p - nu_p'u_p <= activeTolerance * U, U = max(|u|_inf,
   /// finite |g_p|, 1e-300).
   double activeTolerance = 1e-8;
@@ -206,6 +224,9 @@ struct NewmarkSchemeState {
   /// tolerance of the next step, so that a restarted run continues bitwise.
   Eigen::VectorXd previousVelocity;
   double nextSolverTolerance = 0;
+  /// NewmarkStart::PreviousIncrement: the increment of the last step in the problem unknowns (relative
+  /// for mortar pairs; empty before the first step and for the other start).
+  Eigen::VectorXd previousIncrement;
 };
 
 /// A time integrator for dynamic contact: initialise with u^0, v^0, then step().
@@ -322,6 +343,8 @@ private:
   double multiplierFactor_ = 0.5;       ///< c' (lambda = c' tau^2 M F_con)
   Eigen::VectorXd previousVelocity_;    ///< inexact solves: v^{n-1} (empty before the first step)
   double nextTolerance_ = 0;            ///< inexact solves: tolerance of the next step (0: solverTolerance)
+  Eigen::VectorXd previousIncrement_;   ///< NewmarkStart::PreviousIncrement: w of the last step (else empty)
+  Eigen::VectorXd Au_;                  ///< A u^n of the current state (energy and the next right-hand side)
   StepRecord last_;
 };
 

@@ -22,8 +22,8 @@
 
 namespace obs {
 
-/// Exact local block solves, with the inverses of the diagonal blocks (and of their trailing
-/// (d-1) x (d-1) parts at bounded vertices) computed once.
+/// Exact local block solves, with the inverses of the diagonal blocks and of their trailing
+/// (d-1) x (d-1) parts computed once per matrix (the bounds can be replaced, setUpper).
 template <int d>
 class BlockLocalSolver {
 public:
@@ -35,6 +35,9 @@ public:
   /// Throws obs::Error if a diagonal block is not symmetric positive definite (e.g. a vertex without
   /// cells, or a zero block). upper has one entry per vertex (+inf: no bound).
   BlockLocalSolver(const BlockSparseMatrix<d>& A, std::vector<double> upper);
+  /// Replaces the bounds (same matrix; the inverses are kept, the trailing ones are computed for every
+  /// vertex). Throws obs::Error for a wrong number of entries.
+  void setUpper(std::vector<double> upper);
 
   /// argmin of 1/2 v'A_pp v - r'v subject to v_1 <= upper_p.
   Vec solve(Index p, const Vec& r) const {
@@ -62,7 +65,13 @@ class BlockGaussSeidelSweep {
 public:
   BlockGaussSeidelSweep(const BlockSparseMatrix<d>& A, std::vector<double> upper)
       : A_(A), local_(A, std::move(upper)) {}
+  /// New bounds for the same matrix (TNNMG reuses the sweep across solves of one operator).
+  void setUpper(std::vector<double> upper) { local_.setUpper(std::move(upper)); }
   void sweep(const Eigen::VectorXd& b, Eigen::VectorXd& w, bool backward = false) const;
+  /// A forward sweep on w = 0 (w of the right size, overwritten): the same result as w.setZero();
+  /// sweep(b, w), reading only the blocks left of the diagonal (columns are sorted; the others
+  /// multiply zeros).
+  void sweepFromZero(const Eigen::VectorXd& b, Eigen::VectorXd& w) const;
   const BlockLocalSolver<d>& localSolver() const { return local_; }
 
 private:

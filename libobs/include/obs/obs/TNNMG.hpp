@@ -29,7 +29,8 @@
 /// coarse patterns and Galerkin products) are kept after a solve. A following solve of a problem
 /// with the same ContactProblem::operatorId() (the same problem, a copy, or one changed only by
 /// setLoad()/setGaps(), as in time stepping) only rebuilds the right-hand side and the bounds; the
-/// truncation of the previous solve is the starting point of the operator updates.
+/// truncation of the previous solve is the starting point of the operator updates; the smoother's
+/// inverted diagonal blocks are kept as well (only the bounds are replaced).
 #include <Eigen/Core>
 
 #include <cstdint>
@@ -39,6 +40,7 @@
 #include "obs/obs/ContactSolver.hpp"
 #include "obs/obs/LinearCorrection.hpp"
 #include "obs/obs/LinearMultigrid.hpp"
+#include "obs/obs/ProjectedGaussSeidel.hpp"
 
 namespace obs {
 
@@ -82,6 +84,7 @@ private:
   Index fineVertices_ = 0;
   std::unique_ptr<LinearCorrection<d>> correction_;
   std::unique_ptr<RotatedProblem<d>> rotated_;  ///< operator of the last solve (see "Operator reuse")
+  std::unique_ptr<BlockGaussSeidelSweep<d>> smoother_;  ///< nonsmooth sweep on rotated_->matrix
   std::uint64_t operatorId_ = 0;                ///< its ContactProblem::operatorId(), 0: none
   double rowSumBound_ = 0;  ///< max_p sum_q ||A~_pq||_F >= ||A~||_2 (round-off scale of w'A~w)
   Statistics statistics_;

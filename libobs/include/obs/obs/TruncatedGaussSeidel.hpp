@@ -70,6 +70,25 @@ public:
       x.template segment<d>(static_cast<Eigen::Index>(p) * d).noalias() = inverse_[p] * s;
     }
   }
+  /// The first forward sweep from x = 0, in place on x of the right size (it overwrites every entry):
+  /// the same result as x.setZero(); sweep(r, x), but only the blocks left of the diagonal are read
+  /// (columns are sorted; the others multiply zeros), which halves the matrix traffic of this sweep.
+  void sweepFromZero(const Eigen::VectorXd& r, Eigen::VectorXd& x) const {
+    const BlockSparseMatrix<d>& A = *A_;
+    const Index n = A.rows();
+    for (Index p = 0; p < n; ++p) {
+      auto xp = x.template segment<d>(static_cast<Eigen::Index>(p) * d);
+      if (bits_ && (*bits_)[p] == kAll) {  // fully truncated: x_p = 0
+        xp.setZero();
+        continue;
+      }
+      Vec s = r.template segment<d>(static_cast<Eigen::Index>(p) * d);
+      const Index dp = diagonal_[p];
+      for (Index k = A.rowBegin(p); k < dp; ++k)
+        s.noalias() -= A.blockAt(k) * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
+      xp.noalias() = inverse_[p] * s;
+    }
+  }
 
 private:
   void update(Index p) {
