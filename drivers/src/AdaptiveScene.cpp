@@ -734,7 +734,8 @@ std::string stepsCsvHeader(const std::vector<std::string>& contributions) {
       "step,cells,vertices,unknowns,potential_contact,actual_contact,semi_contact,full_contact,eta";
   for (const auto& n : contributions) h += "," + n;
   h += ",eoc,solver,iterations,converged,solver_s,estimator_s,refinement_s,transfer_s,marked,"
-       "refined_red,closure_red,green_closed,load,pressure_error,radius,exact_radius,radius_error,centre_pressure,exact_centre_pressure,centre_error,"
+       "refined_red,closure_red,green_closed,"
+       "load,pressure_error,radius,exact_radius,radius_error,centre_pressure,exact_centre_pressure,centre_error,"
        "nodal_pressure_error";
   return h;
 }

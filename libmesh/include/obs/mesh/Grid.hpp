@@ -30,8 +30,9 @@
 ///   2. closure economy (as in UG): a regular element with more than half of its edges refined is
 ///      refined red (in 2D the classical rule: a triangle with two refined edges is refined red).
 ///      setClosureRule(ClosureRule::AllEdges) restricts the rule to elements with all edges
-///      refined, so every other edge pattern is closed green (fewer unknowns per step on
-///      hexahedra, more on tetrahedra: docs/estimators.md#closure-overhead).
+///      refined, so every other edge pattern is closed green (measured in
+///      docs/estimators.md#closure-overhead: on hexahedra the same accuracy with fewer unknowns
+///      under mean-value marking, on tetrahedra worse).
 /// Every other regular element with refined edges gets the green closure of its edge pattern
 /// (below), as do red children created by this adapt() that already have refined edges (from finer
 /// neighbours refined at the same time). The least fixed point of the rules is computed with a work
@@ -131,7 +132,6 @@ struct GridInputReport {
 /// Boundary id given to one-cell coarse faces that the coarse mesh does not list.
 inline constexpr int kUnlistedBoundaryId = 0;
 
-/// Statistics of one adapt() call.
 /// When adapt() refines an unmarked regular element with refined edges red instead of closing it
 /// green (rule 2 of the marking closure, see Grid).
 enum class ClosureRule {
@@ -139,6 +139,7 @@ enum class ClosureRule {
   AllEdges,           ///< red only when all of its edges are refined
 };
 
+/// Statistics of one adapt() call.
 struct AdaptResult {
   Index marked = 0;           ///< marked leaves
   Index redRefined = 0;       ///< elements refined red
