@@ -26,6 +26,7 @@
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <iostream>
 #include <new>
@@ -40,6 +41,7 @@
 #include "obs/drivers/SweepCommand.hpp"
 #include "obs/estimators/EstimatorRegistry.hpp"
 #include "obs/estimators/Version.hpp"
+#include "obs/obs/Parallel.hpp"
 #include "obs/mesh/Error.hpp"
 
 namespace {
@@ -167,6 +169,7 @@ int main(int argc, char** argv) {
   bool compareSchemes = false;  // [dynamics]: run every scheme
   std::optional<std::string> restart;
   std::optional<int> stopAfterStep;
+  std::optional<int> threadCount;
   std::vector<std::string> runPlugins, overrides;
   CLI::App* run =
       app.add_subcommand("run", "Solve the scene in a scene file and write the results");
@@ -199,6 +202,12 @@ int main(int argc, char** argv) {
                   "[dynamics] scenes: stop after time step K, [adaptivity] scenes after adaptive step K (0, 1, "
                   "...; its refinement included), with a checkpoint (as on SIGINT/SIGTERM; exit code 3)")
       ->type_name("K");
+  run->add_option("--threads,-t", threadCount,
+                  "Threads for assembly, sweeps and products (default: $OBS_THREADS, else 1). Results are "
+                  "bitwise reproducible for a fixed N; different N differ in the last bits "
+                  "(docs/performance.md#threads)")
+      ->type_name("N")
+      ->check(CLI::Range(1, 1024));
   run->add_flag("--quiet,-q", quiet, "Print nothing but errors");
   run->add_flag("--verbose,-v", verbose,
                 "Contact solvers: one line per block of iterations on stderr (1-10, 20, 30, ..., "
@@ -321,9 +330,19 @@ int main(int argc, char** argv) {
   }
 
   try {
-    if (run->parsed())
+    if (run->parsed()) {
+      if (threadCount) {
+        obs::setThreads(*threadCount);
+      } else if (const char* env = std::getenv("OBS_THREADS"); env && *env) {
+        char* end = nullptr;
+        const long n = std::strtol(env, &end, 10);
+        if (*end != '\0' || n < 1 || n > 1024)
+          throw obs::Error(std::string("OBS_THREADS=") + env + ": a thread count from 1 to 1024 expected");
+        obs::setThreads(static_cast<int>(n));
+      }
       return runCommand(scene, output, refine, quiet, verbose, runPlugins, overrides, runPlots,
                         compareSchemes, restart, stopAfterStep);
+    }
     if (check->parsed()) return checkCommand(checkScenes, checkRefine);
     if (sweep->parsed()) {
       sweepOptions.scene = sweepScene;

@@ -5,6 +5,7 @@
 #include "obs/estimators/Version.hpp"
 #include "obs/mesh/CellType.hpp"
 #include "obs/mesh/Error.hpp"
+#include "obs/obs/Parallel.hpp"
 
 namespace obs::drivers {
 
@@ -34,6 +35,7 @@ nlohmann::json summaryJson(const RunResult& r) {
                      {"dirichlet", r.solver.kkt->dirichlet}};
   nlohmann::json j = {
       {"obs_version", estimators::version()},
+      {"threads", threads()},
       {"scene", r.scene},
       {"dimension", r.dimension},
       {"vertices", r.vertices},

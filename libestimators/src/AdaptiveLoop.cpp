@@ -217,8 +217,9 @@ namespace {
 /// sqrt(sum over free components i of u_i (A u)_i): the energy norm TNNMG's relative stopping
 /// test divides by (prescribed rows of A are identity rows, left out).
 template <int d>
-double freeEnergyNorm(const BlockSparseMatrix<d>& A, const Eigen::VectorXd& u, const DirichletValues& dirichlet) {
-  const Eigen::VectorXd Au = A * u;
+double freeEnergyNorm(const ContactProblem<d>& problem, const Eigen::VectorXd& u, const DirichletValues& dirichlet) {
+  Eigen::VectorXd Au;
+  problem.multiply(u, Au);
   double s = 0;
   for (Eigen::Index i = 0; i < u.size(); ++i)
     if (!dirichlet.constrained[static_cast<std::size_t>(i)]) s += u[i] * Au[i];
@@ -602,14 +603,14 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
       rec.kkt = result.kkt.max();
       if (options_.inexactFraction > 0) {  // inputs of the next step's tolerance (inexactTolerance)
         lastRate_ = result.convergenceRate;
-        lastEnergyNorm_ = freeEnergyNorm<d>(problem->matrix(), x, problem->dirichlet());
+        lastEnergyNorm_ = freeEnergyNorm<d>(*problem, x, problem->dirichlet());
       }
       u = problem->toDisplacement(x);
     } else {
       std::vector<BodySystem<d>> systems;
       for (std::size_t i = 0; i < nb; ++i)
         systems.push_back(assembleBody<d>(views[i].mesh, *bodies_[i].material, *bodies_[i].bc));
-      BodySystem<d> sys = stackBodies<d>(systems);
+      BodySystem<d> sys = stackBodies<d>(std::move(systems));
       systems.clear();
       applyDirichlet(sys.stiffness, sys.load, sys.dirichlet);
       rec.assemblySeconds = since(t);

@@ -16,20 +16,76 @@ BlockSparseMatrix<d> BlockSparseMatrix<d>::withMeshPattern(const mesh::Mesh& mes
     for (Index c = 0; c < mesh.numCells(); ++c)
       for (Index v : mesh.cellVertices(c)) cellsOf[pos[v]++] = c;
   }
-  // neighbours of each vertex: union of the vertices of its cells
-  std::vector<Index> rowStart(n + 1, 0), cols, row;
-  cols.reserve(static_cast<std::size_t>(n) * (d == 2 ? 9 : 27));
-  for (Index v = 0; v < n; ++v) {
+  // neighbours of each vertex: union of the vertices of its cells, sorted; two passes over the rows
+  // (count, then fill) so that rows can be built on threads() threads
+  const int nt = n >= kParallelMinRows ? threads() : 1;
+  const auto neighbours = [&](Index v, std::vector<Index>& row) {
     row.clear();
     for (Index k = start[v]; k < start[v + 1]; ++k)
       for (Index w : mesh.cellVertices(cellsOf[k])) row.push_back(w);
     if (row.empty()) row.push_back(v);  // isolated vertex keeps its diagonal
     std::sort(row.begin(), row.end());
     row.erase(std::unique(row.begin(), row.end()), row.end());
-    cols.insert(cols.end(), row.begin(), row.end());
-    rowStart[v + 1] = static_cast<Index>(cols.size());
+  };
+  std::vector<Index> rowStart(n + 1, 0);
+#pragma omp parallel num_threads(nt) if (nt > 1)
+  {
+    std::vector<Index> row;
+#pragma omp for schedule(static)
+    for (Index v = 0; v < n; ++v) {
+      neighbours(v, row);
+      rowStart[v + 1] = static_cast<Index>(row.size());
+    }
+  }
+  for (Index v = 0; v < n; ++v) rowStart[v + 1] += rowStart[v];
+  std::vector<Index> cols(static_cast<std::size_t>(rowStart[n]));
+#pragma omp parallel num_threads(nt) if (nt > 1)
+  {
+    std::vector<Index> row;
+#pragma omp for schedule(static)
+    for (Index v = 0; v < n; ++v) {
+      neighbours(v, row);
+      std::copy(row.begin(), row.end(), cols.begin() + rowStart[v]);
+    }
   }
   return BlockSparseMatrix(std::move(rowStart), std::move(cols));
+}
+
+template <int d>
+BlockSparseMatrix<d>::BlockSparseMatrix(std::vector<Index> rowStart, std::vector<Index> columns)
+    : rowStart_(std::move(rowStart)), cols_(std::move(columns)), blocks_(cols_.size()) {
+  setZero();  // Eigen leaves the blocks uninitialised: zeroed here, by the threads that will use them
+}
+
+template <int d>
+void BlockSparseMatrix<d>::setZero() {
+  const Index n = rows();
+  const int nt = n >= kParallelMinRows ? threads() : 1;
+#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
+  for (Index i = 0; i < n; ++i)
+    for (Index k = rowStart_[i]; k < rowStart_[i + 1]; ++k) blocks_[k].setZero();
+}
+
+template <int d>
+void BlockSparseMatrix<d>::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
+  const Index n = rows();
+  y.resize(static_cast<Eigen::Index>(n) * d);
+  const int nt = n >= kParallelMinRows ? threads() : 1;
+#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
+  for (Index i = 0; i < n; ++i) {
+    Eigen::Matrix<double, d, 1> s = Eigen::Matrix<double, d, 1>::Zero();
+    for (Index k = rowStart_[i]; k < rowStart_[i + 1]; ++k)
+      s.noalias() += blocks_[k] * x.template segment<d>(static_cast<Eigen::Index>(cols_[k]) * d);
+    y.template segment<d>(static_cast<Eigen::Index>(i) * d) = s;
+  }
+}
+
+template <int d>
+const SweepOrder& BlockSparseMatrix<d>::sweepOrder() const {
+  const int parts = threads();
+  if (!order_ || order_->requestedParts() != parts)
+    order_ = std::make_shared<const SweepOrder>(rowStart_, cols_, parts);
+  return *order_;
 }
 
 template class BlockSparseMatrix<2>;

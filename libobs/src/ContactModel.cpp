@@ -59,7 +59,7 @@ typename ContactModel<d>::Parts ContactModel<d>::assembleParts() {
   std::vector<BodySystem<d>> systems;
   for (const Body& b : bodies_) systems.push_back(assembleBody<d>(*b.mesh, b.material, b.bc));
   std::vector<Index> offsets;
-  BodySystem<d> system = stackBodies<d>(systems, &offsets);
+  BodySystem<d> system = stackBodies<d>(std::move(systems), &offsets);
   systems.clear();
   numVertices_ = system.numVertices();
   for (std::size_t i = 0; i < bodies_.size(); ++i) bodies_[i].offset = offsets[i];

@@ -57,25 +57,23 @@ ContactProblem<d>::ContactProblem(const mesh::Mesh& mesh, const Material& materi
   if (mesh.dimension() != d)
     throw Error("contact problem: the mesh has dimension " + std::to_string(mesh.dimension()) +
                 ", the problem " + std::to_string(d));
-  A_ = assembleStiffness<d>(mesh, material);
   b_ = assembleLoad<d>(mesh, bc);
   dirichlet_ = collectDirichlet(mesh, bc.dirichlet);
-  setup();
+  setup(assembleStiffness<d>(mesh, material));
 }
 
 template <int d>
 ContactProblem<d>::ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorXd load,
                                   DirichletValues dirichlet, const ContactSet& contact)
-    : A_(std::move(stiffness)), b_(std::move(load)), dirichlet_(std::move(dirichlet)), contact_(contact) {
-  setup();
+    : b_(std::move(load)), dirichlet_(std::move(dirichlet)), contact_(contact) {
+  setup(std::move(stiffness));
 }
 
 template <int d>
 ContactProblem<d>::ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorXd load, DirichletValues dirichlet,
                                   const ContactSet& contact, mesh::CsrMatrix basis)
-    : basis_(std::move(basis)), A_(std::move(stiffness)), b_(std::move(load)), dirichlet_(std::move(dirichlet)),
-      contact_(contact) {
-  setup();
+    : basis_(std::move(basis)), b_(std::move(load)), dirichlet_(std::move(dirichlet)), contact_(contact) {
+  setup(std::move(stiffness));
 }
 
 namespace {
@@ -203,8 +201,8 @@ BlockSparseMatrix<d> transformOperator(const BlockSparseMatrix<d>& A, const mesh
 }  // namespace
 
 template <int d>
-void ContactProblem<d>::transform() {
-  const Index n = A_.rows();
+void ContactProblem<d>::transform(BlockSparseMatrix<d>& A) {
+  const Index n = A.rows();
   const mesh::CsrMatrix& C = basis_;
   if (C.rows != n || C.cols != n || C.rowStart.size() != static_cast<std::size_t>(n) + 1)
     throw Error("contact problem: basis transformation of size " + std::to_string(C.rows) + " x " +
@@ -223,7 +221,7 @@ void ContactProblem<d>::transform() {
                     "non-finite entry in row " + std::to_string(p) + ")");
     }
   }
-  A_ = transformOperator(A_, C);
+  A = transformOperator(A, C);
   b_ = applyTransposedBasis<d>(C, b_);
 }
 
@@ -250,8 +248,8 @@ Eigen::VectorXd ContactProblem<d>::fromDisplacement(const Eigen::VectorXd& u) co
 }
 
 template <int d>
-void ContactProblem<d>::setup() {
-  const Index n = A_.rows();
+void ContactProblem<d>::setup(BlockSparseMatrix<d> A) {
+  const Index n = A.rows();
   if (b_.size() != static_cast<Eigen::Index>(n) * d ||
       dirichlet_.constrained.size() != static_cast<std::size_t>(n) * d ||
       dirichlet_.values.size() != static_cast<Eigen::Index>(n) * d)
@@ -261,7 +259,7 @@ void ContactProblem<d>::setup() {
                 " was built for another mesh (dimension " + std::to_string(contact_.dimension()) + ", " +
                 std::to_string(contact_.numMeshVertices()) + " vertices; the problem has dimension " +
                 std::to_string(d) + ", " + std::to_string(n) + " vertices)");
-  if (transformed()) transform();
+  if (transformed()) transform(A);
   {
     static std::atomic<std::uint64_t> counter{0};
     operatorId_ = ++counter;
@@ -272,9 +270,9 @@ void ContactProblem<d>::setup() {
         g[static_cast<Eigen::Index>(i)] = dirichlet_.values[static_cast<Eigen::Index>(i)];
         any = any || g[static_cast<Eigen::Index>(i)] != 0;
       }
-    dirichletLift_ = any ? Eigen::VectorXd(A_ * g) : Eigen::VectorXd::Zero(b_.size());
+    dirichletLift_ = any ? Eigen::VectorXd(A * g) : Eigen::VectorXd::Zero(b_.size());
   }
-  applyDirichlet(A_, b_, dirichlet_);
+  applyDirichlet(A, b_, dirichlet_);
   rotated_.assign(contact_.size(), 0);
 
   constraints_.resize(contact_.size());
@@ -337,11 +335,65 @@ void ContactProblem<d>::setup() {
       for (std::size_t j = 0; j < D.size(); ++j) c.rotation(D[j], static_cast<Eigen::Index>(F.size() + j)) = 1;
     }
   }
+  rotateOperator(A);
+  A_ = std::make_shared<const BlockSparseMatrix<d>>(std::move(A));
+}
+
+template <int d>
+void ContactProblem<d>::rotateOperator(BlockSparseMatrix<d>& A) {
+  // A~ = Q'AQ in place (the one copy of the operator the problem keeps), and the prescribed
+  // components in rotated numbering: the columns of Q_p that are prescribed axes
+  const Index n = A.rows();
+  std::vector<const Mat*> Q(static_cast<std::size_t>(n), nullptr);
+  for (const Constraint& c : constraints_) Q[c.vertex] = &c.rotation;
+  prescribedRotated_.assign(dirichlet_.constrained.size(), 0);
+  const int nt = n >= kParallelMinRows ? threads() : 1;
+#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
+  for (Index p = 0; p < n; ++p) {
+    for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k) {
+      const Index q = A.column(k);
+      auto& B = A.blockAt(k);
+      if (Q[p]) B = Q[p]->transpose() * B;
+      if (Q[q]) B = B * (*Q[q]);
+    }
+    for (int a = 0; a < d; ++a) {
+      const std::size_t i = static_cast<std::size_t>(p) * d + a;
+      if (!dirichlet_.constrained[i]) continue;
+      if (!Q[p]) {
+        prescribedRotated_[i] = 1;
+        continue;
+      }
+      for (int j = 0; j < d; ++j)
+        if (std::abs((*Q[p])(a, j)) == 1.0) prescribedRotated_[static_cast<std::size_t>(p) * d + j] = 1;
+    }
+  }
+}
+
+template <int d>
+void ContactProblem<d>::multiply(const Eigen::VectorXd& u, Eigen::VectorXd& Au) const {
+  A_->multiply(toRotated(u), Au);
+  for (const Constraint& c : constraints_) {
+    auto s = Au.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d);
+    const Vec v = c.rotation * s;
+    s = v;
+  }
+}
+
+template <int d>
+double ContactProblem<d>::energy(const Eigen::VectorXd& u) const {
+  return 0.5 * A_->energy(toRotated(u)) - b_.dot(u);
+}
+
+template <int d>
+Eigen::VectorXd ContactProblem<d>::gradient(const Eigen::VectorXd& u) const {
+  Eigen::VectorXd g;
+  multiply(u, g);
+  return g - b_;
 }
 
 template <int d>
 double ContactProblem<d>::energyNorm(const Eigen::VectorXd& x) const {
-  return std::sqrt(std::max(0.0, A_.energy(x)));
+  return std::sqrt(std::max(0.0, A_->energy(toRotated(x))));
 }
 
 template <int d>
@@ -376,13 +428,16 @@ template <int d>
 Eigen::VectorXd ContactProblem<d>::multipliers(const Eigen::VectorXd& u) const {
   // only the rows of the constrained vertices of r = b - A u (each summed as in A * u)
   Eigen::VectorXd mu = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(constraints_.size()));
+  const BlockSparseMatrix<d>& A = *A_;
+  const Eigen::VectorXd w = toRotated(u);
   for (std::size_t k = 0; k < constraints_.size(); ++k) {
     const Constraint& c = constraints_[k];
     if (!c.bounded()) continue;
+    // (A u)_p = Q_p (A~ w)_p with w = Q'u
     Vec s = Vec::Zero();
-    for (Index m = A_.rowBegin(c.vertex); m < A_.rowEnd(c.vertex); ++m)
-      s.noalias() += A_.blockAt(m) * u.template segment<d>(static_cast<Eigen::Index>(A_.column(m)) * d);
-    const Vec r = b_.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d) - s;
+    for (Index m = A.rowBegin(c.vertex); m < A.rowEnd(c.vertex); ++m)
+      s.noalias() += A.blockAt(m) * w.template segment<d>(static_cast<Eigen::Index>(A.column(m)) * d);
+    const Vec r = b_.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d) - c.rotation * s;
     mu[static_cast<Eigen::Index>(k)] = c.direction.dot(r);
   }
   return mu;
@@ -450,34 +505,12 @@ Eigen::VectorXd ContactProblem<d>::fromRotated(const Eigen::VectorXd& w) const {
 template <int d>
 RotatedProblem<d> ContactProblem<d>::rotated() const {
   RotatedProblem<d> r;
-  r.matrix = A_;
+  r.matrixPtr = A_;
   r.rhs = toRotated(b_);
   r.upper.assign(numVertices(), kInf);
-  r.prescribed.assign(dirichlet_.constrained.size(), 0);
-  std::vector<const Mat*> Q(numVertices(), nullptr);
-  for (const Constraint& c : constraints_) {
-    Q[c.vertex] = &c.rotation;
+  for (const Constraint& c : constraints_)
     if (c.bounded()) r.upper[c.vertex] = c.gap;
-  }
-  for (Index p = 0; p < numVertices(); ++p) {
-    for (Index k = r.matrix.rowBegin(p); k < r.matrix.rowEnd(p); ++k) {
-      const Index q = r.matrix.column(k);
-      auto& B = r.matrix.blockAt(k);
-      if (Q[p]) B = Q[p]->transpose() * B;
-      if (Q[q]) B = B * (*Q[q]);
-    }
-    // prescribed components in rotated numbering: columns of Q_p that are prescribed axes
-    for (int a = 0; a < d; ++a) {
-      const std::size_t i = static_cast<std::size_t>(p) * d + a;
-      if (!dirichlet_.constrained[i]) continue;
-      if (!Q[p]) {
-        r.prescribed[i] = 1;
-        continue;
-      }
-      for (int j = 0; j < d; ++j)
-        if (std::abs((*Q[p])(a, j)) == 1.0) r.prescribed[static_cast<std::size_t>(p) * d + j] = 1;
-    }
-  }
+  r.prescribed = prescribedRotated_;
   return r;
 }
 

@@ -2,6 +2,10 @@
 
 #include <algorithm>
 
+#ifdef _OPENMP
+#include <omp.h>
+#endif
+
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Quadrature.hpp"
 #include "obs/mesh/ReferenceElement.hpp"
@@ -84,18 +88,24 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
   const bool bbar = material.formulation == VolumetricFormulation::BBar;
   const double pointwise = bbar ? -2 * mu / 3 : material.lambda();
   const double kappa = material.bulkModulus();
-  CellValues<d> cv(kStiffnessDegree);
   using Block = typename BlockSparseMatrix<d>::Block;
   using Vec = Eigen::Matrix<double, d, 1>;
-  Block local[8][8];
-  Index pos[8][8];
-  Vec meanGradient[8];
-  for (Index c = 0; c < mesh.numCells(); ++c) {
+  constexpr int kMax = 8;  // vertices per cell
+  struct Local {
+    Block block[kMax][kMax];
+    Index pos[kMax][kMax];
+    int n;
+  };
+  // cell matrices of a chunk of cells on threads() threads, added to A in cell order by one thread:
+  // the same sums in the same order as a sequential loop, whatever the thread count
+  const auto cellMatrix = [&](CellValues<d>& cv, Index c, Local& out) {
     cv.reinit(mesh, c);
     const int n = cv.numVertices();
+    out.n = n;
+    Vec meanGradient[kMax];
     for (int i = 0; i < n; ++i) {
       meanGradient[i].setZero();
-      for (int j = 0; j < n; ++j) local[i][j].setZero();
+      for (int j = 0; j < n; ++j) out.block[i][j].setZero();
     }
     double volume = 0;
     for (int q = 0; q < cv.numPoints(); ++q) {
@@ -108,20 +118,40 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
           const auto& gj = cv.gradient(q, j);
           // K_ij[a][b] = lambda d_a phi_i d_b phi_j + mu (delta_ab grad phi_i . grad phi_j
           //              + d_b phi_i d_a phi_j)
-          local[i][j].noalias() += w * (pointwise * gi * gj.transpose() + mu * gj * gi.transpose());
-          local[i][j].diagonal().array() += w * mu * gi.dot(gj);
+          out.block[i][j].noalias() += w * (pointwise * gi * gj.transpose() + mu * gj * gi.transpose());
+          out.block[i][j].diagonal().array() += w * mu * gi.dot(gj);
         }
       }
     }
     if (bbar)
       for (int i = 0; i < n; ++i)
         for (int j = 0; j < n; ++j)
-          local[i][j].noalias() += (kappa / volume) * meanGradient[i] * meanGradient[j].transpose();
+          out.block[i][j].noalias() += (kappa / volume) * meanGradient[i] * meanGradient[j].transpose();
     const auto verts = mesh.cellVertices(c);
     for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j) pos[i][j] = A.find(verts[i], verts[j]);
-    for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j) A.blockAt(pos[i][j]) += local[i][j];
+      for (int j = 0; j < n; ++j) out.pos[i][j] = A.find(verts[i], verts[j]);
+  };
+  const Index cells = mesh.numCells();
+  const int nt = cells >= kParallelMinRows ? threads() : 1;
+  const Index chunk = nt > 1 ? 4096 : 1;
+  std::vector<Local> locals(static_cast<std::size_t>(chunk));
+  std::vector<CellValues<d>> values(static_cast<std::size_t>(nt), CellValues<d>(kStiffnessDegree));
+  for (Index first = 0; first < cells; first += chunk) {
+    const Index last = std::min(cells, first + chunk);
+#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
+    for (Index c = first; c < last; ++c) {
+#ifdef _OPENMP
+      CellValues<d>& cv = values[static_cast<std::size_t>(omp_get_thread_num())];
+#else
+      CellValues<d>& cv = values.front();
+#endif
+      cellMatrix(cv, c, locals[static_cast<std::size_t>(c - first)]);
+    }
+    for (Index c = first; c < last; ++c) {
+      const Local& l = locals[static_cast<std::size_t>(c - first)];
+      for (int i = 0; i < l.n; ++i)
+        for (int j = 0; j < l.n; ++j) A.blockAt(l.pos[i][j]) += l.block[i][j];
+    }
   }
   return A;
 }

@@ -11,7 +11,8 @@ KktResiduals computeKktResiduals(const ContactProblem<d>& problem, const Eigen::
   if (u.size() != static_cast<Eigen::Index>(problem.numDofs()))
     throw Error("KKT residuals: displacement vector of wrong size");
   const auto& dir = problem.dirichlet();
-  const Eigen::VectorXd Au = problem.matrix() * u;
+  Eigen::VectorXd Au;
+  problem.multiply(u, Au);
   Eigen::VectorXd r = problem.rhs() - Au;
 
   KktResiduals k;

@@ -1,6 +1,7 @@
 #include "obs/obs/MultiBody.hpp"
 
 #include <string>
+#include <utility>
 
 #include "obs/mesh/Error.hpp"
 
@@ -16,7 +17,7 @@ BodySystem<d> assembleBody(const mesh::Mesh& mesh, const Material& material, con
 }
 
 template <int d>
-BodySystem<d> stackBodies(const std::vector<BodySystem<d>>& bodies, std::vector<Index>* offsets) {
+BodySystem<d> stackBodies(std::vector<BodySystem<d>> bodies, std::vector<Index>* offsets) {
   if (bodies.empty()) throw Error("stackBodies: no body");
   Index n = 0;
   std::size_t blocks = 0;
@@ -31,7 +32,7 @@ BodySystem<d> stackBodies(const std::vector<BodySystem<d>>& bodies, std::vector<
     n += m;
     blocks += static_cast<std::size_t>(b.stiffness.nonZeroBlocks());
   }
-  if (bodies.size() == 1) return bodies.front();
+  if (bodies.size() == 1) return std::move(bodies.front());  // no copy of the one body's matrix
   std::vector<Index> rowStart{0}, columns;
   rowStart.reserve(n + 1);
   columns.reserve(blocks);
@@ -66,7 +67,7 @@ template struct BodySystem<2>;
 template struct BodySystem<3>;
 template BodySystem<2> assembleBody<2>(const mesh::Mesh&, const Material&, const BoundaryConditions&);
 template BodySystem<3> assembleBody<3>(const mesh::Mesh&, const Material&, const BoundaryConditions&);
-template BodySystem<2> stackBodies<2>(const std::vector<BodySystem<2>>&, std::vector<Index>*);
-template BodySystem<3> stackBodies<3>(const std::vector<BodySystem<3>>&, std::vector<Index>*);
+template BodySystem<2> stackBodies<2>(std::vector<BodySystem<2>>, std::vector<Index>*);
+template BodySystem<3> stackBodies<3>(std::vector<BodySystem<3>>, std::vector<Index>*);
 
 }  // namespace obs

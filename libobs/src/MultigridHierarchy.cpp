@@ -538,13 +538,38 @@ void MultigridHierarchy<d>::restrict(int l, const Eigen::VectorXd& fine, Eigen::
   using Vec = Eigen::Matrix<double, d, 1>;
   const mesh::CsrMatrix& P = prolongations_[l];
   const bool top = l + 1 == maxLevel();
-  coarse.setZero(static_cast<Eigen::Index>(P.cols) * d);
-  for (Index p = 0; p < P.rows; ++p) {
+  const auto transformed = [&](Index p) {
     Vec r = fine.template segment<d>(static_cast<Eigen::Index>(p) * d);
     if (top && transformSlot_[p] >= 0) r = transform_[transformSlot_[p]] * r;
     if (!top) truncateDead(dead_[l + 1][p], r);
-    for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k)
-      coarse.template segment<d>(static_cast<Eigen::Index>(P.columns[k]) * d) += P.values[k] * r;
+    return r;
+  };
+  coarse.setZero(static_cast<Eigen::Index>(P.cols) * d);
+  const int nt = P.rows >= kParallelMinRows ? threads() : 1;
+  if (nt == 1) {  // scatter P' r row by fine row
+    for (Index p = 0; p < P.rows; ++p) {
+      const Vec r = transformed(p);
+      for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k)
+        coarse.template segment<d>(static_cast<Eigen::Index>(P.columns[k]) * d) += P.values[k] * r;
+    }
+    return;
+  }
+  // on threads: the transformed defect, then each coarse row gathers through P' (its fine columns
+  // ascending: the same sums in the same order as the scatter, so the same bits)
+  restrictBuffer_.resize(fine.size());
+#pragma omp parallel num_threads(nt)
+  {
+#pragma omp for schedule(static)
+    for (Index p = 0; p < P.rows; ++p)
+      restrictBuffer_.template segment<d>(static_cast<Eigen::Index>(p) * d) = transformed(p);
+    const mesh::CsrMatrix& Pt = transposed_[l];
+#pragma omp for schedule(static)
+    for (Index c = 0; c < Pt.rows; ++c) {
+      Vec s = Vec::Zero();
+      for (Index k = Pt.rowStart[c]; k < Pt.rowStart[c + 1]; ++k)
+        s += Pt.values[k] * restrictBuffer_.template segment<d>(static_cast<Eigen::Index>(Pt.columns[k]) * d);
+      coarse.template segment<d>(static_cast<Eigen::Index>(c) * d) = s;
+    }
   }
 }
 
@@ -553,6 +578,8 @@ void MultigridHierarchy<d>::prolongateAdd(int l, const Eigen::VectorXd& coarse, 
   using Vec = Eigen::Matrix<double, d, 1>;
   const mesh::CsrMatrix& P = prolongations_[l];
   const bool top = l + 1 == maxLevel();
+  const int nt = P.rows >= kParallelMinRows ? threads() : 1;
+#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
   for (Index p = 0; p < P.rows; ++p) {
     Vec s = Vec::Zero();
     for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k)

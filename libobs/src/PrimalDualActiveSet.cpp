@@ -26,10 +26,10 @@ ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Ei
   for (Index p = 0; p < n; ++p)
     if (rot.bounded(p)) {
       bounded.push_back(p);
-      cp.push_back(options_.c * rot.matrix(p, p)(0, 0));
+      cp.push_back(options_.c * rot.matrix()(p, p)(0, 0));
     }
   // multipliers from the residual of the start
-  Eigen::VectorXd residual = rot.rhs - rot.matrix * w;
+  Eigen::VectorXd residual = rot.rhs - rot.matrix() * w;
   std::vector<double> mu(bounded.size());
   for (std::size_t i = 0; i < bounded.size(); ++i) mu[i] = residual[bounded[i] * d];
 
@@ -65,7 +65,7 @@ ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Ei
     previous = active;
 
     // Newton step: A w = b with w_{p,1} = g_p on the active set (symmetric elimination)
-    BlockSparseMatrix<d> Ak = rot.matrix;
+    BlockSparseMatrix<d> Ak = rot.matrix();
     Eigen::VectorXd bk = rot.rhs;
     DirichletValues fixed;
     fixed.constrained.assign(static_cast<std::size_t>(n) * d, 0);
@@ -85,11 +85,11 @@ ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Ei
     for (std::size_t i = 0; i < bounded.size(); ++i)
       if (active[i]) next[bounded[i] * d] = rot.upper[bounded[i]];  // exactly on the bound
 
-    const Eigen::VectorXd Anext = rot.matrix * next;
+    const Eigen::VectorXd Anext = rot.matrix() * next;
     residual = rot.rhs - Anext;
     for (std::size_t i = 0; i < bounded.size(); ++i) mu[i] = active[i] ? residual[bounded[i] * d] : 0.0;
     const Eigen::VectorXd delta = next - w;
-    const double num = std::sqrt(std::max(0.0, rot.matrix.energy(delta)));
+    const double num = std::sqrt(std::max(0.0, rot.matrix().energy(delta)));
     const double den = std::sqrt(std::max(0.0, next.dot(Anext)));
     const double correction = den > 0 ? num / den : (num > 0 ? 1.0 : 0.0);
     w = std::move(next);

@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 
+#include <algorithm>
 #include <cmath>
 
 #include "obs/mesh/Error.hpp"
@@ -18,13 +19,18 @@ BlockLocalSolver<d>::BlockLocalSolver(const BlockSparseMatrix<d>& A, std::vector
   inverse_.resize(n);
   tail_.resize(n);
   coupling_.resize(n);
+  // on threads() threads; the first vertex whose block is not positive definite is reported
+  Index failed = n;
+  const int nt = n >= kParallelMinRows ? threads() : 1;
+#pragma omp parallel for schedule(static) num_threads(nt) reduction(min : failed) if (nt > 1)
   for (Index p = 0; p < n; ++p) {
     const Index k = A.diagonal(p);
     const Mat D = k >= 0 ? A.blockAt(k) : Mat::Zero();
     Eigen::LLT<Mat> llt(D);
-    if (k < 0 || llt.info() != Eigen::Success || !(D.diagonal().minCoeff() > 0))
-      throw Error("block Gauss-Seidel: the diagonal block of vertex " + std::to_string(p) +
-                  " is not positive definite");
+    if (k < 0 || llt.info() != Eigen::Success || !(D.diagonal().minCoeff() > 0)) {
+      failed = std::min(failed, p);
+      continue;
+    }
     inverse_[p] = llt.solve(Mat::Identity());
     // the trailing part for every vertex (also unbounded ones), so that setUpper() may bound any
     // vertex; a principal submatrix of a positive definite block is positive definite
@@ -32,6 +38,9 @@ BlockLocalSolver<d>::BlockLocalSolver(const BlockSparseMatrix<d>& A, std::vector
     tail_[p] = Eigen::LLT<Tail>(T).solve(Tail::Identity());
     coupling_[p] = D.template block<d - 1, 1>(1, 0);
   }
+  if (failed < n)
+    throw Error("block Gauss-Seidel: the diagonal block of vertex " + std::to_string(failed) +
+                " is not positive definite");
 }
 
 template <int d>
@@ -45,9 +54,7 @@ void BlockLocalSolver<d>::setUpper(std::vector<double> upper) {
 template <int d>
 void BlockGaussSeidelSweep<d>::sweep(const Eigen::VectorXd& b, Eigen::VectorXd& w, bool backward) const {
   using Vec = typename BlockLocalSolver<d>::Vec;
-  const Index n = A_.rows();
-  for (Index step = 0; step < n; ++step) {
-    const Index p = backward ? n - 1 - step : step;
+  const auto row = [&](Index p) {
     // r = b_p - sum_{q != p} A_pq w_q
     Vec r = b.template segment<d>(static_cast<Eigen::Index>(p) * d);
     for (Index k = A_.rowBegin(p); k < A_.rowEnd(p); ++k) {
@@ -55,19 +62,34 @@ void BlockGaussSeidelSweep<d>::sweep(const Eigen::VectorXd& b, Eigen::VectorXd& 
       if (q != p) r.noalias() -= A_.blockAt(k) * w.template segment<d>(static_cast<Eigen::Index>(q) * d);
     }
     w.template segment<d>(static_cast<Eigen::Index>(p) * d) = local_.solve(p, r);
-  }
+  };
+  const SweepOrder& order = A_.sweepOrder();
+  if (backward) order.backward(A_.rows(), row);
+  else order.forward(A_.rows(), row);
 }
 
 template <int d>
 void BlockGaussSeidelSweep<d>::sweepFromZero(const Eigen::VectorXd& b, Eigen::VectorXd& w) const {
   using Vec = typename BlockLocalSolver<d>::Vec;
-  const Index n = A_.rows();
-  for (Index p = 0; p < n; ++p) {
+  // `full`: the whole row (unswept neighbours hold zeros), else the blocks left of the diagonal
+  // (TruncatedGaussSeidel::sweepFromZero explains the order)
+  const auto row = [&](Index p, bool full) {
     Vec r = b.template segment<d>(static_cast<Eigen::Index>(p) * d);
-    for (Index k = A_.rowBegin(p); k < A_.rowEnd(p) && A_.column(k) < p; ++k)
-      r.noalias() -= A_.blockAt(k) * w.template segment<d>(static_cast<Eigen::Index>(A_.column(k)) * d);
+    for (Index k = A_.rowBegin(p); k < A_.rowEnd(p) && (full || A_.column(k) < p); ++k)
+      if (A_.column(k) != p)
+        r.noalias() -= A_.blockAt(k) * w.template segment<d>(static_cast<Eigen::Index>(A_.column(k)) * d);
     w.template segment<d>(static_cast<Eigen::Index>(p) * d) = local_.solve(p, r);
+  };
+  const SweepOrder& order = A_.sweepOrder();
+  if (order.sequential()) {
+    for (Index p = 0; p < A_.rows(); ++p) row(p, false);
+    return;
   }
+  for (Index p : order.interface()) w.template segment<d>(static_cast<Eigen::Index>(p) * d).setZero();
+  order.forEachPart([&](int k) {
+    for (Index p : order.interior(k)) row(p, false);
+  });
+  for (Index p : order.interface()) row(p, true);
 }
 
 template <int d>
@@ -76,9 +98,9 @@ ContactResult ProjectedGaussSeidel<d>::solve(const ContactProblem<d>& problem, E
   problem.projectToFeasible(u);
   Eigen::VectorXd w = problem.toRotated(u);
   rot.project(w);
-  const BlockGaussSeidelSweep<d> gs(rot.matrix, rot.upper);
+  const BlockGaussSeidelSweep<d> gs(rot.matrix(), rot.upper);
 
-  Eigen::VectorXd Aw = rot.matrix * w;
+  Eigen::VectorXd Aw = rot.matrix() * w;
   IterationMonitor monitor(name(), options_, 0.5 * w.dot(Aw) - rot.rhs.dot(w));
   bool converged = false;
   Eigen::VectorXd previous;
@@ -86,10 +108,10 @@ ContactResult ProjectedGaussSeidel<d>::solve(const ContactProblem<d>& problem, E
     previous = w;
     gs.sweep(rot.rhs, w);
     if (options_.symmetric) gs.sweep(rot.rhs, w, true);
-    rot.matrix.multiply(w, Aw);
+    rot.matrix().multiply(w, Aw);
     const double wAw = w.dot(Aw), bw = rot.rhs.dot(w);
     const Eigen::VectorXd delta = w - previous;
-    const double num = std::sqrt(std::max(0.0, rot.matrix.energy(delta)));
+    const double num = std::sqrt(std::max(0.0, rot.matrix().energy(delta)));
     // ||w||_A over the free components (prescribed ones are identity rows of A~, whose unit
     // diagonal would make the test depend on the unit of E; the same measure as TNNMG)
     double freeAw = 0;

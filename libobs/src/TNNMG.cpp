@@ -73,20 +73,25 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     operatorId_ = 0;
     smoother_.reset();
     rotated_ = std::make_unique<RotatedProblem<d>>(problem.rotated());
-    smoother_ = std::make_unique<BlockGaussSeidelSweep<d>>(rotated_->matrix, rotated_->upper);
+    smoother_ = std::make_unique<BlockGaussSeidelSweep<d>>(rotated_->matrix(), rotated_->upper);
     correction_->setFineBasis(problem.basisTransformation());
-    correction_->setOperator(rotated_->matrix, problemRotations(problem), rotated_->prescribed);
+    correction_->setOperator(rotated_->matrix(), problemRotations(problem), rotated_->prescribed);
     operatorId_ = problem.operatorId();
-    rowSumBound_ = 0;
-    for (Index p = 0; p < rotated_->matrix.rows(); ++p) {
+    const BlockSparseMatrix<d>& A = rotated_->matrix();
+    const Index n = A.rows();
+    const int nt = n >= kParallelMinRows ? threads() : 1;
+    double bound = 0;  // a maximum: the same on any number of threads
+#pragma omp parallel for schedule(static) num_threads(nt) reduction(max : bound) if (nt > 1)
+    for (Index p = 0; p < n; ++p) {
       double s = 0;
-      for (Index k = rotated_->matrix.rowBegin(p); k < rotated_->matrix.rowEnd(p); ++k) s += rotated_->matrix.blockAt(k).norm();
-      rowSumBound_ = std::max(rowSumBound_, s);
+      for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k) s += A.blockAt(k).norm();
+      bound = std::max(bound, s);
     }
+    rowSumBound_ = bound;
   }
   const int baseUpdates = correction_->operatorUpdates();
   const RotatedProblem<d>& rot = *rotated_;
-  const BlockSparseMatrix<d>& A = rot.matrix;
+  const BlockSparseMatrix<d>& A = rot.matrix();
   problem.projectToFeasible(u);
   Eigen::VectorXd w = problem.toRotated(u);
   rot.project(w);

@@ -124,7 +124,7 @@ TEST(SolverReuse, KktResidualsOnlyWhenAsked) {
 // components, the nonsmooth one with bounds.
 TEST(SolverReuse, FirstSweepFromZeroIsTheFullSweepOnZero) {
   Pressed s;
-  const BlockSparseMatrix<3>& A = s.problem->matrix();
+  const BlockSparseMatrix<3>& A = s.problem->rotatedMatrix();
   std::vector<std::uint8_t> bits(static_cast<std::size_t>(A.rows()), 0);
   for (std::size_t p = 0; p < bits.size(); p += 5) bits[p] = p % 2 ? 0b001 : 0b111;  // some partly, some fully
   TruncatedGaussSeidel<3> gs;

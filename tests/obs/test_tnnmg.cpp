@@ -136,9 +136,12 @@ void expectAgreement(const ContactProblem<d>& problem, const Outcome<d>& r, bool
 TEST(TnnmgParts, TruncationProjectionAndLineSearch) {
   // two vertices in 2D: A = 2 I, b = (4, 0, 1, 0); bounds w_{0,1} <= 1, w_{1,1} <= 0.5; w_{1,2} prescribed
   RotatedProblem<2> rot;
-  rot.matrix = BlockSparseMatrix<2>({0, 1, 2}, {0, 1});
-  rot.matrix.blockAt(0) = 2 * Eigen::Matrix2d::Identity();
-  rot.matrix.blockAt(1) = 2 * Eigen::Matrix2d::Identity();
+  {
+    BlockSparseMatrix<2> A({0, 1, 2}, {0, 1});
+    A.blockAt(0) = 2 * Eigen::Matrix2d::Identity();
+    A.blockAt(1) = 2 * Eigen::Matrix2d::Identity();
+    rot.matrixPtr = std::make_shared<const BlockSparseMatrix<2>>(std::move(A));
+  }
   rot.rhs = Eigen::Vector4d(4, 0, 1, 0);
   rot.upper = {1.0, 0.5};
   rot.prescribed = {0, 0, 0, 1};
@@ -149,13 +152,13 @@ TEST(TnnmgParts, TruncationProjectionAndLineSearch) {
   EXPECT_EQ(lin.mask, (std::vector<char>{1, 0, 0, 1}));
   EXPECT_EQ(lin.active, 1);
   Eigen::VectorXd r;
-  lin.truncatedResidual(rot, rot.matrix * w, r);
+  lin.truncatedResidual(rot, rot.matrix() * w, r);
   EXPECT_TRUE(r.isApprox(Eigen::Vector4d(0, -0.4, 0.8, 0)));
 
   Eigen::VectorXd c = Eigen::Vector4d(0, -0.2, 0.8, 0);  // would take w_{1,1} to 0.9 > 0.5
   projectCorrection(rot, w, c);
   EXPECT_DOUBLE_EQ(c[2], 0.4);
-  const Eigen::VectorXd Ac = rot.matrix * c;
+  const Eigen::VectorXd Ac = rot.matrix() * c;
   const LineSearchResult s = exactLineSearch(rot, w, c, c.dot(r), c.dot(Ac));
   EXPECT_DOUBLE_EQ(s.alphaMax, 1.0);
   EXPECT_EQ(s.limiting, 1);
@@ -168,7 +171,7 @@ TEST(TnnmgParts, TruncationProjectionAndLineSearch) {
 
   // a correction that increases the energy along its direction gives alpha = 0
   const Eigen::VectorXd bad = -c;
-  const LineSearchResult z = exactLineSearch(rot, w, bad, bad.dot(r), bad.dot(rot.matrix * bad));
+  const LineSearchResult z = exactLineSearch(rot, w, bad, bad.dot(r), bad.dot(rot.matrix() * bad));
   EXPECT_EQ(z.alpha, 0.0);
 }
 

@@ -7,10 +7,13 @@
 
 #include <algorithm>
 #include <cassert>
+#include <memory>
 #include <span>
 #include <vector>
 
 #include "obs/mesh/Mesh.hpp"
+#include "obs/obs/LargeArrayAllocator.hpp"
+#include "obs/obs/Parallel.hpp"
 
 namespace obs {
 
@@ -26,8 +29,7 @@ public:
 
   /// Pattern from compressed rows: rowStart has n + 1 entries, columns of each row sorted and
   /// unique. Blocks are zero.
-  BlockSparseMatrix(std::vector<Index> rowStart, std::vector<Index> columns)
-      : rowStart_(std::move(rowStart)), cols_(std::move(columns)), blocks_(cols_.size(), Block::Zero()) {}
+  BlockSparseMatrix(std::vector<Index> rowStart, std::vector<Index> columns);
 
   /// Pattern coupling every pair of vertices that share a cell (diagonal included).
   static BlockSparseMatrix withMeshPattern(const mesh::Mesh& mesh);
@@ -38,6 +40,8 @@ public:
   Index rowBegin(Index i) const { return rowStart_[i]; }
   Index rowEnd(Index i) const { return rowStart_[i + 1]; }
   Index column(Index k) const { return cols_[k]; }
+  std::span<const Index> rowStarts() const { return rowStart_; }
+  std::span<const Index> columns() const { return cols_; }
   Block& blockAt(Index k) { return blocks_[k]; }
   const Block& blockAt(Index k) const { return blocks_[k]; }
 
@@ -61,18 +65,12 @@ public:
   /// Position of the diagonal block of row i.
   Index diagonal(Index i) const { return find(i, i); }
 
-  void setZero() { std::fill(blocks_.begin(), blocks_.end(), Block::Zero()); }
+  /// Zeroes every block (on threads() threads for large matrices).
+  void setZero();
 
-  /// y = A x for vertex-major vectors (x[v*d + c]).
-  void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const {
-    y.resize(static_cast<Eigen::Index>(rows()) * d);
-    for (Index i = 0; i < rows(); ++i) {
-      Eigen::Matrix<double, d, 1> s = Eigen::Matrix<double, d, 1>::Zero();
-      for (Index k = rowStart_[i]; k < rowStart_[i + 1]; ++k)
-        s.noalias() += blocks_[k] * x.template segment<d>(static_cast<Eigen::Index>(cols_[k]) * d);
-      y.template segment<d>(static_cast<Eigen::Index>(i) * d) = s;
-    }
-  }
+  /// y = A x for vertex-major vectors (x[v*d + c]); rows on threads() threads (each row's sum in
+  /// column order, so the result does not depend on the thread count).
+  void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const;
   Eigen::VectorXd operator*(const Eigen::VectorXd& x) const {
     Eigen::VectorXd y;
     multiply(x, y);
@@ -82,6 +80,10 @@ public:
   /// Energy product x' A x.
   double energy(const Eigen::VectorXd& x) const { return x.dot(*this * x); }
 
+  /// The Gauss-Seidel order of this pattern for threads() parts (Parallel.hpp), computed on first
+  /// use and shared by copies of the matrix (they have the same pattern).
+  const SweepOrder& sweepOrder() const;
+
   std::size_t memoryBytes() const {
     return rowStart_.capacity() * sizeof(Index) + cols_.capacity() * sizeof(Index) +
            blocks_.capacity() * sizeof(Block);
@@ -90,7 +92,8 @@ public:
 private:
   std::vector<Index> rowStart_{0};
   std::vector<Index> cols_;
-  std::vector<Block> blocks_;
+  std::vector<Block, LargeArrayAllocator<Block>> blocks_;  ///< huge pages for large matrices
+  mutable std::shared_ptr<const SweepOrder> order_;  ///< cache of sweepOrder()
 };
 
 extern template class BlockSparseMatrix<2>;

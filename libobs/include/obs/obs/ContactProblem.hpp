@@ -33,6 +33,7 @@
 
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <vector>
 
 #include "obs/mesh/Mesh.hpp"
@@ -48,14 +49,16 @@ namespace obs {
 /// min 1/2 w'Aw - b'w subject to w[p*d] <= upper[p] (upper = +inf: no bound): the rotated problem.
 template <int d>
 struct RotatedProblem {
-  BlockSparseMatrix<d> matrix;   ///< A~ = Q'AQ (block-wise)
+  /// A~ = Q'AQ (block-wise), shared with the ContactProblem it came from (which keeps only this form)
+  std::shared_ptr<const BlockSparseMatrix<d>> matrixPtr;
   Eigen::VectorXd rhs;           ///< b~ = Q'b
   std::vector<double> upper;     ///< bound of the first local component per vertex
   std::vector<char> prescribed;  ///< Dirichlet components in rotated numbering (identity rows of A~)
 
-  Index numVertices() const { return matrix.rows(); }
+  const BlockSparseMatrix<d>& matrix() const { return *matrixPtr; }
+  Index numVertices() const { return matrix().rows(); }
   bool bounded(Index p) const { return upper[p] < std::numeric_limits<double>::infinity(); }
-  double energy(const Eigen::VectorXd& w) const { return 0.5 * matrix.energy(w) - rhs.dot(w); }
+  double energy(const Eigen::VectorXd& w) const { return 0.5 * matrix().energy(w) - rhs.dot(w); }
   /// Clamps w[p*d] to upper[p] (the componentwise projection onto the admissible set).
   void project(Eigen::VectorXd& w) const;
   /// Number of vertices with w[p*d] >= upper[p] (exactly at the bound, as the solvers set it).
@@ -100,9 +103,13 @@ public:
   /// x = (I - C) u: the problem unknowns of displacements u (e.g. a warm start).
   Eigen::VectorXd fromDisplacement(const Eigen::VectorXd& u) const;
 
-  Index numVertices() const { return A_.rows(); }
-  Index numDofs() const { return A_.rows() * d; }
-  const BlockSparseMatrix<d>& matrix() const { return A_; }
+  Index numVertices() const { return A_->rows(); }
+  Index numDofs() const { return A_->rows() * d; }
+  /// The operator in rotated form, A~ = Q'AQ (see the file comment): the only copy of the stiffness
+  /// the problem keeps (products with A itself: multiply()).
+  const BlockSparseMatrix<d>& rotatedMatrix() const { return *A_; }
+  /// Au = A u = Q A~ Q'u (problem unknowns, after the Dirichlet elimination).
+  void multiply(const Eigen::VectorXd& u, Eigen::VectorXd& Au) const;
   const Eigen::VectorXd& rhs() const { return b_; }
   const DirichletValues& dirichlet() const { return dirichlet_; }
   const ContactSet& contactSet() const { return contact_; }
@@ -110,9 +117,9 @@ public:
   const Constraint& constraint(Index k) const { return constraints_[k]; }
   const std::vector<Constraint>& constraints() const { return constraints_; }
 
-  double energy(const Eigen::VectorXd& u) const { return 0.5 * A_.energy(u) - b_.dot(u); }
+  double energy(const Eigen::VectorXd& u) const;
   /// Gradient A u - b of J.
-  Eigen::VectorXd gradient(const Eigen::VectorXd& u) const { return A_ * u - b_; }
+  Eigen::VectorXd gradient(const Eigen::VectorXd& u) const;
   /// Energy norm ||x||_A = sqrt(x'Ax).
   double energyNorm(const Eigen::VectorXd& x) const;
   /// Largest constraint violation max_p (nu_p'u_p - g_p)^+ (effective constraints).
@@ -140,18 +147,20 @@ public:
   /// values that violate a new gap (as the constructor).
   void setGaps(const std::vector<double>& gaps);
 
-  /// The rotated problem (built on each call: one copy of the matrix).
+  /// The rotated problem (built on each call; it shares the matrix, and copies the vectors).
   RotatedProblem<d> rotated() const;
   /// w = Q'u and u = Q w.
   Eigen::VectorXd toRotated(const Eigen::VectorXd& u) const;
   Eigen::VectorXd fromRotated(const Eigen::VectorXd& w) const;
 
 private:
-  void setup();
-  void transform();
+  void setup(BlockSparseMatrix<d> A);
+  void transform(BlockSparseMatrix<d>& A);
+  void rotateOperator(BlockSparseMatrix<d>& A);
 
   mesh::CsrMatrix basis_;  ///< C (empty: no transformation)
-  BlockSparseMatrix<d> A_;
+  std::shared_ptr<const BlockSparseMatrix<d>> A_;  ///< A~ = Q'AQ (shared with rotated problems)
+  std::vector<char> prescribedRotated_;  ///< Dirichlet components in rotated numbering
   Eigen::VectorXd b_;
   DirichletValues dirichlet_;
   ContactSet contact_;

@@ -32,9 +32,10 @@ template <int d>
 BodySystem<d> assembleBody(const mesh::Mesh& mesh, const Material& material, const BoundaryConditions& bc);
 
 /// Block-diagonal stacking of the bodies' systems; offsets (if given) receives the first stacked
-/// vertex of each body. Throws obs::Error on inconsistent sizes.
+/// vertex of each body. Throws obs::Error on inconsistent sizes. Takes the systems by value: pass
+/// them with std::move, and one body is returned without a copy of its matrix.
 template <int d>
-BodySystem<d> stackBodies(const std::vector<BodySystem<d>>& bodies, std::vector<Index>* offsets = nullptr);
+BodySystem<d> stackBodies(std::vector<BodySystem<d>> bodies, std::vector<Index>* offsets = nullptr);
 
 extern template struct BodySystem<2>;
 extern template struct BodySystem<3>;

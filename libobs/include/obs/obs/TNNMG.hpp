@@ -84,7 +84,7 @@ private:
   Index fineVertices_ = 0;
   std::unique_ptr<LinearCorrection<d>> correction_;
   std::unique_ptr<RotatedProblem<d>> rotated_;  ///< operator of the last solve (see "Operator reuse")
-  std::unique_ptr<BlockGaussSeidelSweep<d>> smoother_;  ///< nonsmooth sweep on rotated_->matrix
+  std::unique_ptr<BlockGaussSeidelSweep<d>> smoother_;  ///< nonsmooth sweep on rotated_->matrix()
   std::uint64_t operatorId_ = 0;                ///< its ContactProblem::operatorId(), 0: none
   double rowSumBound_ = 0;  ///< max_p sum_q ||A~_pq||_F >= ||A~||_2 (round-off scale of w'A~w)
   Statistics statistics_;

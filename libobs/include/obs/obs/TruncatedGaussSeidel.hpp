@@ -38,57 +38,23 @@ public:
   /// pointer, must outlive the smoother). Throws obs::Error if a free part of a diagonal block is
   /// zero or not positive semidefinite; `what` names the matrix in the message.
   void setMatrix(const BlockSparseMatrix<d>& A, const std::vector<std::uint8_t>* bits = nullptr,
-                 std::string what = "matrix") {
-    A_ = &A;
-    bits_ = bits;
-    what_ = std::move(what);
-    inverse_.resize(A.rows());
-    diagonal_.resize(A.rows());
-    for (Index p = 0; p < A.rows(); ++p) {
-      diagonal_[p] = A.diagonal(p);
-      if (diagonal_[p] < 0) throw Error("Gauss-Seidel smoother: " + what_ + " has no diagonal block in row " + std::to_string(p));
-      update(p);
-    }
-  }
+                 std::string what = "matrix");
   bool hasMatrix() const { return A_ != nullptr; }
   /// Recomputes W_p for vertices whose truncation bits (or diagonal blocks) changed.
   void updateVertices(std::span<const Index> vertices) {
     for (Index p : vertices) update(p);
   }
+  /// The same for every vertex (on threads() threads).
+  void updateAll();
 
-  /// nu sweeps on A_T x = r in place (forward, or backward if `backward`).
-  void sweep(const Eigen::VectorXd& r, Eigen::VectorXd& x, bool backward = false) const {
-    const BlockSparseMatrix<d>& A = *A_;
-    const Index n = A.rows();
-    for (Index step = 0; step < n; ++step) {
-      const Index p = backward ? n - 1 - step : step;
-      if (bits_ && (*bits_)[p] == kAll) continue;  // fully truncated: x_p = 0
-      Vec s = r.template segment<d>(static_cast<Eigen::Index>(p) * d);
-      const Index dp = diagonal_[p];
-      for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k)
-        if (k != dp) s.noalias() -= A.blockAt(k) * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
-      x.template segment<d>(static_cast<Eigen::Index>(p) * d).noalias() = inverse_[p] * s;
-    }
-  }
+  /// nu sweeps on A_T x = r in place (forward, or backward if `backward`), in the matrix's sweep
+  /// order (Parallel.hpp: the natural order on one thread).
+  void sweep(const Eigen::VectorXd& r, Eigen::VectorXd& x, bool backward = false) const;
   /// The first forward sweep from x = 0, in place on x of the right size (it overwrites every entry):
-  /// the same result as x.setZero(); sweep(r, x), but only the blocks left of the diagonal are read
-  /// (columns are sorted; the others multiply zeros), which halves the matrix traffic of this sweep.
-  void sweepFromZero(const Eigen::VectorXd& r, Eigen::VectorXd& x) const {
-    const BlockSparseMatrix<d>& A = *A_;
-    const Index n = A.rows();
-    for (Index p = 0; p < n; ++p) {
-      auto xp = x.template segment<d>(static_cast<Eigen::Index>(p) * d);
-      if (bits_ && (*bits_)[p] == kAll) {  // fully truncated: x_p = 0
-        xp.setZero();
-        continue;
-      }
-      Vec s = r.template segment<d>(static_cast<Eigen::Index>(p) * d);
-      const Index dp = diagonal_[p];
-      for (Index k = A.rowBegin(p); k < dp; ++k)
-        s.noalias() -= A.blockAt(k) * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
-      xp.noalias() = inverse_[p] * s;
-    }
-  }
+  /// the same result as x.setZero(); sweep(r, x), but rows swept before all their neighbours read
+  /// only the blocks left of the diagonal (columns are sorted; the others multiply zeros), which
+  /// halves the matrix traffic of this sweep.
+  void sweepFromZero(const Eigen::VectorXd& r, Eigen::VectorXd& x) const;
 
 private:
   void update(Index p) {
@@ -133,5 +99,8 @@ private:
   std::vector<Mat> inverse_;
   std::vector<Index> diagonal_;
 };
+
+extern template class TruncatedGaussSeidel<2>;
+extern template class TruncatedGaussSeidel<3>;
 
 }  // namespace obs

@@ -1,0 +1,242 @@
+// Threads: what obs gains from a second core, and why (docs/performance.md#threads).
+//
+//   build/bench/threads OUT.md [--threads T] [--level L] [--repeat R] [--obs build/drivers/obs]
+//
+// Side by side in one run, for 1..T threads (obs::setThreads):
+//  1. the machine: STREAM-like triad bandwidth a = b + 3c over 3 x 512 MB (what a memory-bound loop
+//     can gain from more threads on this machine);
+//  2. the kernels on the step-42 grid (unit cube of hexahedra, coarse 2^3, L levels: 64^3 cells for
+//     L = 5): stiffness assembly, y = A x, one truncated linear Gauss-Seidel sweep (the V-cycle's
+//     smoother), one nonsmooth block Gauss-Seidel sweep (TNNMG's fine smoother); best of R;
+//  3. TNNMG on the step-42 problem: iterations, solve seconds, energy; two solves per thread count
+//     must give bitwise the same solution (reproducibility for a fixed thread count);
+//  4. with --obs: the whole `obs run data/scenes/step42.toml --refine 4` per thread count (wall and
+//     CPU seconds, peak memory, from /usr/bin/time).
+// Writes the tables between the bench/threads markers of OUT.md (MarkdownBlock.hpp).
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "MarkdownBlock.hpp"
+#include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/Obstacle.hpp"
+#include "obs/obs/Parallel.hpp"
+#include "obs/obs/ProjectedGaussSeidel.hpp"
+#include "obs/obs/TNNMG.hpp"
+#include "obs/obs/TruncatedGaussSeidel.hpp"
+
+using namespace obs;
+using Clock = std::chrono::steady_clock;
+
+namespace {
+
+double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
+
+template <class F>
+double best(int repeat, F&& f) {
+  double b = 1e300;
+  for (int r = 0; r < repeat; ++r) {
+    const auto t0 = Clock::now();
+    f();
+    b = std::min(b, since(t0));
+  }
+  return b;
+}
+
+std::string fmt(double v, int digits = 3) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.*g", digits, v);
+  return buf;
+}
+
+/// a = b + 3 c on `threads` threads (the loop of OpenMP's static schedule); returns GB/s.
+double triad(int threads, std::vector<double>& a, const std::vector<double>& b, const std::vector<double>& c) {
+  const long n = static_cast<long>(a.size());
+  const auto t0 = Clock::now();
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (long i = 0; i < n; ++i) a[i] = b[i] + 3.0 * c[i];
+  return 3.0 * 8.0 * static_cast<double>(n) / since(t0) / 1e9;
+}
+
+struct Step42 {
+  mesh::Grid grid;
+  mesh::Mesh mesh;
+  Material material{2e5, 0.3};
+  BoundaryConditions bc;
+  BallObstacle ball{Point(0.5, 0.5, 1.59), 0.6, Point::UnitZ()};
+  explicit Step42(int level) : grid(mesh::boxMesh(mesh::CellType::Hexahedron, 2)) {
+    for (int l = 0; l < level; ++l) grid.refineUniformly();
+    mesh = grid.leafView().mesh;
+    const auto fixed = [](const Point&) { return Point::Zero(); };
+    bc.dirichlet.push_back({mesh::kBottom, {true, true, true}, fixed});
+    for (int side : {mesh::kLeft, mesh::kRight, mesh::kFront, mesh::kBack})
+      bc.dirichlet.push_back({side, {true, true, false}, fixed});
+  }
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc < 2) {
+    std::cerr << "usage: threads OUT.md [--threads T] [--level L] [--repeat R] [--obs OBS]\n";
+    return 2;
+  }
+  const std::filesystem::path out = argv[1];
+  int maxThreads = 2, level = 5, repeat = 3;
+  std::string obsBinary;
+  for (int i = 2; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (i + 1 >= argc) {
+      std::cerr << "threads: " << a << " needs a value\n";
+      return 2;
+    }
+    const std::string v = argv[++i];
+    if (a == "--threads") maxThreads = std::stoi(v);
+    else if (a == "--level") level = std::stoi(v);
+    else if (a == "--repeat") repeat = std::stoi(v);
+    else if (a == "--obs") obsBinary = v;
+    else {
+      std::cerr << "threads: unknown option " << a << "\n";
+      return 2;
+    }
+  }
+  if (maxThreads < 1 || level < 1 || repeat < 1) {
+    std::cerr << "threads: --threads, --level and --repeat must be positive\n";
+    return 2;
+  }
+  std::ostringstream md;
+
+  // 1. the machine's memory bandwidth
+  md << "Memory bandwidth (triad a = b + 3c, 3 x 512 MB, best of " << repeat << "):\n\n| threads | GB/s |\n|---:|---:|\n";
+  {
+    const std::size_t n = std::size_t(1) << 26;
+    std::vector<double> a(n, 1.0), b(n, 2.0), c(n, 3.0);
+    for (int t = 1; t <= maxThreads; ++t) {
+      double bw = 0;
+      for (int r = 0; r < repeat; ++r) bw = std::max(bw, triad(t, a, b, c));
+      md << "| " << t << " | " << fmt(bw) << " |\n";
+      std::cerr << "triad, " << t << " threads: " << fmt(bw) << " GB/s\n";
+    }
+  }
+
+  // 2. kernels
+  Step42 s(level);
+  const Index nv = s.mesh.numVertices();
+  md << "\nKernels on the step-42 grid (" << s.mesh.numCells() << " hexahedra, " << nv * 3
+     << " unknowns), seconds, best of " << repeat << ":\n\n"
+     << "| threads | assembly | y = A x | linear GS sweep | nonsmooth GS sweep | interface vertices |\n"
+     << "|---:|---:|---:|---:|---:|---:|\n";
+  std::vector<double> base;
+  for (int t = 1; t <= maxThreads; ++t) {
+    setThreads(t);
+    BlockSparseMatrix<3> A;
+    const double assembly = best(repeat, [&] { A = assembleStiffness<3>(s.mesh, s.material); });
+    Eigen::VectorXd x = Eigen::VectorXd::Ones(nv * 3), y, r = Eigen::VectorXd::Ones(nv * 3);
+    const double mult = best(repeat, [&] { A.multiply(x, y); });
+    TruncatedGaussSeidel<3> tgs;
+    tgs.setMatrix(A);
+    const double linear = best(repeat, [&] { tgs.sweep(r, x); });
+    BlockGaussSeidelSweep<3> ngs(A, std::vector<double>(static_cast<std::size_t>(nv), 0.0));
+    const double nonsmooth = best(repeat, [&] { ngs.sweep(r, x); });
+    const SweepOrder& order = A.sweepOrder();
+    const std::vector<double> row{assembly, mult, linear, nonsmooth};
+    if (t == 1) base = row;
+    md << "| " << t;
+    for (std::size_t k = 0; k < row.size(); ++k)
+      md << " | " << fmt(row[k]) << (t > 1 ? " (" + fmt(base[k] / row[k], 2) + "x)" : std::string());
+    md << " | " << (order.sequential() ? 0 : order.interface().size()) << " |\n";
+    std::cerr << "kernels, " << t << " threads done\n";
+  }
+
+  // 3. TNNMG
+  md << "\nTNNMG on the step-42 problem (tolerance 1e-10; the solve from zero, hierarchy set-up included):\n\n"
+     << "| threads | iterations | solve s | set-up | nonsmooth sweeps | operator updates | V-cycles | other | energy | "
+        "bitwise equal to a second solve |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n";
+  double tnnmgBase = 0;
+  for (int t = 1; t <= maxThreads; ++t) {
+    setThreads(t);
+    Eigen::VectorXd first;
+    for (int run = 0; run < 2; ++run) {
+      const ContactSet set(s.mesh, mesh::kTop, s.ball);
+      const ContactProblem<3> problem(s.mesh, s.material, s.bc, set);
+      TNNMG<3>::Options o;
+      o.tolerance = 1e-10;
+      TNNMG<3> solver(s.grid, o);
+      Eigen::VectorXd u;
+      const auto t0 = Clock::now();
+      const ContactResult res = solver.solve(problem, u);
+      const double sec = since(t0);
+      if (run == 0) {
+        first = u;
+        continue;
+      }
+      const bool same = u.size() == first.size() && std::memcmp(u.data(), first.data(), sizeof(double) * u.size()) == 0;
+      if (t == 1) tnnmgBase = sec;
+      const auto& st = solver.statistics();
+      md << "| " << t << " | " << res.iterations << " | " << fmt(sec) << (t > 1 ? " (" + fmt(tnnmgBase / sec, 2) + "x)" : "")
+         << " | " << fmt(st.setupSeconds) << " | " << fmt(st.smoothingSeconds) << " | " << fmt(st.updateSeconds) << " | "
+         << fmt(st.correctionSeconds) << " | " << fmt(st.otherSeconds) << " | " << fmt(problem.energy(u), 12) << " | " << (same ? "yes" : "**no**") << " |\n";
+      std::cerr << "TNNMG, " << t << " threads: " << res.iterations << " iterations, " << fmt(sec) << " s\n";
+    }
+  }
+
+  // 4. the whole program
+  if (!obsBinary.empty()) {
+    md << "\nThe whole `obs run data/scenes/step42.toml --refine 4 --threads T` (64^3 hexahedra, 823,875 unknowns; "
+          "/usr/bin/time; the thread counts alternate, best wall time of " << repeat << " runs, its CPU time, memory and phases):\n\n"
+          "| threads | wall s | CPU s | peak MB | assembly s | solve s | wall s of every run |\n|---:|---:|---:|---:|---:|---:|---|\n";
+    struct Run {
+      double wall = 1e300, cpu = 0, mb = 0, assembly = 0, solve = 0;
+      std::string all;
+    };
+    std::vector<Run> runs(static_cast<std::size_t>(maxThreads));
+    for (int rep = 0; rep < repeat; ++rep)
+      for (int t = 1; t <= maxThreads; ++t) {
+        const std::string dir = "/tmp/obs_bench_threads_" + std::to_string(t);
+        const std::string timing = dir + ".time";
+        const std::string cmd = "OPENBLAS_NUM_THREADS=1 /usr/bin/time -f '%e %U %S %M' -o " + timing + " " + obsBinary +
+                                " run data/scenes/step42.toml --refine 4 --quiet --threads " + std::to_string(t) +
+                                " --output " + dir;
+        if (std::system(cmd.c_str()) != 0) {
+          std::cerr << "threads: failed: " << cmd << "\n";
+          return 1;
+        }
+        double wall = 0, user = 0, sys = 0, kb = 0;
+        std::ifstream(timing) >> wall >> user >> sys >> kb;
+        std::ifstream summary(dir + "/summary.json");
+        std::stringstream ss;
+        ss << summary.rdbuf();
+        const std::string js = ss.str();
+        const auto number = [&](const std::string& key) {
+          const auto p = js.find("\"" + key + "\":");
+          return p == std::string::npos ? std::nan("") : std::strtod(js.c_str() + p + key.size() + 3, nullptr);
+        };
+        Run& r = runs[static_cast<std::size_t>(t - 1)];
+        r.all += (r.all.empty() ? "" : ", ") + fmt(wall);
+        if (wall < r.wall) r = Run{wall, user + sys, kb / 1024, number("assembly_s"), number("solve_s"), r.all};
+        std::cerr << "obs run, " << t << " threads: " << fmt(wall) << " s wall\n";
+      }
+    for (int t = 1; t <= maxThreads; ++t) {
+      const Run& r = runs[static_cast<std::size_t>(t - 1)];
+      md << "| " << t << " | " << fmt(r.wall) << (t > 1 ? " (" + fmt(runs[0].wall / r.wall, 2) + "x)" : "") << " | "
+         << fmt(r.cpu) << " | " << fmt(r.mb, 4) << " | " << fmt(r.assembly) << " | " << fmt(r.solve) << " | " << r.all
+         << " |\n";
+    }
+  }
+  if (!bench::writeMarkdownBlock(out, "threads", md.str())) {
+    std::cerr << "threads: cannot write " << out << "\n";
+    return 1;
+  }
+  std::cout << md.str();
+  return 0;
+}

@@ -1,0 +1,98 @@
+#pragma once
+/// \file Parallel.hpp
+/// Threads in obs (docs/performance.md#threads). obs runs its dominant loops on `threads()` threads
+/// (OpenMP): products with block matrices, the Gauss-Seidel sweeps of the smoothers (nonsmooth and
+/// truncated linear), the prolongations, the cell loop of the stiffness assembly. The default is one
+/// thread, which runs exactly the sequential algorithms. With N > 1 threads every result is bitwise
+/// reproducible for that N: no loop depends on the scheduling (rows are independent, sums over
+/// cells are added in cell order, and the Gauss-Seidel order below depends on the matrix pattern and
+/// N only); different N give results that differ in the last bits (the sweep order differs).
+#include <span>
+#include <vector>
+
+#include "obs/mesh/Mesh.hpp"
+
+namespace obs {
+
+using mesh::Index;
+
+/// Threads of obs's parallel loops (>= 1; default 1).
+int threads();
+/// Sets the thread count. Throws obs::Error unless 1 <= n <= 1024. Set it before building solvers:
+/// a smoother fixes its sweep order for the thread count when it gets its matrix.
+void setThreads(int n);
+
+/// Rows below which loops and sweeps stay sequential (the fork costs more than the work).
+inline constexpr Index kParallelMinRows = 2048;
+
+/// Order of a Gauss-Seidel sweep over the vertices of a (symmetric) matrix pattern that lets
+/// `parts` threads sweep at once without changing what a sweep is: a sequence of exact local solves
+/// in one fixed order, so every monotonicity property of the sequential sweep holds. METIS splits the
+/// matrix graph into `parts` parts; a vertex all of whose neighbours lie in its own part is
+/// *interior*, the others are *interface* vertices. Interior vertices of different parts are not
+/// coupled, so the parts' interiors are swept concurrently (each in ascending order), then the
+/// interface vertices in ascending order by one thread (a backward sweep is the exact reverse). The
+/// order depends on the pattern and `parts` only. With one part it is the natural order 0..n-1.
+class SweepOrder {
+public:
+  SweepOrder() = default;
+  /// Pattern in compressed rows (rowStart has n + 1 entries, the diagonal may be included); parts
+  /// >= 1. Patterns too small to be worth it (below kParallelMinRows rows), or that METIS cannot
+  /// split, get the natural order.
+  SweepOrder(std::span<const Index> rowStart, std::span<const Index> columns, int parts);
+
+  int parts() const { return parts_; }
+  /// The `parts` asked for at construction (parts() may be 1 if the pattern was not split).
+  int requestedParts() const { return requested_; }
+  bool sequential() const { return parts_ <= 1; }
+  std::span<const Index> interior(int part) const {
+    return {order_.data() + start_[part], static_cast<std::size_t>(start_[part + 1] - start_[part])};
+  }
+  std::span<const Index> interface() const {
+    return {order_.data() + start_[parts_], static_cast<std::size_t>(start_[parts_ + 1] - start_[parts_])};
+  }
+  bool isInterface(Index p) const { return interface_[p] != 0; }
+
+  /// f(part) for every part, concurrently (one thread per part).
+  template <class F>
+  void forEachPart(F&& f) const {
+#ifdef _OPENMP
+#pragma omp parallel for schedule(static, 1) num_threads(parts_)
+#endif
+    for (int k = 0; k < parts_; ++k) f(k);
+  }
+  /// visit(p) for the n vertices in sweep order (forward), or in the reverse order.
+  template <class Visit>
+  void forward(Index n, Visit&& visit) const {
+    if (sequential()) {
+      for (Index p = 0; p < n; ++p) visit(p);
+      return;
+    }
+    forEachPart([&](int k) {
+      for (Index p : interior(k)) visit(p);
+    });
+    for (Index p : interface()) visit(p);
+  }
+  template <class Visit>
+  void backward(Index n, Visit&& visit) const {
+    if (sequential()) {
+      for (Index p = n; p-- > 0;) visit(p);
+      return;
+    }
+    const auto face = interface();
+    for (auto it = face.rbegin(); it != face.rend(); ++it) visit(*it);
+    forEachPart([&](int k) {
+      const auto in = interior(k);
+      for (auto it = in.rbegin(); it != in.rend(); ++it) visit(*it);
+    });
+  }
+
+private:
+  int parts_ = 1;
+  int requested_ = 1;
+  std::vector<Index> start_;  ///< parts + 2 offsets into order_: interiors of parts 0..parts-1, interface
+  std::vector<Index> order_;
+  std::vector<char> interface_;
+};
+
+}  // namespace obs

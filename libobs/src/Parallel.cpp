@@ -1,0 +1,68 @@
+#include "obs/obs/Parallel.hpp"
+
+#include <metis.h>
+
+#include <atomic>
+#include <string>
+
+#include "obs/mesh/Error.hpp"
+
+namespace obs {
+namespace {
+std::atomic<int> threadCount{1};
+}  // namespace
+
+int threads() { return threadCount.load(std::memory_order_relaxed); }
+
+void setThreads(int n) {
+  if (n < 1 || n > 1024) throw Error("threads: " + std::to_string(n) + " (1 to 1024 expected)");
+  threadCount.store(n, std::memory_order_relaxed);
+}
+
+SweepOrder::SweepOrder(std::span<const Index> rowStart, std::span<const Index> columns, int parts) {
+  if (parts < 1) throw Error("sweep order: " + std::to_string(parts) + " parts");
+  requested_ = parts;
+  const Index n = rowStart.empty() ? 0 : static_cast<Index>(rowStart.size()) - 1;
+  if (parts == 1 || n < kParallelMinRows) return;
+
+  // the graph without its diagonal, in METIS' integer type
+  std::vector<idx_t> xadj(static_cast<std::size_t>(n) + 1, 0), adjncy;
+  adjncy.reserve(columns.size());
+  for (Index p = 0; p < n; ++p) {
+    for (Index k = rowStart[p]; k < rowStart[p + 1]; ++k)
+      if (columns[k] != p) adjncy.push_back(static_cast<idx_t>(columns[k]));
+    xadj[p + 1] = static_cast<idx_t>(adjncy.size());
+  }
+  idx_t nvtxs = static_cast<idx_t>(n), ncon = 1, nparts = parts, objval = 0;
+  std::vector<idx_t> part(static_cast<std::size_t>(n), 0);
+  idx_t options[METIS_NOPTIONS];
+  METIS_SetDefaultOptions(options);
+  options[METIS_OPTION_SEED] = 1;  // fixed: the partition, hence the sweep order, is reproducible
+  options[METIS_OPTION_NUMBERING] = 0;
+  const int status = parts == 2 ? METIS_PartGraphRecursive(&nvtxs, &ncon, xadj.data(), adjncy.data(), nullptr,
+                                                            nullptr, nullptr, &nparts, nullptr, nullptr, options,
+                                                            &objval, part.data())
+                                : METIS_PartGraphKway(&nvtxs, &ncon, xadj.data(), adjncy.data(), nullptr, nullptr,
+                                                      nullptr, &nparts, nullptr, nullptr, options, &objval,
+                                                      part.data());
+  if (status != METIS_OK) return;  // the natural order is always valid
+
+  interface_.assign(static_cast<std::size_t>(n), 0);
+  std::vector<Index> count(static_cast<std::size_t>(parts) + 1, 0);
+  for (Index p = 0; p < n; ++p) {
+    for (idx_t k = xadj[p]; k < xadj[p + 1]; ++k)
+      if (part[adjncy[k]] != part[p]) {
+        interface_[p] = 1;
+        break;
+      }
+    ++count[interface_[p] ? parts : part[p]];
+  }
+  start_.assign(static_cast<std::size_t>(parts) + 2, 0);
+  for (int k = 0; k <= parts; ++k) start_[k + 1] = start_[k] + count[k];
+  order_.resize(static_cast<std::size_t>(n));
+  std::vector<Index> fill(start_.begin(), start_.end() - 1);
+  for (Index p = 0; p < n; ++p) order_[fill[interface_[p] ? parts : part[p]]++] = p;  // ascending per group
+  parts_ = parts;
+}
+
+}  // namespace obs

@@ -1,0 +1,94 @@
+#include "obs/obs/TruncatedGaussSeidel.hpp"
+
+#include <algorithm>
+
+namespace obs {
+
+template <int d>
+void TruncatedGaussSeidel<d>::setMatrix(const BlockSparseMatrix<d>& A, const std::vector<std::uint8_t>* bits,
+                                        std::string what) {
+  A_ = &A;
+  bits_ = bits;
+  what_ = std::move(what);
+  inverse_.resize(A.rows());
+  diagonal_.resize(A.rows());
+  for (Index p = 0; p < A.rows(); ++p) {
+    diagonal_[p] = A.diagonal(p);
+    if (diagonal_[p] < 0) throw Error("Gauss-Seidel smoother: " + what_ + " has no diagonal block in row " + std::to_string(p));
+  }
+  updateAll();
+}
+
+template <int d>
+void TruncatedGaussSeidel<d>::updateAll() {
+  // update() throws for a bad block: on threads the first failing vertex is found, then reported
+  const Index n = A_->rows();
+  const int nt = n >= kParallelMinRows ? threads() : 1;
+  if (nt == 1) {
+    for (Index p = 0; p < n; ++p) update(p);
+    return;
+  }
+  Index failed = n;
+#pragma omp parallel for schedule(static) num_threads(nt) reduction(min : failed)
+  for (Index p = 0; p < n; ++p) {
+    try {
+      update(p);
+    } catch (const Error&) {
+      failed = std::min(failed, p);
+    }
+  }
+  if (failed < n) update(failed);  // throws the message of that vertex
+}
+
+template <int d>
+void TruncatedGaussSeidel<d>::sweep(const Eigen::VectorXd& r, Eigen::VectorXd& x, bool backward) const {
+  const BlockSparseMatrix<d>& A = *A_;
+  const auto row = [&](Index p) {
+    if (bits_ && (*bits_)[p] == kAll) return;  // fully truncated: x_p = 0
+    Vec s = r.template segment<d>(static_cast<Eigen::Index>(p) * d);
+    const Index dp = diagonal_[p];
+    for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k)
+      if (k != dp) s.noalias() -= A.blockAt(k) * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
+    x.template segment<d>(static_cast<Eigen::Index>(p) * d).noalias() = inverse_[p] * s;
+  };
+  const SweepOrder& order = A.sweepOrder();
+  if (backward) order.backward(A.rows(), row);
+  else order.forward(A.rows(), row);
+}
+
+template <int d>
+void TruncatedGaussSeidel<d>::sweepFromZero(const Eigen::VectorXd& r, Eigen::VectorXd& x) const {
+  const BlockSparseMatrix<d>& A = *A_;
+  // `full`: read the whole row (neighbours not yet swept must hold zeros); else only the blocks left
+  // of the diagonal (every neighbour with a smaller index is swept before p, every other one after)
+  const auto row = [&](Index p, bool full) {
+    auto xp = x.template segment<d>(static_cast<Eigen::Index>(p) * d);
+    if (bits_ && (*bits_)[p] == kAll) {  // fully truncated: x_p = 0
+      xp.setZero();
+      return;
+    }
+    Vec s = r.template segment<d>(static_cast<Eigen::Index>(p) * d);
+    const Index dp = diagonal_[p];
+    const Index end = full ? A.rowEnd(p) : dp;
+    for (Index k = A.rowBegin(p); k < end; ++k)
+      if (k != dp) s.noalias() -= A.blockAt(k) * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
+    xp.noalias() = inverse_[p] * s;
+  };
+  const SweepOrder& order = A.sweepOrder();
+  if (order.sequential()) {
+    for (Index p = 0; p < A.rows(); ++p) row(p, false);
+    return;
+  }
+  // interiors: their neighbours are interior vertices of the same part (swept in ascending order)
+  // or interface vertices (swept last, zero until then); the interface reads its whole row
+  for (Index p : order.interface()) x.template segment<d>(static_cast<Eigen::Index>(p) * d).setZero();
+  order.forEachPart([&](int k) {
+    for (Index p : order.interior(k)) row(p, false);
+  });
+  for (Index p : order.interface()) row(p, true);
+}
+
+template class TruncatedGaussSeidel<2>;
+template class TruncatedGaussSeidel<3>;
+
+}  // namespace obs

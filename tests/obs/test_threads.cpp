@@ -1,0 +1,256 @@
+// Threads (obs/obs/Parallel.hpp, docs/performance.md#threads): the parallel Gauss-Seidel order is a
+// valid order (a permutation whose concurrently swept groups are uncoupled), a threaded sweep gives
+// bitwise what a sequential sweep in that order gives, the loops over rows and cells give bitwise the
+// results of one thread, and a threaded TNNMG solve is reproducible and agrees with one thread.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <memory>
+#include <vector>
+
+#include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/Error.hpp"
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/MultigridHierarchy.hpp"
+#include "obs/obs/Parallel.hpp"
+#include "obs/obs/ProjectedGaussSeidel.hpp"
+#include "obs/obs/TNNMG.hpp"
+#include "obs/obs/TruncatedGaussSeidel.hpp"
+
+using namespace obs;
+using mesh::CellType;
+
+namespace {
+
+/// Sets the thread count for one scope (the count is global).
+struct ThreadScope {
+  explicit ThreadScope(int n) { setThreads(n); }
+  ~ThreadScope() { setThreads(1); }
+};
+
+bool bitwiseEqual(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
+  return a.size() == b.size() && std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
+}
+
+/// Hexahedral cube, 2^3 coarse cells refined three times (16^3 cells, 4,913 vertices: above the
+/// threshold below which sweeps stay sequential), pressed onto the plane z = 0.
+struct Cube {
+  mesh::Grid grid{mesh::boxMesh(CellType::Hexahedron, 2)};
+  mesh::Mesh mesh;
+  Material material{1e3, 0.3};
+  BoundaryConditions bc;
+  std::unique_ptr<ContactSet> contact;
+  Cube() {
+    for (int l = 0; l < 3; ++l) grid.refineUniformly();
+    mesh = grid.leafView().mesh;
+    contact = std::make_unique<ContactSet>(mesh, mesh::kBottom, PlaneObstacle(Point(0, 0, 0), Point(0, 0, -1)));
+    bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Point(0.002, 0, -0.01); }});
+  }
+};
+
+Eigen::VectorXd wave(Index n) { return Eigen::VectorXd::LinSpaced(n, -1.0, 2.0).array().sin(); }
+
+}  // namespace
+
+TEST(Threads, ThreadCountIsValidated) {
+  EXPECT_THROW(setThreads(0), Error);
+  EXPECT_THROW(setThreads(-2), Error);
+  EXPECT_EQ(threads(), 1);
+}
+
+TEST(Threads, SweepOrderIsAPermutationWithUncoupledParts) {
+  Cube c;
+  const auto A = assembleStiffness<3>(c.mesh, c.material);
+  for (int parts : {2, 3, 4}) {
+    const SweepOrder order(A.rowStarts(), A.columns(), parts);
+    ASSERT_EQ(order.parts(), parts);
+    std::vector<int> group(static_cast<std::size_t>(A.rows()), -1);
+    Index counted = 0;
+    for (int k = 0; k < parts; ++k) {
+      EXPECT_GT(order.interior(k).size(), 0u);
+      for (std::size_t i = 0; i < order.interior(k).size(); ++i) {
+        const Index p = order.interior(k)[i];
+        if (i > 0) {
+          EXPECT_LT(order.interior(k)[i - 1], p);  // ascending
+        }
+        EXPECT_EQ(group[p], -1);
+        group[p] = k;
+        EXPECT_FALSE(order.isInterface(p));
+        ++counted;
+      }
+    }
+    for (Index p : order.interface()) {
+      EXPECT_EQ(group[p], -1);
+      group[p] = parts;
+      EXPECT_TRUE(order.isInterface(p));
+      ++counted;
+    }
+    EXPECT_EQ(counted, A.rows());
+    // interior vertices of different parts are never coupled
+    for (Index p = 0; p < A.rows(); ++p)
+      for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k) {
+        const int gp = group[p], gq = group[A.column(k)];
+        if (gp < parts && gq < parts) {
+          EXPECT_EQ(gp, gq) << "vertices " << p << " and " << A.column(k);
+        }
+      }
+    // a small fraction of the vertices is swept sequentially
+    EXPECT_LT(static_cast<double>(order.interface().size()), 0.5 * static_cast<double>(A.rows())) << parts;
+  }
+  // one part, or a pattern below the threshold: the natural order
+  EXPECT_TRUE(SweepOrder(A.rowStarts(), A.columns(), 1).sequential());
+  EXPECT_TRUE(SweepOrder(std::vector<Index>{0, 1, 2}, std::vector<Index>{0, 1}, 2).sequential());
+}
+
+// The threaded linear sweep is the sequential sweep in the order interiors (part by part), interface.
+TEST(Threads, ThreadedSweepsAreSequentialSweepsInTheirOrder) {
+  Cube c;
+  const ThreadScope scope(2);
+  const auto A = assembleStiffness<3>(c.mesh, c.material);
+  const SweepOrder& order = A.sweepOrder();
+  ASSERT_EQ(order.parts(), 2);
+  std::vector<std::uint8_t> bits(static_cast<std::size_t>(A.rows()), 0);
+  for (std::size_t p = 0; p < bits.size(); p += 7) bits[p] = p % 2 ? 0b010 : 0b111;
+  TruncatedGaussSeidel<3> gs;
+  gs.setMatrix(A, &bits);
+  const Eigen::VectorXd r = wave(3 * A.rows());
+
+  // reference: the same local solves, one thread, in the documented order
+  TruncatedGaussSeidel<3> one;
+  Eigen::VectorXd x0 = 0.1 * r;
+  Eigen::VectorXd reference = x0;
+  {
+    std::vector<Index> sequence;
+    for (int k = 0; k < order.parts(); ++k) sequence.insert(sequence.end(), order.interior(k).begin(), order.interior(k).end());
+    sequence.insert(sequence.end(), order.interface().begin(), order.interface().end());
+    // sweep vertex by vertex with a permuted copy of the problem is not needed: with the vertices
+    // visited in `sequence`, the update of p reads the current values of all neighbours
+    Eigen::VectorXd x = x0;
+    for (Index p : sequence) {
+      if (bits[p] == 0b111) continue;
+      Eigen::Vector3d s = r.segment<3>(3 * p);
+      for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k)
+        if (A.column(k) != p) s -= A.blockAt(k) * x.segment<3>(3 * A.column(k));
+      Eigen::Matrix3d D = A.blockAt(A.diagonal(p));
+      for (int a = 0; a < 3; ++a)
+        if (bits[p] & (1u << a)) {
+          D.row(a).setZero();
+          D.col(a).setZero();
+          D(a, a) = 1;
+          s[a] = 0;
+        }
+      x.segment<3>(3 * p) = D.llt().solve(s);
+    }
+    reference = x;
+  }
+  Eigen::VectorXd x = x0;
+  gs.sweep(r, x);
+  EXPECT_LT((x - reference).lpNorm<Eigen::Infinity>(), 1e-13 * reference.lpNorm<Eigen::Infinity>());
+  // and twice the same threaded sweep: the same bits
+  Eigen::VectorXd y = x0;
+  gs.sweep(r, y);
+  EXPECT_TRUE(bitwiseEqual(x, y));
+  // forward then backward returns through the same order reversed: still reproducible
+  gs.sweep(r, x, true);
+  gs.sweep(r, y, true);
+  EXPECT_TRUE(bitwiseEqual(x, y));
+}
+
+TEST(Threads, ThreadedHalfSweepsFromZeroAreFullSweepsOnZero) {
+  Cube c;
+  const ThreadScope scope(2);
+  const auto A = assembleStiffness<3>(c.mesh, c.material);
+  ASSERT_FALSE(A.sweepOrder().sequential());
+  std::vector<std::uint8_t> bits(static_cast<std::size_t>(A.rows()), 0);
+  for (std::size_t p = 0; p < bits.size(); p += 5) bits[p] = p % 2 ? 0b001 : 0b111;
+  TruncatedGaussSeidel<3> gs;
+  gs.setMatrix(A, &bits);
+  const Eigen::VectorXd r = wave(3 * A.rows());
+  Eigen::VectorXd full = Eigen::VectorXd::Zero(r.size()), half = Eigen::VectorXd::Constant(r.size(), 7.0);
+  gs.sweep(r, full);
+  gs.sweepFromZero(r, half);
+  EXPECT_TRUE(bitwiseEqual(full, half));
+
+  std::vector<double> upper(static_cast<std::size_t>(A.rows()), std::numeric_limits<double>::infinity());
+  for (std::size_t p = 0; p < upper.size(); p += 3) upper[p] = -1e-3;
+  const BlockGaussSeidelSweep<3> ngs(A, upper);
+  Eigen::VectorXd nfull = Eigen::VectorXd::Zero(r.size()), nhalf = Eigen::VectorXd::Constant(r.size(), -3.0);
+  ngs.sweep(r, nfull);
+  ngs.sweepFromZero(r, nhalf);
+  EXPECT_TRUE(bitwiseEqual(nfull, nhalf));
+}
+
+// Rows and cells: bitwise the results of one thread.
+TEST(Threads, ProductsAssemblyAndTransfersDoNotDependOnTheThreadCount) {
+  Cube c;
+  const auto A1 = assembleStiffness<3>(c.mesh, c.material);
+  const Eigen::VectorXd x = wave(3 * A1.rows());
+  Eigen::VectorXd y1, y2;
+  A1.multiply(x, y1);
+  MultigridHierarchy<3> h1(c.grid);
+  h1.setFineOperator(A1, {}, std::vector<char>(static_cast<std::size_t>(3 * A1.rows()), 0));
+  const int L = h1.maxLevel();
+  Eigen::VectorXd coarse1, fine1 = x;
+  h1.restrict(L - 1, x, coarse1);
+  h1.prolongateAdd(L - 1, coarse1, fine1);
+  {
+    const ThreadScope scope(2);
+    const auto A2 = assembleStiffness<3>(c.mesh, c.material);
+    ASSERT_EQ(A1.nonZeroBlocks(), A2.nonZeroBlocks());
+    EXPECT_EQ(std::memcmp(&A1.blockAt(0), &A2.blockAt(0), sizeof(A1.blockAt(0)) * A1.nonZeroBlocks()), 0);
+    A2.multiply(x, y2);
+    EXPECT_TRUE(bitwiseEqual(y1, y2));
+    Eigen::VectorXd coarse2, fine2 = x;
+    h1.restrict(L - 1, x, coarse2);
+    h1.prolongateAdd(L - 1, coarse2, fine2);
+    EXPECT_TRUE(bitwiseEqual(coarse1, coarse2));
+    EXPECT_TRUE(bitwiseEqual(fine1, fine2));
+  }
+}
+
+// TNNMG on two threads: reproducible bit for bit, and the same solution as on one thread (to the
+// solver tolerance: the sweep order differs).
+TEST(Threads, TnnmgOnTwoThreadsIsReproducibleAndAgreesWithOneThread) {
+  Cube c;
+  typename TNNMG<3>::Options o;
+  o.tolerance = 1e-11;
+  o.maxIterations = 100;
+  const auto solve = [&](Eigen::VectorXd& u) {
+    const ContactProblem<3> problem(c.mesh, c.material, c.bc, *c.contact);
+    TNNMG<3> solver(c.grid, o);
+    const ContactResult r = solver.solve(problem, u);
+    EXPECT_TRUE(r.converged);
+    return std::make_pair(r.iterations, problem.energy(u));
+  };
+  Eigen::VectorXd u1, u2a, u2b;
+  const auto [it1, e1] = solve(u1);
+  const ThreadScope scope(2);
+  const auto [it2, e2] = solve(u2a);
+  solve(u2b);
+  EXPECT_TRUE(bitwiseEqual(u2a, u2b));
+  EXPECT_LE(std::abs(it2 - it1), 2);
+  EXPECT_NEAR(e2, e1, 1e-12 * std::abs(e1));
+  EXPECT_LT((u2a - u1).lpNorm<Eigen::Infinity>(), 1e-8 * u1.lpNorm<Eigen::Infinity>());
+}
+
+// The problem keeps only the rotated operator; its products with A are those of the assembled matrix.
+TEST(Threads, ContactProblemProductsMatchTheUnrotatedMatrix) {
+  Cube c;
+  const ContactProblem<3> problem(c.mesh, c.material, c.bc, *c.contact);
+  auto A = assembleStiffness<3>(c.mesh, c.material);
+  Eigen::VectorXd b = assembleLoad<3>(c.mesh, c.bc);
+  applyDirichlet(A, b, collectDirichlet(c.mesh, c.bc.dirichlet));
+  const Eigen::VectorXd u = 1e-3 * wave(3 * A.rows());
+  Eigen::VectorXd Au;
+  problem.multiply(u, Au);
+  const Eigen::VectorXd ref = A * u;
+  EXPECT_LT((Au - ref).lpNorm<Eigen::Infinity>(), 1e-12 * ref.lpNorm<Eigen::Infinity>());
+  EXPECT_NEAR(problem.energy(u), 0.5 * u.dot(ref) - problem.rhs().dot(u), 1e-12 * std::abs(u.dot(ref)));
+  EXPECT_LT((problem.gradient(u) - (ref - problem.rhs())).lpNorm<Eigen::Infinity>(), 1e-12 * ref.lpNorm<Eigen::Infinity>());
+  EXPECT_NEAR(problem.energyNorm(u), std::sqrt(u.dot(ref)), 1e-12 * std::sqrt(u.dot(ref)));
+  // the rotated problem shares the matrix: no second copy
+  EXPECT_EQ(&problem.rotated().matrix(), &problem.rotatedMatrix());
+}
