@@ -134,8 +134,8 @@ int main(int argc, char** argv) {
   const Index nv = s.mesh.numVertices();
   md << "\nKernels on the step-42 grid (" << s.mesh.numCells() << " hexahedra, " << nv * 3
      << " unknowns), seconds, best of " << repeat << ":\n\n"
-     << "| threads | assembly | y = A x | linear GS sweep | nonsmooth GS sweep | interface vertices |\n"
-     << "|---:|---:|---:|---:|---:|---:|\n";
+     << "| threads | assembly | y = A x | linear GS sweep | nonsmooth GS sweep | sweep order (METIS) | interface vertices |\n"
+     << "|---:|---:|---:|---:|---:|---:|---:|\n";
   std::vector<double> base;
   for (int t = 1; t <= maxThreads; ++t) {
     setThreads(t);
@@ -149,12 +149,13 @@ int main(int argc, char** argv) {
     BlockGaussSeidelSweep<3> ngs(A, std::vector<double>(static_cast<std::size_t>(nv), 0.0));
     const double nonsmooth = best(repeat, [&] { ngs.sweep(r, x); });
     const SweepOrder& order = A.sweepOrder();
+    const double partition = best(repeat, [&] { const SweepOrder o(A.rowStarts(), A.columns(), t); });
     const std::vector<double> row{assembly, mult, linear, nonsmooth};
     if (t == 1) base = row;
     md << "| " << t;
     for (std::size_t k = 0; k < row.size(); ++k)
       md << " | " << fmt(row[k]) << (t > 1 ? " (" + fmt(base[k] / row[k], 2) + "x)" : std::string());
-    md << " | " << (order.sequential() ? 0 : order.interface().size()) << " |\n";
+    md << " | " << (t > 1 ? fmt(partition) : std::string("-")) << " | " << (order.sequential() ? 0 : order.interface().size()) << " |\n";
     std::cerr << "kernels, " << t << " threads done\n";
   }
 
