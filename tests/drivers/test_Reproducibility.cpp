@@ -83,3 +83,9 @@ TEST(Reproducibility, DynamicSceneGivesBitwiseIdenticalResults) {
 #endif
 
 }  // namespace
+
+// Two threads (docs/performance.md#threads): step-42 at 16^3 cells (4,913 vertices, above the size
+// below which loops stay sequential), so the sweeps run in their METIS order on both threads.
+TEST(Reproducibility, TwoThreadsGiveBitwiseIdenticalResults) {
+  expectReproducible("step42.toml", "--threads 2", "threads2");
+}
