@@ -4,6 +4,7 @@
 #include <sstream>
 
 #include "obs/mesh/Error.hpp"
+#include "obs/obs/Parallel.hpp"
 
 namespace obs::drivers {
 
@@ -92,6 +93,9 @@ void storeRunIdentity(CheckpointRecord& r, const Scene& scene, const std::vector
   r.set("scene/text", scene.text, "the scene file as read (TOML)");
   r.set("scene/overrides", overridesText(scene.overrides), "the obs run --set overrides, one '--set ...' per line");
   r.set("scene/hash", sceneHash(scene), "FNV-1a 64 of scene/text followed by scene/overrides");
+  r.set("run/threads", static_cast<long long>(threads()),
+        "obs run --threads of the run (Gauss-Seidel sweeps in an order that depends on it: a restart with "
+        "another count would not continue bitwise)");
   const GridIdentity g = gridIdentity(bodies);
   if (!scene.multiBody()) {
     r.set("grid/leaf_vertices", g.vertices, "vertices of the leaf mesh");
@@ -174,6 +178,12 @@ void checkRunScene(const CheckpointRecord& r, const std::filesystem::path& file,
       throw Error("written for another scene (scene hash " + r.text("scene/hash") + ", " + scene.fileName +
                   " has " + hash + "): " + what);
     }
+    const long long written = r.has("run/threads") ? r.integer("run/threads") : 1;
+    if (written != threads())
+      throw Error("written by a run with " + std::to_string(written) + " thread(s), this run has " +
+                  std::to_string(threads()) + ": restart with --threads " + std::to_string(written) +
+                  " (the sweep order depends on the thread count; the continued run would not be the "
+                  "uninterrupted one bit for bit)");
   } catch (const Error& e) {
     throw Error(where + e.what());
   }

@@ -51,6 +51,7 @@
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/Checkpoint.hpp"
 #include "obs/obs/Newmark.hpp"
+#include "obs/obs/Parallel.hpp"
 
 #include "DriverTestSupport.hpp"
 
@@ -570,6 +571,11 @@ TEST(CheckpointRestart, RestartWithAnotherSceneGridOrOutputIsAnErrorNamingTheDif
   RunOptions o = quiet(dir);
   o.overrides = {"dynamics.output_stride=10"};
   expectContains(restart(scene, o), {"another scene", "--set overrides differ", "dynamics.output_stride=10"});
+  // another thread count (the sweep order depends on it)
+  obs::setThreads(2);
+  const std::string threadsError = restart(scene, quiet(dir));
+  obs::setThreads(1);
+  expectContains(threadsError, {cp.string() + ": ", "1 thread(s), this run has 2", "--threads 1"});
   // another grid
   o = quiet(dir);
   o.refine = 1;
