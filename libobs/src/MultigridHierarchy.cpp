@@ -115,8 +115,23 @@ void galerkinProduct(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P, co
 template <int d>
 void galerkinRows(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P, const mesh::CsrMatrix& Pt,
                   const std::vector<Index>* slot, const std::vector<Eigen::Matrix<double, d, d>>* E,
-                  std::span<const Index> rows, std::vector<Index>& position, BlockSparseMatrix<d>& C) {
+                  std::span<const Index> rows, std::vector<Index>& position, BlockSparseMatrix<d>& C,
+                  bool threaded = true) {
   using Mat = Eigen::Matrix<double, d, d>;
+  // rows are independent (each sums in the same order on any number of threads); every thread
+  // has its own position array (-1 outside the row being computed)
+  const auto n = static_cast<std::ptrdiff_t>(rows.size());
+  const int nt = threaded && n >= kParallelMinRows ? threads() : 1;
+  if (nt > 1) {
+#pragma omp parallel num_threads(nt)
+    {
+      std::vector<Index> local(position.size(), -1);
+#pragma omp for schedule(dynamic, 256)
+      for (std::ptrdiff_t i = 0; i < n; ++i)
+        galerkinRows(F, P, Pt, slot, E, rows.subspan(static_cast<std::size_t>(i), 1), local, C, false);
+    }
+    return;
+  }
   for (Index I : rows) {
     for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) {
       position[C.column(k)] = k;
@@ -522,9 +537,14 @@ void MultigridHierarchy<d>::computeCoarse(bool local) {
       changed.swap(touched);
       rowsRecomputed_ += static_cast<long long>(rows.size());
     } else {
-      galerkinProduct(F, P, slot, E, C);
       all.resize(C.rows());
       for (Index I = 0; I < C.rows(); ++I) all[I] = I;
+      if (threads() > 1 && C.rows() >= kParallelMinRows) {  // coarse row by coarse row, on the threads
+        position_.assign(C.rows(), -1);
+        galerkinRows(F, P, transposed_[l], slot, E, all, position_, C);
+      } else {  // by fine rows (the sequential order of one thread)
+        galerkinProduct(F, P, slot, E, C);
+      }
       markDeadComponents(C, all, dead_[l]);
       rowsRecomputed_ += C.rows();
       local = false;  // all entries of this level may have changed

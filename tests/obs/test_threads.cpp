@@ -43,8 +43,8 @@ struct Cube {
   Material material{1e3, 0.3};
   BoundaryConditions bc;
   std::unique_ptr<ContactSet> contact;
-  Cube() {
-    for (int l = 0; l < 3; ++l) grid.refineUniformly();
+  explicit Cube(int levels = 3) {
+    for (int l = 0; l < levels; ++l) grid.refineUniformly();
     mesh = grid.leafView().mesh;
     contact = std::make_unique<ContactSet>(mesh, mesh::kBottom, PlaneObstacle(Point(0, 0, 0), Point(0, 0, -1)));
     bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Point(0.002, 0, -0.01); }});
@@ -183,8 +183,9 @@ TEST(Threads, ThreadedHalfSweepsFromZeroAreFullSweepsOnZero) {
   EXPECT_TRUE(bitwiseEqual(nfull, nhalf));
 }
 
-// Rows and cells: bitwise the results of one thread.
-TEST(Threads, ProductsAssemblyAndTransfersDoNotDependOnTheThreadCount) {
+// Rows and cells: bitwise the results of one thread; the Galerkin operators (row by row on threads,
+// by fine rows on one): to round-off.
+TEST(Threads, ProductsAssemblyAndTransfersDoNotDependOnTheThreadCountGalerkinOperatorsToRoundOff) {
   Cube c;
   const auto A1 = assembleStiffness<3>(c.mesh, c.material);
   const Eigen::VectorXd x = wave(3 * A1.rows());
@@ -208,6 +209,29 @@ TEST(Threads, ProductsAssemblyAndTransfersDoNotDependOnTheThreadCount) {
     h1.prolongateAdd(L - 1, coarse2, fine2);
     EXPECT_TRUE(bitwiseEqual(coarse1, coarse2));
     EXPECT_TRUE(bitwiseEqual(fine1, fine2));
+  }
+  // the Galerkin operators: coarse row by coarse row on threads (a level of 4,913 vertices: 32^3
+  // fine cells), the same to round-off
+  {
+    const Cube big(4);
+    const auto A = assembleStiffness<3>(big.mesh, big.material);
+    const std::vector<char> none(static_cast<std::size_t>(3 * A.rows()), 0);
+    MultigridHierarchy<3> h1(big.grid);
+    h1.setFineOperator(A, {}, none);
+    const ThreadScope scope(2);
+    MultigridHierarchy<3> h2(big.grid);
+    h2.setFineOperator(A, {}, none);
+    const int L = h1.maxLevel();
+    ASSERT_GE(h1.coarseOperator(L - 1).rows(), kParallelMinRows);
+    const auto& C1 = h1.coarseOperator(L - 1);
+    const auto& C2 = h2.coarseOperator(L - 1);
+    ASSERT_EQ(C1.nonZeroBlocks(), C2.nonZeroBlocks());
+    double diff = 0, size = 0;
+    for (Index k = 0; k < C1.nonZeroBlocks(); ++k) {
+      diff = std::max(diff, (C1.blockAt(k) - C2.blockAt(k)).cwiseAbs().maxCoeff());
+      size = std::max(size, C1.blockAt(k).cwiseAbs().maxCoeff());
+    }
+    EXPECT_LT(diff, 1e-13 * size);
   }
 }
 
