@@ -372,8 +372,9 @@ est::AdaptiveLoopOptions adaptiveLoopOptions(const Scene& scene, bool contact) {
       throw Error(scene.where(scene.solver.line) + "[solver] type = \"" + type +
                   "\" is not available with [adaptivity] (use tnnmg or pdas)");
   }
-  if (!scene.solver.smoother.empty() || scene.solver.krylovSteps)
-    throw Error(scene.where(scene.solver.line) + "[solver] smoother and krylov_steps apply to static scenes only "
+  if (!scene.solver.smoother.empty() || scene.solver.krylovSteps || scene.solver.linearSmoothing)
+    throw Error(scene.where(scene.solver.line) + "[solver] smoother, krylov_steps and linear_smoothing apply to "
+                "static scenes only "
                 "(not yet to [adaptivity])");
   o.solverTolerance = scene.solver.tolerance.value_or(o.solverTolerance);
   o.maxSolverIterations = scene.solver.maxIterations.value_or(o.maxSolverIterations);

@@ -385,7 +385,7 @@ ContactSpec parseContact(const Scene& scene, const toml::value& table) {
 SolverSpec parseSolver(const Scene& scene, const toml::value& table, bool contact) {
   const TomlSection s(scene.fileName, "[solver]", table,
                       {"type", "tolerance", "max_iterations", "pre_smoothing", "post_smoothing", "smoother",
-                       "krylov_steps"});
+                       "krylov_steps", "linear_smoothing"});
   SolverSpec spec;
   spec.line = s.line();
   if (s.has("type")) {
@@ -422,6 +422,13 @@ SolverSpec parseSolver(const Scene& scene, const toml::value& table, bool contac
   if (type != "tnnmg" && type != "multigrid") {
     notFor("smoother", "only tnnmg and multigrid have a linear multigrid smoother");
     notFor("krylov_steps", "only tnnmg and multigrid run V-cycles");
+    notFor("linear_smoothing", "only tnnmg and multigrid run V-cycles");
+  }
+  if (s.has("linear_smoothing")) {
+    const long long n = s.integer("linear_smoothing");
+    if (n < 1 || n > 100)
+      s.fail("linear_smoothing", "= " + literalOf(s.at("linear_smoothing")) + " must lie in [1, 100]");
+    spec.linearSmoothing = static_cast<int>(n);
   }
   if (s.has("smoother")) {
     spec.smoother = s.string("smoother");

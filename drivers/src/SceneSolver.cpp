@@ -31,10 +31,11 @@ double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock:
 constexpr double kDefaultTolerance = 1e-10;
 constexpr double kContactTolerance = 1e-8;  ///< relative tolerance of "actual contact"
 
-/// [solver] smoother and krylov_steps (docs/scenes.md) on the options of a linear multigrid.
+/// [solver] smoother, krylov_steps and linear_smoothing (docs/scenes.md) on the options of a linear multigrid.
 void applyMultigridSpec(const SolverSpec& spec, LinearMultigridOptions& o) {
   if (spec.smoother == "vertex-patch") o.smoother = LinearSmoother::VertexPatch;
   o.krylovSteps = spec.krylovSteps.value_or(o.krylovSteps);
+  if (spec.linearSmoothing) o.preSmoothing = o.postSmoothing = *spec.linearSmoothing;
 }
 
 /// "file:line: [solver] <type> failed: <what>" for errors of a solver.

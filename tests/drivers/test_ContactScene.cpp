@@ -323,9 +323,9 @@ TEST(ContactScene, VertexPatchSmootherAndKrylovSteps) {
   // docs/scenes.md [solver] smoother, krylov_steps: the default written out is the old solver bit for bit;
   // the vertex-patch smoother with CG steps converges to the same solution and reports its V-cycles
   const fs::path plain = writeScene("smoother_default", punchScene(2, kStrip));
-  const fs::path gs = writeScene("smoother_gs", punchScene(2, kStrip, "[solver]\nsmoother = \"gauss-seidel\"\nkrylov_steps = 0\n"));
+  const fs::path gs = writeScene("smoother_gs", punchScene(2, kStrip, "[solver]\nsmoother = \"gauss-seidel\"\nkrylov_steps = 0\nlinear_smoothing = 3\n"));
   const fs::path patch =
-      writeScene("smoother_patch", punchScene(2, kStrip, "[solver]\nsmoother = \"vertex-patch\"\nkrylov_steps = 2\n"));
+      writeScene("smoother_patch", punchScene(2, kStrip, "[solver]\nsmoother = \"vertex-patch\"\nkrylov_steps = 2\nlinear_smoothing = 1\n"));
   const RunResult a = runIn(plain, kTmp / "smoother_default");
   const RunResult b = runIn(gs, kTmp / "smoother_gs");
   const RunResult c = runIn(patch, kTmp / "smoother_patch");
@@ -615,6 +615,10 @@ TEST(ContactSceneErrors, SolverSection) {
                      "krylov_direct.toml:16: [solver] krylov_steps does not apply to type = \"direct\"");
   EXPECT_ERROR_PARTS(errorOf("krylov_range", punchScene(0, kStrip, "[solver]\nkrylov_steps = 101\n")),
                      "krylov_range.toml:23: [solver] krylov_steps = 101 must lie in [0, 100]");
+  EXPECT_ERROR_PARTS(errorOf("linear_smoothing", punchScene(0, kStrip, "[solver]\nlinear_smoothing = 0\n")),
+                     "linear_smoothing.toml:23: [solver] linear_smoothing = 0 must lie in [1, 100]");
+  EXPECT_ERROR_PARTS(errorOf("linear_smoothing_pgs", punchScene(0, kStrip, "[solver]\ntype = \"pgs\"\nlinear_smoothing = 1\n")),
+                     "linear_smoothing_pgs.toml:24: [solver] linear_smoothing does not apply to type = \"pgs\"");
 }
 
 TEST(ContactSceneErrors, NonConvergenceIsAnErrorAfterTheOutputs) {

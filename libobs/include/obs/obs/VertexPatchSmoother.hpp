@@ -13,12 +13,14 @@
 /// post-smoothing keep the V-cycle symmetric. Each step minimises the energy of the error over the
 /// patch's unknowns, so the A-norm of the error never increases.
 ///
-/// The W_P are precomputed as dense matrices (the inverse of the Cholesky factorisation, a
-/// pseudo-inverse if the patch block is only semidefinite, as truncated coarse operators can be)
-/// and recomputed only for the patches that contain a vertex whose truncation bits (or matrix rows)
-/// changed. Memory: sum over patches of (d |P|)^2 doubles (about 52 KB per interior vertex of a
-/// hexahedral grid in 3D, memoryBytes()); a sweep costs about 2 (d |P|)^2 + 2 d^2 |P| nnz(row)
-/// flops per patch, some 30-50 times a point Gauss-Seidel sweep. A sweep does no allocation.
+/// The W_P are precomputed as dense symmetric matrices (the inverse from a Cholesky factorisation,
+/// a pseudo-inverse if the patch block is only semidefinite, as truncated coarse operators can be),
+/// stored packed (the lower triangle by columns), and recomputed only for the patches that contain
+/// a vertex whose truncation bits (or matrix rows) changed. Memory: sum over patches of
+/// m (m + 1) / 2 doubles, m = d |P| (about 27 KB per interior vertex of a hexahedral grid in 3D,
+/// memoryBytes()); a sweep costs about 2 m^2 + 2 d^2 |P| nnz(row) flops per patch and reads every
+/// W_P once, which makes it memory-bound and some 50 times a point Gauss-Seidel sweep. A sweep does
+/// no allocation.
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <Eigen/Eigenvalues>
@@ -58,7 +60,7 @@ public:
         throw Error("vertex-patch smoother: " + what_ + " has no diagonal block in row " + std::to_string(p));
       const auto m = static_cast<std::size_t>(A.rowEnd(p) - A.rowBegin(p)) * d;
       maxPatch = std::max(maxPatch, m);
-      offset_[p + 1] = offset_[p] + m * m;
+      offset_[p + 1] = offset_[p] + m * (m + 1) / 2;
     }
     inverse_.assign(offset_[n], 0.0);
     local_residual_.resize(static_cast<Eigen::Index>(maxPatch));
@@ -98,8 +100,18 @@ public:
           s.noalias() -= A.blockAt(k) * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
         local_residual_.template segment<d>(static_cast<Eigen::Index>(i) * d) = s;
       }
-      const Eigen::Map<const Eigen::MatrixXd> W(inverse_.data() + offset_[v], m, m);
-      local_correction_.head(m).noalias() = W * local_residual_.head(m);
+      // c = W s with W packed: column j holds W(j..m-1, j)
+      const double* w = inverse_.data() + offset_[v];
+      auto& c = local_correction_;
+      const auto& s = local_residual_;
+      c.head(m).setZero();
+      for (Eigen::Index j = 0; j < m; ++j) {
+        const Eigen::Index len = m - j - 1;
+        const Eigen::Map<const Eigen::VectorXd> col(w + 1, len);
+        c[j] += w[0] * s[j] + col.dot(s.segment(j + 1, len));
+        c.segment(j + 1, len) += s[j] * col;
+        w += len + 1;
+      }
       for (Index i = 0; i < e - b; ++i)
         x.template segment<d>(static_cast<Eigen::Index>(A.column(b + i)) * d) +=
             local_correction_.template segment<d>(static_cast<Eigen::Index>(i) * d);
@@ -147,7 +159,7 @@ private:
             M(q, q) = 1;
           }
       }
-    Eigen::Map<Eigen::MatrixXd> W(inverse_.data() + offset_[v], m, m);
+    Eigen::MatrixXd W(m, m);
     const double top = M.diagonal().maxCoeff();
     const Eigen::LLT<Eigen::MatrixXd> llt(M);
     // a pivot far below the largest diagonal entry: the block is (numerically) semidefinite
@@ -166,19 +178,22 @@ private:
         if (eig.eigenvalues()[c] > 1e-12 * largest)
           W += eig.eigenvectors().col(c) * eig.eigenvectors().col(c).transpose() / eig.eigenvalues()[c];
     }
-    W = 0.5 * (W + W.transpose()).eval();  // exactly symmetric: the V-cycle stays symmetric
     for (Eigen::Index q = 0; q < m; ++q)
       if (truncated[q]) {
         W.row(q).setZero();
         W.col(q).setZero();
       }
+    // packed lower triangle (symmetric by construction: the V-cycle stays symmetric)
+    double* w = inverse_.data() + offset_[v];
+    for (Eigen::Index j = 0; j < m; ++j)
+      for (Eigen::Index i = j; i < m; ++i) *w++ = 0.5 * (W(i, j) + W(j, i));
   }
 
   const BlockSparseMatrix<d>* A_ = nullptr;
   const std::vector<std::uint8_t>* bits_ = nullptr;
   std::string what_;
   std::vector<std::size_t> offset_;  ///< start of W_P of vertex v in inverse_
-  std::vector<double> inverse_;      ///< the W_P, column-major, one after the other
+  std::vector<double> inverse_;      ///< the W_P, packed lower triangles, one after the other
   std::vector<Index> local_;         ///< work: vertex -> index in the patch being factorised, or -1
   std::vector<std::uint64_t> stamp_;  ///< work of updateVertices
   std::uint64_t generation_ = 0;
