@@ -273,3 +273,34 @@ TEST(MultigridVertexPatch, InvalidOptions) {
   o.cycles = 2;
   EXPECT_THROW(LinearMultigrid<3>(grid, o), Error);
 }
+
+TEST(MultigridVertexPatch, LongRowsGetPointBlockPatches) {
+  // a dense 60-vertex matrix: every row is longer than kMaxPatch = 54, so every patch is one vertex
+  // and a sweep is a point block Gauss-Seidel sweep (the guard against the wide rows of mortar bases)
+  const Index n = 60;
+  std::vector<Index> rowStart(n + 1), columns;
+  for (Index i = 0; i < n; ++i) {
+    for (Index j = 0; j < n; ++j) columns.push_back(j);
+    rowStart[i + 1] = static_cast<Index>(columns.size());
+  }
+  BlockSparseMatrix<3> A(rowStart, columns);
+  const Eigen::MatrixXd B = Eigen::MatrixXd::NullaryExpr(3 * n, 3 * n, [](Eigen::Index i, Eigen::Index j) {
+    return std::sin(1.0 + 3.0 * static_cast<double>(i) + 7.0 * static_cast<double>(j));
+  });
+  const Eigen::MatrixXd M = B.transpose() * B + 3.0 * n * Eigen::MatrixXd::Identity(3 * n, 3 * n);
+  for (Index i = 0; i < n; ++i)
+    for (Index j = 0; j < n; ++j) A(i, j) = M.block<3, 3>(3 * i, 3 * j);
+  VertexPatchSmoother<3> patch;
+  patch.setMatrix(A);
+  TruncatedGaussSeidel<3> gs;
+  gs.setMatrix(A);
+  const Eigen::VectorXd r = pseudoRandom(3 * n, 9);
+  Eigen::VectorXd x, y(3 * n);  // TruncatedGaussSeidel::sweepFromZero needs x of the right size
+  patch.sweepFromZero(r, x);
+  gs.sweepFromZero(r, y);
+  patch.sweep(r, x, true);
+  gs.sweep(r, y, true);
+  EXPECT_LT((x - y).norm(), 1e-12 * y.norm());
+  // 60 patches of 3 x 4 / 2 = 6 doubles
+  EXPECT_LT(patch.memoryBytes(), 20000u);
+}

@@ -4,7 +4,8 @@
 /// TruncatedGaussSeidel in the linear multigrid V-cycle for nearly incompressible materials
 /// (docs/theory.md#vertex-patch-smoother). The patch of vertex v is v and every vertex coupled to v in
 /// the matrix graph (on a hexahedral grid: the 27 vertices of the 8 cells around an interior v, 81
-/// unknowns in 3D); on Galerkin coarse levels the graph plays the role of the grid. One patch step
+/// unknowns in 3D); on Galerkin coarse levels the graph plays the role of the grid (rows longer than
+/// kMaxPatch vertices get the one-vertex patch, a point block step). One patch step
 /// solves the patch block of A_T exactly:
 ///   x_P += W_P (r - A x)_P,   W_P = T_P (T_P A_PP T_P + I - T_P)^{-1} T_P,
 /// with T_P = diag(1 - truncation bits) on the patch's unknowns, so truncated components stay zero
@@ -41,6 +42,11 @@ class VertexPatchSmoother {
 public:
   using Vec = Eigen::Matrix<double, d, 1>;
 
+  /// Longest patch (in vertices): a vertex whose matrix row is longer (the slave rows of a mortar
+  /// basis transformation, couplings across hanging levels) gets the patch {v}, a point block step,
+  /// so that no patch costs more than (d kMaxPatch)^3 to factorise.
+  static constexpr Index kMaxPatch = d == 3 ? 54 : 18;
+
   VertexPatchSmoother() = default;
 
   /// Smoother for A (kept by reference) with the per-vertex truncation bits (nullptr: none; kept by
@@ -54,11 +60,19 @@ public:
     const Index n = A.rows();
     local_.assign(static_cast<std::size_t>(n), -1);
     offset_.assign(static_cast<std::size_t>(n) + 1, 0);
+    patchStart_.assign(static_cast<std::size_t>(n) + 1, 0);
+    patchVertices_.clear();
     std::size_t maxPatch = 0;
     for (Index p = 0; p < n; ++p) {
       if (A.diagonal(p) < 0)
         throw Error("vertex-patch smoother: " + what_ + " has no diagonal block in row " + std::to_string(p));
-      const auto m = static_cast<std::size_t>(A.rowEnd(p) - A.rowBegin(p)) * d;
+      // the row's vertices, or the vertex alone if the row is longer than kMaxPatch
+      if (A.rowEnd(p) - A.rowBegin(p) <= kMaxPatch)
+        for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k) patchVertices_.push_back(A.column(k));
+      else
+        patchVertices_.push_back(p);
+      patchStart_[p + 1] = static_cast<Index>(patchVertices_.size());
+      const auto m = static_cast<std::size_t>(patchStart_[p + 1] - patchStart_[p]) * d;
       maxPatch = std::max(maxPatch, m);
       offset_[p + 1] = offset_[p] + m * (m + 1) / 2;
     }
@@ -70,7 +84,7 @@ public:
   bool hasMatrix() const { return A_ != nullptr; }
 
   /// Recomputes W_P for every patch that contains one of the vertices (their truncation bits or
-  /// matrix rows changed): the patches of the vertices coupled to them.
+  /// matrix rows changed): the patches of the vertices coupled to them (a superset).
   void updateVertices(std::span<const Index> vertices) {
     const BlockSparseMatrix<d>& A = *A_;
     stamp_.resize(static_cast<std::size_t>(A.rows()), 0);
@@ -90,11 +104,11 @@ public:
     const Index n = A.rows();
     for (Index step = 0; step < n; ++step) {
       const Index v = backward ? n - 1 - step : step;
-      const Index b = A.rowBegin(v), e = A.rowEnd(v);
+      const Index b = patchStart_[v], e = patchStart_[v + 1];
       const auto m = static_cast<Eigen::Index>(e - b) * d;
       // patch residual (r - A x)_P, row by row over the patch's vertices
       for (Index i = 0; i < e - b; ++i) {
-        const Index p = A.column(b + i);
+        const Index p = patchVertices_[b + i];
         Vec s = r.template segment<d>(static_cast<Eigen::Index>(p) * d);
         for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k)
           s.noalias() -= A.blockAt(k) * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
@@ -113,7 +127,7 @@ public:
         w += len + 1;
       }
       for (Index i = 0; i < e - b; ++i)
-        x.template segment<d>(static_cast<Eigen::Index>(A.column(b + i)) * d) +=
+        x.template segment<d>(static_cast<Eigen::Index>(patchVertices_[b + i]) * d) +=
             local_correction_.template segment<d>(static_cast<Eigen::Index>(i) * d);
     }
   }
@@ -126,30 +140,31 @@ public:
   /// Bytes held by the patch inverses and index arrays.
   std::size_t memoryBytes() const {
     return inverse_.capacity() * sizeof(double) + offset_.capacity() * sizeof(std::size_t) +
-           local_.capacity() * sizeof(Index) + stamp_.capacity() * sizeof(std::uint64_t);
+           local_.capacity() * sizeof(Index) + stamp_.capacity() * sizeof(std::uint64_t) +
+           (patchStart_.capacity() + patchVertices_.capacity()) * sizeof(Index);
   }
 
 private:
   /// W_P of the patch of vertex v.
   void factor(Index v) {
     const BlockSparseMatrix<d>& A = *A_;
-    const Index b = A.rowBegin(v), e = A.rowEnd(v), size = e - b;
+    const Index b = patchStart_[v], e = patchStart_[v + 1], size = e - b;
     const auto m = static_cast<Eigen::Index>(size) * d;
-    for (Index i = 0; i < size; ++i) local_[A.column(b + i)] = i;
+    for (Index i = 0; i < size; ++i) local_[patchVertices_[b + i]] = i;
     Eigen::MatrixXd M = Eigen::MatrixXd::Zero(m, m);
     for (Index i = 0; i < size; ++i) {
-      const Index p = A.column(b + i);
+      const Index p = patchVertices_[b + i];
       for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k) {
         const Index j = local_[A.column(k)];
         if (j >= 0) M.template block<d, d>(i * d, j * d) = A.blockAt(k);
       }
     }
-    for (Index i = 0; i < size; ++i) local_[A.column(b + i)] = -1;
+    for (Index i = 0; i < size; ++i) local_[patchVertices_[b + i]] = -1;
     // truncated components: identity rows and columns
     std::vector<char> truncated(static_cast<std::size_t>(m), 0);
     if (bits_)
       for (Index i = 0; i < size; ++i) {
-        const std::uint8_t bits = (*bits_)[A.column(b + i)];
+        const std::uint8_t bits = (*bits_)[patchVertices_[b + i]];
         for (int c = 0; c < d; ++c)
           if (bits & (1u << c)) {
             const Eigen::Index q = i * d + c;
@@ -192,6 +207,7 @@ private:
   const BlockSparseMatrix<d>* A_ = nullptr;
   const std::vector<std::uint8_t>* bits_ = nullptr;
   std::string what_;
+  std::vector<Index> patchStart_, patchVertices_;  ///< patch of v: patchVertices_[patchStart_[v] ..]
   std::vector<std::size_t> offset_;  ///< start of W_P of vertex v in inverse_
   std::vector<double> inverse_;      ///< the W_P, packed lower triangles, one after the other
   std::vector<Index> local_;         ///< work: vertex -> index in the patch being factorised, or -1
