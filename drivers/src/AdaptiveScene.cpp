@@ -372,6 +372,10 @@ est::AdaptiveLoopOptions adaptiveLoopOptions(const Scene& scene, bool contact) {
       throw Error(scene.where(scene.solver.line) + "[solver] type = \"" + type +
                   "\" is not available with [adaptivity] (use tnnmg or pdas)");
   }
+  if (!scene.solver.smoother.empty() || scene.solver.krylovSteps || scene.solver.linearSmoothing)
+    throw Error(scene.where(scene.solver.line) + "[solver] smoother, krylov_steps and linear_smoothing apply to "
+                "static scenes only "
+                "(not yet to [adaptivity])");
   o.solverTolerance = scene.solver.tolerance.value_or(o.solverTolerance);
   o.maxSolverIterations = scene.solver.maxIterations.value_or(o.maxSolverIterations);
   o.preSmoothing = scene.solver.preSmoothing.value_or(o.preSmoothing);  // were ignored before

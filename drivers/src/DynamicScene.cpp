@@ -328,6 +328,10 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
   o.scheme = newmarkSchemeFromName(schemeName);
   o.timeStep = dyn.timeStep;
   o.mass = dyn.consistentMass ? MassKind::Consistent : MassKind::Lumped;
+  if (!scene.solver.smoother.empty() || scene.solver.krylovSteps || scene.solver.linearSmoothing)
+    throw Error(scene.where(scene.solver.line) + "[solver] smoother, krylov_steps and linear_smoothing apply to "
+                "static scenes only "
+                "(not yet to [dynamics])");
   if (scene.solver.tolerance) o.solverTolerance = *scene.solver.tolerance;
   if (scene.solver.maxIterations) o.maxSolverIterations = *scene.solver.maxIterations;
   if (scene.solver.preSmoothing) o.preSmoothing = *scene.solver.preSmoothing;

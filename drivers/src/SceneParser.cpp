@@ -384,7 +384,8 @@ ContactSpec parseContact(const Scene& scene, const toml::value& table) {
 
 SolverSpec parseSolver(const Scene& scene, const toml::value& table, bool contact) {
   const TomlSection s(scene.fileName, "[solver]", table,
-                      {"type", "tolerance", "max_iterations", "pre_smoothing", "post_smoothing"});
+                      {"type", "tolerance", "max_iterations", "pre_smoothing", "post_smoothing", "smoother",
+                       "krylov_steps", "linear_smoothing"});
   SolverSpec spec;
   spec.line = s.line();
   if (s.has("type")) {
@@ -417,6 +418,27 @@ SolverSpec parseSolver(const Scene& scene, const toml::value& table, bool contac
   if (type != "tnnmg") {
     notFor("pre_smoothing", "only tnnmg has smoothing steps");
     notFor("post_smoothing", "only tnnmg has smoothing steps");
+  }
+  if (type != "tnnmg" && type != "multigrid") {
+    notFor("smoother", "only tnnmg and multigrid have a linear multigrid smoother");
+    notFor("krylov_steps", "only tnnmg and multigrid run V-cycles");
+    notFor("linear_smoothing", "only tnnmg and multigrid run V-cycles");
+  }
+  if (s.has("linear_smoothing")) {
+    const long long n = s.integer("linear_smoothing");
+    if (n < 1 || n > 100)
+      s.fail("linear_smoothing", "= " + literalOf(s.at("linear_smoothing")) + " must lie in [1, 100]");
+    spec.linearSmoothing = static_cast<int>(n);
+  }
+  if (s.has("smoother")) {
+    spec.smoother = s.string("smoother");
+    if (spec.smoother != "gauss-seidel" && spec.smoother != "vertex-patch")
+      s.fail("smoother", "= \"" + spec.smoother + "\" is unknown (known smoothers: gauss-seidel, vertex-patch)");
+  }
+  if (s.has("krylov_steps")) {
+    const long long n = s.integer("krylov_steps");
+    if (n < 0 || n > 100) s.fail("krylov_steps", "= " + literalOf(s.at("krylov_steps")) + " must lie in [0, 100]");
+    spec.krylovSteps = static_cast<int>(n);
   }
   if (s.has("tolerance")) {
     const double t = s.number("tolerance");

@@ -31,6 +31,13 @@ double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock:
 constexpr double kDefaultTolerance = 1e-10;
 constexpr double kContactTolerance = 1e-8;  ///< relative tolerance of "actual contact"
 
+/// [solver] smoother, krylov_steps and linear_smoothing (docs/scenes.md) on the options of a linear multigrid.
+void applyMultigridSpec(const SolverSpec& spec, LinearMultigridOptions& o) {
+  if (spec.smoother == "vertex-patch") o.smoother = LinearSmoother::VertexPatch;
+  o.krylovSteps = spec.krylovSteps.value_or(o.krylovSteps);
+  if (spec.linearSmoothing) o.preSmoothing = o.postSmoothing = *spec.linearSmoothing;
+}
+
 /// "file:line: [solver] <type> failed: <what>" for errors of a solver.
 [[noreturn]] void solverFailed(const Scene& scene, const std::string& type, const Error& e) {
   throw Error(scene.where(scene.solver.line) + "[solver] " + type + " failed: " + e.what());
@@ -78,12 +85,14 @@ SceneSolution solveLinear(const Scene& scene, const mesh::Grid& grid, const mesh
   LinearMultigridOptions options;
   options.tolerance = scene.solver.tolerance.value_or(kDefaultTolerance);
   options.maxIterations = scene.solver.maxIterations.value_or(100);
+  applyMultigridSpec(scene.solver, options);
   LinearSolverResult r;
   try {
     LinearMultigrid<d> mg(grid, options);
     mg.setOperator(A);
     mg.truncate(g.constrained);
     r = mg.solve(b, e.displacement);
+    s.solver.vcycles = mg.vcycles();
   } catch (const Error& err) {
     solverFailed(scene, type, err);
   }
@@ -117,6 +126,7 @@ std::unique_ptr<ContactSolver<d>> makeContactSolver(const Scene& scene, const st
     common(o, 200);
     o.preSmoothing = spec.preSmoothing.value_or(o.preSmoothing);
     o.postSmoothing = spec.postSmoothing.value_or(o.postSmoothing);
+    applyMultigridSpec(spec, o.multigrid);
     return std::make_unique<TNNMG<d>>(grids, o);
   }
   if (type == "pdas") {
@@ -162,6 +172,7 @@ SceneSolution solveContact(const Scene& scene, const mesh::Grid& grid, const mes
   try {
     const auto solver = makeContactSolver<d>(scene, {&grid}, progress, tolerance);
     result = solver->solve(problem, e.displacement);
+    if (const auto* tnnmg = dynamic_cast<const TNNMG<d>*>(solver.get())) s.solver.vcycles = tnnmg->statistics().vcycles;
   } catch (const Error& err) {
     solverFailed(scene, type, err);
   }
@@ -290,6 +301,7 @@ MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mes
   try {
     const auto solver = makeContactSolver<d>(scene, grids, progress, tolerance);
     result = solver->solve(*problem, x);
+    if (const auto* tnnmg = dynamic_cast<const TNNMG<d>*>(solver.get())) s.solver.vcycles = tnnmg->statistics().vcycles;
   } catch (const Error& err) {
     solverFailed(scene, type, err);
   }

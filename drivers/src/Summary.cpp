@@ -27,6 +27,7 @@ nlohmann::json summaryJson(const RunResult& r) {
     solver["correction"] = r.solver.correction;
     solver["convergence_rate"] = r.solver.convergenceRate;
   }
+  if (r.solver.vcycles >= 0) solver["vcycles"] = r.solver.vcycles;
   if (r.solver.kkt)
     solver["kkt"] = {{"feasibility", r.solver.kkt->primalFeasibility},
                      {"multiplier_sign", r.solver.kkt->dualSign},

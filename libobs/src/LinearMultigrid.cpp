@@ -17,9 +17,9 @@ template <int d>
 LinearMultigrid<d>::LinearMultigrid(const std::vector<const mesh::Grid*>& grids, const Options& options)
     : options_(options), hierarchy_(grids) {
   if (options.preSmoothing < 0 || options.postSmoothing < 0 || options.cycles < 1 || options.cycleIndex < 1 || options.maxIterations < 0 ||
-      !(options.tolerance >= 0))
+      !(options.tolerance >= 0) || options.krylovSteps < 0 || (options.krylovSteps > 0 && options.cycles > 1))
     throw Error("linear multigrid: invalid options (smoothing steps >= 0, cycles >= 1, maxIterations >= 0, "
-                "tolerance >= 0 required)");
+                "tolerance >= 0, krylovSteps >= 0 and cycles = 1 with krylovSteps > 0 required)");
 }
 
 template <int d>
@@ -31,6 +31,7 @@ void LinearMultigrid<d>::setOperator(const BlockSparseMatrix<d>& A, std::vector<
   hierarchy_.setFineOperator(A, std::move(rotations), mask);
   const int L = hierarchy_.maxLevel();
   smoothers_.assign(L + 1, TruncatedGaussSeidel<d>());
+  patchSmoothers_.assign(L + 1, VertexPatchSmoother<d>());
   rhs_.assign(L + 1, Eigen::VectorXd());
   sol_.assign(L + 1, Eigen::VectorXd());
   work_.assign(L + 1, Eigen::VectorXd());
@@ -40,7 +41,7 @@ void LinearMultigrid<d>::setOperator(const BlockSparseMatrix<d>& A, std::vector<
     sol_[l].setZero(n);
     work_[l].setZero(n);
   }
-  if (L > 0) smoothers_[L].setMatrix(A, &hierarchy_.truncationBits(), "the fine operator");
+  if (L > 0) setSmootherMatrix(L, A, &hierarchy_.truncationBits(), "the fine operator");
   coarseSolver_.reset();
   updateCoarse();
 }
@@ -49,10 +50,10 @@ template <int d>
 void LinearMultigrid<d>::updateCoarse() {
   const int L = hierarchy_.maxLevel();
   for (int l = 1; l < L; ++l)
-    if (hierarchy_.fullUpdate(l) || !smoothers_[l].hasMatrix())
-      smoothers_[l].setMatrix(hierarchy_.coarseOperator(l), nullptr, "the level " + std::to_string(l) + " operator");
+    if (hierarchy_.fullUpdate(l) || !smootherReady(l))
+      setSmootherMatrix(l, hierarchy_.coarseOperator(l), nullptr, "the level " + std::to_string(l) + " operator");
     else
-      smoothers_[l].updateVertices(hierarchy_.updatedRows(l));
+      updateSmoother(l, hierarchy_.updatedRows(l));
   const auto t0 = std::chrono::steady_clock::now();
   const BlockSparseMatrix<d>* A0 = &hierarchy_.coarseOperator(0);
   if (L > 0) {
@@ -76,7 +77,7 @@ Index LinearMultigrid<d>::truncate(const std::vector<char>& mask) {
   const Index changes = hierarchy_.truncate(mask);
   if (changes > 0) {
     const int L = hierarchy_.maxLevel();
-    if (L > 0) smoothers_[L].updateVertices(hierarchy_.changedVertices());
+    if (L > 0) updateSmoother(L, hierarchy_.changedVertices());
     updateCoarse();
   }
   return changes;
@@ -108,9 +109,9 @@ void LinearMultigrid<d>::cycle(int l, const Eigen::VectorXd& r, Eigen::VectorXd&
     return;
   }
   x.resize(r.size());
-  if (options_.preSmoothing > 0) smoothers_[l].sweepFromZero(r, x);
+  if (options_.preSmoothing > 0) smoothFromZero(l, r, x);
   else x.setZero();
-  for (int s = 1; s < options_.preSmoothing; ++s) smoothers_[l].sweep(r, x, false);
+  for (int s = 1; s < options_.preSmoothing; ++s) smooth(l, r, x, false);
   // coarse-grid correction, gamma times below the finest level (gamma = 1: V-cycle, 2: W-cycle)
   const int gamma = l == 1 ? 1 : options_.cycleIndex;
   for (int g = 0; g < gamma; ++g) {
@@ -119,7 +120,48 @@ void LinearMultigrid<d>::cycle(int l, const Eigen::VectorXd& r, Eigen::VectorXd&
     cycle(l - 1, rhs_[l - 1], sol_[l - 1]);
     hierarchy_.prolongateAdd(l - 1, sol_[l - 1], x);
   }
-  for (int s = 0; s < options_.postSmoothing; ++s) smoothers_[l].sweep(r, x, true);
+  for (int s = 0; s < options_.postSmoothing; ++s) smooth(l, r, x, true);
+}
+
+template <int d>
+bool LinearMultigrid<d>::smootherReady(int l) const {
+  return options_.smoother == LinearSmoother::VertexPatch ? patchSmoothers_[l].hasMatrix() : smoothers_[l].hasMatrix();
+}
+
+template <int d>
+void LinearMultigrid<d>::setSmootherMatrix(int l, const BlockSparseMatrix<d>& A, const std::vector<std::uint8_t>* bits,
+                                           std::string what) {
+  if (options_.smoother == LinearSmoother::VertexPatch) patchSmoothers_[l].setMatrix(A, bits, std::move(what));
+  else smoothers_[l].setMatrix(A, bits, std::move(what));
+}
+
+template <int d>
+void LinearMultigrid<d>::updateSmoother(int l, std::span<const Index> vertices) {
+  if (options_.smoother == LinearSmoother::VertexPatch) patchSmoothers_[l].updateVertices(vertices);
+  else smoothers_[l].updateVertices(vertices);
+}
+
+template <int d>
+void LinearMultigrid<d>::smoothFromZero(int l, const Eigen::VectorXd& r, Eigen::VectorXd& x) const {
+  if (options_.smoother == LinearSmoother::VertexPatch) patchSmoothers_[l].sweepFromZero(r, x);
+  else smoothers_[l].sweepFromZero(r, x);
+}
+
+template <int d>
+void LinearMultigrid<d>::smooth(int l, const Eigen::VectorXd& r, Eigen::VectorXd& x, bool backward) const {
+  if (options_.smoother == LinearSmoother::VertexPatch) patchSmoothers_[l].sweep(r, x, backward);
+  else smoothers_[l].sweep(r, x, backward);
+}
+
+template <int d>
+std::size_t LinearMultigrid<d>::smootherMemoryBytes() const {
+  std::size_t bytes = 0;
+  for (const auto& s : patchSmoothers_) bytes += s.memoryBytes();
+  // point Gauss-Seidel: one inverted d x d block and a diagonal position per vertex
+  if (options_.smoother == LinearSmoother::GaussSeidel)
+    for (int l = 1; l <= hierarchy_.maxLevel(); ++l)
+      bytes += static_cast<std::size_t>(hierarchy_.numVertices(l)) * (sizeof(Eigen::Matrix<double, d, d>) + sizeof(Index));
+  return bytes;
 }
 
 template <int d>
@@ -128,11 +170,56 @@ void LinearMultigrid<d>::vcycle(const Eigen::VectorXd& r, Eigen::VectorXd& c) {
   const int L = hierarchy_.maxLevel();
   if (r.size() != static_cast<Eigen::Index>(hierarchy_.numVertices(L)) * d)
     throw Error("linear multigrid: right-hand side of wrong size");
+  ++vcycles_;
   cycle(L, r, c);
 }
 
 template <int d>
+void LinearMultigrid<d>::truncateFine(Eigen::VectorXd& v) const {
+  const auto& bits = hierarchy_.truncationBits();
+  for (std::size_t p = 0; p < bits.size(); ++p)
+    if (bits[p])
+      for (int c = 0; c < d; ++c)
+        if (bits[p] & (1u << c)) v[static_cast<Eigen::Index>(p) * d + c] = 0;
+}
+
+template <int d>
+void LinearMultigrid<d>::conjugateGradients(const Eigen::VectorXd& r, Eigen::VectorXd& c) {
+  // preconditioned CG on A_T c = r from c = 0 with the V-cycle as preconditioner; every vector lives
+  // in the untruncated subspace (r, the V-cycle's output and A x with truncated rows zeroed)
+  const BlockSparseMatrix<d>& A = hierarchy_.fineOperator();
+  Eigen::VectorXd& res = cgResidual_;
+  Eigen::VectorXd& z = cgPreconditioned_;
+  Eigen::VectorXd& p = cgDirection_;
+  Eigen::VectorXd& q = cgProduct_;
+  res = r;
+  truncateFine(res);
+  c.setZero(r.size());
+  vcycle(res, z);
+  p = z;
+  double rz = res.dot(z);
+  for (int k = 0; k < options_.krylovSteps && rz > 0; ++k) {
+    A.multiply(p, q);
+    truncateFine(q);
+    const double pq = p.dot(q);
+    if (!(pq > 0)) break;
+    const double alpha = rz / pq;
+    c += alpha * p;
+    if (k + 1 == options_.krylovSteps) break;
+    res -= alpha * q;
+    vcycle(res, z);
+    const double next = res.dot(z);
+    p = z + (next / rz) * p;
+    rz = next;
+  }
+}
+
+template <int d>
 void LinearMultigrid<d>::apply(const Eigen::VectorXd& r, Eigen::VectorXd& c) {
+  if (options_.krylovSteps > 0) {
+    conjugateGradients(r, c);
+    return;
+  }
   vcycle(r, c);
   const int L = hierarchy_.maxLevel();
   for (int k = 1; k < options_.cycles; ++k) {
@@ -170,7 +257,8 @@ LinearSolverResult LinearMultigrid<d>::solve(const Eigen::VectorXd& b, Eigen::Ve
   const double r0 = r.norm();
   double first = 0;
   for (int k = 0; k < options_.maxIterations; ++k) {
-    vcycle(r, c);
+    if (options_.krylovSteps > 0) conjugateGradients(r, c);
+    else vcycle(r, c);
     A.multiply(c, Ac);
     x += c;
     Ax += Ac;

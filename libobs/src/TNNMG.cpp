@@ -90,6 +90,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     rowSumBound_ = bound;
   }
   const int baseUpdates = correction_->operatorUpdates();
+  const long long baseCycles = correction_->cycles();
   const RotatedProblem<d>& rot = *rotated_;
   const BlockSparseMatrix<d>& A = rot.matrix();
   problem.projectToFeasible(u);
@@ -171,6 +172,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     lap(t, statistics_.otherSeconds);
   }
   statistics_.operatorUpdates = correction_->operatorUpdates() - baseUpdates;
+  statistics_.vcycles = correction_->cycles() - baseCycles;
   ContactResult result = monitor.finish(converged, rot.countActive(w));
   if (!converged || !haveKkt) {  // the last iterate's residual (not yet computed for it)
     u = problem.fromRotated(w);

@@ -319,6 +319,37 @@ TEST(ContactScene, LinearMultigridMatchesDirect) {
   for (std::size_t i = 0; i < u1.size(); ++i) EXPECT_NEAR(u1[i], u2[i], 1e-11) << i;
 }
 
+TEST(ContactScene, VertexPatchSmootherAndKrylovSteps) {
+  // docs/scenes.md [solver] smoother, krylov_steps: the default written out is the old solver bit for bit;
+  // the vertex-patch smoother with CG steps converges to the same solution and reports its V-cycles
+  const fs::path plain = writeScene("smoother_default", punchScene(2, kStrip));
+  const fs::path gs = writeScene("smoother_gs", punchScene(2, kStrip, "[solver]\nsmoother = \"gauss-seidel\"\nkrylov_steps = 0\nlinear_smoothing = 3\n"));
+  const fs::path patch =
+      writeScene("smoother_patch", punchScene(2, kStrip, "[solver]\nsmoother = \"vertex-patch\"\nkrylov_steps = 2\nlinear_smoothing = 1\n"));
+  const RunResult a = runIn(plain, kTmp / "smoother_default");
+  const RunResult b = runIn(gs, kTmp / "smoother_gs");
+  const RunResult c = runIn(patch, kTmp / "smoother_patch");
+  EXPECT_EQ(a.solver.iterations, b.solver.iterations);
+  EXPECT_EQ(a.solver.vcycles, a.solver.iterations);
+  EXPECT_TRUE(c.solver.converged);
+  EXPECT_EQ(c.solver.vcycles, 2LL * c.solver.iterations);
+  EXPECT_EQ(summaryOf(kTmp / "smoother_patch")["solver"]["vcycles"], c.solver.vcycles);
+  const auto ua = readVtu(kTmp / "smoother_default" / "smoother_default.vtu").array("displacement");
+  const auto ub = readVtu(kTmp / "smoother_gs" / "smoother_gs.vtu").array("displacement");
+  const auto uc = readVtu(kTmp / "smoother_patch" / "smoother_patch.vtu").array("displacement");
+  ASSERT_EQ(ua.size(), uc.size());
+  EXPECT_EQ(ua, ub);
+  double scale = 0;
+  for (double v : ua) scale = std::max(scale, std::abs(v));
+  for (std::size_t i = 0; i < ua.size(); ++i) EXPECT_NEAR(ua[i], uc[i], 1e-8 * scale) << i;
+  // the linear multigrid solver takes the options as well
+  const fs::path mg = writeScene(
+      "linear_mg_patch", punchScene(3, "", "[solver]\ntype = \"multigrid\"\ntolerance = 1e-12\nsmoother = \"vertex-patch\"\n"));
+  const RunResult m = runIn(mg, kTmp / "linear_mg_patch");
+  EXPECT_TRUE(m.solver.converged);
+  EXPECT_EQ(m.solver.vcycles, m.solver.iterations);
+}
+
 // --- outputs ------------------------------------------------------------------------------------
 
 TEST(ContactScene, SummaryAndCsvHoldContactAndSolver) {
@@ -575,6 +606,19 @@ TEST(ContactSceneErrors, SolverSection) {
                      "tol_direct.toml:16: [solver] tolerance does not apply to type = \"direct\"");
   EXPECT_ERROR_PARTS(errorOf("no_smoothing", punchScene(0, kStrip, "[solver]\npre_smoothing = 0\n")),
                      "no_smoothing.toml:23: [solver] pre_smoothing leaves no smoothing step");
+  EXPECT_ERROR_PARTS(errorOf("jacobi", punchScene(0, kStrip, "[solver]\nsmoother = \"jacobi\"\n")),
+                     "jacobi.toml:23: [solver] smoother = \"jacobi\" is unknown",
+                     "known smoothers: gauss-seidel, vertex-patch");
+  EXPECT_ERROR_PARTS(errorOf("patch_pdas", punchScene(0, kStrip, "[solver]\ntype = \"pdas\"\nsmoother = \"vertex-patch\"\n")),
+                     "patch_pdas.toml:24: [solver] smoother does not apply to type = \"pdas\"");
+  EXPECT_ERROR_PARTS(errorOf("krylov_direct", punchScene(0, "", "[solver]\nkrylov_steps = 2\n")),
+                     "krylov_direct.toml:16: [solver] krylov_steps does not apply to type = \"direct\"");
+  EXPECT_ERROR_PARTS(errorOf("krylov_range", punchScene(0, kStrip, "[solver]\nkrylov_steps = 101\n")),
+                     "krylov_range.toml:23: [solver] krylov_steps = 101 must lie in [0, 100]");
+  EXPECT_ERROR_PARTS(errorOf("linear_smoothing", punchScene(0, kStrip, "[solver]\nlinear_smoothing = 0\n")),
+                     "linear_smoothing.toml:23: [solver] linear_smoothing = 0 must lie in [1, 100]");
+  EXPECT_ERROR_PARTS(errorOf("linear_smoothing_pgs", punchScene(0, kStrip, "[solver]\ntype = \"pgs\"\nlinear_smoothing = 1\n")),
+                     "linear_smoothing_pgs.toml:24: [solver] linear_smoothing does not apply to type = \"pgs\"");
 }
 
 TEST(ContactSceneErrors, NonConvergenceIsAnErrorAfterTheOutputs) {

@@ -22,6 +22,7 @@ struct SolverReport {
   double tolerance = 0;     ///< stopping tolerance (0: direct, or pdas' exact stopping rule)
   double correction = 0;    ///< last relative energy-norm correction (iterative solvers)
   double convergenceRate = 0;  ///< geometric mean of the correction ratios (iterative solvers)
+  long long vcycles = -1;   ///< tnnmg, multigrid: V-cycles run (-1: not reported)
   std::optional<KktResiduals> kkt;  ///< contact solvers: KKT residuals of the solution
 };
 

@@ -127,6 +127,9 @@ struct SolverSpec {
   std::optional<int> maxIterations;
   std::optional<int> preSmoothing;
   std::optional<int> postSmoothing;
+  std::string smoother;            ///< "gauss-seidel", "vertex-patch"; empty: not given (gauss-seidel)
+  std::optional<int> krylovSteps;  ///< CG steps per linear correction (0: plain V-cycles)
+  std::optional<int> linearSmoothing;  ///< sweeps before and after the coarse correction of the V-cycle
   int line = 0;  ///< line of [solver] (0: section absent)
 };
 

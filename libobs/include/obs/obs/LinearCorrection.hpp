@@ -37,6 +37,8 @@ public:
   virtual void apply(const Eigen::VectorXd& r, Eigen::VectorXd& c) = 0;
   /// Number of operator updates (factorisations / coarse recomputations) since setOperator.
   virtual int operatorUpdates() const = 0;
+  /// Preconditioner applications (multigrid: V-cycles) since construction; 0 for direct solves.
+  virtual long long cycles() const { return 0; }
 };
 
 /// Exact correction c = A_T^{-1} r with CHOLMOD (refactorised with the same pattern when the

@@ -2,7 +2,8 @@
 /// \file LinearMultigrid.hpp
 /// Geometric multigrid V-cycle for A_T x = r on a MultigridHierarchy (docs/theory.md#tnnmg-correction):
 /// symmetric block Gauss-Seidel smoothing (nu1 forward sweeps before, nu2 backward sweeps after the
-/// coarse correction, TruncatedGaussSeidel), Galerkin coarse operators with truncated and rotated
+/// coarse correction, TruncatedGaussSeidel; or the vertex-patch Schwarz smoother VertexPatchSmoother,
+/// Options::smoother), Galerkin coarse operators with truncated and rotated
 /// transfers on the finest level, and CHOLMOD on level 0 (factorised once per coarse-operator
 /// update, refactorised with the same pattern; truncated coarse operators can be singular, see
 /// below). One cycle from x = 0 on level l:
@@ -27,19 +28,33 @@
 #include <Eigen/Core>
 
 #include <memory>
+#include <span>
+#include <string>
 #include <vector>
 
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/LinearCorrection.hpp"
 #include "obs/obs/MultigridHierarchy.hpp"
 #include "obs/obs/TruncatedGaussSeidel.hpp"
+#include "obs/obs/VertexPatchSmoother.hpp"
 
 namespace obs {
 
+/// The smoother of every level above level 0 (docs/theory.md#vertex-patch-smoother).
+enum class LinearSmoother {
+  GaussSeidel,  ///< point-block Gauss-Seidel (TruncatedGaussSeidel), the default
+  VertexPatch,  ///< multiplicative Schwarz on vertex patches (VertexPatchSmoother), for nu -> 1/2
+};
+
 struct LinearMultigridOptions {
-  int preSmoothing = 3;      ///< nu1 forward block Gauss-Seidel sweeps
-  int postSmoothing = 3;     ///< nu2 backward sweeps
+  LinearSmoother smoother = LinearSmoother::GaussSeidel;
+  int preSmoothing = 3;      ///< nu1 forward smoothing sweeps
+  int postSmoothing = 3;     ///< nu2 backward smoothing sweeps
   int cycles = 1;            ///< V-cycles per apply() (the TNNMG correction)
+  /// > 0: apply() runs this many steps of conjugate gradients on A_T c = r from c = 0, preconditioned
+  /// by one V-cycle each (cycles must then be 1; nu1 = nu2 keeps the preconditioner symmetric), and
+  /// each iteration of solve() is one such apply(). 0: plain V-cycles.
+  int krylovSteps = 0;
   int cycleIndex = 1;        ///< coarse corrections per level: 1 = V-cycle, 2 = W-cycle
   double tolerance = 1e-10;  ///< solve(): relative energy-norm correction
   int maxIterations = 100;   ///< solve(): iteration cap (converged = false when reached)
@@ -74,8 +89,10 @@ public:
   Index truncate(const std::vector<char>& mask) override;
   void apply(const Eigen::VectorXd& r, Eigen::VectorXd& c) override;
   int operatorUpdates() const override { return hierarchy_.coarseUpdates(); }
+  long long cycles() const override { return vcycles_; }
 
   /// One V-cycle from zero: c = V r (c zero at truncated components).
+  /// (apply(): `cycles` V-cycles, or krylovSteps preconditioned CG steps, see Options.)
   void vcycle(const Eigen::VectorXd& r, Eigen::VectorXd& c);
   /// Iterates V-cycles on A_T x = b (see the file comment).
   LinearSolverResult solve(const Eigen::VectorXd& b, Eigen::VectorXd& x);
@@ -84,9 +101,16 @@ public:
   const Options& options() const { return options_; }
   /// Seconds spent in coarse-grid factorisations since construction.
   double coarseFactorSeconds() const { return factorSeconds_; }
+  /// Bytes held by the smoothers of all levels (the vertex-patch inverses dominate).
+  std::size_t smootherMemoryBytes() const;
+  /// V-cycles run since construction (apply() and solve() count each cycle).
+  long long vcycles() const { return vcycles_; }
 
 private:
   void cycle(int level, const Eigen::VectorXd& r, Eigen::VectorXd& x);
+  void conjugateGradients(const Eigen::VectorXd& r, Eigen::VectorXd& c);
+  void truncateFine(Eigen::VectorXd& v) const;
+  Eigen::VectorXd cgResidual_, cgPreconditioned_, cgDirection_, cgProduct_;
   void updateCoarse();
   const BlockSparseMatrix<d>& levelOperator(int l) const {
     return l == hierarchy_.maxLevel() ? hierarchy_.fineOperator() : hierarchy_.coarseOperator(l);
@@ -97,7 +121,16 @@ private:
 
   Options options_;
   MultigridHierarchy<d> hierarchy_;
+  // the smoother of level l: one of the two, by options_.smoother
+  bool smootherReady(int l) const;
+  void setSmootherMatrix(int l, const BlockSparseMatrix<d>& A, const std::vector<std::uint8_t>* bits, std::string what);
+  void updateSmoother(int l, std::span<const Index> vertices);
+  void smoothFromZero(int l, const Eigen::VectorXd& r, Eigen::VectorXd& x) const;
+  void smooth(int l, const Eigen::VectorXd& r, Eigen::VectorXd& x, bool backward) const;
+
   std::vector<TruncatedGaussSeidel<d>> smoothers_;
+  std::vector<VertexPatchSmoother<d>> patchSmoothers_;
+  long long vcycles_ = 0;
   std::vector<Eigen::VectorXd> rhs_, sol_, work_;  ///< per level
   static constexpr double kCoarseShift = 1e-10;  ///< relative diagonal shift of A_0 (L > 0)
   BlockSparseMatrix<d> shifted_;

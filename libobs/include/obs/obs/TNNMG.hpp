@@ -61,6 +61,7 @@ public:
     double updateSeconds = 0;     ///< truncation: Galerkin products, coarse factorisation
     double correctionSeconds = 0; ///< V-cycles
     double otherSeconds = 0;      ///< residuals, projection, line search, norms
+    long long vcycles = 0;        ///< V-cycles of the linear corrections (LinearCorrection::cycles())
   };
 
   /// TNNMG with the multigrid correction on the grid's hierarchy.
