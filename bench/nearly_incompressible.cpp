@@ -55,7 +55,7 @@ LinearRun linearRate(const mesh::Grid& grid, const ContactProblem<3>& problem, L
   LinearRun run;
   auto t = Clock::now();
   LinearMultigrid<3> mg(grid, o);
-  mg.setOperator(rot.matrix, problemRotations(problem), rot.prescribed);
+  mg.setOperator(rot.matrix(), problemRotations(problem), rot.prescribed);
   std::vector<char> mask = rot.prescribed;
   if (clamped)
     for (const auto& c : problem.constraints())
@@ -63,7 +63,7 @@ LinearRun linearRate(const mesh::Grid& grid, const ContactProblem<3>& problem, L
   mg.truncate(mask);
   run.setup = since(t);
   run.memory = mg.smootherMemoryBytes();
-  Eigen::VectorXd b(rot.matrix.rows() * 3);
+  Eigen::VectorXd b(rot.matrix().rows() * 3);
   unsigned state = 12345;
   for (Eigen::Index i = 0; i < b.size(); ++i) {
     state = state * 1103515245u + 12345u;
