@@ -138,15 +138,23 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
   std::vector<CellValues<d>> values(static_cast<std::size_t>(nt), CellValues<d>(kStiffnessDegree));
   for (Index first = 0; first < cells; first += chunk) {
     const Index last = std::min(cells, first + chunk);
-#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
+    // no exception may leave a parallel region: the first bad cell (a degenerate one) is found on
+    // the threads and its error thrown again afterwards, as the sequential loop would have thrown it
+    Index failed = last;
+#pragma omp parallel for schedule(static) num_threads(nt) reduction(min : failed) if (nt > 1)
     for (Index c = first; c < last; ++c) {
 #ifdef _OPENMP
       CellValues<d>& cv = values[static_cast<std::size_t>(omp_get_thread_num())];
 #else
       CellValues<d>& cv = values.front();
 #endif
-      cellMatrix(cv, c, locals[static_cast<std::size_t>(c - first)]);
+      try {
+        cellMatrix(cv, c, locals[static_cast<std::size_t>(c - first)]);
+      } catch (const Error&) {
+        failed = std::min(failed, c);
+      }
     }
+    if (failed < last) cellMatrix(values.front(), failed, locals.front());  // throws its obs::Error
     for (Index c = first; c < last; ++c) {
       const Local& l = locals[static_cast<std::size_t>(c - first)];
       for (int i = 0; i < l.n; ++i)

@@ -278,3 +278,28 @@ TEST(Threads, ContactProblemProductsMatchTheUnrotatedMatrix) {
   // the rotated problem shares the matrix: no second copy
   EXPECT_EQ(&problem.rotated().matrix(), &problem.rotatedMatrix());
 }
+
+// An error inside a threaded loop (a degenerate cell in the assembly) is the same obs::Error as on
+// one thread, not a terminate: the first bad cell is reported.
+TEST(Threads, DegenerateCellIsTheSameErrorOnThreads) {
+  Cube c;
+  mesh::Mesh bad = c.mesh;
+  const auto verts = bad.cellVertices(bad.numCells() / 2);
+  bad.vertex(verts[0]) = bad.vertex(verts[bad.cellVertices(0).size() - 1]);  // collapse the cell
+  std::string one, two;
+  try {
+    assembleStiffness<3>(bad, c.material);
+  } catch (const Error& e) {
+    one = e.what();
+  }
+  {
+    const ThreadScope scope(2);
+    try {
+      assembleStiffness<3>(bad, c.material);
+    } catch (const Error& e) {
+      two = e.what();
+    }
+  }
+  EXPECT_NE(one.find("degenerate or inverted"), std::string::npos) << one;
+  EXPECT_EQ(one, two);
+}
