@@ -111,30 +111,16 @@ void galerkinProduct(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P, co
 
 /// Recomputes the rows `rows` of C = P' B P (as galerkinProduct) coarse row by coarse row:
 /// C(I, :) = sum_{p in supp I} P_pI sum_q B_pq P_q. `position` is a work array of size C.rows()
-/// filled with -1 (restored on return).
+/// filled with -1 (restored on return). Rows are independent and each sums in a fixed order, so
+/// they run on threads() threads (each with its own work array) with the same result.
 template <int d>
 void galerkinRows(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P, const mesh::CsrMatrix& Pt,
                   const std::vector<Index>* slot, const std::vector<Eigen::Matrix<double, d, d>>* E,
-                  std::span<const Index> rows, std::vector<Index>& position, BlockSparseMatrix<d>& C,
-                  bool threaded = true) {
+                  std::span<const Index> rows, std::vector<Index>& position, BlockSparseMatrix<d>& C) {
   using Mat = Eigen::Matrix<double, d, d>;
-  // rows are independent (each sums in the same order on any number of threads); every thread
-  // has its own position array (-1 outside the row being computed)
-  const auto n = static_cast<std::ptrdiff_t>(rows.size());
-  const int nt = threaded && n >= kParallelMinRows ? threads() : 1;
-  if (nt > 1) {
-#pragma omp parallel num_threads(nt)
-    {
-      std::vector<Index> local(position.size(), -1);
-#pragma omp for schedule(dynamic, 256)
-      for (std::ptrdiff_t i = 0; i < n; ++i)
-        galerkinRows(F, P, Pt, slot, E, rows.subspan(static_cast<std::size_t>(i), 1), local, C, false);
-    }
-    return;
-  }
-  for (Index I : rows) {
+  const auto row = [&](Index I, std::vector<Index>& pos) {
     for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) {
-      position[C.column(k)] = k;
+      pos[C.column(k)] = k;
       C.blockAt(k).setZero();
     }
     for (Index a = Pt.rowStart[I]; a < Pt.rowStart[I + 1]; ++a) {
@@ -148,10 +134,22 @@ void galerkinRows(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P, const
         Mat B = wI * F.blockAt(k);
         if (sp >= 0) B = (*E)[sp] * B;
         if (sq >= 0) B = B * (*E)[sq].transpose();
-        for (Index b = P.rowStart[q]; b < P.rowStart[q + 1]; ++b) C.blockAt(position[P.columns[b]]) += P.values[b] * B;
+        for (Index b = P.rowStart[q]; b < P.rowStart[q + 1]; ++b) C.blockAt(pos[P.columns[b]]) += P.values[b] * B;
       }
     }
-    for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) position[C.column(k)] = -1;
+    for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) pos[C.column(k)] = -1;
+  };
+  const auto n = static_cast<std::ptrdiff_t>(rows.size());
+  const int nt = n >= kParallelMinRows ? threads() : 1;
+  if (nt == 1) {
+    for (Index I : rows) row(I, position);
+    return;
+  }
+#pragma omp parallel num_threads(nt)
+  {
+    std::vector<Index> local(position.size(), -1);
+#pragma omp for schedule(dynamic, 256)
+    for (std::ptrdiff_t i = 0; i < n; ++i) row(rows[static_cast<std::size_t>(i)], local);
   }
 }
 

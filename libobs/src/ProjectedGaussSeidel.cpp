@@ -72,7 +72,7 @@ template <int d>
 void BlockGaussSeidelSweep<d>::sweepFromZero(const Eigen::VectorXd& b, Eigen::VectorXd& w) const {
   using Vec = typename BlockLocalSolver<d>::Vec;
   // `full`: the whole row (unswept neighbours hold zeros), else the blocks left of the diagonal
-  // (TruncatedGaussSeidel::sweepFromZero explains the order)
+  // (SweepOrder::forwardFromZero)
   const auto row = [&](Index p, bool full) {
     Vec r = b.template segment<d>(static_cast<Eigen::Index>(p) * d);
     for (Index k = A_.rowBegin(p); k < A_.rowEnd(p) && (full || A_.column(k) < p); ++k)
@@ -80,16 +80,9 @@ void BlockGaussSeidelSweep<d>::sweepFromZero(const Eigen::VectorXd& b, Eigen::Ve
         r.noalias() -= A_.blockAt(k) * w.template segment<d>(static_cast<Eigen::Index>(A_.column(k)) * d);
     w.template segment<d>(static_cast<Eigen::Index>(p) * d) = local_.solve(p, r);
   };
-  const SweepOrder& order = A_.sweepOrder();
-  if (order.sequential()) {
-    for (Index p = 0; p < A_.rows(); ++p) row(p, false);
-    return;
-  }
-  for (Index p : order.interface()) w.template segment<d>(static_cast<Eigen::Index>(p) * d).setZero();
-  order.forEachPart([&](int k) {
-    for (Index p : order.interior(k)) row(p, false);
+  A_.sweepOrder().forwardFromZero(A_.rows(), row, [&](Index p) {
+    w.template segment<d>(static_cast<Eigen::Index>(p) * d).setZero();
   });
-  for (Index p : order.interface()) row(p, true);
 }
 
 template <int d>

@@ -59,8 +59,7 @@ void TruncatedGaussSeidel<d>::sweep(const Eigen::VectorXd& r, Eigen::VectorXd& x
 template <int d>
 void TruncatedGaussSeidel<d>::sweepFromZero(const Eigen::VectorXd& r, Eigen::VectorXd& x) const {
   const BlockSparseMatrix<d>& A = *A_;
-  // `full`: read the whole row (neighbours not yet swept must hold zeros); else only the blocks left
-  // of the diagonal (every neighbour with a smaller index is swept before p, every other one after)
+  // `full`: read the whole row, else only the blocks left of the diagonal (SweepOrder::forwardFromZero)
   const auto row = [&](Index p, bool full) {
     auto xp = x.template segment<d>(static_cast<Eigen::Index>(p) * d);
     if (bits_ && (*bits_)[p] == kAll) {  // fully truncated: x_p = 0
@@ -74,18 +73,9 @@ void TruncatedGaussSeidel<d>::sweepFromZero(const Eigen::VectorXd& r, Eigen::Vec
       if (k != dp) s.noalias() -= A.blockAt(k) * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
     xp.noalias() = inverse_[p] * s;
   };
-  const SweepOrder& order = A.sweepOrder();
-  if (order.sequential()) {
-    for (Index p = 0; p < A.rows(); ++p) row(p, false);
-    return;
-  }
-  // interiors: their neighbours are interior vertices of the same part (swept in ascending order)
-  // or interface vertices (swept last, zero until then); the interface reads its whole row
-  for (Index p : order.interface()) x.template segment<d>(static_cast<Eigen::Index>(p) * d).setZero();
-  order.forEachPart([&](int k) {
-    for (Index p : order.interior(k)) row(p, false);
+  A.sweepOrder().forwardFromZero(A.rows(), row, [&](Index p) {
+    x.template segment<d>(static_cast<Eigen::Index>(p) * d).setZero();
   });
-  for (Index p : order.interface()) row(p, true);
 }
 
 template class TruncatedGaussSeidel<2>;

@@ -73,6 +73,24 @@ public:
     });
     for (Index p : interface()) visit(p);
   }
+  /// The first forward sweep on a vector that holds garbage (it is overwritten): row(p, full) in
+  /// sweep order, where full = false means that every neighbour with a smaller index has been
+  /// swept and every other one holds zero (read only the blocks left of the diagonal), and full =
+  /// true that unswept neighbours hold zero (read the whole row). zero(p) sets vertex p to zero; it
+  /// is called for the interface before the parts' interiors, whose neighbours lie in their own
+  /// part (swept in ascending order) or on the interface (swept last).
+  template <class Row, class Zero>
+  void forwardFromZero(Index n, Row&& row, Zero&& zero) const {
+    if (sequential()) {
+      for (Index p = 0; p < n; ++p) row(p, false);
+      return;
+    }
+    for (Index p : interface()) zero(p);
+    forEachPart([&](int k) {
+      for (Index p : interior(k)) row(p, false);
+    });
+    for (Index p : interface()) row(p, true);
+  }
   template <class Visit>
   void backward(Index n, Visit&& visit) const {
     if (sequential()) {
