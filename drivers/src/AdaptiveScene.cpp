@@ -380,6 +380,7 @@ est::AdaptiveLoopOptions adaptiveLoopOptions(const Scene& scene, bool contact) {
   o.maxSolverIterations = scene.solver.maxIterations.value_or(o.maxSolverIterations);
   o.preSmoothing = scene.solver.preSmoothing.value_or(o.preSmoothing);  // were ignored before
   o.postSmoothing = scene.solver.postSmoothing.value_or(o.postSmoothing);
+  o.localSmoothing = scene.solver.localSmoothing.value_or(o.localSmoothing);
   return o;
 }
 

@@ -385,7 +385,7 @@ ContactSpec parseContact(const Scene& scene, const toml::value& table) {
 SolverSpec parseSolver(const Scene& scene, const toml::value& table, bool contact) {
   const TomlSection s(scene.fileName, "[solver]", table,
                       {"type", "tolerance", "max_iterations", "pre_smoothing", "post_smoothing", "smoother",
-                       "krylov_steps", "linear_smoothing"});
+                       "krylov_steps", "linear_smoothing", "local_smoothing"});
   SolverSpec spec;
   spec.line = s.line();
   if (s.has("type")) {
@@ -423,7 +423,9 @@ SolverSpec parseSolver(const Scene& scene, const toml::value& table, bool contac
     notFor("smoother", "only tnnmg and multigrid have a linear multigrid smoother");
     notFor("krylov_steps", "only tnnmg and multigrid run V-cycles");
     notFor("linear_smoothing", "only tnnmg and multigrid run V-cycles");
+    notFor("local_smoothing", "only tnnmg and multigrid run V-cycles");
   }
+  if (s.has("local_smoothing")) spec.localSmoothing = s.boolean("local_smoothing");
   if (s.has("linear_smoothing")) {
     const long long n = s.integer("linear_smoothing");
     if (n < 1 || n > 100)

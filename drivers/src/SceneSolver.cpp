@@ -31,8 +31,10 @@ double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock:
 constexpr double kDefaultTolerance = 1e-10;
 constexpr double kContactTolerance = 1e-8;  ///< relative tolerance of "actual contact"
 
-/// [solver] smoother, krylov_steps and linear_smoothing (docs/scenes.md) on the options of a linear multigrid.
+/// [solver] smoother, krylov_steps, linear_smoothing and local_smoothing (docs/scenes.md) on the options of a
+/// linear multigrid.
 void applyMultigridSpec(const SolverSpec& spec, LinearMultigridOptions& o) {
+  o.localSmoothing = spec.localSmoothing.value_or(o.localSmoothing);
   if (spec.smoother == "vertex-patch") o.smoother = LinearSmoother::VertexPatch;
   o.krylovSteps = spec.krylovSteps.value_or(o.krylovSteps);
   if (spec.linearSmoothing) o.preSmoothing = o.postSmoothing = *spec.linearSmoothing;

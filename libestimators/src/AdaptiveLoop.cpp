@@ -585,6 +585,7 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
         o.maxIterations = options_.maxSolverIterations;
         o.preSmoothing = options_.preSmoothing;
         o.postSmoothing = options_.postSmoothing;
+        o.multigrid.localSmoothing = options_.localSmoothing;
         o.recordHistory = false;
         TNNMG<d> solver(grids, o);
         result = solver.solve(*problem, x);

@@ -6,6 +6,7 @@
 
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/CholmodSolver.hpp"
+#include "obs/obs/Parallel.hpp"
 
 namespace obs {
 
@@ -44,6 +45,39 @@ void LinearMultigrid<d>::setOperator(const BlockSparseMatrix<d>& A, std::vector<
   if (L > 0) setSmootherMatrix(L, A, &hierarchy_.truncationBits(), "the fine operator");
   coarseSolver_.reset();
   updateCoarse();
+  setLocalSmoothing();
+}
+
+template <int d>
+void LinearMultigrid<d>::setLocalSmoothing() {
+  const int L = hierarchy_.maxLevel();
+  localRows_.assign(static_cast<std::size_t>(L) + 1, {});
+  local_.assign(static_cast<std::size_t>(L) + 1, 0);
+  if (!options_.localSmoothing || options_.smoother != LinearSmoother::GaussSeidel) return;
+  for (int l = 1; l < L; ++l) {
+    const std::vector<char>& member = hierarchy_.newBasis(l);
+    smoothers_[l].setSubset(member);
+    if (smoothers_[l].sweptVertices() == hierarchy_.numVertices(l)) continue;  // every basis function new
+    local_[l] = 1;
+    // the rows that see a swept vertex (the pattern is symmetric)
+    const BlockSparseMatrix<d>& A = hierarchy_.coarseOperator(l);
+    auto& rows = localRows_[l];
+    for (Index p = 0; p < A.rows(); ++p)
+      for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k)
+        if (member[static_cast<std::size_t>(A.column(k))]) {
+          rows.push_back(p);
+          break;
+        }
+  }
+}
+
+template <int d>
+Index LinearMultigrid<d>::smoothedVerticesPerSweep() const {
+  Index n = 0;
+  for (int l = 1; l <= hierarchy_.maxLevel(); ++l)
+    n += options_.smoother == LinearSmoother::GaussSeidel && smoothers_[l].hasMatrix() ? smoothers_[l].sweptVertices()
+                                                                                     : hierarchy_.numVertices(l);
+  return n;
 }
 
 template <int d>
@@ -93,6 +127,24 @@ void LinearMultigrid<d>::defect(int level, const Eigen::VectorXd& r, const Eigen
 }
 
 template <int d>
+void LinearMultigrid<d>::localDefect(int level, const Eigen::VectorXd& r, const Eigen::VectorXd& x,
+                                     Eigen::VectorXd& out) const {
+  const BlockSparseMatrix<d>& A = levelOperator(level);
+  const std::vector<Index>& rows = localRows_[level];
+  out = r;
+  const auto n = static_cast<Index>(rows.size());
+  const int nt = n >= kParallelMinRows ? threads() : 1;
+#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
+  for (Index i = 0; i < n; ++i) {
+    const Index p = rows[i];
+    Eigen::Matrix<double, d, 1> s = Eigen::Matrix<double, d, 1>::Zero();
+    for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k)
+      s.noalias() += A.blockAt(k) * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
+    out.template segment<d>(static_cast<Eigen::Index>(p) * d) -= s;
+  }
+}
+
+template <int d>
 void LinearMultigrid<d>::cycle(int l, const Eigen::VectorXd& r, Eigen::VectorXd& x) {
   const int L = hierarchy_.maxLevel();
   if (l == 0) {
@@ -115,7 +167,9 @@ void LinearMultigrid<d>::cycle(int l, const Eigen::VectorXd& r, Eigen::VectorXd&
   // coarse-grid correction, gamma times below the finest level (gamma = 1: V-cycle, 2: W-cycle)
   const int gamma = l == 1 ? 1 : options_.cycleIndex;
   for (int g = 0; g < gamma; ++g) {
-    defect(l, r, x, work_[l]);
+    // x is zero outside the local smoothing set until the first coarse correction
+    if (g == 0 && local_[l]) localDefect(l, r, x, work_[l]);
+    else defect(l, r, x, work_[l]);
     hierarchy_.restrict(l - 1, work_[l], rhs_[l - 1]);
     cycle(l - 1, rhs_[l - 1], sol_[l - 1]);
     hierarchy_.prolongateAdd(l - 1, sol_[l - 1], x);

@@ -319,6 +319,19 @@ MultigridHierarchy<d>::MultigridHierarchy(const std::vector<const mesh::Grid*>& 
     transposed_.push_back(transpose(prolongations_.back()));
     vertices_.push_back(n);
   }
+  newBasis_.assign(static_cast<std::size_t>(L) + 1, {});
+  for (int l = 1; l < L; ++l) {
+    const mesh::CsrMatrix& P = prolongations_[l - 1];
+    const mesh::CsrMatrix& Pt = transposed_[l - 1];
+    auto& mark = newBasis_[l];
+    mark.assign(static_cast<std::size_t>(P.rows), 1);
+    for (Index p = 0; p < P.rows; ++p) {
+      const Index k = P.rowStart[p];
+      if (P.rowStart[p + 1] - k != 1 || P.values[k] != 1.0) continue;
+      const Index c = P.columns[k];
+      if (Pt.rowStart[c + 1] - Pt.rowStart[c] == 1) mark[p] = 0;
+    }
+  }
 }
 
 template <int d>

@@ -65,4 +65,28 @@ SweepOrder::SweepOrder(std::span<const Index> rowStart, std::span<const Index> c
   parts_ = parts;
 }
 
+SweepOrder SweepOrder::subset(std::span<const char> member) const {
+  SweepOrder out;
+  out.requested_ = requested_;
+  Index members = 0;
+  for (char m : member) members += m != 0;
+  if (sequential() || members < kParallelMinRows) {
+    out.listed_ = true;
+    out.order_.reserve(static_cast<std::size_t>(members));
+    for (std::size_t p = 0; p < member.size(); ++p)
+      if (member[p]) out.order_.push_back(static_cast<Index>(p));
+    return out;
+  }
+  out.parts_ = parts_;
+  out.interface_ = interface_;
+  out.start_.assign(start_.size(), 0);
+  out.order_.reserve(static_cast<std::size_t>(members));
+  for (int k = 0; k <= parts_; ++k) {
+    for (Index i = start_[k]; i < start_[k + 1]; ++i)
+      if (member[static_cast<std::size_t>(order_[i])]) out.order_.push_back(order_[i]);
+    out.start_[k + 1] = static_cast<Index>(out.order_.size());
+  }
+  return out;
+}
+
 }  // namespace obs

@@ -1,6 +1,7 @@
 #include "obs/obs/TruncatedGaussSeidel.hpp"
 
 #include <algorithm>
+#include <string>
 
 namespace obs {
 
@@ -17,6 +18,31 @@ void TruncatedGaussSeidel<d>::setMatrix(const BlockSparseMatrix<d>& A, const std
     if (diagonal_[p] < 0) throw Error("Gauss-Seidel smoother: " + what_ + " has no diagonal block in row " + std::to_string(p));
   }
   updateAll();
+  buildSubsetOrder();
+}
+
+template <int d>
+void TruncatedGaussSeidel<d>::setSubset(std::vector<char> member) {
+  if (!member.empty() && (!A_ || static_cast<Index>(member.size()) != A_->rows()))
+    throw Error("Gauss-Seidel smoother: subset mask of " + std::to_string(member.size()) + " entries for " +
+                std::to_string(A_ ? A_->rows() : 0) + " rows");
+  if (std::all_of(member.begin(), member.end(), [](char m) { return m != 0; })) member.clear();
+  subset_ = std::move(member);
+  buildSubsetOrder();
+}
+
+template <int d>
+void TruncatedGaussSeidel<d>::buildSubsetOrder() {
+  if (!subset_.empty() && A_ && static_cast<Index>(subset_.size()) != A_->rows())
+    throw Error("Gauss-Seidel smoother: the subset mask does not match the new matrix of " + what_);
+  subsetOrder_ = subset_.empty() || !A_ ? SweepOrder() : A_->sweepOrder().subset(subset_);
+}
+
+template <int d>
+Index TruncatedGaussSeidel<d>::sweptVertices() const {
+  if (!A_) return 0;
+  if (subset_.empty()) return A_->rows();
+  return static_cast<Index>(std::count_if(subset_.begin(), subset_.end(), [](char m) { return m != 0; }));
 }
 
 template <int d>
@@ -51,9 +77,9 @@ void TruncatedGaussSeidel<d>::sweep(const Eigen::VectorXd& r, Eigen::VectorXd& x
       if (k != dp) s.noalias() -= A.blockAt(k) * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
     x.template segment<d>(static_cast<Eigen::Index>(p) * d).noalias() = inverse_[p] * s;
   };
-  const SweepOrder& order = A.sweepOrder();
-  if (backward) order.backward(A.rows(), row);
-  else order.forward(A.rows(), row);
+  const SweepOrder& sweepOrder = order();
+  if (backward) sweepOrder.backward(A.rows(), row);
+  else sweepOrder.forward(A.rows(), row);
 }
 
 template <int d>
@@ -73,7 +99,8 @@ void TruncatedGaussSeidel<d>::sweepFromZero(const Eigen::VectorXd& r, Eigen::Vec
       if (k != dp) s.noalias() -= A.blockAt(k) * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
     xp.noalias() = inverse_[p] * s;
   };
-  A.sweepOrder().forwardFromZero(A.rows(), row, [&](Index p) {
+  if (!subset_.empty()) x.setZero();  // the vertices outside the subset are not swept
+  order().forwardFromZero(A.rows(), row, [&](Index p) {
     x.template segment<d>(static_cast<Eigen::Index>(p) * d).setZero();
   });
 }

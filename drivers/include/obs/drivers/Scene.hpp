@@ -130,6 +130,7 @@ struct SolverSpec {
   std::string smoother;            ///< "gauss-seidel", "vertex-patch"; empty: not given (gauss-seidel)
   std::optional<int> krylovSteps;  ///< CG steps per linear correction (0: plain V-cycles)
   std::optional<int> linearSmoothing;  ///< sweeps before and after the coarse correction of the V-cycle
+  std::optional<bool> localSmoothing;  ///< smooth only where a level is new (LinearMultigridOptions)
   int line = 0;  ///< line of [solver] (0: section absent)
 };
 

@@ -63,6 +63,7 @@
 #include "obs/obs/Checkpoint.hpp"
 #include "obs/obs/ContactModel.hpp"
 #include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/LinearMultigrid.hpp"
 #include "obs/obs/Material.hpp"
 #include "obs/obs/MortarCoupling.hpp"
 
@@ -90,6 +91,8 @@ struct AdaptiveLoopOptions {
   int maxSolverIterations = 500;   ///< iteration cap of the contact solver
   int preSmoothing = 3;            ///< TNNMG nonsmooth sweeps before the correction (TNNMG::Options)
   int postSmoothing = 0;           ///< TNNMG nonsmooth sweeps after the correction
+  /// Local smoothing in TNNMG's V-cycle (LinearMultigridOptions::localSmoothing).
+  bool localSmoothing = LinearMultigridOptions{}.localSmoothing;
   bool warmStart = true;           ///< start from the prolonged previous solution
   /// Inexact solves (docs/estimators.md#inexact-solves): > 0 stops TNNMG once the estimated
   /// algebraic error is below this fraction of the estimator predicted for the step (from the

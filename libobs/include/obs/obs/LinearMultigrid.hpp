@@ -56,6 +56,12 @@ struct LinearMultigridOptions {
   /// each iteration of solve() is one such apply(). 0: plain V-cycles.
   int krylovSteps = 0;
   int cycleIndex = 1;        ///< coarse corrections per level: 1 = V-cycle, 2 = W-cycle
+  /// Local smoothing (docs/theory.md#local-multigrid): on the levels 0 < l < L the Gauss-Seidel
+  /// smoother sweeps only the vertices whose basis function is new on level l
+  /// (MultigridHierarchy::newBasis), and the defect after pre-smoothing is recomputed only on their
+  /// rows and their neighbours'. Identical to whole-level smoothing on uniformly refined hierarchies
+  /// (every basis function is new); the vertex-patch smoother always sweeps whole levels.
+  bool localSmoothing = true;
   double tolerance = 1e-10;  ///< solve(): relative energy-norm correction
   int maxIterations = 100;   ///< solve(): iteration cap (converged = false when reached)
 };
@@ -105,6 +111,9 @@ public:
   std::size_t smootherMemoryBytes() const;
   /// V-cycles run since construction (apply() and solve() count each cycle).
   long long vcycles() const { return vcycles_; }
+  /// Vertices one V-cycle's smoother visits per sweep, summed over the levels 1 .. L (local
+  /// smoothing makes it smaller than the sum of the level sizes).
+  Index smoothedVerticesPerSweep() const;
 
 private:
   void cycle(int level, const Eigen::VectorXd& r, Eigen::VectorXd& x);
@@ -118,6 +127,12 @@ private:
   /// Defect out = r - A_l x (on the finest level x is zero at truncated components, so this is
   /// r - A_T x off the truncated rows; those are removed by the restriction).
   void defect(int level, const Eigen::VectorXd& r, const Eigen::VectorXd& x, Eigen::VectorXd& out) const;
+  /// The same for an x that is zero outside the local smoothing set of the level: out = r except on
+  /// localRows_[level] (the set and its neighbours).
+  void localDefect(int level, const Eigen::VectorXd& r, const Eigen::VectorXd& x, Eigen::VectorXd& out) const;
+  void setLocalSmoothing();
+  std::vector<char> local_;                    ///< per level: smoothed locally
+  std::vector<std::vector<Index>> localRows_;  ///< per local level: the rows localDefect() recomputes
 
   Options options_;
   MultigridHierarchy<d> hierarchy_;

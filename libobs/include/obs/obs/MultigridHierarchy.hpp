@@ -85,6 +85,12 @@ public:
   Index numVertices(int level) const { return vertices_[level]; }
   /// Scalar prolongation from level l to level l + 1.
   const mesh::CsrMatrix& prolongation(int l) const { return prolongations_[l]; }
+  /// For 0 < l < L: one entry per level-l vertex, non-zero where its basis function is new on level l,
+  /// i.e. not also a basis function of level l - 1 (docs/theory.md#local-multigrid). A level-l
+  /// vertex p keeps the function of a coarse vertex c iff P_{l-1} maps c to p alone with weight 1
+  /// (row p of P_{l-1} is e_c and column c is e_p); new vertices and old vertices next to refined
+  /// cells are marked. Empty for l = 0 and l = L (the finest level is always smoothed whole).
+  const std::vector<char>& newBasis(int l) const { return newBasis_[l]; }
 
   /// Sets the fine operator (kept by reference, must outlive its use) in the frame given by the
   /// rotations and the initial truncation mask (empty: none; see truncate()), computes the coarse
@@ -131,6 +137,7 @@ private:
   void computeCoarse(bool local);
 
   std::vector<Index> vertices_;
+  std::vector<std::vector<char>> newBasis_;
   std::vector<mesh::CsrMatrix> prolongations_, transposed_;
   mesh::CsrMatrix plainTop_;  ///< P_{L-1} without the fine basis transformation (if one is set)
   const BlockSparseMatrix<d>* fine_ = nullptr;

@@ -41,10 +41,18 @@ public:
   /// split, get the natural order.
   SweepOrder(std::span<const Index> rowStart, std::span<const Index> columns, int parts);
 
+  /// The same order restricted to the vertices p with member[p] != 0 (member has one entry per
+  /// vertex): each group keeps its members in its order, so the subset sweep is the whole sweep with
+  /// the other vertices left out. A subset below kParallelMinRows members is swept by one thread in
+  /// ascending order. For forwardFromZero() on a subset the vertices outside it must hold zero.
+  SweepOrder subset(std::span<const char> member) const;
+
   int parts() const { return parts_; }
   /// The `parts` asked for at construction (parts() may be 1 if the pattern was not split).
   int requestedParts() const { return requested_; }
   bool sequential() const { return parts_ <= 1; }
+  /// Whether the order visits a list of vertices (a subset()) rather than all of 0..n-1.
+  bool listed() const { return listed_; }
   std::span<const Index> interior(int part) const {
     return {order_.data() + start_[part], static_cast<std::size_t>(start_[part + 1] - start_[part])};
   }
@@ -65,7 +73,10 @@ public:
   template <class Visit>
   void forward(Index n, Visit&& visit) const {
     if (sequential()) {
-      for (Index p = 0; p < n; ++p) visit(p);
+      if (listed_)
+        for (Index p : order_) visit(p);
+      else
+        for (Index p = 0; p < n; ++p) visit(p);
       return;
     }
     forEachPart([&](int k) {
@@ -82,7 +93,10 @@ public:
   template <class Row, class Zero>
   void forwardFromZero(Index n, Row&& row, Zero&& zero) const {
     if (sequential()) {
-      for (Index p = 0; p < n; ++p) row(p, false);
+      if (listed_)
+        for (Index p : order_) row(p, false);
+      else
+        for (Index p = 0; p < n; ++p) row(p, false);
       return;
     }
     for (Index p : interface()) zero(p);
@@ -94,7 +108,10 @@ public:
   template <class Visit>
   void backward(Index n, Visit&& visit) const {
     if (sequential()) {
-      for (Index p = n; p-- > 0;) visit(p);
+      if (listed_)
+        for (auto it = order_.rbegin(); it != order_.rend(); ++it) visit(*it);
+      else
+        for (Index p = n; p-- > 0;) visit(p);
       return;
     }
     const auto face = interface();
@@ -108,6 +125,7 @@ public:
 private:
   int parts_ = 1;
   int requested_ = 1;
+  bool listed_ = false;  ///< sequential with an explicit vertex list in order_ (a subset)
   std::vector<Index> start_;  ///< parts + 2 offsets into order_: interiors of parts 0..parts-1, interface
   std::vector<Index> order_;
   std::vector<char> interface_;

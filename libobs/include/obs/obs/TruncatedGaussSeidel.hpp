@@ -46,6 +46,13 @@ public:
   }
   /// The same for every vertex (on threads() threads).
   void updateAll();
+  /// Restricts the sweeps to the vertices p with member[p] != 0 (one entry per row; local smoothing
+  /// on adaptive hierarchies, docs/theory.md#local-multigrid): the others are neither read as rows
+  /// nor written, sweepFromZero() sets them to zero. A full mask (or an empty one) sweeps every
+  /// vertex. Kept across setMatrix() (matrices of the same size). Throws obs::Error on a wrong size.
+  void setSubset(std::vector<char> member);
+  /// Number of vertices a sweep visits.
+  Index sweptVertices() const;
 
   /// nu sweeps on A_T x = r in place (forward, or backward if `backward`), in the matrix's sweep
   /// order (Parallel.hpp: the natural order on one thread).
@@ -93,7 +100,12 @@ private:
     inverse_[p] = W;
   }
 
+  const SweepOrder& order() const { return subset_.empty() ? A_->sweepOrder() : subsetOrder_; }
+  void buildSubsetOrder();
+
   const BlockSparseMatrix<d>* A_ = nullptr;
+  std::vector<char> subset_;  ///< empty: every vertex
+  SweepOrder subsetOrder_;
   const std::vector<std::uint8_t>* bits_ = nullptr;
   std::string what_;
   std::vector<Mat> inverse_;
