@@ -619,6 +619,10 @@ TEST(ContactSceneErrors, SolverSection) {
                      "linear_smoothing.toml:23: [solver] linear_smoothing = 0 must lie in [1, 100]");
   EXPECT_ERROR_PARTS(errorOf("linear_smoothing_pgs", punchScene(0, kStrip, "[solver]\ntype = \"pgs\"\nlinear_smoothing = 1\n")),
                      "linear_smoothing_pgs.toml:24: [solver] linear_smoothing does not apply to type = \"pgs\"");
+  EXPECT_ERROR_PARTS(errorOf("local_pdas", punchScene(0, kStrip, "[solver]\ntype = \"pdas\"\nlocal_smoothing = true\n")),
+                     "local_pdas.toml:24: [solver] local_smoothing does not apply to type = \"pdas\"");
+  EXPECT_ERROR_PARTS(errorOf("local_type", punchScene(0, kStrip, "[solver]\nlocal_smoothing = 1\n")),
+                     "local_type.toml:23: [solver] local_smoothing");
 }
 
 TEST(ContactSceneErrors, NonConvergenceIsAnErrorAfterTheOutputs) {
