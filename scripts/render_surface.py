@@ -298,9 +298,10 @@ def _pyplot():
 
 
 def draw(ax, vtu, field, selection, log=False, decades=6.0, edges=False, vmin=None, vmax=None,
-         cmap="jet", title=None, colorbar=True, categories=None):
+         cmap="jet", title=None, colorbar=True, categories=None, zoom=None):
     """One panel: `field` on the faces of `selection`. Returns the range drawn (min, max of the
-    selected vertices' values). categories: {value: (label, colour)} for integer fields."""
+    selected vertices' values). categories: {value: (label, colour)} for integer fields (faces
+    coloured by the largest value of their vertices); zoom: (x0, x1, y0, y1) of the picture plane."""
     from matplotlib.collections import PolyCollection
     from matplotlib.colors import BoundaryNorm, ListedColormap, LogNorm, Normalize
     from matplotlib.tri import Triangulation
@@ -346,10 +347,14 @@ def draw(ax, vtu, field, selection, log=False, decades=6.0, edges=False, vmin=No
             m = ax.tripcolor(tri, shown, shading="gouraud", cmap=cm, norm=norm)
             if colorbar:
                 plt.colorbar(m, ax=ax, fraction=0.046, pad=0.04, extend="min" if log else "neither")
-    if edges or values is None:
-        ax.add_collection(PolyCollection(polys, facecolors="none", edgecolors="k",
-                                         linewidths=0.15 if len(polys) > 2000 else 0.3))
     lo, hi = xy[used].min(axis=0), xy[used].max(axis=0)
+    if zoom:
+        lo, hi = np.array([zoom[0], zoom[2]]), np.array([zoom[1], zoom[3]])
+    if edges or values is None:
+        # line width by the number of faces in view
+        inside = [q for q in polys if np.all(q.max(axis=0) >= lo) and np.all(q.min(axis=0) <= hi)]
+        lw = 0.4 if len(inside) < 500 else 0.2 if len(inside) < 3000 else 0.08
+        ax.add_collection(PolyCollection(inside, facecolors="none", edgecolors="k", linewidths=lw))
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal")
@@ -364,20 +369,44 @@ def fmt(x):
     return "0" if x == 0 else f"{x:.2g}"
 
 
+def by_class(vtu, field, selection, classes="node_class", previous=None):
+    """Per class of the vertices of `selection` (classes: the point array node_class of adaptive
+    runs, 0 off Gamma_C / 1 no contact / 2 semi / 3 full, or contact_state of dynamic runs, 1 potential
+    / 2 actual contact): (class, vertices, vertices with a non-zero value, min, max). With the .vtu of
+    the previous time step (`previous`, same grid) the actual contact nodes are split into 2 (in
+    contact at both steps) and 4 (new: not in contact at the previous step)."""
+    if classes not in vtu.point_data:
+        return []
+    faces, _, _ = select_faces(vtu, selection)
+    used = np.unique(faces[faces >= 0])
+    values, cls = field_values(vtu, field)[used], vtu.point_data[classes][used].copy()
+    if previous is not None:
+        cls[(cls == 2) & (previous.point_data[classes][used] != 2)] = 4
+    out = []
+    for c in np.unique(cls):
+        v = values[cls == c]
+        out.append((int(c), int(v.size), int(np.count_nonzero(v)), float(v.min()), float(v.max())))
+    return out
+
+
 # ------------------------------------------------------------------------------------------------
 # the thesis figures (scripts/surface_figures.sh runs the scenes into RUNS first)
 
-NODE_CLASSES = {0: ("off", "white"), 1: ("no contact", "#3b6fd8"), 2: ("semi", "#f2f2f2"),
-                3: ("full", "#d83b3b")}
+# node_class of the adaptive .vtu on the contact boundary (0, not on it, does not occur there)
+NODE_CLASSES = {1: ("no contact", "#3b6fd8"), 2: ("semi", "#f2f2f2"), 3: ("full", "#d83b3b")}
 
 
 def _step(runs, run, k):
     return os.path.join(runs, run, f"step_{k:03d}.vtu")
 
 
-def _estimator_panels(runs, run, k, fields, selection, where):
-    return [dict(file=_step(runs, run, k), field=f + "^2", selection=selection, log=True,
-                 title=f"{f.replace('eta_', 'eta_{')},p}}^2, k = {k}, {where}") for f in fields]
+def _eta(k):
+    return rf"$\eta_{{{k},p}}^2$"
+
+
+def _estimator_panels(runs, run, k, contributions, selection, where, **extra):
+    return [dict(file=_step(runs, run, k), field=f"eta_{c}^2", selection=selection, log=True,
+                 title=f"{_eta(c)}, k = {k}, {where}", **extra) for c in contributions]
 
 
 def _dyn_file(runs, run, n):
@@ -387,44 +416,49 @@ def _dyn_file(runs, run, n):
 
 
 def thesis_figures(runs, dyn_steps):
+    """The figures of docs/examples.md and docs/dynamics.md: name -> dict(cols, panels)."""
     z0, cut = "plane:z=0", "plane:y=0.5"
+    ex4, ex5, ex6, ex7 = "example4_prism", "example5_pyramid", "example6_hexahedron", "example7_pyramid"
     figs = {}
-    figs["fig4_23_example4_eta5"] = dict(cols=3, panels=[
-        dict(file=_step(runs, "example4_prism", k), field="eta_5^2", selection=z0, log=True,
-             edges=True, title=f"eta_{{5,p}}^2, k = {k}, contact boundary z = 0") for k in (2, 4, 5)])
-    figs["fig4_24_example4_cut"] = dict(cols=3, panels=[
-        dict(p, edges=True) for p in
-        _estimator_panels(runs, "example4_prism", 4, ("eta_1", "eta_2", "eta_5"), cut, "cut y = 0.5")])
+    # Fig. 4.23: k = 2, 4, 5 (the thesis' k = 6 is too large here, scripts/surface_figures.sh) and a zoom
+    figs["fig4_23_example4_eta5"] = dict(cols=2, panels=[
+        _estimator_panels(runs, ex4, k, (5,), z0, "contact boundary z = 0", edges=True)[0] for k in (2, 4, 5)] + [
+        _estimator_panels(runs, ex4, 5, (5,), z0, "zoom at the strip edge x = 0.2", edges=True,
+                          zoom=(0.1, 0.3, 0.4, 0.6))[0]])
+    figs["fig4_24_example4_cut"] = dict(cols=3, panels=_estimator_panels(
+        runs, ex4, 4, (1, 2, 5), cut, "cut y = 0.5", edges=True))
     figs["fig4_29_example5_pyramid"] = dict(cols=3, panels=(
-        _estimator_panels(runs, "example5_pyramid", 6, ("eta_1", "eta_2", "eta_5"), z0, "z = 0") +
-        _estimator_panels(runs, "example5_pyramid", 6, ("eta_1", "eta_2", "eta_5"), cut, "cut y = 0.5")))
-    grid6 = dict(file=_step(runs, "example6_hexahedron", 4), field="node_class", selection=z0, edges=True,
+        _estimator_panels(runs, ex5, 6, (1, 2, 5), z0, "contact boundary z = 0") +
+        _estimator_panels(runs, ex5, 6, (1, 2), cut, "cut y = 0.5") +
+        _estimator_panels(runs, ex5, 6, (5,), z0, "z = 0, zoom", edges=True, zoom=(0.35, 0.65, 0.35, 0.65))))
+    grid6 = dict(file=_step(runs, ex6, 4), field="node_class", selection=z0, edges=True,
                  categories=NODE_CLASSES, title="grid and contact nodes, k = 4, z = 0")
     figs["fig4_32_example6_contact"] = dict(cols=2, panels=[grid6] + _estimator_panels(
-        runs, "example6_hexahedron", 4, ("eta_5", "eta_6", "eta_8"), z0, "z = 0"))
-    grid7 = dict(grid6, file=_step(runs, "example7_pyramid", 4))
+        runs, ex6, 4, (5, 6, 8), z0, "z = 0"))
+    grid7 = dict(grid6, file=_step(runs, ex7, 4))
     figs["fig4_35_example7_contact"] = dict(cols=3, panels=[grid7] + _estimator_panels(
-        runs, "example7_pyramid", 4, ("eta_5", "eta_6", "eta_7", "eta_8"), z0, "z = 0"))
+        runs, ex7, 4, (5, 6, 7, 8), z0, "z = 0"))
     for key, run in (("fig5_15_geometry1", "dynamics_geometry1"), ("fig5_17_tibia", "dynamics_tibia")):
         if run not in dyn_steps:
             continue
         steps, tau = dyn_steps[run]
         panels = []
         for n in steps:
-            f = _dyn_file(runs, run, n)
-            t = f"n = {n} (t = {n * tau:.3g})"
-            panels += [dict(file=f, field="contact_pressure", selection="facing:-z", dyn="contact_pressure",
-                            title=f"contact stress s_p, {t}"),
+            f, prev = _dyn_file(runs, run, n), _dyn_file(runs, run, n - 1)
+            t = f"n = {n}, t = {n * tau:.3g}"
+            panels += [dict(file=f, field="contact_pressure", selection="facing:-z", dyn="contact_pressure", previous=prev,
+                            title=f"contact stress $s_p$, {t}"),
                        dict(file=f, field="normal_displacement", selection="facing:-z", dyn="normal_displacement",
-                            title=f"normal displacement nu.u, {t}"),
-                       dict(file=f, field="normal_velocity", selection="facing:-z", dyn="normal_velocity",
-                            title=f"normal velocity nu.v, {t}")]
+                            title=rf"normal displacement $\nu_p \cdot u_p$, {t}"),
+                       dict(file=f, field="normal_velocity", selection="facing:-z", dyn="normal_velocity", previous=prev,
+                            title=rf"normal velocity $\nu_p \cdot v_p$, {t}")]
         figs[key] = dict(cols=3, panels=panels, shared_rows=True)
     return figs
 
 
 def render_figure(fig, path, panel_size=(4.2, 3.6)):
-    """Draws the panels of `fig` into one PNG; returns a list of (title, min, max)."""
+    """Draws the panels of `fig` into one PNG; returns a list of (title, (min, max), (class array,
+    by_class))."""
     plt = _pyplot()
     panels = fig["panels"]
     cols = fig["cols"]
@@ -449,7 +483,7 @@ def render_figure(fig, path, panel_size=(4.2, 3.6)):
     report = []
     for i, p in enumerate(panels):
         ax = axes[i // cols][i % cols]
-        kw = {k: p[k] for k in ("log", "edges", "categories") if k in p}
+        kw = {k: p[k] for k in ("log", "edges", "categories", "zoom") if k in p}
         if "dyn" in p:
             lo, hi = shared[p["dyn"]]
             if p["dyn"] == "normal_velocity":  # symmetric about zero: zero velocity is the middle colour
@@ -458,13 +492,20 @@ def render_figure(fig, path, panel_size=(4.2, 3.6)):
                 kw["cmap"] = "coolwarm"
             kw["vmin"], kw["vmax"] = lo, hi
         r = draw(ax, load(p["file"]), p["field"], p["selection"], title=p["title"], **kw)
+        classes = ("", [])
         if r and "categories" not in p:
             ax.set_title(p["title"] + f"\n[{fmt(r[0])}, {fmt(r[1])}]", fontsize=8)
-        report.append((p["title"], r))
+            if p.get("log"):
+                classes = ("node_class", by_class(load(p["file"]), p["field"], p["selection"]))
+            elif "dyn" in p:
+                prev = p.get("previous")
+                prev = load(prev) if prev and os.path.exists(prev) else None
+                classes = ("contact_state", by_class(load(p["file"]), p["field"], p["selection"], "contact_state", prev))
+        report.append((p["title"], r, classes))
     for j in range(len(panels), rows * cols):
         axes[j // cols][j % cols].axis("off")
     f.tight_layout()
-    f.savefig(path, dpi=110)
+    f.savefig(path, dpi=90)
     plt.close(f)
     return report
 
@@ -541,9 +582,14 @@ def main(argv=None):
         path = os.path.join(args.output, name + ".png")
         report = render_figure(fig, path)
         print(path)
-        for title, r in report:
+        for title, r, classes in report:
             if r:
-                print(f"  {title}: [{fmt(r[0])}, {fmt(r[1])}]")
+                print(f"  {title.replace('$', '')}: [{fmt(r[0])}, {fmt(r[1])}]")
+            names = {"node_class": {0: "off Gamma_C", 1: "no contact", 2: "semi", 3: "full"},
+                     "contact_state": {0: "off Gamma_C", 1: "potential", 2: "actual", 4: "actual, new"}
+                     }.get(classes[0], {})
+            for c, n, nz, lo, hi in classes[1]:
+                print(f"      {names.get(c, str(c)):11s} vertices {n:6d}, non-zero {nz:6d}, in [{fmt(lo)}, {fmt(hi)}]")
     return 0
 
 

@@ -47,15 +47,16 @@ adaptive example7_pyramid example7 pyramid 5
 
 # Geometry 1 with alpha(p) at the thesis' tau = 5e-4 to t = 0.25 (impact at t = 0.01, release near
 # t = 0.22), refine 3 (3,825 vertices; the thesis' five refinements are out of reach here), a .vtu every
-# 10 steps; the cube on the tibial plateau at tau = 5e-3, a .vtu every step to t = 0.15 (contact in
-# steps 2-25)
+# 20 steps (contact in steps 20-250 and 280-450, timeseries.csv); the cube on the tibial plateau at
+# tau = 5e-3 with one refinement more than the scene (17 x 17 bottom vertices), a .vtu every step to
+# t = 0.15 (contact in steps 2-25)
 g1_tau=5e-4
-run dynamics_geometry1 "$scenes/dynamics_block.toml" --refine 3 --set dynamics.tau=$g1_tau \
-  --set dynamics.steps=500 --set dynamics.output_stride=10
+run dynamics_geometry1 "$scenes/dynamics_block.toml" --refine "${G1_REFINE:-3}" --set dynamics.tau=$g1_tau \
+  --set dynamics.steps=500 --set dynamics.output_stride=20
 tibia_tau=5e-3
-run dynamics_tibia "$scenes/dynamics_tibia.toml" --set dynamics.tau=$tibia_tau --set dynamics.steps=30 \
+run dynamics_tibia "$scenes/dynamics_tibia.toml" --refine 2 --set dynamics.tau=$tibia_tau --set dynamics.steps=30 \
   --set dynamics.output_stride=1
 
 "$python" "$root/scripts/render_surface.py" figures --runs "$work" --output "$root/docs/figures" \
-  --dyn "dynamics_geometry1:$g1_tau:${G1_STEPS:-40,120,240,400,440}" \
-  --dyn "dynamics_tibia:$tibia_tau:${TIBIA_STEPS:-3,6,12,20,25}"
+  --dyn "dynamics_geometry1:$g1_tau:${G1_STEPS:-40,100,200,320,420}" \
+  --dyn "dynamics_tibia:$tibia_tau:${TIBIA_STEPS:-2,4,9,20,23}"
