@@ -446,12 +446,11 @@ def thesis_figures(runs, dyn_steps):
         for n in steps:
             f, prev = _dyn_file(runs, run, n), _dyn_file(runs, run, n - 1)
             t = f"n = {n}, t = {n * tau:.3g}"
-            panels += [dict(file=f, field="contact_pressure", selection="facing:-z", dyn="contact_pressure", previous=prev,
-                            title=f"contact stress $s_p$, {t}"),
-                       dict(file=f, field="normal_displacement", selection="facing:-z", dyn="normal_displacement",
-                            title=rf"normal displacement $\nu_p \cdot u_p$, {t}"),
-                       dict(file=f, field="normal_velocity", selection="facing:-z", dyn="normal_velocity", previous=prev,
-                            title=rf"normal velocity $\nu_p \cdot v_p$, {t}")]
+            for field, title in (("contact_pressure", "contact stress $s_p$"),
+                                 ("normal_displacement", r"normal displacement $\nu_p \cdot u_p$"),
+                                 ("normal_velocity", r"normal velocity $\nu_p \cdot v_p$")):
+                panels.append(dict(file=f, field=field, selection="facing:-z", dyn=field, previous=prev,
+                                   title=f"{title}, {t}"))
         figs[key] = dict(cols=3, panels=panels, shared_rows=True)
     return figs
 
@@ -500,7 +499,8 @@ def render_figure(fig, path, panel_size=(4.2, 3.6)):
             elif "dyn" in p:
                 prev = p.get("previous")
                 prev = load(prev) if prev and os.path.exists(prev) else None
-                classes = ("contact_state", by_class(load(p["file"]), p["field"], p["selection"], "contact_state", prev))
+                classes = ("contact_state",
+                           by_class(load(p["file"]), p["field"], p["selection"], "contact_state", prev))
         report.append((p["title"], r, classes))
     for j in range(len(panels), rows * cols):
         axes[j // cols][j % cols].axis("off")

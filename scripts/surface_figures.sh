@@ -12,7 +12,7 @@
 # output_stride time steps); docs/examples.md and docs/dynamics.md describe the figures.
 #   scripts/surface_figures.sh [BUILD_DIR=build] [WORK_DIR=out/surface_figures]
 #   REUSE=1 scripts/surface_figures.sh     # keep the run directories that have a summary.json
-# About 4 minutes of runs on the shared 2-core machine (the times are printed).
+# About 2.5 minutes on the shared 2-core machine (139 s measured, 100 s of it the runs; the run times are printed).
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="${1:-$root/build}"
@@ -39,15 +39,16 @@ adaptive() {  # adaptive NAME EXAMPLE GRID SOLVES: a .vtu per step k = 0 .. SOLV
     --set adaptivity.max_vertices=100000000 --set 'adaptivity.vtk="every"'
 }
 
-# Example 4, prisms: k = 2, 4, 5 (the thesis' k = 6 has 428,566 vertices here: 6 minutes, 2 GB)
+# Example 4, prisms: k = 2, 4, 5 (the thesis' k = 6 has 428,566 vertices here: 355 s, 2.15 GB peak)
 adaptive example4_prism example4 prism 6
 adaptive example5_pyramid example5 pyramid 7
 adaptive example6_hexahedron example6 hexahedron 5
 adaptive example7_pyramid example7 pyramid 5
 
 # Geometry 1 with alpha(p) at the thesis' tau = 5e-4 to t = 0.25 (impact at t = 0.01, release near
-# t = 0.22), refine 3 (3,825 vertices; the thesis' five refinements are out of reach here), a .vtu every
-# 20 steps (contact in steps 20-250 and 280-450, timeseries.csv); the cube on the tibial plateau at
+# t = 0.22), refine 3 (3,825 vertices; refine 4, nearer the thesis' five refinements, took 159 s:
+# G1_REFINE=4), a .vtu every 20 steps (contact from step 20 to about 250 and from about 280 to 450,
+# timeseries.csv); the cube on the tibial plateau at
 # tau = 5e-3 with one refinement more than the scene (17 x 17 bottom vertices), a .vtu every step to
 # t = 0.15 (contact in steps 2-25)
 g1_tau=5e-4
