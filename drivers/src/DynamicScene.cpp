@@ -246,9 +246,11 @@ std::string csvLine(const StepRecord& r) {
 }
 
 /// The .vtu fields of a state: displacement, stress, von_mises, boundary_id, velocity and the
-/// contact fields (gap g - nu'u, normal_displacement nu'u, contact_state 0 / 1 potential / 2 active).
+/// contact fields (gap g - nu'u, normal_displacement nu'u, normal_velocity nu'v, contact_state 0 / 1
+/// potential / 2 active) and, given the nodal contact forces F_p nu_p of the step (vertex-major,
+/// NewmarkFamily::contactForces()), contact_pressure s_p = F_p / m_p^C as in static scenes.
 std::vector<Field> stateFields(const Context& c, const Eigen::VectorXd& u, const Eigen::VectorXd& v,
-                               std::vector<Field>* cells) {
+                               const Eigen::VectorXd* forces, std::vector<Field>* cells) {
   const int dim = c.mesh.dimension();
   ElasticitySolution s;
   s.dimension = dim;
@@ -262,6 +264,8 @@ std::vector<Field> stateFields(const Context& c, const Eigen::VectorXd& u, const
     for (int a = 0; a < dim; ++a) vel.values[3 * p + a] = v[p * dim + a];
   Field gap{"gap", 1, std::vector<double>(n, 0.0), false};
   Field nd{"normal_displacement", 1, std::vector<double>(n, 0.0), false};
+  Field nv{"normal_velocity", 1, std::vector<double>(n, 0.0), false};
+  Field sp{"contact_pressure", 1, std::vector<double>(n, 0.0), false};
   Field state{"contact_state", 1, std::vector<double>(n, 0.0), true};
   double scale = 1e-300;
   for (Eigen::Index i = 0; i < u.size(); ++i) scale = std::max(scale, std::abs(u[i]));
@@ -269,15 +273,23 @@ std::vector<Field> stateFields(const Context& c, const Eigen::VectorXd& u, const
     const double g = c.contact.gap(k);
     if (!std::isfinite(g)) continue;
     const Index p = c.contact.vertex(k);
-    double nu_u = 0;
-    for (int a = 0; a < dim; ++a) nu_u += c.contact.direction(k)[a] * u[p * dim + a];
+    double nu_u = 0, nu_v = 0, nu_f = 0;
+    for (int a = 0; a < dim; ++a) {
+      nu_u += c.contact.direction(k)[a] * u[p * dim + a];
+      nu_v += c.contact.direction(k)[a] * v[p * dim + a];
+      if (forces) nu_f += c.contact.direction(k)[a] * (*forces)[p * dim + a];
+    }
     nd.values[p] = nu_u;
+    nv.values[p] = nu_v;
+    sp.values[p] = nu_f / c.contact.boundaryMass(k);
     gap.values[p] = g - nu_u;
     state.values[p] = g - nu_u <= 1e-8 * std::max({scale, std::abs(g), 1e-300}) ? 2 : 1;
   }
   pf.push_back(std::move(vel));
   pf.push_back(std::move(gap));
   pf.push_back(std::move(nd));
+  pf.push_back(std::move(nv));
+  if (forces) pf.push_back(std::move(sp));
   pf.push_back(std::move(state));
   return pf;
 }
@@ -454,7 +466,8 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
     name << scene.name << "_" << std::setw(6) << std::setfill('0') << r.step << ".vtu";
     const fs::path path = c.dir / name.str();
     std::vector<Field> cells;
-    const auto pf = stateFields(c, stepper->state().u, stepper->state().v, &cells);
+    const Eigen::VectorXd forces = newmark ? newmark->contactForces() : Eigen::VectorXd();
+    const auto pf = stateFields(c, stepper->state().u, stepper->state().v, newmark ? &forces : nullptr, &cells);
     writeVtu(path, c.mesh, pf, cells);
     run.vtuFiles.push_back(path);
     run.vtuTimes.push_back(r.time);

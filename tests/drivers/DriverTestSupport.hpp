@@ -2,14 +2,22 @@
 /// \file DriverTestSupport.hpp
 /// Small helpers shared by the driver tests: running the `obs` program, reading output files back.
 #include <sys/wait.h>
+#include <vtkDataArray.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkUnstructuredGrid.h>
+#include <vtkXMLUnstructuredGridReader.h>
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+#include <array>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 namespace obs::test {
 
@@ -25,6 +33,41 @@ inline std::string slurp(const std::filesystem::path& p) {
 inline nlohmann::json summaryOf(const std::filesystem::path& dir) {
   std::ifstream in(dir / "summary.json");
   return nlohmann::json::parse(in);
+}
+
+/// The points and point arrays of a .vtu file, read with VTK's own reader.
+struct Vtu {
+  std::vector<std::array<double, 3>> points;
+  /// point array by name (components interleaved), empty if absent
+  std::vector<double> array(const std::string& name) const {
+    const auto it = std::find(names.begin(), names.end(), name);
+    return it == names.end() ? std::vector<double>{} : arrays[static_cast<std::size_t>(it - names.begin())];
+  }
+  std::vector<std::string> names;
+  std::vector<std::vector<double>> arrays;
+};
+
+inline Vtu readVtu(const std::filesystem::path& p) {
+  vtkNew<vtkXMLUnstructuredGridReader> reader;
+  reader->SetFileName(p.string().c_str());
+  reader->Update();
+  vtkUnstructuredGrid* g = reader->GetOutput();
+  Vtu v;
+  for (vtkIdType i = 0; i < g->GetNumberOfPoints(); ++i) {
+    double x[3];
+    g->GetPoint(i, x);
+    v.points.push_back({x[0], x[1], x[2]});
+  }
+  vtkPointData* pd = g->GetPointData();
+  for (int a = 0; a < pd->GetNumberOfArrays(); ++a) {
+    vtkDataArray* arr = pd->GetArray(a);
+    v.names.push_back(arr->GetName());
+    std::vector<double> values;
+    for (vtkIdType i = 0; i < arr->GetNumberOfTuples(); ++i)
+      for (int k = 0; k < arr->GetNumberOfComponents(); ++k) values.push_back(arr->GetComponent(i, k));
+    v.arrays.push_back(std::move(values));
+  }
+  return v;
 }
 
 #ifdef OBS_BINARY

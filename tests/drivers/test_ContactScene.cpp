@@ -7,11 +7,6 @@
 #include <gtest/gtest.h>
 
 #include <sys/wait.h>
-#include <vtkDataArray.h>
-#include <vtkNew.h>
-#include <vtkPointData.h>
-#include <vtkUnstructuredGrid.h>
-#include <vtkXMLUnstructuredGridReader.h>
 
 #include <nlohmann/json.hpp>
 
@@ -36,6 +31,8 @@
 
 #include "DriverTestSupport.hpp"
 
+using obs::test::readVtu;
+using obs::test::Vtu;
 using obs::test::slurp;
 using obs::test::summaryOf;
 namespace fs = std::filesystem;
@@ -51,40 +48,6 @@ fs::path writeScene(const std::string& name, const std::string& text) {
   const fs::path p = kTmp / (name + ".toml");
   std::ofstream(p) << text;
   return p;
-}
-
-struct Vtu {
-  std::vector<std::array<double, 3>> points;
-  /// point array by name (components interleaved), empty if absent
-  std::vector<double> array(const std::string& name) const {
-    const auto it = std::find(names.begin(), names.end(), name);
-    return it == names.end() ? std::vector<double>{} : arrays[it - names.begin()];
-  }
-  std::vector<std::string> names;
-  std::vector<std::vector<double>> arrays;
-};
-
-Vtu readVtu(const fs::path& p) {
-  vtkNew<vtkXMLUnstructuredGridReader> reader;
-  reader->SetFileName(p.string().c_str());
-  reader->Update();
-  vtkUnstructuredGrid* g = reader->GetOutput();
-  Vtu v;
-  for (vtkIdType i = 0; i < g->GetNumberOfPoints(); ++i) {
-    double x[3];
-    g->GetPoint(i, x);
-    v.points.push_back({x[0], x[1], x[2]});
-  }
-  vtkPointData* pd = g->GetPointData();
-  for (int a = 0; a < pd->GetNumberOfArrays(); ++a) {
-    vtkDataArray* arr = pd->GetArray(a);
-    v.names.push_back(arr->GetName());
-    std::vector<double> values;
-    for (vtkIdType i = 0; i < arr->GetNumberOfTuples(); ++i)
-      for (int k = 0; k < arr->GetNumberOfComponents(); ++k) values.push_back(arr->GetComponent(i, k));
-    v.arrays.push_back(std::move(values));
-  }
-  return v;
 }
 
 /// The punch of docs/theory.md#analytic-references with a replaceable [contact] body and [solver] section.

@@ -18,6 +18,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <map>
 #include <optional>
 #include <sstream>
@@ -151,6 +152,71 @@ TEST(DynamicScenes, EachDataSceneRunsAFewSteps) {
     EXPECT_TRUE(fs::exists(dir / "runs.csv"));
     EXPECT_EQ(r.massAssemblies, 1);
   }
+}
+
+TEST(DynamicScenes, VtkHasTheContactPressureAndNormalVelocity) {
+  // The bar (width 1, bottom y = 5 with two vertices, m_p^C = 1/2 each) falls with v0 = 10 onto
+  // y = 0: impact at t = h0/v0 = 0.5 (step 167 of tau = 3e-3), contact for 2L/c0 = 2/3 after it
+  // with the contact stress rho c0 v0 = 300 of the exact solution (the scale of the round-off bounds).
+  Scene scene = parseScene(kScenes / "dynamics_bar.toml");
+  scene.dynamics->steps = 200;
+  scene.dynamics->endTime.reset();
+  scene.dynamics->outputStride = 10;
+  const fs::path dir = kTmp / "bar_vtk_fields";
+  fs::remove_all(dir);
+  RunOptions o;
+  o.outputDirectory = dir;
+  runScene(scene, o);
+  const Table ts = readCsv(dir / "timeseries.csv");
+  int flight = 0, contact = 0;
+  for (int n = 0; n <= 200; n += 10) {
+    SCOPED_TRACE(n);
+    std::ostringstream name;
+    name << "dynamics_bar_" << std::setw(6) << std::setfill('0') << n << ".vtu";
+    const auto vtu = obs::test::readVtu(dir / name.str());
+    const auto s = vtu.array("contact_pressure"), vn = vtu.array("normal_velocity"), v = vtu.array("velocity"),
+               state = vtu.array("contact_state");
+    ASSERT_EQ(s.size(), vtu.points.size());
+    ASSERT_EQ(vn.size(), vtu.points.size());
+    double force = 0;  // sum_p s_p m_p^C over the contact boundary
+    int bottom = 0, touching = 0;
+    for (std::size_t p = 0; p < vtu.points.size(); ++p) {
+      if (std::abs(vtu.points[p][1] - 5) > 1e-12) {  // off Gamma_C: both fields are 0
+        EXPECT_EQ(s[p], 0);
+        EXPECT_EQ(vn[p], 0);
+        continue;
+      }
+      ++bottom;
+      EXPECT_DOUBLE_EQ(vn[p], -v[3 * p + 1]);  // nu = (0, -1)
+      EXPECT_GE(s[p], -1e-12 * 300);  // the multipliers are >= 0 up to round-off
+      force += 0.5 * s[p];
+      if (state[p] == 2) {
+        ++touching;
+        // improved contact-stabilized scheme: no normal velocity at the nodes in contact
+        EXPECT_NEAR(vn[p], 0, 1e-9);
+      }
+    }
+    ASSERT_EQ(bottom, 2);
+    const auto row = static_cast<std::size_t>(n);
+    ASSERT_DOUBLE_EQ(ts["step"][row], n);
+    EXPECT_NEAR(force, std::abs(ts["contact_force_y"][row]), 1e-9 * std::max(1.0, force));
+    if (n * 3e-3 < 0.5) {  // free flight: v = -v0 exactly, no pressure
+      ++flight;
+      EXPECT_EQ(touching, 0);
+      EXPECT_LE(std::abs(force), 1e-12 * 300);
+      for (std::size_t p = 0; p < vtu.points.size(); ++p) {
+        if (std::abs(vtu.points[p][1] - 5) <= 1e-12) {
+          EXPECT_NEAR(vn[p], 10, 1e-9);
+        }
+      }
+    } else if (n >= 170) {
+      ++contact;
+      EXPECT_EQ(touching, 2);
+      EXPECT_GT(force, 0);
+    }
+  }
+  EXPECT_EQ(flight, 17);
+  EXPECT_EQ(contact, 4);
 }
 
 TEST(DynamicScenes, GeneratedMeshesLieOnTheCurvedSurfaces) {

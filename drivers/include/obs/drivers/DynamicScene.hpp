@@ -18,8 +18,9 @@
 ///    max penetration, TNNMG iterations, solver and step seconds, and per tracked point k the nearest
 ///    vertex's normal displacement nu'u, normal velocity nu'v and gap g - nu'u (trackedK_...);
 ///  - <scene>_NNNNNN.vtu every output_stride steps (and the last) with displacement, velocity,
-///    stress, von_mises, boundary_id, gap, normal_displacement, contact_state, and <scene>.pvd, the
-///    collection over time (first scheme only);
+///    stress, von_mises, boundary_id, gap, normal_displacement, normal_velocity, contact_pressure
+///    (s_p = F_p / m_p^C), contact_state, and <scene>.pvd, the collection over time (first scheme
+///    only);
 ///  - summary.json as for static scenes plus "dynamics" (scheme, tau, steps, end time, initial /
 ///    final energy and their ratio, max penetration, contact-force total variation, mean TNNMG
 ///    iterations per step, times, tracked vertices with first contact, detachment (gap open again)
