@@ -75,6 +75,16 @@ QuadratureRule build(CellType type, int degree) {
     q.points.emplace_back(x, y, z);
     q.weights.push_back(w);
   };
+  // Simplices to degree 1: the centroid rule (exact for linear functions; the collapsed product
+  // rules below would take 2 points on a triangle's edge direction and 4 on a tetrahedron)
+  if (degree <= 1 && type == CellType::Triangle) {
+    add(1.0 / 3, 1.0 / 3, 0, 0.5);
+    return q;
+  }
+  if (degree <= 1 && type == CellType::Tetrahedron) {
+    add(0.25, 0.25, 0.25, 1.0 / 6);
+    return q;
+  }
   const Rule1D a = gaussLegendre(pointsFor(degree));      // plain direction
   const Rule1D b = gaussLegendre(pointsFor(degree + 1));  // one collapse factor
   const Rule1D c = gaussLegendre(pointsFor(degree + 2));  // two collapse factors

@@ -16,7 +16,10 @@ namespace {
 
 // Quadrature degrees: stiffness integrands are quadratic on affine cells (exact with degree 2,
 // also for the rational pyramid, see Quadrature.hpp); loads use one degree more for smooth data.
+// On triangles and tetrahedra the gradients of P1 functions are constant: one point (degree 1) is
+// exact there and a quarter of the work of the degree-2 rule.
 constexpr int kStiffnessDegree = 2;
+constexpr int kSimplexStiffnessDegree = 1;
 constexpr int kLoadDegree = 3;
 
 /// Quadrature point on a boundary face: physical point, surface weight and unit normal as
@@ -98,7 +101,13 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
   };
   // cell matrices of a chunk of cells on threads() threads, added to A in cell order by one thread:
   // the same sums in the same order as a sequential loop, whatever the thread count
-  const auto cellMatrix = [&](CellValues<d>& cv, Index c, Local& out) {
+  struct Values {
+    CellValues<d> general{kStiffnessDegree}, simplex{kSimplexStiffnessDegree};
+  };
+  const auto cellMatrix = [&](Values& values, Index c, Local& out) {
+    const mesh::CellType type = mesh.cellType(c);
+    CellValues<d>& cv =
+        type == mesh::CellType::Triangle || type == mesh::CellType::Tetrahedron ? values.simplex : values.general;
     cv.reinit(mesh, c);
     const int n = cv.numVertices();
     out.n = n;
@@ -135,7 +144,7 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
   const int nt = cells >= kParallelMinRows ? threads() : 1;
   const Index chunk = nt > 1 ? 4096 : 1;
   std::vector<Local> locals(static_cast<std::size_t>(chunk));
-  std::vector<CellValues<d>> values(static_cast<std::size_t>(nt), CellValues<d>(kStiffnessDegree));
+  std::vector<Values> values(static_cast<std::size_t>(nt));
   for (Index first = 0; first < cells; first += chunk) {
     const Index last = std::min(cells, first + chunk);
     // no exception may leave a parallel region: the first bad cell (a degenerate one) is found on
@@ -144,9 +153,9 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
 #pragma omp parallel for schedule(static) num_threads(nt) reduction(min : failed) if (nt > 1)
     for (Index c = first; c < last; ++c) {
 #ifdef _OPENMP
-      CellValues<d>& cv = values[static_cast<std::size_t>(omp_get_thread_num())];
+      Values& cv = values[static_cast<std::size_t>(omp_get_thread_num())];
 #else
-      CellValues<d>& cv = values.front();
+      Values& cv = values.front();
 #endif
       try {
         cellMatrix(cv, c, locals[static_cast<std::size_t>(c - first)]);
