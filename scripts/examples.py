@@ -206,6 +206,41 @@ def punch_errors(name, title, out_dir, results, obs, ref_steps, figures, py):
         text.append(f"| {label} | {first_reaching(rows, ep)} | {first_reaching(rows, eref)} | "
                     f"{first_reaching(rows, eint)} |")
     text.append("")
+    # the two estimators step by step: largest relative difference of each error (all steps / second half)
+    (_, _, ep1, er1, ei1), (_, _, ep2, er2, ei2) = series
+    diffs = []
+    for what, a, b in (("E_P", ep1, ep2), ("E_ref", er1, er2), ("E_ref without edges", ei1, ei2)):
+        d = [abs(x - y) / y for x, y in zip(a, b) if y > 0]
+        diffs.append(f"{what} {100 * max(d):.2g} % / {100 * max(d[len(d) // 2:]):.2g} %")
+    text.append("Largest relative difference between the two estimators at the same step (all steps / from step "
+                f"{len(ep1) // 2} on): " + ", ".join(diffs) + ".")
+    text.append("")
+    # the resolution at the edges: distance of the vertex next to each edge, per step (equal for both runs?)
+    spacing = {}
+    for tag, label in (("cr", "contact-residual"), ("res", "residual")):
+        spacing[label] = []
+        for r in results[tag]:
+            pr = pressure_rows(os.path.join(out_dir, f"{name}-{tag}", f"pressure_{int(f(r, 'step')):03d}.csv"))
+            spacing[label].append(max(pr[1][0] - pr[0][0], pr[-1][0] - pr[-2][0]))
+    same = spacing["contact-residual"] == spacing["residual"]
+    text.append(f"Distance of the vertex next to each punch edge (pressure_NNN.csv): "
+                f"{'the same in both runs at every step' if same else 'different in the two runs'}, "
+                f"{spacing['contact-residual'][0]:.4g} at step 0, {spacing['contact-residual'][-1]:.4g} at step "
+                f"{len(spacing['contact-residual']) - 1} (contact-residual; residual {spacing['residual'][-1]:.4g}).")
+    text.append("")
+    # how fast E_P falls: 1/E_P^2 against the step k (least squares over the second half of the steps)
+    for label, rows, ep, eref, eint in series:
+        pts = [(f(r, "step"), 1 / v ** 2) for r, v in zip(rows, ep) if v > 0 and f(r, "step") >= len(rows) // 2]
+        if len(pts) < 3:
+            continue
+        n = len(pts)
+        mk, my = sum(p[0] for p in pts) / n, sum(p[1] for p in pts) / n
+        slope = sum((p[0] - mk) * (p[1] - my) for p in pts) / sum((p[0] - mk) ** 2 for p in pts)
+        reach_k = mk + (1 / TARGET ** 2 - my) / slope if slope > 0 else float("nan")
+        text.append(f"{label}: 1/E_P^2 grows by {slope:.3g} per refinement step (least squares over steps "
+                    f"{fmt(pts[0][0])}-{fmt(pts[-1][0])}: from {pts[0][1]:.4g} to {pts[-1][1]:.4g}); extrapolated, "
+                    f"E_P = {TARGET:g} (1/E_P^2 = {1 / TARGET ** 2:.4g}) at step {reach_k:.0f}.")
+        text.append("")
     if py:
         text += [f"![{name} punch error vs contact](figures/{png})", ""]
     return extra, text
@@ -218,7 +253,7 @@ def main():
     ap.add_argument("--steps-punch", type=int, default=16,
                     help="solves of the adaptive runs of Examples 1A/1B (the thesis: 16, 15 refinements)")
     ap.add_argument("--ref-steps", type=int, default=None,
-                    help="solves of the punch reference run (residual estimator; default: --steps-punch + 3)")
+                    help="solves of the punch reference run (residual estimator; default: --steps-punch + 1)")
     ap.add_argument("--steps-2d", type=int, default=12, help="solves of the other adaptive 2D runs (wedge)")
     ap.add_argument("--steps-3d", type=int, default=6, help="solves of the adaptive 3D runs")
     ap.add_argument("--uniform-2d", type=int, default=5)
@@ -231,7 +266,7 @@ def main():
     if args.quick:
         args.steps_2d = args.steps_3d = args.uniform_2d = args.uniform_3d = args.steps_punch = 3
     if args.ref_steps is None:
-        args.ref_steps = args.steps_punch + 3
+        args.ref_steps = args.steps_punch + 1
     py = python_with_matplotlib()
     figures = os.path.join(ROOT, "docs", "figures")
     os.makedirs(figures, exist_ok=True)
