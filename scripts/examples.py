@@ -250,8 +250,8 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--obs", default=find_obs())
     ap.add_argument("--out", default=os.path.join(ROOT, "out", "examples"))
-    ap.add_argument("--steps-punch", type=int, default=16,
-                    help="solves of the adaptive runs of Examples 1A/1B (the thesis: 16, 15 refinements)")
+    ap.add_argument("--steps-punch", type=int, default=12,
+                    help="solves of the adaptive runs of Examples 1A/1B (the thesis: 16, 15 refinements; docs/examples.md)")
     ap.add_argument("--ref-steps", type=int, default=None,
                     help="solves of the punch reference run (residual estimator; default: --steps-punch + 1)")
     ap.add_argument("--steps-2d", type=int, default=12, help="solves of the other adaptive 2D runs (wedge)")
@@ -261,6 +261,8 @@ def main():
     ap.add_argument("--quick", action="store_true", help="3 steps everywhere (smoke test)")
     ap.add_argument("--only", help="comma-separated scene names (default: all six)")
     ap.add_argument("--no-doc", action="store_true", help="do not rewrite docs/examples.md")
+    ap.add_argument("--figures", default=os.path.join(ROOT, "docs", "figures"),
+                    help="directory of the PNG figures (default docs/figures)")
     ap.add_argument("--reuse", action="store_true", help="reuse the steps.csv files of an earlier run in --out")
     args = ap.parse_args()
     if args.quick:
@@ -268,7 +270,7 @@ def main():
     if args.ref_steps is None:
         args.ref_steps = args.steps_punch + 1
     py = python_with_matplotlib()
-    figures = os.path.join(ROOT, "docs", "figures")
+    figures = args.figures
     os.makedirs(figures, exist_ok=True)
     sections = {}
     started = time.time()
