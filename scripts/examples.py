@@ -253,7 +253,7 @@ def main():
     ap.add_argument("--steps-punch", type=int, default=12,
                     help="solves of the adaptive runs of Examples 1A/1B (the thesis: 16, 15 refinements; docs/examples.md)")
     ap.add_argument("--ref-steps", type=int, default=None,
-                    help="solves of the punch reference run (residual estimator; default: --steps-punch + 1)")
+                    help="solves of the punch reference run (residual estimator; default: --steps-punch + 2)")
     ap.add_argument("--steps-2d", type=int, default=12, help="solves of the other adaptive 2D runs (wedge)")
     ap.add_argument("--steps-3d", type=int, default=6, help="solves of the adaptive 3D runs")
     ap.add_argument("--uniform-2d", type=int, default=5)
@@ -268,7 +268,7 @@ def main():
     if args.quick:
         args.steps_2d = args.steps_3d = args.uniform_2d = args.uniform_3d = args.steps_punch = 3
     if args.ref_steps is None:
-        args.ref_steps = args.steps_punch + 1
+        args.ref_steps = args.steps_punch + 2
     py = python_with_matplotlib()
     figures = args.figures
     os.makedirs(figures, exist_ok=True)
