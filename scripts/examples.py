@@ -194,8 +194,7 @@ def punch_errors(name, title, out_dir, results, obs, ref_steps, figures, py):
         subprocess.run([py, os.path.join(ROOT, "scripts", "plot_punch_error.py"), csv_path,
                         os.path.join(figures, png), "--title", title], check=True)
     last = ref_steps_rows[-1]
-    text = ["**Punch pressure error against the thesis' claim** (docs/examples.md, \"The punch pressure error "
-            "against the thesis' claim\"): E_P = `nodal_pressure_error_fixed_load` (P* = 1549.10, the two edge "
+    text = ["**Punch pressure error against the thesis' claim** ([definitions and outcome](#punch-error)): E_P = `nodal_pressure_error_fixed_load` (P* = 1549.10, the two edge "
             "vertices excluded), E_ref against the reference run (the residual estimator, "
             f"{ref_steps} solves: {fmt(f(last, 'vertices'))} vertices, {fmt(f(last, 'unknowns'))} unknowns, "
             f"{fmt(f(last, 'actual_contact'))} actual contact vertices, P = {fmt(f(last, 'load'), 7)}; "
