@@ -98,23 +98,26 @@ struct StepSnapshot {
 struct PressureRow {
   Point x;
   double s = 0, sp = 0, exact = std::numeric_limits<double>::quiet_NaN();
+  double weight = 0;  ///< m_p = m_p^C, the lumped boundary mass
 };
 
-/// Nodal relative pressure error of a step (docs/examples.md): sqrt(sum_p m_p (s_p - p(x_p))^2 /
-/// sum_p m_p p(x_p)^2) over the potential contact vertices inside the exact contact zone (0 < p <
-/// inf: the punch edges themselves, where the formula is singular, are left out), m_p = m_p^C.
-double nodalPressureError(const ContactSet& set, const ContactOutputs& out, const est::ContactReference& ref,
-                          double load) {
-  double num = 0, den = 0;
-  for (Index k = 0; k < set.size(); ++k) {
-    if (!std::isfinite(set.gap(k))) continue;
-    const double p = ref.pressure(set.position(k), load);
-    if (!std::isfinite(p) || !(p > 0)) continue;  // inside the exact contact zone only
-    num += set.boundaryMass(k) * (out.pressure[k] - p) * (out.pressure[k] - p);
-    den += set.boundaryMass(k) * p * p;
-  }
-  return den > 0 ? std::sqrt(num / den) : std::numeric_limits<double>::quiet_NaN();
+/// The constrained vertices of a step (finite gap) as estimators::nodalPressureError samples:
+/// x_p, m_p = m_p^C (the lumped boundary mass) and s_p.
+std::vector<est::NodalPressure> nodalPressures(const ContactSet& set, const ContactOutputs& out) {
+  std::vector<est::NodalPressure> nodes;
+  for (Index k = 0; k < set.size(); ++k)
+    if (std::isfinite(set.gap(k))) nodes.push_back(est::NodalPressure{set.position(k), set.boundaryMass(k), out.pressure[k]});
+  return nodes;
 }
+
+/// The nodal pressure errors of one step (docs/examples.md, docs/scenes.md): against the reference
+/// for the load computed on the step's grid, and for the scene's fixed reference_load (NaN without).
+struct NodalErrors {
+  std::vector<double> load, fixedLoad;  ///< per step (one body with a reference; else empty)
+  double at(const std::vector<double>& e, int step) const {
+    return static_cast<std::size_t>(step) < e.size() ? e[static_cast<std::size_t>(step)] : std::nan("");
+  }
+};
 
 struct FinalState {
   double maxDisplacement = 0, maxVonMises = 0;
@@ -138,7 +141,7 @@ double contributionOf(const est::AdaptiveStep& s, const std::string& name) {
 }
 
 void writeStepsCsv(const fs::path& path, const std::vector<est::AdaptiveStep>& steps,
-                   const std::vector<double>& nodalErrors) {
+                   const NodalErrors& nodalErrors) {
   const auto names = contributionNames(steps);
   std::ofstream out(path);
   if (!out) throw Error(path.string() + ": cannot write the steps table");
@@ -156,16 +159,17 @@ void writeStepsCsv(const fs::path& path, const std::vector<est::AdaptiveStep>& s
       out << "," << num(r.load) << "," << num(r.pressureError) << "," << num(r.radius) << "," << num(r.exactRadius)
           << "," << num(r.radiusError) << "," << num(r.centrePressure) << "," << num(r.exactCentrePressure) << ","
           << num(r.centreError) << ","
-          << num(static_cast<std::size_t>(s.step) < nodalErrors.size() ? nodalErrors[s.step] : std::nan(""));
+          << num(nodalErrors.at(nodalErrors.load, s.step)) << ","
+          << num(nodalErrors.at(nodalErrors.fixedLoad, s.step));
     } else {
-      out << "," << (s.potentialContact > 0 ? num(s.load) : "") << ",,,,,,,,";
+      out << "," << (s.potentialContact > 0 ? num(s.load) : "") << ",,,,,,,,,";
     }
     out << "\n";
   }
   if (!out) throw Error(path.string() + ": cannot write the steps table");
 }
 
-nlohmann::json stepJson(const est::AdaptiveStep& s, double nodalError) {
+nlohmann::json stepJson(const est::AdaptiveStep& s, double nodalError, double nodalErrorFixedLoad) {
   nlohmann::json j;
   j["step"] = s.step;
   j["cells"] = s.cells;
@@ -211,7 +215,8 @@ nlohmann::json stepJson(const est::AdaptiveStep& s, double nodalError) {
                       {"centre_pressure", jnum(r.centrePressure)},
                       {"exact_centre_pressure", jnum(r.exactCentrePressure)},
                       {"centre_error", jnum(r.centreError)},
-                      {"nodal_pressure_error", jnum(nodalError)}};
+                      {"nodal_pressure_error", jnum(nodalError)},
+                      {"nodal_pressure_error_fixed_load", jnum(nodalErrorFixedLoad)}};
   }
   return j;
 }
@@ -231,10 +236,10 @@ void writePvd(const fs::path& path, const std::vector<PvdEntry>& files) {
 void writePressureCsv(const fs::path& path, const std::vector<PressureRow>& rows) {
   std::ofstream out(path);
   if (!out) throw Error(path.string() + ": cannot write the pressure table");
-  out << "x,y,z,s,s_p,exact_p\n";
+  out << "x,y,z,s,s_p,exact_p,m_p\n";
   for (const auto& r : rows)
     out << num(r.x[0]) << "," << num(r.x[1]) << "," << num(r.x[2]) << "," << num(r.s) << "," << num(r.sp) << ","
-        << num(r.exact) << "\n";
+        << num(r.exact) << "," << num(r.weight) << "\n";
 }
 
 /// The path of scripts/plot_adaptivity.py: $OBS_PLOT_ADAPTIVITY_SCRIPT, else the source tree's.
@@ -336,6 +341,7 @@ void snapshotStep(const Scene& scene, const est::AdaptiveStepView& v, const std:
       row.s = tangential.norm();
     }
     row.sp = out.pressure[k];
+    row.weight = set.boundaryMass(k);
     if (ref) row.exact = ref->pressure(set.position(k), c.load);
     fin.pressure.push_back(row);
   }
@@ -410,7 +416,7 @@ public:
   /// What the runner has written or collected so far besides the loop's records.
   struct Outputs {
     std::vector<PvdEntry> vtu;        ///< .vtu files (time = step, part = body)
-    std::vector<double> nodalErrors;  ///< per step (one body with a reference; else empty)
+    NodalErrors nodalErrors;          ///< per step (one body with a reference; else empty)
   };
 
   AdaptiveCheckpoints(const Scene& scene, const RunOptions& options, fs::path dir, std::vector<mesh::Grid*> grids,
@@ -455,7 +461,11 @@ public:
         outputs.vtu[i].part = static_cast<int>(parts[i]);
       }
       const Eigen::VectorXd& e = cp.vector("run/nodal_pressure_errors");
-      outputs.nodalErrors.assign(e.data(), e.data() + e.size());
+      outputs.nodalErrors.load.assign(e.data(), e.data() + e.size());
+      if (cp.has("run/nodal_pressure_errors_fixed_load")) {  // (absent in checkpoints of older versions)
+        const Eigen::VectorXd& f = cp.vector("run/nodal_pressure_errors_fixed_load");
+        outputs.nodalErrors.fixedLoad.assign(f.data(), f.data() + f.size());
+      }
       progress("restart from " + file.string() + " at step " + std::to_string(next));
     } catch (const Error& e) {
       throw Error(file.string() + ": " + e.what());
@@ -489,9 +499,13 @@ public:
       cp.set("run/vtu_files", files, "the .vtu files written so far (one name per line)");
       cp.set("run/vtu_steps", steps, "the step of each .vtu file");
       cp.set("run/vtu_parts", parts, "the body of each .vtu file (its part in the .pvd)");
-      Eigen::VectorXd e(static_cast<Eigen::Index>(outputs.nodalErrors.size()));
-      for (std::size_t i = 0; i < outputs.nodalErrors.size(); ++i) e[static_cast<Eigen::Index>(i)] = outputs.nodalErrors[i];
-      cp.set("run/nodal_pressure_errors", e, "the nodal pressure error of each step so far (with a reference; NaN: none)");
+      auto vec = [](const std::vector<double>& v) {
+        return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size())));
+      };
+      cp.set("run/nodal_pressure_errors", vec(outputs.nodalErrors.load),
+             "the nodal pressure error of each step so far (with a reference; NaN: none)");
+      cp.set("run/nodal_pressure_errors_fixed_load", vec(outputs.nodalErrors.fixedLoad),
+             "the nodal pressure error for the fixed reference_load of each step so far (NaN: none)");
       writeCheckpoint(file_, cp);
       schedule_.written();
       if (options_.stepProgress)
@@ -528,7 +542,7 @@ private:
 /// The common end of the one-body and multi-body adaptive runs: plots, runs.csv row, summary.json
 /// (the run plus "adaptivity"), the "written" line, and the error of an unconverged last step.
 void finishAdaptiveRun(const Scene& scene, const RunOptions& options, const fs::path& dir, const fs::path& stepsCsv,
-                       const std::vector<est::AdaptiveStep>& steps, const std::vector<double>& nodalErrors,
+                       const std::vector<est::AdaptiveStep>& steps, const NodalErrors& nodalErrors,
                        double theta, RunResult& r, Clock::time_point t, Clock::time_point start) {
   const AdaptivitySpec& spec = *scene.adaptivity;
   const est::AdaptiveStep& final = steps.back();
@@ -567,10 +581,11 @@ void finishAdaptiveRun(const Scene& scene, const RunOptions& options, const fs::
   a["max_vertices"] = spec.maxVertices;
   a["eta_tolerance"] = spec.etaTolerance;
   a["reference"] = spec.reference.empty() ? nlohmann::json(nullptr) : nlohmann::json(spec.reference);
+  a["reference_load"] = spec.referenceLoad ? nlohmann::json(*spec.referenceLoad) : nlohmann::json(nullptr);
   a["steps"] = nlohmann::json::array();
   for (const auto& s : steps)
     a["steps"].push_back(
-        stepJson(s, static_cast<std::size_t>(s.step) < nodalErrors.size() ? nodalErrors[s.step] : std::nan("")));
+        stepJson(s, nodalErrors.at(nodalErrors.load, s.step), nodalErrors.at(nodalErrors.fixedLoad, s.step)));
   j["adaptivity"] = a;
   {
     std::ofstream out(summary);
@@ -741,7 +756,7 @@ std::string stepsCsvHeader(const std::vector<std::string>& contributions) {
   h += ",eoc,solver,iterations,converged,solver_s,estimator_s,refinement_s,transfer_s,marked,"
        "refined_red,closure_red,green_closed,"
        "load,pressure_error,radius,exact_radius,radius_error,centre_pressure,exact_centre_pressure,centre_error,"
-       "nodal_pressure_error";
+       "nodal_pressure_error,nodal_pressure_error_fixed_load";
   return h;
 }
 
@@ -791,7 +806,7 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
   AdaptiveCheckpoints checkpoints(scene, options, dir, {&grid}, {std::string()});
   AdaptiveCheckpoints::Outputs written;
   std::vector<PvdEntry>& vtkFiles = written.vtu;
-  std::vector<double>& nodalErrors = written.nodalErrors;
+  NodalErrors& nodalErrors = written.nodalErrors;
   checkpoints.restore(loop, written, progress);
   loop.setStateHook([&](const est::AdaptiveLoopState& state) { checkpoints.after(state, written); });
   FinalState fin;
@@ -813,8 +828,17 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
       vtkFiles.push_back(PvdEntry{static_cast<double>(v.record.step), 0, name});
     }
     if (reference && v.contactSet && v.outputs && v.record.reference) {
-      nodalErrors.resize(static_cast<std::size_t>(v.record.step) + 1, std::nan(""));
-      nodalErrors[v.record.step] = nodalPressureError(*v.contactSet, *v.outputs, *reference, v.record.reference->load);
+      const auto k = static_cast<std::size_t>(v.record.step);
+      const std::vector<est::NodalPressure> nodes = nodalPressures(*v.contactSet, *v.outputs);
+      nodalErrors.load.resize(k + 1, std::nan(""));
+      nodalErrors.load[k] = est::nodalPressureError(nodes, *reference, v.record.reference->load);
+      nodalErrors.fixedLoad.resize(k + 1, std::nan(""));
+      if (spec.referenceLoad) nodalErrors.fixedLoad[k] = est::nodalPressureError(nodes, *reference, *spec.referenceLoad);
+    }
+    if (spec.pressureEvery && scene.contact && fin.contact) {
+      char name[32];
+      std::snprintf(name, sizeof name, "pressure_%03d.csv", v.record.step);
+      writePressureCsv(dir / name, fin.pressure);
     }
     if (options.stepProgress) options.stepProgress(stepLine(v.record, spec.steps));
   });

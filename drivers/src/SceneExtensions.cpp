@@ -1,6 +1,7 @@
 #include "SceneExtensions.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <sstream>
 
 #include "TomlSection.hpp"
@@ -67,7 +68,8 @@ void applyOverrides(toml::value& root, const std::vector<std::string>& overrides
 AdaptivitySpec parseAdaptivity(const Scene& scene, const toml::value& table, bool contact) {
   const TomlSection s(scene.fileName, "[adaptivity]", table,
                       {"refinement", "estimator", "marking", "theta", "steps", "max_vertices",
-                       "eta_tolerance", "reference", "vtk", "warm_start", "inexact", "closure"});
+                       "eta_tolerance", "reference", "reference_load", "pressure", "vtk", "warm_start", "inexact",
+                       "closure"});
   AdaptivitySpec spec;
   spec.line = s.line();
   if (s.has("refinement")) {
@@ -122,6 +124,19 @@ AdaptivitySpec parseAdaptivity(const Scene& scene, const toml::value& table, boo
                               kAdaptivityReferences + ")");
     if (!contact) s.fail("reference", "needs a [contact] section (the references are contact pressures)");
     spec.referenceLine = s.line("reference");
+  }
+  if (s.has("reference_load")) {
+    const double P = s.number("reference_load");
+    if (!(P > 0) || !std::isfinite(P))
+      s.fail("reference_load", "= " + literalOf(s.at("reference_load")) + " must be positive and finite");
+    if (spec.reference.empty())
+      s.fail("reference_load", "needs reference = \"punch\", \"wedge\" or \"hertz\" (it is the load of the reference)");
+    spec.referenceLoad = P;
+  }
+  if (s.has("pressure")) {
+    const std::string v = s.string("pressure");
+    if (v != "every" && v != "last") s.fail("pressure", "= \"" + v + "\" is unknown (known: every, last)");
+    spec.pressureEvery = v == "every";
   }
   if (s.has("vtk")) {
     const std::string v = s.string("vtk");

@@ -63,6 +63,17 @@ double hertzPressure(double r, double load, double E, double nu, double radius) 
   return q > 0 ? 3 * load / (2 * std::numbers::pi * b * b * b) * std::sqrt(q) : 0.0;
 }
 
+double nodalPressureError(const std::vector<NodalPressure>& nodes, const ContactReference& ref, double load) {
+  double num = 0, den = 0;
+  for (const NodalPressure& n : nodes) {
+    const double p = ref.pressure(n.x, load);
+    if (!std::isfinite(p) || !(p > 0)) continue;  // strictly inside the exact contact zone only
+    num += n.weight * (n.pressure - p) * (n.pressure - p);
+    den += n.weight * p * p;
+  }
+  return den > 0 ? std::sqrt(num / den) : std::numeric_limits<double>::quiet_NaN();
+}
+
 ContactReference punchReference(double halfWidth, const Point& centre) {
   requirePositive(halfWidth, "punch", "half width");
   ContactReference r;

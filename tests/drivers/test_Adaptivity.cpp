@@ -67,6 +67,8 @@ double number(const Table& t, int row, const std::string& name) {
 
 bool contains(const std::string& s, const std::string& part) { return s.find(part) != std::string::npos; }
 
+constexpr double kPiTest = 3.14159265358979323846;
+
 class AdaptiveRun : public ::testing::Test {
 protected:
   void SetUp() override {
@@ -164,6 +166,65 @@ TEST_F(AdaptiveRun, VtkEveryWritesOneFilePerStep) {
   const std::string pvd = slurp(dir / "example1a.pvd");
   EXPECT_TRUE(contains(pvd, "file=\"step_000.vtu\""));
   EXPECT_TRUE(contains(pvd, "file=\"step_002.vtu\""));
+}
+
+// reference_load: nodal_pressure_error_fixed_load is the nodal error of docs/theory.md#pressure-error
+// with the fixed P*, recomputed here from pressure_NNN.csv (pressure = "every": one file per step,
+// the last equal to pressure.csv); without reference_load the column is empty.
+TEST_F(AdaptiveRun, FixedLoadNodalErrorAndPressurePerStep) {
+  const double Pstar = 1549.10, b = 0.0625;
+  const Output o = run(scenePath("example1b"),
+                       "--set adaptivity.steps=3 --set adaptivity.reference_load=1549.10 "
+                       "--set 'adaptivity.pressure=\"every\"'",
+                       "fixedload");
+  ASSERT_EQ(o.code, 0) << o.err;
+  const fs::path dir = kTmp / "fixedload";
+  const Table steps = readCsv(dir / "steps.csv");
+  ASSERT_EQ(steps.size(), 4u);
+  for (int k = 0; k < 3; ++k) {
+    SCOPED_TRACE(k);
+    char name[32];
+    std::snprintf(name, sizeof name, "pressure_%03d.csv", k);
+    ASSERT_TRUE(fs::exists(dir / name));
+    const Table p = readCsv(dir / name);
+    double num = 0, den = 0, numP = 0, denP = 0;
+    int inside = 0;
+    const double P = number(steps, k + 1, "load");
+    for (std::size_t r = 1; r < p.size(); ++r) {
+      const double s = number(p, static_cast<int>(r), "x") - 0.5, sp = number(p, static_cast<int>(r), "s_p"),
+                   m = number(p, static_cast<int>(r), "m_p");
+      EXPECT_GT(m, 0);
+      if (!(std::abs(s) < b)) continue;  // the two edge vertices (and nothing else) are left out
+      ++inside;
+      const double e = Pstar / (kPiTest * std::sqrt(b * b - s * s)), eP = P / (kPiTest * std::sqrt(b * b - s * s));
+      num += m * (sp - e) * (sp - e);
+      den += m * e * e;
+      numP += m * (sp - eP) * (sp - eP);
+      denP += m * eP * eP;
+    }
+    EXPECT_EQ(inside, static_cast<int>(p.size()) - 3);  // rows minus header minus the two edges
+    EXPECT_NEAR(number(steps, k + 1, "nodal_pressure_error_fixed_load"), std::sqrt(num / den), 1e-7);
+    EXPECT_NEAR(number(steps, k + 1, "nodal_pressure_error"), std::sqrt(numP / denP), 1e-7);
+    // P differs from P* on these coarse grids, so the two columns differ
+    EXPECT_NE(number(steps, k + 1, "nodal_pressure_error_fixed_load"), number(steps, k + 1, "nodal_pressure_error"));
+  }
+  EXPECT_FALSE(fs::exists(dir / "pressure_003.csv"));
+  EXPECT_EQ(slurp(dir / "pressure_002.csv"), slurp(dir / "pressure.csv"));
+  const auto summary = nlohmann::json::parse(slurp(dir / "summary.json"));
+  EXPECT_EQ(summary["adaptivity"]["reference_load"].get<double>(), Pstar);
+  EXPECT_NEAR(summary["adaptivity"]["steps"][2]["reference"]["nodal_pressure_error_fixed_load"].get<double>(),
+              number(steps, 3, "nodal_pressure_error_fixed_load"), 1e-9);
+
+  // without reference_load (example2a has none): the column is there and empty, one pressure.csv
+  const Output w = run(scenePath("example2a"), "--set adaptivity.steps=2", "nofixedload");
+  ASSERT_EQ(w.code, 0) << w.err;
+  const Table s2 = readCsv(kTmp / "nofixedload" / "steps.csv");
+  ASSERT_EQ(s2.size(), 3u);
+  for (int r : {1, 2}) {
+    ASSERT_EQ(s2[r].size(), s2[0].size());
+    EXPECT_EQ(s2[r][col(s2, "nodal_pressure_error_fixed_load")], "");
+  }
+  EXPECT_FALSE(fs::exists(kTmp / "nofixedload" / "pressure_000.csv"));
 }
 
 // --set replaces scene keys: uniform refinement from 16 x 16 quadrilaterals gives the exact vertex
@@ -334,6 +395,12 @@ TEST(AdaptivityParser, DefaultsAndValues) {
   EXPECT_EQ(s.adaptivity->etaTolerance, 0.5);
   EXPECT_EQ(s.adaptivity->reference, "punch");
   EXPECT_EQ(s.adaptivity->vtk, AdaptivitySpec::Vtk::Every);
+  EXPECT_FALSE(s.adaptivity->referenceLoad);
+  EXPECT_FALSE(s.adaptivity->pressureEvery);
+  const auto fixed = obs::drivers::parseSceneString(
+      kBase + "[adaptivity]\nreference = \"punch\"\nreference_load = 1549.10\npressure = \"every\"\n", "s.toml", ".");
+  EXPECT_EQ(*fixed.adaptivity->referenceLoad, 1549.10);
+  EXPECT_TRUE(fixed.adaptivity->pressureEvery);
   EXPECT_FALSE(s.adaptivity->closureAllEdges);  // default "half-edges"
   EXPECT_TRUE(obs::drivers::parseSceneString(kBase + "[adaptivity]\nclosure = \"all-edges\"\n", "s.toml", ".")
                   .adaptivity->closureAllEdges);
@@ -363,6 +430,13 @@ TEST(AdaptivityParser, ErrorsNameLineAndKnownNames) {
             "s.toml:17: [adaptivity] max_vertices = -1 must not be negative (0: off)");
   EXPECT_EQ(parseError(kBase + "[adaptivity]\nclosure = \"green\"\n"),
             "s.toml:17: [adaptivity] closure = \"green\" is unknown (known: half-edges, all-edges)");
+  EXPECT_EQ(parseError(kBase + "[adaptivity]\nreference_load = 1549.1\n"),
+            "s.toml:17: [adaptivity] reference_load needs reference = \"punch\", \"wedge\" or \"hertz\" (it is the "
+            "load of the reference)");
+  EXPECT_EQ(parseError(kBase + "[adaptivity]\nreference = \"punch\"\nreference_load = -2\n"),
+            "s.toml:18: [adaptivity] reference_load = -2 must be positive and finite");
+  EXPECT_EQ(parseError(kBase + "[adaptivity]\npressure = \"all\"\n"),
+            "s.toml:17: [adaptivity] pressure = \"all\" is unknown (known: every, last)");
   EXPECT_EQ(parseError(kBase + "[adaptivity]\ninexact = 1.5\n"),
             "s.toml:17: [adaptivity] inexact = 1.5 must lie in [0, 1) (the fraction of the estimator; 0: off)");
   // the same problems from --set name the override instead of a line

@@ -80,6 +80,37 @@ TEST(AnalyticContact, PressuresIntegrateToTheLoad) {
   EXPECT_NE(errorOf([] { hertzReference(3e5, 0.25, 0); }).find("ball radius"), std::string::npos);
 }
 
+// The nodal pressure error (docs/theory.md#pressure-error): 0 for s_p = p(x_p; P) at every vertex
+// strictly inside the contact zone, whatever the values at the two edges and outside; a hand
+// computation otherwise; the load enters p only (a fixed P* gives a different error).
+TEST(AnalyticContact, NodalPressureErrorOnTheInteriorVertices) {
+  const double b = 0.0625, Pstar = 1549.10;
+  const ContactReference punch = punchReference(b, Point(0.5, 0, 0));
+  std::vector<NodalPressure> exact;
+  for (int i = -16; i <= 16; ++i) {
+    const Point x(0.5 + i * b / 16, 0, 0);
+    const double sp = std::abs(i) == 16 ? 1e9 : punchPressure(i * b / 16, Pstar, b);  // edges: anything
+    exact.push_back(NodalPressure{x, i == -16 || i == 16 ? b / 32 : b / 16, sp});
+  }
+  exact.push_back(NodalPressure{Point(0.7, 0, 0), 0.01, 5.0});  // outside the zone: p = 0, left out
+  EXPECT_EQ(nodalPressureError(exact, punch, Pstar), 0.0);
+  // with the computed load P != P*, the same field has an error of |P* - P| / P (p is linear in P)
+  EXPECT_NEAR(nodalPressureError(exact, punch, 1500.0), (Pstar - 1500.0) / 1500.0, 1e-14);
+
+  // by hand, P = pi b: p(0) = 1, p(b sqrt(3)/2) = 2
+  const double P = kPi * b, s1 = b * std::sqrt(3.0) / 2;
+  const std::vector<NodalPressure> nodes = {{Point(0.5, 0, 0), 2.0, 1.5},       // error 0.5, weight 2
+                                            {Point(0.5 + s1, 0, 0), 1.0, 2.0},  // exact
+                                            {Point(0.5 + b, 0, 0), 1.0, 100.0},  // edge: left out
+                                            {Point(0.5 - 2 * b, 0, 0), 1.0, 7.0}};  // outside: left out
+  // sqrt((2 * 0.25 + 0) / (2 * 1 + 1 * 4)) = sqrt(1/12)
+  EXPECT_NEAR(nodalPressureError(nodes, punch, P), std::sqrt(1.0 / 12), 1e-14);
+  // P = 2 pi b: p = 2, 4; sqrt((2 * 0.25 + 4) / (2 * 4 + 16)) = sqrt(0.1875)
+  EXPECT_NEAR(nodalPressureError(nodes, punch, 2 * P), std::sqrt(0.1875), 1e-14);
+  // no vertex inside the zone: NaN
+  EXPECT_TRUE(std::isnan(nodalPressureError({nodes[2], nodes[3]}, punch, P)));
+}
+
 BoundaryConditions punchLoad() {
   BoundaryConditions bc;
   bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Eigen::Vector3d(0, -0.01, 0); }});

@@ -16,11 +16,15 @@
 ///                  pressure_error (docs/theory.md#pressure-error), radius, exact_radius, radius_error,
 ///                  centre_pressure, exact_centre_pressure, centre_error, nodal_pressure_error (the
 ///                  discrete variant sqrt(sum m_p (s_p - p(x_p))^2 / sum m_p p(x_p)^2) over the potential
-///                  contact vertices with 0 < p < inf; empty where not applicable);
+///                  contact vertices with 0 < p < inf, P the computed load), and
+///                  nodal_pressure_error_fixed_load (the same with P = [adaptivity] reference_load);
+///                  empty where not applicable;
 ///   pressure.csv   contact scenes, last step: one row per potential contact vertex sorted by s
-///                  (x, y, z, s, s_p, exact_p): s the signed tangential coordinate from the reference
-///                  centre in 2D, the radial distance in 3D (centre: the reference's, else the mean
-///                  of the potential contact vertices); exact_p empty without a reference;
+///                  (x, y, z, s, s_p, exact_p, m_p): s the signed tangential coordinate from the
+///                  reference centre in 2D, the radial distance in 3D (centre: the reference's, else
+///                  the mean of the potential contact vertices); exact_p (for the computed load)
+///                  empty without a reference; m_p the lumped boundary mass;
+///   pressure_NNN.csv  the same for every step k = NNN with [adaptivity] pressure = "every";
 ///   step_NNN.vtu + <scene name>.pvd   vtk = "every" (all steps) or "last": displacement, stress,
 ///                  von_mises, boundary_id, contact_pressure (s_p), node_class (0 none, 1 potential,
 ///                  2 semi, 3 full contact), the estimator's vertex fields (eta_k as eta_{k,p}, eta,

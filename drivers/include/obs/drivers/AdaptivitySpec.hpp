@@ -33,6 +33,8 @@ struct AdaptivitySpec {
   long long maxVertices = 0;
   double etaTolerance = 0;
   std::string reference;           ///< empty: none; "punch", "wedge" or "hertz"
+  std::optional<double> referenceLoad;  ///< reference_load: a fixed P for nodal_pressure_error_fixed_load
+  bool pressureEvery = false;      ///< pressure = "every": pressure_NNN.csv per step (else pressure.csv, last step)
   Vtk vtk = Vtk::Last;
   bool warmStart = true;
   double inexact = 0;              ///< AdaptiveLoopOptions::inexactFraction

@@ -15,6 +15,7 @@
 /// The punch pressure is singular at s = +-b (and not square integrable there); the wedge
 /// pressure is logarithmically singular at s = 0.
 #include <functional>
+#include <vector>
 
 #include "obs/mesh/Mesh.hpp"
 
@@ -41,6 +42,24 @@ struct ContactReference {
   Point centre = Point::Zero();
   int quadratureDegree = 6;  ///< face quadrature of the L2 norms (docs/theory.md#pressure-error)
 };
+
+/// One potential contact vertex for nodalPressureError: its position x_p, its boundary weight m_p
+/// (the lumped boundary mass int_{Gamma_C} phi_p; in 2D the trapezoidal weights) and its discrete
+/// contact pressure s_p.
+struct NodalPressure {
+  Point x = Point::Zero();
+  double weight = 0;
+  double pressure = 0;
+};
+
+/// The relative nodal L2 pressure error against the reference for the load P
+/// (docs/theory.md#pressure-error):
+///   sqrt( sum_p m_p (s_p - p(x_p; P))^2 / sum_p m_p p(x_p; P)^2 ),
+/// the sums over the vertices strictly inside the exact contact zone, 0 < p(x_p; P) < inf (for the
+/// punch |s_p| < b: its two edge vertices, where p is infinite, are left out; nothing else is).
+/// P is whatever the caller passes: the load computed on the same grid, or a fixed one (the
+/// thesis' P = 1549.10 for the punch). NaN if no vertex lies inside the exact contact zone.
+double nodalPressureError(const std::vector<NodalPressure>& nodes, const ContactReference& ref, double load);
 
 ContactReference punchReference(double halfWidth = 0.0625, const Point& centre = Point(0.5, 0, 0));
 ContactReference wedgeReference(double youngsModulus = 3e5, double poissonRatio = 0.25,
