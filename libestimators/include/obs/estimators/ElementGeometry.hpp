@@ -48,6 +48,16 @@ inline bool affineCellType(mesh::CellType type) {
 /// numbers are bitwise those a full re-evaluation would give), and the Hessians are set to zero
 /// without the chain rule below. The mesh must not change between two such calls (the estimators
 /// use one PointValues per run on a const mesh).
+///
+/// Non-affine cells without per-basis quantities (reinit with perBasis = false): only the
+/// reference gradients and Hessians, J^{-1} and X are kept, and a field u_h = sum_i u_i phi_i is
+/// differentiated as a whole (fieldGradient, fieldHessians):
+///     grad u_h = (sum_i u_i gradhat_i') J^{-1},
+///     d2 u_c / dx2 = J^{-T} ( sum_i u_ic Hhat_i - sum_m (grad u_h)_cm X^m ) J^{-1},
+/// the sums over i of the per-basis formulas above, with one d x d product per point (gradient) and
+/// per component (Hessian) instead of per basis function. The result agrees with the per-basis sums
+/// to round-off, not bitwise. On affine cells perBasis is ignored (the per-basis quantities are
+/// constant and kept, see above), so their numbers are bitwise unchanged.
 template <int d>
 class PointValues {
 public:
@@ -55,8 +65,11 @@ public:
   using Mat = Eigen::Matrix<double, d, d>;
 
   /// Evaluates at reference point xi of cell c; second derivatives only if withHessians.
-  /// Throws obs::Error if the Jacobian determinant is not positive there.
-  void reinit(const mesh::Mesh& m, Index c, const Point& xi, bool withHessians) {
+  /// perBasis = false on a non-affine cell: gradient(i) and hessian(i) are not formed (use
+  /// fieldGradient and fieldHessians). Throws obs::Error if the Jacobian determinant is not
+  /// positive there.
+  void reinit(const mesh::Mesh& m, Index c, const Point& xi, bool withHessians,
+              bool perBasis = true) {
     const auto& ref = mesh::referenceElement(m.cellType(c));
     const auto verts = m.cellVertices(c);
     const bool same = affine_ && mesh_ == &m && cell_ == c;
@@ -74,7 +87,8 @@ public:
     affine_ = affineCellType(ref.type);
     hessiansValid_ = false;
     n_ = ref.numVertices;
-    double g[8 * 3];
+    perBasis_ = perBasis || affine_;
+    double* g = refGrads_.data();
     ref.values(xi, std::span<double>(values_.data(), n_));
     ref.gradients(xi, std::span<double>(g, n_ * d));
     J_.setZero();
@@ -88,27 +102,70 @@ public:
     if (!(det_ > 0))
       throw Error("cell " + std::to_string(c) + " is degenerate or inverted at a reference point: "
                   "Jacobian determinant " + std::to_string(det_));
-    const Mat Jinv = J_.inverse();
-    for (int i = 0; i < n_; ++i) grads_[i] = Jinv.transpose() * Eigen::Map<const Vec>(&g[i * d]);
+    Jinv_ = J_.inverse();
+    const Mat& Jinv = Jinv_;
+    if (perBasis_)
+      for (int i = 0; i < n_; ++i) grads_[i] = Jinv.transpose() * Eigen::Map<const Vec>(&g[i * d]);
     if (!withHessians) return;
     hessiansValid_ = true;
     if (affine_) {  // Hhat = X = 0: the second derivatives vanish
       for (int i = 0; i < n_; ++i) hessians_[i].setZero();
       return;
     }
-    double h[8 * 9];
+    double* h = refHessians_.data();
     ref.hessians(xi, std::span<double>(h, n_ * d * d));
-    std::array<Mat, d> X;  // X^m_kl = d2 x_m / dxi_k dxi_l
+    std::array<Mat, d>& X = X_;  // X^m_kl = d2 x_m / dxi_k dxi_l
     for (int mm = 0; mm < d; ++mm) X[mm].setZero();
     for (int i = 0; i < n_; ++i) {
       const Point& xi_i = m.vertex(verts[i]);
       const Eigen::Map<const Mat> Hi(&h[i * d * d]);  // symmetric, so storage order is irrelevant
       for (int mm = 0; mm < d; ++mm) X[mm] += xi_i[mm] * Hi;
     }
+    if (!perBasis_) return;
     for (int i = 0; i < n_; ++i) {
       Mat M = Eigen::Map<const Mat>(&h[i * d * d]);
       for (int mm = 0; mm < d; ++mm) M -= grads_[i][mm] * X[mm];
       hessians_[i] = Jinv.transpose() * M * Jinv;
+    }
+  }
+
+  /// Whether gradient(i) and hessian(i) were formed by the last reinit (always on affine cells).
+  bool perBasis() const { return perBasis_; }
+
+  /// grad u_h = sum_i u_i grad phi_i' (G_ca = du_c / dx_a) of the field with nodal values
+  /// u[verts[i] * d + c]: the per-basis sum if perBasis(), else (sum_i u_i gradhat_i') J^{-1}.
+  Mat fieldGradient(const Eigen::VectorXd& u, std::span<const Index> verts) const {
+    Mat G = Mat::Zero();
+    if (perBasis_) {
+      for (int i = 0; i < n_; ++i)
+        G += u.template segment<d>(static_cast<Eigen::Index>(verts[i]) * d) * grads_[i].transpose();
+      return G;
+    }
+    for (int i = 0; i < n_; ++i)
+      G += u.template segment<d>(static_cast<Eigen::Index>(verts[i]) * d) *
+           Eigen::Map<const Vec>(&refGrads_[i * d]).transpose();
+    return G * Jinv_;
+  }
+
+  /// H[c] = d2 u_c / dx2 of the same field (valid after reinit with withHessians): the per-basis
+  /// sum sum_i u_ic hessian(i) if perBasis(), else the whole-field formula (class comment).
+  void fieldHessians(const Eigen::VectorXd& u, std::span<const Index> verts,
+                     std::array<Mat, d>& H) const {
+    for (int c = 0; c < d; ++c) H[c].setZero();
+    if (perBasis_) {
+      for (int i = 0; i < n_; ++i)
+        for (int c = 0; c < d; ++c)
+          H[c] += u[static_cast<Eigen::Index>(verts[i]) * d + c] * hessians_[i];
+      return;
+    }
+    const Mat G = fieldGradient(u, verts);
+    for (int i = 0; i < n_; ++i) {
+      const Eigen::Map<const Mat> Hi(&refHessians_[i * d * d]);
+      for (int c = 0; c < d; ++c) H[c] += u[static_cast<Eigen::Index>(verts[i]) * d + c] * Hi;
+    }
+    for (int c = 0; c < d; ++c) {
+      for (int mm = 0; mm < d; ++mm) H[c] -= G(c, mm) * X_[mm];
+      H[c] = Jinv_.transpose() * H[c] * Jinv_;
     }
   }
 
@@ -130,12 +187,15 @@ private:
   std::array<double, 8> values_{};
   std::array<Vec, 8> grads_;
   std::array<Mat, 8> hessians_;
+  std::array<double, 8 * d> refGrads_{};         ///< reference gradients, [i * d + k]
+  std::array<double, 8 * d * d> refHessians_{};  ///< reference Hessians (non-affine cells)
+  std::array<Mat, d> X_;                         ///< X^m = d2 x_m / dxi2 (non-affine cells)
   Vec x_;
-  Mat J_;
+  Mat J_, Jinv_;
   double det_ = 0;
   const mesh::Mesh* mesh_ = nullptr;  ///< mesh and cell of the last reinit (cache of affine cells)
   Index cell_ = -1;
-  bool affine_ = false, hessiansValid_ = false;
+  bool affine_ = false, hessiansValid_ = false, perBasis_ = true;
 };
 
 /// A quadrature point on a face of a cell.
