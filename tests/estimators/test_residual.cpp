@@ -134,18 +134,28 @@ TEST_P(ResidualPatch, HessiansMatchFiniteDifferences) {
 // Hessians). Compare with the per-basis sums of the straightforward evaluation (perBasis = true,
 // checked against finite differences above) for a random nodal field on a distorted cell, and the
 // component Hessians with central differences of the whole-field gradient; on affine cells both
-// modes are the same code and must agree bitwise.
-TEST_P(ResidualPatch, WholeFieldDerivativesMatchPerBasisSums) {
-  const CellType t = GetParam();
+// modes are the same code and must agree bitwise. A cell whose vertices are an affine image of the
+// reference vertices (parallel = true: its map is affine) keeps J over its points and drops X.
+class WholeField : public ::testing::TestWithParam<std::tuple<CellType, bool>> {};
+
+TEST_P(WholeField, DerivativesMatchPerBasisSums) {
+  const CellType t = std::get<0>(GetParam());
+  const bool parallel = std::get<1>(GetParam());
   const auto& ref = mesh::referenceElement(t);
   const int d = ref.dim;
   mesh::Mesh m(d);
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> U(-0.15, 0.15);
+  Eigen::Matrix3d A = 0.5 * Eigen::Matrix3d::Identity();  // a sheared, stretched affine image
+  A(0, 1) = 0.11;
+  A(1, 2) = -0.07;
+  A(2, 0) = 0.05;
+  if (d == 2) A.row(2).setZero(), A.col(2).setZero();
   std::vector<Index> verts;
   for (const Point& x : ref.vertices) {
-    Point y = 0.5 * x + Point(1.0, 2.0, d == 3 ? 3.0 : 0.0);  // away from the origin, as on a mesh
-    for (int a = 0; a < d; ++a) y[a] += 0.5 * U(rng);
+    Point y = A * x + Point(1.0, 2.0, d == 3 ? 3.0 : 0.0);  // away from the origin, as on a mesh
+    if (!parallel)
+      for (int a = 0; a < d; ++a) y[a] += 0.5 * U(rng);
     verts.push_back(m.addVertex(y));
   }
   m.addCell(t, std::span<const Index>(verts));
@@ -156,13 +166,19 @@ TEST_P(ResidualPatch, WholeFieldDerivativesMatchPerBasisSums) {
     using Mat = Eigen::Matrix<double, D, D>;
     const auto& rule = mesh::quadratureRule(t, 4);
     double maxH = 0;
+    PointValues<D> whole;  // one object over the points: the kept geometry of flat cells is used
     for (std::size_t q = 0; q < rule.size(); ++q) {
-      PointValues<D> basis, whole, plus, minus;
+      PointValues<D> basis, plus, minus;
       basis.reinit(m, 0, rule.points[q], true, true);
       whole.reinit(m, 0, rule.points[q], true, false);
       EXPECT_TRUE(basis.perBasis());
       EXPECT_EQ(whole.perBasis(), affine);
-      EXPECT_EQ(whole.determinant(), basis.determinant());
+      EXPECT_EQ(whole.flat(), parallel && !affine) << mesh::name(t);
+      if (whole.flat()) {
+        EXPECT_NEAR(whole.determinant(), basis.determinant(), 1e-14 * basis.determinant());
+      } else {
+        EXPECT_EQ(whole.determinant(), basis.determinant());
+      }
       const Mat G0 = basis.fieldGradient(u, verts), G1 = whole.fieldGradient(u, verts);
       std::array<Mat, D> H0, H1;
       basis.fieldHessians(u, verts, H0);
@@ -214,11 +230,21 @@ TEST_P(ResidualPatch, WholeFieldDerivativesMatchPerBasisSums) {
     check.template operator()<3>();
 }
 
+INSTANTIATE_TEST_SUITE_P(AllCellTypes, WholeField,
+                         ::testing::Combine(::testing::ValuesIn(mesh::kVolumeCellTypes),
+                                            ::testing::Bool()),
+                         [](const auto& info) {
+                           return std::string(mesh::name(std::get<0>(info.param))) +
+                                  (std::get<1>(info.param) ? "_parallel" : "_distorted");
+                         });
+
 // eta_1 of a random (curved) field on a distorted mesh of every cell type, recomputed here with the
 // per-basis Hessians: sum over cells of (sum_{p in e} h_p^2) ||div sigma_h||_e^2.
+// Once distorted, once undistorted (boxes and their prisms and pyramids: affine maps, flat()).
 TEST_P(ResidualPatch, ElementResidualMatchesPerBasisEvaluation) {
+ for (const bool distorted : {true, false}) {
   auto m = mesh::boxMesh(GetParam(), {3, 3, 3}, Point(0, 0, 0), Point(1, 1, 1));
-  mesh::perturbInteriorVertices(m, 0.25, 17);
+  if (distorted) mesh::perturbInteriorVertices(m, 0.25, 17);
   const int d = m.dimension();
   const Material mat{1000.0, 0.3};
   std::mt19937 rng(5);
@@ -257,7 +283,8 @@ TEST_P(ResidualPatch, ElementResidualMatchesPerBasisEvaluation) {
     ASSERT_GT(expected, 0);
   }
   EXPECT_NEAR(r.contribution("eta_1"), expected, 1e-12 * std::max(expected, 1e-300))
-      << mesh::name(GetParam());
+      << mesh::name(GetParam()) << (distorted ? " distorted" : " undistorted");
+ }
 }
 
 // A linear field with exact tractions on the Neumann part and Dirichlet values elsewhere: every

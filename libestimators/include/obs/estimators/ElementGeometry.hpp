@@ -20,7 +20,9 @@
 /// field vanish exactly (the patch test of eta_1).
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <array>
+#include <limits>
 #include <span>
 #include <string>
 #include <vector>
@@ -56,7 +58,10 @@ inline bool affineCellType(mesh::CellType type) {
 ///     d2 u_c / dx2 = J^{-T} ( sum_i u_ic Hhat_i - sum_m (grad u_h)_cm X^m ) J^{-1},
 /// the sums over i of the per-basis formulas above, with one d x d product per point (gradient) and
 /// per component (Hessian) instead of per basis function. The result agrees with the per-basis sums
-/// to round-off, not bitwise. On affine cells perBasis is ignored (the per-basis quantities are
+/// to round-off, not bitwise. A non-affine cell type whose vertices are an affine image of the
+/// reference vertices (flat(): e.g. the boxes of a refined box mesh and the pyramids of their green
+/// closure) has an affine map: J is computed at the first point and kept for the cell's following
+/// points, X = 0. On affine cells perBasis is ignored (the per-basis quantities are
 /// constant and kept, see above), so their numbers are bitwise unchanged.
 template <int d>
 class PointValues {
@@ -82,8 +87,18 @@ public:
       }
       return;
     }
+    if (flat_ && !perBasis && mesh_ == &m && cell_ == c) {  // affine map of a non-affine cell type: J, X = 0 kept
+      ref.values(xi, std::span<double>(values_.data(), n_));
+      ref.gradients(xi, std::span<double>(refGrads_.data(), n_ * d));
+      x_.setZero();
+      for (int i = 0; i < n_; ++i) x_ += values_[i] * m.vertex(verts[i]).template head<d>();
+      if (withHessians) ref.hessians(xi, std::span<double>(refHessians_.data(), n_ * d * d));
+      hessiansValid_ = withHessians;
+      return;
+    }
     mesh_ = &m;
     cell_ = c;
+    flat_ = false;
     affine_ = affineCellType(ref.type);
     hessiansValid_ = false;
     n_ = ref.numVertices;
@@ -104,6 +119,22 @@ public:
                   "Jacobian determinant " + std::to_string(det_));
     Jinv_ = J_.inverse();
     const Mat& Jinv = Jinv_;
+    if (!perBasis_) {
+      // the vertices an affine image of the reference vertices (a parallelogram, parallelepiped,
+      // prism with parallel congruent ends, pyramid with a parallelogram base) up to round-off of
+      // the coordinates: the shape functions reproduce linear functions, so x(xi) is that affine
+      // map, J is constant and X = 0
+      double dev = 0, size = 0, mag = 0;
+      const Vec x0 = m.vertex(verts[0]).template head<d>();
+      for (int i = 0; i < n_; ++i) {
+        const Vec xi_i = m.vertex(verts[i]).template head<d>();
+        const Vec r = xi_i - x_ - J_ * (ref.vertices[i] - xi).template head<d>();
+        dev = std::max(dev, r.cwiseAbs().maxCoeff());
+        size = std::max(size, (xi_i - x0).cwiseAbs().maxCoeff());
+        mag = std::max(mag, xi_i.cwiseAbs().maxCoeff());
+      }
+      flat_ = dev <= 1e-12 * size + 32 * std::numeric_limits<double>::epsilon() * mag;
+    }
     if (perBasis_)
       for (int i = 0; i < n_; ++i) grads_[i] = Jinv.transpose() * Eigen::Map<const Vec>(&g[i * d]);
     if (!withHessians) return;
@@ -116,7 +147,7 @@ public:
     ref.hessians(xi, std::span<double>(h, n_ * d * d));
     std::array<Mat, d>& X = X_;  // X^m_kl = d2 x_m / dxi_k dxi_l
     for (int mm = 0; mm < d; ++mm) X[mm].setZero();
-    for (int i = 0; i < n_; ++i) {
+    for (int i = 0; i < n_ && !flat_; ++i) {
       const Point& xi_i = m.vertex(verts[i]);
       const Eigen::Map<const Mat> Hi(&h[i * d * d]);  // symmetric, so storage order is irrelevant
       for (int mm = 0; mm < d; ++mm) X[mm] += xi_i[mm] * Hi;
@@ -131,6 +162,9 @@ public:
 
   /// Whether gradient(i) and hessian(i) were formed by the last reinit (always on affine cells).
   bool perBasis() const { return perBasis_; }
+  /// Whether the last reinit (perBasis = false) found the map of its non-affine cell affine; then
+  /// the following reinits on the same cell keep J, its determinant and inverse, and X = 0.
+  bool flat() const { return flat_; }
 
   /// grad u_h = sum_i u_i grad phi_i' (G_ca = du_c / dx_a) of the field with nodal values
   /// u[verts[i] * d + c]: the per-basis sum if perBasis(), else (sum_i u_i gradhat_i') J^{-1}.
@@ -158,15 +192,16 @@ public:
           H[c] += u[static_cast<Eigen::Index>(verts[i]) * d + c] * hessians_[i];
       return;
     }
-    const Mat G = fieldGradient(u, verts);
     for (int i = 0; i < n_; ++i) {
       const Eigen::Map<const Mat> Hi(&refHessians_[i * d * d]);
       for (int c = 0; c < d; ++c) H[c] += u[static_cast<Eigen::Index>(verts[i]) * d + c] * Hi;
     }
-    for (int c = 0; c < d; ++c) {
-      for (int mm = 0; mm < d; ++mm) H[c] -= G(c, mm) * X_[mm];
-      H[c] = Jinv_.transpose() * H[c] * Jinv_;
+    if (!flat_) {
+      const Mat G = fieldGradient(u, verts);
+      for (int c = 0; c < d; ++c)
+        for (int mm = 0; mm < d; ++mm) H[c] -= G(c, mm) * X_[mm];
     }
+    for (int c = 0; c < d; ++c) H[c] = Jinv_.transpose() * H[c] * Jinv_;
   }
 
   /// Whether the cell of the last reinit is affine (everything but values() and point() is
@@ -195,7 +230,7 @@ private:
   double det_ = 0;
   const mesh::Mesh* mesh_ = nullptr;  ///< mesh and cell of the last reinit (cache of affine cells)
   Index cell_ = -1;
-  bool affine_ = false, hessiansValid_ = false, perBasis_ = true;
+  bool affine_ = false, hessiansValid_ = false, perBasis_ = true, flat_ = false;
 };
 
 /// A quadrature point on a face of a cell.
