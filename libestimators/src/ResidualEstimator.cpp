@@ -29,20 +29,15 @@ struct LocalField {
     return lambda * G.trace() * Mat::Identity() + mu * (G + G.transpose());
   }
   /// div sigma = mu Laplace u + (lambda + mu) grad div u = sum_i (mu tr(H_i) u_i + (lambda+mu) H_i u_i)
-  /// with the per-basis Hessians H_i (affine cells); on the others from the Hessians H^c of the
-  /// components u_c: (div sigma)_a = mu tr(H^a) + (lambda + mu) sum_b H^b_ab.
+  /// with the per-basis Hessians H_i (affine cells); on the others from Laplace u and grad div u
+  /// of the whole field (PointValues::fieldLaplacianGradDiv).
   static Vec divergence(const PointValues<d>& pv, const Eigen::VectorXd& u,
                         std::span<const Index> verts, double lambda, double mu) {
     Vec r = Vec::Zero();
     if (!pv.perBasis()) {
-      std::array<Mat, d> H;
-      pv.fieldHessians(u, verts, H);
-      for (int a = 0; a < d; ++a) {
-        double graddiv = 0;
-        for (int b = 0; b < d; ++b) graddiv += H[b](a, b);
-        r[a] = mu * H[a].trace() + (lambda + mu) * graddiv;
-      }
-      return r;
+      Vec laplacian, gradDiv;
+      pv.fieldLaplacianGradDiv(u, verts, laplacian, gradDiv);
+      return mu * laplacian + (lambda + mu) * gradDiv;
     }
     for (int i = 0; i < pv.numVertices(); ++i) {
       const Vec ui = u.template segment<d>(static_cast<Eigen::Index>(verts[i]) * d);

@@ -208,6 +208,24 @@ TEST_P(WholeField, DerivativesMatchPerBasisSums) {
           for (int a = 0; a < D; ++a)
             for (int k = 0; k < D; ++k) fd[c](a, k) += dG(c, a) * Jinv(l, k);
       }
+      // Laplace u and grad div u without the component Hessians
+      Eigen::Matrix<double, D, 1> lap, gd, lap0, gd0;
+      whole.fieldLaplacianGradDiv(u, verts, lap, gd);
+      basis.fieldLaplacianGradDiv(u, verts, lap0, gd0);
+      for (int a = 0; a < D; ++a) {
+        double g = 0;
+        for (int b = 0; b < D; ++b) g += H0[b](a, b);
+        EXPECT_EQ(lap0[a], H0[a].trace());
+        EXPECT_EQ(gd0[a], g);
+        const double scale = std::max(std::max(H0[0].norm(), H0[D - 1].norm()), 1e-300);
+        if (affine) {
+          EXPECT_EQ(lap[a], lap0[a]);
+          EXPECT_EQ(gd[a], gd0[a]);
+        } else {
+          EXPECT_NEAR(lap[a], lap0[a], 1e-12 * scale) << mesh::name(t);
+          EXPECT_NEAR(gd[a], gd0[a], 1e-12 * scale) << mesh::name(t);
+        }
+      }
       for (int c = 0; c < D; ++c) {
         const double scale = std::max(H0[c].norm(), 1e-300);
         maxH = std::max(maxH, H0[c].norm());

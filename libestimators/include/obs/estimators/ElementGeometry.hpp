@@ -175,10 +175,16 @@ public:
         G += u.template segment<d>(static_cast<Eigen::Index>(verts[i]) * d) * grads_[i].transpose();
       return G;
     }
-    for (int i = 0; i < n_; ++i)
-      G += u.template segment<d>(static_cast<Eigen::Index>(verts[i]) * d) *
-           Eigen::Map<const Vec>(&refGrads_[i * d]).transpose();
-    return G * Jinv_;
+    // plain arrays: the accumulator stays in registers (a 3 x 3 Eigen accumulator was spilled
+    // to the stack with overlapping partial stores and reloads)
+    double Gh[d * d] = {};
+    for (int i = 0; i < n_; ++i) {
+      const double* ui = u.data() + static_cast<Eigen::Index>(verts[i]) * d;
+      const double* gi = &refGrads_[i * d];
+      for (int c = 0; c < d; ++c)
+        for (int k = 0; k < d; ++k) Gh[c * d + k] += ui[c] * gi[k];
+    }
+    return Eigen::Map<const Eigen::Matrix<double, d, d, Eigen::RowMajor>>(Gh) * Jinv_;
   }
 
   /// H[c] = d2 u_c / dx2 of the same field (valid after reinit with withHessians): the per-basis
@@ -192,16 +198,67 @@ public:
           H[c] += u[static_cast<Eigen::Index>(verts[i]) * d + c] * hessians_[i];
       return;
     }
+    double Uh[d * d * d] = {};  // sum_i u_ic Hhat_i, [c * d * d + kl] (plain arrays, see above)
     for (int i = 0; i < n_; ++i) {
-      const Eigen::Map<const Mat> Hi(&refHessians_[i * d * d]);
-      for (int c = 0; c < d; ++c) H[c] += u[static_cast<Eigen::Index>(verts[i]) * d + c] * Hi;
+      const double* ui = u.data() + static_cast<Eigen::Index>(verts[i]) * d;
+      const double* hi = &refHessians_[i * d * d];
+      for (int c = 0; c < d; ++c)
+        for (int kl = 0; kl < d * d; ++kl) Uh[c * d * d + kl] += ui[c] * hi[kl];
     }
+    for (int c = 0; c < d; ++c) H[c] = Eigen::Map<const Mat>(&Uh[c * d * d]);
     if (!flat_) {
       const Mat G = fieldGradient(u, verts);
       for (int c = 0; c < d; ++c)
         for (int mm = 0; mm < d; ++mm) H[c] -= G(c, mm) * X_[mm];
     }
     for (int c = 0; c < d; ++c) H[c] = Jinv_.transpose() * H[c] * Jinv_;
+  }
+
+  /// Laplace u_c = tr(d2 u_c / dx2) and (grad div u)_a = sum_b d2 u_b / dx_a dx_b of the same
+  /// field (valid after reinit with withHessians), what div sigma needs. Without perBasis() from the
+  /// reference matrices M_c = sum_i u_ic Hhat_i - sum_m (grad u_h)_cm X^m with
+  /// tr(J^{-T} M_c J^{-1}) = <M_c, J^{-1} J^{-T}> and sum_b (J^{-T} M_b J^{-1})_ab =
+  /// (J^{-T} sum_b M_b J^{-1} e_b)_a: O(d^3) per point, no product per basis function or component.
+  void fieldLaplacianGradDiv(const Eigen::VectorXd& u, std::span<const Index> verts, Vec& laplacian,
+                             Vec& gradDiv) const {
+    if (perBasis_) {
+      std::array<Mat, d> H;
+      fieldHessians(u, verts, H);
+      for (int a = 0; a < d; ++a) {
+        laplacian[a] = H[a].trace();
+        gradDiv[a] = 0;
+        for (int b = 0; b < d; ++b) gradDiv[a] += H[b](a, b);
+      }
+      return;
+    }
+    double M[d * d * d] = {};  // M_c, [c * d * d + k * d + l] (plain arrays, see fieldGradient)
+    for (int i = 0; i < n_; ++i) {
+      const double* ui = u.data() + static_cast<Eigen::Index>(verts[i]) * d;
+      const double* hi = &refHessians_[i * d * d];
+      for (int c = 0; c < d; ++c)
+        for (int kl = 0; kl < d * d; ++kl) M[c * d * d + kl] += ui[c] * hi[kl];
+    }
+    if (!flat_) {
+      const Mat G = fieldGradient(u, verts);
+      for (int c = 0; c < d; ++c)
+        for (int mm = 0; mm < d; ++mm) {
+          const double* Xm = X_[mm].data();
+          for (int kl = 0; kl < d * d; ++kl) M[c * d * d + kl] -= G(c, mm) * Xm[kl];
+        }
+    }
+    const Mat K = Jinv_ * Jinv_.transpose();
+    double w[d] = {};
+    for (int c = 0; c < d; ++c) {
+      double tr = 0;
+      for (int k = 0; k < d; ++k)
+        for (int l = 0; l < d; ++l) {
+          const double mkl = M[c * d * d + k * d + l];  // symmetric: the storage order is irrelevant
+          tr += mkl * K(k, l);
+          w[k] += mkl * Jinv_(l, c);
+        }
+      laplacian[c] = tr;
+    }
+    gradDiv = Jinv_.transpose() * Eigen::Map<const Vec>(w);
   }
 
   /// Whether the cell of the last reinit is affine (everything but values() and point() is
