@@ -20,18 +20,25 @@ struct LocalField {
   using Vec = Eigen::Matrix<double, d, 1>;
   using Mat = Eigen::Matrix<double, d, d>;
 
-  /// sigma = lambda tr(G) I + mu (G + G'), G = grad u_h = sum_i u_i grad phi_i'.
+  /// sigma = lambda tr(G) I + mu (G + G'), G = grad u_h = sum_i u_i grad phi_i'
+  /// (PointValues::fieldGradient: the per-basis sum on affine cells, one product with J^{-1} on
+  /// the others).
   static Mat stress(const PointValues<d>& pv, const Eigen::VectorXd& u, std::span<const Index> verts,
                     double lambda, double mu) {
-    Mat G = Mat::Zero();
-    for (int i = 0; i < pv.numVertices(); ++i)
-      G += u.template segment<d>(static_cast<Eigen::Index>(verts[i]) * d) * pv.gradient(i).transpose();
+    const Mat G = pv.fieldGradient(u, verts);
     return lambda * G.trace() * Mat::Identity() + mu * (G + G.transpose());
   }
-  /// div sigma = mu Laplace u + (lambda + mu) grad div u = sum_i (mu tr(H_i) u_i + (lambda+mu) H_i u_i).
+  /// div sigma = mu Laplace u + (lambda + mu) grad div u = sum_i (mu tr(H_i) u_i + (lambda+mu) H_i u_i)
+  /// with the per-basis Hessians H_i (affine cells); on the others from Laplace u and grad div u
+  /// of the whole field (PointValues::fieldLaplacianGradDiv).
   static Vec divergence(const PointValues<d>& pv, const Eigen::VectorXd& u,
                         std::span<const Index> verts, double lambda, double mu) {
     Vec r = Vec::Zero();
+    if (!pv.perBasis()) {
+      Vec laplacian, gradDiv;
+      pv.fieldLaplacianGradDiv(u, verts, laplacian, gradDiv);
+      return mu * laplacian + (lambda + mu) * gradDiv;
+    }
     for (int i = 0; i < pv.numVertices(); ++i) {
       const Vec ui = u.template segment<d>(static_cast<Eigen::Index>(verts[i]) * d);
       r += mu * pv.hessian(i).trace() * ui + (lambda + mu) * pv.hessian(i) * ui;
@@ -174,7 +181,7 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
     const bool affine = affineCellType(m.cellType(c));
     Vec div = Vec::Zero();
     for (std::size_t q = 0; q < rule.size(); ++q) {
-      if (q == 0 || !affine || in.boundaryConditions.bodyForce) pv.reinit(m, c, rule.points[q], true);
+      if (q == 0 || !affine || in.boundaryConditions.bodyForce) pv.reinit(m, c, rule.points[q], true, false);
       if (q == 0 || !affine) div = F::divergence(pv, u, verts, lambda, mu);
       Vec r = div;
       if (in.boundaryConditions.bodyForce)
@@ -213,16 +220,26 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
       // on affine cells sigma_h is constant: evaluated once per face and side
       const bool affine0 = affineCellType(m.cellType(c0)), affine1 = affineCellType(m.cellType(c1));
       Mat s0, s1;
+      // local numbers in c1 of the face vertices (once per face, not per point)
+      const auto& ref1 = mesh::referenceElement(m.cellType(c1));
+      std::array<int, 4> local1{};
+      for (std::size_t j = 0; j < fv.size(); ++j) {
+        const auto it = std::find(verts1.begin(), verts1.end(), fv[j]);
+        if (it == verts1.end())
+          throw Error("vertex " + std::to_string(fv[j]) + " is not a vertex of cell " +
+                      std::to_string(c1));
+        local1[j] = static_cast<int>(it - verts1.begin());
+      }
       for (std::size_t k = 0; k < pts.size(); ++k) {
         const CellFacePoint& q = pts[k];
         if (k == 0 || !affine0) {
-          pv.reinit(m, c0, q.xi, false);
+          pv.reinit(m, c0, q.xi, false, false);
           s0 = F::stress(pv, u, verts0, lambda, mu);
         }
         if (k == 0 || !affine1) {
-          const Point xi1 = referencePointOnFace(
-              m, c1, fv, std::span<const double>(q.shape.data(), fv.size()));
-          pv1.reinit(m, c1, xi1, false);
+          Point xi1 = Point::Zero();  // referencePointOnFace with the local numbers above
+          for (std::size_t j = 0; j < fv.size(); ++j) xi1 += q.shape[j] * ref1.vertices[local1[j]];
+          pv1.reinit(m, c1, xi1, false, false);
           s1 = F::stress(pv1, u, verts1, lambda, mu);
         }
         const Vec n = q.normal.template head<d>();
@@ -245,7 +262,7 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
       cf.vertices = fv;
       cf.fixed = fixed;
       for (const CellFacePoint& q : pts) {
-        pv.reinit(m, c0, q.xi, false);
+        pv.reinit(m, c0, q.xi, false, false);
         const Vec sn = F::stress(pv, u, verts0, lambda, mu) * q.normal.template head<d>();
         cf.points.push_back({q.x, q.weight, q.normal, q.shape, toPoint(sn)});
       }
@@ -256,7 +273,7 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
     const auto nit = bd.neumann.find(id);
     double j2 = 0;
     for (const CellFacePoint& q : pts) {
-      pv.reinit(m, c0, q.xi, false);
+      pv.reinit(m, c0, q.xi, false, false);
       const Vec n = q.normal.template head<d>();
       Vec jump = -F::stress(pv, u, verts0, lambda, mu) * n;
       if (nit != bd.neumann.end())

@@ -12,6 +12,7 @@
 #include "obs/estimators/ResidualEstimator.hpp"
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/MeshTopology.hpp"
+#include "obs/mesh/Quadrature.hpp"
 #include "obs/mesh/RedRefinement.hpp"
 #include "obs/mesh/ReferenceElement.hpp"
 #include "obs/obs/ContactSet.hpp"
@@ -126,6 +127,182 @@ TEST_P(ResidualPatch, HessiansMatchFiniteDifferences) {
     check.template operator()<2>();
   else
     check.template operator()<3>();
+}
+
+// The estimators differentiate u_h as a whole on non-affine cells (PointValues with perBasis =
+// false: grad u_h = (sum_i u_i gradhat_i') J^{-1} and the component Hessians without the per-basis
+// Hessians). Compare with the per-basis sums of the straightforward evaluation (perBasis = true,
+// checked against finite differences above) for a random nodal field on a distorted cell, and the
+// component Hessians with central differences of the whole-field gradient; on affine cells both
+// modes are the same code and must agree bitwise. A cell whose vertices are an affine image of the
+// reference vertices (parallel = true: its map is affine) keeps J over its points and drops X.
+class WholeField : public ::testing::TestWithParam<std::tuple<CellType, bool>> {};
+
+TEST_P(WholeField, DerivativesMatchPerBasisSums) {
+  const CellType t = std::get<0>(GetParam());
+  const bool parallel = std::get<1>(GetParam());
+  const auto& ref = mesh::referenceElement(t);
+  const int d = ref.dim;
+  mesh::Mesh m(d);
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> U(-0.15, 0.15);
+  Eigen::Matrix3d A = 0.5 * Eigen::Matrix3d::Identity();  // a sheared, stretched affine image
+  A(0, 1) = 0.11;
+  A(1, 2) = -0.07;
+  A(2, 0) = 0.05;
+  if (d == 2) A.row(2).setZero(), A.col(2).setZero();
+  std::vector<Index> verts;
+  for (const Point& x : ref.vertices) {
+    Point y = A * x + Point(1.0, 2.0, d == 3 ? 3.0 : 0.0);  // away from the origin, as on a mesh
+    if (!parallel)
+      for (int a = 0; a < d; ++a) y[a] += 0.5 * U(rng);
+    verts.push_back(m.addVertex(y));
+  }
+  m.addCell(t, std::span<const Index>(verts));
+  Eigen::VectorXd u(static_cast<Eigen::Index>(verts.size()) * d);
+  for (Eigen::Index k = 0; k < u.size(); ++k) u[k] = 1e-3 * U(rng);
+  const bool affine = affineCellType(t);
+  auto check = [&]<int D>() {
+    using Mat = Eigen::Matrix<double, D, D>;
+    const auto& rule = mesh::quadratureRule(t, 4);
+    double maxH = 0;
+    PointValues<D> whole;  // one object over the points: the kept geometry of flat cells is used
+    for (std::size_t q = 0; q < rule.size(); ++q) {
+      PointValues<D> basis, plus, minus;
+      basis.reinit(m, 0, rule.points[q], true, true);
+      whole.reinit(m, 0, rule.points[q], true, false);
+      EXPECT_TRUE(basis.perBasis());
+      EXPECT_EQ(whole.perBasis(), affine);
+      EXPECT_EQ(whole.flat(), parallel && !affine) << mesh::name(t);
+      if (whole.flat()) {
+        EXPECT_NEAR(whole.determinant(), basis.determinant(), 1e-14 * basis.determinant());
+      } else {
+        EXPECT_EQ(whole.determinant(), basis.determinant());
+      }
+      const Mat G0 = basis.fieldGradient(u, verts), G1 = whole.fieldGradient(u, verts);
+      std::array<Mat, D> H0, H1;
+      basis.fieldHessians(u, verts, H0);
+      whole.fieldHessians(u, verts, H1);
+      Mat sum = Mat::Zero();  // the per-basis sum written out
+      for (int i = 0; i < basis.numVertices(); ++i)
+        sum += u.template segment<D>(verts[i] * D) * basis.gradient(i).transpose();
+      EXPECT_EQ((G0 - sum).cwiseAbs().maxCoeff(), 0.0);
+      if (affine) {
+        EXPECT_EQ((G1 - G0).cwiseAbs().maxCoeff(), 0.0) << mesh::name(t);
+      } else {
+        EXPECT_LT((G1 - G0).norm(), 1e-13 * G0.norm()) << mesh::name(t);
+      }
+      // Hessians of the components: against the per-basis sums and against central differences
+      // of the whole-field gradient, d2 u_c / dx_a dx_k = sum_l d G_ca / dxi_l (J^{-1})_lk
+      const Mat Jinv = whole.jacobian().inverse();
+      const double delta = 1e-5;
+      std::array<Mat, D> fd;
+      for (int c = 0; c < D; ++c) fd[c].setZero();
+      for (int l = 0; l < D; ++l) {
+        Point e = Point::Zero();
+        e[l] = delta;
+        plus.reinit(m, 0, rule.points[q] + e, false, false);
+        minus.reinit(m, 0, rule.points[q] - e, false, false);
+        const Mat dG = (plus.fieldGradient(u, verts) - minus.fieldGradient(u, verts)) / (2 * delta);
+        for (int c = 0; c < D; ++c)
+          for (int a = 0; a < D; ++a)
+            for (int k = 0; k < D; ++k) fd[c](a, k) += dG(c, a) * Jinv(l, k);
+      }
+      // Laplace u and grad div u without the component Hessians
+      Eigen::Matrix<double, D, 1> lap, gd, lap0, gd0;
+      whole.fieldLaplacianGradDiv(u, verts, lap, gd);
+      basis.fieldLaplacianGradDiv(u, verts, lap0, gd0);
+      for (int a = 0; a < D; ++a) {
+        double g = 0;
+        for (int b = 0; b < D; ++b) g += H0[b](a, b);
+        EXPECT_EQ(lap0[a], H0[a].trace());
+        EXPECT_EQ(gd0[a], g);
+        const double scale = std::max(std::max(H0[0].norm(), H0[D - 1].norm()), 1e-300);
+        if (affine) {
+          EXPECT_EQ(lap[a], lap0[a]);
+          EXPECT_EQ(gd[a], gd0[a]);
+        } else {
+          EXPECT_NEAR(lap[a], lap0[a], 1e-12 * scale) << mesh::name(t);
+          EXPECT_NEAR(gd[a], gd0[a], 1e-12 * scale) << mesh::name(t);
+        }
+      }
+      for (int c = 0; c < D; ++c) {
+        const double scale = std::max(H0[c].norm(), 1e-300);
+        maxH = std::max(maxH, H0[c].norm());
+        if (affine) {
+          EXPECT_EQ((H1[c] - H0[c]).cwiseAbs().maxCoeff(), 0.0) << mesh::name(t);
+        } else {
+          EXPECT_LT((H1[c] - H0[c]).norm(), 1e-12 * scale) << mesh::name(t) << " component " << c;
+          EXPECT_LT((H1[c] - fd[c]).norm(), 1e-6 * scale) << mesh::name(t) << " component " << c;
+          EXPECT_LT((H1[c] - H1[c].transpose()).norm(), 1e-12 * scale);
+        }
+      }
+    }
+    if (!affine) {
+      EXPECT_GT(maxH, 1e-4) << "field not curved enough to test anything";
+    }
+  };
+  if (d == 2)
+    check.template operator()<2>();
+  else
+    check.template operator()<3>();
+}
+
+INSTANTIATE_TEST_SUITE_P(AllCellTypes, WholeField,
+                         ::testing::Combine(::testing::ValuesIn(mesh::kVolumeCellTypes),
+                                            ::testing::Bool()),
+                         [](const auto& info) {
+                           return std::string(mesh::name(std::get<0>(info.param))) +
+                                  (std::get<1>(info.param) ? "_parallel" : "_distorted");
+                         });
+
+// eta_1 of a random (curved) field on a distorted mesh of every cell type, recomputed here with the
+// per-basis Hessians: sum over cells of (sum_{p in e} h_p^2) ||div sigma_h||_e^2.
+// Once distorted, once undistorted (boxes and their prisms and pyramids: affine maps, flat()).
+TEST_P(ResidualPatch, ElementResidualMatchesPerBasisEvaluation) {
+ for (const bool distorted : {true, false}) {
+  auto m = mesh::boxMesh(GetParam(), {3, 3, 3}, Point(0, 0, 0), Point(1, 1, 1));
+  if (distorted) mesh::perturbInteriorVertices(m, 0.25, 17);
+  const int d = m.dimension();
+  const Material mat{1000.0, 0.3};
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> U(-1, 1);
+  Eigen::VectorXd uh(m.numVertices() * d);
+  for (Eigen::Index k = 0; k < uh.size(); ++k) uh[k] = 1e-3 * U(rng);
+  BoundaryConditions bc;
+  bc.dirichlet.push_back({1, {true, true, true}});
+  const EstimatorResult r = ResidualEstimator().estimate(EstimatorInput(m, mat, bc, uh));
+  const Eigen::VectorXd& h = r.vertexFields.at("h");
+  const double lambda = mat.lambda(), mu = mat.mu();
+  auto eta1 = [&]<int D>() {
+    PointValues<D> pv;
+    double sum = 0;
+    for (Index c = 0; c < m.numCells(); ++c) {
+      const auto verts = m.cellVertices(c);
+      const auto& rule = mesh::quadratureRule(m.cellType(c), 4);
+      double r2 = 0;
+      for (std::size_t q = 0; q < rule.size(); ++q) {
+        pv.reinit(m, c, rule.points[q], true, true);
+        Eigen::Matrix<double, D, 1> div = Eigen::Matrix<double, D, 1>::Zero();
+        for (int i = 0; i < pv.numVertices(); ++i) {
+          const Eigen::Matrix<double, D, 1> ui = uh.template segment<D>(verts[i] * D);
+          div += mu * pv.hessian(i).trace() * ui + (lambda + mu) * pv.hessian(i) * ui;
+        }
+        r2 += pv.determinant() * rule.weights[q] * div.squaredNorm();
+      }
+      double hp2 = 0;
+      for (Index p : verts) hp2 += h[p] * h[p];
+      sum += hp2 * r2;
+    }
+    return std::sqrt(sum);
+  };
+  const double expected = d == 2 ? eta1.template operator()<2>() : eta1.template operator()<3>();
+  if (!affineCellType(GetParam())) {
+    ASSERT_GT(expected, 0);
+  }
+  EXPECT_NEAR(r.contribution("eta_1"), expected, 1e-12 * std::max(expected, 1e-300))
+      << mesh::name(GetParam()) << (distorted ? " distorted" : " undistorted");
+ }
 }
 
 // A linear field with exact tractions on the Neumann part and Dirichlet values elsewhere: every

@@ -20,7 +20,9 @@
 /// field vanish exactly (the patch test of eta_1).
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <array>
+#include <limits>
 #include <span>
 #include <string>
 #include <vector>
@@ -48,6 +50,19 @@ inline bool affineCellType(mesh::CellType type) {
 /// numbers are bitwise those a full re-evaluation would give), and the Hessians are set to zero
 /// without the chain rule below. The mesh must not change between two such calls (the estimators
 /// use one PointValues per run on a const mesh).
+///
+/// Non-affine cells without per-basis quantities (reinit with perBasis = false): only the
+/// reference gradients and Hessians, J^{-1} and X are kept, and a field u_h = sum_i u_i phi_i is
+/// differentiated as a whole (fieldGradient, fieldHessians):
+///     grad u_h = (sum_i u_i gradhat_i') J^{-1},
+///     d2 u_c / dx2 = J^{-T} ( sum_i u_ic Hhat_i - sum_m (grad u_h)_cm X^m ) J^{-1},
+/// the sums over i of the per-basis formulas above, with one d x d product per point (gradient) and
+/// per component (Hessian) instead of per basis function. The result agrees with the per-basis sums
+/// to round-off, not bitwise. A non-affine cell type whose vertices are an affine image of the
+/// reference vertices (flat(): e.g. the boxes of a refined box mesh and the pyramids of their green
+/// closure) has an affine map: J is computed at the first point and kept for the cell's following
+/// points, X = 0. On affine cells perBasis is ignored (the per-basis quantities are
+/// constant and kept, see above), so their numbers are bitwise unchanged.
 template <int d>
 class PointValues {
 public:
@@ -55,8 +70,11 @@ public:
   using Mat = Eigen::Matrix<double, d, d>;
 
   /// Evaluates at reference point xi of cell c; second derivatives only if withHessians.
-  /// Throws obs::Error if the Jacobian determinant is not positive there.
-  void reinit(const mesh::Mesh& m, Index c, const Point& xi, bool withHessians) {
+  /// perBasis = false on a non-affine cell: gradient(i) and hessian(i) are not formed (use
+  /// fieldGradient and fieldHessians). Throws obs::Error if the Jacobian determinant is not
+  /// positive there.
+  void reinit(const mesh::Mesh& m, Index c, const Point& xi, bool withHessians,
+              bool perBasis = true) {
     const auto& ref = mesh::referenceElement(m.cellType(c));
     const auto verts = m.cellVertices(c);
     const bool same = affine_ && mesh_ == &m && cell_ == c;
@@ -69,12 +87,23 @@ public:
       }
       return;
     }
+    if (flat_ && !perBasis && mesh_ == &m && cell_ == c) {  // affine map of a non-affine cell type: J, X = 0 kept
+      ref.values(xi, std::span<double>(values_.data(), n_));
+      ref.gradients(xi, std::span<double>(refGrads_.data(), n_ * d));
+      x_.setZero();
+      for (int i = 0; i < n_; ++i) x_ += values_[i] * m.vertex(verts[i]).template head<d>();
+      if (withHessians) ref.hessians(xi, std::span<double>(refHessians_.data(), n_ * d * d));
+      hessiansValid_ = withHessians;
+      return;
+    }
     mesh_ = &m;
     cell_ = c;
+    flat_ = false;
     affine_ = affineCellType(ref.type);
     hessiansValid_ = false;
     n_ = ref.numVertices;
-    double g[8 * 3];
+    perBasis_ = perBasis || affine_;
+    double* g = refGrads_.data();
     ref.values(xi, std::span<double>(values_.data(), n_));
     ref.gradients(xi, std::span<double>(g, n_ * d));
     J_.setZero();
@@ -88,28 +117,148 @@ public:
     if (!(det_ > 0))
       throw Error("cell " + std::to_string(c) + " is degenerate or inverted at a reference point: "
                   "Jacobian determinant " + std::to_string(det_));
-    const Mat Jinv = J_.inverse();
-    for (int i = 0; i < n_; ++i) grads_[i] = Jinv.transpose() * Eigen::Map<const Vec>(&g[i * d]);
+    Jinv_ = J_.inverse();
+    const Mat& Jinv = Jinv_;
+    if (!perBasis_) {
+      // the vertices an affine image of the reference vertices (a parallelogram, parallelepiped,
+      // prism with parallel congruent ends, pyramid with a parallelogram base) up to round-off of
+      // the coordinates: the shape functions reproduce linear functions, so x(xi) is that affine
+      // map, J is constant and X = 0
+      double dev = 0, size = 0, mag = 0;
+      const Vec x0 = m.vertex(verts[0]).template head<d>();
+      for (int i = 0; i < n_; ++i) {
+        const Vec xi_i = m.vertex(verts[i]).template head<d>();
+        const Vec r = xi_i - x_ - J_ * (ref.vertices[i] - xi).template head<d>();
+        dev = std::max(dev, r.cwiseAbs().maxCoeff());
+        size = std::max(size, (xi_i - x0).cwiseAbs().maxCoeff());
+        mag = std::max(mag, xi_i.cwiseAbs().maxCoeff());
+      }
+      flat_ = dev <= 1e-12 * size + 32 * std::numeric_limits<double>::epsilon() * mag;
+    }
+    if (perBasis_)
+      for (int i = 0; i < n_; ++i) grads_[i] = Jinv.transpose() * Eigen::Map<const Vec>(&g[i * d]);
     if (!withHessians) return;
     hessiansValid_ = true;
     if (affine_) {  // Hhat = X = 0: the second derivatives vanish
       for (int i = 0; i < n_; ++i) hessians_[i].setZero();
       return;
     }
-    double h[8 * 9];
+    double* h = refHessians_.data();
     ref.hessians(xi, std::span<double>(h, n_ * d * d));
-    std::array<Mat, d> X;  // X^m_kl = d2 x_m / dxi_k dxi_l
+    std::array<Mat, d>& X = X_;  // X^m_kl = d2 x_m / dxi_k dxi_l
     for (int mm = 0; mm < d; ++mm) X[mm].setZero();
-    for (int i = 0; i < n_; ++i) {
+    for (int i = 0; i < n_ && !flat_; ++i) {
       const Point& xi_i = m.vertex(verts[i]);
       const Eigen::Map<const Mat> Hi(&h[i * d * d]);  // symmetric, so storage order is irrelevant
       for (int mm = 0; mm < d; ++mm) X[mm] += xi_i[mm] * Hi;
     }
+    if (!perBasis_) return;
     for (int i = 0; i < n_; ++i) {
       Mat M = Eigen::Map<const Mat>(&h[i * d * d]);
       for (int mm = 0; mm < d; ++mm) M -= grads_[i][mm] * X[mm];
       hessians_[i] = Jinv.transpose() * M * Jinv;
     }
+  }
+
+  /// Whether gradient(i) and hessian(i) were formed by the last reinit (always on affine cells).
+  bool perBasis() const { return perBasis_; }
+  /// Whether the last reinit (perBasis = false) found the map of its non-affine cell affine; then
+  /// the following reinits on the same cell keep J, its determinant and inverse, and X = 0.
+  bool flat() const { return flat_; }
+
+  /// grad u_h = sum_i u_i grad phi_i' (G_ca = du_c / dx_a) of the field with nodal values
+  /// u[verts[i] * d + c]: the per-basis sum if perBasis(), else (sum_i u_i gradhat_i') J^{-1}.
+  Mat fieldGradient(const Eigen::VectorXd& u, std::span<const Index> verts) const {
+    Mat G = Mat::Zero();
+    if (perBasis_) {
+      for (int i = 0; i < n_; ++i)
+        G += u.template segment<d>(static_cast<Eigen::Index>(verts[i]) * d) * grads_[i].transpose();
+      return G;
+    }
+    // plain arrays: the accumulator stays in registers (a 3 x 3 Eigen accumulator was spilled
+    // to the stack with overlapping partial stores and reloads)
+    double Gh[d * d] = {};
+    for (int i = 0; i < n_; ++i) {
+      const double* ui = u.data() + static_cast<Eigen::Index>(verts[i]) * d;
+      const double* gi = &refGrads_[i * d];
+      for (int c = 0; c < d; ++c)
+        for (int k = 0; k < d; ++k) Gh[c * d + k] += ui[c] * gi[k];
+    }
+    return Eigen::Map<const Eigen::Matrix<double, d, d, Eigen::RowMajor>>(Gh) * Jinv_;
+  }
+
+  /// H[c] = d2 u_c / dx2 of the same field (valid after reinit with withHessians): the per-basis
+  /// sum sum_i u_ic hessian(i) if perBasis(), else the whole-field formula (class comment).
+  void fieldHessians(const Eigen::VectorXd& u, std::span<const Index> verts,
+                     std::array<Mat, d>& H) const {
+    for (int c = 0; c < d; ++c) H[c].setZero();
+    if (perBasis_) {
+      for (int i = 0; i < n_; ++i)
+        for (int c = 0; c < d; ++c)
+          H[c] += u[static_cast<Eigen::Index>(verts[i]) * d + c] * hessians_[i];
+      return;
+    }
+    double Uh[d * d * d] = {};  // sum_i u_ic Hhat_i, [c * d * d + kl] (plain arrays, see above)
+    for (int i = 0; i < n_; ++i) {
+      const double* ui = u.data() + static_cast<Eigen::Index>(verts[i]) * d;
+      const double* hi = &refHessians_[i * d * d];
+      for (int c = 0; c < d; ++c)
+        for (int kl = 0; kl < d * d; ++kl) Uh[c * d * d + kl] += ui[c] * hi[kl];
+    }
+    for (int c = 0; c < d; ++c) H[c] = Eigen::Map<const Mat>(&Uh[c * d * d]);
+    if (!flat_) {
+      const Mat G = fieldGradient(u, verts);
+      for (int c = 0; c < d; ++c)
+        for (int mm = 0; mm < d; ++mm) H[c] -= G(c, mm) * X_[mm];
+    }
+    for (int c = 0; c < d; ++c) H[c] = Jinv_.transpose() * H[c] * Jinv_;
+  }
+
+  /// Laplace u_c = tr(d2 u_c / dx2) and (grad div u)_a = sum_b d2 u_b / dx_a dx_b of the same
+  /// field (valid after reinit with withHessians), what div sigma needs. Without perBasis() from the
+  /// reference matrices M_c = sum_i u_ic Hhat_i - sum_m (grad u_h)_cm X^m with
+  /// tr(J^{-T} M_c J^{-1}) = <M_c, J^{-1} J^{-T}> and sum_b (J^{-T} M_b J^{-1})_ab =
+  /// (J^{-T} sum_b M_b J^{-1} e_b)_a: O(d^3) per point, no product per basis function or component.
+  void fieldLaplacianGradDiv(const Eigen::VectorXd& u, std::span<const Index> verts, Vec& laplacian,
+                             Vec& gradDiv) const {
+    if (perBasis_) {
+      std::array<Mat, d> H;
+      fieldHessians(u, verts, H);
+      for (int a = 0; a < d; ++a) {
+        laplacian[a] = H[a].trace();
+        gradDiv[a] = 0;
+        for (int b = 0; b < d; ++b) gradDiv[a] += H[b](a, b);
+      }
+      return;
+    }
+    double M[d * d * d] = {};  // M_c, [c * d * d + k * d + l] (plain arrays, see fieldGradient)
+    for (int i = 0; i < n_; ++i) {
+      const double* ui = u.data() + static_cast<Eigen::Index>(verts[i]) * d;
+      const double* hi = &refHessians_[i * d * d];
+      for (int c = 0; c < d; ++c)
+        for (int kl = 0; kl < d * d; ++kl) M[c * d * d + kl] += ui[c] * hi[kl];
+    }
+    if (!flat_) {
+      const Mat G = fieldGradient(u, verts);
+      for (int c = 0; c < d; ++c)
+        for (int mm = 0; mm < d; ++mm) {
+          const double* Xm = X_[mm].data();
+          for (int kl = 0; kl < d * d; ++kl) M[c * d * d + kl] -= G(c, mm) * Xm[kl];
+        }
+    }
+    const Mat K = Jinv_ * Jinv_.transpose();
+    double w[d] = {};
+    for (int c = 0; c < d; ++c) {
+      double tr = 0;
+      for (int k = 0; k < d; ++k)
+        for (int l = 0; l < d; ++l) {
+          const double mkl = M[c * d * d + k * d + l];  // symmetric: the storage order is irrelevant
+          tr += mkl * K(k, l);
+          w[k] += mkl * Jinv_(l, c);
+        }
+      laplacian[c] = tr;
+    }
+    gradDiv = Jinv_.transpose() * Eigen::Map<const Vec>(w);
   }
 
   /// Whether the cell of the last reinit is affine (everything but values() and point() is
@@ -130,12 +279,15 @@ private:
   std::array<double, 8> values_{};
   std::array<Vec, 8> grads_;
   std::array<Mat, 8> hessians_;
+  std::array<double, 8 * d> refGrads_{};         ///< reference gradients, [i * d + k]
+  std::array<double, 8 * d * d> refHessians_{};  ///< reference Hessians (non-affine cells)
+  std::array<Mat, d> X_;                         ///< X^m = d2 x_m / dxi2 (non-affine cells)
   Vec x_;
-  Mat J_;
+  Mat J_, Jinv_;
   double det_ = 0;
   const mesh::Mesh* mesh_ = nullptr;  ///< mesh and cell of the last reinit (cache of affine cells)
   Index cell_ = -1;
-  bool affine_ = false, hessiansValid_ = false;
+  bool affine_ = false, hessiansValid_ = false, perBasis_ = true, flat_ = false;
 };
 
 /// A quadrature point on a face of a cell.
