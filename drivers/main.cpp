@@ -340,6 +340,7 @@ int main(int argc, char** argv) {
           throw obs::Error(std::string("OBS_THREADS=") + env + ": a thread count from 1 to 1024 expected");
         obs::setThreads(static_cast<int>(n));
       }
+      obs::setBlasThreads(obs::threads());  // CHOLMOD's BLAS: the run's thread count, not every core
       return runCommand(scene, output, refine, quiet, verbose, runPlugins, overrides, runPlots,
                         compareSchemes, restart, stopAfterStep);
     }

@@ -1,8 +1,10 @@
 #include "obs/obs/Parallel.hpp"
 
+#include <dlfcn.h>
 #include <metis.h>
 
 #include <atomic>
+#include <cstdlib>
 #include <string>
 
 #include "obs/mesh/Error.hpp"
@@ -17,6 +19,16 @@ int threads() { return threadCount.load(std::memory_order_relaxed); }
 void setThreads(int n) {
   if (n < 1 || n > 1024) throw Error("threads: " + std::to_string(n) + " (1 to 1024 expected)");
   threadCount.store(n, std::memory_order_relaxed);
+}
+
+bool setBlasThreads(int n) {
+  if (n < 1) throw Error("BLAS threads: " + std::to_string(n) + " (at least 1 expected)");
+  if (const char* env = std::getenv("OPENBLAS_NUM_THREADS"); env && *env) return false;  // the user's choice
+  using Setter = void (*)(int);
+  const auto set = reinterpret_cast<Setter>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
+  if (!set) return false;
+  set(n);
+  return true;
 }
 
 SweepOrder::SweepOrder(std::span<const Index> rowStart, std::span<const Index> columns, int parts) {

@@ -21,6 +21,11 @@ int threads();
 /// Sets the thread count. Throws obs::Error unless 1 <= n <= 1024. Set it before building solvers:
 /// a smoother fixes its sweep order for the thread count when it gets its matrix.
 void setThreads(int n);
+/// Sets the thread count of the BLAS library (OpenBLAS, used by CHOLMOD) to n if it offers
+/// openblas_set_num_threads and the user has not chosen one with OPENBLAS_NUM_THREADS; returns
+/// whether it did. OpenBLAS otherwise starts a thread per core, whose spinning costs more than it
+/// gains on the small coarse-grid solves of multigrid, and competes with obs' own threads.
+bool setBlasThreads(int n);
 
 /// Rows below which loops and sweeps stay sequential (the fork costs more than the work).
 inline constexpr Index kParallelMinRows = 2048;
