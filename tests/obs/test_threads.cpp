@@ -4,6 +4,8 @@
 // results of one thread, and a threaded TNNMG solve is reproducible and agrees with one thread.
 #include <gtest/gtest.h>
 
+#include <cstdlib>
+
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -302,4 +304,11 @@ TEST(Threads, DegenerateCellIsTheSameErrorOnThreads) {
   }
   EXPECT_NE(one.find("degenerate or inverted"), std::string::npos) << one;
   EXPECT_EQ(one, two);
+}
+
+TEST(Threads, BlasThreadsFollowTheUserWhenOpenblasNumThreadsIsSet) {
+  EXPECT_THROW(setBlasThreads(0), Error);
+  // ctest runs every test with OPENBLAS_NUM_THREADS=1 (tests/CMakeLists.txt): the user's choice wins
+  const char* env = std::getenv("OPENBLAS_NUM_THREADS");
+  if (env && *env) EXPECT_FALSE(setBlasThreads(2));
 }
