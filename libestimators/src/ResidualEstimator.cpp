@@ -219,7 +219,7 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
       double j2 = 0;
       // on affine cells sigma_h is constant: evaluated once per face and side
       const bool affine0 = affineCellType(m.cellType(c0)), affine1 = affineCellType(m.cellType(c1));
-      Mat s0, s1;
+      Mat s0 = Mat::Zero(), s1 = Mat::Zero();  // set at the first point (k == 0)
       // local numbers in c1 of the face vertices (once per face, not per point)
       const auto& ref1 = mesh::referenceElement(m.cellType(c1));
       std::array<int, 4> local1{};

@@ -488,7 +488,9 @@ TEST(DynamicScenes, InexactSolvesRecordTheirToleranceAndOffIsTheDefault) {
   int loose = 0;
   double iterationsOff = 0, iterationsOn = 0;
   for (std::size_t k = 1; k < i.rows; ++k) {
-    if (k <= 2) EXPECT_EQ(i["solver_tolerance"][k], base) << k;
+    if (k <= 2) {
+      EXPECT_EQ(i["solver_tolerance"][k], base) << k;
+    }
     EXPECT_GE(i["solver_tolerance"][k], base) << k;
     EXPECT_LE(i["solver_tolerance"][k], 1e-2) << k;
     EXPECT_EQ(std::isnan(i["time_error"][k]), k == 1) << k;

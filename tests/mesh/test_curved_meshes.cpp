@@ -346,8 +346,9 @@ TEST(HalfBallMesh, EquatorIsFlatAndEveryTypeConforms) {
   for (CellType type : {CellType::Hexahedron, CellType::Tetrahedron, CellType::Prism, CellType::Pyramid}) {
     const CurvedMesh hb = halfBallMesh(c, 1.0, type, 2);
     for (Index f = 0; f < hb.mesh.numBoundaryFaces(); ++f)
-      if (hb.mesh.boundaryFaceId(f) == kHalfDiskTop)
+      if (hb.mesh.boundaryFaceId(f) == kHalfDiskTop) {
         for (Index v : hb.mesh.boundaryFaceVertices(f)) EXPECT_EQ(hb.mesh.vertex(v)[2], c[2]) << name(type);
+      }
     for (const Point& x : hb.mesh.vertices()) EXPECT_LE(x[2], c[2]) << name(type);
     const auto measures = boundaryMeasureById(hb.mesh);
     EXPECT_NEAR(measures.at(kHalfDiskTop), std::numbers::pi, 0.1) << name(type);  // polygonal disc

@@ -504,8 +504,6 @@ struct BadCase {
 /// Prints the case by name (otherwise GoogleTest dumps its bytes into every test's listing).
 void PrintTo(const BadCase& c, std::ostream* os) { *os << c.name; }
 
-std::ostream& operator<<(std::ostream& os, const BadCase& c) { return os << c.name; }
-
 // A line element in physical group 5 on node 4, which no cell uses (line 14).
 const std::string kBoundaryNodeWithoutCell = R"($MeshFormat
 2.2 0 8

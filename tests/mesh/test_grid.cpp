@@ -178,12 +178,16 @@ TEST_P(GridTest, ClosureRulesDecideWhichPatternsAreClosedGreen) {
         const int refined = std::popcount(g.edgePattern(e));
         const int edges = static_cast<int>(localEdges(g.type(e)).size());
         EXPECT_LT(refined, edges) << "green father " << e;
-        if (!all) EXPECT_LE(2 * refined, edges) << "green father " << e;
+        if (!all) {
+          EXPECT_LE(2 * refined, edges) << "green father " << e;
+        }
         aboveHalf += 2 * refined > edges;
       }
     }
     checkGrid(g, vol, area);
-    if (all) EXPECT_GT(aboveHalf, 0) << "the rule never mattered in this run";
+    if (all) {
+      EXPECT_GT(aboveHalf, 0) << "the rule never mattered in this run";
+    }
   }
 }
 

@@ -329,8 +329,9 @@ TEST(Transfer, AdaptiveRefinementAtAProjectedCurvedBoundary) {
     for (Index i = 0; i < after.mesh.numVertices(); ++i) {
       EXPECT_NEAR(t1[i], 1.0, 1e-12) << "cycle " << cycle << ", vertex " << i;
       const Point& p = after.mesh.vertex(i);
-      if ((p - Point(0, 1, 0)).norm() < 1 - 1e-9)
+      if ((p - Point(0, 1, 0)).norm() < 1 - 1e-9) {
         EXPECT_NEAR(tx[i], 2 * p[0] - p[1], 1e-10) << "cycle " << cycle << ", vertex " << i;
+      }
     }
   }
 }

@@ -41,7 +41,9 @@ TEST(Locking, BBarRemovesLockingOnQuadrilateralsAndHexahedra) {
       EXPECT_GT(locked.relativeL2, 0.4) << n;                          // locked: an error of order one
       EXPECT_LT(bbar.relativeL2, 1.3 * compressible.relativeL2) << n;  // as good as at nu = 0.3
       EXPECT_LT(bbar.relativeH1, 1.1 * compressible.relativeH1) << n;
-      if (previous > 0) EXPECT_NEAR(std::log2(previous / bbar.relativeL2), 2.0, 0.1) << n;
+      if (previous > 0) {
+        EXPECT_NEAR(std::log2(previous / bbar.relativeL2), 2.0, 0.1) << n;
+      }
       previous = bbar.relativeL2;
     }
   }

@@ -672,9 +672,12 @@ TEST(Newmark, EverySchemeFromTinyToHugeTimeSteps) {
         ASSERT_TRUE(std::isfinite(r.maxPenetration));
       }
       const bool dissipative = std::find(kDissipative.begin(), kDissipative.end(), s) != kDissipative.end();
-      if (dissipative)
+      if (dissipative) {
         for (std::size_t k = 1; k < rec.size(); ++k) EXPECT_LE(rec[k].energy, rec[k - 1].energy + 1e-9 * E0) << k;
-      if (s == NewmarkScheme::LaursenChawla) EXPECT_NEAR(rec.back().energy, E0, 1e-8 * E0);
+      }
+      if (s == NewmarkScheme::LaursenChawla) {
+        EXPECT_NEAR(rec.back().energy, E0, 1e-8 * E0);
+      }
       if (verbose()) std::cout << name(s) << " tau " << tau << ": E_end/E_0 = " << rec.back().energy / E0 << "\n";
     }
 }
@@ -742,13 +745,19 @@ TEST(Newmark, InexactSolvesSaveIterationsNotAccuracy) {
       // on: the first two steps to the solver tolerance, then within [solverTolerance, 1e-2]
       EXPECT_GE(ri[k].solverTolerance, base) << "step " << k;
       EXPECT_LE(ri[k].solverTolerance, 1e-2) << "step " << k;
-      if (k <= 2) EXPECT_EQ(ri[k].solverTolerance, base) << "step " << k;
+      if (k <= 2) {
+        EXPECT_EQ(ri[k].solverTolerance, base) << "step " << k;
+      }
       EXPECT_EQ(std::isnan(ri[k].timeError), k == 1) << "step " << k;
-      if (k > 1) EXPECT_GE(ri[k].timeError, 0) << "step " << k;
+      if (k > 1) {
+        EXPECT_GE(ri[k].timeError, 0) << "step " << k;
+      }
       loose += ri[k].solverTolerance > base;
       itExact += re[k].solverIterations;
       itInexact += ri[k].solverIterations;
-      if (s != NewmarkScheme::Classical) EXPECT_LE(ri[k].maxPenetration, 1e-9) << "step " << k;
+      if (s != NewmarkScheme::Classical) {
+        EXPECT_LE(ri[k].maxPenetration, 1e-9) << "step " << k;
+      }
       contactSteps += re[k].activeSolution > 0;
       maxForce = std::max(maxForce, re[k].contactForce.norm());
       forceDifference = std::max(forceDifference, (ri[k].contactForce - re[k].contactForce).norm());
@@ -819,7 +828,9 @@ TEST(Newmark, TimeErrorEstimateMatchesTheLocalErrorOfOneStep) {
                 << "\n";
     // measured: ratio 1.009, 1.005, 1.002 at tau omega = 0.03, 0.015, 0.0075; eta(2 tau)/eta(tau) 8.03, 8.02
     EXPECT_NEAR(eta / local, 1.0, 0.02) << "tau omega = " << tau * omega;
-    if (previous > 0) EXPECT_NEAR(previous / eta, 8.0, 0.2);  // third order in tau
+    if (previous > 0) {
+      EXPECT_NEAR(previous / eta, 8.0, 0.2);  // third order in tau
+    }
     previous = eta;
   }
 }

@@ -310,5 +310,7 @@ TEST(Threads, BlasThreadsFollowTheUserWhenOpenblasNumThreadsIsSet) {
   EXPECT_THROW(setBlasThreads(0), Error);
   // ctest runs every test with OPENBLAS_NUM_THREADS=1 (tests/CMakeLists.txt): the user's choice wins
   const char* env = std::getenv("OPENBLAS_NUM_THREADS");
-  if (env && *env) EXPECT_FALSE(setBlasThreads(2));
+  if (env && *env) {
+    EXPECT_FALSE(setBlasThreads(2));
+  }
 }

@@ -106,7 +106,9 @@ TEST(MultigridVertexPatch, ExactOnOnePatchProblem) {
   const Eigen::VectorXd reference = M.ldlt().solve(rt);
   EXPECT_LT((x - reference).norm(), 1e-9 * reference.norm());
   for (int i = 0; i < 24; ++i)
-    if (bits[i / 3] & (1u << (i % 3))) EXPECT_EQ(x[i], 0.0) << i;
+    if (bits[i / 3] & (1u << (i % 3))) {
+      EXPECT_EQ(x[i], 0.0) << i;
+    }
   // a backward sweep from the exact solution changes (almost) nothing
   Eigen::VectorXd y = x;
   smoother.sweep(r, y, true);
@@ -143,7 +145,9 @@ TEST(MultigridVertexPatch, EnergyOfTheErrorDecreasesMonotonically) {
     EXPECT_LE(e, previous * (1 + 1e-12)) << "sweep " << s;
     previous = e;
     for (std::size_t i = 0; i < rot.prescribed.size(); ++i)
-      if (rot.prescribed[i]) ASSERT_EQ(x[static_cast<Eigen::Index>(i)], 0.0);
+      if (rot.prescribed[i]) {
+        ASSERT_EQ(x[static_cast<Eigen::Index>(i)], 0.0);
+      }
   }
   if (verbose())
     std::cout << "  error energy after 6 sweeps: vertex-patch " << previous / start << ", Gauss-Seidel "
