@@ -77,7 +77,7 @@ struct ContactData {
   const ContactOutputs* outputs = nullptr;  ///< actual contact, multipliers, pressures s_p
   const Obstacle* obstacle = nullptr;       ///< the exact gap g (eta_7, eta_8)
   const Eigen::VectorXd* masterTraction = nullptr;  ///< master side of mortar pairs (see above)
-  std::vector<int> masterBoundaryIds;               ///< the faces masterTraction acts on
+  std::vector<int> masterBoundaryIds{};             ///< the faces masterTraction acts on
 };
 
 /// What an estimator needs: the problem (mesh, material, boundary conditions) and the discrete
