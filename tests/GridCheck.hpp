@@ -150,4 +150,19 @@ inline void checkGrid(const Grid& g, bool geometry = true) {
   checkGrid(g, 0, {}, false, false);  // topology and hierarchy only
 }
 
+/// Marks and adapts `cycles` times the leaves whose centroid lies within `radius` of `centre`
+/// (radius multiplied by `shrink` after each cycle), checking the grid after every adapt().
+inline void refineNear(Grid& grid, const Point& centre, double radius, int cycles, double shrink = 1.0) {
+  for (int c = 0; c < cycles; ++c) {
+    for (Index e : grid.leafElements()) {
+      Point x = Point::Zero();
+      for (Index v : grid.vertices(e)) x += grid.vertex(v) / static_cast<double>(grid.vertices(e).size());
+      if ((x - centre).norm() < radius) grid.mark(e);
+    }
+    grid.adapt();
+    checkGrid(grid);
+    radius *= shrink;
+  }
+}
+
 }  // namespace obs::test

@@ -35,20 +35,11 @@ const Material kMaterial{3e5, 0.25};
 
 bool verbose() { return std::getenv("OBS_TEST_VERBOSE") != nullptr; }
 
-/// Refines `steps` times the leaves within `radius` of `centre` (radius halved each step): a
+/// Refines `steps` times the leaves within `radius` of `centre` (radius times 0.6 each step): a
 /// hierarchy whose levels are mostly copies of the coarser ones.
 mesh::Grid graded(CellType type, int cells, int steps, Point centre, double radius) {
   mesh::Grid grid(mesh::boxMesh(type, cells));
-  for (int s = 0; s < steps; ++s) {
-    for (Index e : grid.leafElements()) {
-      Point c = Point::Zero();
-      for (Index v : grid.vertices(e)) c += grid.vertex(v) / static_cast<double>(grid.vertices(e).size());
-      if ((c - centre).norm() < radius) grid.mark(e);
-    }
-    grid.adapt();
-    radius *= 0.6;
-  }
-  obs::test::checkGrid(grid);
+  obs::test::refineNear(grid, centre, radius, steps, 0.6);
   return grid;
 }
 

@@ -44,18 +44,7 @@ mesh::Grid uniformGrid(CellType type, int coarseCells, int levels) {
   return grid;
 }
 
-/// Refines the leaves whose centre lies within `radius` of `centre`, `cycles` times.
-void refineNear(mesh::Grid& grid, const Point& centre, double radius, int cycles) {
-  for (int c = 0; c < cycles; ++c) {
-    for (Index e : grid.leafElements()) {
-      Point x = Point::Zero();
-      for (Index v : grid.vertices(e)) x += grid.vertex(v) / static_cast<double>(grid.vertices(e).size());
-      if ((x - centre).norm() < radius) grid.mark(e);
-    }
-    grid.adapt();
-    obs::test::checkGrid(grid);
-  }
-}
+using obs::test::refineNear;
 
 /// The punch of docs/theory.md#analytic-references (strip g = 0 on [0.4375, 0.5625]) or the Hertz ball with a
 /// deeper push.

@@ -11,7 +11,8 @@
 ///     u = x/(1-z), v = y/(1-z), w = z it is exact for Q_degree(u, v) x P_degree(w), which holds
 ///     the stiffness integrands of the rational pyramid element on affine pyramids for degree 2.
 /// Simplex and pyramid rules are conical-product (Stroud) rules built from Gauss-Jacobi points, so
-/// all weights are positive and all points interior. Rules are computed once and cached.
+/// all weights are positive and all points interior; up to degree 1 a simplex gets the one-point
+/// centroid rule. Rules are computed once and cached.
 #include <vector>
 
 #include "obs/mesh/CellType.hpp"
