@@ -348,6 +348,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
   if (scene.solver.maxIterations) o.maxSolverIterations = *scene.solver.maxIterations;
   if (scene.solver.preSmoothing) o.preSmoothing = *scene.solver.preSmoothing;
   if (scene.solver.postSmoothing) o.postSmoothing = *scene.solver.postSmoothing;
+  if (scene.solver.localSmoothing) o.multigrid.localSmoothing = *scene.solver.localSmoothing;
   o.inexactFraction = dyn.inexact;
   o.start = newmarkStartFromName(dyn.warmStart);
   for (const TrackedInfo& t : c.tracked) o.trackedVertices.push_back(t.vertex);
