@@ -8,6 +8,9 @@ overlaid) and writes into <dir> (or --output DIR, with --prefix):
   dyn_active.png         nodes active in the solution (solid) and predictor-only / solution-only
                          mismatches (dotted) against t
   dyn_velocity.png       normal velocity nu'v of the tracked vertices against t (if any)
+  dyn_displacement.png   normal displacement nu'u of the tracked vertices against t, with the
+                         initial gap of each as a dashed line (if any); at a slave node of a
+                         mortar pair both are those of the normal jump [u]_nu
 
   python3 scripts/plot_dynamics.py out/dynamics_ball
   python3 scripts/plot_dynamics.py out/cmp --output docs/figures --prefix dyn_ball_ --title "Geometry A"
@@ -119,10 +122,23 @@ def main():
             ax.plot(s["t"], s[k], color=color, label=label + suffix)
         return bool(keys)
 
+    def displacement(ax, label, s, color):
+        keys = [k for k in s if k.startswith("tracked") and k.endswith("_normal_displacement")]
+        for k in keys:
+            node = k.split("_")[0]
+            suffix = "" if len(keys) == 1 else " " + node
+            ax.plot(s["t"], s[k], color=color, label=label + suffix)
+            gap = s.get(node + "_gap", [])
+            if gap and not math.isnan(gap[0]):  # gap = g - nu'u, so g = gap + nu'u at t = 0
+                g0 = gap[0] + s[k][0]
+                ax.axhline(g0, color=color, ls="--", lw=0.6)
+        return bool(keys)
+
     figure("energy", "E / E_0", energy)
     figure("contact_force", "contact force |F|", force)
     figure("active", "active contact nodes (dotted: predictor/solution mismatch)", active)
     figure("velocity", "normal velocity of the tracked vertex", velocity)
+    figure("displacement", "normal displacement of the tracked vertex (dashed: initial gap)", displacement)
     return 0
 
 

@@ -666,6 +666,9 @@ TEST(Gmsh, ExampleMeshContents) {
       // two bodies (physical volumes 1 "lower", 2 "upper"); read whole, they overlap at z = 1
       {"two_blocks.msh", 3, 172, {0, 0, 0, 162, 50, 0, 0}, 198, sides3d2},
       {"two_blocks_v22.msh", 3, 172, {0, 0, 0, 162, 50, 0, 0}, 198, sides3d2},
+      // upper bodies of the Geometry B readings (scripts/make_geometry_b.py): one rotated unit cube
+      {"cube_on_corner.msh", 3, 8, {0, 0, 0, 0, 1, 0, 0}, 6, {{1, "corner"}, {2, "free"}}},
+      {"cube_on_edge.msh", 3, 8, {0, 0, 0, 0, 1, 0, 0}, 6, {{1, "edge"}, {2, "free"}}},
   };
   for (const ExampleMesh& e : examples) {
     SCOPED_TRACE(e.file);
