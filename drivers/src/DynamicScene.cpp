@@ -245,39 +245,61 @@ std::string csvLine(const StepRecord& r) {
   return os.str();
 }
 
-/// The .vtu fields of a state: displacement, stress, von_mises, boundary_id, velocity and the
-/// contact fields (gap g - nu'u, normal_displacement nu'u, normal_velocity nu'v, contact_state 0 / 1
-/// potential / 2 active) and, given the nodal contact forces F_p nu_p of the step (vertex-major,
-/// NewmarkFamily::contactForces()), contact_pressure s_p = F_p / m_p^C as in static scenes.
-std::vector<Field> stateFields(const Context& c, const Eigen::VectorXd& u, const Eigen::VectorXd& v,
-                               const Eigen::VectorXd* forces, std::vector<Field>* cells) {
-  const int dim = c.mesh.dimension();
+/// The contact data of a state for the .vtu fields, stacked and vertex-major: the relative
+/// displacement and velocity x = (I - C) u, w = (I - C) v of the mortar basis transformation (= u, v
+/// without mortar pairs; nu_p'x_p at a slave node p is the normal jump [u]_nu,
+/// docs/theory.md#dynamic-two-body-contact), and given a NewmarkFamily stepper the nodal contact
+/// forces of the step at the constrained nodes F~ (NewmarkFamily::nodalContactForces(): F_p nu_p at an
+/// obstacle node, D_pp lambda_p n_p at a slave node) and, for several bodies, the forces on the
+/// vertices F = (I - C')F~ (NewmarkFamily::contactForces(); the force on the bodies is -F).
+struct StateContact {
+  Eigen::VectorXd x, w;
+  std::optional<Eigen::VectorXd> nodal, forces;
+};
+
+/// The .vtu fields of a state on one body (one-body scenes: the mesh; several bodies: body b of
+/// Context::bodies, its segment of the stacked vectors): displacement, stress, von_mises, boundary_id,
+/// velocity and the contact fields of the body's constrained nodes (gap g - nu'x, normal_displacement
+/// nu'x, normal_velocity nu'w, contact_state 0 / 1 potential / 2 active; at a mortar slave node these
+/// are of the normal jump) and, given the nodal forces F~, contact_pressure s_p = F~_p / m_p^C as in
+/// static scenes (slave nodes: the dual-mortar pressure lambda_p); given the vertex forces F,
+/// contact_force -F (the nodal contact force on the body, both sides of a pair, as in static
+/// multi-body scenes). Vertices without a constraint (a master side) have 0 in the contact fields.
+std::vector<Field> stateFields(const Context& c, std::size_t b, const Eigen::VectorXd& u, const Eigen::VectorXd& v,
+                               const StateContact& sc, std::vector<Field>* cells) {
+  const mesh::Mesh& mesh = c.multiBody() ? *c.bodies[b].mesh : c.mesh;
+  const Material& material = c.multiBody() ? c.bodies[b].spec->material : c.scene.material;
+  const Index offset = c.multiBody() ? c.bodies[b].offset : 0;
+  const int dim = mesh.dimension();
+  const mesh::Index n = mesh.numVertices();
   ElasticitySolution s;
   s.dimension = dim;
-  s.displacement = u;
-  recoverStresses(c.mesh, c.scene.material, s);
-  std::vector<Field> pf = pointFields(c.mesh, s);
-  *cells = cellFields(c.mesh, s);
-  const mesh::Index n = c.mesh.numVertices();
+  s.displacement = u.segment(static_cast<Eigen::Index>(offset) * dim, static_cast<Eigen::Index>(n) * dim);
+  recoverStresses(mesh, material, s);
+  std::vector<Field> pf = pointFields(mesh, s);
+  *cells = cellFields(mesh, s);
   Field vel{"velocity", 3, std::vector<double>(3 * n, 0.0), false};
   for (mesh::Index p = 0; p < n; ++p)
-    for (int a = 0; a < dim; ++a) vel.values[3 * p + a] = v[p * dim + a];
+    for (int a = 0; a < dim; ++a) vel.values[3 * p + a] = v[(offset + p) * dim + a];
   Field gap{"gap", 1, std::vector<double>(n, 0.0), false};
   Field nd{"normal_displacement", 1, std::vector<double>(n, 0.0), false};
   Field nv{"normal_velocity", 1, std::vector<double>(n, 0.0), false};
   Field sp{"contact_pressure", 1, std::vector<double>(n, 0.0), false};
   Field state{"contact_state", 1, std::vector<double>(n, 0.0), true};
+  Field force{"contact_force", 3, std::vector<double>(3 * n, 0.0), false};
   double scale = 1e-300;
   for (Eigen::Index i = 0; i < u.size(); ++i) scale = std::max(scale, std::abs(u[i]));
   for (Index k = 0; k < c.contact.size(); ++k) {
     const double g = c.contact.gap(k);
     if (!std::isfinite(g)) continue;
-    const Index p = c.contact.vertex(k);
+    const Index P = c.contact.vertex(k);  // stacked
+    if (P < offset || P >= offset + n) continue;  // a node of another body
+    const Index p = P - offset;
     double nu_u = 0, nu_v = 0, nu_f = 0;
     for (int a = 0; a < dim; ++a) {
-      nu_u += c.contact.direction(k)[a] * u[p * dim + a];
-      nu_v += c.contact.direction(k)[a] * v[p * dim + a];
-      if (forces) nu_f += c.contact.direction(k)[a] * (*forces)[p * dim + a];
+      nu_u += c.contact.direction(k)[a] * sc.x[P * dim + a];
+      nu_v += c.contact.direction(k)[a] * sc.w[P * dim + a];
+      if (sc.nodal) nu_f += c.contact.direction(k)[a] * (*sc.nodal)[P * dim + a];
     }
     nd.values[p] = nu_u;
     nv.values[p] = nu_v;
@@ -285,32 +307,16 @@ std::vector<Field> stateFields(const Context& c, const Eigen::VectorXd& u, const
     gap.values[p] = g - nu_u;
     state.values[p] = g - nu_u <= 1e-8 * std::max({scale, std::abs(g), 1e-300}) ? 2 : 1;
   }
+  if (sc.forces)
+    for (mesh::Index p = 0; p < n; ++p)
+      for (int a = 0; a < dim; ++a) force.values[3 * p + a] = -(*sc.forces)[(offset + p) * dim + a];
   pf.push_back(std::move(vel));
   pf.push_back(std::move(gap));
   pf.push_back(std::move(nd));
   pf.push_back(std::move(nv));
-  if (forces) pf.push_back(std::move(sp));
+  if (sc.nodal) pf.push_back(std::move(sp));
   pf.push_back(std::move(state));
-  return pf;
-}
-
-/// The .vtu fields of body b of a multi-body state: displacement, stress, von_mises, boundary_id,
-/// velocity (the body's segment of the stacked vectors).
-std::vector<Field> bodyStateFields(const Context& c, std::size_t b, const Eigen::VectorXd& u, const Eigen::VectorXd& v,
-                                   std::vector<Field>* cells) {
-  const Context::Body& body = c.bodies[b];
-  const int dim = body.mesh->dimension();
-  const mesh::Index n = body.mesh->numVertices();
-  ElasticitySolution s;
-  s.dimension = dim;
-  s.displacement = u.segment(static_cast<Eigen::Index>(body.offset) * dim, static_cast<Eigen::Index>(n) * dim);
-  recoverStresses(*body.mesh, body.spec->material, s);
-  std::vector<Field> pf = pointFields(*body.mesh, s);
-  *cells = cellFields(*body.mesh, s);
-  Field vel{"velocity", 3, std::vector<double>(3 * n, 0.0), false};
-  for (mesh::Index p = 0; p < n; ++p)
-    for (int a = 0; a < dim; ++a) vel.values[3 * p + a] = v[(body.offset + p) * dim + a];
-  pf.push_back(std::move(vel));
+  if (sc.forces) pf.push_back(std::move(force));
   return pf;
 }
 
@@ -386,6 +392,8 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
   }
   run.setupSeconds = secondsSince(t0);
   auto* newmark = dynamic_cast<NewmarkFamily<d>*>(stepper.get());
+  if (c.multiBody() && !newmark)  // the .vtu fields need its mortar transformation
+    throw Error(scene.where(dyn.schemeLine) + "[dynamics] scheme = \"" + schemeName + "\" cannot integrate several bodies");
   if ((c.checkpointing || c.restart) && !newmark)
     throw Error(scene.where(dyn.schemeLine) + "[dynamics] scheme = \"" + schemeName + "\" cannot be checkpointed");
 
@@ -449,29 +457,31 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
 
   auto writeState = [&](const StepRecord& r) {
     if (!writeVtk) return;
-    if (c.multiBody()) {
-      // one .vtu per body and step; the .pvd lists them as parts of one time step
-      for (std::size_t b = 0; b < c.bodies.size(); ++b) {
-        std::ostringstream name;
-        name << scene.name << "_" << c.bodies[b].spec->name << "_" << std::setw(6) << std::setfill('0') << r.step << ".vtu";
-        const fs::path path = c.dir / name.str();
-        std::vector<Field> cells;
-        const auto pf = bodyStateFields(c, b, stepper->state().u, stepper->state().v, &cells);
-        writeVtu(path, *c.bodies[b].mesh, pf, cells);
-        run.vtuFiles.push_back(path);
-        run.vtuTimes.push_back(r.time);
-      }
-      return;
+    const DynamicState& state = stepper->state();
+    StateContact sc;
+    if (newmark) {
+      sc.x = newmark->problem().fromDisplacement(state.u);  // (I - C) u; a copy of u without mortar pairs
+      sc.w = newmark->problem().fromDisplacement(state.v);
+      sc.nodal = newmark->nodalContactForces();
+      if (c.multiBody()) sc.forces = newmark->contactForces();
+    } else {
+      sc.x = state.u;
+      sc.w = state.v;
     }
-    std::ostringstream name;
-    name << scene.name << "_" << std::setw(6) << std::setfill('0') << r.step << ".vtu";
-    const fs::path path = c.dir / name.str();
-    std::vector<Field> cells;
-    const Eigen::VectorXd forces = newmark ? newmark->contactForces() : Eigen::VectorXd();
-    const auto pf = stateFields(c, stepper->state().u, stepper->state().v, newmark ? &forces : nullptr, &cells);
-    writeVtu(path, c.mesh, pf, cells);
-    run.vtuFiles.push_back(path);
-    run.vtuTimes.push_back(r.time);
+    // one .vtu per body and step (the .pvd lists them as parts of one time step), or one
+    const std::size_t parts = c.multiBody() ? c.bodies.size() : 1;
+    for (std::size_t b = 0; b < parts; ++b) {
+      std::ostringstream name;
+      name << scene.name << "_";
+      if (c.multiBody()) name << c.bodies[b].spec->name << "_";
+      name << std::setw(6) << std::setfill('0') << r.step << ".vtu";
+      const fs::path path = c.dir / name.str();
+      std::vector<Field> cells;
+      const auto pf = stateFields(c, b, state.u, state.v, sc, &cells);
+      writeVtu(path, c.multiBody() ? *c.bodies[b].mesh : c.mesh, pf, cells);
+      run.vtuFiles.push_back(path);
+      run.vtuTimes.push_back(r.time);
+    }
   };
   if (!c.restart) writeState(first);
 

@@ -414,6 +414,13 @@ Eigen::VectorXd NewmarkFamily<d>::contactForces() const {
 }
 
 template <int d>
+Eigen::VectorXd NewmarkFamily<d>::nodalContactForces() const {
+  checkInitialized();
+  const double tau = options_.timeStep;
+  return multiplier_ / (multiplierFactor_ * tau * tau);
+}
+
+template <int d>
 double NewmarkFamily<d>::activeTolerance(const Eigen::VectorXd& u) const {
   double U = u.size() ? u.template lpNorm<Eigen::Infinity>() : 0.0;
   for (double g : gaps_)

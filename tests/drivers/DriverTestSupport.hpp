@@ -12,9 +12,11 @@
 
 #include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -33,6 +35,33 @@ inline std::string slurp(const std::filesystem::path& p) {
 inline nlohmann::json summaryOf(const std::filesystem::path& dir) {
   std::ifstream in(dir / "summary.json");
   return nlohmann::json::parse(in);
+}
+
+/// A CSV file as columns by header name (empty fields: NaN).
+struct Table {
+  std::vector<std::string> header;
+  std::map<std::string, std::vector<double>> columns;
+  std::size_t rows = 0;
+  const std::vector<double>& operator[](const std::string& key) const { return columns.at(key); }
+};
+
+inline Table readCsv(const std::filesystem::path& p) {
+  std::ifstream in(p);
+  Table t;
+  std::string line;
+  std::getline(in, line);
+  std::stringstream hs(line);
+  for (std::string h; std::getline(hs, h, ',');) t.header.push_back(h);
+  while (std::getline(in, line)) {
+    std::stringstream ls(line);
+    std::size_t k = 0;
+    for (std::string f; k < t.header.size(); ++k) {
+      if (!std::getline(ls, f, ',')) f.clear();
+      t.columns[t.header[k]].push_back(f.empty() ? std::nan("") : std::stod(f));
+    }
+    ++t.rows;
+  }
+  return t;
 }
 
 /// The points and point arrays of a .vtu file, read with VTK's own reader.

@@ -33,7 +33,9 @@
 
 #include "DriverTestSupport.hpp"
 
+using obs::test::readCsv;
 using obs::test::slurp;
+using obs::test::Table;
 using obs::test::summaryOf;
 namespace fs = std::filesystem;
 using namespace obs::drivers;
@@ -42,33 +44,6 @@ namespace {
 
 const fs::path kTmp = fs::path(OBS_TEST_TMP_DIR) / "dynamics";
 const fs::path kScenes = fs::path(OBS_DATA_DIR) / "scenes";
-
-/// A CSV file as columns by header name (empty fields: NaN).
-struct Table {
-  std::vector<std::string> header;
-  std::map<std::string, std::vector<double>> columns;
-  std::size_t rows = 0;
-  const std::vector<double>& operator[](const std::string& key) const { return columns.at(key); }
-};
-
-Table readCsv(const fs::path& p) {
-  std::ifstream in(p);
-  Table t;
-  std::string line;
-  std::getline(in, line);
-  std::stringstream hs(line);
-  for (std::string h; std::getline(hs, h, ',');) t.header.push_back(h);
-  while (std::getline(in, line)) {
-    std::stringstream ls(line);
-    std::size_t k = 0;
-    for (std::string f; k < t.header.size(); ++k) {
-      if (!std::getline(ls, f, ',')) f.clear();
-      t.columns[t.header[k]].push_back(f.empty() ? std::nan("") : std::stod(f));
-    }
-    ++t.rows;
-  }
-  return t;
-}
 
 /// Runs a data scene with `steps` time steps into kTmp/<out>.
 RunResult runData(const std::string& name, int steps, const std::string& out, bool compare = false) {

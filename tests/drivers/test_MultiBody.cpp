@@ -5,14 +5,21 @@
 // same path); every bad input of the multi-body format is a one-line error naming file and line.
 // Bodies from one Gmsh file ([body.mesh] physical = volume group): data/scenes/twobody_gmsh.toml gives
 // the results of the generator scene twobody_patch.toml bit for bit (also refined), and every bad
-// group selection is a one-line error naming the scene line and key.
+// group selection is a one-line error naming the scene line and key. Dynamic scenes: the momentum is
+// conserved, every body gets its .vtu per output step, and the slave side's .vtu carries the contact
+// fields of the normal jump (normal velocity = approach velocity before the impact, 0 in contact), its
+// pressures times boundary masses sum to the time series' contact force, the master's forces balance.
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
 
+#include <Eigen/Core>
+
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
 #include <sstream>
 #include <string>
 
@@ -269,6 +276,126 @@ TEST(MultiBodyScene, DynamicImpactConservesMomentumAndWritesEveryBody) {
   o.stopAfterStep = 10;
   EXPECT_THROW(runScene(kScenes / "twobody_impact.toml", o), RunInterrupted);
   EXPECT_TRUE(fs::exists(kTmp / "impact_stop" / "checkpoint.h5"));
+}
+
+TEST(MultiBodyScene, DynamicImpactVtkHasTheContactFieldsOfTheJump) {
+  // data/scenes/twobody_impact.toml, a .vtu every 5 steps: the slave side (upper body, bottom y = 1.02,
+  // all 15 nodes covered by the master, n_p = (0, -1)) carries the contact fields of the normal jump
+  // [u]_nu = n_p.(u_p - sum_q C_pq u_q) and the dual-mortar pressure lambda_p; both sides carry the nodal
+  // contact forces. Approach velocity [v]_nu = n.(v_upper - v_lower) = 2, gap 0.02: the jump reaches the
+  // gap at step 10 (t = 0.01), the bodies separate near step 52.
+  const fs::path dir = kTmp / "impact_fields";
+  fs::remove_all(dir);
+  run(kScenes / "twobody_impact.toml", "impact_fields", {"dynamics.output_stride=5"});
+  const obs::test::Table ts = obs::test::readCsv(dir / "timeseries.csv");
+  ASSERT_EQ(ts.rows, 121u);
+  double maxForce = 0;  // the scale of the round-off bounds on forces
+  for (double f : ts["contact_force_y"]) maxForce = std::max(maxForce, std::abs(f));
+  ASSERT_GT(maxForce, 30.0);
+  int flight = 0, pressed = 0, apart = 0;
+  for (int n = 0; n <= 120; n += 5) {
+    SCOPED_TRACE(n);
+    std::ostringstream step;
+    step << std::setw(6) << std::setfill('0') << n;
+    const auto upper = obs::test::readVtu(dir / ("twobody_impact_upper_" + step.str() + ".vtu"));
+    const auto lower = obs::test::readVtu(dir / ("twobody_impact_lower_" + step.str() + ".vtu"));
+    const auto row = static_cast<std::size_t>(n);
+    ASSERT_DOUBLE_EQ(ts["step"][row], n);
+    const double t = n * 1e-3;
+    // slave side: the 15 bottom nodes, their boundary masses m_p = D_pp = int phi_p (fully covered)
+    const auto gap = upper.array("gap"), un = upper.array("normal_displacement"), vn = upper.array("normal_velocity"),
+               s = upper.array("contact_pressure"), state = upper.array("contact_state"),
+               fu = upper.array("contact_force");
+    ASSERT_EQ(s.size(), upper.points.size());
+    ASSERT_EQ(fu.size(), 3 * upper.points.size());
+    std::vector<double> xs;
+    for (const auto& x : upper.points)
+      if (std::abs(x[1] - 1.02) <= 1e-12) xs.push_back(x[0]);
+    ASSERT_EQ(xs.size(), 15u);
+    std::sort(xs.begin(), xs.end());
+    auto boundaryMass = [&](double x) {
+      const std::size_t i = static_cast<std::size_t>(std::lower_bound(xs.begin(), xs.end(), x - 1e-12) - xs.begin());
+      return ((i + 1 < xs.size() ? xs[i + 1] : x) - (i > 0 ? xs[i - 1] : x)) / 2;
+    };
+    double load = 0;  // sum_p s_p m_p over the slave nodes
+    Eigen::Vector2d slaveForce = Eigen::Vector2d::Zero(), masterForce = Eigen::Vector2d::Zero();
+    int active = 0;
+    for (std::size_t p = 0; p < upper.points.size(); ++p) {
+      slaveForce += Eigen::Vector2d(fu[3 * p], fu[3 * p + 1]);
+      if (std::abs(upper.points[p][1] - 1.02) > 1e-12) {  // not a slave node: no contact fields, no force
+        for (const auto* f : {&gap, &un, &vn, &s, &state}) EXPECT_EQ((*f)[p], 0);
+        EXPECT_EQ(fu[3 * p + 1], 0);
+        continue;
+      }
+      const double m = boundaryMass(upper.points[p][0]);
+      EXPECT_GE(state[p], 1);
+      EXPECT_NEAR(gap[p] + un[p], 0.02, 1e-12);  // gap = g~_p / D_pp - [u]_nu
+      EXPECT_GE(s[p], -1e-12 * maxForce);         // lambda_p >= 0 up to round-off
+      // the nodal force on the slave node is -D_pp lambda_p n_p, n_p = (0, -1)
+      EXPECT_EQ(fu[3 * p], 0);
+      EXPECT_NEAR(fu[3 * p + 1], s[p] * m, 1e-12 * maxForce);
+      load += s[p] * m;
+      if (state[p] == 2) {
+        ++active;
+        EXPECT_LE(gap[p], 1e-8 * 0.02);
+      }
+    }
+    // master side: no constrained nodes (contact fields 0), the reaction forces on its top face only
+    const auto fl = lower.array("contact_force");
+    ASSERT_EQ(fl.size(), 3 * lower.points.size());
+    for (const char* name : {"gap", "normal_displacement", "normal_velocity", "contact_pressure", "contact_state"}) {
+      const auto f = lower.array(name);
+      ASSERT_EQ(f.size(), lower.points.size()) << name;
+      for (double x : f) EXPECT_EQ(x, 0) << name;
+    }
+    for (std::size_t p = 0; p < lower.points.size(); ++p) {
+      masterForce += Eigen::Vector2d(fl[3 * p], fl[3 * p + 1]);
+      if (std::abs(lower.points[p][1] - 1) > 1e-12) EXPECT_EQ(fl[3 * p + 1], 0);
+    }
+    // the time series' contact force is the force the slave side exerts on the master side:
+    // -sum_p s_p m_p n_p = the master's nodal forces; action = reaction
+    EXPECT_NEAR(load, -ts["contact_force_y"][row], 1e-12 * maxForce);
+    EXPECT_NEAR(masterForce.y(), ts["contact_force_y"][row], 1e-12 * maxForce);
+    EXPECT_NEAR(slaveForce.y(), -ts["contact_force_y"][row], 1e-12 * maxForce);
+    EXPECT_NEAR((slaveForce + masterForce).norm(), 0, 1e-12 * maxForce);
+    EXPECT_EQ(static_cast<double>(active), ts["active_solution"][row]);
+    // the tracked slave node (0.5, 1.02): the time series' jump values are the .vtu's
+    for (std::size_t p = 0; p < upper.points.size(); ++p)
+      if (std::abs(upper.points[p][0] - 0.5) <= 1e-12 && std::abs(upper.points[p][1] - 1.02) <= 1e-12) {
+        EXPECT_DOUBLE_EQ(un[p], ts["tracked0_normal_displacement"][row]);
+        EXPECT_DOUBLE_EQ(vn[p], ts["tracked0_normal_velocity"][row]);
+        EXPECT_DOUBLE_EQ(gap[p], ts["tracked0_gap"][row]);
+      }
+    if (n < 10) {  // free flight: the jump moves with the relative velocity 2 of the initial velocities
+      ++flight;
+      EXPECT_EQ(active, 0);
+      for (std::size_t p = 0; p < upper.points.size(); ++p) {
+        if (std::abs(upper.points[p][1] - 1.02) > 1e-12) continue;
+        EXPECT_NEAR(vn[p], 2, 1e-12);
+        EXPECT_NEAR(un[p], 2 * t, 1e-14);
+        EXPECT_LE(std::abs(s[p]), 1e-12 * maxForce);
+      }
+    } else if (n >= 15 && n <= 50) {  // pressed together: every slave node active, the jump at rest
+      ++pressed;
+      EXPECT_EQ(active, 15);
+      EXPECT_GT(load, 1.0);
+      for (std::size_t p = 0; p < upper.points.size(); ++p) {
+        if (std::abs(upper.points[p][1] - 1.02) > 1e-12) continue;
+        // improved contact-stabilized scheme: no normal (relative) velocity at the nodes in contact
+        EXPECT_NEAR(vn[p], 0, 1e-10);
+        EXPECT_GT(s[p], 0);
+      }
+    } else if (n >= 60) {  // apart again: separating, no contact force
+      ++apart;
+      EXPECT_EQ(active, 0);
+      EXPECT_LE(std::abs(load), 1e-12 * maxForce);
+      for (std::size_t p = 0; p < upper.points.size(); ++p)
+        if (std::abs(upper.points[p][1] - 1.02) <= 1e-12) EXPECT_LT(vn[p], 0);
+    }
+  }
+  EXPECT_EQ(flight, 2);
+  EXPECT_EQ(pressed, 8);
+  EXPECT_EQ(apart, 13);
 }
 
 TEST(MultiBodyScene, AdaptiveCylinderSceneRefinesBothBodies) {

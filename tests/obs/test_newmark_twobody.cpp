@@ -4,11 +4,14 @@
 // redistributed schemes), the contact forces on the two sides are equal and opposite, the
 // non-penetration schemes keep the normal jump below the gap, the dissipative schemes never gain
 // energy, the persistency scheme conserves it, and the classical scheme satisfies its energy identity.
-// A model of one body against an obstacle gives the one-body stepper's states bitwise.
+// A model of one body against an obstacle gives the one-body stepper's states bitwise. The forces at
+// the constrained nodes (nodalContactForces) are the vertex forces at the slave nodes and sum to the
+// recorded contact force.
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
@@ -108,6 +111,21 @@ TEST(NewmarkTwoBody, EverySchemeConservesMomentumAndBalancesTheContactForces) {
         magnitude = std::max(magnitude, F.segment<2>(2 * p).norm());
       }
       maxForce = std::max(maxForce, r.contactForce.norm());
+      // the forces at the constrained nodes before the transformation: F at the slave nodes
+      // (never master columns), 0 elsewhere; their sum is the record's force on the master side
+      const Eigen::VectorXd Fn = st.nodalContactForces();
+      const ContactSet& cs = st.problem().contactSet();
+      Eigen::Vector2d nodal = Eigen::Vector2d::Zero();
+      for (Index p = 0; p < c.vertices(); ++p) {
+        if (cs.nodeOf(p) >= 0) {
+          EXPECT_EQ(Fn[2 * p], F[2 * p]);
+          EXPECT_EQ(Fn[2 * p + 1], F[2 * p + 1]);
+        } else {
+          EXPECT_EQ(Fn.segment<2>(2 * p).norm(), 0.0);
+        }
+        nodal += Fn.segment<2>(2 * p);
+      }
+      EXPECT_LE((nodal - r.contactForce.head<2>()).norm(), 1e-12 * std::max(1.0, r.contactForce.norm()));
       maxImbalance = std::max(maxImbalance, total.norm() / std::max(magnitude, 1e-300));
       const Eigen::Vector3d pk = redistributed ? r.momentumRedistributed : r.momentum;
       maxMomentumError = std::max(maxMomentumError, (pk - p0).norm() / p0.norm());
@@ -193,12 +211,18 @@ TEST(NewmarkTwoBody, OneBodyModelIsTheOneBodyStepper) {
     a.initialize(Eigen::VectorXd::Zero(v0.size()), v0);
     b.initialize(Eigen::VectorXd::Zero(v0.size()), v0);
     int contactSteps = 0;
+    double maxForce = 0;
     for (int k = 0; k < 60; ++k) {
       contactSteps += a.step().activeSolution > 0;
       b.step();
+      // without mortar pairs the nodal forces are the vertex forces, bitwise
+      const Eigen::VectorXd F = a.contactForces();
+      EXPECT_EQ((a.nodalContactForces() - F).lpNorm<Eigen::Infinity>(), 0.0) << name(scheme);
+      maxForce = std::max(maxForce, F.lpNorm<Eigen::Infinity>());
     }
     EXPECT_EQ((a.state().u - b.state().u).lpNorm<Eigen::Infinity>(), 0.0) << name(scheme);
     EXPECT_EQ((a.state().v - b.state().v).lpNorm<Eigen::Infinity>(), 0.0) << name(scheme);
+    EXPECT_GT(maxForce, 0.0) << name(scheme);
     EXPECT_GT(contactSteps, 5) << name(scheme);
   }
 }

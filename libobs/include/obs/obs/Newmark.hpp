@@ -295,6 +295,14 @@ public:
   /// pairs: F = (I - C') F~ with F~ the nodal multipliers at the slave nodes, i.e. the slave and the
   /// master vertices carry equal and opposite totals (the force on the bodies is -F).
   Eigen::VectorXd contactForces() const;
+  /// The same forces of the last step at the constrained nodes, before the mortar transformation:
+  /// F~ = the multipliers of the bounds divided by c' tau^2, F~_p nu_p at the vertex of contact
+  /// node p (vertex-major, zero elsewhere), so contactForces() = (I - C') F~ and
+  /// StepRecord::contactForce is the sum of F~. At an obstacle node F~_p = F_p; at a mortar slave
+  /// node F~_p = D_pp lambda_p, so F~_p / m_p^C (ContactSet::boundaryMass = D_pp) is the dual-mortar
+  /// pressure lambda_p, the contact_pressure of the static scenes (computeContactOutputs). Without
+  /// mortar pairs the vector equals contactForces() bitwise.
+  Eigen::VectorXd nodalContactForces() const;
   /// The state between steps (checkpoints; throws obs::Error before initialize()).
   NewmarkSchemeState schemeState() const;
   /// Continues from a state taken by schemeState() of a stepper built on the same problem (restart).
