@@ -20,6 +20,7 @@ ways, and each of its statements is compared with the matching one):
   - momentum: the largest relative change of the total momentum M v (z) over the run;
   - penetration: the largest violation of a constraint over the run (the persistency schemes
     allow it by design).
+Run times are not reported here (docs/performance.md#dynamic-contact has bench/dynamics' figures).
 """
 import argparse
 import csv
@@ -77,8 +78,7 @@ def row_of(d, rows):
     active = col(rows, "active_solution")
     return {"E": text, "E~": tilde, "momentum": f"{mom:.1e}", "force": f"{d['max_contact_force']:.4g}",
             "tv": f"{d['contact_force_variation']:.3g}", "v": vr, "active": f"{max(active):.0f}",
-            "pen": f"{d['max_penetration']:.2g}", "its": f"{d['mean_iterations_per_step']:.2f}",
-            "ms": f"{1e3 * d['seconds_per_step']:.3g}"}
+            "pen": f"{d['max_penetration']:.2g}", "its": f"{d['mean_iterations_per_step']:.2f}"}
 
 
 def describe(s, label, scene):
@@ -89,14 +89,14 @@ def describe(s, label, scene):
 
 def detail_table(runs):
     out = ["| scheme | E: end (min..max) | E~: end (min..max) | momentum | max force | force TV | max active | "
-           "penetration | v after | its/step | ms/step |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+           "penetration | v after | TNNMG its/step |", "|---|---|---|---|---|---|---|---|---|---|"]
     for d, rows in runs:
         if rows is None:
-            out.append(f"| {d['scheme']} | not run: {d['error'][:120]} | | | | | | | | | |")
+            out.append(f"| {d['scheme']} | not run: {d['error'][:120]} | | | | | | | | |")
             continue
         r = row_of(d, rows)
         out.append(f"| {d['scheme']} | {r['E']} | {r['E~']} | {r['momentum']} | {r['force']} | {r['tv']} | "
-                   f"{r['active']} | {r['pen']} | {r['v']} | {r['its']} | {r['ms']} |")
+                   f"{r['active']} | {r['pen']} | {r['v']} | {r['its']} |")
     return out
 
 

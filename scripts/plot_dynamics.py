@@ -138,7 +138,7 @@ def main():
     figure("contact_force", "contact force |F|", force)
     figure("active", "active contact nodes (dotted: predictor/solution mismatch)", active)
     figure("velocity", "normal velocity of the tracked vertex", velocity)
-    figure("displacement", "normal displacement of the tracked vertex (dashed: initial gap)", displacement)
+    figure("displacement", "normal displacement (dashed: initial gap)", displacement)
     return 0
 
 
