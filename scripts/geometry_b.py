@@ -141,6 +141,7 @@ def main():
     for key, label, scene, prefix in READINGS:
         out += ["", label + ":", "",
                 f"![energy](figures/{prefix}energy.png) ![contact force](figures/{prefix}contact_force.png)",
+                f"![active nodes](figures/{prefix}active.png) "
                 f"![normal displacement](figures/{prefix}displacement.png) "
                 f"![normal velocity](figures/{prefix}velocity.png)"]
     out += ["", "<!-- geometry-b:end -->"]
