@@ -356,6 +356,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
   if (scene.solver.postSmoothing) o.postSmoothing = *scene.solver.postSmoothing;
   if (scene.solver.localSmoothing) o.multigrid.localSmoothing = *scene.solver.localSmoothing;
   o.inexactFraction = dyn.inexact;
+  o.redistribution.moments = dyn.redistributionMoments;
   o.start = newmarkStartFromName(dyn.warmStart);
   for (const TrackedInfo& t : c.tracked) o.trackedVertices.push_back(t.vertex);
 
@@ -641,7 +642,8 @@ nlohmann::json schemeJson(const Context& c, const SchemeRun& run) {
     j["energy_ratio_redistributed"] = run.initialEnergyRedistributed != 0
                                           ? nlohmann::json(run.finalEnergyRedistributed / run.initialEnergyRedistributed)
                                           : nlohmann::json(nullptr);
-    j["redistribution"] = {{"bounded_entries", run.redistributionBounded},
+    j["redistribution"] = {{"moments", dyn.redistributionMoments},
+                           {"bounded_entries", run.redistributionBounded},
                            {"min_factor", run.redistributionMinFactor},
                            {"positive_definite", run.redistributionPositiveDefinite}};
   }

@@ -151,7 +151,7 @@ DynamicsSpec parseDynamics(const Scene& scene, const toml::value& table) {
   const TomlSection s(scene.fileName, "[dynamics]", table,
                       {"scheme", "tau", "end_time", "steps", "initial_velocity",
                        "initial_displacement", "mass", "tracked", "output_stride", "compare", "inexact",
-                       "warm_start"});
+                       "warm_start", "redistribution_moments"});
   DynamicsSpec spec;
   spec.line = s.line();
   if (s.has("scheme")) {
@@ -258,6 +258,13 @@ DynamicsSpec parseDynamics(const Scene& scene, const toml::value& table) {
     if (w != "predictor" && w != "previous-increment")
       s.fail("warm_start", "= \"" + w + "\" must be \"predictor\" or \"previous-increment\"");
     spec.warmStart = w;
+  }
+  if (s.has("redistribution_moments")) {
+    const long long k = s.integer("redistribution_moments");
+    if (k != 1 && k != 2)
+      s.fail("redistribution_moments", "= " + literalOf(s.at("redistribution_moments")) +
+                                           " must be 1 (mass and centre of gravity) or 2 (also the second moments)");
+    spec.redistributionMoments = static_cast<int>(k);
   }
   return spec;
 }

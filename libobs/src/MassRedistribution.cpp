@@ -24,8 +24,12 @@ RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vecto
                 " flags do not match");
   if (dimension != 2 && dimension != 3)
     throw Error("mass redistribution: dimension " + std::to_string(dimension) + " (2 or 3 expected)");
-  // constraints: 1 (total mass), d first moments, d(d+1)/2 second moments
-  const int m = 1 + dimension + dimension * (dimension + 1) / 2;
+  if (options.moments != 1 && options.moments != 2)
+    throw Error("mass redistribution: moments = " + std::to_string(options.moments) +
+                " (1: mass and centre of gravity, 2: also the second moments)");
+  // constraints: 1 (total mass), d first moments, d(d+1)/2 second moments (moments = 2)
+  const bool second = options.moments == 2;
+  const int m = 1 + dimension + (second ? dimension * (dimension + 1) / 2 : 0);
 
   // centre and radius of the kept vertices: the constraint weights use the coordinates
   // y = (x - xbar) / L, an equivalent set of constraints (linear combinations of the ones in x) with
@@ -48,8 +52,9 @@ RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vecto
     int k = 0;
     w[k++] = 1;
     for (int a = 0; a < dimension; ++a) w[k++] = 0.5 * (yi[a] + yj[a]);
-    for (int a = 0; a < dimension; ++a)
-      for (int b = a; b < dimension; ++b) w[k++] = 0.5 * (yi[a] * yj[b] + yj[a] * yi[b]);
+    if (second)
+      for (int a = 0; a < dimension; ++a)
+        for (int b = a; b < dimension; ++b) w[k++] = 0.5 * (yi[a] * yj[b] + yj[a] * yi[b]);
     return w;
   };
 
@@ -81,7 +86,8 @@ RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vecto
     const Eigen::VectorXd D = Gfac.vectorD();
     if (Gfac.info() != Eigen::Success || !(D.minCoeff() > 1e-12 * D.cwiseAbs().maxCoeff()))
       throw Error("mass redistribution: the " + std::to_string(kept) + " vertices that keep mass do not determine "
-                  "the total mass, the first and the second moments (e.g. they lie on one line or plane); "
+                  + std::string(second ? "the total mass, the first and the second moments" : "the total mass and the first moments") +
+                  " (e.g. they lie on one line or plane); "
                   "refine the mesh or choose a smaller contact boundary");
   }
   const ScalarSparseMatrix M0 = out.matrix;
@@ -147,7 +153,8 @@ RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vecto
       if (cur.bounded > 0)
         msg << "; " << cur.bounded << " entries are at the bound M~_ij = " << theta
             << " M_ij: probably no redistributed mass matrix with these bounds keeps the total mass and the first "
-               "and second moments with the mass left off the contact boundary (too few cell layers behind it); "
+            << (second ? "and second moments" : "moments")
+            << " with the mass left off the contact boundary (too few cell layers behind it); "
                "refine the mesh near the contact boundary or use a scheme without mass redistribution";
       throw Error(msg.str());
     }

@@ -315,9 +315,35 @@ TEST(DynamicScenes, BallRunsTheRedistributedSchemesAndTheSummaryKeepsBothEnergyR
     EXPECT_GT(d.at("redistribution").at("bounded_entries").get<long long>(), 0);
     EXPECT_NEAR(d.at("redistribution").at("min_factor").get<double>(), 0.1, 1e-12);
     EXPECT_TRUE(d.at("redistribution").at("positive_definite").get<bool>());
+    EXPECT_EQ(d.at("redistribution").at("moments").get<int>(), 2);
   }
   // KLR and HHW conserve E~ (+ tau^2/8 a'M~a for KLR) while the ball flies (contact starts after step 1)
   EXPECT_NEAR(cmp[2].at("energy_ratio_redistributed").get<double>(), 1.0, 1e-3);
+}
+
+TEST(DynamicScenes, RedistributionMomentsReachTheMassMatrix) {
+  // [dynamics] redistribution_moments = 1 (mass and centre of gravity only, the thesis' M~ of
+  // Sec. 5.2.6) builds another M~ than the default 2: the summary says which, and KLR's states differ
+  auto run = [](int moments) {
+    Scene scene = parseScene(kScenes / "twobody_impact.toml");
+    scene.dynamics->scheme = "khenous-laborde-renard";
+    scene.dynamics->steps = 12;
+    scene.dynamics->endTime.reset();
+    scene.dynamics->redistributionMoments = moments;
+    const fs::path dir = kTmp / ("klr_moments_" + std::to_string(moments));
+    fs::remove_all(dir);
+    RunOptions o;
+    o.outputDirectory = dir;
+    runScene(scene, o);
+    return summaryOf(dir).at("dynamics");
+  };
+  const nlohmann::json a = run(1), b = run(2);
+  EXPECT_EQ(a.at("redistribution").at("moments").get<int>(), 1);
+  EXPECT_EQ(b.at("redistribution").at("moments").get<int>(), 2);
+  EXPECT_NE(a.at("final_energy_redistributed").get<double>(), b.at("final_energy_redistributed").get<double>());
+  // the initial E~ is the same: the bodies translate rigidly, and both M~ keep each body's mass
+  EXPECT_NEAR(a.at("initial_energy_redistributed").get<double>(), b.at("initial_energy_redistributed").get<double>(),
+              1e-12 * b.at("initial_energy_redistributed").get<double>());
 }
 
 TEST(DynamicScenes, ComparedSchemeThatCannotRunIsReportedNotFatal) {
@@ -401,6 +427,11 @@ TEST(DynamicScenes, BadInputIsAnErrorWithFileLineAndKey) {
                  {"bad.toml:22:", "[dynamics] inexact", "must be a number"});
   expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\ninexact = nan\n")),
                  {"bad.toml:22:", "[dynamics] inexact", "must be finite"});
+  EXPECT_EQ(errorOf(barScene("tau = 1e-3\nsteps = 3\nredistribution_moments = 3\n")),
+            "bad.toml:22: [dynamics] redistribution_moments = 3 must be 1 (mass and centre of gravity) or 2 (also the "
+            "second moments)");
+  expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\nredistribution_moments = \"first\"\n")),
+                 {"bad.toml:22:", "[dynamics] redistribution_moments", "must be an integer"});
   expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\n") + "\n[solver]\ntype = \"pdas\"\n"),
                  {"bad.toml:23:", "[solver] type = \"pdas\" is not available with [dynamics]"});
   // [mesh] generators

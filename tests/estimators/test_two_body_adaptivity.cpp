@@ -215,9 +215,12 @@ TEST(TwoBodyAdaptivity, CylinderOnBlockRefinesBothBodiesAtTheContactZone) {
     EXPECT_NEAR(s.eta * s.eta, s.bodies[0].eta * s.bodies[0].eta + s.bodies[1].eta * s.bodies[1].eta,
                 1e-12 * s.eta * s.eta);
     EXPECT_EQ(s.vertices, s.bodies[0].vertices + s.bodies[1].vertices);
-    // TNNMG to 1e-12: 13-18 iterations; 38 at step 4 before coarse components without fine support
-    // were truncated on the coarser levels (docs/verification.md#adaptive-two-body-contact)
-    EXPECT_LE(s.solverIterations, 22);
+    // TNNMG to 1e-12: 38 iterations at step 4 before coarse components without fine support were
+    // truncated on the coarser levels (docs/verification.md#adaptive-two-body-contact). The largest
+    // count now depends on OpenBLAS' kernel through the round-off of the coarse CHOLMOD solve: 22 with
+    // the Haswell, Sandybridge and Prescott kernels, 23 with SkylakeX (OPENBLAS_CORETYPE=...; the
+    // AVX-512 machines pick it), so the bound leaves one iteration above the largest measured
+    EXPECT_LE(s.solverIterations, 24);
   }
   // both bodies are refined, the estimate decreases
   Index markedBlock = 0, markedCylinder = 0;

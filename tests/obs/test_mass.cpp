@@ -363,6 +363,32 @@ TEST(MassRedistribution, LowerBoundChangesNothingWhereItIsInactive) {
   EXPECT_EQ(Eigen::MatrixXd(redistributeMass(M, m.vertices(), 3, contact, none).matrix - b.matrix).cwiseAbs().maxCoeff(), 0.0);
 }
 
+TEST(MassRedistribution, FirstMomentsOnlyKeepMassAndCentreOfGravity) {
+  // moments = 1 (the thesis' M~ of Sec. 5.2.6): 1 + d constraints; mass and centre of gravity kept to
+  // round-off, the second moment in the normal direction not (removing the bottom layer lowers it and
+  // only the rescaling by an affine polynomial is left to restore it)
+  const mesh::Mesh m = mesh::boxMesh(CellType::Hexahedron, 4);
+  const ScalarSparseMatrix M = assembleConsistentMass(m, Material{});
+  std::vector<char> contact(m.numVertices(), 0);
+  for (Index v = 0; v < m.numVertices(); ++v) contact[v] = m.vertex(v)[2] == 0.0;
+  MassRedistributionOptions first;
+  first.moments = 1;
+  const RedistributedMass R = redistributeMass(M, m.vertices(), 3, contact, first);
+  EXPECT_EQ(R.multipliers.size(), 4);
+  EXPECT_LE(R.residual, 1e-14);
+  EXPECT_NEAR(moment(R.matrix, m, -1), moment(M, m, -1), 1e-13);
+  for (int c = 0; c < 3; ++c) EXPECT_NEAR(moment(R.matrix, m, c), moment(M, m, c), 1e-13) << "coordinate " << c;
+  EXPECT_GT(std::abs(secondMoment(R.matrix, m, 2, 2) - secondMoment(M, m, 2, 2)), 1e-4);
+  const RedistributedMass full = redistributeMass(M, m.vertices(), 3, contact);
+  EXPECT_EQ(full.multipliers.size(), 10);
+  EXPECT_NEAR(secondMoment(full.matrix, m, 2, 2), secondMoment(M, m, 2, 2), 1e-13);
+  for (int bad : {0, 3, -1}) {
+    MassRedistributionOptions o;
+    o.moments = bad;
+    EXPECT_THROW(redistributeMass(M, m.vertices(), 3, contact, o), obs::Error) << bad;
+  }
+}
+
 TEST(MassLumping, HrzFallbackForNonPositiveRowSums) {
   Eigen::MatrixXd local(2, 2);
   local << 1.0, -1.2, -1.2, 3.0;  // row sums -0.2, 1.8

@@ -43,6 +43,9 @@ struct DynamicsSpec {
   /// [0, 1); > 0 solves each step only to this fraction of the previous step's time-error estimate.
   double inexact = 0;
   int inexactLine = 0;
+  /// Moments kept by the redistributed mass of the KLR/HHW schemes (MassRedistributionOptions::moments):
+  /// 2 mass, centre of gravity and second moments (default), 1 mass and centre of gravity only.
+  int redistributionMoments = 2;
   /// Initial iterate of each step's solve (NewmarkOptions::start): "predictor" or "previous-increment".
   std::string warmStart = "predictor";
   int line = 0;  ///< line of [dynamics]

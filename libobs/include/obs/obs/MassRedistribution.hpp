@@ -7,7 +7,8 @@
 ///   sum_ij M~_ij = sum_ij M_ij                                   (total mass),
 ///   sum_ij M~_ij x_j,a = sum_ij M_ij x_j,a              for each a  (first moments),
 ///   sum_ij M~_ij x_i,a x_j,b = sum_ij M_ij x_i,a x_j,b  for a <= b  (second moments),
-/// 1 + d + d(d+1)/2 constraints (6 in 2D, 10 in 3D), and closest to M among such matrices in the
+/// 1 + d + d(d+1)/2 constraints (6 in 2D, 10 in 3D; MassRedistributionOptions::moments = 1 drops the
+/// second moments: 1 + d), and closest to M among such matrices in the
 /// weighted Frobenius norm sum_K (M~_ij - M_ij)^2 / |M_ij| (constrained least squares). For the consistent M the right-hand sides are the
 /// integrals of rho, rho x_a and rho x_a x_b over the body (the coordinates are finite element
 /// functions), so M~ has the body's mass, centre of gravity and second-moment tensor, and with it
@@ -70,12 +71,18 @@ struct MassRedistributionOptions {
   /// negative diagonal entry. With the bound the minimiser is M~_ij = M_ij max(theta, 1 + q_ij) (see the
   /// file comment); where 1 + q >= theta everywhere it is the unconstrained one, bit for bit.
   double minimumScale = 0.1;
+  /// Which moments of M the redistributed matrix keeps: 2 (default) the total mass, the first and the
+  /// second moments (mass, centre of gravity, inertia tensor: 1 + d + d(d+1)/2 constraints); 1 only the
+  /// total mass and the first moments (1 + d constraints), the variant of the thesis' experiments
+  /// (Sec. 5.2.6: "the whole mass of the system and the center of gravity are conserved"). Other
+  /// values: obs::Error.
+  int moments = 2;
 };
 
 struct RedistributedMass {
   ScalarSparseMatrix matrix;        ///< M~ (pattern of M, zero rows/columns at the massless vertices)
   std::vector<char> massless;       ///< per vertex: in C
-  Eigen::VectorXd multipliers;      ///< lambda (1 + d + d(d+1)/2, order of the file comment)
+  Eigen::VectorXd multipliers;      ///< lambda (1 + d [+ d(d+1)/2], order of the file comment)
   int iterations = 0;               ///< Uzawa (semismooth Newton) sweeps
   double minimumFactor = 1;         ///< smallest M~_ij / M_ij over the kept entries (>= minimumScale)
   Eigen::Index boundedEntries = 0;  ///< kept entries at the bound M~_ij = minimumScale M_ij
