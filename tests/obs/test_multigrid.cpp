@@ -1,6 +1,6 @@
 // Multigrid hierarchy and linear multigrid: Galerkin operators against dense triple products (with
-// rotations and truncation), transfers as transposes, coarse updates only on truncation changes,
-// CHOLMOD refactorisation, and V-cycle convergence for linear elasticity: mesh-independent rates
+// rotations and truncation) and against the stiffness rediscretised on uniform levels, transfers as
+// transposes, coarse updates only on truncation changes, CHOLMOD refactorisation, and V-cycle convergence for linear elasticity: mesh-independent rates
 // over uniform levels for quadrilaterals, triangles, hexahedra and tetrahedra, and agreement with
 // the direct solver.
 #include <gtest/gtest.h>
@@ -269,6 +269,46 @@ TEST(MultigridHierarchy, CoarseComponentsWithoutFineSupportAreTruncatedOnCoarser
     }
 }
 
+// On uniformly refined grids the level spaces are nested P1/Q1 spaces, so the Galerkin operator
+// A_l = P_l' A_{l+1} P_l of every level must be the stiffness matrix assembled on level view l, to
+// round-off. A prolongation that is not the exact interpolation on the refined cells breaks this
+// (one edge midpoint of one level weighted 0.6/0.4 instead of 0.5/0.5 fails here, although it still
+// reproduces constants). Issue 12: the tetrahedral V-cycle rate that grows with the level is not
+// caused by such a defect (docs/performance.md#tetrahedral-multigrid-rates).
+TEST(MultigridHierarchy, GalerkinOperatorsEqualTheRediscretisedStiffnessOnUniformLevels) {
+  auto check = [&]<int d>(std::integral_constant<int, d>, CellType type, int coarseCells, int levels) {
+    const mesh::Grid grid = refinedGrid(type, coarseCells, levels);
+    MultigridHierarchy<d> h(grid);
+    const BlockSparseMatrix<d> A = assembleStiffness<d>(grid.leafView().mesh, kMaterial);
+    h.setFineOperator(A);
+    ASSERT_EQ(h.maxLevel(), levels);
+    for (int l = 0; l < levels; ++l) {
+      const BlockSparseMatrix<d>& C = h.coarseOperator(l);
+      const BlockSparseMatrix<d> K = assembleStiffness<d>(grid.levelView(l).mesh, kMaterial);
+      ASSERT_EQ(C.rows(), K.rows());
+      double scale = 0;
+      for (Index k = 0; k < K.nonZeroBlocks(); ++k) scale = std::max(scale, K.blockAt(k).cwiseAbs().maxCoeff());
+      double diff = 0;
+      for (Index p = 0; p < C.rows(); ++p) {
+        for (Index k = C.rowBegin(p); k < C.rowEnd(p); ++k) {
+          const Index kk = K.find(p, C.column(k));
+          diff = std::max(diff, (kk < 0 ? C.blockAt(k) : Eigen::Matrix<double, d, d>(C.blockAt(k) - K.blockAt(kk)))
+                                    .cwiseAbs()
+                                    .maxCoeff());
+        }
+        for (Index k = K.rowBegin(p); k < K.rowEnd(p); ++k)
+          if (C.find(p, K.column(k)) < 0) diff = std::max(diff, K.blockAt(k).cwiseAbs().maxCoeff());
+      }
+      EXPECT_LT(diff, 1e-12 * scale) << mesh::name(type) << " level " << l;
+    }
+  };
+  check(std::integral_constant<int, 3>{}, CellType::Tetrahedron, 2, 2);  // Kuhn tetrahedra, then the red split
+  check(std::integral_constant<int, 3>{}, CellType::Tetrahedron, 1, 3);
+  check(std::integral_constant<int, 3>{}, CellType::Hexahedron, 2, 2);
+  check(std::integral_constant<int, 2>{}, CellType::Triangle, 2, 3);
+  check(std::integral_constant<int, 2>{}, CellType::Quadrilateral, 2, 3);
+}
+
 TEST(MultigridHierarchy, FineOperatorOfAnotherMeshIsAnError) {
   const mesh::Grid grid = refinedGrid(CellType::Quadrilateral, 2, 1);
   MultigridHierarchy<2> h(grid);
@@ -297,8 +337,9 @@ TEST(CholmodSolver, RefactorizeWithTheSamePattern) {
 // coarse solve and much faster). Measured (see docs/performance.md): quadrilaterals 0.037 0.057
 // 0.065 0.065, triangles 0.095 0.171 0.210 0.218, hexahedra 0.010 0.054 0.069. Tetrahedra: the
 // V-cycle gives 0.044 0.18 0.29 (still growing with the number of levels: 0.34 and 0.37 on levels
-// 4 and 5), so for them the bound on the growth is checked with W-cycles (0.044 0.165 0.206), and
-// the V-cycle only against 0.3.
+// 4 and 5; a pre-asymptotic growth towards a level-independent limit, not a defect, see
+// docs/performance.md#tetrahedral-multigrid-rates), so for them the bound on the growth is checked
+// with W-cycles (0.044 0.165 0.206), and the V-cycle only against 0.3.
 class LinearMultigridRates : public ::testing::TestWithParam<RateCase> {};
 
 TEST_P(LinearMultigridRates, AreMeshIndependentAndMatchTheDirectSolver) {
