@@ -23,6 +23,7 @@
 //   --pdas-max-dofs-3d N   skip PDAS above N unknowns in 3D (default 200000)
 //   --pgs-max-iterations N, --pgs-max-seconds S   PGS caps (default 2000, 60): reported as not converged
 //   --tolerance t          relative energy-norm correction of the iterative solvers (default 1e-10)
+//   --cycle-index k        1: V-cycles (default), 2: W-cycles, in TNNMG's linear correction and "mg"
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -67,6 +68,7 @@ struct Settings {
   int pgsMaxIterations = 2000;
   double pgsMaxSeconds = 60;
   double tolerance = 1e-10;
+  int cycleIndex = 1;  ///< --cycle-index: 1 V-cycles, 2 W-cycles (TNNMG's correction and "mg")
 };
 
 /// What a child process reports back through the pipe.
@@ -192,6 +194,7 @@ Measurement runSolver(Problem which, CellType type, int coarse, int level, const
     m.rssBeforeMB = rssMB();
     LinearMultigridOptions o;
     o.tolerance = s.tolerance;
+    o.cycleIndex = s.cycleIndex;
     auto t0 = Clock::now();
     LinearMultigrid<d> mg(setup.grid, o);
     m.setupSeconds = since(t0);
@@ -218,6 +221,7 @@ Measurement runSolver(Problem which, CellType type, int coarse, int level, const
   if (solver == "tnnmg") {
     typename TNNMG<d>::Options o;
     o.tolerance = s.tolerance;
+    o.multigrid.cycleIndex = s.cycleIndex;
     auto t0 = Clock::now();
     TNNMG<d> tnnmg(setup.grid, o);
     m.setupSeconds = since(t0);
@@ -368,6 +372,10 @@ int main(int argc, char** argv) {
       else if (a == "--pgs-max-iterations") s.pgsMaxIterations = std::stoi(value());
       else if (a == "--pgs-max-seconds") s.pgsMaxSeconds = std::stod(value());
       else if (a == "--tolerance") s.tolerance = std::stod(value());
+      else if (a == "--cycle-index") {
+        s.cycleIndex = std::stoi(value());
+        if (s.cycleIndex != 1 && s.cycleIndex != 2) throw std::runtime_error("--cycle-index must be 1 (V) or 2 (W)");
+      }
       else if (!a.starts_with("-") && output.empty()) output = a;
       else throw std::runtime_error("unknown argument " + a);
     }
