@@ -387,6 +387,7 @@ est::AdaptiveLoopOptions adaptiveLoopOptions(const Scene& scene, bool contact) {
   o.preSmoothing = scene.solver.preSmoothing.value_or(o.preSmoothing);  // were ignored before
   o.postSmoothing = scene.solver.postSmoothing.value_or(o.postSmoothing);
   o.localSmoothing = scene.solver.localSmoothing.value_or(o.localSmoothing);
+  o.cycleIndex = scene.solver.cycleIndex.value_or(o.cycleIndex);
   return o;
 }
 

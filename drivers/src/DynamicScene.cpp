@@ -355,6 +355,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
   if (scene.solver.preSmoothing) o.preSmoothing = *scene.solver.preSmoothing;
   if (scene.solver.postSmoothing) o.postSmoothing = *scene.solver.postSmoothing;
   if (scene.solver.localSmoothing) o.multigrid.localSmoothing = *scene.solver.localSmoothing;
+  if (scene.solver.cycleIndex) o.multigrid.cycleIndex = *scene.solver.cycleIndex;
   o.inexactFraction = dyn.inexact;
   o.redistribution.moments = dyn.redistributionMoments;
   o.start = newmarkStartFromName(dyn.warmStart);

@@ -385,7 +385,7 @@ ContactSpec parseContact(const Scene& scene, const toml::value& table) {
 SolverSpec parseSolver(const Scene& scene, const toml::value& table, bool contact) {
   const TomlSection s(scene.fileName, "[solver]", table,
                       {"type", "tolerance", "max_iterations", "pre_smoothing", "post_smoothing", "smoother",
-                       "krylov_steps", "linear_smoothing", "local_smoothing"});
+                       "krylov_steps", "linear_smoothing", "local_smoothing", "cycle"});
   SolverSpec spec;
   spec.line = s.line();
   if (s.has("type")) {
@@ -424,8 +424,14 @@ SolverSpec parseSolver(const Scene& scene, const toml::value& table, bool contac
     notFor("krylov_steps", "only tnnmg and multigrid run V-cycles");
     notFor("linear_smoothing", "only tnnmg and multigrid run V-cycles");
     notFor("local_smoothing", "only tnnmg and multigrid run V-cycles");
+    notFor("cycle", "only tnnmg and multigrid run multigrid cycles");
   }
   if (s.has("local_smoothing")) spec.localSmoothing = s.boolean("local_smoothing");
+  if (s.has("cycle")) {
+    const std::string c = s.string("cycle");
+    if (c != "V" && c != "W") s.fail("cycle", "= \"" + c + "\" must be \"V\" or \"W\"");
+    spec.cycleIndex = c == "V" ? 1 : 2;
+  }
   if (s.has("linear_smoothing")) {
     const long long n = s.integer("linear_smoothing");
     if (n < 1 || n > 100)

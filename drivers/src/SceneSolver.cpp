@@ -31,10 +31,11 @@ double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock:
 constexpr double kDefaultTolerance = 1e-10;
 constexpr double kContactTolerance = 1e-8;  ///< relative tolerance of "actual contact"
 
-/// [solver] smoother, krylov_steps, linear_smoothing and local_smoothing (docs/scenes.md) on the options of a
+/// [solver] smoother, krylov_steps, linear_smoothing, local_smoothing and cycle (docs/scenes.md) on the options of a
 /// linear multigrid.
 void applyMultigridSpec(const SolverSpec& spec, LinearMultigridOptions& o) {
   o.localSmoothing = spec.localSmoothing.value_or(o.localSmoothing);
+  o.cycleIndex = spec.cycleIndex.value_or(o.cycleIndex);
   if (spec.smoother == "vertex-patch") o.smoother = LinearSmoother::VertexPatch;
   o.krylovSteps = spec.krylovSteps.value_or(o.krylovSteps);
   if (spec.linearSmoothing) o.preSmoothing = o.postSmoothing = *spec.linearSmoothing;

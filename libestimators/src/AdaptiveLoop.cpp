@@ -586,6 +586,7 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
         o.preSmoothing = options_.preSmoothing;
         o.postSmoothing = options_.postSmoothing;
         o.multigrid.localSmoothing = options_.localSmoothing;
+        o.multigrid.cycleIndex = options_.cycleIndex;
         o.recordHistory = false;
         TNNMG<d> solver(grids, o);
         result = solver.solve(*problem, x);

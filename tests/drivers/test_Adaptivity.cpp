@@ -255,6 +255,23 @@ TEST_F(AdaptiveRun, SetOverridesRefinementAndEstimator) {
   EXPECT_FALSE(contains(steps[0].back() + "," + slurp(dir / "steps.csv").substr(0, 200), "eta_6"));
 }
 
+TEST_F(AdaptiveRun, WCycleKeyReachesTheAdaptiveSolver) {
+  // [solver] cycle = "W" reaches AdaptiveLoop's TNNMG: the adaptive Hertz run on tetrahedra takes
+  // fewer iterations on the last (finest) step and ends with the same load
+  const std::string args = "--set adaptivity.steps=4 --set 'adaptivity.vtk=\"none\"'";
+  const Output v = run(scenePath("example3b"), args, "cycle_v_adaptive");
+  const Output w = run(scenePath("example3b"), args + " --set 'solver.cycle=\"W\"'", "cycle_w_adaptive");
+  ASSERT_EQ(v.code, 0) << v.err;
+  ASSERT_EQ(w.code, 0) << w.err;
+  const Table sv = readCsv(kTmp / "cycle_v_adaptive" / "steps.csv");
+  const Table sw = readCsv(kTmp / "cycle_w_adaptive" / "steps.csv");
+  ASSERT_EQ(sv.size(), 5u);
+  ASSERT_EQ(sw.size(), 5u);
+  EXPECT_EQ(number(sv, 4, "vertices"), number(sw, 4, "vertices"));
+  EXPECT_LT(number(sw, 4, "iterations"), number(sv, 4, "iterations"));
+  EXPECT_NEAR(number(sw, 4, "load"), number(sv, 4, "load"), 1e-7 * number(sv, 4, "load"));
+}
+
 TEST_F(AdaptiveRun, UnconvergedStepStopsTheLoopAndInexactIsRecorded) {
   // TNNMG capped at 8 iterations: the first step that needs more is the last one, not estimated
   const Output o = run(scenePath("example1a"), "--set adaptivity.steps=6 --set solver.max_iterations=8", "capped");

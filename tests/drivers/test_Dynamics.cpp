@@ -561,6 +561,34 @@ TEST(DynamicScenes, StaticScenesAssembleNoMassMatrix) {
             "");
 }
 
+TEST(DynamicScenes, WCycleKeyReachesTheNewmarkSolver) {
+  // [solver] cycle = "W" reaches the Newmark driver's TNNMG: another cycle, other round-off, the same
+  // time series to the solver tolerance (refine 2: three levels; on two levels the W-cycle is the
+  // V-cycle, the coarsest level being solved exactly)
+  auto run = [](const std::string& out, std::optional<int> cycle) {
+    Scene scene = parseScene(kScenes / "dynamics_ball.toml");
+    scene.mesh.refine = 2;
+    scene.dynamics->steps = 10;
+    scene.solver.cycleIndex = cycle;
+    const fs::path dir = kTmp / out;
+    fs::remove_all(dir);
+    RunOptions o;
+    o.outputDirectory = dir;
+    runScene(scene, o);
+    return readCsv(dir / "timeseries.csv");
+  };
+  const Table v = run("cycle_v_dyn", std::nullopt), w = run("cycle_w_dyn", 2);
+  ASSERT_EQ(v.rows, 11u);
+  ASSERT_EQ(w.rows, 11u);
+  bool differs = false;
+  for (std::size_t k = 0; k < v.rows; ++k) {
+    EXPECT_NEAR(w["energy"][k], v["energy"][k], 1e-8 * v["energy"][0]) << k;
+    EXPECT_EQ(w["active_solution"][k], v["active_solution"][k]) << k;
+    differs = differs || w["energy"][k] != v["energy"][k];
+  }
+  EXPECT_TRUE(differs) << "cycle = \"W\" did not reach the solver";
+}
+
 TEST(DynamicScenes, LocalSmoothingKeyIsAppliedAndChangesNothingOnUniformGrids) {
   // [solver] local_smoothing (docs/theory.md#local-multigrid) reaches the Newmark driver's TNNMG; the
   // dynamic scenes refine uniformly, where every basis function is new on its level, so switching it

@@ -131,6 +131,7 @@ struct SolverSpec {
   std::optional<int> krylovSteps;  ///< CG steps per linear correction (0: plain V-cycles)
   std::optional<int> linearSmoothing;  ///< sweeps before and after the coarse correction of the V-cycle
   std::optional<bool> localSmoothing;  ///< smooth only where a level is new (LinearMultigridOptions)
+  std::optional<int> cycleIndex;       ///< cycle = "V" (1) or "W" (2): LinearMultigridOptions::cycleIndex
   int line = 0;  ///< line of [solver] (0: section absent)
 };
 

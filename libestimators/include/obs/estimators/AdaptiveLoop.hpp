@@ -93,6 +93,8 @@ struct AdaptiveLoopOptions {
   int postSmoothing = 0;           ///< TNNMG nonsmooth sweeps after the correction
   /// Local smoothing in TNNMG's V-cycle (LinearMultigridOptions::localSmoothing).
   bool localSmoothing = LinearMultigridOptions{}.localSmoothing;
+  /// Cycle of TNNMG's linear correction: 1 V-cycle, 2 W-cycle (LinearMultigridOptions::cycleIndex).
+  int cycleIndex = LinearMultigridOptions{}.cycleIndex;
   bool warmStart = true;           ///< start from the prolonged previous solution
   /// Inexact solves (docs/estimators.md#inexact-solves): > 0 stops TNNMG once the estimated
   /// algebraic error is below this fraction of the estimator predicted for the step (from the
