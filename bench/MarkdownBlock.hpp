@@ -6,6 +6,8 @@
 /// page is created. So several programs and hand-written sections share one page (docs/verification.md).
 #include <filesystem>
 #include <fstream>
+#include <iomanip>
+#include <iostream>
 #include <sstream>
 #include <string>
 
@@ -38,6 +40,28 @@ inline bool writeMarkdownBlock(const std::filesystem::path& page, const std::str
   std::error_code ec;
   std::filesystem::rename(tmp, page, ec);
   return !ec;
+}
+
+/// The output of a bench program: `text` on stdout if no page was named, else the block `name` of the
+/// page (writeMarkdownBlock). Returns the program's exit code (1, with a message, if the page cannot be
+/// written).
+inline int emitMarkdownBlock(const std::filesystem::path& page, const std::string& name, const std::string& text) {
+  if (page.empty()) {
+    std::cout << text;
+    return 0;
+  }
+  if (!writeMarkdownBlock(page, name, text)) {
+    std::cerr << name << ": cannot write " << page.string() << "\n";
+    return 1;
+  }
+  return 0;
+}
+
+/// v with a fixed number of digits after the point (table cells).
+inline std::string fixed(double v, int digits) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(digits) << v;
+  return s.str();
 }
 
 }  // namespace obs::bench

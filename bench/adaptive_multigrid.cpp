@@ -140,13 +140,5 @@ int main(int argc, char** argv) {
     }
   }
   md << "\n";
-  if (page.empty()) {
-    std::cout << md.str();
-    return 0;
-  }
-  if (!obs::bench::writeMarkdownBlock(page, "adaptive_multigrid", md.str())) {
-    std::cerr << "adaptive_multigrid: cannot write " << page << "\n";
-    return 1;
-  }
-  return 0;
+  return obs::bench::emitMarkdownBlock(page, "adaptive_multigrid", md.str());
 }

@@ -129,11 +129,7 @@ Result twoGridFactor(const Stencil& st, bool freudenthal, int nu, int samples) {
   return out;
 }
 
-std::string fmt(double v, int digits) {
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(digits) << v;
-  return s.str();
-}
+std::string fmt(double v, int digits) { return obs::bench::fixed(v, digits); }
 
 }  // namespace
 
@@ -179,13 +175,5 @@ int main(int argc, char** argv) {
         std::cerr << grid << " " << (laplace ? "Laplace" : "elasticity") << " nu " << s << ": " << r.rho << std::endl;
       }
     }
-  if (page.empty()) {
-    std::cout << md.str();
-    return 0;
-  }
-  if (!obs::bench::writeMarkdownBlock(page, "multigrid_lfa", md.str())) {
-    std::cerr << "multigrid_lfa: cannot write " << page << "\n";
-    return 1;
-  }
-  return 0;
+  return obs::bench::emitMarkdownBlock(page, "multigrid_lfa", md.str());
 }

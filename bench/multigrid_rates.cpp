@@ -263,11 +263,7 @@ std::vector<Check> checks(const mesh::Grid& grid, Problem problem, double nu) {
   return out;
 }
 
-std::string fmt(double v, int digits = 3) {
-  std::ostringstream s;
-  s << std::fixed << std::setprecision(digits) << v;
-  return s.str();
-}
+std::string fmt(double v, int digits = 3) { return obs::bench::fixed(v, digits); }
 
 }  // namespace
 
@@ -394,13 +390,5 @@ int main(int argc, char** argv) {
     md << "\n";
   }
   const std::string text = md.str() + checkMd.str();
-  if (page.empty()) {
-    std::cout << text;
-    return 0;
-  }
-  if (!obs::bench::writeMarkdownBlock(page, cycleIndex == 2 ? "multigrid_rates-w" : "multigrid_rates", text)) {
-    std::cerr << "multigrid_rates: cannot write " << page << "\n";
-    return 1;
-  }
-  return 0;
+  return obs::bench::emitMarkdownBlock(page, cycleIndex == 2 ? "multigrid_rates-w" : "multigrid_rates", text);
 }

@@ -248,13 +248,5 @@ int main(int argc, char** argv) {
         }
         md << "\n";
       }
-  if (page.empty()) {
-    std::cout << md.str();
-    return 0;
-  }
-  if (!obs::bench::writeMarkdownBlock(page, "multigrid_variants", md.str())) {
-    std::cerr << "multigrid_variants: cannot write " << page << "\n";
-    return 1;
-  }
-  return 0;
+  return obs::bench::emitMarkdownBlock(page, "multigrid_variants", md.str());
 }

@@ -45,17 +45,21 @@ namespace {
 const fs::path kTmp = fs::path(OBS_TEST_TMP_DIR) / "dynamics";
 const fs::path kScenes = fs::path(OBS_DATA_DIR) / "scenes";
 
+/// Runs a scene into a fresh kTmp/<out>.
+RunResult runInto(const Scene& scene, const std::string& out, bool compare = false) {
+  fs::remove_all(kTmp / out);
+  RunOptions o;
+  o.outputDirectory = kTmp / out;
+  o.compareSchemes = compare;
+  return runScene(scene, o);
+}
+
 /// Runs a data scene with `steps` time steps into kTmp/<out>.
 RunResult runData(const std::string& name, int steps, const std::string& out, bool compare = false) {
   Scene scene = parseScene(kScenes / (name + ".toml"));
   scene.dynamics->steps = steps;
   scene.dynamics->endTime.reset();
-  const fs::path dir = kTmp / out;
-  fs::remove_all(dir);
-  RunOptions o;
-  o.outputDirectory = dir;
-  o.compareSchemes = compare;
-  return runScene(scene, o);
+  return runInto(scene, out, compare);
 }
 
 std::string errorOf(const std::string& text, const std::string& file = "bad.toml") {
@@ -330,12 +334,9 @@ TEST(DynamicScenes, RedistributionMomentsReachTheMassMatrix) {
     scene.dynamics->steps = 12;
     scene.dynamics->endTime.reset();
     scene.dynamics->redistributionMoments = moments;
-    const fs::path dir = kTmp / ("klr_moments_" + std::to_string(moments));
-    fs::remove_all(dir);
-    RunOptions o;
-    o.outputDirectory = dir;
-    runScene(scene, o);
-    return summaryOf(dir).at("dynamics");
+    const std::string out = "klr_moments_" + std::to_string(moments);
+    runInto(scene, out);
+    return summaryOf(kTmp / out).at("dynamics");
   };
   const nlohmann::json a = run(1), b = run(2);
   EXPECT_EQ(a.at("redistribution").at("moments").get<int>(), 1);
@@ -570,12 +571,8 @@ TEST(DynamicScenes, WCycleKeyReachesTheNewmarkSolver) {
     scene.mesh.refine = 2;
     scene.dynamics->steps = 10;
     scene.solver.cycleIndex = cycle;
-    const fs::path dir = kTmp / out;
-    fs::remove_all(dir);
-    RunOptions o;
-    o.outputDirectory = dir;
-    runScene(scene, o);
-    return readCsv(dir / "timeseries.csv");
+    runInto(scene, out);
+    return readCsv(kTmp / out / "timeseries.csv");
   };
   const Table v = run("cycle_v_dyn", std::nullopt), w = run("cycle_w_dyn", 2);
   ASSERT_EQ(v.rows, 11u);
@@ -597,12 +594,8 @@ TEST(DynamicScenes, LocalSmoothingKeyIsAppliedAndChangesNothingOnUniformGrids) {
     Scene scene = parseScene(kScenes / "dynamics_ball.toml");
     scene.dynamics->steps = 20;
     scene.solver.localSmoothing = local;
-    const fs::path dir = kTmp / out;
-    fs::remove_all(dir);
-    RunOptions o;
-    o.outputDirectory = dir;
-    runScene(scene, o);
-    return readCsv(dir / "timeseries.csv");
+    runInto(scene, out);
+    return readCsv(kTmp / out / "timeseries.csv");
   };
   const Table on = run("local_default", std::nullopt), off = run("local_off", false);
   ASSERT_EQ(on.rows, 21u);
