@@ -17,36 +17,39 @@ BlockSparseMatrix<d> BlockSparseMatrix<d>::withMeshPattern(const mesh::Mesh& mes
       for (Index v : mesh.cellVertices(c)) cellsOf[pos[v]++] = c;
   }
   // neighbours of each vertex: union of the vertices of its cells, sorted; two passes over the rows
-  // (count, then fill) so that rows can be built on threads() threads
+  // (count, then fill) so that rows can be built on threads() threads. A vertex is taken once per
+  // row by marking it with the row (mark[w] == v), so only the distinct neighbours are sorted.
   const int nt = n >= kParallelMinRows ? threads() : 1;
-  const auto neighbours = [&](Index v, std::vector<Index>& row) {
-    row.clear();
+  const auto neighbours = [&](Index v, std::vector<Index>& mark, Index* row) {
+    Index count = 0;
     for (Index k = start[v]; k < start[v + 1]; ++k)
-      for (Index w : mesh.cellVertices(cellsOf[k])) row.push_back(w);
-    if (row.empty()) row.push_back(v);  // isolated vertex keeps its diagonal
-    std::sort(row.begin(), row.end());
-    row.erase(std::unique(row.begin(), row.end()), row.end());
+      for (Index w : mesh.cellVertices(cellsOf[k]))
+        if (mark[w] != v) {
+          mark[w] = v;
+          if (row) row[count] = w;
+          ++count;
+        }
+    if (count == 0) {  // isolated vertex keeps its diagonal
+      if (row) row[0] = v;
+      count = 1;
+    }
+    if (row) std::sort(row, row + count);
+    return count;
   };
   std::vector<Index> rowStart(n + 1, 0);
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
-    std::vector<Index> row;
+    std::vector<Index> mark(static_cast<std::size_t>(n), -1);
 #pragma omp for schedule(static)
-    for (Index v = 0; v < n; ++v) {
-      neighbours(v, row);
-      rowStart[v + 1] = static_cast<Index>(row.size());
-    }
+    for (Index v = 0; v < n; ++v) rowStart[v + 1] = neighbours(v, mark, nullptr);
   }
   for (Index v = 0; v < n; ++v) rowStart[v + 1] += rowStart[v];
   std::vector<Index> cols(static_cast<std::size_t>(rowStart[n]));
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
-    std::vector<Index> row;
+    std::vector<Index> mark(static_cast<std::size_t>(n), -1);
 #pragma omp for schedule(static)
-    for (Index v = 0; v < n; ++v) {
-      neighbours(v, row);
-      std::copy(row.begin(), row.end(), cols.begin() + rowStart[v]);
-    }
+    for (Index v = 0; v < n; ++v) neighbours(v, mark, cols.data() + rowStart[v]);
   }
   return BlockSparseMatrix(std::move(rowStart), std::move(cols));
 }

@@ -98,23 +98,53 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
     Block block[kMax][kMax];
     Index pos[kMax][kMax];
     int n;
+    int source;  // the local (in this chunk) whose blocks are this cell's matrix: itself, or a translate's
   };
   // cell matrices of a chunk of cells on threads() threads, added to A in cell order by one thread:
   // the same sums in the same order as a sequential loop, whatever the thread count
   struct Values {
+    // one CellValues per quadrature (simplices need one point) and, for each, the local (in this
+    // chunk) of the last cell whose matrix it computed (-1: none). CellValues::reinit tells when a
+    // cell is a translate of the previous one (the same type and bitwise the same vertex differences:
+    // most cells of generated and red-refined grids); its matrix is bitwise that cell's, and is reused.
     CellValues<d> general{kStiffnessDegree}, simplex{kSimplexStiffnessDegree};
+    int computedGeneral = -1, computedSimplex = -1;
   };
-  const auto cellMatrix = [&](Values& values, Index c, Local& out) {
+  const auto cellMatrix = [&](Values& values, Index c, std::vector<Local>& chunkLocals, int self) {
+    Local& out = chunkLocals[static_cast<std::size_t>(self)];
     const mesh::CellType type = mesh.cellType(c);
-    CellValues<d>& cv =
-        type == mesh::CellType::Triangle || type == mesh::CellType::Tetrahedron ? values.simplex : values.general;
-    cv.reinit(mesh, c);
-    const int n = cv.numVertices();
+    const auto verts = mesh.cellVertices(c);
+    const int n = static_cast<int>(verts.size());
     out.n = n;
+    // positions of the blocks: the cell's vertices in ascending order, found by one forward scan of
+    // each of their (sorted) rows
+    int order[kMax];
+    for (int j = 0; j < n; ++j) {
+      int k = j;
+      for (; k > 0 && verts[order[k - 1]] > verts[j]; --k) order[k] = order[k - 1];
+      order[k] = j;
+    }
+    for (int i = 0; i < n; ++i) {
+      Index k = A.rowBegin(verts[i]);
+      for (int t = 0; t < n; ++t) {
+        const Index w = verts[order[t]];
+        while (A.column(k) < w) ++k;  // w is in the row: the pattern holds every cell's vertex pairs
+        out.pos[i][order[t]] = k;
+      }
+    }
+    const bool isSimplex = type == mesh::CellType::Triangle || type == mesh::CellType::Tetrahedron;
+    CellValues<d>& cv = isSimplex ? values.simplex : values.general;
+    int& computed = isSimplex ? values.computedSimplex : values.computedGeneral;
+    computed = cv.reinit(mesh, c) ? computed : -1;  // a translate keeps the last cell's matrix, if any
+    if (computed >= 0) {
+      out.source = computed;
+      return;
+    }
+    out.source = self;
     Vec meanGradient[kMax];
     for (int i = 0; i < n; ++i) {
       meanGradient[i].setZero();
-      for (int j = 0; j < n; ++j) out.block[i][j].setZero();
+      for (int j = i; j < n; ++j) out.block[i][j].setZero();
     }
     double volume = 0;
     for (int q = 0; q < cv.numPoints(); ++q) {
@@ -123,7 +153,7 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
       for (int i = 0; i < n; ++i) {
         const auto& gi = cv.gradient(q, i);
         if (bbar) meanGradient[i] += w * gi;
-        for (int j = 0; j < n; ++j) {
+        for (int j = i; j < n; ++j) {  // the upper half; K_ji = K_ij' (below)
           const auto& gj = cv.gradient(q, j);
           // K_ij[a][b] = lambda d_a phi_i d_b phi_j + mu (delta_ab grad phi_i . grad phi_j
           //              + d_b phi_i d_a phi_j)
@@ -132,21 +162,23 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
         }
       }
     }
-    if (bbar)
-      for (int i = 0; i < n; ++i)
-        for (int j = 0; j < n; ++j)
-          out.block[i][j].noalias() += (kappa / volume) * meanGradient[i] * meanGradient[j].transpose();
-    const auto verts = mesh.cellVertices(c);
     for (int i = 0; i < n; ++i)
-      for (int j = 0; j < n; ++j) out.pos[i][j] = A.find(verts[i], verts[j]);
+      for (int j = i; j < n; ++j) {
+        if (bbar) out.block[i][j].noalias() += (kappa / volume) * meanGradient[i] * meanGradient[j].transpose();
+        if (j > i) out.block[j][i] = out.block[i][j].transpose();
+      }
+    // the diagonal blocks exactly symmetric too (their two off-diagonal triangles are rounded apart)
+    for (int i = 0; i < n; ++i) out.block[i][i] = 0.5 * (out.block[i][i] + out.block[i][i].transpose()).eval();
+    computed = self;
   };
   const Index cells = mesh.numCells();
   const int nt = cells >= kParallelMinRows ? threads() : 1;
-  const Index chunk = nt > 1 ? 4096 : 1;
-  std::vector<Local> locals(static_cast<std::size_t>(chunk));
+  const Index chunk = std::min<Index>(cells, 4096);
+  std::vector<Local> locals(static_cast<std::size_t>(std::max<Index>(chunk, 1)));
   std::vector<Values> values(static_cast<std::size_t>(nt));
   for (Index first = 0; first < cells; first += chunk) {
     const Index last = std::min(cells, first + chunk);
+    for (Values& v : values) v.computedGeneral = v.computedSimplex = -1;  // the last chunk's locals are gone
     // no exception may leave a parallel region: the first bad cell (a degenerate one) is found on
     // the threads and its error thrown again afterwards, as the sequential loop would have thrown it
     Index failed = last;
@@ -158,16 +190,20 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
       Values& cv = values.front();
 #endif
       try {
-        cellMatrix(cv, c, locals[static_cast<std::size_t>(c - first)]);
+        cellMatrix(cv, c, locals, static_cast<int>(c - first));
       } catch (const Error&) {
         failed = std::min(failed, c);
       }
     }
-    if (failed < last) cellMatrix(values.front(), failed, locals.front());  // throws its obs::Error
+    if (failed < last) {  // throws its obs::Error
+      Values fresh;
+      cellMatrix(fresh, failed, locals, static_cast<int>(failed - first));
+    }
     for (Index c = first; c < last; ++c) {
       const Local& l = locals[static_cast<std::size_t>(c - first)];
+      const Local& m = locals[static_cast<std::size_t>(l.source)];
       for (int i = 0; i < l.n; ++i)
-        for (int j = 0; j < l.n; ++j) A.blockAt(l.pos[i][j]) += l.block[i][j];
+        for (int j = 0; j < l.n; ++j) A.blockAt(l.pos[i][j]) += m.block[i][j];
     }
   }
   return A;
