@@ -1,5 +1,6 @@
 #include "obs/obs/LinearElasticity.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 
@@ -7,6 +8,7 @@
 #include "obs/obs/CellValues.hpp"
 #include "obs/obs/CholmodSolver.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
+#include "obs/obs/Parallel.hpp"
 
 namespace obs {
 namespace {
@@ -16,16 +18,19 @@ double since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-/// Cell-mean stresses and their volume-weighted average at the vertices.
+/// Cell-mean stresses and their volume-weighted average at the vertices. The cells are independent
+/// and run on threads() threads; the vertex averages are summed in cell order on one thread, so the
+/// result does not depend on the thread count. On triangles and tetrahedra the stress is constant:
+/// one quadrature point gives its mean.
 template <int d>
 void recoverStressesOf(const mesh::Mesh& mesh, const Material& mat, ElasticitySolution& s) {
   const double lambda = mat.lambda(), mu = mat.mu();
   const bool bbar = mat.formulation == VolumetricFormulation::BBar;
-  CellValues<d> cv(2);
-  s.cellStress.assign(mesh.numCells(), Stress::Zero());
+  const Index cells = mesh.numCells();
+  s.cellStress.assign(cells, Stress::Zero());
   s.vertexStress.assign(mesh.numVertices(), Stress::Zero());
-  std::vector<double> weight(mesh.numVertices(), 0.0);
-  for (Index c = 0; c < mesh.numCells(); ++c) {
+  std::vector<double> volume(static_cast<std::size_t>(cells), 0.0);
+  const auto cellStress = [&](CellValues<d>& cv, Index c) {
     cv.reinit(mesh, c);
     const auto verts = mesh.cellVertices(c);
     auto gradientAt = [&](int q) {
@@ -49,16 +54,40 @@ void recoverStressesOf(const mesh::Mesh& mesh, const Material& mat, ElasticitySo
       const double volumetric = bbar ? mat.bulkModulus() * meanDivergence - 2 * mu / 3 * eps.trace()
                                      : lambda * eps.trace();
       Stress sigma = Stress::Zero();
-      sigma.topLeftCorner<d, d>() = 2 * mu * eps;
+      sigma.template topLeftCorner<d, d>() = 2 * mu * eps;
       sigma.diagonal().array() += volumetric;  // plane strain: sigma_zz = the volumetric part
       sum += cv.JxW(q) * sigma;
     }
     s.cellStress[c] = sum / vol;
-    for (Index v : verts) {
-      s.vertexStress[v] += vol * s.cellStress[c];
-      weight[v] += vol;
+    volume[static_cast<std::size_t>(c)] = vol;
+  };
+  // no exception may leave a parallel region: the first degenerate cell is found on the threads and
+  // its error thrown again afterwards, as the sequential loop would have thrown it
+  const int nt = cells >= kParallelMinRows ? threads() : 1;
+  Index failed = cells;
+#pragma omp parallel num_threads(nt) if (nt > 1)
+  {
+    CellValues<d> general(2), simplex(1);
+#pragma omp for schedule(static) reduction(min : failed)
+    for (Index c = 0; c < cells; ++c) {
+      const mesh::CellType t = mesh.cellType(c);
+      try {
+        cellStress(t == mesh::CellType::Triangle || t == mesh::CellType::Tetrahedron ? simplex : general, c);
+      } catch (const Error&) {
+        failed = std::min(failed, c);
+      }
     }
   }
+  if (failed < cells) {
+    CellValues<d> any(2);
+    cellStress(any, failed);  // throws its obs::Error
+  }
+  std::vector<double> weight(mesh.numVertices(), 0.0);
+  for (Index c = 0; c < cells; ++c)
+    for (Index v : mesh.cellVertices(c)) {
+      s.vertexStress[v] += volume[static_cast<std::size_t>(c)] * s.cellStress[c];
+      weight[v] += volume[static_cast<std::size_t>(c)];
+    }
   for (Index v = 0; v < mesh.numVertices(); ++v)
     if (weight[v] > 0) s.vertexStress[v] /= weight[v];
 }

@@ -16,6 +16,7 @@
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/LinearElasticity.hpp"
 #include "obs/obs/MultigridHierarchy.hpp"
 #include "obs/obs/Parallel.hpp"
 #include "obs/obs/ProjectedGaussSeidel.hpp"
@@ -235,6 +236,22 @@ TEST(Threads, ProductsAssemblyAndTransfersDoNotDependOnTheThreadCountGalerkinOpe
     }
     EXPECT_LT(diff, 1e-13 * size);
   }
+}
+
+TEST(Threads, StressRecoveryDoesNotDependOnTheThreadCount) {
+  Cube c;  // 4,096 cells: above the threshold below which the cell loop stays sequential
+  ElasticitySolution s1;
+  s1.displacement = 1e-3 * wave(3 * c.mesh.numVertices());
+  ElasticitySolution s2 = s1;
+  recoverStresses(c.mesh, c.material, s1);
+  {
+    const ThreadScope scope(2);
+    recoverStresses(c.mesh, c.material, s2);
+  }
+  ASSERT_EQ(s1.cellStress.size(), s2.cellStress.size());
+  EXPECT_EQ(std::memcmp(s1.cellStress.data(), s2.cellStress.data(), sizeof(Stress) * s1.cellStress.size()), 0);
+  EXPECT_EQ(std::memcmp(s1.vertexStress.data(), s2.vertexStress.data(), sizeof(Stress) * s1.vertexStress.size()), 0);
+  EXPECT_GT(s1.vertexStress.front().norm(), 0);
 }
 
 // TNNMG on two threads: reproducible bit for bit, and the same solution as on one thread (to the
