@@ -15,13 +15,17 @@
 #include <vtkXMLUnstructuredGridReader.h>
 
 #include <array>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "obs/drivers/SolutionFields.hpp"
 #include "obs/drivers/VtkWriter.hpp"
+#include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/ReferenceElement.hpp"
+#include "obs/obs/Parallel.hpp"
 
 namespace fs = std::filesystem;
 using namespace obs::drivers;
@@ -230,4 +234,46 @@ TEST(VtkWriter, UnwritablePathThrows) {
   fs::create_directories(kTmp);
   std::ofstream(kTmp / "a_file") << "x";
   EXPECT_THROW(writeVtu(kTmp / "a_file" / "x.vtu", mesh, {}, {}), obs::Error);
+}
+
+// Arrays larger than one compressed block (32 KB): read back exactly by VTK's reader; the file's bytes
+// do not depend on the number of threads that compress the blocks; a field name is escaped for XML.
+TEST(VtkWriter, LargeArraysSpanSeveralBlocksAndBytesDoNotDependOnThreads) {
+  const Mesh mesh = obs::mesh::boxMesh(CellType::Hexahedron, {12, 12, 12}, Point(0, 0, 0), Point(1, 2, 3));
+  ASSERT_GT(mesh.numVertices() * 9 * 8, 4 * 32768);  // the stress field spans several blocks
+  std::vector<Field> pf{Field{"u<&\">", 3, {}, false}, sequenceField("stress", 9, mesh.numVertices(), 0.25)};
+  for (obs::mesh::Index v = 0; v < mesh.numVertices(); ++v)
+    for (int k = 0; k < 3; ++k) pf[0].values.push_back(std::sin(1.0 + v + 0.3 * k) * 1e-3);
+  const std::vector<Field> cf{elementTypeField(mesh)};
+  const fs::path one = kTmp / "large1.vtu", two = kTmp / "large2.vtu";
+  writeVtu(one, mesh, pf, cf);
+  obs::setThreads(2);
+  writeVtu(two, mesh, pf, cf);
+  obs::setThreads(1);
+  const auto bytes = [](const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  EXPECT_EQ(bytes(one), bytes(two));
+
+  const auto grid = readBack(one);
+  ASSERT_EQ(grid->GetNumberOfPoints(), mesh.numVertices());
+  ASSERT_EQ(grid->GetNumberOfCells(), mesh.numCells());
+  for (const Field& f : pf) {
+    vtkDataArray* a = grid->GetPointData()->GetArray(f.name.c_str());
+    ASSERT_NE(a, nullptr) << f.name;
+    ASSERT_EQ(a->GetNumberOfComponents(), f.components);
+    std::size_t differing = 0;
+    for (vtkIdType i = 0; i < a->GetNumberOfTuples(); ++i)
+      for (int k = 0; k < f.components; ++k)
+        differing += a->GetComponent(i, k) != f.values[static_cast<std::size_t>(i) * f.components + k];
+    EXPECT_EQ(differing, 0u) << f.name;
+  }
+  std::size_t wrong = 0;
+  for (obs::mesh::Index c = 0; c < mesh.numCells(); ++c) {
+    vtkCell* cell = grid->GetCell(c);
+    const auto verts = mesh.cellVertices(c);
+    for (std::size_t i = 0; i < verts.size(); ++i) wrong += cell->GetPointId(static_cast<int>(i)) != verts[i];
+  }
+  EXPECT_EQ(wrong, 0u);
 }

@@ -1,7 +1,10 @@
 #pragma once
 /// \file VtkWriter.hpp
-/// Writing a Mesh with point and cell data as a VTK XML unstructured grid (.vtu) for ParaView,
-/// with the VTK library (vtkXMLUnstructuredGridWriter, binary appended data, zlib compressed).
+/// Writing a Mesh with point and cell data as a VTK XML unstructured grid (.vtu) for ParaView:
+/// binary appended data in zlib-compressed blocks of 32 KB, the layout of VTK's own
+/// vtkXMLUnstructuredGridWriter (header_type UInt64), written by obs so that the blocks are compressed
+/// on threads() threads (the bytes do not depend on the thread count; docs/performance.md#vtk-output).
+/// The tests read the files back with VTK's reader.
 ///
 /// Cell types: triangle 5, quadrilateral 9, tetrahedron 10, hexahedron 12, prism (wedge) 13,
 /// pyramid 14. obs (= Gmsh) vertex orderings equal VTK's for all of them except the prism: VTK
