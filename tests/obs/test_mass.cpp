@@ -30,6 +30,18 @@ bool verbose() { return std::getenv("OBS_TEST_VERBOSE") != nullptr; }
 
 mesh::Mesh unitBox(CellType t) { return mesh::boxMesh(t, mesh::dimension(t) == 2 ? 4 : 3); }
 
+/// The unit cube of n^3 boxes of type t, its consistent mass and its bottom face (z = 0) as the contact
+/// vertices, whose mass the redistribution removes.
+struct BottomContactCube {
+  mesh::Mesh m;
+  ScalarSparseMatrix M;
+  std::vector<char> contact;
+  BottomContactCube(CellType t, int n) : m(mesh::boxMesh(t, n)), M(assembleConsistentMass(m, Material{})) {
+    contact.assign(static_cast<std::size_t>(m.numVertices()), 0);
+    for (Index v = 0; v < m.numVertices(); ++v) contact[static_cast<std::size_t>(v)] = m.vertex(v)[2] == 0.0;
+  }
+};
+
 /// sum_ij M_ij w_j for a vertex weight w (1: total mass, x_c: first moment).
 double moment(const ScalarSparseMatrix& M, const mesh::Mesh& m, int c) {
   double s = 0;
@@ -155,10 +167,10 @@ TEST_P(MassTest, RedistributionKeepsMassCentreOfGravityAndSecondMoments) {
 TEST(MassRedistribution, DefinitenessCheckCountsNegativeEigenvalues) {
   // 3^3 tetrahedral unit cube without mass at the bottom: M~ indefinite (dense smallest eigenvalue
   // -2.5e-3); the LDL' inertia (negative pivots = negative eigenvalues) must agree with the dense count
-  const mesh::Mesh m = mesh::boxMesh(CellType::Tetrahedron, 3);
-  const ScalarSparseMatrix M = assembleConsistentMass(m, Material{});
-  std::vector<char> contact(m.numVertices(), 0);
-  for (Index v = 0; v < m.numVertices(); ++v) contact[v] = m.vertex(v)[2] == 0.0;
+  const BottomContactCube cube(CellType::Tetrahedron, 3);
+  const mesh::Mesh& m = cube.m;
+  const ScalarSparseMatrix& M = cube.M;
+  const std::vector<char>& contact = cube.contact;
   // without the lower bound (with it no M~ exists here: the constraints need a nearly massless layer)
   MassRedistributionOptions unbounded;
   unbounded.minimumScale = -std::numeric_limits<double>::infinity();
@@ -339,10 +351,10 @@ TEST(MassRedistribution, LowerBoundKeepsTheBallsDiagonalPositive) {
 TEST(MassRedistribution, LowerBoundChangesNothingWhereItIsInactive) {
   // the 4^3 hexahedral unit cube without mass at the bottom: every factor 1 + q is far above 0.1, so the
   // bounded and the unbounded minimiser are the same matrix, bit for bit
-  const mesh::Mesh m = mesh::boxMesh(CellType::Hexahedron, 4);
-  const ScalarSparseMatrix M = assembleConsistentMass(m, Material{});
-  std::vector<char> contact(m.numVertices(), 0);
-  for (Index v = 0; v < m.numVertices(); ++v) contact[v] = m.vertex(v)[2] == 0.0;
+  const BottomContactCube cube(CellType::Hexahedron, 4);
+  const mesh::Mesh& m = cube.m;
+  const ScalarSparseMatrix& M = cube.M;
+  const std::vector<char>& contact = cube.contact;
   MassRedistributionOptions zero;
   zero.minimumScale = 0;
   const RedistributedMass a = redistributeMass(M, m.vertices(), 3, contact, zero);
@@ -367,10 +379,10 @@ TEST(MassRedistribution, FirstMomentsOnlyKeepMassAndCentreOfGravity) {
   // moments = 1 (the thesis' M~ of Sec. 5.2.6): 1 + d constraints; mass and centre of gravity kept to
   // round-off, the second moment in the normal direction not (removing the bottom layer lowers it and
   // only the rescaling by an affine polynomial is left to restore it)
-  const mesh::Mesh m = mesh::boxMesh(CellType::Hexahedron, 4);
-  const ScalarSparseMatrix M = assembleConsistentMass(m, Material{});
-  std::vector<char> contact(m.numVertices(), 0);
-  for (Index v = 0; v < m.numVertices(); ++v) contact[v] = m.vertex(v)[2] == 0.0;
+  const BottomContactCube cube(CellType::Hexahedron, 4);
+  const mesh::Mesh& m = cube.m;
+  const ScalarSparseMatrix& M = cube.M;
+  const std::vector<char>& contact = cube.contact;
   MassRedistributionOptions first;
   first.moments = 1;
   const RedistributedMass R = redistributeMass(M, m.vertices(), 3, contact, first);
