@@ -1,6 +1,8 @@
 #include "obs/estimators/ResidualEstimator.hpp"
 
 #include <algorithm>
+#include <cstdint>
+#include <exception>
 #include <map>
 #include <set>
 
@@ -8,6 +10,7 @@
 #include "obs/mesh/MeshTopology.hpp"
 #include "obs/mesh/Quadrature.hpp"
 #include "obs/obs/ContactSet.hpp"
+#include "obs/obs/Parallel.hpp"
 
 namespace obs::estimators {
 namespace {
@@ -75,6 +78,38 @@ BoundaryData boundaryData(const EstimatorInput& in) {
     if (nc.traction || nc.pressure) b.neumann[nc.boundaryId].push_back(&nc);
   for (int id : contactBoundaryIds(in)) b.contact.insert(id);
   return b;
+}
+
+/// body(i, scratch) for i = 0..n-1 on up to threads() threads, each with its own Scratch (one
+/// thread below kParallelMinRows indices). If calls throw, the exception of the smallest failing i
+/// is rethrown: the error does not depend on the thread count.
+template <class Scratch, class Body>
+void forEachIndex(Index n, Body&& body) {
+  const int nt = n >= kParallelMinRows ? threads() : 1;
+  if (nt <= 1) {
+    Scratch scratch;
+    for (Index i = 0; i < n; ++i) body(i, scratch);
+    return;
+  }
+  Index failed = n;
+  std::exception_ptr error;
+#pragma omp parallel num_threads(nt)
+  {
+    Scratch scratch;
+#pragma omp for schedule(static)
+    for (Index i = 0; i < n; ++i) {
+      try {
+        body(i, scratch);
+      } catch (...) {
+#pragma omp critical(obs_estimators_for_each_index)
+        if (i < failed) {
+          failed = i;
+          error = std::current_exception();
+        }
+      }
+    }
+  }
+  if (error) std::rethrow_exception(error);
 }
 
 }  // namespace
@@ -169,13 +204,16 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
   ContributionTable table(contributionNames(), m.numCells(), m.numVertices());
   if (table.numContributions() < 5)
     throw Error("estimator '" + name() + "': needs at least the rows eta_1 ... eta_5");
-  PointValues<d> pv, pv1;
+  // The cells and faces are evaluated on threads() threads into one slot each (r2, j2, the
+  // contact faces), then added to the table in cell and face order by one thread: the result is
+  // bitwise the same for any number of threads (test Threads.EstimatorsDoNotDependOnTheThreadCount).
 
   // eta_1: element residuals r = div sigma_h + f, weighted with h_p^2 for each vertex p of e
-  for (Index c = 0; c < m.numCells(); ++c) {
+  std::vector<double> r2(static_cast<std::size_t>(m.numCells()));
+  forEachIndex<PointValues<d>>(m.numCells(), [&](Index c, PointValues<d>& pv) {
     const auto& rule = mesh::quadratureRule(m.cellType(c), options_.elementDegree);
     const auto verts = m.cellVertices(c);
-    double r2 = 0;
+    double sum = 0;
     // on an affine cell div sigma_h and the determinant are constant: without a body force the
     // point itself is not needed after the first quadrature point
     const bool affine = affineCellType(m.cellType(c));
@@ -186,10 +224,12 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
       Vec r = div;
       if (in.boundaryConditions.bodyForce)
         r += in.boundaryConditions.bodyForce(toPoint(pv.point())).template head<d>();
-      r2 += pv.determinant() * rule.weights[q] * r.squaredNorm();
+      sum += pv.determinant() * rule.weights[q] * r.squaredNorm();
     }
-    for (Index p : verts) table.add(kEta1, p, c, h[p] * h[p] * r2);
-  }
+    r2[static_cast<std::size_t>(c)] = sum;
+  });
+  for (Index c = 0; c < m.numCells(); ++c)
+    for (Index p : m.cellVertices(c)) table.add(kEta1, p, c, h[p] * h[p] * r2[static_cast<std::size_t>(c)]);
 
   // boundary ids of the one-cell faces of the face table
   const mesh::FaceTable faces(m);
@@ -200,26 +240,51 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
   }
 
   // faces: eta_2 (interior jumps), eta_3 (Neumann jumps), contact faces through the hook
-  std::vector<ContactFace> contactFaces;
-  std::vector<Index> fv;          // vertices and quadrature of the current face (buffers reused)
-  std::vector<CellFacePoint> pts;
+  enum class FaceKind : std::uint8_t { Interior, Contact, Neumann, Fixed };
+  std::vector<FaceKind> kind(static_cast<std::size_t>(faces.numFaces()));
+  std::vector<Index> contactSlot(static_cast<std::size_t>(faces.numFaces()), -1);
+  Index numContact = 0;
   for (Index f = 0; f < faces.numFaces(); ++f) {
     if (faces.numCells(f) > 2)
       throw Error("estimator '" + name() + "': face " + std::to_string(f) + " is shared by " +
                   std::to_string(faces.numCells(f)) + " cells (non-manifold mesh)");
+    FaceKind& k = kind[static_cast<std::size_t>(f)];
+    if (faces.numCells(f) == 2) {
+      k = FaceKind::Interior;
+    } else if (bd.contact.count(faceId[f])) {
+      k = FaceKind::Contact;
+      contactSlot[static_cast<std::size_t>(f)] = numContact++;
+    } else {
+      const std::array<bool, 3> fixed = bd.fixedComponents(faceId[f]);
+      k = std::all_of(fixed.begin(), fixed.begin() + d, [](bool b) { return b; }) ? FaceKind::Fixed
+                                                                                  : FaceKind::Neumann;
+    }
+  }
+  struct FaceScratch {
+    PointValues<d> pv, pv1;
+    std::vector<Index> fv;  // vertices and quadrature of the current face (buffers reused)
+    std::vector<CellFacePoint> pts;
+  };
+  std::vector<double> j2(static_cast<std::size_t>(faces.numFaces()), 0.0);
+  std::vector<ContactFace> contactFaces(static_cast<std::size_t>(numContact));
+  forEachIndex<FaceScratch>(faces.numFaces(), [&](Index f, FaceScratch& s) {
+    const FaceKind k = kind[static_cast<std::size_t>(f)];
+    if (k == FaceKind::Fixed) return;
+    std::vector<Index>& fv = s.fv;
+    std::vector<CellFacePoint>& pts = s.pts;
     const auto side0 = faces.side(f, 0);
     const Index c0 = side0.cell;
     const auto verts0 = m.cellVertices(c0);
     cellFaceVertices(m, c0, side0.localFace, fv);
     cellFaceQuadrature(m, c0, side0.localFace, options_.faceDegree, pts);
+    double sum = 0;
 
-    if (faces.numCells(f) == 2) {
+    if (k == FaceKind::Interior) {
       const Index c1 = faces.side(f, 1).cell;
       const auto verts1 = m.cellVertices(c1);
-      double j2 = 0;
       // on affine cells sigma_h is constant: evaluated once per face and side
       const bool affine0 = affineCellType(m.cellType(c0)), affine1 = affineCellType(m.cellType(c1));
-      Mat s0 = Mat::Zero(), s1 = Mat::Zero();  // set at the first point (k == 0)
+      Mat s0 = Mat::Zero(), s1 = Mat::Zero();  // set at the first point (q == 0)
       // local numbers in c1 of the face vertices (once per face, not per point)
       const auto& ref1 = mesh::referenceElement(m.cellType(c1));
       std::array<int, 4> local1{};
@@ -230,61 +295,73 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
                       std::to_string(c1));
         local1[j] = static_cast<int>(it - verts1.begin());
       }
-      for (std::size_t k = 0; k < pts.size(); ++k) {
-        const CellFacePoint& q = pts[k];
-        if (k == 0 || !affine0) {
-          pv.reinit(m, c0, q.xi, false, false);
-          s0 = F::stress(pv, u, verts0, lambda, mu);
+      for (std::size_t q = 0; q < pts.size(); ++q) {
+        const CellFacePoint& pt = pts[q];
+        if (q == 0 || !affine0) {
+          s.pv.reinit(m, c0, pt.xi, false, false);
+          s0 = F::stress(s.pv, u, verts0, lambda, mu);
         }
-        if (k == 0 || !affine1) {
+        if (q == 0 || !affine1) {
           Point xi1 = Point::Zero();  // referencePointOnFace with the local numbers above
-          for (std::size_t j = 0; j < fv.size(); ++j) xi1 += q.shape[j] * ref1.vertices[local1[j]];
-          pv1.reinit(m, c1, xi1, false, false);
-          s1 = F::stress(pv1, u, verts1, lambda, mu);
+          for (std::size_t j = 0; j < fv.size(); ++j) xi1 += pt.shape[j] * ref1.vertices[local1[j]];
+          s.pv1.reinit(m, c1, xi1, false, false);
+          s1 = F::stress(s.pv1, u, verts1, lambda, mu);
         }
-        const Vec n = q.normal.template head<d>();
-        j2 += q.weight * ((s0 - s1) * n).squaredNorm();
+        const Vec n = pt.normal.template head<d>();
+        sum += pt.weight * ((s0 - s1) * n).squaredNorm();
       }
-      for (Index p : fv) {
-        table.add(kEta2, p, c0, 0.5 * h[p] * j2);
-        table.add(kEta2, p, c1, 0.5 * h[p] * j2);
-      }
-      continue;
+      j2[static_cast<std::size_t>(f)] = sum;
+      return;
     }
 
     const int id = faceId[f];
     const std::array<bool, 3> fixed = bd.fixedComponents(id);
-    if (bd.contact.count(id)) {
-      ContactFace cf;
+    if (k == FaceKind::Contact) {
+      ContactFace& cf = contactFaces[static_cast<std::size_t>(contactSlot[static_cast<std::size_t>(f)])];
       cf.cell = c0;
       cf.localFace = side0.localFace;
       cf.boundaryId = id;
       cf.vertices = fv;
       cf.fixed = fixed;
+      cf.points.clear();
       for (const CellFacePoint& q : pts) {
-        pv.reinit(m, c0, q.xi, false, false);
-        const Vec sn = F::stress(pv, u, verts0, lambda, mu) * q.normal.template head<d>();
+        s.pv.reinit(m, c0, q.xi, false, false);
+        const Vec sn = F::stress(s.pv, u, verts0, lambda, mu) * q.normal.template head<d>();
         cf.points.push_back({q.x, q.weight, q.normal, q.shape, toPoint(sn)});
       }
-      contactFaces.push_back(std::move(cf));
-      continue;
+      return;
     }
-    if (std::all_of(fixed.begin(), fixed.begin() + d, [](bool b) { return b; })) continue;
     const auto nit = bd.neumann.find(id);
-    double j2 = 0;
     for (const CellFacePoint& q : pts) {
-      pv.reinit(m, c0, q.xi, false, false);
+      s.pv.reinit(m, c0, q.xi, false, false);
       const Vec n = q.normal.template head<d>();
-      Vec jump = -F::stress(pv, u, verts0, lambda, mu) * n;
+      Vec jump = -F::stress(s.pv, u, verts0, lambda, mu) * n;
       if (nit != bd.neumann.end())
         for (const NeumannCondition* nc : nit->second)
           jump += nc->traction ? Vec(nc->traction(q.x).template head<d>())
                                : Vec(-nc->pressure(q.x) * n);
       for (int c = 0; c < d; ++c)
         if (fixed[c]) jump[c] = 0;
-      j2 += q.weight * jump.squaredNorm();
+      sum += q.weight * jump.squaredNorm();
     }
-    for (Index p : fv) table.add(kEta3, p, c0, h[p] * j2);
+    j2[static_cast<std::size_t>(f)] = sum;
+  });
+  std::vector<Index> fv;
+  for (Index f = 0; f < faces.numFaces(); ++f) {
+    const FaceKind k = kind[static_cast<std::size_t>(f)];
+    if (k == FaceKind::Fixed || k == FaceKind::Contact) continue;
+    const auto side0 = faces.side(f, 0);
+    cellFaceVertices(m, side0.cell, side0.localFace, fv);
+    const double jf = j2[static_cast<std::size_t>(f)];
+    if (k == FaceKind::Interior) {
+      const Index c1 = faces.side(f, 1).cell;
+      for (Index p : fv) {
+        table.add(kEta2, p, side0.cell, 0.5 * h[p] * jf);
+        table.add(kEta2, p, c1, 0.5 * h[p] * jf);
+      }
+    } else {
+      for (Index p : fv) table.add(kEta3, p, side0.cell, h[p] * jf);
+    }
   }
 
   addContactFaces(in, contactFaces, h, table);
