@@ -80,6 +80,81 @@ BoundaryData boundaryData(const EstimatorInput& in) {
   return b;
 }
 
+/// The element residual ||div sigma_h||^2_e of a cell whose map is affine although its type is not
+/// (PointValues::flat(): the boxes of a refined box mesh, the pyramids of their green closure with a
+/// parallelogram base), by a table: the second derivatives of the map vanish, so at quadrature point
+/// q div sigma_h = sum_i B_iq u_i with B_iq = mu <Hhat_iq, K> I + (lambda + mu) J^-T Hhat_iq J^-1,
+/// K = J^-1 J^-T, Hhat_iq the reference Hessian of shape function i (the sums of
+/// PointValues::fieldLaplacianGradDiv, regrouped by vertex). The table depends on the vertex
+/// differences x_i - x_0 only, so the next cell of the loop reuses it if it is a translate of the
+/// cell it was built for (bitwise the same differences), as most cells of a refined box are.
+template <int d>
+class FlatResidualTable {
+public:
+  using Vec = Eigen::Matrix<double, d, 1>;
+  using Mat = Eigen::Matrix<double, d, d>;
+
+  /// Whether cell c is a translate of the cell of the last build() (same type and differences).
+  bool matches(const mesh::Mesh& m, Index c) const {
+    if (!valid_ || m.cellType(c) != type_) return false;
+    const auto verts = m.cellVertices(c);
+    const Vec x0 = m.vertex(verts[0]).template head<d>();
+    for (int i = 1; i < n_; ++i)
+      if ((m.vertex(verts[i]).template head<d>() - x0) != diffs_[i]) return false;
+    return true;
+  }
+  void invalidate() { valid_ = false; }
+
+  /// The table of cell c with the constant Jacobian J on the quadrature rule.
+  void build(const mesh::Mesh& m, Index c, const Mat& J, const mesh::QuadratureRule& rule, double lambda,
+             double mu) {
+    type_ = m.cellType(c);
+    const auto& ref = mesh::referenceElement(type_);
+    const auto verts = m.cellVertices(c);
+    n_ = static_cast<int>(verts.size());
+    const Vec x0 = m.vertex(verts[0]).template head<d>();
+    for (int i = 0; i < n_; ++i) diffs_[i] = m.vertex(verts[i]).template head<d>() - x0;
+    const Mat Jinv = J.inverse(), K = Jinv * Jinv.transpose();
+    const double det = J.determinant();
+    const std::size_t nq = rule.size();
+    B_.resize(nq * static_cast<std::size_t>(n_));
+    weights_.resize(nq);
+    std::array<double, 8 * d * d> h{};
+    for (std::size_t q = 0; q < nq; ++q) {
+      weights_[q] = det * rule.weights[q];
+      ref.hessians(rule.points[q], std::span<double>(h.data(), static_cast<std::size_t>(n_ * d * d)));
+      for (int i = 0; i < n_; ++i) {
+        const Eigen::Map<const Mat> Hi(&h[static_cast<std::size_t>(i * d * d)]);  // symmetric
+        B_[q * static_cast<std::size_t>(n_) + static_cast<std::size_t>(i)] =
+            mu * Hi.cwiseProduct(K).sum() * Mat::Identity() + (lambda + mu) * Jinv.transpose() * Hi * Jinv;
+      }
+    }
+    valid_ = true;
+  }
+
+  /// sum_q w_q det J |sum_i B_iq u_i|^2 for the nodal values u[verts[i] * d + c].
+  double integral(const Eigen::VectorXd& u, std::span<const Index> verts) const {
+    std::array<Vec, 8> ui;
+    for (int i = 0; i < n_; ++i) ui[i] = u.template segment<d>(static_cast<Eigen::Index>(verts[i]) * d);
+    double sum = 0;
+    for (std::size_t q = 0; q < weights_.size(); ++q) {
+      const Mat* Bq = &B_[q * static_cast<std::size_t>(n_)];
+      Vec r = Vec::Zero();
+      for (int i = 0; i < n_; ++i) r.noalias() += Bq[i] * ui[i];
+      sum += weights_[q] * r.squaredNorm();
+    }
+    return sum;
+  }
+
+private:
+  mesh::CellType type_{};
+  int n_ = 0;
+  bool valid_ = false;
+  std::array<Vec, 8> diffs_;
+  std::vector<Mat> B_;          ///< [q * n + i]
+  std::vector<double> weights_;  ///< w_q det J
+};
+
 /// body(i, scratch) for i = 0..n-1 on up to threads() threads, each with its own Scratch (one
 /// thread below kParallelMinRows indices). If calls throw, the exception of the smallest failing i
 /// is rethrown: the error does not depend on the thread count.
@@ -210,13 +285,29 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
 
   // eta_1: element residuals r = div sigma_h + f, weighted with h_p^2 for each vertex p of e
   std::vector<double> r2(static_cast<std::size_t>(m.numCells()));
-  forEachIndex<PointValues<d>>(m.numCells(), [&](Index c, PointValues<d>& pv) {
+  struct CellScratch {
+    PointValues<d> pv;
+    FlatResidualTable<d> table;  // of the last flat cell of this thread
+  };
+  forEachIndex<CellScratch>(m.numCells(), [&](Index c, CellScratch& scratch) {
+    PointValues<d>& pv = scratch.pv;
     const auto& rule = mesh::quadratureRule(m.cellType(c), options_.elementDegree);
     const auto verts = m.cellVertices(c);
     double sum = 0;
     // on an affine cell div sigma_h and the determinant are constant: without a body force the
     // point itself is not needed after the first quadrature point
     const bool affine = affineCellType(m.cellType(c));
+    if (!affine && !in.boundaryConditions.bodyForce) {  // a flat cell: by the table (a translate's)
+      if (!scratch.table.matches(m, c)) {
+        scratch.table.invalidate();
+        pv.reinit(m, c, rule.points[0], false, false);
+        if (pv.flat()) scratch.table.build(m, c, pv.jacobian(), rule, lambda, mu);
+      }
+      if (scratch.table.matches(m, c)) {
+        r2[static_cast<std::size_t>(c)] = scratch.table.integral(u, verts);
+        return;
+      }
+    }
     Vec div = Vec::Zero();
     for (std::size_t q = 0; q < rule.size(); ++q) {
       if (q == 0 || !affine || in.boundaryConditions.bodyForce) pv.reinit(m, c, rule.points[q], true, false);

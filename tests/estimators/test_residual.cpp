@@ -258,11 +258,21 @@ INSTANTIATE_TEST_SUITE_P(AllCellTypes, WholeField,
 
 // eta_1 of a random (curved) field on a distorted mesh of every cell type, recomputed here with the
 // per-basis Hessians: sum over cells of (sum_{p in e} h_p^2) ||div sigma_h||_e^2.
-// Once distorted, once undistorted (boxes and their prisms and pyramids: affine maps, flat()).
+// Once distorted, once undistorted (boxes and their prisms and pyramids: affine maps, flat(); the
+// estimator reuses the residual table of a translate), once graded (boxes of different sizes: flat,
+// but the next cell is rarely a translate of the last).
 TEST_P(ResidualPatch, ElementResidualMatchesPerBasisEvaluation) {
- for (const bool distorted : {true, false}) {
-  auto m = mesh::boxMesh(GetParam(), {3, 3, 3}, Point(0, 0, 0), Point(1, 1, 1));
+ for (const std::string variant : {"distorted", "undistorted", "graded"}) {
+  const bool distorted = variant == "distorted";
+  // graded: 4 cells along x, so that the x differences are exact and every row is translates
+  const std::array<int, 3> cells{variant == "graded" ? 4 : 3, 3, 3};
+  auto m = mesh::boxMesh(GetParam(), cells, Point(0, 0, 0), Point(1, 1, 1));
   if (distorted) mesh::perturbInteriorVertices(m, 0.25, 17);
+  if (variant == "graded")
+    for (Index v = 0; v < m.numVertices(); ++v) {
+      Point& x = m.vertex(v);
+      x = Point(x[0], x[1] * (0.2 + 0.8 * x[1]), x[2] * x[2] * x[2]);  // rows of translates along x
+    }
   const int d = m.dimension();
   const Material mat{1000.0, 0.3};
   std::mt19937 rng(5);
@@ -301,7 +311,7 @@ TEST_P(ResidualPatch, ElementResidualMatchesPerBasisEvaluation) {
     ASSERT_GT(expected, 0);
   }
   EXPECT_NEAR(r.contribution("eta_1"), expected, 1e-12 * std::max(expected, 1e-300))
-      << mesh::name(GetParam()) << (distorted ? " distorted" : " undistorted");
+      << mesh::name(GetParam()) << " " << variant;
  }
 }
 
