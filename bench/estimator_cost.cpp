@@ -60,12 +60,13 @@ std::string quote(const std::string& s) {
 
 /// Runs obs on the scene into dir; the steps of summary.json. Exits on failure.
 std::vector<Step> run(const std::string& obs, const std::string& scene, int refine, int steps,
-                      const std::vector<std::string>& sets, const std::filesystem::path& dir) {
+                      const std::vector<std::string>& sets, int threads, const std::filesystem::path& dir) {
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir.parent_path());
   std::string cmd = quote(obs) + " run " + quote(scene) + " --refine " + std::to_string(refine) +
                     " --set adaptivity.steps=" + std::to_string(steps) + " --set 'adaptivity.vtk=\"none\"'";
   for (const std::string& kv : sets) cmd += " --set " + quote(kv);
+  if (threads > 0) cmd += " --threads " + std::to_string(threads);
   cmd += " -o " + quote(dir.string()) + " > " + quote((dir.string() + ".log")) + " 2>&1";
   std::cerr << "estimator_cost: " << cmd << "\n";
   if (std::system(cmd.c_str()) != 0) {
@@ -114,6 +115,7 @@ int main(int argc, char** argv) {
   std::vector<std::pair<std::string, int>> scenes;  // scene, steps
   int repeat = 1;
   int refine = 1, steps = 6;
+  int threads = 0, baselineThreads = 0;  // 0: obs' default ($OBS_THREADS, else 1)
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto next = [&]() -> std::string {
@@ -136,11 +138,13 @@ int main(int argc, char** argv) {
       else if (a == "--block") block = next();
       else if (a == "--label-old") oldLabel = next();
       else if (a == "--label-new") newLabel = next();
+      else if (a == "--threads") threads = std::stoi(next());
+      else if (a == "--baseline-threads") baselineThreads = std::stoi(next());
       else if (!a.starts_with("-") && page.empty()) page = a;
       else {
         std::cerr << "usage: estimator_cost [OUTPUT.md] [--obs PATH] [--baseline PATH] [--scene FILE] "
                      "[--refine N] [--steps N] [--repeat N] [--work DIR] [--set K=V] [--baseline-set K=V] "
-                     "[--block NAME] [--label-old S] [--label-new S]\n";
+                     "[--block NAME] [--label-old S] [--label-new S] [--threads N] [--baseline-threads N]\n";
         return 2;
       }
     } catch (const std::exception&) {
@@ -148,8 +152,8 @@ int main(int argc, char** argv) {
       return 2;
     }
   }
-  if (steps < 1 || refine < 0 || repeat < 1) {
-    std::cerr << "estimator_cost: --steps and --repeat must be >= 1, --refine >= 0\n";
+  if (steps < 1 || refine < 0 || repeat < 1 || threads < 0 || baselineThreads < 0) {
+    std::cerr << "estimator_cost: --steps and --repeat must be >= 1, --refine and --threads >= 0\n";
     return 2;
   }
   for (const auto& [scene, n] : scenes)
@@ -164,6 +168,8 @@ int main(int argc, char** argv) {
      << (baseline.empty() ? "" : sameBinary ? " --baseline build/drivers/obs" : " --baseline OLD_OBS");
   for (const auto& kv : baselineSets) md << " --baseline-set " << kv;
   for (const auto& kv : sets) md << " --set " << kv;
+  if (baselineThreads > 0) md << " --baseline-threads " << baselineThreads;
+  if (threads > 0) md << " --threads " << threads;
   md << "`: `obs run SCENE --refine " << refine << " --set adaptivity.steps=N`, wall times of summary.json";
   if (repeat > 1) md << ", the smallest of " << repeat << " runs per step";
   md << ", ratio = estimator / solve"
@@ -189,9 +195,9 @@ int main(int argc, char** argv) {
     std::vector<Step> before, after;
     for (int r = 0; r < repeat; ++r) {
       if (!baseline.empty())
-        keepFastest(before, run(baseline, scene, refine, sceneSteps, baselineSets,
+        keepFastest(before, run(baseline, scene, refine, sceneSteps, baselineSets, baselineThreads,
                                 std::filesystem::path(work) / (stem + "-baseline")));
-      keepFastest(after, run(obs, scene, refine, sceneSteps, sets, std::filesystem::path(work) / (stem + "-measured")));
+      keepFastest(after, run(obs, scene, refine, sceneSteps, sets, threads, std::filesystem::path(work) / (stem + "-measured")));
     }
     md << "\n" << scene << ", " << sceneSteps << " steps:\n\n";
     if (before.empty()) {
@@ -213,7 +219,7 @@ int main(int argc, char** argv) {
       continue;
     }
     const std::string O = " (" + oldLabel + ")", N = " (" + newLabel + ")";
-    if (sameBinary) {  // the same code with other settings: compare the solves
+    if (sameBinary && threads == baselineThreads) {  // the same code with other settings: compare the solves
       md << "| step | unknowns | TNNMG it." + O + " | TNNMG it." + N + " | solve s" + O + " | solve s" + N +
                 " | solve speed-up | estimator / solve" + N + " | eta relative difference |\n"
                 "|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
@@ -227,15 +233,20 @@ int main(int argc, char** argv) {
       }
     } else {
       md << "| step | unknowns | solve s" + O + " | estimator s" + O + " | ratio" + O + " | solve s" + N +
-                " | estimator s" + N + " | ratio" + N + " | estimator speed-up | eta bitwise equal |\n"
+                " | estimator s" + N + " | ratio" + N + " | estimator speed-up | " +
+                (sameBinary ? "eta relative difference |\n" : "eta bitwise equal |\n") +
                 "|---:|---:|---:|---:|---:|---:|---:|---:|---:|:---:|\n";
       for (std::size_t k = 0; k < after.size() && k < before.size(); ++k) {
         const Step& n = after[k];
         const Step& o = before[k];
+        // the same binary on other thread counts: the solves differ in the sweep order, eta with them
+        char last[32];
+        if (sameBinary) std::snprintf(last, sizeof last, "%.1e", std::abs(n.eta - o.eta) / std::abs(o.eta));
+        else std::snprintf(last, sizeof last, "%s", bitwiseEqual(o, n) ? "yes" : "NO");
         std::snprintf(line, sizeof line, "| %zu | %lld | %.3f | %.3f | %.2f | %.3f | %.3f | %.2f | %.1f | %s |\n", k,
                       n.unknowns, o.solve, o.estimator, o.solve > 0 ? o.estimator / o.solve : 0.0, n.solve,
                       n.estimator, n.solve > 0 ? n.estimator / n.solve : 0.0,
-                      n.estimator > 0 ? o.estimator / n.estimator : 0.0, bitwiseEqual(o, n) ? "yes" : "NO");
+                      n.estimator > 0 ? o.estimator / n.estimator : 0.0, last);
         md << line;
       }
     }
