@@ -30,6 +30,34 @@ std::vector<CellFacePoint> cellFaceQuadrature(const mesh::Mesh& mesh, Index cell
   return pts;
 }
 
+namespace {
+
+/// Surface element J = |normal| and outward unit normal of local face lf of `cell` at the face
+/// reference point s (from the face map's tangents there). Throws obs::Error on a degenerate face.
+void faceFrame(const mesh::Mesh& mesh, Index cell, int localFace, const mesh::LocalFace& lf,
+               const mesh::ReferenceElement& faceRef, const Point& s, double& J, Point& unitNormal) {
+  const auto verts = mesh.cellVertices(cell);
+  const int n = lf.size, fd = faceRef.dim;
+  double g[4 * 2];
+  faceRef.gradients(s, std::span<double>(g, n * fd));
+  Point ds = Point::Zero(), dt = Point::Zero();
+  for (int j = 0; j < n; ++j) {
+    const Point& xj = mesh.vertex(verts[lf.vertices[j]]);
+    ds += g[j * fd] * xj;
+    if (fd == 2) dt += g[j * fd + 1] * xj;
+  }
+  // right-hand normal of the face's vertex cycle = outward normal (MeshTopology.hpp)
+  const Point normal = fd == 1 ? Point(ds[1], -ds[0], 0) : Point(ds.cross(dt));
+  J = normal.norm();
+  if (!(J > 0))
+    throw Error("face " + std::to_string(localFace) + " of cell " + std::to_string(cell) + " is degenerate");
+  unitNormal = normal / J;
+}
+
+bool flatFaceType(mesh::CellType t) { return t == mesh::CellType::Segment || t == mesh::CellType::Triangle; }
+
+}  // namespace
+
 void cellFaceQuadrature(const mesh::Mesh& mesh, Index cell, int localFace, int degree,
                         std::vector<CellFacePoint>& pts) {
   const mesh::LocalFace& lf = mesh::localFaces(mesh.cellType(cell))[localFace];
@@ -37,43 +65,40 @@ void cellFaceQuadrature(const mesh::Mesh& mesh, Index cell, int localFace, int d
   const auto& faceRef = mesh::referenceElement(lf.type);
   const auto& rule = mesh::quadratureRule(lf.type, degree);
   const auto verts = mesh.cellVertices(cell);
-  const int n = lf.size, fd = faceRef.dim;
+  const int n = lf.size;
   pts.assign(rule.size(), CellFacePoint{});
-  double g[4 * 2];
   // segments and triangles are flat with constant reference gradients: the normal and the surface
   // element of the first point hold at all points (the same numbers a re-evaluation would give)
-  const bool flat = lf.type == mesh::CellType::Segment || lf.type == mesh::CellType::Triangle;
+  const bool flat = flatFaceType(lf.type);
   double J = 0;
   Point unitNormal = Point::Zero();
   for (std::size_t q = 0; q < rule.size(); ++q) {
     CellFacePoint& p = pts[q];
     faceRef.values(rule.points[q], std::span<double>(p.shape.data(), n));
-    const bool geometry = q == 0 || !flat;
-    if (geometry) faceRef.gradients(rule.points[q], std::span<double>(g, n * fd));
-    Point x = Point::Zero(), xi = Point::Zero(), ds = Point::Zero(), dt = Point::Zero();
+    if (q == 0 || !flat) faceFrame(mesh, cell, localFace, lf, faceRef, rule.points[q], J, unitNormal);
+    Point x = Point::Zero(), xi = Point::Zero();
     for (int j = 0; j < n; ++j) {
-      const Point& xj = mesh.vertex(verts[lf.vertices[j]]);
-      x += p.shape[j] * xj;
+      x += p.shape[j] * mesh.vertex(verts[lf.vertices[j]]);
       xi += p.shape[j] * cellRef.vertices[lf.vertices[j]];
-      if (geometry) {
-        ds += g[j * fd] * xj;
-        if (fd == 2) dt += g[j * fd + 1] * xj;
-      }
-    }
-    if (geometry) {
-      // right-hand normal of the face's vertex cycle = outward normal (MeshTopology.hpp)
-      const Point normal = fd == 1 ? Point(ds[1], -ds[0], 0) : Point(ds.cross(dt));
-      J = normal.norm();
-      if (!(J > 0))
-        throw Error("face " + std::to_string(localFace) + " of cell " + std::to_string(cell) +
-                    " is degenerate");
-      unitNormal = normal / J;
     }
     p.xi = xi;
     p.x = x;
     p.weight = J * rule.weights[q];
     p.normal = unitNormal;
   }
+}
+
+bool flatCellFaceQuadrature(const mesh::Mesh& mesh, Index cell, int localFace, int degree,
+                            std::vector<double>& weights, Point& normal) {
+  const mesh::LocalFace& lf = mesh::localFaces(mesh.cellType(cell))[localFace];
+  if (!flatFaceType(lf.type)) return false;
+  const auto& faceRef = mesh::referenceElement(lf.type);
+  const auto& rule = mesh::quadratureRule(lf.type, degree);
+  double J = 0;
+  faceFrame(mesh, cell, localFace, lf, faceRef, rule.points[0], J, normal);
+  weights.resize(rule.size());
+  for (std::size_t q = 0; q < rule.size(); ++q) weights[q] = J * rule.weights[q];
+  return true;
 }
 
 Point referencePointOnFace(const mesh::Mesh& mesh, Index cell, std::span<const Index> faceVertices,

@@ -285,6 +285,9 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
 
   // eta_1: element residuals r = div sigma_h + f, weighted with h_p^2 for each vertex p of e
   std::vector<double> r2(static_cast<std::size_t>(m.numCells()));
+  // sigma_h of the affine cells (constant there), for the face loop: bitwise what an evaluation at
+  // any point of the cell gives
+  std::vector<Mat> cellStress(static_cast<std::size_t>(m.numCells()));
   struct CellScratch {
     PointValues<d> pv;
     FlatResidualTable<d> table;  // of the last flat cell of this thread
@@ -318,6 +321,7 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
       sum += pv.determinant() * rule.weights[q] * r.squaredNorm();
     }
     r2[static_cast<std::size_t>(c)] = sum;
+    if (affine) cellStress[static_cast<std::size_t>(c)] = F::stress(pv, u, verts, lambda, mu);
   });
   for (Index c = 0; c < m.numCells(); ++c)
     for (Index p : m.cellVertices(c)) table.add(kEta1, p, c, h[p] * h[p] * r2[static_cast<std::size_t>(c)]);
@@ -355,6 +359,7 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
     PointValues<d> pv, pv1;
     std::vector<Index> fv;  // vertices and quadrature of the current face (buffers reused)
     std::vector<CellFacePoint> pts;
+    std::vector<double> weights;  // of a face between two affine cells
   };
   std::vector<double> j2(static_cast<std::size_t>(faces.numFaces()), 0.0);
   std::vector<ContactFace> contactFaces(static_cast<std::size_t>(numContact));
@@ -366,16 +371,17 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
     const auto side0 = faces.side(f, 0);
     const Index c0 = side0.cell;
     const auto verts0 = m.cellVertices(c0);
+    const bool affine0 = affineCellType(m.cellType(c0));
     cellFaceVertices(m, c0, side0.localFace, fv);
-    cellFaceQuadrature(m, c0, side0.localFace, options_.faceDegree, pts);
     double sum = 0;
 
     if (k == FaceKind::Interior) {
       const Index c1 = faces.side(f, 1).cell;
       const auto verts1 = m.cellVertices(c1);
-      // on affine cells sigma_h is constant: evaluated once per face and side
-      const bool affine0 = affineCellType(m.cellType(c0)), affine1 = affineCellType(m.cellType(c1));
-      Mat s0 = Mat::Zero(), s1 = Mat::Zero();  // set at the first point (q == 0)
+      // on affine cells sigma_h is constant: the cell loop's value
+      const bool affine1 = affineCellType(m.cellType(c1));
+      Mat s0 = affine0 ? cellStress[static_cast<std::size_t>(c0)] : Mat::Zero();
+      Mat s1 = affine1 ? cellStress[static_cast<std::size_t>(c1)] : Mat::Zero();
       // local numbers in c1 of the face vertices (once per face, not per point)
       const auto& ref1 = mesh::referenceElement(m.cellType(c1));
       std::array<int, 4> local1{};
@@ -386,13 +392,22 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
                       std::to_string(c1));
         local1[j] = static_cast<int>(it - verts1.begin());
       }
+      Point normal;
+      if (affine0 && affine1 && flatCellFaceQuadrature(m, c0, side0.localFace, options_.faceDegree, s.weights, normal)) {
+        // a constant jump on a flat face: only the weights and the normal (the same sum)
+        const double jump = ((s0 - s1) * normal.template head<d>()).squaredNorm();
+        for (double w : s.weights) sum += w * jump;
+        j2[static_cast<std::size_t>(f)] = sum;
+        return;
+      }
+      cellFaceQuadrature(m, c0, side0.localFace, options_.faceDegree, pts);
       for (std::size_t q = 0; q < pts.size(); ++q) {
         const CellFacePoint& pt = pts[q];
-        if (q == 0 || !affine0) {
+        if (!affine0) {
           s.pv.reinit(m, c0, pt.xi, false, false);
           s0 = F::stress(s.pv, u, verts0, lambda, mu);
         }
-        if (q == 0 || !affine1) {
+        if (!affine1) {
           Point xi1 = Point::Zero();  // referencePointOnFace with the local numbers above
           for (std::size_t j = 0; j < fv.size(); ++j) xi1 += pt.shape[j] * ref1.vertices[local1[j]];
           s.pv1.reinit(m, c1, xi1, false, false);
@@ -405,6 +420,12 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
       return;
     }
 
+    // sigma_h of the boundary cell at a face point (an affine cell's: the cell loop's)
+    const auto stressAt = [&](PointValues<d>& pv, const CellFacePoint& q) -> Mat {
+      if (affine0) return cellStress[static_cast<std::size_t>(c0)];
+      pv.reinit(m, c0, q.xi, false, false);
+      return F::stress(pv, u, verts0, lambda, mu);
+    };
     const int id = faceId[f];
     const std::array<bool, 3> fixed = bd.fixedComponents(id);
     if (k == FaceKind::Contact) {
@@ -415,18 +436,18 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
       cf.vertices = fv;
       cf.fixed = fixed;
       cf.points.clear();
+      cellFaceQuadrature(m, c0, side0.localFace, options_.faceDegree, pts);
       for (const CellFacePoint& q : pts) {
-        s.pv.reinit(m, c0, q.xi, false, false);
-        const Vec sn = F::stress(s.pv, u, verts0, lambda, mu) * q.normal.template head<d>();
+        const Vec sn = stressAt(s.pv, q) * q.normal.template head<d>();
         cf.points.push_back({q.x, q.weight, q.normal, q.shape, toPoint(sn)});
       }
       return;
     }
     const auto nit = bd.neumann.find(id);
+    cellFaceQuadrature(m, c0, side0.localFace, options_.faceDegree, pts);
     for (const CellFacePoint& q : pts) {
-      s.pv.reinit(m, c0, q.xi, false, false);
       const Vec n = q.normal.template head<d>();
-      Vec jump = -F::stress(s.pv, u, verts0, lambda, mu) * n;
+      Vec jump = -stressAt(s.pv, q) * n;
       if (nit != bd.neumann.end())
         for (const NeumannCondition* nc : nit->second)
           jump += nc->traction ? Vec(nc->traction(q.x).template head<d>())

@@ -315,6 +315,12 @@ std::vector<CellFacePoint> cellFaceQuadrature(const mesh::Mesh& mesh, Index cell
 void cellFaceQuadrature(const mesh::Mesh& mesh, Index cell, int localFace, int degree,
                         std::vector<CellFacePoint>& out);
 
+/// The weights and the outward unit normal of cellFaceQuadrature() (bitwise the same numbers)
+/// without the points, on a flat face (a segment or a triangle: the normal is constant); returns
+/// false and computes nothing on other faces.
+bool flatCellFaceQuadrature(const mesh::Mesh& mesh, Index cell, int localFace, int degree,
+                            std::vector<double>& weights, Point& normal);
+
 /// Reference coordinates in `cell` of the face point sum_j shape[j] x(faceVertices[j]), where all
 /// faceVertices are vertices of `cell` (the matching point on the neighbour's side of a face:
 /// the reference face map is the same multilinear map in any vertex order). Throws obs::Error if a
