@@ -5,6 +5,8 @@
 #include <exception>
 #include <map>
 #include <set>
+#include <string>
+#include <unordered_map>
 
 #include "obs/estimators/ElementGeometry.hpp"
 #include "obs/mesh/MeshTopology.hpp"
@@ -153,6 +155,113 @@ private:
   std::array<Vec, 8> diffs_;
   std::vector<Mat> B_;          ///< [q * n + i]
   std::vector<double> weights_;  ///< w_q det J
+};
+
+/// The physical shape gradients of a flat non-simplex cell (PointValues::flat()) at the quadrature
+/// points of one of its faces, for the stress jumps of the face loop: grad u_h(x_q) = sum_i u_i
+/// G_iq' with G_iq = J^-T gradhat_i(xi_q), J constant. Seen from the cell on side 0 of a face the
+/// table also keeps the face quadrature (weights, normals and face shape values, for the points of
+/// side 1). A table depends on the cell type, the face (side 0: the local face; side 1: the local
+/// numbers of the face vertices) and the vertex differences x_i - x_0, not on the position, so the
+/// faces of translated cells share it; FaceTableCache keeps the tables of one thread by these keys.
+template <int d>
+struct FaceSideTable {
+  using Vec = Eigen::Matrix<double, d, 1>;
+  bool flat = false;             ///< false: the cell is not flat, evaluate point by point
+  int n = 0;                     ///< vertices of the cell
+  std::vector<Vec> gradients;    ///< G_iq, [q * n + i]
+  std::vector<double> weights;   ///< side 0: surface weights
+  std::vector<Vec> normals;      ///< side 0: outward unit normals of the cell on side 0
+  std::vector<std::array<double, 4>> shapes;  ///< side 0: face shape values (face vertex order)
+
+  /// grad u_h at point q of the field with nodal values u[verts[i] * d + c] (G_ca = du_c / dx_a).
+  Eigen::Matrix<double, d, d> gradient(const Eigen::VectorXd& u, std::span<const Index> verts, std::size_t q) const {
+    Eigen::Matrix<double, d, d> G = Eigen::Matrix<double, d, d>::Zero();
+    const Vec* g = &gradients[q * static_cast<std::size_t>(n)];
+    for (int i = 0; i < n; ++i) G.noalias() += u.template segment<d>(static_cast<Eigen::Index>(verts[i]) * d) * g[i].transpose();
+    return G;
+  }
+};
+
+template <int d>
+class FaceTableCache {
+public:
+  using Table = FaceSideTable<d>;
+
+  /// Called before the tables of a face are asked for (not in between: a table stays valid until
+  /// the next call): bounds the memory on meshes with few translates.
+  void beginFace() {
+    if (tables_.size() > kMaxTables) tables_.clear();
+  }
+
+  /// The table of local face `localFace` of cell c on side 0 (built on first use).
+  const Table& side0(const mesh::Mesh& m, Index c, int localFace, int degree, PointValues<d>& pv,
+                     std::vector<CellFacePoint>& pts) {
+    makeKey(m, c, 0, std::span<const int>(&localFace, 1));
+    auto [it, inserted] = tables_.try_emplace(key_);
+    if (!inserted) return it->second;
+    Table& t = it->second;
+    cellFaceQuadrature(m, c, localFace, degree, pts);
+    std::vector<Point> xi(pts.size());
+    for (std::size_t q = 0; q < pts.size(); ++q) {
+      xi[q] = pts[q].xi;
+      t.weights.push_back(pts[q].weight);
+      t.normals.push_back(pts[q].normal.template head<d>());
+      t.shapes.push_back(pts[q].shape);
+    }
+    fill(m, c, xi, pv, t);
+    return t;
+  }
+
+  /// The table of cell c on side 1 of a face whose vertex j is vertex local1[j] of c, at the
+  /// points of side 0 (their face shape values `shapes`).
+  const Table& side1(const mesh::Mesh& m, Index c, std::span<const int> local1,
+                     const std::vector<std::array<double, 4>>& shapes, PointValues<d>& pv) {
+    makeKey(m, c, 1, local1);
+    auto [it, inserted] = tables_.try_emplace(key_);
+    if (!inserted) return it->second;
+    const auto& ref = mesh::referenceElement(m.cellType(c));
+    std::vector<Point> xi(shapes.size(), Point::Zero());
+    for (std::size_t q = 0; q < shapes.size(); ++q)
+      for (std::size_t j = 0; j < local1.size(); ++j) xi[q] += shapes[q][j] * ref.vertices[local1[j]];
+    fill(m, c, xi, pv, it->second);
+    return it->second;
+  }
+
+private:
+  /// key_ = cell type, side, the face numbers, the vertex differences (raw bytes)
+  void makeKey(const mesh::Mesh& m, Index c, char side, std::span<const int> face) {
+    const auto verts = m.cellVertices(c);
+    key_.clear();
+    key_.push_back(static_cast<char>(m.cellType(c)));
+    key_.push_back(side);
+    for (int f : face) key_.push_back(static_cast<char>(f));
+    const Point x0 = m.vertex(verts[0]);
+    for (std::size_t i = 1; i < verts.size(); ++i) {
+      const Point dx = m.vertex(verts[i]) - x0;
+      key_.append(reinterpret_cast<const char*>(dx.data()), sizeof(double) * d);
+    }
+  }
+  static void fill(const mesh::Mesh& m, Index c, const std::vector<Point>& xi, PointValues<d>& pv, Table& t) {
+    pv.reinit(m, c, xi[0], false, false);
+    t.flat = pv.flat();
+    if (!t.flat) return;
+    const auto& ref = mesh::referenceElement(m.cellType(c));
+    t.n = static_cast<int>(m.cellVertices(c).size());
+    const Eigen::Matrix<double, d, d> JinvT = pv.jacobian().inverse().transpose();
+    std::array<double, 8 * d> g{};
+    t.gradients.resize(xi.size() * static_cast<std::size_t>(t.n));
+    for (std::size_t q = 0; q < xi.size(); ++q) {
+      ref.gradients(xi[q], std::span<double>(g.data(), static_cast<std::size_t>(t.n * d)));
+      for (int i = 0; i < t.n; ++i)
+        t.gradients[q * static_cast<std::size_t>(t.n) + static_cast<std::size_t>(i)] =
+            JinvT * Eigen::Map<const Eigen::Matrix<double, d, 1>>(&g[static_cast<std::size_t>(i * d)]);
+    }
+  }
+
+  static constexpr std::size_t kMaxTables = 1 << 14;
+  std::unordered_map<std::string, Table> tables_;
+  std::string key_;
 };
 
 /// body(i, scratch) for i = 0..n-1 on up to threads() threads, each with its own Scratch (one
@@ -360,6 +469,8 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
     std::vector<Index> fv;  // vertices and quadrature of the current face (buffers reused)
     std::vector<CellFacePoint> pts;
     std::vector<double> weights;  // of a face between two affine cells
+    std::vector<std::array<double, 4>> shapes;  // face shape values at the points of side 0
+    FaceTableCache<d> tables;
   };
   std::vector<double> j2(static_cast<std::size_t>(faces.numFaces()), 0.0);
   std::vector<ContactFace> contactFaces(static_cast<std::size_t>(numContact));
@@ -400,21 +511,41 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
         j2[static_cast<std::size_t>(f)] = sum;
         return;
       }
-      cellFaceQuadrature(m, c0, side0.localFace, options_.faceDegree, pts);
-      for (std::size_t q = 0; q < pts.size(); ++q) {
-        const CellFacePoint& pt = pts[q];
-        if (!affine0) {
-          s.pv.reinit(m, c0, pt.xi, false, false);
+      // flat non-simplex sides by their tables (FaceTableCache), the others point by point
+      s.tables.beginFace();
+      const FaceSideTable<d>* t0 =
+          affine0 ? nullptr : &s.tables.side0(m, c0, side0.localFace, options_.faceDegree, s.pv, pts);
+      if (t0 && !t0->flat) t0 = nullptr;
+      if (!t0) cellFaceQuadrature(m, c0, side0.localFace, options_.faceDegree, pts);
+      const std::size_t nq = t0 ? t0->weights.size() : pts.size();
+      if (t0 && !affine1) {  // side 1 is evaluated at side 0's points
+        s.shapes.assign(t0->shapes.begin(), t0->shapes.end());
+      } else if (!affine1) {
+        s.shapes.resize(nq);
+        for (std::size_t q = 0; q < nq; ++q) s.shapes[q] = pts[q].shape;
+      }
+      const FaceSideTable<d>* t1 =
+          affine1 ? nullptr : &s.tables.side1(m, c1, std::span<const int>(local1.data(), fv.size()), s.shapes, s.pv1);
+      if (t1 && !t1->flat) t1 = nullptr;
+      const auto stress = [&](const Mat& G) -> Mat { return lambda * G.trace() * Mat::Identity() + mu * (G + G.transpose()); };
+      for (std::size_t q = 0; q < nq; ++q) {
+        if (t0) {
+          s0 = stress(t0->gradient(u, verts0, q));
+        } else if (!affine0) {
+          s.pv.reinit(m, c0, pts[q].xi, false, false);
           s0 = F::stress(s.pv, u, verts0, lambda, mu);
         }
-        if (!affine1) {
+        if (t1) {
+          s1 = stress(t1->gradient(u, verts1, q));
+        } else if (!affine1) {
           Point xi1 = Point::Zero();  // referencePointOnFace with the local numbers above
-          for (std::size_t j = 0; j < fv.size(); ++j) xi1 += pt.shape[j] * ref1.vertices[local1[j]];
+          for (std::size_t j = 0; j < fv.size(); ++j) xi1 += s.shapes[q][j] * ref1.vertices[local1[j]];
           s.pv1.reinit(m, c1, xi1, false, false);
           s1 = F::stress(s.pv1, u, verts1, lambda, mu);
         }
-        const Vec n = pt.normal.template head<d>();
-        sum += pt.weight * ((s0 - s1) * n).squaredNorm();
+        const Vec n = t0 ? t0->normals[q] : Vec(pts[q].normal.template head<d>());
+        const double w = t0 ? t0->weights[q] : pts[q].weight;
+        sum += w * ((s0 - s1) * n).squaredNorm();
       }
       j2[static_cast<std::size_t>(f)] = sum;
       return;
