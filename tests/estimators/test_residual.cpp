@@ -7,6 +7,8 @@
 #include <cmath>
 #include <numeric>
 #include <random>
+#include <span>
+#include <string>
 
 #include "obs/estimators/ElementGeometry.hpp"
 #include "obs/estimators/ResidualEstimator.hpp"
@@ -256,23 +258,31 @@ INSTANTIATE_TEST_SUITE_P(AllCellTypes, WholeField,
                                   (std::get<1>(info.param) ? "_parallel" : "_distorted");
                          });
 
-// eta_1 of a random (curved) field on a distorted mesh of every cell type, recomputed here with the
-// per-basis Hessians: sum over cells of (sum_{p in e} h_p^2) ||div sigma_h||_e^2.
-// Once distorted, once undistorted (boxes and their prisms and pyramids: affine maps, flat(); the
-// estimator reuses the residual table of a translate), once graded (boxes of different sizes: flat,
-// but the next cell is rarely a translate of the last).
-TEST_P(ResidualPatch, ElementResidualMatchesPerBasisEvaluation) {
- for (const std::string variant : {"distorted", "undistorted", "graded"}) {
-  const bool distorted = variant == "distorted";
-  // graded: 4 cells along x, so that the x differences are exact and every row is translates
+/// The unit box of `type`: "distorted" (interior vertices moved), "undistorted" (boxes and their
+/// prisms and pyramids: affine maps, PointValues::flat(); the estimator shares its tables between
+/// translates) or "graded" (4 cells along x, so that the x differences are exact and every row is
+/// translates, and rows of different sizes in y and z: a table reused on one difference only is
+/// wrong there).
+namespace {
+mesh::Mesh variantBox(CellType type, const std::string& variant) {
   const std::array<int, 3> cells{variant == "graded" ? 4 : 3, 3, 3};
-  auto m = mesh::boxMesh(GetParam(), cells, Point(0, 0, 0), Point(1, 1, 1));
-  if (distorted) mesh::perturbInteriorVertices(m, 0.25, 17);
+  auto m = mesh::boxMesh(type, cells, Point(0, 0, 0), Point(1, 1, 1));
+  if (variant == "distorted") mesh::perturbInteriorVertices(m, 0.25, 17);
   if (variant == "graded")
     for (Index v = 0; v < m.numVertices(); ++v) {
       Point& x = m.vertex(v);
-      x = Point(x[0], x[1] * (0.2 + 0.8 * x[1]), x[2] * x[2] * x[2]);  // rows of translates along x
+      x = Point(x[0], x[1] * (0.2 + 0.8 * x[1]), x[2] * x[2] * x[2]);
     }
+  return m;
+}
+}  // namespace
+
+// eta_1 of a random (curved) field on the three variantBox meshes of every cell type, recomputed
+// here with the per-basis Hessians: sum over cells of (sum_{p in e} h_p^2) ||div sigma_h||_e^2.
+TEST_P(ResidualPatch, ElementResidualMatchesPerBasisEvaluation) {
+ for (const std::string variant : {"distorted", "undistorted", "graded"}) {
+  const bool distorted = variant == "distorted";
+  const mesh::Mesh m = variantBox(GetParam(), variant);
   const int d = m.dimension();
   const Material mat{1000.0, 0.3};
   std::mt19937 rng(5);
@@ -313,6 +323,58 @@ TEST_P(ResidualPatch, ElementResidualMatchesPerBasisEvaluation) {
   EXPECT_NEAR(r.contribution("eta_1"), expected, 1e-12 * std::max(expected, 1e-300))
       << mesh::name(GetParam()) << " " << variant;
  }
+}
+
+// eta_2 of a random field on the three variantBox meshes of every cell type, recomputed here point
+// by point with the per-basis gradients of both sides of every interior face: sum over faces of
+// (sum_{p in f} h_p) int_f |[sigma_h n]|^2 (the estimator's tables of flat cells, its constant
+// jumps between affine cells and its point-by-point path against one evaluation).
+TEST_P(ResidualPatch, JumpResidualMatchesPointwiseEvaluation) {
+  for (const std::string variant : {"distorted", "undistorted", "graded"}) {
+    const mesh::Mesh m = variantBox(GetParam(), variant);
+    const int d = m.dimension();
+    const Material mat{1000.0, 0.3};
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<double> U(-1, 1);
+    Eigen::VectorXd uh(m.numVertices() * d);
+    for (Eigen::Index k = 0; k < uh.size(); ++k) uh[k] = 1e-3 * U(rng);
+    BoundaryConditions bc;
+    bc.dirichlet.push_back({1, {true, true, true}});
+    const EstimatorResult r = ResidualEstimator().estimate(EstimatorInput(m, mat, bc, uh));
+    const Eigen::VectorXd& h = r.vertexFields.at("h");
+    const double lambda = mat.lambda(), mu = mat.mu();
+    auto eta2 = [&]<int D>() {
+      using Mat = Eigen::Matrix<double, D, D>;
+      PointValues<D> pv;
+      auto stress = [&](Index c, const Point& xi) {
+        pv.reinit(m, c, xi, false, true);
+        Mat G = Mat::Zero();
+        const auto verts = m.cellVertices(c);
+        for (int i = 0; i < pv.numVertices(); ++i)
+          G += uh.template segment<D>(verts[i] * D) * pv.gradient(i).transpose();
+        return Mat(lambda * G.trace() * Mat::Identity() + mu * (G + G.transpose()));
+      };
+      const mesh::FaceTable faces(m);
+      double sum = 0;
+      for (Index f = 0; f < faces.numFaces(); ++f) {
+        if (faces.numCells(f) != 2) continue;
+        const auto side0 = faces.side(f, 0);
+        const Index c1 = faces.side(f, 1).cell;
+        const std::vector<Index> fv = cellFaceVertices(m, side0.cell, side0.localFace);
+        double j2 = 0;
+        for (const CellFacePoint& q : cellFaceQuadrature(m, side0.cell, side0.localFace, 4)) {
+          const Point xi1 = referencePointOnFace(m, c1, fv, std::span<const double>(q.shape.data(), fv.size()));
+          const Mat jump = stress(side0.cell, q.xi) - stress(c1, xi1);
+          j2 += q.weight * (jump * q.normal.template head<D>()).squaredNorm();
+        }
+        for (Index p : fv) sum += h[p] * j2;
+      }
+      return std::sqrt(sum);
+    };
+    const double expected = d == 2 ? eta2.template operator()<2>() : eta2.template operator()<3>();
+    ASSERT_GT(expected, 0);
+    EXPECT_NEAR(r.contribution("eta_2"), expected, 1e-12 * expected) << mesh::name(GetParam()) << " " << variant;
+  }
 }
 
 // A linear field with exact tractions on the Neumann part and Dirichlet values elsewhere: every
