@@ -84,6 +84,26 @@ void BlockSparseMatrix<d>::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y
 }
 
 template <int d>
+void BlockSparseMatrix<d>::multiply(const Eigen::VectorXd& x1, Eigen::VectorXd& y1, const Eigen::VectorXd& x2,
+                                    Eigen::VectorXd& y2) const {
+  const Index n = rows();
+  y1.resize(static_cast<Eigen::Index>(n) * d);
+  y2.resize(static_cast<Eigen::Index>(n) * d);
+  const int nt = n >= kParallelMinRows ? threads() : 1;
+#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
+  for (Index i = 0; i < n; ++i) {
+    Eigen::Matrix<double, d, 1> s1 = Eigen::Matrix<double, d, 1>::Zero(), s2 = Eigen::Matrix<double, d, 1>::Zero();
+    for (Index k = rowStart_[i]; k < rowStart_[i + 1]; ++k) {
+      const auto j = static_cast<Eigen::Index>(cols_[k]) * d;
+      s1.noalias() += blocks_[k] * x1.template segment<d>(j);
+      s2.noalias() += blocks_[k] * x2.template segment<d>(j);
+    }
+    y1.template segment<d>(static_cast<Eigen::Index>(i) * d) = s1;
+    y2.template segment<d>(static_cast<Eigen::Index>(i) * d) = s2;
+  }
+}
+
+template <int d>
 const SweepOrder& BlockSparseMatrix<d>::sweepOrder() const {
   const int parts = threads();
   if (!order_ || order_->requestedParts() != parts)

@@ -99,7 +99,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   const BlockGaussSeidelSweep<d>& smoother = *smoother_;
 
   const auto n = static_cast<Eigen::Index>(problem.numDofs());
-  Eigen::VectorXd Aw(n), r(n), c(n), Ac(n), previous(n), delta(n), Adelta(n);
+  Eigen::VectorXd Aw(n), r(n), c(n), Ac(n), previous(n), delta(n), Adelta(n), step0(n), Astep0(n);
   bool zeroStart = w.isZero(0);  // a zero start (time steps from their predictor) needs no product
   if (zeroStart) Aw.setZero();
   else A.multiply(w, Aw);
@@ -127,7 +127,16 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     const Index changes = correction_->truncate(linearization.mask);
     statistics_.truncationChanges += changes;
     lap(t, statistics_.updateSeconds);
-    A.multiply(w, Aw);
+    // without post-smoothing, w^{k+1} - w^k = (w - w^k) + alpha c up to the clamp of takeStep, so
+    // A (w^{k+1} - w^k) of the stopping test is A (w - w^k) + alpha A c: A (w - w^k) is taken in the
+    // pass over A that gives A w (BlockSparseMatrix::multiply of two vectors), one product less
+    const bool fused = options_.postSmoothing == 0;
+    if (fused) {
+      step0 = w - previous;
+      A.multiply(w, Aw, step0, Astep0);
+    } else {
+      A.multiply(w, Aw);
+    }
     linearization.truncatedResidual(rot, Aw, r);
     lap(t, statistics_.otherSeconds);
     // 3. linear correction on the truncated defect problem
@@ -147,7 +156,8 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     }
     // monitoring: ||w^{k+1} - w^k||_A / ||w^{k+1}||_A, energy, active set
     delta = w - previous;
-    A.multiply(delta, Adelta);
+    if (fused) Adelta = Astep0 + step.alpha * Ac;  // Aw is updated the same way above
+    else A.multiply(delta, Adelta);
     const double wAw = w.dot(Aw), bw = rot.rhs.dot(w);
     // ||w||_A over the free components only: the prescribed ones are identity rows of A~
     // (applyDirichlet), whose unit diagonal would make the relative test depend on the unit of E

@@ -350,7 +350,9 @@ TEST(MultiBodyScene, DynamicImpactVtkHasTheContactFieldsOfTheJump) {
     }
     for (std::size_t p = 0; p < lower.points.size(); ++p) {
       masterForce += Eigen::Vector2d(fl[3 * p], fl[3 * p + 1]);
-      if (std::abs(lower.points[p][1] - 1) > 1e-12) EXPECT_EQ(fl[3 * p + 1], 0);
+      if (std::abs(lower.points[p][1] - 1) > 1e-12) {
+        EXPECT_EQ(fl[3 * p + 1], 0);
+      }
     }
     // the time series' contact force is the force the slave side exerts on the master side:
     // -sum_p s_p m_p n_p = the master's nodal forces; action = reaction
@@ -389,8 +391,11 @@ TEST(MultiBodyScene, DynamicImpactVtkHasTheContactFieldsOfTheJump) {
       ++apart;
       EXPECT_EQ(active, 0);
       EXPECT_LE(std::abs(load), 1e-12 * maxForce);
-      for (std::size_t p = 0; p < upper.points.size(); ++p)
-        if (std::abs(upper.points[p][1] - 1.02) <= 1e-12) EXPECT_LT(vn[p], 0);
+      for (std::size_t p = 0; p < upper.points.size(); ++p) {
+        if (std::abs(upper.points[p][1] - 1.02) <= 1e-12) {
+          EXPECT_LT(vn[p], 0);
+        }
+      }
     }
   }
   EXPECT_EQ(flight, 2);

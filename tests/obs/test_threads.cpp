@@ -238,6 +238,24 @@ TEST(Threads, ProductsAssemblyAndTransfersDoNotDependOnTheThreadCountGalerkinOpe
   }
 }
 
+// Two products in one pass over the blocks (TNNMG's A w and A (w - w^k)): each bitwise the single
+// product, on one and on two threads.
+TEST(Threads, TwoProductsInOnePassAreBitwiseTheSingleProducts) {
+  Cube c;
+  const BlockSparseMatrix<3> A = assembleStiffness<3>(c.mesh, c.material);
+  const Eigen::VectorXd x1 = wave(3 * c.mesh.numVertices()), x2 = x1.reverse() - 0.5 * x1;
+  for (int t : {1, 2}) {
+    const ThreadScope scope(t);
+    Eigen::VectorXd y1, y2, z1, z2;
+    A.multiply(x1, y1);
+    A.multiply(x2, y2);
+    A.multiply(x1, z1, x2, z2);
+    EXPECT_TRUE(bitwiseEqual(y1, z1)) << t << " threads";
+    EXPECT_TRUE(bitwiseEqual(y2, z2)) << t << " threads";
+    EXPECT_GT(y2.norm(), 0);
+  }
+}
+
 TEST(Threads, StressRecoveryDoesNotDependOnTheThreadCount) {
   Cube c;  // 4,096 cells: above the threshold below which the cell loop stays sequential
   ElasticitySolution s1;

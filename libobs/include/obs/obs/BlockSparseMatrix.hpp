@@ -71,6 +71,10 @@ public:
   /// y = A x for vertex-major vectors (x[v*d + c]); rows on threads() threads (each row's sum in
   /// column order, so the result does not depend on the thread count).
   void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const;
+  /// y1 = A x1 and y2 = A x2 in one pass over the blocks, each bitwise the result of multiply():
+  /// a product of a large matrix is bound by streaming its blocks, so two cost little more than one.
+  void multiply(const Eigen::VectorXd& x1, Eigen::VectorXd& y1, const Eigen::VectorXd& x2,
+                Eigen::VectorXd& y2) const;
   Eigen::VectorXd operator*(const Eigen::VectorXd& x) const {
     Eigen::VectorXd y;
     multiply(x, y);
