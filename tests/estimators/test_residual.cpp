@@ -275,25 +275,36 @@ mesh::Mesh variantBox(CellType type, const std::string& variant) {
     }
   return m;
 }
+
+/// A random field (components uniform in [-1e-3, 1e-3]) on m and its residual estimate, the side
+/// of id 1 clamped.
+struct RandomFieldEstimate {
+  Material material{1000.0, 0.3};
+  Eigen::VectorXd uh;
+  EstimatorResult result;
+  RandomFieldEstimate(const mesh::Mesh& m, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> U(-1, 1);
+    uh.resize(m.numVertices() * m.dimension());
+    for (Eigen::Index k = 0; k < uh.size(); ++k) uh[k] = 1e-3 * U(rng);
+    BoundaryConditions bc;
+    bc.dirichlet.push_back({1, {true, true, true}});
+    result = ResidualEstimator().estimate(EstimatorInput(m, material, bc, uh));
+  }
+};
 }  // namespace
 
 // eta_1 of a random (curved) field on the three variantBox meshes of every cell type, recomputed
 // here with the per-basis Hessians: sum over cells of (sum_{p in e} h_p^2) ||div sigma_h||_e^2.
 TEST_P(ResidualPatch, ElementResidualMatchesPerBasisEvaluation) {
  for (const std::string variant : {"distorted", "undistorted", "graded"}) {
-  const bool distorted = variant == "distorted";
   const mesh::Mesh m = variantBox(GetParam(), variant);
   const int d = m.dimension();
-  const Material mat{1000.0, 0.3};
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<double> U(-1, 1);
-  Eigen::VectorXd uh(m.numVertices() * d);
-  for (Eigen::Index k = 0; k < uh.size(); ++k) uh[k] = 1e-3 * U(rng);
-  BoundaryConditions bc;
-  bc.dirichlet.push_back({1, {true, true, true}});
-  const EstimatorResult r = ResidualEstimator().estimate(EstimatorInput(m, mat, bc, uh));
+  const RandomFieldEstimate e(m, 5);
+  const Eigen::VectorXd& uh = e.uh;
+  const EstimatorResult& r = e.result;
   const Eigen::VectorXd& h = r.vertexFields.at("h");
-  const double lambda = mat.lambda(), mu = mat.mu();
+  const double lambda = e.material.lambda(), mu = e.material.mu();
   auto eta1 = [&]<int D>() {
     PointValues<D> pv;
     double sum = 0;
@@ -333,16 +344,11 @@ TEST_P(ResidualPatch, JumpResidualMatchesPointwiseEvaluation) {
   for (const std::string variant : {"distorted", "undistorted", "graded"}) {
     const mesh::Mesh m = variantBox(GetParam(), variant);
     const int d = m.dimension();
-    const Material mat{1000.0, 0.3};
-    std::mt19937 rng(7);
-    std::uniform_real_distribution<double> U(-1, 1);
-    Eigen::VectorXd uh(m.numVertices() * d);
-    for (Eigen::Index k = 0; k < uh.size(); ++k) uh[k] = 1e-3 * U(rng);
-    BoundaryConditions bc;
-    bc.dirichlet.push_back({1, {true, true, true}});
-    const EstimatorResult r = ResidualEstimator().estimate(EstimatorInput(m, mat, bc, uh));
+    const RandomFieldEstimate e(m, 7);
+    const Eigen::VectorXd& uh = e.uh;
+    const EstimatorResult& r = e.result;
     const Eigen::VectorXd& h = r.vertexFields.at("h");
-    const double lambda = mat.lambda(), mu = mat.mu();
+    const double lambda = e.material.lambda(), mu = e.material.mu();
     auto eta2 = [&]<int D>() {
       using Mat = Eigen::Matrix<double, D, D>;
       PointValues<D> pv;
