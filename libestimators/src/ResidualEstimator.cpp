@@ -397,6 +397,8 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
   // sigma_h of the affine cells (constant there), for the face loop: bitwise what an evaluation at
   // any point of the cell gives
   std::vector<Mat> cellStress(static_cast<std::size_t>(m.numCells()));
+  // whether a non-simplex cell is flat (PointValues::flat()): only those get face tables
+  std::vector<std::uint8_t> flatCell(static_cast<std::size_t>(m.numCells()), 0);
   struct CellScratch {
     PointValues<d> pv;
     FlatResidualTable<d> table;  // of the last flat cell of this thread
@@ -417,6 +419,7 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
       }
       if (scratch.table.matches(m, c)) {
         r2[static_cast<std::size_t>(c)] = scratch.table.integral(u, verts);
+        flatCell[static_cast<std::size_t>(c)] = 1;
         return;
       }
     }
@@ -431,6 +434,7 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
     }
     r2[static_cast<std::size_t>(c)] = sum;
     if (affine) cellStress[static_cast<std::size_t>(c)] = F::stress(pv, u, verts, lambda, mu);
+    else flatCell[static_cast<std::size_t>(c)] = pv.flat() ? 1 : 0;
   });
   for (Index c = 0; c < m.numCells(); ++c)
     for (Index p : m.cellVertices(c)) table.add(kEta1, p, c, h[p] * h[p] * r2[static_cast<std::size_t>(c)]);
@@ -513,8 +517,10 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
       }
       // flat non-simplex sides by their tables (FaceTableCache), the others point by point
       s.tables.beginFace();
-      const FaceSideTable<d>* t0 =
-          affine0 ? nullptr : &s.tables.side0(m, c0, side0.localFace, options_.faceDegree, s.pv, pts);
+      // (a distorted cell gets no table: its key and lookup would only cost)
+      const FaceSideTable<d>* t0 = affine0 || !flatCell[static_cast<std::size_t>(c0)]
+                                       ? nullptr
+                                       : &s.tables.side0(m, c0, side0.localFace, options_.faceDegree, s.pv, pts);
       if (t0 && !t0->flat) t0 = nullptr;
       if (!t0) cellFaceQuadrature(m, c0, side0.localFace, options_.faceDegree, pts);
       const std::size_t nq = t0 ? t0->weights.size() : pts.size();
@@ -525,7 +531,9 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
         for (std::size_t q = 0; q < nq; ++q) s.shapes[q] = pts[q].shape;
       }
       const FaceSideTable<d>* t1 =
-          affine1 ? nullptr : &s.tables.side1(m, c1, std::span<const int>(local1.data(), fv.size()), s.shapes, s.pv1);
+          affine1 || !flatCell[static_cast<std::size_t>(c1)]
+              ? nullptr
+              : &s.tables.side1(m, c1, std::span<const int>(local1.data(), fv.size()), s.shapes, s.pv1);
       if (t1 && !t1->flat) t1 = nullptr;
       const auto stress = [&](const Mat& G) -> Mat { return lambda * G.trace() * Mat::Identity() + mu * (G + G.transpose()); };
       for (std::size_t q = 0; q < nq; ++q) {
