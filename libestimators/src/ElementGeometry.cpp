@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "ForEachIndex.hpp"
 #include "obs/mesh/MeshTopology.hpp"
 #include "obs/mesh/Quadrature.hpp"
 
@@ -129,22 +130,26 @@ std::vector<double> patchDiameters(const mesh::Mesh& mesh) {
     for (Index c = 0; c < mesh.numCells(); ++c)
       for (Index v : mesh.cellVertices(c)) cells[fill[v]++] = c;
   }
+  // the patches on threads() threads (each vertex's own maximum: the same for any thread count)
   std::vector<double> h(nv, 0.0);
-  std::vector<Index> mark(nv, -1), patch;
-  for (Index p = 0; p < nv; ++p) {
-    patch.clear();
+  struct Scratch {
+    std::vector<Index> mark, patch;  // mark[v] = the last vertex whose patch listed v
+  };
+  forEachIndex<Scratch>(nv, [&](Index p, Scratch& s) {
+    if (s.mark.empty()) s.mark.assign(static_cast<std::size_t>(nv), -1);
+    s.patch.clear();
     for (Index k = start[p]; k < start[p + 1]; ++k)
       for (Index v : mesh.cellVertices(cells[k]))
-        if (mark[v] != p) {
-          mark[v] = p;
-          patch.push_back(v);
+        if (s.mark[v] != p) {
+          s.mark[v] = p;
+          s.patch.push_back(v);
         }
     double d2 = 0;
-    for (std::size_t a = 0; a < patch.size(); ++a)
-      for (std::size_t b = a + 1; b < patch.size(); ++b)
-        d2 = std::max(d2, (mesh.vertex(patch[a]) - mesh.vertex(patch[b])).squaredNorm());
+    for (std::size_t a = 0; a < s.patch.size(); ++a)
+      for (std::size_t b = a + 1; b < s.patch.size(); ++b)
+        d2 = std::max(d2, (mesh.vertex(s.patch[a]) - mesh.vertex(s.patch[b])).squaredNorm());
     h[p] = std::sqrt(d2);
-  }
+  });
   return h;
 }
 

@@ -12,7 +12,7 @@
 #include "obs/mesh/MeshTopology.hpp"
 #include "obs/mesh/Quadrature.hpp"
 #include "obs/obs/ContactSet.hpp"
-#include "obs/obs/Parallel.hpp"
+#include "ForEachIndex.hpp"
 
 namespace obs::estimators {
 namespace {
@@ -263,38 +263,6 @@ private:
   std::unordered_map<std::string, Table> tables_;
   std::string key_;
 };
-
-/// body(i, scratch) for i = 0..n-1 on up to threads() threads, each with its own Scratch (one
-/// thread below kParallelMinRows indices). If calls throw, the exception of the smallest failing i
-/// is rethrown: the error does not depend on the thread count.
-template <class Scratch, class Body>
-void forEachIndex(Index n, Body&& body) {
-  const int nt = n >= kParallelMinRows ? threads() : 1;
-  if (nt <= 1) {
-    Scratch scratch;
-    for (Index i = 0; i < n; ++i) body(i, scratch);
-    return;
-  }
-  Index failed = n;
-  std::exception_ptr error;
-#pragma omp parallel num_threads(nt)
-  {
-    Scratch scratch;
-#pragma omp for schedule(static)
-    for (Index i = 0; i < n; ++i) {
-      try {
-        body(i, scratch);
-      } catch (...) {
-#pragma omp critical(obs_estimators_for_each_index)
-        if (i < failed) {
-          failed = i;
-          error = std::current_exception();
-        }
-      }
-    }
-  }
-  if (error) std::rethrow_exception(error);
-}
 
 }  // namespace
 

@@ -60,7 +60,8 @@ void expectBitwiseEqual(const EstimatorResult& a, const EstimatorResult& b) {
 /// sides and a contact boundary against a plane below the bottom.
 template <int d>
 void checkThreadCounts(const mesh::Mesh& m) {
-  ASSERT_GE(m.numCells(), kParallelMinRows);  // the loops run on threads
+  ASSERT_GE(m.numCells(), kParallelMinRows);  // the loops run on threads (cells, faces,
+  ASSERT_GE(m.numVertices(), kParallelMinRows);  // and the vertex patches of h)
   BoundaryConditions bc;
   bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Point::Zero(); }});
   bc.dirichlet.push_back({mesh::kLeft, {true, false, false}, [](const Point&) { return Point::Zero(); }});
@@ -82,8 +83,9 @@ void checkThreadCounts(const mesh::Mesh& m) {
     const EstimatorResult one = e->estimate(in);
     ASSERT_GT(one.total, 0);
     for (const Contribution& c : one.contributions) {
-      if (c.name == "eta_1" || c.name == "eta_2" || c.name == "eta_3" || c.name == "eta_4")
+      if (c.name == "eta_1" || c.name == "eta_2" || c.name == "eta_3" || c.name == "eta_4") {
         EXPECT_GT(c.value, 0) << e->name() << " " << c.name;
+      }
     }
     const ThreadScope scope(2);
     expectBitwiseEqual(one, e->estimate(in));
@@ -93,7 +95,7 @@ void checkThreadCounts(const mesh::Mesh& m) {
 }  // namespace
 
 TEST(EstimatorThreads, TrianglesAreBitwiseTheSingleThreadResult) {
-  auto m = mesh::boxMesh(CellType::Triangle, 40);
+  auto m = mesh::boxMesh(CellType::Triangle, 48);
   mesh::perturbInteriorVertices(m, 0.2, 5);
   checkThreadCounts<2>(m);
 }
