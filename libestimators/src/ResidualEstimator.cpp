@@ -358,7 +358,7 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
     throw Error("estimator '" + name() + "': needs at least the rows eta_1 ... eta_5");
   // The cells and faces are evaluated on threads() threads into one slot each (r2, j2, the
   // contact faces), then added to the table in cell and face order by one thread: the result is
-  // bitwise the same for any number of threads (test Threads.EstimatorsDoNotDependOnTheThreadCount).
+  // bitwise the same for any number of threads (tests/estimators/test_estimator_threads.cpp).
 
   // eta_1: element residuals r = div sigma_h + f, weighted with h_p^2 for each vertex p of e
   std::vector<double> r2(static_cast<std::size_t>(m.numCells()));
