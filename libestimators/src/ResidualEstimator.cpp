@@ -30,7 +30,10 @@ struct LocalField {
   /// the others).
   static Mat stress(const PointValues<d>& pv, const Eigen::VectorXd& u, std::span<const Index> verts,
                     double lambda, double mu) {
-    const Mat G = pv.fieldGradient(u, verts);
+    return stressOf(pv.fieldGradient(u, verts), lambda, mu);
+  }
+  /// sigma of the displacement gradient G
+  static Mat stressOf(const Mat& G, double lambda, double mu) {
     return lambda * G.trace() * Mat::Identity() + mu * (G + G.transpose());
   }
   /// div sigma = mu Laplace u + (lambda + mu) grad div u = sum_i (mu tr(H_i) u_i + (lambda+mu) H_i u_i)
@@ -503,16 +506,15 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
               ? nullptr
               : &s.tables.side1(m, c1, std::span<const int>(local1.data(), fv.size()), s.shapes, s.pv1);
       if (t1 && !t1->flat) t1 = nullptr;
-      const auto stress = [&](const Mat& G) -> Mat { return lambda * G.trace() * Mat::Identity() + mu * (G + G.transpose()); };
       for (std::size_t q = 0; q < nq; ++q) {
         if (t0) {
-          s0 = stress(t0->gradient(u, verts0, q));
+          s0 = F::stressOf(t0->gradient(u, verts0, q), lambda, mu);
         } else if (!affine0) {
           s.pv.reinit(m, c0, pts[q].xi, false, false);
           s0 = F::stress(s.pv, u, verts0, lambda, mu);
         }
         if (t1) {
-          s1 = stress(t1->gradient(u, verts1, q));
+          s1 = F::stressOf(t1->gradient(u, verts1, q), lambda, mu);
         } else if (!affine1) {
           Point xi1 = Point::Zero();  // referencePointOnFace with the local numbers above
           for (std::size_t j = 0; j < fv.size(); ++j) xi1 += s.shapes[q][j] * ref1.vertices[local1[j]];

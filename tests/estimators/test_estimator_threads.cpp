@@ -8,6 +8,7 @@
 #include <string>
 
 #include "../GridCheck.hpp"
+#include "../ThreadScope.hpp"
 #include "obs/estimators/ContactResidualEstimator.hpp"
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Error.hpp"
@@ -19,6 +20,7 @@
 #include "obs/obs/Parallel.hpp"
 
 using namespace obs;
+using obs::test::ThreadScope;
 using namespace obs::estimators;
 using mesh::CellType;
 
@@ -26,10 +28,6 @@ namespace {
 
 const Material kMaterial{2e5, 0.3};
 
-struct ThreadScope {
-  explicit ThreadScope(int n) { setThreads(n); }
-  ~ThreadScope() { setThreads(1); }
-};
 
 /// A smooth, non-polynomial displacement at the vertices (every eta_k is nonzero).
 Eigen::VectorXd field(const mesh::Mesh& m, int d) {

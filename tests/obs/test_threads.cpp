@@ -12,6 +12,7 @@
 #include <memory>
 #include <vector>
 
+#include "../ThreadScope.hpp"
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Grid.hpp"
@@ -24,15 +25,11 @@
 #include "obs/obs/TruncatedGaussSeidel.hpp"
 
 using namespace obs;
+using obs::test::ThreadScope;
 using mesh::CellType;
 
 namespace {
 
-/// Sets the thread count for one scope (the count is global).
-struct ThreadScope {
-  explicit ThreadScope(int n) { setThreads(n); }
-  ~ThreadScope() { setThreads(1); }
-};
 
 bool bitwiseEqual(const Eigen::VectorXd& a, const Eigen::VectorXd& b) {
   return a.size() == b.size() && std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
