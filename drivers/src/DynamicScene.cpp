@@ -214,7 +214,7 @@ void restoreSchemeRun(const CheckpointRecord& cp, SchemeRun& run, const fs::path
 std::string csvHeaderLine(std::size_t tracked) {
   std::string h =
       "t,step,energy,energy_redistributed,kinetic_energy,elastic_energy,momentum_x,momentum_y,"
-      "momentum_z,contact_force_x,contact_force_y,contact_force_z,active_solution,active_predictor,"
+      "momentum_z,momentum_redistributed_x,momentum_redistributed_y,momentum_redistributed_z,contact_force_x,contact_force_y,contact_force_z,active_solution,active_predictor,"
       "predictor_only,solution_only,max_penetration,solver_iterations,solver_seconds,step_seconds,"
       "solver_tolerance,time_error,solver_kkt";
   for (std::size_t k = 0; k < tracked; ++k) {
@@ -230,6 +230,10 @@ std::string csvLine(const StepRecord& r) {
   if (r.hasRedistributed) os << r.energyRedistributed;
   os << "," << r.kineticEnergy << "," << r.elasticEnergy;
   for (int i = 0; i < 3; ++i) os << "," << r.momentum[i];
+  for (int i = 0; i < 3; ++i) {  // M~ v, empty without a redistributed mass (as energy_redistributed)
+    os << ",";
+    if (r.hasRedistributed) os << r.momentumRedistributed[i];
+  }
   for (int i = 0; i < 3; ++i) os << "," << r.contactForce[i];
   os << "," << r.activeSolution << "," << r.activePredictor << "," << r.predictorOnly << ","
      << r.solutionOnly << "," << r.maxPenetration << "," << r.solverIterations << ","
@@ -442,6 +446,12 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
         throw Error(run.timeseries.string() + " does not begin with the " + std::to_string(csvBytes) +
                     " bytes the interrupted run wrote up to step " + std::to_string(startStep) +
                     " (restart into the output directory of the interrupted run)");
+      // the rows appended below must have the columns of the rows already there
+      const std::string header = csvHeaderLine(c.tracked.size()) + "\n";
+      if (text.compare(0, header.size(), header) != 0)
+        throw Error(run.timeseries.string() +
+                    " has other columns than this version of obs writes (written by another version; "
+                    "start the run again without --restart)");
       in.close();
       csvHash = std::stoull(hash, nullptr, 16);
       fs::resize_file(run.timeseries, static_cast<std::uintmax_t>(csvBytes));

@@ -592,6 +592,28 @@ TEST(CheckpointRestart, RestartWithAnotherSceneGridOrOutputIsAnErrorNamingTheDif
     std::ofstream(kTmp / "err_copy" / "timeseries.csv", std::ios::binary) << ts;
   }
   expectContains(restart(scene, quiet(kTmp / "err_copy")), {"timeseries.csv does not begin with the", "step 50"});
+  // a time series of another version (other columns; its checkpoint consistent with it): the
+  // appended rows would not match the header, so the restart is refused
+  {
+    fs::remove_all(kTmp / "err_columns");
+    fs::create_directories(kTmp / "err_columns");
+    for (const auto& e : fs::directory_iterator(dir))
+      fs::copy_file(e.path(), kTmp / "err_columns" / e.path().filename());
+    obs::CheckpointRecord old = obs::readCheckpoint(cp);
+    std::string ts = slurp(dir / "timeseries.csv").substr(0, static_cast<std::size_t>(old.integer("run/timeseries_bytes")));
+    const std::string added = "momentum_redistributed_x,momentum_redistributed_y,momentum_redistributed_z,";
+    ASSERT_NE(ts.find(added), std::string::npos);
+    ts.erase(ts.find(added), added.size());
+    std::ofstream(kTmp / "err_columns" / "timeseries.csv", std::ios::binary) << ts;
+    old.set("run/timeseries_bytes", static_cast<long long>(ts.size()), "bytes");
+    old.set("run/timeseries_hash", obs::hexHash(obs::fnv1a(ts.data(), ts.size())), "hash");
+    const fs::path oldCp = kTmp / "err_columns" / "old_checkpoint.h5";
+    obs::writeCheckpoint(oldCp, old);
+    RunOptions h = quiet(kTmp / "err_columns");
+    h.restart = oldCp;
+    expectContains(errorOf([&] { runScene(scene, h); }),
+                   {oldCp.string() + ": ", "timeseries.csv has other columns", "without --restart"});
+  }
   // a checkpoint of a static scene cannot exist; a static scene with --restart is refused
   const fs::path plain = writeScene("plain", "[mesh]\ngenerator = \"box\"\ntype = \"quadrilateral\"\ncells = [2, 2]\n[material]\nE = 1\nnu = 0.3\n"
                                              "[[dirichlet]]\nboundary = \"left\"\n");
