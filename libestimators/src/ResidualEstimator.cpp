@@ -411,7 +411,7 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
     for (Index p : m.cellVertices(c)) table.add(kEta1, p, c, h[p] * h[p] * r2[static_cast<std::size_t>(c)]);
 
   // boundary ids of the one-cell faces of the face table
-  const mesh::FaceTable faces(m);
+  const mesh::FaceTable faces(m, threads());
   std::vector<int> faceId(faces.numFaces(), kNoBoundaryId);
   for (Index f = 0; f < m.numBoundaryFaces(); ++f) {
     const Index k = faces.find(m.boundaryFaceVertices(f));

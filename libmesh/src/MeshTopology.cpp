@@ -220,57 +220,116 @@ Index EdgeTable::find(Index a, Index b) const {
   return it != last && (*it)[1] == b ? static_cast<Index>(it - edges_.begin()) : -1;
 }
 
-FaceTable::FaceTable(const Mesh& mesh) {
+FaceTable::FaceTable(const Mesh& mesh, int threads) {
   const Index nc = mesh.numCells(), nv = mesh.numVertices();
   cellOffsets_ = cellEntityOffsets(mesh, [](CellType t) { return localFaces(t).size(); });
   const Index n = cellOffsets_[nc];
-  std::vector<Index> slotCell(n);
-  for (Index c = 0; c < nc; ++c)
-    for (Index s = cellOffsets_[c]; s < cellOffsets_[c + 1]; ++s) slotCell[s] = c;
-  auto keyOf = [&](Index s) {
-    const Index c = slotCell[s];
-    const LocalFace& f = localFaces(mesh.cellType(c))[s - cellOffsets_[c]];
-    const auto cv = mesh.cellVertices(c);
-    std::array<Index, 4> v{};
-    for (int i = 0; i < f.size; ++i) v[i] = cv[f.vertices[i]];
-    return makeFaceKey({v.data(), static_cast<std::size_t>(f.size)});
-  };
-  auto smallest = [&](Index s) {  // bucket of a slot: the smallest vertex of its face
-    const Index c = slotCell[s];
-    const LocalFace& f = localFaces(mesh.cellType(c))[s - cellOffsets_[c]];
-    const auto cv = mesh.cellVertices(c);
-    Index m = cv[f.vertices[0]];
-    for (int i = 1; i < f.size; ++i) m = std::min(m, cv[f.vertices[i]]);
-    return m;
-  };
-  std::vector<Index> order;
-  const auto bucket = bucketSlots(n, nv, smallest, order);
+  // Threads only where the fork pays; every loop below writes what one thread would, so the table
+  // is the same for any thread count.
+  const int nt = n >= 65536 ? std::max(1, threads) : 1;
+  // Ranges of cells (slots) per thread, in cell order.
+  std::vector<Index> cellBegin(static_cast<std::size_t>(nt) + 1);
+  for (int t = 0; t <= nt; ++t) cellBegin[t] = static_cast<Index>((static_cast<long long>(nc) * t) / nt);
 
-  cellFaces_.resize(n);
-  start_.assign(nv + 1, 0);
-  const std::size_t expected = n / 2 + 1;  // interior faces are seen twice
-  keys_.reserve(expected);
-  counts_.reserve(expected);
-  sides_.reserve(expected);
-  std::vector<std::pair<FaceKey, Index>> local;  // (key, slot) in one bucket
-  for (Index a = 0; a < nv; ++a) {
-    start_[a] = numFaces();
-    local.clear();
-    for (Index i = bucket[a]; i < bucket[a + 1]; ++i) local.push_back({keyOf(order[i]), order[i]});
-    std::sort(local.begin(), local.end());  // by key, then slot (= cell order)
-    for (std::size_t i = 0; i < local.size(); ++i) {
-      if (i == 0 || local[i].first != local[i - 1].first) {
-        keys_.push_back(local[i].first);
-        counts_.push_back(0);
-        sides_.push_back({});
+  // The vertices of each cell face are read twice, in streaming passes over the cells: once for
+  // the smallest vertex (the bucket), once to store the rest of the sorted key with the cell and
+  // local face at its place in the bucket. Buckets are then contiguous and are sorted in place.
+  auto forCellFaces = [&](Index c, auto&& visit) {
+    const auto cv = mesh.cellVertices(c);
+    const auto& faces = localFaces(mesh.cellType(c));
+    for (std::size_t f = 0; f < faces.size(); ++f) {
+      FaceKey k{-1, -1, -1, -1};
+      for (int i = 0; i < faces[f].size; ++i) k[i] = cv[faces[f].vertices[i]];
+      sortSmall(k.data(), k.data() + faces[f].size);
+      visit(static_cast<int>(f), k);
+    }
+  };
+  // per-thread counts of each bucket, then the place of every thread's first slot in each bucket
+  // (thread t after threads < t: slots stay in increasing order within a bucket)
+  std::vector<std::vector<Index>> fill(static_cast<std::size_t>(nt), std::vector<Index>(static_cast<std::size_t>(nv), 0));
+#pragma omp parallel for schedule(static, 1) num_threads(nt)
+  for (int t = 0; t < nt; ++t) {
+    std::vector<Index>& count = fill[t];
+    for (Index c = cellBegin[t]; c < cellBegin[t + 1]; ++c) {
+      const auto cv = mesh.cellVertices(c);
+      for (const LocalFace& f : localFaces(mesh.cellType(c))) {
+        Index m = cv[f.vertices[0]];
+        for (int i = 1; i < f.size; ++i) m = std::min(m, cv[f.vertices[i]]);
+        ++count[m];
       }
-      const Index f = numFaces() - 1, s = local[i].second, c = slotCell[s];
-      if (counts_[f] < 2) sides_[f][counts_[f]] = {c, static_cast<int>(s - cellOffsets_[c])};
-      ++counts_[f];
-      cellFaces_[s] = f;
     }
   }
-  start_[nv] = numFaces();
+  std::vector<Index> bucket(static_cast<std::size_t>(nv) + 1, 0);
+  for (Index a = 0; a < nv; ++a) {
+    Index at = bucket[a];
+    for (int t = 0; t < nt; ++t) {
+      const Index k = fill[t][a];
+      fill[t][a] = at;
+      at += k;
+    }
+    bucket[a + 1] = at;
+  }
+  // (cell, local face) packed as cell * 8 + local face: ordered like the slots, and the cell
+  // without a second array (a local face number is below 6)
+  if (nc > std::numeric_limits<Index>::max() / 8)
+    throw Error("FaceTable: " + std::to_string(nc) + " cells are more than it can number");
+  struct Entry {
+    std::array<Index, 3> rest;  ///< the key without its smallest vertex (the bucket)
+    Index side;                 ///< cell * 8 + local face
+    // (written out: std::array's comparisons call memcmp / lexicographical_compare)
+    bool sameFace(const Entry& o) const { return rest[0] == o.rest[0] && rest[1] == o.rest[1] && rest[2] == o.rest[2]; }
+    bool operator<(const Entry& o) const {
+      if (rest[0] != o.rest[0]) return rest[0] < o.rest[0];
+      if (rest[1] != o.rest[1]) return rest[1] < o.rest[1];
+      if (rest[2] != o.rest[2]) return rest[2] < o.rest[2];
+      return side < o.side;
+    }
+  };
+  std::vector<Entry> entries(static_cast<std::size_t>(n));
+#pragma omp parallel for schedule(static, 1) num_threads(nt)
+  for (int t = 0; t < nt; ++t) {
+    std::vector<Index>& at = fill[t];
+    for (Index c = cellBegin[t]; c < cellBegin[t + 1]; ++c)
+      forCellFaces(c, [&](int localFace, const FaceKey& k) {
+        entries[at[k[0]]++] = {{k[1], k[2], k[3]}, c * 8 + localFace};
+      });
+  }
+  fill.clear();
+  fill.shrink_to_fit();
+
+  // sort each bucket and count its faces; then the faces are numbered bucket by bucket
+  start_.assign(static_cast<std::size_t>(nv) + 1, 0);
+#pragma omp parallel for schedule(static) num_threads(nt)
+  for (Index a = 0; a < nv; ++a) {
+    const auto first = entries.begin() + bucket[a], last = entries.begin() + bucket[a + 1];
+    std::sort(first, last);
+    Index faces = 0;
+    for (auto it = first; it != last; ++it) faces += it == first || !it->sameFace(*(it - 1));
+    start_[a + 1] = faces;
+  }
+  for (Index a = 0; a < nv; ++a) start_[a + 1] += start_[a];
+  const Index numFaces = start_[nv];
+  keys_.resize(static_cast<std::size_t>(numFaces));
+  counts_.assign(static_cast<std::size_t>(numFaces), 0);
+  sides_.resize(static_cast<std::size_t>(numFaces));
+  cellFaces_.resize(static_cast<std::size_t>(n));
+#pragma omp parallel for schedule(static) num_threads(nt)
+  for (Index a = 0; a < nv; ++a) {
+    Index f = start_[a] - 1;
+    for (Index i = bucket[a]; i < bucket[a + 1]; ++i) {
+      const Entry& e = entries[i];
+      if (i == bucket[a] || !e.sameFace(entries[i - 1])) {
+        ++f;
+        keys_[f] = {a, e.rest[0], e.rest[1], e.rest[2]};
+        sides_[f] = {};
+      }
+      const Index c = e.side / 8;
+      const int localFace = e.side % 8;
+      if (counts_[f] < 2) sides_[f][counts_[f]] = {c, localFace};
+      ++counts_[f];
+      cellFaces_[cellOffsets_[c] + localFace] = f;
+    }
+  }
 }
 
 Index FaceTable::find(std::span<const Index> vertices) const {

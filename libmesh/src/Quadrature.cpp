@@ -10,6 +10,8 @@
 // Gauss rule is exact to degree 2n - 1.
 #include "obs/mesh/Quadrature.hpp"
 
+#include <array>
+#include <atomic>
 #include <cmath>
 #include <map>
 #include <memory>
@@ -144,11 +146,20 @@ QuadratureRule build(CellType type, int degree) {
 const QuadratureRule& quadratureRule(CellType type, int degree) {
   if (degree < 0 || degree > 30)
     throw Error("quadratureRule: degree " + std::to_string(degree) + " outside [0, 30]");
+  // Built once per (type, degree) under a lock; afterwards a lock-free read, since the residual
+  // estimators ask for a rule per cell and per face on several threads.
+  constexpr int kTypes = static_cast<int>(CellType::Pyramid) + 1;
+  static std::array<std::array<std::atomic<const QuadratureRule*>, 31>, kTypes> ready{};
   static std::mutex mutex;
   static std::map<std::pair<int, int>, std::unique_ptr<QuadratureRule>> cache;
+  const int t = static_cast<int>(type);
+  if (t < 0 || t >= kTypes) throw Error("quadratureRule: unknown cell type " + std::to_string(t));
+  std::atomic<const QuadratureRule*>& fast = ready[t][degree];
+  if (const QuadratureRule* q = fast.load(std::memory_order_acquire)) return *q;
   std::lock_guard lock(mutex);
-  auto& slot = cache[{static_cast<int>(type), degree}];
+  auto& slot = cache[{t, degree}];
   if (!slot) slot = std::make_unique<QuadratureRule>(build(type, degree));
+  fast.store(slot.get(), std::memory_order_release);
   return *slot;
 }
 

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <functional>
+#include <map>
 #include <random>
 
 #include "obs/mesh/BoxMesh.hpp"
@@ -208,6 +209,52 @@ TEST(FaceTable, SharedFaceAndLookup) {
   EXPECT_TRUE(r.conforming());
   EXPECT_EQ(r.interiorFaces, 1);
   EXPECT_EQ(r.boundaryFaces, 6);
+}
+
+// The table against a plain map from sorted vertex lists to the (cell, local face) sides in cell
+// order, on meshes large enough to be built on threads; 1 and 2 threads give the same table.
+TEST(FaceTable, AgreesWithAMapOfSortedKeysOnOneAndTwoThreads) {
+  for (const auto& [type, n] : std::vector<std::pair<CellType, int>>{{CellType::Tetrahedron, 16},
+                                                                    {CellType::Hexahedron, 24},
+                                                                    {CellType::Prism, 20},
+                                                                    {CellType::Pyramid, 14}}) {
+    SCOPED_TRACE(static_cast<int>(type));
+    const Mesh m = boxMesh(type, n);
+    std::map<FaceKey, std::vector<FaceTable::Side>> expected;
+    Index slots = 0;
+    for (Index c = 0; c < m.numCells(); ++c) {
+      const auto cv = m.cellVertices(c);
+      const auto& faces = localFaces(m.cellType(c));
+      for (std::size_t f = 0; f < faces.size(); ++f, ++slots) {
+        std::vector<Index> v;
+        for (int i = 0; i < faces[f].size; ++i) v.push_back(cv[faces[f].vertices[i]]);
+        expected[makeFaceKey(v)].push_back({c, static_cast<int>(f)});
+      }
+    }
+    ASSERT_GE(slots, 65536);  // the threaded path
+    for (int threads : {1, 2}) {
+      SCOPED_TRACE(threads);
+      const FaceTable t(m, threads);
+      ASSERT_EQ(t.numFaces(), static_cast<Index>(expected.size()));
+      Index f = 0;
+      for (const auto& [key, sides] : expected) {
+        ASSERT_EQ(t.key(f), key) << f;
+        ASSERT_EQ(t.numCells(f), static_cast<int>(sides.size())) << f;
+        for (std::size_t k = 0; k < sides.size(); ++k) {
+          EXPECT_EQ(t.side(f, static_cast<int>(k)).cell, sides[k].cell) << f;
+          EXPECT_EQ(t.side(f, static_cast<int>(k)).localFace, sides[k].localFace) << f;
+          EXPECT_EQ(t.face(sides[k].cell, sides[k].localFace), f);
+        }
+        if (sides.size() == 1) {
+          EXPECT_EQ(t.side(f, 1).cell, -1);
+        }
+        std::vector<Index> reversed(key.begin(), key.begin() + t.size(f));
+        std::reverse(reversed.begin(), reversed.end());
+        EXPECT_EQ(t.find(reversed), f);
+        ++f;
+      }
+    }
+  }
 }
 
 TEST(EdgeTable, EdgesSortedAndShared) {

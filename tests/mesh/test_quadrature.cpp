@@ -3,6 +3,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <thread>
+#include <vector>
 
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Quadrature.hpp"
@@ -88,6 +90,27 @@ TEST_P(QuadratureTest, PositiveWeightsInteriorPoints) {
 TEST(Quadrature, RejectsBadDegree) {
   EXPECT_THROW(quadratureRule(CellType::Triangle, -1), obs::Error);
   EXPECT_THROW(quadratureRule(CellType::Triangle, 31), obs::Error);
+}
+
+// The rules are built on first use and then read without a lock: threads asking at once for the
+// same, not yet built rules all get the one rule object.
+TEST(Quadrature, ConcurrentFirstUseGivesOneRulePerTypeAndDegree) {
+  constexpr int kThreads = 4;
+  std::vector<std::vector<const QuadratureRule*>> seen(kThreads);
+  std::vector<std::thread> pool;
+  for (int t = 0; t < kThreads; ++t)
+    pool.emplace_back([&seen, t] {
+      for (int degree = 30; degree >= 0; --degree)  // high degrees: not used by the other tests
+        for (CellType type : kAllCellTypes) seen[t].push_back(&quadratureRule(type, degree));
+    });
+  for (std::thread& th : pool) th.join();
+  for (int t = 1; t < kThreads; ++t) EXPECT_EQ(seen[t], seen[0]);
+  std::size_t k = 0;
+  for (int degree = 30; degree >= 0; --degree)
+    for (CellType type : kAllCellTypes) {
+      EXPECT_EQ(&quadratureRule(type, degree), seen[0][k]);
+      EXPECT_FALSE(seen[0][k++]->points.empty());
+    }
 }
 
 INSTANTIATE_TEST_SUITE_P(AllTypes, QuadratureTest,

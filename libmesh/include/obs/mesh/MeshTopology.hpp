@@ -67,7 +67,8 @@ struct FaceKeyHash {
 /// All distinct faces of the cells of a mesh and the cells sharing each face.
 /// A face of a conforming mesh has one cell (boundary) or two (interior); a count above two means a
 /// non-manifold face. Faces are numbered in lexicographic order of their keys; the sides of a face
-/// are in increasing cell order. Built like EdgeTable, by bucketing on the smallest vertex.
+/// are in increasing cell order. Built by bucketing the cells' faces on their smallest vertex (a
+/// counting sort in two streaming passes over the cells) and sorting each bucket in place.
 class FaceTable {
 public:
   /// One side of a face: the cell and the number of the face in that cell's localFaces().
@@ -76,7 +77,9 @@ public:
     int localFace = -1;
   };
 
-  explicit FaceTable(const Mesh& mesh);
+  /// The table of the mesh's cells, built on `threads` threads (OpenMP; the table is the same
+  /// for any count: every thread writes what the sequential loops would).
+  explicit FaceTable(const Mesh& mesh, int threads = 1);
 
   Index numFaces() const { return static_cast<Index>(keys_.size()); }
   const FaceKey& key(Index f) const { return keys_[f]; }
