@@ -90,10 +90,35 @@ std::uint64_t mix(std::uint64_t h) {  // splitmix64 finaliser
   return h ^ (h >> 31);
 }
 
-/// Insertion sort for the few vertex numbers of a face (std::sort is overkill here).
+/// Sorts the 2-4 vertex numbers of a face (any count up to 4) with a sorting network: min/max
+/// pairs compile to conditional moves, where an insertion sort mispredicts on every other face.
 void sortSmall(Index* first, Index* last) {
-  for (Index* i = first + 1; i < last; ++i)
-    for (Index* j = i; j > first && *(j - 1) > *j; --j) std::swap(*(j - 1), *j);
+  const auto order = [](Index& a, Index& b) {
+    const Index lo = std::min(a, b), hi = std::max(a, b);
+    a = lo;
+    b = hi;
+  };
+  Index* v = first;
+  switch (last - first) {
+    case 2:
+      order(v[0], v[1]);
+      break;
+    case 3:
+      order(v[0], v[1]);
+      order(v[1], v[2]);
+      order(v[0], v[1]);
+      break;
+    case 4:
+      order(v[0], v[1]);
+      order(v[2], v[3]);
+      order(v[0], v[2]);
+      order(v[1], v[3]);
+      order(v[1], v[2]);
+      break;
+    default:  // 0 or 1 (other counts do not occur)
+      for (Index* i = first + 1; i < last; ++i)
+        for (Index* j = i; j > first && *(j - 1) > *j; --j) std::swap(*(j - 1), *j);
+  }
 }
 
 /// True if the cyclic vertex sequences a and b (same vertex set) run in opposite directions.
