@@ -176,6 +176,25 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
   const Index chunk = std::min<Index>(cells, 4096);
   std::vector<Local> locals(static_cast<std::size_t>(std::max<Index>(chunk, 1)));
   std::vector<Values> values(static_cast<std::size_t>(nt));
+  // The chunk's matrices are added to A by nt threads, each owning a range of block rows (about the
+  // same number of blocks each) and visiting the cells in order: every block gets its sums in cell
+  // order, as in the sequential loop. A cell's row i lies in one range (its blocks pos[i][*] do).
+  std::vector<Index> ownedFrom(static_cast<std::size_t>(nt) + 1, A.nonZeroBlocks());
+  for (int t = 0; t < nt; ++t) {
+    const Index target = static_cast<Index>((static_cast<long long>(A.nonZeroBlocks()) * t) / nt);
+    const auto starts = A.rowStarts();
+    ownedFrom[static_cast<std::size_t>(t)] = *std::lower_bound(starts.begin(), starts.end(), target);
+  }
+  const auto addChunk = [&](Index first, Index last, Index from, Index to) {
+    for (Index c = first; c < last; ++c) {
+      const Local& l = locals[static_cast<std::size_t>(c - first)];
+      const Local& m = locals[static_cast<std::size_t>(l.source)];
+      for (int i = 0; i < l.n; ++i) {
+        if (l.pos[i][0] < from || l.pos[i][0] >= to) continue;
+        for (int j = 0; j < l.n; ++j) A.blockAt(l.pos[i][j]) += m.block[i][j];
+      }
+    }
+  };
   for (Index first = 0; first < cells; first += chunk) {
     const Index last = std::min(cells, first + chunk);
     for (Values& v : values) v.computedGeneral = v.computedSimplex = -1;  // the last chunk's locals are gone
@@ -199,12 +218,9 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
       Values fresh;
       cellMatrix(fresh, failed, locals, static_cast<int>(failed - first));
     }
-    for (Index c = first; c < last; ++c) {
-      const Local& l = locals[static_cast<std::size_t>(c - first)];
-      const Local& m = locals[static_cast<std::size_t>(l.source)];
-      for (int i = 0; i < l.n; ++i)
-        for (int j = 0; j < l.n; ++j) A.blockAt(l.pos[i][j]) += m.block[i][j];
-    }
+#pragma omp parallel for schedule(static, 1) num_threads(nt) if (nt > 1)
+    for (int t = 0; t < nt; ++t)
+      addChunk(first, last, ownedFrom[static_cast<std::size_t>(t)], ownedFrom[static_cast<std::size_t>(t) + 1]);
   }
   return A;
 }
@@ -296,9 +312,18 @@ void applyDirichlet(BlockSparseMatrix<d>& A, Eigen::VectorXd& b, const Dirichlet
   for (std::size_t k = 0; k < g.constrained.size(); ++k)
     if (!g.constrained[k]) gv[static_cast<Eigen::Index>(k)] = 0;
   b -= A * gv;
-  for (Index i = 0; i < A.rows(); ++i)
+  // rows on threads (each writes its own blocks); blocks coupling two vertices without a
+  // constrained component are left as they are without looking at their entries
+  const Index n = A.rows();
+  std::vector<char> fixedVertex(static_cast<std::size_t>(n), 0);
+  for (Index i = 0; i < n; ++i)
+    for (int a = 0; a < d; ++a) fixedVertex[static_cast<std::size_t>(i)] |= g.constrained[static_cast<std::size_t>(i) * d + a] ? 1 : 0;
+  const int nt = n >= kParallelMinRows ? threads() : 1;
+#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
+  for (Index i = 0; i < n; ++i)
     for (Index k = A.rowBegin(i); k < A.rowEnd(i); ++k) {
       const Index j = A.column(k);
+      if (!fixedVertex[static_cast<std::size_t>(i)] && !fixedVertex[static_cast<std::size_t>(j)]) continue;
       auto& B = A.blockAt(k);
       for (int a = 0; a < d; ++a)
         for (int c = 0; c < d; ++c) {

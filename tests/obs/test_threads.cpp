@@ -235,6 +235,35 @@ TEST(Threads, ProductsAssemblyAndTransfersDoNotDependOnTheThreadCountGalerkinOpe
   }
 }
 
+// Dirichlet elimination on threads (rows in parallel, blocks without constrained components skipped):
+// bitwise the one-thread result, and every block as the plain rule (identity on constrained rows
+// and columns) applied to all blocks gives it.
+TEST(Threads, DirichletEliminationDoesNotDependOnTheThreadCount) {
+  Cube c;
+  c.bc.dirichlet.push_back({mesh::kLeft, {true, false, false}, [](const Point&) { return Point(0.001, 0, 0); }});
+  const auto A = assembleStiffness<3>(c.mesh, c.material);
+  ASSERT_GE(A.rows(), kParallelMinRows);
+  const DirichletValues g = collectDirichlet(c.mesh, c.bc.dirichlet);
+  auto A1 = A;
+  Eigen::VectorXd b1 = wave(3 * A.rows());
+  applyDirichlet(A1, b1, g);
+  // the plain rule on every block
+  auto expected = A;
+  for (Index i = 0; i < A.rows(); ++i)
+    for (Index k = A.rowBegin(i); k < A.rowEnd(i); ++k)
+      for (int a = 0; a < 3; ++a)
+        for (int col = 0; col < 3; ++col)
+          if (g.constrained[static_cast<std::size_t>(i) * 3 + a] || g.constrained[static_cast<std::size_t>(A.column(k)) * 3 + col])
+            expected.blockAt(k)(a, col) = (i == A.column(k) && a == col) ? 1.0 : 0.0;
+  EXPECT_EQ(std::memcmp(&A1.blockAt(0), &expected.blockAt(0), sizeof(A1.blockAt(0)) * A1.nonZeroBlocks()), 0);
+  const ThreadScope scope(2);
+  auto A2 = A;
+  Eigen::VectorXd b2 = wave(3 * A.rows());
+  applyDirichlet(A2, b2, g);
+  EXPECT_EQ(std::memcmp(&A1.blockAt(0), &A2.blockAt(0), sizeof(A1.blockAt(0)) * A1.nonZeroBlocks()), 0);
+  EXPECT_TRUE(bitwiseEqual(b1, b2));
+}
+
 // Two products in one pass over the blocks (TNNMG's A w and A (w - w^k)): each bitwise the single
 // product, on one and on two threads.
 TEST(Threads, TwoProductsInOnePassAreBitwiseTheSingleProducts) {
