@@ -214,7 +214,8 @@ void restoreSchemeRun(const CheckpointRecord& cp, SchemeRun& run, const fs::path
 std::string csvHeaderLine(std::size_t tracked) {
   std::string h =
       "t,step,energy,energy_redistributed,kinetic_energy,elastic_energy,momentum_x,momentum_y,"
-      "momentum_z,momentum_redistributed_x,momentum_redistributed_y,momentum_redistributed_z,contact_force_x,contact_force_y,contact_force_z,active_solution,active_predictor,"
+      "momentum_z,momentum_redistributed_x,momentum_redistributed_y,momentum_redistributed_z,"
+      "contact_force_x,contact_force_y,contact_force_z,active_solution,active_predictor,"
       "predictor_only,solution_only,max_penetration,solver_iterations,solver_seconds,step_seconds,"
       "solver_tolerance,time_error,solver_kkt";
   for (std::size_t k = 0; k < tracked; ++k) {

@@ -180,9 +180,9 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
   // same number of blocks each) and visiting the cells in order: every block gets its sums in cell
   // order, as in the sequential loop. A cell's row i lies in one range (its blocks pos[i][*] do).
   std::vector<Index> ownedFrom(static_cast<std::size_t>(nt) + 1, A.nonZeroBlocks());
+  const auto starts = A.rowStarts();
   for (int t = 0; t < nt; ++t) {
     const Index target = static_cast<Index>((static_cast<long long>(A.nonZeroBlocks()) * t) / nt);
-    const auto starts = A.rowStarts();
     ownedFrom[static_cast<std::size_t>(t)] = *std::lower_bound(starts.begin(), starts.end(), target);
   }
   const auto addChunk = [&](Index first, Index last, Index from, Index to) {
