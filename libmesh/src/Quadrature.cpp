@@ -13,7 +13,6 @@
 #include <array>
 #include <atomic>
 #include <cmath>
-#include <map>
 #include <memory>
 #include <mutex>
 #include <numbers>
@@ -150,16 +149,18 @@ const QuadratureRule& quadratureRule(CellType type, int degree) {
   // estimators ask for a rule per cell and per face on several threads.
   constexpr int kTypes = static_cast<int>(CellType::Pyramid) + 1;
   static std::array<std::array<std::atomic<const QuadratureRule*>, 31>, kTypes> ready{};
+  static std::array<std::array<std::unique_ptr<const QuadratureRule>, 31>, kTypes> owned;
   static std::mutex mutex;
-  static std::map<std::pair<int, int>, std::unique_ptr<QuadratureRule>> cache;
   const int t = static_cast<int>(type);
   if (t < 0 || t >= kTypes) throw Error("quadratureRule: unknown cell type " + std::to_string(t));
   std::atomic<const QuadratureRule*>& fast = ready[t][degree];
   if (const QuadratureRule* q = fast.load(std::memory_order_acquire)) return *q;
   std::lock_guard lock(mutex);
-  auto& slot = cache[{t, degree}];
-  if (!slot) slot = std::make_unique<QuadratureRule>(build(type, degree));
-  fast.store(slot.get(), std::memory_order_release);
+  std::unique_ptr<const QuadratureRule>& slot = owned[t][degree];
+  if (!slot) {
+    slot = std::make_unique<const QuadratureRule>(build(type, degree));
+    fast.store(slot.get(), std::memory_order_release);
+  }
   return *slot;
 }
 
