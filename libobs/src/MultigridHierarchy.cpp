@@ -36,31 +36,55 @@ mesh::CsrMatrix transpose(const mesh::CsrMatrix& P) {
 }
 
 /// Block pattern of P' F P (P scalar n_f x n_c, Pt its transpose), row by coarse row with a marker.
+/// The rows are computed in chunks on threads() threads (each with its own marker) and joined in
+/// row order; a row's columns are sorted, so the pattern does not depend on the thread count.
 template <int d>
 BlockSparseMatrix<d> galerkinPattern(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P,
                                      const mesh::CsrMatrix& Pt) {
   const Index nc = P.cols;
-  std::vector<Index> rowStart{0}, columns, mark(nc, -1), row;
-  rowStart.reserve(nc + 1);
-  for (Index I = 0; I < nc; ++I) {
-    row.clear();
-    for (Index a = Pt.rowStart[I]; a < Pt.rowStart[I + 1]; ++a) {
-      const Index p = Pt.columns[a];
-      for (Index k = F.rowBegin(p); k < F.rowEnd(p); ++k) {
-        const Index q = F.column(k);
-        for (Index b = P.rowStart[q]; b < P.rowStart[q + 1]; ++b) {
-          const Index J = P.columns[b];
-          if (mark[J] != I) {
-            mark[J] = I;
-            row.push_back(J);
+  constexpr Index kChunk = 1024;
+  const Index chunks = (nc + kChunk - 1) / kChunk;
+  std::vector<std::vector<Index>> chunkColumns(static_cast<std::size_t>(chunks));
+  std::vector<Index> rowStart(static_cast<std::size_t>(nc) + 1, 0);  // row lengths first, at I + 1
+  const int nt = nc >= kParallelMinRows ? threads() : 1;
+#ifdef _OPENMP
+#pragma omp parallel num_threads(nt)
+#endif
+  {
+    std::vector<Index> mark(static_cast<std::size_t>(nc), -1), row;
+#ifdef _OPENMP
+#pragma omp for schedule(dynamic, 1)
+#endif
+    for (Index chunk = 0; chunk < chunks; ++chunk) {
+      std::vector<Index>& columns = chunkColumns[static_cast<std::size_t>(chunk)];
+      for (Index I = chunk * kChunk; I < std::min(nc, (chunk + 1) * kChunk); ++I) {
+        row.clear();
+        for (Index a = Pt.rowStart[I]; a < Pt.rowStart[I + 1]; ++a) {
+          const Index p = Pt.columns[a];
+          for (Index k = F.rowBegin(p); k < F.rowEnd(p); ++k) {
+            const Index q = F.column(k);
+            for (Index b = P.rowStart[q]; b < P.rowStart[q + 1]; ++b) {
+              const Index J = P.columns[b];
+              if (mark[J] != I) {
+                mark[J] = I;
+                row.push_back(J);
+              }
+            }
           }
         }
+        if (mark[I] != I) row.push_back(I);  // always a diagonal
+        std::sort(row.begin(), row.end());
+        columns.insert(columns.end(), row.begin(), row.end());
+        rowStart[I + 1] = static_cast<Index>(row.size());
       }
     }
-    if (std::find(row.begin(), row.end(), I) == row.end()) row.push_back(I);  // always a diagonal
-    std::sort(row.begin(), row.end());
-    columns.insert(columns.end(), row.begin(), row.end());
-    rowStart.push_back(static_cast<Index>(columns.size()));
+  }
+  for (Index I = 0; I < nc; ++I) rowStart[I + 1] += rowStart[I];
+  std::vector<Index> columns;
+  columns.reserve(static_cast<std::size_t>(rowStart[nc]));
+  for (auto& c : chunkColumns) {
+    columns.insert(columns.end(), c.begin(), c.end());
+    std::vector<Index>().swap(c);
   }
   return BlockSparseMatrix<d>(std::move(rowStart), std::move(columns));
 }

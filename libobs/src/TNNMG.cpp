@@ -1,6 +1,7 @@
 #include "obs/obs/TNNMG.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <limits>
@@ -112,8 +113,14 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   KktResiduals kkt;
   bool haveKkt = false;
   int kktRejections = 0;
+  const auto N = static_cast<Index>(n);
+  // The vector work between the sweeps and products runs in fixed chunks on the threads, and its
+  // sums are chunked sums (Parallel.hpp): the same bits for any thread count.
+  const auto copy = [N](const Eigen::VectorXd& x, Eigen::VectorXd& y) {
+    forRanges(N, [&](Index b, Index e) { y.segment(b, e - b) = x.segment(b, e - b); });
+  };
   for (int k = 0; k < options_.maxIterations && !converged; ++k) {
-    previous = w;
+    copy(w, previous);
     // 1. nonsmooth pre-smoothing
     for (int s = 0; s < options_.preSmoothing; ++s) {
       if (zeroStart) smoother.sweepFromZero(rot.rhs, w);  // the first sweep on w = 0: half the blocks
@@ -132,7 +139,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     // pass over A that gives A w (BlockSparseMatrix::multiply of two vectors), one product less
     const bool fused = options_.postSmoothing == 0;
     if (fused) {
-      step0 = w - previous;
+      forRanges(N, [&](Index b, Index e) { step0.segment(b, e - b) = w.segment(b, e - b) - previous.segment(b, e - b); });
       A.multiply(w, Aw, step0, Astep0);
     } else {
       A.multiply(w, Aw);
@@ -145,31 +152,51 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     // 4. projection onto the admissible set, 5. exact line search
     projectCorrection(rot, w, c);
     A.multiply(c, Ac);
-    const LineSearchResult step = exactLineSearch(rot, w, c, c.dot(r), c.dot(Ac));
+    const auto [cr, cAc] = chunkedSums<2>(N, [&](Index b, Index e) {
+      double s0 = 0, s1 = 0;
+      for (Index i = b; i < e; ++i) {
+        s0 += c[i] * r[i];
+        s1 += c[i] * Ac[i];
+      }
+      return std::array<double, 2>{s0, s1};
+    });
+    const LineSearchResult step = exactLineSearch(rot, w, c, cr, cAc);
     takeStep(rot, step, c, w);
-    Aw += step.alpha * Ac;
+    if (step.alpha != 0)
+      forRanges(N, [&](Index b, Index e) { Aw.segment(b, e - b) += step.alpha * Ac.segment(b, e - b); });
     lap(t, statistics_.otherSeconds);
     if (options_.postSmoothing > 0) {
       for (int s = 0; s < options_.postSmoothing; ++s) smoother.sweep(rot.rhs, w, true);
       lap(t, statistics_.smoothingSeconds);
       A.multiply(w, Aw);
     }
-    // monitoring: ||w^{k+1} - w^k||_A / ||w^{k+1}||_A, energy, active set
-    delta = w - previous;
-    if (fused) Adelta = Astep0 + step.alpha * Ac;  // Aw is updated the same way above
-    else A.multiply(delta, Adelta);
-    const double wAw = w.dot(Aw), bw = rot.rhs.dot(w);
+    // monitoring: ||w^{k+1} - w^k||_A / ||w^{k+1}||_A, energy, active set; fused, A (w^{k+1} - w^k)
+    // = A (w - w^k) + alpha A c as Aw is updated above
+    if (!fused) {
+      forRanges(N, [&](Index b, Index e) { delta.segment(b, e - b) = w.segment(b, e - b) - previous.segment(b, e - b); });
+      A.multiply(delta, Adelta);
+    }
     // ||w||_A over the free components only: the prescribed ones are identity rows of A~
     // (applyDirichlet), whose unit diagonal would make the relative test depend on the unit of E
-    double freeAw = 0;
-    for (Eigen::Index i = 0; i < n; ++i)
-      if (!rot.prescribed[static_cast<std::size_t>(i)]) freeAw += w[i] * Aw[i];
-    const double num = std::sqrt(std::max(0.0, delta.dot(Adelta))), den = std::sqrt(std::max(0.0, freeAw));
+    const auto [wAw, bw, freeAw, deltaAdelta, ww] = chunkedSums<5>(N, [&](Index b, Index e) {
+      std::array<double, 5> s{};
+      for (Index i = b; i < e; ++i) {
+        const double wi = w[i], Awi = Aw[i];
+        s[0] += wi * Awi;
+        s[1] += rot.rhs[i] * wi;
+        if (!rot.prescribed[static_cast<std::size_t>(i)]) s[2] += wi * Awi;
+        const double di = wi - previous[i], Adi = fused ? Astep0[i] + step.alpha * Ac[i] : Adelta[i];
+        s[3] += di * Adi;
+        s[4] += wi * wi;
+      }
+      return s;
+    });
+    const double num = std::sqrt(std::max(0.0, deltaAdelta)), den = std::sqrt(std::max(0.0, freeAw));
     const double correction = den > 0 ? num / den : (num > 0 ? 1.0 : 0.0);
     const bool small = monitor.record(0.5 * wAw - bw, correction, rot.countActive(w), changes);
     // scale of the energy's terms, including the round-off of w'Aw (<= eps |w|'|A||w|): for stiff
     // operators with soft modes (mass + tau^2 stiffness, rigid motions) it dominates |w'Aw|
-    monitor.requireMonotone(0.5 * std::abs(wAw) + std::abs(bw) + 1e-4 * rowSumBound_ * w.squaredNorm());
+    monitor.requireMonotone(0.5 * std::abs(wAw) + std::abs(bw) + 1e-4 * rowSumBound_ * ww);
     // the correction bounds the step, not the error: converged also needs the KKT residual of the
     // iterate below the bound (docs/theory.md#tnnmg-stopping); evaluated only when the correction passed
     if (small) {

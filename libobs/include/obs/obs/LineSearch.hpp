@@ -59,7 +59,7 @@ LineSearchResult exactLineSearch(const RotatedProblem<d>& problem, const Eigen::
 template <int d>
 void takeStep(const RotatedProblem<d>& problem, const LineSearchResult& s, const Eigen::VectorXd& c, Eigen::VectorXd& w) {
   if (s.alpha == 0) return;
-  w += s.alpha * c;
+  forRanges(static_cast<Index>(w.size()), [&](Index b, Index e) { w.segment(b, e - b) += s.alpha * c.segment(b, e - b); });
   if (s.limiting >= 0 && s.alpha == s.alphaMax) w[static_cast<Eigen::Index>(s.limiting) * d] = problem.upper[s.limiting];
   // round-off must not leave the admissible set
   for (Index p = 0; p < problem.numVertices(); ++p)

@@ -7,6 +7,8 @@
 /// reproducible for that N: no loop depends on the scheduling (rows are independent, sums over
 /// cells are added in cell order, and the Gauss-Seidel order below depends on the matrix pattern and
 /// N only); different N give results that differ in the last bits (the sweep order differs).
+#include <algorithm>
+#include <array>
 #include <span>
 #include <vector>
 
@@ -29,6 +31,36 @@ bool setBlasThreads(int n);
 
 /// Rows below which loops and sweeps stay sequential (the fork costs more than the work).
 inline constexpr Index kParallelMinRows = 2048;
+
+/// Entries of the fixed chunks of forRanges() and chunkedSums().
+inline constexpr Index kVectorChunk = 8192;
+
+/// f(begin, end) for the fixed chunks [k C, min(n, (k + 1) C)) of 0..n-1 (C = kVectorChunk), on
+/// threads() threads when there are two chunks or more (else on the calling thread). For elementwise
+/// vector work: the chunks must not depend on each other.
+template <class F>
+void forRanges(Index n, F&& f) {
+  const Index chunks = (n + kVectorChunk - 1) / kVectorChunk;
+  [[maybe_unused]] const int nt = chunks >= 2 ? threads() : 1;
+#ifdef _OPENMP
+#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
+#endif
+  for (Index k = 0; k < chunks; ++k) f(k * kVectorChunk, std::min(n, (k + 1) * kVectorChunk));
+}
+
+/// K sums over 0..n-1 that do not depend on the thread count: f(begin, end) returns the K partial
+/// sums of a fixed chunk (forRanges' chunks, each summed in index order by f), and the chunks'
+/// partial sums are added in chunk order. The same bits on any number of threads.
+template <int K, class F>
+std::array<double, K> chunkedSums(Index n, F&& f) {
+  const Index chunks = (n + kVectorChunk - 1) / kVectorChunk;
+  std::vector<std::array<double, K>> partial(static_cast<std::size_t>(chunks));
+  forRanges(n, [&](Index begin, Index end) { partial[static_cast<std::size_t>(begin / kVectorChunk)] = f(begin, end); });
+  std::array<double, K> sum{};
+  for (const auto& s : partial)
+    for (int j = 0; j < K; ++j) sum[j] += s[j];
+  return sum;
+}
 
 /// Order of a Gauss-Seidel sweep over the vertices of a (symmetric) matrix pattern that lets
 /// `parts` threads sweep at once without changing what a sweep is: a sequence of exact local solves

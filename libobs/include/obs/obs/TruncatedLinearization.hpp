@@ -33,9 +33,10 @@ struct TruncatedLinearization {
   }
   /// r = b - A w (given Aw) with truncated components set to zero.
   void truncatedResidual(const RotatedProblem<d>& problem, const Eigen::VectorXd& Aw, Eigen::VectorXd& r) const {
-    r = problem.rhs - Aw;
-    for (std::size_t i = 0; i < mask.size(); ++i)
-      if (mask[i]) r[static_cast<Eigen::Index>(i)] = 0;
+    r.resize(Aw.size());
+    forRanges(static_cast<Index>(Aw.size()), [&](Index b, Index e) {
+      for (Index i = b; i < e; ++i) r[i] = mask[static_cast<std::size_t>(i)] ? 0.0 : problem.rhs[i] - Aw[i];
+    });
   }
 };
 
