@@ -130,24 +130,38 @@ std::vector<double> patchDiameters(const mesh::Mesh& mesh) {
     for (Index c = 0; c < mesh.numCells(); ++c)
       for (Index v : mesh.cellVertices(c)) cells[fill[v]++] = c;
   }
-  // the patches on threads() threads (each vertex's own maximum: the same for any thread count)
+  // the patches on threads() threads (each vertex's own maximum: the same for any thread count);
+  // the coordinates of a patch are gathered once, so that the pairs run over contiguous arrays
   std::vector<double> h(nv, 0.0);
   struct Scratch {
-    std::vector<Index> mark, patch;  // mark[v] = the last vertex whose patch listed v
+    std::vector<Index> mark;  // mark[v] = the last vertex whose patch listed v
+    std::vector<double> x, y, z;
   };
   forEachIndex<Scratch>(nv, [&](Index p, Scratch& s) {
     if (s.mark.empty()) s.mark.assign(static_cast<std::size_t>(nv), -1);
-    s.patch.clear();
+    s.x.clear();
+    s.y.clear();
+    s.z.clear();
     for (Index k = start[p]; k < start[p + 1]; ++k)
       for (Index v : mesh.cellVertices(cells[k]))
         if (s.mark[v] != p) {
           s.mark[v] = p;
-          s.patch.push_back(v);
+          const Point& x = mesh.vertex(v);
+          s.x.push_back(x[0]);
+          s.y.push_back(x[1]);
+          s.z.push_back(x[2]);
         }
     double d2 = 0;
-    for (std::size_t a = 0; a < s.patch.size(); ++a)
-      for (std::size_t b = a + 1; b < s.patch.size(); ++b)
-        d2 = std::max(d2, (mesh.vertex(s.patch[a]) - mesh.vertex(s.patch[b])).squaredNorm());
+    const std::size_t n = s.x.size();
+    for (std::size_t a = 0; a < n; ++a) {
+      const double xa = s.x[a], ya = s.y[a], za = s.z[a];
+      double m = 0;
+      for (std::size_t b = a + 1; b < n; ++b) {
+        const double dx = s.x[b] - xa, dy = s.y[b] - ya, dz = s.z[b] - za;
+        m = std::max(m, dx * dx + dy * dy + dz * dz);
+      }
+      d2 = std::max(d2, m);
+    }
     h[p] = std::sqrt(d2);
   });
   return h;

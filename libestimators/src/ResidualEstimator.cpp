@@ -85,6 +85,26 @@ BoundaryData boundaryData(const EstimatorInput& in) {
   return b;
 }
 
+/// A degree at which quadrature integrates |div sigma_h|^2 exactly on a flat (affine) non-simplex
+/// cell (at most `requested`, the options' degree). The physical Hessians are J^-T Hhat J^-1 with the
+/// reference Hessians Hhat of the shape functions (docs/estimators.md#flat-cell-quadrature):
+///  - quadrilaterals and prisms: Hhat is constant, so one point is exact (degree 0);
+///  - hexahedra: every entry of Hhat is linear in one coordinate, so |div sigma_h|^2 has degree 2 in
+///    each coordinate (2 x 2 x 2 Gauss points);
+///  - pyramids: with q = x y / (1 - z), Hhat = M(u, v) / (1 - z) in the collapsed coordinates u =
+///    x / (1 - z), v = y / (1 - z), M of degree 1 in u and in v; the volume element (1 - z)^2 du dv dz
+///    cancels the 1 / (1 - z)^2 of |div sigma_h|^2, which leaves a polynomial of degree 2 in u and
+///    in v and 0 in z: the pyramid rule of degree 2 (2 x 2 x 3 points) is exact.
+int flatResidualDegree(mesh::CellType type, int requested) {
+  switch (type) {
+    case mesh::CellType::Quadrilateral:
+    case mesh::CellType::Prism: return std::min(requested, 0);
+    case mesh::CellType::Hexahedron:
+    case mesh::CellType::Pyramid: return std::min(requested, 2);
+    default: return requested;
+  }
+}
+
 /// The element residual ||div sigma_h||^2_e of a cell whose map is affine although its type is not
 /// (PointValues::flat(): the boxes of a refined box mesh, the pyramids of their green closure with a
 /// parallelogram base), by a table: the second derivatives of the map vanish, so at quadrature point
@@ -200,7 +220,7 @@ public:
   /// The table of local face `localFace` of cell c on side 0 (built on first use).
   const Table& side0(const mesh::Mesh& m, Index c, int localFace, int degree, PointValues<d>& pv,
                      std::vector<CellFacePoint>& pts) {
-    makeKey(m, c, 0, std::span<const int>(&localFace, 1));
+    makeKey(m, c, 0, degree, std::span<const int>(&localFace, 1));
     auto [it, inserted] = tables_.try_emplace(key_);
     if (!inserted) return it->second;
     Table& t = it->second;
@@ -217,10 +237,10 @@ public:
   }
 
   /// The table of cell c on side 1 of a face whose vertex j is vertex local1[j] of c, at the
-  /// points of side 0 (their face shape values `shapes`).
-  const Table& side1(const mesh::Mesh& m, Index c, std::span<const int> local1,
+  /// points of side 0 (their face shape values `shapes`, of side 0's rule of that degree).
+  const Table& side1(const mesh::Mesh& m, Index c, std::span<const int> local1, int degree,
                      const std::vector<std::array<double, 4>>& shapes, PointValues<d>& pv) {
-    makeKey(m, c, 1, local1);
+    makeKey(m, c, 1, degree, local1);
     auto [it, inserted] = tables_.try_emplace(key_);
     if (!inserted) return it->second;
     const auto& ref = mesh::referenceElement(m.cellType(c));
@@ -232,12 +252,13 @@ public:
   }
 
 private:
-  /// key_ = cell type, side, the face numbers, the vertex differences (raw bytes)
-  void makeKey(const mesh::Mesh& m, Index c, char side, std::span<const int> face) {
+  /// key_ = cell type, side, quadrature degree, the face numbers, the vertex differences (raw bytes)
+  void makeKey(const mesh::Mesh& m, Index c, char side, int degree, std::span<const int> face) {
     const auto verts = m.cellVertices(c);
     key_.clear();
     key_.push_back(static_cast<char>(m.cellType(c)));
     key_.push_back(side);
+    key_.push_back(static_cast<char>(degree));
     for (int f : face) key_.push_back(static_cast<char>(f));
     const Point x0 = m.vertex(verts[0]);
     for (std::size_t i = 1; i < verts.size(); ++i) {
@@ -386,7 +407,10 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
       if (!scratch.table.matches(m, c)) {
         scratch.table.invalidate();
         pv.reinit(m, c, rule.points[0], false, false);
-        if (pv.flat()) scratch.table.build(m, c, pv.jacobian(), rule, lambda, mu);
+        if (pv.flat())
+          scratch.table.build(m, c, pv.jacobian(),
+                              mesh::quadratureRule(m.cellType(c), flatResidualDegree(m.cellType(c), options_.elementDegree)),
+                              lambda, mu);
       }
       if (scratch.table.matches(m, c)) {
         r2[static_cast<std::size_t>(c)] = scratch.table.integral(u, verts);
@@ -449,6 +473,13 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
   };
   std::vector<double> j2(static_cast<std::size_t>(faces.numFaces()), 0.0);
   std::vector<ContactFace> contactFaces(static_cast<std::size_t>(numContact));
+  // whether sigma_h of cell c has degree <= 1 in each coordinate of any of its faces: affine cells
+  // (constant), flat quadrilaterals and hexahedra (the gradients of Q1 are multilinear, of degree 1
+  // in each coordinate) and flat prisms (degree 1 in all); not pyramids (rational) nor distorted cells
+  const auto polynomialJumpSide = [&](Index c) {
+    const mesh::CellType t = m.cellType(c);
+    return affineCellType(t) || (t != mesh::CellType::Pyramid && flatCell[static_cast<std::size_t>(c)]);
+  };
   forEachIndex<FaceScratch>(faces.numFaces(), [&](Index f, FaceScratch& s) {
     const FaceKind k = kind[static_cast<std::size_t>(f)];
     if (k == FaceKind::Fixed) return;
@@ -486,14 +517,17 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
         j2[static_cast<std::size_t>(f)] = sum;
         return;
       }
-      // flat non-simplex sides by their tables (FaceTableCache), the others point by point
+      // flat non-simplex sides by their tables (FaceTableCache), the others point by point; between
+      // sides whose sigma_h has degree <= 1 in each face coordinate the jump's square has degree 2
+      const int degree = polynomialJumpSide(c0) && polynomialJumpSide(c1) ? std::min(options_.faceDegree, 2)
+                                                                           : options_.faceDegree;
       s.tables.beginFace();
       // (a distorted cell gets no table: its key and lookup would only cost)
       const FaceSideTable<d>* t0 = affine0 || !flatCell[static_cast<std::size_t>(c0)]
                                        ? nullptr
-                                       : &s.tables.side0(m, c0, side0.localFace, options_.faceDegree, s.pv, pts);
+                                       : &s.tables.side0(m, c0, side0.localFace, degree, s.pv, pts);
       if (t0 && !t0->flat) t0 = nullptr;
-      if (!t0) cellFaceQuadrature(m, c0, side0.localFace, options_.faceDegree, pts);
+      if (!t0) cellFaceQuadrature(m, c0, side0.localFace, degree, pts);
       const std::size_t nq = t0 ? t0->weights.size() : pts.size();
       if (t0 && !affine1) {  // side 1 is evaluated at side 0's points
         s.shapes.assign(t0->shapes.begin(), t0->shapes.end());
@@ -504,7 +538,7 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
       const FaceSideTable<d>* t1 =
           affine1 || !flatCell[static_cast<std::size_t>(c1)]
               ? nullptr
-              : &s.tables.side1(m, c1, std::span<const int>(local1.data(), fv.size()), s.shapes, s.pv1);
+              : &s.tables.side1(m, c1, std::span<const int>(local1.data(), fv.size()), degree, s.shapes, s.pv1);
       if (t1 && !t1->flat) t1 = nullptr;
       for (std::size_t q = 0; q < nq; ++q) {
         if (t0) {

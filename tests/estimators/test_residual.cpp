@@ -442,6 +442,29 @@ TEST_P(ResidualPatch, LinearFieldGivesZero) {
   EXPECT_TRUE(f.validFor(m));
 }
 
+// h_p = diam omega_p: the largest distance between two vertices of the cells around p, by brute force
+// over the pairs of those cells' vertices, on a distorted and a once red-refined graded box (patches
+// of different sizes and shapes), exactly.
+TEST_P(ResidualPatch, PatchDiametersAreTheLargestDistanceInThePatch) {
+  for (const std::string variant : {"distorted", "graded"}) {
+    mesh::Mesh m = variantBox(GetParam(), variant);
+    if (variant == "graded") m = mesh::refineUniformly(m);
+    const std::vector<double> h = patchDiameters(m);
+    ASSERT_EQ(h.size(), static_cast<std::size_t>(m.numVertices()));
+    std::vector<std::vector<Index>> around(static_cast<std::size_t>(m.numVertices()));
+    for (Index c = 0; c < m.numCells(); ++c)
+      for (Index p : m.cellVertices(c)) around[p].push_back(c);
+    std::vector<double> expected(h.size(), 0.0);
+    for (Index p = 0; p < m.numVertices(); ++p)
+      for (Index c1 : around[p])
+        for (Index c2 : around[p])
+          for (Index a : m.cellVertices(c1))
+            for (Index b : m.cellVertices(c2)) expected[p] = std::max(expected[p], (m.vertex(a) - m.vertex(b)).norm());
+    for (Index p = 0; p < m.numVertices(); ++p)
+      EXPECT_DOUBLE_EQ(h[p], expected[p]) << mesh::name(GetParam()) << " " << variant << " vertex " << p;
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(AllCellTypes, ResidualPatch, ::testing::ValuesIn(mesh::kVolumeCellTypes),
                          [](const auto& info) { return std::string(mesh::name(info.param)); });
 
