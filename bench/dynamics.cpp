@@ -31,6 +31,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <limits>
 #include <memory>
 #include <sstream>
 
@@ -102,6 +103,8 @@ struct RunFigures {
   Index maxActive = 0;
   double itsAfterImpact = 0;  ///< mean over the steps from the first one with a node in contact on
   int stepsAfterImpact = 0;
+  double rate = 0;  ///< geometric mean over the steps of TNNMG's rate per step (steps with >= 2 iterations)
+  int rateSteps = 0;
   StepRecord last;
   Eigen::VectorXd u;  ///< final displacement
 };
@@ -123,6 +126,10 @@ RunFigures runSteps(NewmarkFamily<3>& st, int steps) {
       ++f.stepsAfterImpact;
     }
     f.maxActive = std::max(f.maxActive, r.activeSolution);
+    if (std::isfinite(r.solverRate) && r.solverRate > 0) {
+      f.rate += std::log(r.solverRate);
+      ++f.rateSteps;
+    }
     f.pen = std::max(f.pen, r.maxPenetration);
     f.devE = std::max(f.devE, std::abs(r.energy - f.E0) / std::abs(f.E0));
     if (r.hasRedistributed)
@@ -134,6 +141,7 @@ RunFigures runSteps(NewmarkFamily<3>& st, int steps) {
   f.wall = wallSeconds() - w0;
   f.its /= steps;
   if (f.stepsAfterImpact > 0) f.itsAfterImpact /= f.stepsAfterImpact;
+  f.rate = f.rateSteps > 0 ? std::exp(f.rate / f.rateSteps) : std::numeric_limits<double>::quiet_NaN();
   f.u = st.state().u;
   return f;
 }
@@ -212,10 +220,12 @@ void geometryB(std::ostringstream& md, int steps, int refine) {
      << n << " vertices, " << 3 * n << " unknowns (" << refine << " refinements of each cube), tau = " << tau << ", "
      << steps << " steps, improved-contact-stabilized. \"after impact\": the steps from the first one with a node "
      << "in contact on (the cubes touch from the start, so all steps). Difference: max |u - u_ref| / max |u_ref| of "
-     << "the final displacement against the run in the first row of the same tolerance.\n\n"
-     << "| warm start | tolerance | TNNMG its/step (all, after impact, max) | CPU ms/step | total CPU s | "
+     << "the final displacement against the run in the first row of the same tolerance. Rate: TNNMG's "
+     << "contraction per iteration, (c_last / c_1)^(1 / (its - 1)) for the relative corrections c_k of a step, "
+     << "geometric mean over the steps (from the predictor c_1 = 1).\n\n"
+     << "| warm start | tolerance | TNNMG its/step (all, after impact, max) | rate | CPU ms/step | total CPU s | "
         "E_end/E_0 | max contact nodes | difference |\n"
-        "|---|---|---|---|---|---|---|---|\n";
+        "|---|---|---|---|---|---|---|---|---|\n";
   struct Variant {
     NewmarkStart start;
     double inexact;
@@ -250,7 +260,8 @@ void geometryB(std::ostringstream& md, int steps, int refine) {
     const double diff = (f.u - reference).lpNorm<Eigen::Infinity>() / reference.lpNorm<Eigen::Infinity>();
     const std::string tol = var.inexact > 0 ? "inexact = " + std::to_string(var.inexact).substr(0, 3) : "1e-10";
     md << "| " << name(var.start) << " | " << tol << " | " << std::setprecision(3) << f.its << ", " << f.itsAfterImpact
-       << ", " << f.maxIts << " | " << 1e3 * f.cpu / steps << " | " << f.cpu << " | " << f.last.energy / f.E0 << " | "
+       << ", " << f.maxIts << " | " << f.rate << " | " << 1e3 * f.cpu / steps << " | " << f.cpu << " | "
+       << f.last.energy / f.E0 << " | "
        << f.maxActive << " | " << diff << " |\n";
     std::cerr << "Geometry B " << name(var.start) << " " << tol << ": " << 1e3 * f.cpu / steps << " CPU ms/step, "
               << f.its << " its/step (" << f.itsAfterImpact << " after impact)\n";

@@ -758,6 +758,7 @@ StepRecord NewmarkFamily<d>::step() {
     r.solutionOnly += !P.active[k] && solActive[k];
   }
   r.solverIterations = result.iterations;
+  r.solverRate = result.iterations >= 2 ? result.convergenceRate : std::numeric_limits<double>::quiet_NaN();
   r.solverSeconds = result.seconds;
   r.solverTolerance = tolerance;
   r.solverKkt = result.kkt.max();

@@ -28,7 +28,9 @@
 ///    tangential residual); fully clamped faces contribute nothing. The same masking applies to w
 ///    on contact faces.
 ///  - Quadrature: Options::elementDegree in cells, Options::faceDegree on faces; J^I is evaluated at
-///    matching points of both cells (referencePointOnFace).
+///    matching points of both cells (referencePointOnFace). On flat cells, and on interior faces
+///    between flat cells other than pyramids, the lowest degree at which the integrand is integrated
+///    exactly is used if it is lower (docs/estimators.md#flat-cell-quadrature).
 ///
 /// Element indicators (docs/theory.md#element-indicators), the exact decomposition used:
 ///   eta_{1,e}^2 = (sum_{p in e} h_p^2) ||r||_e^2                 (omega_p holds e for p in e)
@@ -79,8 +81,8 @@ struct ContactFace {
 class ResidualEstimator : public Estimator {
 public:
   struct Options {
-    int elementDegree = 4;  ///< quadrature exactness for ||r||_e^2
-    int faceDegree = 4;     ///< quadrature exactness for face integrals
+    int elementDegree = 4;  ///< quadrature exactness for ||r||_e^2 (at most; flat cells: see above)
+    int faceDegree = 4;     ///< quadrature exactness for face integrals (at most; see above)
   };
   /// Positions of the contributions in contributionNames() / the ContributionTable.
   enum Row : int { kEta1 = 0, kEta2 = 1, kEta3 = 2, kEta4 = 3, kEta5 = 4 };

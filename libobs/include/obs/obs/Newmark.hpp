@@ -195,6 +195,10 @@ struct StepRecord {
   double maxPenetration = 0;
   std::vector<TrackedVertex> tracked;
   int solverIterations = 0;
+  /// TNNMG's convergence rate in this step: the geometric mean of the ratios of successive relative
+  /// corrections, (c_last / c_1)^(1 / (iterations - 1)) (NaN below two iterations, in the record of
+  /// the initial state and after a restart). From the predictor the first correction is 1.
+  double solverRate = std::numeric_limits<double>::quiet_NaN();
   double solverSeconds = 0;
   double stepSeconds = 0;
   /// The relative TNNMG tolerance this step was solved to (NaN in the record of the initial state).
