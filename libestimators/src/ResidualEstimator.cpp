@@ -481,12 +481,15 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
   };
   std::vector<double> j2(static_cast<std::size_t>(faces.numFaces()), 0.0);
   std::vector<ContactFace> contactFaces(static_cast<std::size_t>(numContact));
-  // whether sigma_h of cell c has degree <= 1 in each coordinate of any of its faces: affine cells
-  // (constant), flat quadrilaterals and hexahedra (the gradients of Q1 are multilinear, of degree 1
-  // in each coordinate) and flat prisms (degree 1 in all); not pyramids (rational) nor distorted cells
-  const auto polynomialJumpSide = [&](Index c) {
+  // whether sigma_h of cell c has degree <= 1 in each coordinate of its face with `faceVertices`
+  // vertices: affine cells (constant), flat quadrilaterals and hexahedra (the gradients of Q1 are
+  // multilinear, of degree 1 in each coordinate), flat prisms (degree 1 in all) and the base of a
+  // flat pyramid (there grad q = (y, x, x y) for q = x y / (1 - z)); not the pyramid's triangles
+  // (rational) nor distorted cells
+  const auto polynomialJumpSide = [&](Index c, std::size_t faceVertices) {
     const mesh::CellType t = m.cellType(c);
-    return affineCellType(t) || (t != mesh::CellType::Pyramid && flatCell[static_cast<std::size_t>(c)]);
+    return affineCellType(t) ||
+           ((t != mesh::CellType::Pyramid || faceVertices == 4) && flatCell[static_cast<std::size_t>(c)]);
   };
   forEachIndex<FaceScratch>(faces.numFaces(), [&](Index f, FaceScratch& s) {
     const FaceKind k = kind[static_cast<std::size_t>(f)];
@@ -527,8 +530,9 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
       }
       // flat non-simplex sides by their tables (FaceTableCache), the others point by point; between
       // sides whose sigma_h has degree <= 1 in each face coordinate the jump's square has degree 2
-      const int degree = polynomialJumpSide(c0) && polynomialJumpSide(c1) ? std::min(options_.faceDegree, 2)
-                                                                           : options_.faceDegree;
+      const int degree = polynomialJumpSide(c0, fv.size()) && polynomialJumpSide(c1, fv.size())
+                             ? std::min(options_.faceDegree, 2)
+                             : options_.faceDegree;
       s.tables.beginFace();
       // (a distorted cell gets no table: its key and lookup would only cost)
       const FaceSideTable<d>* t0 = affine0 || !flatCell[static_cast<std::size_t>(c0)]
