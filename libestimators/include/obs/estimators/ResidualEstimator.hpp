@@ -29,8 +29,8 @@
 ///    on contact faces.
 ///  - Quadrature: Options::elementDegree in cells, Options::faceDegree on faces; J^I is evaluated at
 ///    matching points of both cells (referencePointOnFace). On flat cells, and on interior faces
-///    between flat cells other than pyramids, the lowest degree at which the integrand is integrated
-///    exactly is used if it is lower (docs/estimators.md#flat-cell-quadrature).
+///    between flat cells (except a pyramid's triangles), the lowest degree at which the integrand is
+///    integrated exactly is used if it is lower (docs/estimators.md#flat-cell-quadrature).
 ///
 /// Element indicators (docs/theory.md#element-indicators), the exact decomposition used:
 ///   eta_{1,e}^2 = (sum_{p in e} h_p^2) ||r||_e^2                 (omega_p holds e for p in e)
