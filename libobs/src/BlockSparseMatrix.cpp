@@ -111,6 +111,11 @@ const SweepOrder& BlockSparseMatrix<d>::sweepOrder() const {
   return *order_;
 }
 
+template <int d>
+void BlockSparseMatrix<d>::setSweepPartition(std::span<const int> part) const {
+  order_ = std::make_shared<const SweepOrder>(rowStart_, cols_, threads(), part);
+}
+
 template class BlockSparseMatrix<2>;
 template class BlockSparseMatrix<3>;
 

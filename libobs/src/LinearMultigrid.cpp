@@ -24,6 +24,35 @@ LinearMultigrid<d>::LinearMultigrid(const std::vector<const mesh::Grid*>& grids,
 }
 
 template <int d>
+bool carrySweepPartition(const MultigridHierarchy<d>& h, const BlockSparseMatrix<d>& A) {
+  const int L = h.maxLevel();
+  const int parts = threads();
+  if (L < 1 || parts < 2 || A.rows() < kParallelMinRows || A.hasSweepOrder()) return false;
+  const mesh::CsrMatrix& P = h.prolongation(L - 1);
+  const BlockSparseMatrix<d>& C = h.coarseOperator(L - 1);
+  if (P.rows != A.rows() || P.cols != C.rows() || C.rows() < 2 * parts) return false;
+  std::vector<Index> parent(static_cast<std::size_t>(P.rows)), weight(static_cast<std::size_t>(C.rows()), 0);
+  for (Index p = 0; p < P.rows; ++p) {
+    Index best = -1;
+    for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k)
+      if (best < 0 || P.values[k] > P.values[best]) best = k;
+    if (best < 0) return false;  // a fine vertex without a parent: leave the order to METIS on the fine graph
+    parent[p] = P.columns[best];
+    ++weight[parent[p]];
+  }
+  const std::vector<int> coarse = partitionPattern(C.rowStarts(), C.columns(), parts, weight);
+  if (coarse.empty()) return false;
+  std::vector<int> part(static_cast<std::size_t>(P.rows));
+  for (Index p = 0; p < P.rows; ++p) part[p] = coarse[parent[p]];
+  A.setSweepPartition(part);
+  return true;
+}
+
+template bool carrySweepPartition<2>(const MultigridHierarchy<2>&, const BlockSparseMatrix<2>&);
+template bool carrySweepPartition<3>(const MultigridHierarchy<3>&, const BlockSparseMatrix<3>&);
+
+
+template <int d>
 LinearMultigrid<d>::~LinearMultigrid() = default;
 
 template <int d>
@@ -42,6 +71,7 @@ void LinearMultigrid<d>::setOperator(const BlockSparseMatrix<d>& A, std::vector<
     sol_[l].setZero(n);
     work_[l].setZero(n);
   }
+  carrySweepPartition(hierarchy_, A);
   if (L > 0) setSmootherMatrix(L, A, &hierarchy_.truncationBits(), "the fine operator");
   coarseSolver_.reset();
   updateCoarse();

@@ -31,14 +31,15 @@ bool setBlasThreads(int n) {
   return true;
 }
 
-SweepOrder::SweepOrder(std::span<const Index> rowStart, std::span<const Index> columns, int parts) {
-  if (parts < 1) throw Error("sweep order: " + std::to_string(parts) + " parts");
-  requested_ = parts;
+std::vector<int> partitionPattern(std::span<const Index> rowStart, std::span<const Index> columns, int parts,
+                                  std::span<const Index> weights) {
   const Index n = rowStart.empty() ? 0 : static_cast<Index>(rowStart.size()) - 1;
-  if (parts == 1 || n < kParallelMinRows) return;
-
+  if (parts < 2 || n < 2) return {};
+  if (!weights.empty() && weights.size() != static_cast<std::size_t>(n))
+    throw Error("partition: " + std::to_string(weights.size()) + " vertex weights for " + std::to_string(n) +
+                " vertices");
   // the graph without its diagonal, in METIS' integer type
-  std::vector<idx_t> xadj(static_cast<std::size_t>(n) + 1, 0), adjncy;
+  std::vector<idx_t> xadj(static_cast<std::size_t>(n) + 1, 0), adjncy, vwgt(weights.begin(), weights.end());
   adjncy.reserve(columns.size());
   for (Index p = 0; p < n; ++p) {
     for (Index k = rowStart[p]; k < rowStart[p + 1]; ++k)
@@ -51,29 +52,60 @@ SweepOrder::SweepOrder(std::span<const Index> rowStart, std::span<const Index> c
   METIS_SetDefaultOptions(options);
   options[METIS_OPTION_SEED] = 1;  // fixed: the partition, hence the sweep order, is reproducible
   options[METIS_OPTION_NUMBERING] = 0;
-  const int status = parts == 2 ? METIS_PartGraphRecursive(&nvtxs, &ncon, xadj.data(), adjncy.data(), nullptr,
-                                                            nullptr, nullptr, &nparts, nullptr, nullptr, options,
-                                                            &objval, part.data())
-                                : METIS_PartGraphKway(&nvtxs, &ncon, xadj.data(), adjncy.data(), nullptr, nullptr,
+  idx_t* w = vwgt.empty() ? nullptr : vwgt.data();
+  const int status = parts == 2 ? METIS_PartGraphRecursive(&nvtxs, &ncon, xadj.data(), adjncy.data(), w, nullptr,
+                                                            nullptr, &nparts, nullptr, nullptr, options, &objval,
+                                                            part.data())
+                                : METIS_PartGraphKway(&nvtxs, &ncon, xadj.data(), adjncy.data(), w, nullptr,
                                                       nullptr, &nparts, nullptr, nullptr, options, &objval,
                                                       part.data());
-  if (status != METIS_OK) return;  // the natural order is always valid
+  if (status != METIS_OK) return {};
+  return std::vector<int>(part.begin(), part.end());
+}
 
+SweepOrder::SweepOrder(std::span<const Index> rowStart, std::span<const Index> columns, int parts) {
+  if (parts < 1) throw Error("sweep order: " + std::to_string(parts) + " parts");
+  requested_ = parts;
+  const Index n = rowStart.empty() ? 0 : static_cast<Index>(rowStart.size()) - 1;
+  if (parts == 1 || n < kParallelMinRows) return;
+  const std::vector<int> part = partitionPattern(rowStart, columns, parts);
+  if (part.empty()) return;  // the natural order is always valid
+  build(rowStart, columns, parts, part);
+}
+
+SweepOrder::SweepOrder(std::span<const Index> rowStart, std::span<const Index> columns, int parts,
+                       std::span<const int> part) {
+  if (parts < 1) throw Error("sweep order: " + std::to_string(parts) + " parts");
+  requested_ = parts;
+  const Index n = rowStart.empty() ? 0 : static_cast<Index>(rowStart.size()) - 1;
+  if (part.size() != static_cast<std::size_t>(n))
+    throw Error("sweep order: a partition of " + std::to_string(part.size()) + " vertices for " + std::to_string(n));
+  for (int k : part)
+    if (k < 0 || k >= parts)
+      throw Error("sweep order: part " + std::to_string(k) + " of " + std::to_string(parts) + " parts");
+  if (parts == 1 || n < kParallelMinRows) return;
+  build(rowStart, columns, parts, part);
+}
+
+void SweepOrder::build(std::span<const Index> rowStart, std::span<const Index> columns, int parts,
+                       std::span<const int> part) {
+  const Index n = static_cast<Index>(rowStart.size()) - 1;
   interface_.assign(static_cast<std::size_t>(n), 0);
   std::vector<Index> count(static_cast<std::size_t>(parts) + 1, 0);
   for (Index p = 0; p < n; ++p) {
-    for (idx_t k = xadj[p]; k < xadj[p + 1]; ++k)
-      if (part[adjncy[k]] != part[p]) {
+    for (Index k = rowStart[p]; k < rowStart[p + 1]; ++k)
+      if (part[static_cast<std::size_t>(columns[k])] != part[static_cast<std::size_t>(p)]) {
         interface_[p] = 1;
         break;
       }
-    ++count[interface_[p] ? parts : part[p]];
+    ++count[interface_[p] ? parts : part[static_cast<std::size_t>(p)]];
   }
   start_.assign(static_cast<std::size_t>(parts) + 2, 0);
   for (int k = 0; k <= parts; ++k) start_[k + 1] = start_[k] + count[k];
   order_.resize(static_cast<std::size_t>(n));
   std::vector<Index> fill(start_.begin(), start_.end() - 1);
-  for (Index p = 0; p < n; ++p) order_[fill[interface_[p] ? parts : part[p]]++] = p;  // ascending per group
+  for (Index p = 0; p < n; ++p)
+    order_[fill[interface_[p] ? parts : part[static_cast<std::size_t>(p)]]++] = p;  // ascending per group
   parts_ = parts;
 }
 

@@ -18,6 +18,7 @@
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/LinearElasticity.hpp"
+#include "obs/obs/LinearMultigrid.hpp"
 #include "obs/obs/MultigridHierarchy.hpp"
 #include "obs/obs/Parallel.hpp"
 #include "obs/obs/ProjectedGaussSeidel.hpp"
@@ -103,6 +104,44 @@ TEST(Threads, SweepOrderIsAPermutationWithUncoupledParts) {
   // one part, or a pattern below the threshold: the natural order
   EXPECT_TRUE(SweepOrder(A.rowStarts(), A.columns(), 1).sequential());
   EXPECT_TRUE(SweepOrder(std::vector<Index>{0, 1, 2}, std::vector<Index>{0, 1}, 2).sequential());
+}
+
+// On N > 1 threads the multigrid gives the fine matrix the order of the next coarser level's METIS
+// partition carried through the prolongation (no METIS on the fine graph): a valid order of the fine
+// pattern (uncoupled interiors), parts balanced in fine vertices, an interface about as small as
+// METIS' own on the fine graph; a given partition of the wrong size or range is an error.
+TEST(Threads, FineSweepOrderCarriedFromTheCoarserLevelIsValidAndBalanced) {
+  Cube c(4);  // 32^3 cells, 35,937 fine and 4,913 coarser vertices (both above the threshold)
+  const auto A = assembleStiffness<3>(c.mesh, c.material);
+  const ThreadScope scope(2);
+  ASSERT_FALSE(A.hasSweepOrder());
+  LinearMultigrid<3> mg(c.grid);
+  mg.setOperator(A, {}, std::vector<char>(static_cast<std::size_t>(A.rows()) * 3, 0));
+  ASSERT_TRUE(A.hasSweepOrder());
+  const SweepOrder& order = A.sweepOrder();
+  ASSERT_EQ(order.parts(), 2);
+  std::vector<int> group(static_cast<std::size_t>(A.rows()), -1);
+  for (int k = 0; k < 2; ++k)
+    for (Index p : order.interior(k)) group[p] = k;
+  for (Index p : order.interface()) group[p] = 2;
+  for (Index p = 0; p < A.rows(); ++p) {
+    ASSERT_GE(group[p], 0) << "vertex " << p << " is not in the order";
+    for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k)
+      if (group[p] < 2 && group[A.column(k)] < 2) {
+        ASSERT_EQ(group[p], group[A.column(k)]) << "vertices " << p << " and " << A.column(k);
+      }
+  }
+  const double n0 = static_cast<double>(order.interior(0).size()), n1 = static_cast<double>(order.interior(1).size());
+  EXPECT_LT(std::abs(n0 - n1), 0.1 * (n0 + n1)) << n0 << " / " << n1;
+  const SweepOrder metis(A.rowStarts(), A.columns(), 2);
+  EXPECT_LE(static_cast<double>(order.interface().size()), 1.5 * static_cast<double>(metis.interface().size()))
+      << order.interface().size() << " against " << metis.interface().size();
+  // the same partition gives the same order; a malformed one is an error
+  std::vector<int> part(static_cast<std::size_t>(A.rows()));
+  for (Index p = 0; p < A.rows(); ++p) part[p] = group[p] == 1 ? 1 : 0;
+  EXPECT_THROW(SweepOrder(A.rowStarts(), A.columns(), 2, std::span<const int>(part.data(), part.size() - 1)), Error);
+  part[0] = 2;
+  EXPECT_THROW(SweepOrder(A.rowStarts(), A.columns(), 2, part), Error);
 }
 
 // The threaded linear sweep is the sequential sweep in the order interiors (part by part), interface.

@@ -87,6 +87,12 @@ public:
   /// The Gauss-Seidel order of this pattern for threads() parts (Parallel.hpp), computed on first
   /// use and shared by copies of the matrix (they have the same pattern).
   const SweepOrder& sweepOrder() const;
+  /// Sets the order of sweepOrder() for threads() parts to the order of the partition `part` of
+  /// this pattern (one part in [0, threads()) per vertex), instead of METIS' partition of the
+  /// pattern itself (LinearMultigrid carries a coarser level's partition to the fine level).
+  void setSweepPartition(std::span<const int> part) const;
+  /// Whether sweepOrder() for threads() parts is known (computed or set).
+  bool hasSweepOrder() const { return order_ && order_->requestedParts() == threads(); }
 
   std::size_t memoryBytes() const {
     return rowStart_.capacity() * sizeof(Index) + cols_.capacity() * sizeof(Index) +

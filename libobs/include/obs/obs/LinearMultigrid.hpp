@@ -77,6 +77,17 @@ struct LinearSolverResult {
   std::vector<double> history;   ///< relative corrections per iteration
 };
 
+/// Sets the Gauss-Seidel order of the fine operator A (Parallel.hpp) on threads() > 1 threads from
+/// METIS' partition of level L - 1 instead of the fine graph (in 3D about 8 times fewer vertices;
+/// docs/performance.md#serial-work). Every fine vertex goes to the part of its parent, the coarse
+/// vertex of its largest prolongation weight (the first on ties); the coarse vertices weigh as many
+/// as their children, so that the fine parts are balanced. Any partition gives a valid sweep order,
+/// and this one depends on the hierarchy and the thread count only. Returns false, and sets
+/// nothing, on one thread, below kParallelMinRows fine rows, if A's order is known already or if
+/// METIS fails. LinearMultigrid::setOperator calls it.
+template <int d>
+bool carrySweepPartition(const MultigridHierarchy<d>& hierarchy, const BlockSparseMatrix<d>& A);
+
 template <int d>
 class LinearMultigrid : public LinearCorrection<d> {
 public:

@@ -62,6 +62,12 @@ std::array<double, K> chunkedSums(Index n, F&& f) {
   return sum;
 }
 
+/// METIS' partition of the graph of a (symmetric) pattern into `parts` >= 2 parts (fixed seed; the
+/// diagonal is ignored): part[p] in [0, parts), balanced in the sum of `weights` (one per vertex) or
+/// in vertices if weights is empty. Empty if METIS fails.
+std::vector<int> partitionPattern(std::span<const Index> rowStart, std::span<const Index> columns, int parts,
+                                  std::span<const Index> weights = {});
+
 /// Order of a Gauss-Seidel sweep over the vertices of a (symmetric) matrix pattern that lets
 /// `parts` threads sweep at once without changing what a sweep is: a sequence of exact local solves
 /// in one fixed order, so every monotonicity property of the sequential sweep holds. METIS splits the
@@ -77,6 +83,10 @@ public:
   /// >= 1. Patterns too small to be worth it (below kParallelMinRows rows), or that METIS cannot
   /// split, get the natural order.
   SweepOrder(std::span<const Index> rowStart, std::span<const Index> columns, int parts);
+  /// The order of a given partition of the same pattern: part[p] in [0, parts) for every vertex
+  /// (e.g. a coarser level's partition carried to this level, LinearMultigrid). Throws obs::Error if
+  /// part has the wrong size or a part out of range. Small patterns get the natural order as above.
+  SweepOrder(std::span<const Index> rowStart, std::span<const Index> columns, int parts, std::span<const int> part);
 
   /// The same order restricted to the vertices p with member[p] != 0 (member has one entry per
   /// vertex): each group keeps its members in its order, so the subset sweep is the whole sweep with
@@ -160,6 +170,8 @@ public:
   }
 
 private:
+  void build(std::span<const Index> rowStart, std::span<const Index> columns, int parts, std::span<const int> part);
+
   int parts_ = 1;
   int requested_ = 1;
   bool listed_ = false;  ///< sequential with an explicit vertex list in order_ (a subset)
