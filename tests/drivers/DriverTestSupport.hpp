@@ -107,11 +107,12 @@ struct ObsOutput {
 };
 
 /// Runs `obs <args>` with workDir as the current directory; stdout and stderr go to
-/// workDir/<tag>.out and .err and are returned.
+/// workDir/<tag>.out and .err and are returned. OBS_THREADS is removed from its environment: it runs
+/// on one thread unless args say --threads, as the in-process runs the tests compare it with.
 inline ObsOutput runObs(const std::filesystem::path& workDir, const std::string& args, const std::string& tag) {
   std::filesystem::create_directories(workDir);
   const auto out = workDir / (tag + ".out"), err = workDir / (tag + ".err");
-  const std::string cmd = "cd '" + workDir.string() + "' && '" + std::string(OBS_BINARY) + "' " + args + " >'" +
+  const std::string cmd = "cd '" + workDir.string() + "' && env -u OBS_THREADS '" + std::string(OBS_BINARY) + "' " + args + " >'" +
                           out.string() + "' 2>'" + err.string() + "'";
   const int status = std::system(cmd.c_str());
   ObsOutput o;

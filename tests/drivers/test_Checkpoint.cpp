@@ -480,6 +480,7 @@ TEST(CheckpointRestart, SigtermFinishesTheStepWritesACheckpointAndExitsWith3) {
     const std::string err = (b / "run.err").string();
     (void)!freopen(err.c_str(), "w", stderr);
     (void)!freopen("/dev/null", "w", stdout);
+    unsetenv("OBS_THREADS");  // one thread, as the in-process runs compared with
     execl(OBS_BINARY, "obs", "run", scene.c_str(), "--output", b.c_str(), nullptr);
     _exit(127);
   }
@@ -526,6 +527,7 @@ TEST(CheckpointRestart, KillDuringCheckpointWritingNeverLeavesACorruptLatestFile
     if (pid == 0) {
       (void)!freopen("/dev/null", "w", stderr);
       (void)!freopen("/dev/null", "w", stdout);
+      unsetenv("OBS_THREADS");  // one thread, as the in-process runs compared with
       execl(OBS_BINARY, "obs", "run", scene.c_str(), "--output", dir.c_str(), nullptr);
       _exit(127);
     }
@@ -830,6 +832,7 @@ pid_t startObs(const fs::path& scene, const fs::path& dir, const std::vector<std
     std::vector<char*> c;
     for (std::string& a : argv) c.push_back(a.data());
     c.push_back(nullptr);
+    unsetenv("OBS_THREADS");  // one thread, as the in-process runs compared with
     execv(OBS_BINARY, c.data());
     _exit(127);
   }
