@@ -51,7 +51,6 @@ bool carrySweepPartition(const MultigridHierarchy<d>& h, const BlockSparseMatrix
 template bool carrySweepPartition<2>(const MultigridHierarchy<2>&, const BlockSparseMatrix<2>&);
 template bool carrySweepPartition<3>(const MultigridHierarchy<3>&, const BlockSparseMatrix<3>&);
 
-
 template <int d>
 LinearMultigrid<d>::~LinearMultigrid() = default;
 
