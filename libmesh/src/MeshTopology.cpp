@@ -115,9 +115,8 @@ void sortSmall(Index* first, Index* last) {
       order(v[1], v[3]);
       order(v[1], v[2]);
       break;
-    default:  // 0 or 1 (other counts do not occur)
-      for (Index* i = first + 1; i < last; ++i)
-        for (Index* j = i; j > first && *(j - 1) > *j; --j) std::swap(*(j - 1), *j);
+    default:  // 0 or 1: already sorted (other counts do not occur)
+      break;
   }
 }
 

@@ -100,7 +100,11 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   const BlockGaussSeidelSweep<d>& smoother = *smoother_;
 
   const auto n = static_cast<Eigen::Index>(problem.numDofs());
-  Eigen::VectorXd Aw(n), r(n), c(n), Ac(n), previous(n), delta(n), Adelta(n), step0(n), Astep0(n);
+  // without post-smoothing A (w^{k+1} - w^k) comes from the fused product (step0, Astep0 below),
+  // with it from a product of delta = w^{k+1} - w^k: only one pair of vectors is needed
+  const bool fused = options_.postSmoothing == 0;
+  Eigen::VectorXd Aw(n), r(n), c(n), Ac(n), previous(n);
+  Eigen::VectorXd step0(fused ? n : 0), Astep0(fused ? n : 0), delta(fused ? 0 : n), Adelta(fused ? 0 : n);
   bool zeroStart = w.isZero(0);  // a zero start (time steps from their predictor) needs no product
   if (zeroStart) Aw.setZero();
   else A.multiply(w, Aw);
@@ -137,7 +141,6 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     // without post-smoothing, w^{k+1} - w^k = (w - w^k) + alpha c up to the clamp of takeStep, so
     // A (w^{k+1} - w^k) of the stopping test is A (w - w^k) + alpha A c: A (w - w^k) is taken in the
     // pass over A that gives A w (BlockSparseMatrix::multiply of two vectors), one product less
-    const bool fused = options_.postSmoothing == 0;
     if (fused) {
       forRanges(N, [&](Index b, Index e) { step0.segment(b, e - b) = w.segment(b, e - b) - previous.segment(b, e - b); });
       A.multiply(w, Aw, step0, Astep0);
