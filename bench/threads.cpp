@@ -1,6 +1,7 @@
 // Threads: what obs gains from a second core, and why (docs/performance.md#threads).
 //
 //   build/bench/threads OUT.md [--threads T] [--level L] [--repeat R] [--obs build/drivers/obs]
+//                              [--baseline OLD_OBS]
 //
 // Side by side in one run, for 1..T threads (obs::setThreads):
 //  1. the machine: STREAM-like triad bandwidth a = b + 3c over 3 x 512 MB (what a memory-bound loop
@@ -8,10 +9,13 @@
 //  2. the kernels on the step-42 grid (unit cube of hexahedra, coarse 2^3, L levels: 64^3 cells for
 //     L = 5): stiffness assembly, y = A x, two products in one pass, one truncated linear
 //     Gauss-Seidel sweep (the V-cycle's smoother), one nonsmooth block Gauss-Seidel sweep (TNNMG's fine smoother); best of R;
+//     each with one block per entry and with the repeated blocks shared (the storage of obs' solves,
+//     BlockSparseMatrix::shareRepeatedBlocks);
 //  3. TNNMG on the step-42 problem: iterations, solve seconds, energy; two solves per thread count
 //     must give bitwise the same solution (reproducibility for a fixed thread count);
 //  4. with --obs: the whole `obs run data/scenes/step42.toml --refine 4` per thread count (wall and
-//     CPU seconds, peak memory, from /usr/bin/time).
+//     CPU seconds, peak memory, from /usr/bin/time); with --baseline also another obs binary (an
+//     older version, say), the two alternating run by run, with the solver's correction of each.
 // Writes the tables between the bench/threads markers of OUT.md (MarkdownBlock.hpp).
 #include <chrono>
 #include <cmath>
@@ -95,7 +99,7 @@ int main(int argc, char** argv) {
   }
   const std::filesystem::path out = argv[1];
   int maxThreads = 2, level = 5, repeat = 3;
-  std::string obsBinary;
+  std::string obsBinary, baselineBinary;
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
     if (i + 1 >= argc) {
@@ -107,6 +111,7 @@ int main(int argc, char** argv) {
     else if (a == "--level") level = std::stoi(v);
     else if (a == "--repeat") repeat = std::stoi(v);
     else if (a == "--obs") obsBinary = v;
+    else if (a == "--baseline") baselineBinary = v;
     else {
       std::cerr << "threads: unknown option " << a << "\n";
       return 2;
@@ -114,6 +119,10 @@ int main(int argc, char** argv) {
   }
   if (maxThreads < 1 || level < 1 || repeat < 1) {
     std::cerr << "threads: --threads, --level and --repeat must be positive\n";
+    return 2;
+  }
+  if (!baselineBinary.empty() && obsBinary.empty()) {
+    std::cerr << "threads: --baseline needs --obs\n";
     return 2;
   }
   std::ostringstream md;
@@ -136,23 +145,37 @@ int main(int argc, char** argv) {
   const Index nv = s.mesh.numVertices();
   md << "\nKernels on the step-42 grid (" << s.mesh.numCells() << " hexahedra, " << nv * 3
      << " unknowns), seconds, best of " << repeat << ":\n\n"
-     << "| threads | assembly | y = A x | two products in one pass | linear GS sweep | nonsmooth GS sweep | sweep order "
+     << "| threads | blocks | assembly (sharing) | y = A x | two products in one pass | linear GS sweep | nonsmooth GS sweep | sweep order "
         "(METIS, fine graph) | interface vertices | sweep order (carried from level L - 1) | interface vertices (carried) |\n"
-     << "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+     << "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
   std::vector<double> base;
   for (int t = 1; t <= maxThreads; ++t) {
     setThreads(t);
     BlockSparseMatrix<3> A;
     const double assembly = best(repeat, [&] { A = assembleStiffness<3>(s.mesh, s.material); });
-    Eigen::VectorXd x = Eigen::VectorXd::Ones(nv * 3), y, r = Eigen::VectorXd::Ones(nv * 3);
-    const double mult = best(repeat, [&] { A.multiply(x, y); });
-    Eigen::VectorXd x2 = Eigen::VectorXd::Constant(nv * 3, 0.5), y2;  // y, y2 = A x, A x2 (TNNMG's A w, A (w - w^k))
-    const double mult2 = best(repeat, [&] { A.multiply(x, y, x2, y2); });
-    TruncatedGaussSeidel<3> tgs;
-    tgs.setMatrix(A);
-    const double linear = best(repeat, [&] { tgs.sweep(r, x); });
-    BlockGaussSeidelSweep<3> ngs(A, std::vector<double>(static_cast<std::size_t>(nv), 0.0));
-    const double nonsmooth = best(repeat, [&] { ngs.sweep(r, x); });
+    // the kernels of one matrix: products, linear and nonsmooth sweep
+    const auto kernels = [&](const BlockSparseMatrix<3>& M) {
+      Eigen::VectorXd x = Eigen::VectorXd::Ones(nv * 3), y, r = Eigen::VectorXd::Ones(nv * 3);
+      const double mult = best(repeat, [&] { M.multiply(x, y); });
+      Eigen::VectorXd x2 = Eigen::VectorXd::Constant(nv * 3, 0.5), y2;  // y, y2 = A x, A x2 (TNNMG's A w, A (w - w^k))
+      const double mult2 = best(repeat, [&] { M.multiply(x, y, x2, y2); });
+      TruncatedGaussSeidel<3> tgs;
+      tgs.setMatrix(M);
+      const double linear = best(repeat, [&] { tgs.sweep(r, x); });
+      BlockGaussSeidelSweep<3> ngs(M, std::vector<double>(static_cast<std::size_t>(nv), 0.0));
+      const double nonsmooth = best(repeat, [&] { ngs.sweep(r, x); });
+      return std::vector<double>{mult, mult2, linear, nonsmooth};
+    };
+    const std::vector<double> plain = kernels(A);
+    BlockSparseMatrix<3> S;
+    double sharing = 1e300;  // the sharing alone, not the copy before it
+    for (int rep = 0; rep < repeat; ++rep) {
+      S = A;
+      const auto t0 = Clock::now();
+      if (!S.shareRepeatedBlocks()) std::cerr << "threads: the step-42 matrix did not share its blocks\n";
+      sharing = std::min(sharing, since(t0));
+    }
+    const std::vector<double> sharedKernels = kernels(S);
     const SweepOrder metis(A.rowStarts(), A.columns(), t);
     const double partition = best(repeat, [&] { const SweepOrder o(A.rowStarts(), A.columns(), t); });
     // the fine order carried from level L - 1 (LinearMultigrid's default on threads), timed on
@@ -169,13 +192,22 @@ int main(int argc, char** argv) {
       carried = std::min(carried, since(t0));
       if (set) carriedInterface = B.sweepOrder().interface().size();
     }
-    const std::vector<double> row{assembly, mult, mult2, linear, nonsmooth};
+    std::vector<double> row{assembly};
+    row.insert(row.end(), plain.begin(), plain.end());
     if (t == 1) base = row;
-    md << "| " << t;
-    for (std::size_t k = 0; k < row.size(); ++k)
-      md << " | " << fmt(row[k]) << (t > 1 ? " (" + fmt(base[k] / row[k], 2) + "x)" : std::string());
+    const auto cells = [&](const std::vector<double>& r, bool first) {
+      for (std::size_t k = first ? 0 : 1; k < r.size(); ++k)
+        md << " | " << fmt(r[k]) << (t > 1 || !first ? " (" + fmt(base[k] / r[k], 2) + "x)" : std::string());
+    };
+    md << "| " << t << " | one per entry";
+    cells(row, true);
     md << " | " << (t > 1 ? fmt(partition) : std::string("-")) << " | " << (metis.sequential() ? 0 : metis.interface().size())
        << " | " << (t > 1 ? fmt(carried) : std::string("-")) << " | " << carriedInterface << " |\n";
+    std::vector<double> sharedRow{0.0};
+    sharedRow.insert(sharedRow.end(), sharedKernels.begin(), sharedKernels.end());
+    md << "| " << t << " | shared (" << S.storedBlocks() << " distinct of " << S.nonZeroBlocks() << ") | (" << fmt(sharing) << ")";
+    cells(sharedRow, false);
+    md << " | - | - | - | - |\n";
     std::cerr << "kernels, " << t << " threads done\n";
   }
 
@@ -211,48 +243,66 @@ int main(int argc, char** argv) {
     }
   }
 
-  // 4. the whole program
+  // 4. the whole program, and a baseline binary alternating with it
   if (!obsBinary.empty()) {
+    std::vector<std::pair<std::string, std::string>> binaries;  // label, path
+    if (!baselineBinary.empty()) binaries.emplace_back("baseline", baselineBinary);
+    binaries.emplace_back(baselineBinary.empty() ? "" : "this", obsBinary);
+    const bool two = binaries.size() > 1;
     md << "\nThe whole `obs run data/scenes/step42.toml --refine 4 --threads T` (64^3 hexahedra, 823,875 unknowns; "
-          "/usr/bin/time; the thread counts alternate, best wall time of " << repeat << " runs, its CPU time, memory and phases):\n\n"
-          "| threads | wall s | CPU s | peak MB | assembly s | solve s | wall s of every run |\n|---:|---:|---:|---:|---:|---:|---|\n";
+          "/usr/bin/time; the thread counts"
+       << (two ? " and the binaries (baseline: the --baseline binary, this: the --obs binary)" : std::string())
+       << " alternate, best wall time of " << repeat << " runs, its CPU time, memory and phases):\n\n"
+       << (two ? "| binary " : "")
+       << "| threads | wall s | CPU s | peak MB | assembly s | solve s | wall s of every run | solve s of every run | "
+          "correction |\n"
+       << (two ? "|---" : "") << "|---:|---:|---:|---:|---:|---:|---|---|---|\n";
     struct Run {
       double wall = 1e300, cpu = 0, mb = 0, assembly = 0, solve = 0;
-      std::string all;
+      std::string all, solves, correction;
     };
-    std::vector<Run> runs(static_cast<std::size_t>(maxThreads));
+    std::vector<Run> runs(binaries.size() * static_cast<std::size_t>(maxThreads));
     for (int rep = 0; rep < repeat; ++rep)
-      for (int t = 1; t <= maxThreads; ++t) {
-        const std::string dir = "/tmp/obs_bench_threads_" + std::to_string(t);
-        const std::string timing = dir + ".time";
-        const std::string cmd = "OPENBLAS_NUM_THREADS=1 /usr/bin/time -f '%e %U %S %M' -o " + timing + " " + obsBinary +
-                                " run data/scenes/step42.toml --refine 4 --quiet --threads " + std::to_string(t) +
-                                " --output " + dir;
-        if (std::system(cmd.c_str()) != 0) {
-          std::cerr << "threads: failed: " << cmd << "\n";
-          return 1;
+      for (int t = 1; t <= maxThreads; ++t)
+        for (std::size_t bin = 0; bin < binaries.size(); ++bin) {
+          const std::string dir = "/tmp/obs_bench_threads_" + std::to_string(bin) + "_" + std::to_string(t);
+          const std::string timing = dir + ".time";
+          const std::string cmd = "OPENBLAS_NUM_THREADS=1 /usr/bin/time -f '%e %U %S %M' -o " + timing + " " +
+                                  binaries[bin].second + " run data/scenes/step42.toml --refine 4 --quiet --threads " +
+                                  std::to_string(t) + " --output " + dir;
+          if (std::system(cmd.c_str()) != 0) {
+            std::cerr << "threads: failed: " << cmd << "\n";
+            return 1;
+          }
+          double wall = 0, user = 0, sys = 0, kb = 0;
+          std::ifstream(timing) >> wall >> user >> sys >> kb;
+          std::ifstream summary(dir + "/summary.json");
+          std::stringstream ss;
+          ss << summary.rdbuf();
+          const std::string js = ss.str();
+          const auto number = [&](const std::string& key) {
+            const auto p = js.find("\"" + key + "\":");
+            return p == std::string::npos ? std::nan("") : std::strtod(js.c_str() + p + key.size() + 3, nullptr);
+          };
+          char correction[32];
+          std::snprintf(correction, sizeof correction, "%.17g", number("correction"));
+          Run& r = runs[bin * static_cast<std::size_t>(maxThreads) + static_cast<std::size_t>(t - 1)];
+          r.all += (r.all.empty() ? "" : ", ") + fmt(wall);
+          r.solves += (r.solves.empty() ? "" : ", ") + fmt(number("solve_s"));
+          if (wall < r.wall)
+            r = Run{wall, user + sys, kb / 1024, number("assembly_s"), number("solve_s"), r.all, r.solves, correction};
+          std::cerr << "obs run" << (two ? " (" + binaries[bin].first + ")" : std::string()) << ", " << t
+                    << " threads: " << fmt(wall) << " s wall\n";
         }
-        double wall = 0, user = 0, sys = 0, kb = 0;
-        std::ifstream(timing) >> wall >> user >> sys >> kb;
-        std::ifstream summary(dir + "/summary.json");
-        std::stringstream ss;
-        ss << summary.rdbuf();
-        const std::string js = ss.str();
-        const auto number = [&](const std::string& key) {
-          const auto p = js.find("\"" + key + "\":");
-          return p == std::string::npos ? std::nan("") : std::strtod(js.c_str() + p + key.size() + 3, nullptr);
-        };
-        Run& r = runs[static_cast<std::size_t>(t - 1)];
-        r.all += (r.all.empty() ? "" : ", ") + fmt(wall);
-        if (wall < r.wall) r = Run{wall, user + sys, kb / 1024, number("assembly_s"), number("solve_s"), r.all};
-        std::cerr << "obs run, " << t << " threads: " << fmt(wall) << " s wall\n";
+    for (std::size_t bin = 0; bin < binaries.size(); ++bin)
+      for (int t = 1; t <= maxThreads; ++t) {
+        const Run* row = &runs[bin * static_cast<std::size_t>(maxThreads)];
+        const Run& r = row[t - 1];
+        md << (two ? "| " + binaries[bin].first + " " : std::string()) << "| " << t << " | " << fmt(r.wall)
+           << (t > 1 ? " (" + fmt(row[0].wall / r.wall, 2) + "x)" : "") << " | " << fmt(r.cpu) << " | " << fmt(r.mb, 4)
+           << " | " << fmt(r.assembly) << " | " << fmt(r.solve) << " | " << r.all << " | " << r.solves << " | "
+           << r.correction << " |\n";
       }
-    for (int t = 1; t <= maxThreads; ++t) {
-      const Run& r = runs[static_cast<std::size_t>(t - 1)];
-      md << "| " << t << " | " << fmt(r.wall) << (t > 1 ? " (" + fmt(runs[0].wall / r.wall, 2) + "x)" : "") << " | "
-         << fmt(r.cpu) << " | " << fmt(r.mb, 4) << " | " << fmt(r.assembly) << " | " << fmt(r.solve) << " | " << r.all
-         << " |\n";
-    }
   }
   if (!bench::writeMarkdownBlock(out, "threads", md.str())) {
     std::cerr << "threads: cannot write " << out << "\n";

@@ -1,5 +1,9 @@
 #include "obs/obs/BlockSparseMatrix.hpp"
 
+#include <array>
+#include <bit>
+#include <cstring>
+
 namespace obs {
 
 template <int d>
@@ -62,6 +66,10 @@ BlockSparseMatrix<d>::BlockSparseMatrix(std::vector<Index> rowStart, std::vector
 
 template <int d>
 void BlockSparseMatrix<d>::setZero() {
+  if (shared()) {  // one block per entry again, zeroed below
+    blockIndex_ = {};
+    blocks_ = decltype(blocks_)(cols_.size());
+  }
   const Index n = rows();
   const int nt = n >= kParallelMinRows ? threads() : 1;
 #pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
@@ -74,13 +82,15 @@ void BlockSparseMatrix<d>::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y
   const Index n = rows();
   y.resize(static_cast<Eigen::Index>(n) * d);
   const int nt = n >= kParallelMinRows ? threads() : 1;
+  withBlocks([&](const auto blocks) {
 #pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
-  for (Index i = 0; i < n; ++i) {
-    Eigen::Matrix<double, d, 1> s = Eigen::Matrix<double, d, 1>::Zero();
-    for (Index k = rowStart_[i]; k < rowStart_[i + 1]; ++k)
-      s.noalias() += blocks_[k] * x.template segment<d>(static_cast<Eigen::Index>(cols_[k]) * d);
-    y.template segment<d>(static_cast<Eigen::Index>(i) * d) = s;
-  }
+    for (Index i = 0; i < n; ++i) {
+      Eigen::Matrix<double, d, 1> s = Eigen::Matrix<double, d, 1>::Zero();
+      for (Index k = rowStart_[i]; k < rowStart_[i + 1]; ++k)
+        s.noalias() += blocks[k] * x.template segment<d>(static_cast<Eigen::Index>(cols_[k]) * d);
+      y.template segment<d>(static_cast<Eigen::Index>(i) * d) = s;
+    }
+  });
 }
 
 template <int d>
@@ -90,17 +100,104 @@ void BlockSparseMatrix<d>::multiply(const Eigen::VectorXd& x1, Eigen::VectorXd& 
   y1.resize(static_cast<Eigen::Index>(n) * d);
   y2.resize(static_cast<Eigen::Index>(n) * d);
   const int nt = n >= kParallelMinRows ? threads() : 1;
+  withBlocks([&](const auto blocks) {
 #pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
-  for (Index i = 0; i < n; ++i) {
-    Eigen::Matrix<double, d, 1> s1 = Eigen::Matrix<double, d, 1>::Zero(), s2 = Eigen::Matrix<double, d, 1>::Zero();
-    for (Index k = rowStart_[i]; k < rowStart_[i + 1]; ++k) {
-      const auto j = static_cast<Eigen::Index>(cols_[k]) * d;
-      s1.noalias() += blocks_[k] * x1.template segment<d>(j);
-      s2.noalias() += blocks_[k] * x2.template segment<d>(j);
+    for (Index i = 0; i < n; ++i) {
+      Eigen::Matrix<double, d, 1> s1 = Eigen::Matrix<double, d, 1>::Zero(), s2 = Eigen::Matrix<double, d, 1>::Zero();
+      for (Index k = rowStart_[i]; k < rowStart_[i + 1]; ++k) {
+        const auto j = static_cast<Eigen::Index>(cols_[k]) * d;
+        s1.noalias() += blocks[k] * x1.template segment<d>(j);
+        s2.noalias() += blocks[k] * x2.template segment<d>(j);
+      }
+      y1.template segment<d>(static_cast<Eigen::Index>(i) * d) = s1;
+      y2.template segment<d>(static_cast<Eigen::Index>(i) * d) = s2;
     }
-    y1.template segment<d>(static_cast<Eigen::Index>(i) * d) = s1;
-    y2.template segment<d>(static_cast<Eigen::Index>(i) * d) = s2;
+  });
+}
+
+namespace {
+
+/// The bits of a block as 64-bit words.
+template <class Block>
+std::array<std::uint64_t, Block::SizeAtCompileTime> blockBits(const Block& B) {
+  std::array<std::uint64_t, Block::SizeAtCompileTime> w;
+  std::memcpy(w.data(), B.data(), sizeof w);
+  return w;
+}
+
+/// Hash of a block's bits: the words rotated by different amounts and xored (independent
+/// operations), then one multiplicative mix.
+template <class Block>
+std::uint64_t blockHash(const Block& B) {
+  const auto w = blockBits(B);
+  std::uint64_t h = 0;
+  for (std::size_t i = 0; i < w.size(); ++i) h ^= std::rotl(w[i], static_cast<int>(7 * i));
+  h *= 0x9E3779B97F4A7C15ull;
+  return h ^ (h >> 32);
+}
+
+/// Whether two blocks have the same bits (inline, without a call of memcmp).
+template <class Block>
+bool sameBits(const Block& A, const Block& B) {
+  const auto a = blockBits(A), b = blockBits(B);
+  std::uint64_t differ = 0;
+  for (std::size_t i = 0; i < a.size(); ++i) differ |= a[i] ^ b[i];
+  return differ == 0;
+}
+
+}  // namespace
+
+template <int d>
+bool BlockSparseMatrix<d>::shareRepeatedBlocks() {
+  if (shared()) return true;
+  const std::size_t nnz = blocks_.size();
+  const std::size_t limit = nnz / 4;  // at most a quarter distinct, else one block per entry stays
+  if (limit == 0) return false;
+  // The distinct blocks in order of first appearance (their positions in blocks_), found through an
+  // open-addressing table of distinct numbers; blocks compare bitwise (-0.0 and 0.0 differ), so
+  // every value is kept exactly.
+  std::vector<std::uint32_t> first;
+  std::vector<std::int64_t> table(1024, -1);  // distinct number, -1 = empty; load at most 1/2
+  const auto mask = [&] { return table.size() - 1; };
+  // distinct number of block k, a new one if it is new; -1 if there would be more than `limit`
+  const auto distinctNumber = [&](std::size_t k) -> std::int64_t {
+    const std::uint64_t h = blockHash(blocks_[k]);
+    std::size_t slot = h & mask();
+    for (; table[slot] >= 0; slot = (slot + 1) & mask())
+      if (sameBits(blocks_[first[static_cast<std::size_t>(table[slot])]], blocks_[k])) return table[slot];
+    if (first.size() >= limit) return -1;
+    const auto id = static_cast<std::int64_t>(first.size());
+    first.push_back(static_cast<std::uint32_t>(k));
+    table[slot] = id;
+    if (2 * first.size() > table.size()) {
+      table.assign(2 * table.size(), -1);
+      for (std::size_t u = 0; u < first.size(); ++u) {
+        std::size_t s = blockHash(blocks_[first[u]]) & mask();
+        while (table[s] >= 0) s = (s + 1) & mask();
+        table[s] = static_cast<std::int64_t>(u);
+      }
+    }
+    return id;
+  };
+  std::vector<std::uint32_t, LargeArrayAllocator<std::uint32_t>> index(nnz);
+  for (std::size_t k = 0; k < nnz; ++k) {
+    const std::int64_t id = distinctNumber(k);
+    if (id < 0) return false;
+    index[k] = static_cast<std::uint32_t>(id);
   }
+  decltype(blocks_) distinct(first.size());
+  for (std::size_t u = 0; u < first.size(); ++u) distinct[u] = blocks_[first[u]];
+  blocks_ = std::move(distinct);
+  blockIndex_ = std::move(index);
+  return true;
+}
+
+template <int d>
+void BlockSparseMatrix<d>::unshareBlocks() {
+  decltype(blocks_) all(cols_.size());
+  for (std::size_t k = 0; k < all.size(); ++k) all[k] = blocks_[blockIndex_[k]];
+  blocks_ = std::move(all);
+  blockIndex_ = {};
 }
 
 template <int d>

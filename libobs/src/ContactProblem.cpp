@@ -336,6 +336,7 @@ void ContactProblem<d>::setup(BlockSparseMatrix<d> A) {
     }
   }
   rotateOperator(A);
+  A.shareRepeatedBlocks();  // the same values; fewer bytes per sweep on grids of repeated cells
   A_ = std::make_shared<const BlockSparseMatrix<d>>(std::move(A));
 }
 

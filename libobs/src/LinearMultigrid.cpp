@@ -163,14 +163,16 @@ void LinearMultigrid<d>::localDefect(int level, const Eigen::VectorXd& r, const 
   out = r;
   const auto n = static_cast<Index>(rows.size());
   const int nt = n >= kParallelMinRows ? threads() : 1;
+  A.withBlocks([&](const auto blocks) {
 #pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
-  for (Index i = 0; i < n; ++i) {
-    const Index p = rows[i];
-    Eigen::Matrix<double, d, 1> s = Eigen::Matrix<double, d, 1>::Zero();
-    for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k)
-      s.noalias() += A.blockAt(k) * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
-    out.template segment<d>(static_cast<Eigen::Index>(p) * d) -= s;
-  }
+    for (Index i = 0; i < n; ++i) {
+      const Index p = rows[i];
+      Eigen::Matrix<double, d, 1> s = Eigen::Matrix<double, d, 1>::Zero();
+      for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k)
+        s.noalias() += blocks[k] * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
+      out.template segment<d>(static_cast<Eigen::Index>(p) * d) -= s;
+    }
+  });
 }
 
 template <int d>

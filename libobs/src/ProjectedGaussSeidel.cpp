@@ -54,18 +54,20 @@ void BlockLocalSolver<d>::setUpper(std::vector<double> upper) {
 template <int d>
 void BlockGaussSeidelSweep<d>::sweep(const Eigen::VectorXd& b, Eigen::VectorXd& w, bool backward) const {
   using Vec = typename BlockLocalSolver<d>::Vec;
-  const auto row = [&](Index p) {
-    // r = b_p - sum_{q != p} A_pq w_q
-    Vec r = b.template segment<d>(static_cast<Eigen::Index>(p) * d);
-    for (Index k = A_.rowBegin(p); k < A_.rowEnd(p); ++k) {
-      const Index q = A_.column(k);
-      if (q != p) r.noalias() -= A_.blockAt(k) * w.template segment<d>(static_cast<Eigen::Index>(q) * d);
-    }
-    w.template segment<d>(static_cast<Eigen::Index>(p) * d) = local_.solve(p, r);
-  };
-  const SweepOrder& order = A_.sweepOrder();
-  if (backward) order.backward(A_.rows(), row);
-  else order.forward(A_.rows(), row);
+  A_.withBlocks([&](const auto blocks) {
+    const auto row = [&](Index p) {
+      // r = b_p - sum_{q != p} A_pq w_q
+      Vec r = b.template segment<d>(static_cast<Eigen::Index>(p) * d);
+      for (Index k = A_.rowBegin(p); k < A_.rowEnd(p); ++k) {
+        const Index q = A_.column(k);
+        if (q != p) r.noalias() -= blocks[k] * w.template segment<d>(static_cast<Eigen::Index>(q) * d);
+      }
+      w.template segment<d>(static_cast<Eigen::Index>(p) * d) = local_.solve(p, r);
+    };
+    const SweepOrder& order = A_.sweepOrder();
+    if (backward) order.backward(A_.rows(), row);
+    else order.forward(A_.rows(), row);
+  });
 }
 
 template <int d>
@@ -73,15 +75,17 @@ void BlockGaussSeidelSweep<d>::sweepFromZero(const Eigen::VectorXd& b, Eigen::Ve
   using Vec = typename BlockLocalSolver<d>::Vec;
   // `full`: the whole row (unswept neighbours hold zeros), else the blocks left of the diagonal
   // (SweepOrder::forwardFromZero)
-  const auto row = [&](Index p, bool full) {
-    Vec r = b.template segment<d>(static_cast<Eigen::Index>(p) * d);
-    for (Index k = A_.rowBegin(p); k < A_.rowEnd(p) && (full || A_.column(k) < p); ++k)
-      if (A_.column(k) != p)
-        r.noalias() -= A_.blockAt(k) * w.template segment<d>(static_cast<Eigen::Index>(A_.column(k)) * d);
-    w.template segment<d>(static_cast<Eigen::Index>(p) * d) = local_.solve(p, r);
-  };
-  A_.sweepOrder().forwardFromZero(A_.rows(), row, [&](Index p) {
-    w.template segment<d>(static_cast<Eigen::Index>(p) * d).setZero();
+  A_.withBlocks([&](const auto blocks) {
+    const auto row = [&](Index p, bool full) {
+      Vec r = b.template segment<d>(static_cast<Eigen::Index>(p) * d);
+      for (Index k = A_.rowBegin(p); k < A_.rowEnd(p) && (full || A_.column(k) < p); ++k)
+        if (A_.column(k) != p)
+          r.noalias() -= blocks[k] * w.template segment<d>(static_cast<Eigen::Index>(A_.column(k)) * d);
+      w.template segment<d>(static_cast<Eigen::Index>(p) * d) = local_.solve(p, r);
+    };
+    A_.sweepOrder().forwardFromZero(A_.rows(), row, [&](Index p) {
+      w.template segment<d>(static_cast<Eigen::Index>(p) * d).setZero();
+    });
   });
 }
 

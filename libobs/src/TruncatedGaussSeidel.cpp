@@ -69,39 +69,43 @@ void TruncatedGaussSeidel<d>::updateAll() {
 template <int d>
 void TruncatedGaussSeidel<d>::sweep(const Eigen::VectorXd& r, Eigen::VectorXd& x, bool backward) const {
   const BlockSparseMatrix<d>& A = *A_;
-  const auto row = [&](Index p) {
-    if (bits_ && (*bits_)[p] == kAll) return;  // fully truncated: x_p = 0
-    Vec s = r.template segment<d>(static_cast<Eigen::Index>(p) * d);
-    const Index dp = diagonal_[p];
-    for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k)
-      if (k != dp) s.noalias() -= A.blockAt(k) * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
-    x.template segment<d>(static_cast<Eigen::Index>(p) * d).noalias() = inverse_[p] * s;
-  };
-  const SweepOrder& sweepOrder = order();
-  if (backward) sweepOrder.backward(A.rows(), row);
-  else sweepOrder.forward(A.rows(), row);
+  A.withBlocks([&](const auto blocks) {
+    const auto row = [&](Index p) {
+      if (bits_ && (*bits_)[p] == kAll) return;  // fully truncated: x_p = 0
+      Vec s = r.template segment<d>(static_cast<Eigen::Index>(p) * d);
+      const Index dp = diagonal_[p];
+      for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k)
+        if (k != dp) s.noalias() -= blocks[k] * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
+      x.template segment<d>(static_cast<Eigen::Index>(p) * d).noalias() = inverse_[p] * s;
+    };
+    const SweepOrder& sweepOrder = order();
+    if (backward) sweepOrder.backward(A.rows(), row);
+    else sweepOrder.forward(A.rows(), row);
+  });
 }
 
 template <int d>
 void TruncatedGaussSeidel<d>::sweepFromZero(const Eigen::VectorXd& r, Eigen::VectorXd& x) const {
   const BlockSparseMatrix<d>& A = *A_;
-  // `full`: read the whole row, else only the blocks left of the diagonal (SweepOrder::forwardFromZero)
-  const auto row = [&](Index p, bool full) {
-    auto xp = x.template segment<d>(static_cast<Eigen::Index>(p) * d);
-    if (bits_ && (*bits_)[p] == kAll) {  // fully truncated: x_p = 0
-      xp.setZero();
-      return;
-    }
-    Vec s = r.template segment<d>(static_cast<Eigen::Index>(p) * d);
-    const Index dp = diagonal_[p];
-    const Index end = full ? A.rowEnd(p) : dp;
-    for (Index k = A.rowBegin(p); k < end; ++k)
-      if (k != dp) s.noalias() -= A.blockAt(k) * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
-    xp.noalias() = inverse_[p] * s;
-  };
   if (!subset_.empty()) x.setZero();  // the vertices outside the subset are not swept
-  order().forwardFromZero(A.rows(), row, [&](Index p) {
-    x.template segment<d>(static_cast<Eigen::Index>(p) * d).setZero();
+  A.withBlocks([&](const auto blocks) {
+    // `full`: read the whole row, else only the blocks left of the diagonal (SweepOrder::forwardFromZero)
+    const auto row = [&](Index p, bool full) {
+      auto xp = x.template segment<d>(static_cast<Eigen::Index>(p) * d);
+      if (bits_ && (*bits_)[p] == kAll) {  // fully truncated: x_p = 0
+        xp.setZero();
+        return;
+      }
+      Vec s = r.template segment<d>(static_cast<Eigen::Index>(p) * d);
+      const Index dp = diagonal_[p];
+      const Index end = full ? A.rowEnd(p) : dp;
+      for (Index k = A.rowBegin(p); k < end; ++k)
+        if (k != dp) s.noalias() -= blocks[k] * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
+      xp.noalias() = inverse_[p] * s;
+    };
+    order().forwardFromZero(A.rows(), row, [&](Index p) {
+      x.template segment<d>(static_cast<Eigen::Index>(p) * d).setZero();
+    });
   });
 }
 

@@ -3,10 +3,17 @@
 /// Sparse matrix of d x d blocks in compressed-row form: one block row per vertex, columns sorted.
 /// The natural storage for vector-valued P1/Q1 problems (d unknowns per vertex), and the format the
 /// block Gauss-Seidel smoothers of the contact solvers work on.
+///
+/// Two storages of the blocks, with the same values: one block per pattern entry (the default), or
+/// each distinct block once with an index per entry (shareRepeatedBlocks(); the stiffness matrices of
+/// grids made of translated copies of a few cells repeat a few hundred blocks millions of times,
+/// docs/performance.md#shared-blocks). Kernels read either through withBlocks(); a non-const
+/// accessor returns to one block per entry first.
 #include <Eigen/Core>
 
 #include <algorithm>
 #include <cassert>
+#include <cstdint>
 #include <memory>
 #include <span>
 #include <vector>
@@ -42,8 +49,30 @@ public:
   Index column(Index k) const { return cols_[k]; }
   std::span<const Index> rowStarts() const { return rowStart_; }
   std::span<const Index> columns() const { return cols_; }
-  Block& blockAt(Index k) { return blocks_[k]; }
-  const Block& blockAt(Index k) const { return blocks_[k]; }
+  /// Block at position k, writable (a matrix with shared blocks returns to one block per entry).
+  Block& blockAt(Index k) {
+    if (shared()) unshareBlocks();
+    return blocks_[k];
+  }
+  const Block& blockAt(Index k) const { return shared() ? blocks_[blockIndex_[k]] : blocks_[k]; }
+
+  /// Read access for kernels: calls f(blocks), where blocks[k] is the block at position k, with a
+  /// type of its own for each storage (no test per block), and returns f's result.
+  template <class F>
+  decltype(auto) withBlocks(F&& f) const {
+    if (shared()) return f(SharedBlocks{blocks_.data(), blockIndex_.data()});
+    return f(PlainBlocks{blocks_.data()});
+  }
+
+  /// Stores each distinct block (bit for bit) once, with a 32-bit index per entry, if at most a
+  /// quarter of the blocks are distinct; returns whether the blocks are shared. The values, and
+  /// every product, sweep and sum over them, stay bit for bit the same; only the bytes read per pass
+  /// shrink.
+  bool shareRepeatedBlocks();
+  /// Whether the blocks are stored once each (shareRepeatedBlocks()).
+  bool shared() const { return !blockIndex_.empty(); }
+  /// Number of blocks stored: nonZeroBlocks(), or the distinct ones if shared().
+  Index storedBlocks() const { return static_cast<Index>(blocks_.size()); }
 
   /// Position of block (i, j) in the storage, or -1 if not in the pattern.
   Index find(Index i, Index j) const {
@@ -55,12 +84,12 @@ public:
   Block& operator()(Index i, Index j) {
     const Index k = find(i, j);
     assert(k >= 0);
-    return blocks_[k];
+    return blockAt(k);
   }
   const Block& operator()(Index i, Index j) const {
     const Index k = find(i, j);
     assert(k >= 0);
-    return blocks_[k];
+    return blockAt(k);
   }
   /// Position of the diagonal block of row i.
   Index diagonal(Index i) const { return find(i, i); }
@@ -96,13 +125,29 @@ public:
 
   std::size_t memoryBytes() const {
     return rowStart_.capacity() * sizeof(Index) + cols_.capacity() * sizeof(Index) +
-           blocks_.capacity() * sizeof(Block);
+           blocks_.capacity() * sizeof(Block) + blockIndex_.capacity() * sizeof(std::uint32_t);
   }
 
+  /// The two views of withBlocks().
+  struct PlainBlocks {
+    const Block* blocks;
+    const Block& operator[](Index k) const { return blocks[k]; }
+  };
+  struct SharedBlocks {
+    const Block* blocks;
+    const std::uint32_t* index;
+    const Block& operator[](Index k) const { return blocks[index[k]]; }
+  };
+
 private:
+  void unshareBlocks();
+
   std::vector<Index> rowStart_{0};
   std::vector<Index> cols_;
-  std::vector<Block, LargeArrayAllocator<Block>> blocks_;  ///< huge pages for large matrices
+  /// One block per entry, or (shared()) the distinct blocks; huge pages for large matrices.
+  std::vector<Block, LargeArrayAllocator<Block>> blocks_;
+  /// Empty, or (shared()) entry k's position in blocks_.
+  std::vector<std::uint32_t, LargeArrayAllocator<std::uint32_t>> blockIndex_;
   mutable std::shared_ptr<const SweepOrder> order_;  ///< cache of sweepOrder()
 };
 

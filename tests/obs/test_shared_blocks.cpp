@@ -1,0 +1,164 @@
+// Shared blocks (BlockSparseMatrix::shareRepeatedBlocks, docs/performance.md#shared-blocks): a matrix
+// that stores each distinct block once has bitwise the blocks, products and sweeps of the matrix with
+// one block per entry, on one thread and on two; writing returns to one block per entry; a matrix of
+// distinct blocks keeps its storage.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <set>
+#include <string>
+#include <vector>
+
+#include "../ThreadScope.hpp"
+#include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/ElasticityAssembly.hpp"
+#include "obs/obs/ProjectedGaussSeidel.hpp"
+#include "obs/obs/TruncatedGaussSeidel.hpp"
+
+using namespace obs;
+using obs::test::ThreadScope;
+using mesh::CellType;
+
+namespace {
+
+template <class T>
+bool sameBits(const T& a, const T& b) {
+  return std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0 &&
+         a.size() == b.size();
+}
+
+/// Stiffness matrix of a cube of 16^3 hexahedra (4,913 vertices: above the size from which loops
+/// run on threads).
+BlockSparseMatrix<3> cubeStiffness() {
+  mesh::Grid grid(mesh::boxMesh(CellType::Hexahedron, 2));
+  for (int l = 0; l < 3; ++l) grid.refineUniformly();
+  return assembleStiffness<3>(grid.leafView().mesh, Material{1e3, 0.3});
+}
+
+/// Number of distinct bit patterns among the blocks.
+template <int d>
+std::size_t distinctBlocks(const BlockSparseMatrix<d>& A) {
+  std::set<std::string> seen;
+  for (Index k = 0; k < A.nonZeroBlocks(); ++k)
+    seen.emplace(reinterpret_cast<const char*>(A.blockAt(k).data()), sizeof(typename BlockSparseMatrix<d>::Block));
+  return seen.size();
+}
+
+Eigen::VectorXd wave(Index n, double phase = 0) {
+  return (Eigen::VectorXd::LinSpaced(n, -1.0, 2.0).array() + phase).sin();
+}
+
+/// Products and the four sweeps of A, concatenated.
+Eigen::VectorXd kernels(const BlockSparseMatrix<3>& A) {
+  const Index n = 3 * A.rows();
+  const Eigen::VectorXd x = wave(n), x2 = wave(n, 0.5), r = wave(n, 1.0);
+  Eigen::VectorXd y, y1, y2;
+  A.multiply(x, y);
+  A.multiply(x, y1, x2, y2);
+  std::vector<std::uint8_t> bits(static_cast<std::size_t>(A.rows()), 0);
+  for (std::size_t p = 0; p < bits.size(); p += 7) bits[p] = p % 2 ? 0b010 : 0b111;
+  TruncatedGaussSeidel<3> gs;
+  gs.setMatrix(A, &bits);
+  Eigen::VectorXd forward = 0.1 * x, backward = 0.1 * x, fromZero(n);
+  gs.sweep(r, forward);
+  gs.sweep(r, backward, true);
+  gs.sweepFromZero(r, fromZero);
+  std::vector<double> upper(static_cast<std::size_t>(A.rows()), std::numeric_limits<double>::infinity());
+  for (std::size_t p = 0; p < upper.size(); p += 3) upper[p] = -1e-3;
+  const BlockGaussSeidelSweep<3> ngs(A, upper);
+  Eigen::VectorXd nforward = Eigen::VectorXd::Zero(n), nbackward = Eigen::VectorXd::Zero(n), nfromZero(n);
+  ngs.sweep(r, nforward);
+  ngs.sweep(r, nbackward, true);
+  ngs.sweepFromZero(r, nfromZero);
+  Eigen::VectorXd all(11 * n);
+  all << y, y1, y2, forward, backward, fromZero, nforward, nbackward, nfromZero, x, r;
+  return all;
+}
+
+}  // namespace
+
+TEST(SharedBlocks, StiffnessOfABoxStoresEachDistinctBlockOnceWithTheSameValues) {
+  const BlockSparseMatrix<3> A = cubeStiffness();
+  BlockSparseMatrix<3> S = A;
+  ASSERT_TRUE(S.shareRepeatedBlocks());
+  EXPECT_TRUE(S.shared());
+  EXPECT_FALSE(A.shared());
+  EXPECT_EQ(static_cast<std::size_t>(S.storedBlocks()), distinctBlocks(A));
+  EXPECT_LE(4 * S.storedBlocks(), A.nonZeroBlocks());
+  EXPECT_EQ(S.nonZeroBlocks(), A.nonZeroBlocks());
+  EXPECT_LT(4 * S.memoryBytes(), A.memoryBytes());
+  for (Index k = 0; k < A.nonZeroBlocks(); ++k) ASSERT_TRUE(sameBits(S.blockAt(k), A.blockAt(k))) << "block " << k;
+  EXPECT_TRUE(S.shareRepeatedBlocks());  // a second call keeps the shared storage
+}
+
+TEST(SharedBlocks, ProductsAndSweepsAreBitwiseThoseOfOneBlockPerEntryOnOneAndTwoThreads) {
+  const BlockSparseMatrix<3> A = cubeStiffness();
+  BlockSparseMatrix<3> S = A;
+  ASSERT_TRUE(S.shareRepeatedBlocks());
+  EXPECT_TRUE(sameBits(kernels(S), kernels(A)));
+  const ThreadScope scope(2);
+  ASSERT_FALSE(A.sweepOrder().sequential());
+  EXPECT_TRUE(sameBits(kernels(S), kernels(A)));
+}
+
+TEST(SharedBlocks, WritingReturnsToOneBlockPerEntryAndChangesOnlyThatEntry) {
+  const BlockSparseMatrix<3> A = cubeStiffness();
+  BlockSparseMatrix<3> S = A;
+  ASSERT_TRUE(S.shareRepeatedBlocks());
+  const BlockSparseMatrix<3> copy = S;  // copies share nothing with S
+  const Index k = A.diagonal(100);
+  S.blockAt(k)(0, 0) += 1.0;
+  EXPECT_FALSE(S.shared());
+  EXPECT_TRUE(copy.shared());
+  for (Index m = 0; m < A.nonZeroBlocks(); ++m) {
+    ASSERT_TRUE(sameBits(copy.blockAt(m), A.blockAt(m)));
+    if (m != k) {
+      ASSERT_TRUE(sameBits(S.blockAt(m), A.blockAt(m))) << "block " << m;
+    }
+  }
+  EXPECT_EQ(S.blockAt(k)(0, 0), A.blockAt(k)(0, 0) + 1.0);
+
+  BlockSparseMatrix<3> Z = copy;
+  Z.setZero();
+  EXPECT_FALSE(Z.shared());
+  for (Index m = 0; m < Z.nonZeroBlocks(); ++m) ASSERT_TRUE(Z.blockAt(m).isZero(0));
+}
+
+TEST(SharedBlocks, DistinctBlocksKeepOneBlockPerEntry) {
+  BlockSparseMatrix<3> A = cubeStiffness();
+  for (Index k = 0; k < A.nonZeroBlocks(); ++k) A.blockAt(k)(2, 1) = static_cast<double>(k);
+  const BlockSparseMatrix<3> before = A;
+  EXPECT_FALSE(A.shareRepeatedBlocks());
+  EXPECT_FALSE(A.shared());
+  for (Index k = 0; k < A.nonZeroBlocks(); ++k) ASSERT_TRUE(sameBits(A.blockAt(k), before.blockAt(k)));
+  // more than a quarter distinct: still one block per entry
+  for (Index k = 0; k < A.nonZeroBlocks(); ++k) A.blockAt(k).setConstant(static_cast<double>(k % 3 == 0 ? k : 0));
+  EXPECT_FALSE(A.shareRepeatedBlocks());
+  // an empty matrix has nothing to share
+  BlockSparseMatrix<3> empty;
+  EXPECT_FALSE(empty.shareRepeatedBlocks());
+}
+
+TEST(SharedBlocks, BlocksCompareBitwiseSoSignedZerosAreKept) {
+  BlockSparseMatrix<3> A = cubeStiffness();
+  for (Index k = 0; k < A.nonZeroBlocks(); ++k) A.blockAt(k).setConstant(k % 2 ? -0.0 : 0.0);
+  ASSERT_TRUE(A.shareRepeatedBlocks());
+  EXPECT_EQ(A.storedBlocks(), 2);
+  for (Index k = 0; k < A.nonZeroBlocks(); ++k) ASSERT_EQ(std::signbit(A.blockAt(k)(1, 2)), k % 2 == 1);
+}
+
+TEST(SharedBlocks, ContactProblemOnABoxSharesItsRotatedOperator) {
+  mesh::Grid grid(mesh::boxMesh(CellType::Hexahedron, 2));
+  for (int l = 0; l < 3; ++l) grid.refineUniformly();
+  const mesh::Mesh mesh = grid.leafView().mesh;
+  BoundaryConditions bc;
+  bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Point(0.002, 0, -0.01); }});
+  const ContactSet contact(mesh, mesh::kBottom, PlaneObstacle(Point(0, 0, 0), Point(0, 0, -1)));
+  const ContactProblem<3> problem(mesh, Material{1e3, 0.3}, bc, contact);
+  EXPECT_TRUE(problem.rotatedMatrix().shared());
+  EXPECT_LE(4 * problem.rotatedMatrix().storedBlocks(), problem.rotatedMatrix().nonZeroBlocks());
+}
