@@ -77,6 +77,7 @@ SceneSolution solveLinear(const Scene& scene, const mesh::Grid& grid, const mesh
   Eigen::VectorXd b = assembleLoad<d>(mesh, bc);
   const DirichletValues g = collectDirichlet(mesh, bc.dirichlet);
   applyDirichlet(A, b, g);
+  A.shareRepeatedBlocks();  // the same values; fewer bytes per sweep on grids of repeated cells
   ElasticitySolution& e = s.elasticity;
   e.dimension = d;
   e.assemblySeconds = since(t0);

@@ -1,7 +1,11 @@
 #include "obs/obs/BlockSparseMatrix.hpp"
 
+#include <omp.h>
+
 #include <array>
 #include <bit>
+#include <cstdio>
+#include <cstdlib>
 #include <cstring>
 
 namespace obs {
@@ -194,6 +198,12 @@ bool BlockSparseMatrix<d>::shareRepeatedBlocks() {
 
 template <int d>
 void BlockSparseMatrix<d>::unshareBlocks() {
+  if (!shared()) return;
+  if (omp_in_parallel()) {  // the other threads would write to the blocks being replaced
+    std::fprintf(stderr, "obs: BlockSparseMatrix: a write to a matrix with shared blocks inside a parallel region; "
+                         "call unshareBlocks() before the loop\n");
+    std::abort();
+  }
   decltype(blocks_) all(cols_.size());
   for (std::size_t k = 0; k < all.size(); ++k) all[k] = blocks_[blockIndex_[k]];
   blocks_ = std::move(all);

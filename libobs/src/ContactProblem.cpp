@@ -348,6 +348,7 @@ void ContactProblem<d>::rotateOperator(BlockSparseMatrix<d>& A) {
   std::vector<const Mat*> Q(static_cast<std::size_t>(n), nullptr);
   for (const Constraint& c : constraints_) Q[c.vertex] = &c.rotation;
   prescribedRotated_.assign(dirichlet_.constrained.size(), 0);
+  A.unshareBlocks();  // written on threads below
   const int nt = n >= kParallelMinRows ? threads() : 1;
 #pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
   for (Index p = 0; p < n; ++p) {

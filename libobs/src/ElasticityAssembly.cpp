@@ -319,6 +319,7 @@ void applyDirichlet(BlockSparseMatrix<d>& A, Eigen::VectorXd& b, const Dirichlet
   for (Index i = 0; i < n; ++i)
     for (int a = 0; a < d; ++a) fixedVertex[static_cast<std::size_t>(i)] |= g.constrained[static_cast<std::size_t>(i) * d + a] ? 1 : 0;
   const int nt = n >= kParallelMinRows ? threads() : 1;
+  A.unshareBlocks();  // written on threads below
 #pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
   for (Index i = 0; i < n; ++i)
     for (Index k = A.rowBegin(i); k < A.rowEnd(i); ++k) {

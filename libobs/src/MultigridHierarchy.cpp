@@ -165,6 +165,7 @@ void galerkinRows(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P, const
   };
   const auto n = static_cast<std::ptrdiff_t>(rows.size());
   const int nt = n >= kParallelMinRows ? threads() : 1;
+  C.unshareBlocks();  // written on threads below
   if (nt == 1) {
     for (Index I : rows) row(I, position);
     return;

@@ -162,3 +162,36 @@ TEST(SharedBlocks, ContactProblemOnABoxSharesItsRotatedOperator) {
   EXPECT_TRUE(problem.rotatedMatrix().shared());
   EXPECT_LE(4 * problem.rotatedMatrix().storedBlocks(), problem.rotatedMatrix().nonZeroBlocks());
 }
+
+// Loops that write blocks on threads (Dirichlet elimination, the rotation of a contact problem)
+// return a shared matrix to one block per entry first, with the results of a matrix that never shared.
+TEST(SharedBlocks, WritersOnThreadsAcceptSharedMatrices) {
+  const ThreadScope scope(2);
+  mesh::Grid grid(mesh::boxMesh(CellType::Hexahedron, 2));
+  for (int l = 0; l < 3; ++l) grid.refineUniformly();
+  const mesh::Mesh mesh = grid.leafView().mesh;
+  BoundaryConditions bc;
+  bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Point(0.002, 0, -0.01); }});
+  const Material material{1e3, 0.3};
+  const DirichletValues g = collectDirichlet(mesh, bc.dirichlet);
+  const Eigen::VectorXd load = assembleLoad<3>(mesh, bc);
+
+  BlockSparseMatrix<3> plain = assembleStiffness<3>(mesh, material), shared = plain;
+  ASSERT_TRUE(shared.shareRepeatedBlocks());
+  Eigen::VectorXd b1 = load, b2 = load;
+  applyDirichlet(plain, b1, g);
+  applyDirichlet(shared, b2, g);
+  EXPECT_FALSE(shared.shared());
+  EXPECT_TRUE(sameBits(b1, b2));
+  for (Index k = 0; k < plain.nonZeroBlocks(); ++k) ASSERT_TRUE(sameBits(plain.blockAt(k), shared.blockAt(k)));
+
+  const ContactSet contact(mesh, mesh::kBottom, PlaneObstacle(Point(0, 0, 0), Point(0, 0, -1)));
+  BlockSparseMatrix<3> stiffness = assembleStiffness<3>(mesh, material), sharedStiffness = stiffness;
+  ASSERT_TRUE(sharedStiffness.shareRepeatedBlocks());
+  const ContactProblem<3> fromPlain(std::move(stiffness), load, g, contact);
+  const ContactProblem<3> fromShared(std::move(sharedStiffness), load, g, contact);
+  const auto& A1 = fromPlain.rotatedMatrix();
+  const auto& A2 = fromShared.rotatedMatrix();
+  ASSERT_EQ(A1.nonZeroBlocks(), A2.nonZeroBlocks());
+  for (Index k = 0; k < A1.nonZeroBlocks(); ++k) ASSERT_TRUE(sameBits(A1.blockAt(k), A2.blockAt(k)));
+}

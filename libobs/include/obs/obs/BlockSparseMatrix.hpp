@@ -71,6 +71,10 @@ public:
   bool shareRepeatedBlocks();
   /// Whether the blocks are stored once each (shareRepeatedBlocks()).
   bool shared() const { return !blockIndex_.empty(); }
+  /// One block per entry again (nothing to do if not shared()). The non-const accessors do this on
+  /// the first write, which must not happen inside a parallel region: loops that write blocks on
+  /// threads call this first (a write on threads to a shared matrix aborts with a message).
+  void unshareBlocks();
   /// Number of blocks stored: nonZeroBlocks(), or the distinct ones if shared().
   Index storedBlocks() const { return static_cast<Index>(blocks_.size()); }
 
@@ -140,8 +144,6 @@ public:
   };
 
 private:
-  void unshareBlocks();
-
   std::vector<Index> rowStart_{0};
   std::vector<Index> cols_;
   /// One block per entry, or (shared()) the distinct blocks; huge pages for large matrices.
