@@ -190,6 +190,7 @@ Measurement runSolver(Problem which, CellType type, int coarse, int level, const
     Eigen::VectorXd b = assembleLoad<d>(setup.mesh, bc);
     const DirichletValues g = collectDirichlet(setup.mesh, bc.dirichlet);
     applyDirichlet(A, b, g);
+    A.shareRepeatedBlocks();  // as the contact problem's operator that TNNMG works on
     m.dofs = A.rows() * d;
     m.rssBeforeMB = rssMB();
     LinearMultigridOptions o;
