@@ -1,7 +1,7 @@
 // Shared blocks (BlockSparseMatrix::shareRepeatedBlocks, docs/performance.md#shared-blocks): a matrix
 // that stores each distinct block once has bitwise the blocks, products and sweeps of the matrix with
-// one block per entry, on one thread and on two; writing returns to one block per entry; a matrix of
-// distinct blocks keeps its storage.
+// one block per entry, on one thread and on two; writing returns to one block per entry (also in the
+// loops that write on threads); a matrix of distinct blocks keeps its storage; signed zeros are kept.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -27,8 +27,8 @@ namespace {
 
 template <class T>
 bool sameBits(const T& a, const T& b) {
-  return std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0 &&
-         a.size() == b.size();
+  return a.size() == b.size() &&
+         std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<std::size_t>(a.size())) == 0;
 }
 
 /// Stiffness matrix of a cube of 16^3 hexahedra (4,913 vertices: above the size from which loops
