@@ -149,6 +149,44 @@ bool sameBits(const Block& A, const Block& B) {
   return differ == 0;
 }
 
+/// The distinct blocks of a sequence, numbered in order of first appearance: an open-addressing
+/// table of distinct numbers (load at most 1/2) over the positions of their first appearances.
+/// Blocks compare bitwise (-0.0 and 0.0 differ), so every value is kept exactly.
+template <class Block>
+class DistinctBlocks {
+public:
+  explicit DistinctBlocks(const Block* blocks) : blocks_(blocks) {}
+
+  /// Number of the block at position k (new if it is new); -1 if it would be number `limit`.
+  std::int64_t number(std::size_t k, std::size_t limit) {
+    const std::uint64_t h = blockHash(blocks_[k]);
+    std::size_t slot = h & mask();
+    for (; table_[slot] >= 0; slot = (slot + 1) & mask())
+      if (sameBits(blocks_[first_[static_cast<std::size_t>(table_[slot])]], blocks_[k])) return table_[slot];
+    if (first_.size() >= limit) return -1;
+    const auto id = static_cast<std::int64_t>(first_.size());
+    first_.push_back(k);
+    table_[slot] = id;
+    if (2 * first_.size() > table_.size()) {
+      table_.assign(2 * table_.size(), -1);
+      for (std::size_t u = 0; u < first_.size(); ++u) {
+        std::size_t t = blockHash(blocks_[first_[u]]) & mask();
+        while (table_[t] >= 0) t = (t + 1) & mask();
+        table_[t] = static_cast<std::int64_t>(u);
+      }
+    }
+    return id;
+  }
+  /// Position of the first appearance of each distinct block, by number.
+  const std::vector<std::size_t>& first() const { return first_; }
+
+private:
+  std::size_t mask() const { return table_.size() - 1; }
+  const Block* blocks_;
+  std::vector<std::size_t> first_;
+  std::vector<std::int64_t> table_ = std::vector<std::int64_t>(1024, -1);
+};
+
 }  // namespace
 
 template <int d>
@@ -157,40 +195,50 @@ bool BlockSparseMatrix<d>::shareRepeatedBlocks() {
   const std::size_t nnz = blocks_.size();
   const std::size_t limit = nnz / 4;  // at most a quarter distinct, else one block per entry stays
   if (limit == 0) return false;
-  // The distinct blocks in order of first appearance (their positions in blocks_), found through an
-  // open-addressing table of distinct numbers; blocks compare bitwise (-0.0 and 0.0 differ), so
-  // every value is kept exactly.
-  std::vector<std::uint32_t> first;
-  std::vector<std::int64_t> table(1024, -1);  // distinct number, -1 = empty; load at most 1/2
-  const auto mask = [&] { return table.size() - 1; };
-  // distinct number of block k, a new one if it is new; -1 if there would be more than `limit`
-  const auto distinctNumber = [&](std::size_t k) -> std::int64_t {
-    const std::uint64_t h = blockHash(blocks_[k]);
-    std::size_t slot = h & mask();
-    for (; table[slot] >= 0; slot = (slot + 1) & mask())
-      if (sameBits(blocks_[first[static_cast<std::size_t>(table[slot])]], blocks_[k])) return table[slot];
-    if (first.size() >= limit) return -1;
-    const auto id = static_cast<std::int64_t>(first.size());
-    first.push_back(static_cast<std::uint32_t>(k));
-    table[slot] = id;
-    if (2 * first.size() > table.size()) {
-      table.assign(2 * table.size(), -1);
-      for (std::size_t u = 0; u < first.size(); ++u) {
-        std::size_t s = blockHash(blocks_[first[u]]) & mask();
-        while (table[s] >= 0) s = (s + 1) & mask();
-        table[s] = static_cast<std::int64_t>(u);
-      }
-    }
-    return id;
-  };
+  // Chunks of a fixed size are numbered on the threads, each on its own (local numbers in order of
+  // first appearance within the chunk); then one thread merges the chunks' distinct blocks in
+  // chunk order, which numbers them in order of first appearance in the whole matrix, and the
+  // threads translate local numbers into these. The result does not depend on the thread count.
+  constexpr std::size_t kChunk = std::size_t{1} << 16;
+  const std::size_t chunks = (nnz + kChunk - 1) / kChunk;
   std::vector<std::uint32_t, LargeArrayAllocator<std::uint32_t>> index(nnz);
-  for (std::size_t k = 0; k < nnz; ++k) {
-    const std::int64_t id = distinctNumber(k);
-    if (id < 0) return false;
-    index[k] = static_cast<std::uint32_t>(id);
+  std::vector<std::vector<std::size_t>> chunkFirst(chunks);  // first appearances of each chunk's blocks
+  const auto count = static_cast<long long>(chunks);
+  const int nt = chunks > 1 ? threads() : 1;
+  int tooMany = 0;
+#pragma omp parallel for schedule(dynamic, 1) num_threads(nt) reduction(max : tooMany) if (nt > 1)
+  for (long long c = 0; c < count; ++c) {
+    const auto u = static_cast<std::size_t>(c);
+    DistinctBlocks<Block> local(blocks_.data());
+    for (std::size_t k = u * kChunk; k < std::min(nnz, (u + 1) * kChunk); ++k) {
+      const std::int64_t id = local.number(k, limit);
+      if (id < 0) {  // more than `limit` in this chunk alone
+        tooMany = 1;
+        break;
+      }
+      index[k] = static_cast<std::uint32_t>(id);
+    }
+    chunkFirst[u] = local.first();
   }
-  decltype(blocks_) distinct(first.size());
-  for (std::size_t u = 0; u < first.size(); ++u) distinct[u] = blocks_[first[u]];
+  if (tooMany != 0) return false;
+  DistinctBlocks<Block> all(blocks_.data());
+  std::vector<std::vector<std::uint32_t>> toGlobal(chunks);
+  for (std::size_t c = 0; c < chunks; ++c) {
+    toGlobal[c].reserve(chunkFirst[c].size());
+    for (const std::size_t k : chunkFirst[c]) {
+      const std::int64_t id = all.number(k, limit);
+      if (id < 0) return false;
+      toGlobal[c].push_back(static_cast<std::uint32_t>(id));
+    }
+  }
+#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
+  for (long long c = 0; c < count; ++c) {
+    const auto u = static_cast<std::size_t>(c);
+    const std::vector<std::uint32_t>& map = toGlobal[u];
+    for (std::size_t k = u * kChunk; k < std::min(nnz, (u + 1) * kChunk); ++k) index[k] = map[index[k]];
+  }
+  decltype(blocks_) distinct(all.first().size());
+  for (std::size_t u = 0; u < distinct.size(); ++u) distinct[u] = blocks_[all.first()[u]];
   blocks_ = std::move(distinct);
   blockIndex_ = std::move(index);
   return true;

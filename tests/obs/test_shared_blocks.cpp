@@ -1,7 +1,8 @@
 // Shared blocks (BlockSparseMatrix::shareRepeatedBlocks, docs/performance.md#shared-blocks): a matrix
 // that stores each distinct block once has bitwise the blocks, products and sweeps of the matrix with
-// one block per entry, on one thread and on two; writing returns to one block per entry (also in the
-// loops that write on threads); a matrix of distinct blocks keeps its storage; signed zeros are kept.
+// one block per entry, on one thread and on two; sharing on two threads numbers the blocks as on
+// one; writing returns to one block per entry (also in the loops that write on threads); a matrix of
+// distinct blocks keeps its storage; signed zeros are kept.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -9,6 +10,7 @@
 #include <limits>
 #include <set>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "../ThreadScope.hpp"
@@ -93,6 +95,42 @@ TEST(SharedBlocks, StiffnessOfABoxStoresEachDistinctBlockOnceWithTheSameValues) 
   EXPECT_LT(4 * S.memoryBytes(), A.memoryBytes());
   for (Index k = 0; k < A.nonZeroBlocks(); ++k) ASSERT_TRUE(sameBits(S.blockAt(k), A.blockAt(k))) << "block " << k;
   EXPECT_TRUE(S.shareRepeatedBlocks());  // a second call keeps the shared storage
+}
+
+/// The distinct blocks of a shared matrix and the block number of every entry, as bytes.
+std::string sharedStorage(const BlockSparseMatrix<3>& S) {
+  return S.withBlocks([&](const auto view) {
+    std::string bytes;
+    if constexpr (std::is_same_v<decltype(view), const BlockSparseMatrix<3>::SharedBlocks>) {
+      bytes.append(reinterpret_cast<const char*>(view.blocks), sizeof(BlockSparseMatrix<3>::Block) * S.storedBlocks());
+      bytes.append(reinterpret_cast<const char*>(view.index), sizeof(std::uint32_t) * S.nonZeroBlocks());
+    }
+    return bytes;
+  });
+}
+
+TEST(SharedBlocks, SharingOnTwoThreadsNumbersTheBlocksAsOnOne) {
+  // the matrix has two chunks of 65,536 blocks, numbered on the threads and then merged
+  const BlockSparseMatrix<3> A = cubeStiffness();
+  ASSERT_GT(A.nonZeroBlocks(), 65536);
+  BlockSparseMatrix<3> one = A, two = A;
+  ASSERT_TRUE(one.shareRepeatedBlocks());
+  {
+    const ThreadScope scope(2);
+    ASSERT_TRUE(two.shareRepeatedBlocks());
+  }
+  const std::string bytes = sharedStorage(one);
+  ASSERT_FALSE(bytes.empty());
+  EXPECT_EQ(bytes, sharedStorage(two));
+  // numbered in order of first appearance: entry 0 has number 0, and no entry has a number above
+  // that of every entry before it plus one
+  const std::uint32_t* index = reinterpret_cast<const std::uint32_t*>(bytes.data() + bytes.size()) - A.nonZeroBlocks();
+  std::uint32_t next = 0;
+  for (Index k = 0; k < A.nonZeroBlocks(); ++k) {
+    ASSERT_LE(index[k], next) << "entry " << k;
+    if (index[k] == next) ++next;
+  }
+  EXPECT_EQ(static_cast<Index>(next), one.storedBlocks());
 }
 
 TEST(SharedBlocks, ProductsAndSweepsAreBitwiseThoseOfOneBlockPerEntryOnOneAndTwoThreads) {
