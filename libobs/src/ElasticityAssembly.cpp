@@ -94,14 +94,22 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
   using Block = typename BlockSparseMatrix<d>::Block;
   using Vec = Eigen::Matrix<double, d, 1>;
   constexpr int kMax = 8;  // vertices per cell
+  // Per cell of a chunk: where its blocks go, and which cell's matrix it takes. The matrices live
+  // apart (CellMatrix), written only for the cells whose matrix is computed, so that a chunk of
+  // translates touches a few kilobytes of them, not the 4.6 KB of a hexahedron's matrix per cell.
+  // Neither is value-initialised (no zeroing of megabytes per call).
   struct Local {
-    Block block[kMax][kMax];
+    Local() {}
     Index pos[kMax][kMax];
     int n;
-    int source;  // the local (in this chunk) whose blocks are this cell's matrix: itself, or a translate's
+    int source;  // the local (in this chunk) whose matrix is this cell's: itself, or a translate's
   };
-  // cell matrices of a chunk of cells on threads() threads, added to A in cell order by one thread:
-  // the same sums in the same order as a sequential loop, whatever the thread count
+  struct CellMatrix {
+    CellMatrix() {}
+    Block block[kMax][kMax];
+  };
+  // cell matrices of a chunk of cells on threads() threads, added to A in cell order (below): the
+  // same sums in the same order as a sequential loop, whatever the thread count
   struct Values {
     // one CellValues per quadrature (simplices need one point) and, for each, the local (in this
     // chunk) of the last cell whose matrix it computed (-1: none). CellValues::reinit tells when a
@@ -110,8 +118,10 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
     CellValues<d> general{kStiffnessDegree}, simplex{kSimplexStiffnessDegree};
     int computedGeneral = -1, computedSimplex = -1;
   };
-  const auto cellMatrix = [&](Values& values, Index c, std::vector<Local>& chunkLocals, int self) {
+  const auto cellMatrix = [&](Values& values, Index c, std::vector<Local>& chunkLocals,
+                              std::vector<CellMatrix>& chunkMatrices, int self) {
     Local& out = chunkLocals[static_cast<std::size_t>(self)];
+    CellMatrix& K = chunkMatrices[static_cast<std::size_t>(self)];
     const mesh::CellType type = mesh.cellType(c);
     const auto verts = mesh.cellVertices(c);
     const int n = static_cast<int>(verts.size());
@@ -144,7 +154,7 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
     Vec meanGradient[kMax];
     for (int i = 0; i < n; ++i) {
       meanGradient[i].setZero();
-      for (int j = i; j < n; ++j) out.block[i][j].setZero();
+      for (int j = i; j < n; ++j) K.block[i][j].setZero();
     }
     double volume = 0;
     for (int q = 0; q < cv.numPoints(); ++q) {
@@ -157,24 +167,25 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
           const auto& gj = cv.gradient(q, j);
           // K_ij[a][b] = lambda d_a phi_i d_b phi_j + mu (delta_ab grad phi_i . grad phi_j
           //              + d_b phi_i d_a phi_j)
-          out.block[i][j].noalias() += w * (pointwise * gi * gj.transpose() + mu * gj * gi.transpose());
-          out.block[i][j].diagonal().array() += w * mu * gi.dot(gj);
+          K.block[i][j].noalias() += w * (pointwise * gi * gj.transpose() + mu * gj * gi.transpose());
+          K.block[i][j].diagonal().array() += w * mu * gi.dot(gj);
         }
       }
     }
     for (int i = 0; i < n; ++i)
       for (int j = i; j < n; ++j) {
-        if (bbar) out.block[i][j].noalias() += (kappa / volume) * meanGradient[i] * meanGradient[j].transpose();
-        if (j > i) out.block[j][i] = out.block[i][j].transpose();
+        if (bbar) K.block[i][j].noalias() += (kappa / volume) * meanGradient[i] * meanGradient[j].transpose();
+        if (j > i) K.block[j][i] = K.block[i][j].transpose();
       }
     // the diagonal blocks exactly symmetric too (their two off-diagonal triangles are rounded apart)
-    for (int i = 0; i < n; ++i) out.block[i][i] = 0.5 * (out.block[i][i] + out.block[i][i].transpose()).eval();
+    for (int i = 0; i < n; ++i) K.block[i][i] = 0.5 * (K.block[i][i] + K.block[i][i].transpose()).eval();
     computed = self;
   };
   const Index cells = mesh.numCells();
   const int nt = cells >= kParallelMinRows ? threads() : 1;
   const Index chunk = std::min<Index>(cells, 4096);
   std::vector<Local> locals(static_cast<std::size_t>(std::max<Index>(chunk, 1)));
+  std::vector<CellMatrix> matrices(locals.size());
   std::vector<Values> values(static_cast<std::size_t>(nt));
   // The chunk's matrices are added to A by nt threads, each owning a range of block rows (about the
   // same number of blocks each) and visiting the cells in order: every block gets its sums in cell
@@ -188,10 +199,10 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
   const auto addChunk = [&](Index first, Index last, Index from, Index to) {
     for (Index c = first; c < last; ++c) {
       const Local& l = locals[static_cast<std::size_t>(c - first)];
-      const Local& m = locals[static_cast<std::size_t>(l.source)];
+      const CellMatrix& K = matrices[static_cast<std::size_t>(l.source)];
       for (int i = 0; i < l.n; ++i) {
         if (l.pos[i][0] < from || l.pos[i][0] >= to) continue;
-        for (int j = 0; j < l.n; ++j) A.blockAt(l.pos[i][j]) += m.block[i][j];
+        for (int j = 0; j < l.n; ++j) A.blockAt(l.pos[i][j]) += K.block[i][j];
       }
     }
   };
@@ -209,14 +220,14 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
       Values& cv = values.front();
 #endif
       try {
-        cellMatrix(cv, c, locals, static_cast<int>(c - first));
+        cellMatrix(cv, c, locals, matrices, static_cast<int>(c - first));
       } catch (const Error&) {
         failed = std::min(failed, c);
       }
     }
     if (failed < last) {  // throws its obs::Error
       Values fresh;
-      cellMatrix(fresh, failed, locals, static_cast<int>(failed - first));
+      cellMatrix(fresh, failed, locals, matrices, static_cast<int>(failed - first));
     }
 #pragma omp parallel for schedule(static, 1) num_threads(nt) if (nt > 1)
     for (int t = 0; t < nt; ++t)
