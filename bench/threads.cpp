@@ -254,11 +254,11 @@ int main(int argc, char** argv) {
        << (two ? " and the binaries (baseline: the --baseline binary, this: the --obs binary)" : std::string())
        << " alternate, best wall time of " << repeat << " runs, its CPU time, memory and phases):\n\n"
        << (two ? "| binary " : "")
-       << "| threads | wall s | CPU s | peak MB | assembly s | solve s | wall s of every run | solve s of every run | "
-          "correction |\n"
-       << (two ? "|---" : "") << "|---:|---:|---:|---:|---:|---:|---|---|---|\n";
+       << "| threads | wall s | CPU s | peak MB | assembly s | solve s | output s | .vtu MB | wall s of every run | "
+          "solve s of every run | correction |\n"
+       << (two ? "|---" : "") << "|---:|---:|---:|---:|---:|---:|---:|---:|---|---|---|\n";
     struct Run {
-      double wall = 1e300, cpu = 0, mb = 0, assembly = 0, solve = 0;
+      double wall = 1e300, cpu = 0, mb = 0, assembly = 0, solve = 0, output = 0, fileMb = 0;
       std::string all, solves, correction;
     };
     std::vector<Run> runs(binaries.size() * static_cast<std::size_t>(maxThreads));
@@ -289,8 +289,12 @@ int main(int argc, char** argv) {
           Run& r = runs[bin * static_cast<std::size_t>(maxThreads) + static_cast<std::size_t>(t - 1)];
           r.all += (r.all.empty() ? "" : ", ") + fmt(wall);
           r.solves += (r.solves.empty() ? "" : ", ") + fmt(number("solve_s"));
+          std::error_code noFile;
+          const auto bytes = std::filesystem::file_size(dir + "/step42.vtu", noFile);
+          const double fileMb = noFile ? std::nan("") : static_cast<double>(bytes) / 1e6;
           if (wall < r.wall)
-            r = Run{wall, user + sys, kb / 1024, number("assembly_s"), number("solve_s"), r.all, r.solves, correction};
+            r = Run{wall,     user + sys, kb / 1024, number("assembly_s"), number("solve_s"), number("output_s"),
+                    fileMb,   r.all,      r.solves,  correction};
           std::cerr << "obs run" << (two ? " (" + binaries[bin].first + ")" : std::string()) << ", " << t
                     << " threads: " << fmt(wall) << " s wall\n";
         }
@@ -299,9 +303,9 @@ int main(int argc, char** argv) {
         const Run* row = &runs[bin * static_cast<std::size_t>(maxThreads)];
         const Run& r = row[t - 1];
         md << (two ? "| " + binaries[bin].first + " " : std::string()) << "| " << t << " | " << fmt(r.wall)
-           << (t > 1 ? " (" + fmt(row[0].wall / r.wall, 2) + "x)" : "") << " | " << fmt(r.cpu) << " | " << fmt(r.mb, 4)
-           << " | " << fmt(r.assembly) << " | " << fmt(r.solve) << " | " << r.all << " | " << r.solves << " | "
-           << r.correction << " |\n";
+           << (t > 1 ? " (" + fmt(row[0].wall / r.wall, 3) + "x)" : "") << " | " << fmt(r.cpu) << " | " << fmt(r.mb, 4)
+           << " | " << fmt(r.assembly) << " | " << fmt(r.solve) << " | " << fmt(r.output) << " | " << fmt(r.fileMb, 4)
+           << " | " << r.all << " | " << r.solves << " | " << r.correction << " |\n";
       }
   }
   if (!bench::writeMarkdownBlock(out, "threads", md.str())) {

@@ -1,7 +1,7 @@
 #pragma once
 /// \file VtkWriter.hpp
 /// Writing a Mesh with point and cell data as a VTK XML unstructured grid (.vtu) for ParaView:
-/// binary appended data in zlib-compressed blocks of 32 KB, the layout of VTK's own
+/// binary appended data in zlib-format blocks of 32 KB (compressed by libdeflate), the layout of VTK's own
 /// vtkXMLUnstructuredGridWriter (header_type UInt64), written by obs so that the blocks are compressed
 /// on threads() threads (the bytes do not depend on the thread count; docs/performance.md#vtk-output).
 /// The tests read the files back with VTK's reader.
