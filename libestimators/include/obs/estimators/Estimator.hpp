@@ -35,14 +35,14 @@ namespace obs::estimators {
 
 using mesh::Index;
 
-/// Identifies one state of a mesh: its sizes, a 64-bit hash (FNV-1a) of dimension, cell types,
-/// connectivity, boundary faces and vertex coordinates, and an optional revision number given by the
-/// caller (e.g. a grid's refinement counter; 0 = none).
+/// Identifies one state of a mesh: its sizes, a 64-bit hash (FNV-1a over values) of dimension, cell
+/// types, connectivity, boundary faces and vertex coordinates, and an optional revision number given
+/// by the caller (e.g. a grid's refinement counter; 0 = none).
 struct MeshStamp {
   int dimension = 0;         ///< of the mesh
   Index numVertices = 0;     ///< of the mesh
   Index numCells = 0;        ///< of the mesh
-  std::uint64_t hash = 0;    ///< FNV-1a of the mesh content
+  std::uint64_t hash = 0;    ///< FNV-1a (over values) of the mesh content
   std::uint64_t revision = 0;  ///< the caller's revision number (0: none)
 
   /// Same mesh content (sizes and hash); the revision is not compared.
