@@ -80,10 +80,15 @@ Array fieldArray(const Field& f, std::size_t tuples, const char* kind) {
                 std::to_string(f.values.size()) + " values, expected " + std::to_string(tuples) +
                 " x " + std::to_string(f.components));
   Array a{f.integer ? "Int32" : "Float64", f.name, f.components, {}, {}};
-  a.raw.reserve(f.values.size() * (f.integer ? 4 : 8));
-  for (double v : f.values) {
-    if (f.integer) put(a.raw, static_cast<std::int32_t>(v));
-    else put(a.raw, v);
+  if (f.integer) {
+    a.raw.resize(f.values.size() * sizeof(std::int32_t));
+    for (std::size_t i = 0; i < f.values.size(); ++i) {
+      const auto v = static_cast<std::int32_t>(f.values[i]);
+      std::memcpy(a.raw.data() + i * sizeof v, &v, sizeof v);
+    }
+  } else {  // little-endian doubles: the values' own bytes
+    a.raw.resize(f.values.size() * sizeof(double));
+    if (!f.values.empty()) std::memcpy(a.raw.data(), f.values.data(), a.raw.size());
   }
   setRange(a, f.values);
   return a;
