@@ -135,10 +135,10 @@ std::vector<double> patchDiameters(const mesh::Mesh& mesh) {
   // A pair (a, b) is no farther apart than r_a + r_b, its distances from p (the triangle
   // inequality through x_p), so with the vertices sorted by r descending the pairs of a stop at the
   // first b with r_a + r_b below the best distance found, and the vertices a at the first with
-  // 2 r_a below it. On a uniform patch that leaves a few pairs of corners instead of all 351 pairs
-  // of 27 vertices. The bound is relaxed by 1e-12 relative, far above the rounding of r_a + r_b,
-  // so the pruned pairs are exactly those that cannot be the maximum: the result is bitwise the
-  // maximum over all pairs.
+  // 2 r_a below it: once the diameter is found, among the farthest vertices, the rest is skipped.
+  // The bound is relaxed by 1e-12 relative, far above the rounding of r_a + r_b, so the pruned
+  // pairs are exactly those that cannot be the maximum: the result is bitwise the maximum over all
+  // pairs.
   std::vector<double> h(nv, 0.0);
   struct Scratch {
     std::vector<Index> mark;  // mark[v] = the last vertex whose patch listed v
