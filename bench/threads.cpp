@@ -14,8 +14,9 @@
 //  3. TNNMG on the step-42 problem: iterations, solve seconds, energy; two solves per thread count
 //     must give bitwise the same solution (reproducibility for a fixed thread count);
 //  4. with --obs: the whole `obs run data/scenes/step42.toml --refine 4` per thread count (wall and
-//     CPU seconds, peak memory, from /usr/bin/time); with --baseline also another obs binary (an
-//     older version, say), the two alternating run by run, with the solver's correction of each.
+//     CPU seconds, peak memory, from /usr/bin/time; the assembly, solve and output phases from
+//     summary.json; the size of the .vtu file); with --baseline also another obs binary (an older
+//     version, say), the two alternating run by run, with the solver's correction of each.
 // Writes the tables between the bench/threads markers of OUT.md (MarkdownBlock.hpp).
 #include <chrono>
 #include <cmath>
