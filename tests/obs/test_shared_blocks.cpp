@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <limits>
 #include <set>
@@ -122,13 +123,16 @@ TEST(SharedBlocks, SharingOnTwoThreadsNumbersTheBlocksAsOnOne) {
   const std::string bytes = sharedStorage(one);
   ASSERT_FALSE(bytes.empty());
   EXPECT_EQ(bytes, sharedStorage(two));
-  // numbered in order of first appearance: entry 0 has number 0, and no entry has a number above
-  // that of every entry before it plus one
-  const std::uint32_t* index = reinterpret_cast<const std::uint32_t*>(bytes.data() + bytes.size()) - A.nonZeroBlocks();
+  // numbered in order of first appearance: each entry's number is at most one more than the largest
+  // number before it (entry 0 has number 0)
+  std::vector<std::uint32_t> index(static_cast<std::size_t>(A.nonZeroBlocks()));
+  std::memcpy(index.data(), bytes.data() + bytes.size() - sizeof(std::uint32_t) * index.size(),
+              sizeof(std::uint32_t) * index.size());
   std::uint32_t next = 0;
   for (Index k = 0; k < A.nonZeroBlocks(); ++k) {
-    ASSERT_LE(index[k], next) << "entry " << k;
-    if (index[k] == next) ++next;
+    const std::uint32_t number = index[static_cast<std::size_t>(k)];
+    ASSERT_LE(number, next) << "entry " << k;
+    if (number == next) ++next;
   }
   EXPECT_EQ(static_cast<Index>(next), one.storedBlocks());
 }
