@@ -29,8 +29,8 @@ constexpr std::array<int, 6> kPrismToVtk{0, 2, 1, 3, 5, 4};
 /// The layout of VTK's own XML writer: data cut into blocks of 32 KB (its default), each compressed on
 /// its own into the zlib format (what VTK's vtkZLibDataCompressor reads). The compressor is
 /// libdeflate at level 1: on the step-42 output at 64^3 (92 MB of arrays, mostly doubles that
-/// hardly compress) it takes less than half the time of zlib's own level 1, for 1.8 % fewer bytes
-/// (docs/performance.md#vtk-output).
+/// hardly compress) the output phase took 0.86 s instead of zlib level 1's 1.85 s on one thread, for
+/// 1.8 % fewer bytes (bench/threads, docs/performance.md#vtk-output).
 constexpr std::size_t kBlockBytes = 32768;
 constexpr int kDeflateLevel = 1;
 
