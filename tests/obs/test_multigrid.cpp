@@ -165,7 +165,7 @@ TEST(MultigridHierarchy, GalerkinOperatorsWithRotationsAndTruncationAreDenseTrip
 
 TEST(MultigridHierarchy, LocalUpdatesEqualAFullRecomputation) {
   // a truncation that changes at a few vertices is updated locally (rows near the changes only);
-  // the result must equal the operators of a hierarchy set up with the new mask from scratch
+  // the result must be bitwise the operators of a hierarchy set up with the new mask from scratch
   for (CellType type : {CellType::Quadrilateral, CellType::Tetrahedron}) {
     auto check = [&]<int d>(std::integral_constant<int, d>) {
       const mesh::Grid grid = refinedGrid(type, 2, 3);
@@ -193,9 +193,9 @@ TEST(MultigridHierarchy, LocalUpdatesEqualAFullRecomputation) {
         EXPECT_LT(h.coarseRowsRecomputed() - before, h.numVertices(h.maxLevel() - 1));
         MultigridHierarchy<d> fresh(grid);
         fresh.setFineOperator(s.A, rotations, mask);
-        for (int l = 0; l < h.maxLevel(); ++l) {
+        for (int l = 0; l < h.maxLevel(); ++l) {  // every entry is the same sum in the same order
           const Eigen::MatrixXd a = dense(h.coarseOperator(l)), b = dense(fresh.coarseOperator(l));
-          EXPECT_LT((a - b).cwiseAbs().maxCoeff(), 1e-12 * b.cwiseAbs().maxCoeff()) << name(type) << " level " << l;
+          EXPECT_EQ((a - b).cwiseAbs().maxCoeff(), 0.0) << name(type) << " level " << l;
         }
         for (std::size_t i = 0; i < mask.size(); i += d)
           if (mask[i] && !s.g.constrained[i]) {

@@ -151,7 +151,6 @@ private:
   std::vector<Index> changed_;
   std::vector<std::vector<Index>> updatedRows_;
   std::vector<char> fullUpdate_;
-  std::vector<Index> position_;  ///< work array of the row-wise product
   mutable Eigen::VectorXd restrictBuffer_;  ///< the transformed fine defect of a threaded restrict()
   long long rowsRecomputed_ = 0;
   int updates_ = 0;
