@@ -152,7 +152,8 @@ void LinearMultigrid<d>::defect(int level, const Eigen::VectorXd& r, const Eigen
   // On the finest level x is zero at truncated components, so A x = A_T x off the truncated rows;
   // the truncated rows of the defect are removed by the restriction (E_p = Q_p T_p).
   levelOperator(level).multiply(x, out);
-  out = r - out;
+  const auto n = static_cast<Index>(out.size());
+  forRanges(n, [&](Index b, Index e) { out.segment(b, e - b) = r.segment(b, e - b) - out.segment(b, e - b); });
 }
 
 template <int d>
