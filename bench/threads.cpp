@@ -15,9 +15,10 @@
 //  3. TNNMG on the step-42 problem: iterations, solve seconds, energy; two solves per thread count
 //     must give bitwise the same solution (reproducibility for a fixed thread count);
 //  4. with --obs: the whole `obs run data/scenes/step42.toml --refine 4` per thread count (wall and
-//     CPU seconds, peak memory, from /usr/bin/time; the assembly, solve and output phases from
-//     summary.json; the size of the .vtu file); with --baseline also another obs binary (an older
-//     version, say), the two alternating run by run, with the solver's correction of each.
+//     CPU seconds, peak memory, from /usr/bin/time; the mesh, assembly, solve and output phases
+//     from summary.json, and the set-up within the solve where summary.json has TNNMG's phases; the
+//     size of the .vtu file); with --baseline also another obs binary (an older version, say), the
+//     two alternating run by run, with the solver's correction of each.
 // Writes the tables between the bench/threads markers of OUT.md (MarkdownBlock.hpp).
 #include <chrono>
 #include <cmath>
@@ -262,11 +263,11 @@ int main(int argc, char** argv) {
        << (two ? " and the binaries (baseline: the --baseline binary, this: the --obs binary)" : std::string())
        << " alternate, best wall time of " << repeat << " runs, its CPU time, memory and phases):\n\n"
        << (two ? "| binary " : "")
-       << "| threads | wall s | CPU s | peak MB | assembly s | solve s | output s | .vtu MB | wall s of every run | "
-          "solve s of every run | correction |\n"
-       << (two ? "|---" : "") << "|---:|---:|---:|---:|---:|---:|---:|---:|---|---|---|\n";
+       << "| threads | wall s | CPU s | peak MB | mesh s | assembly s | solve s | of it set-up s | output s | .vtu MB | "
+          "wall s of every run | solve s of every run | correction |\n"
+       << (two ? "|---" : "") << "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|---|\n";
     struct Run {
-      double wall = 1e300, cpu = 0, mb = 0, assembly = 0, solve = 0, output = 0, fileMb = 0;
+      double wall = 1e300, cpu = 0, mb = 0, mesh = 0, assembly = 0, solve = 0, setup = 0, output = 0, fileMb = 0;
       std::string all, solves, correction;
     };
     std::vector<Run> runs(binaries.size() * static_cast<std::size_t>(maxThreads));
@@ -301,8 +302,9 @@ int main(int argc, char** argv) {
           const auto bytes = std::filesystem::file_size(dir + "/step42.vtu", noFile);
           const double fileMb = noFile ? std::nan("") : static_cast<double>(bytes) / 1e6;
           if (wall < r.wall)
-            r = Run{wall,     user + sys, kb / 1024, number("assembly_s"), number("solve_s"), number("output_s"),
-                    fileMb,   r.all,      r.solves,  correction};
+            r = Run{wall,           user + sys,       kb / 1024,          number("mesh_s"), number("assembly_s"),
+                    number("solve_s"), number("setup_s"), number("output_s"), fileMb,           r.all,
+                    r.solves,          correction};
           std::cerr << "obs run" << (two ? " (" + binaries[bin].first + ")" : std::string()) << ", " << t
                     << " threads: " << fmt(wall) << " s wall\n";
         }
@@ -312,7 +314,8 @@ int main(int argc, char** argv) {
         const Run& r = row[t - 1];
         md << (two ? "| " + binaries[bin].first + " " : std::string()) << "| " << t << " | " << fmt(r.wall)
            << (t > 1 ? " (" + fmt(row[0].wall / r.wall, 3) + "x)" : "") << " | " << fmt(r.cpu) << " | " << fmt(r.mb, 4)
-           << " | " << fmt(r.assembly) << " | " << fmt(r.solve) << " | " << fmt(r.output) << " | " << fmt(r.fileMb, 4)
+           << " | " << fmt(r.mesh) << " | " << fmt(r.assembly) << " | " << fmt(r.solve) << " | "
+           << (std::isnan(r.setup) ? std::string("-") : fmt(r.setup)) << " | " << fmt(r.output) << " | " << fmt(r.fileMb, 4)
            << " | " << r.all << " | " << r.solves << " | " << r.correction << " |\n";
       }
   }

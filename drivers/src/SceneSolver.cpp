@@ -58,6 +58,14 @@ std::function<void(const IterationRecord&)> iterationLines(const std::string& ty
   };
 }
 
+/// The V-cycles and the phases of a TNNMG solve, for summary.json.
+template <class Statistics>
+void reportTnnmg(const Statistics& st, SolverReport& report) {
+  report.vcycles = st.vcycles;
+  report.phases = TnnmgPhases{st.setupSeconds,      st.smoothingSeconds, st.updateSeconds,
+                              st.correctionSeconds, st.otherSeconds,     st.operatorUpdates};
+}
+
 template <int d>
 SceneSolution solveLinear(const Scene& scene, const mesh::Grid& grid, const mesh::Mesh& mesh,
                           const BoundaryConditions& bc, const AssembledCallback& assembled) {
@@ -176,7 +184,7 @@ SceneSolution solveContact(const Scene& scene, const mesh::Grid& grid, const mes
   try {
     const auto solver = makeContactSolver<d>(scene, {&grid}, progress, tolerance);
     result = solver->solve(problem, e.displacement);
-    if (const auto* tnnmg = dynamic_cast<const TNNMG<d>*>(solver.get())) s.solver.vcycles = tnnmg->statistics().vcycles;
+    if (const auto* tnnmg = dynamic_cast<const TNNMG<d>*>(solver.get())) reportTnnmg(tnnmg->statistics(), s.solver);
   } catch (const Error& err) {
     solverFailed(scene, type, err);
   }
@@ -305,7 +313,7 @@ MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mes
   try {
     const auto solver = makeContactSolver<d>(scene, grids, progress, tolerance);
     result = solver->solve(*problem, x);
-    if (const auto* tnnmg = dynamic_cast<const TNNMG<d>*>(solver.get())) s.solver.vcycles = tnnmg->statistics().vcycles;
+    if (const auto* tnnmg = dynamic_cast<const TNNMG<d>*>(solver.get())) reportTnnmg(tnnmg->statistics(), s.solver);
   } catch (const Error& err) {
     solverFailed(scene, type, err);
   }

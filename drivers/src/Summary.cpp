@@ -28,6 +28,9 @@ nlohmann::json summaryJson(const RunResult& r) {
     solver["convergence_rate"] = r.solver.convergenceRate;
   }
   if (r.solver.vcycles >= 0) solver["vcycles"] = r.solver.vcycles;
+  if (const auto& p = r.solver.phases)
+    solver["phases"] = {{"setup_s", p->setup},     {"nonsmooth_s", p->nonsmooth}, {"updates_s", p->updates},
+                        {"vcycles_s", p->vcycles}, {"other_s", p->other},         {"operator_updates", p->operatorUpdates}};
   if (r.solver.kkt)
     solver["kkt"] = {{"feasibility", r.solver.kkt->primalFeasibility},
                      {"multiplier_sign", r.solver.kkt->dualSign},

@@ -297,6 +297,23 @@ TEST(ContactScene, VertexPatchSmootherAndKrylovSteps) {
   EXPECT_TRUE(c.solver.converged);
   EXPECT_EQ(c.solver.vcycles, 2LL * c.solver.iterations);
   EXPECT_EQ(summaryOf(kTmp / "smoother_patch")["solver"]["vcycles"], c.solver.vcycles);
+  // where the time of the solve went: the phases are laps of the solve, so they add up to at most
+  // its time; the coarse operators are set up once and recomputed when the truncation changes
+  const auto solver = summaryOf(kTmp / "smoother_default")["solver"];
+  ASSERT_TRUE(solver.contains("phases"));
+  const auto& phases = solver["phases"];
+  double sum = 0;
+  for (const char* key : {"setup_s", "nonsmooth_s", "updates_s", "vcycles_s", "other_s"}) {
+    ASSERT_TRUE(phases.contains(key)) << key;
+    EXPECT_GE(phases[key].get<double>(), 0.0) << key;
+    sum += phases[key].get<double>();
+  }
+  EXPECT_GT(phases["setup_s"].get<double>(), 0.0);
+  EXPECT_GT(phases["vcycles_s"].get<double>(), 0.0);
+  EXPECT_LE(sum, solver["time_s"].get<double>());
+  EXPECT_GE(phases["operator_updates"].get<int>(), 1);
+  ASSERT_TRUE(a.solver.phases);
+  EXPECT_EQ(phases["operator_updates"].get<int>(), a.solver.phases->operatorUpdates);
   const auto ua = readVtu(kTmp / "smoother_default" / "smoother_default.vtu").array("displacement");
   const auto ub = readVtu(kTmp / "smoother_gs" / "smoother_gs.vtu").array("displacement");
   const auto uc = readVtu(kTmp / "smoother_patch" / "smoother_patch.vtu").array("displacement");
@@ -311,6 +328,7 @@ TEST(ContactScene, VertexPatchSmootherAndKrylovSteps) {
   const RunResult m = runIn(mg, kTmp / "linear_mg_patch");
   EXPECT_TRUE(m.solver.converged);
   EXPECT_EQ(m.solver.vcycles, m.solver.iterations);
+  EXPECT_FALSE(summaryOf(kTmp / "linear_mg_patch")["solver"].contains("phases"));  // TNNMG's only
 }
 
 TEST(ContactScene, WCycleKeepsTnnmgIterationsLowOnTetrahedra) {

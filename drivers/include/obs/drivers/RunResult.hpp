@@ -13,6 +13,16 @@
 
 namespace obs::drivers {
 
+/// Where the time of a TNNMG solve went (TNNMG::Statistics; docs/scenes.md, summary.json).
+struct TnnmgPhases {
+  double setup = 0;      ///< rotated operator, smoother, the coarse operators of every level
+  double nonsmooth = 0;  ///< nonsmooth Gauss-Seidel sweeps
+  double updates = 0;    ///< coarse operators recomputed when the truncation changed
+  double vcycles = 0;    ///< the linear corrections
+  double other = 0;      ///< products, residuals, line search, stopping test
+  int operatorUpdates = 0;
+};
+
 /// How the discrete problem was solved.
 struct SolverReport {
   std::string type;         ///< "direct", "multigrid", "tnnmg", "pdas" or "pgs"
@@ -23,6 +33,7 @@ struct SolverReport {
   double correction = 0;    ///< last relative energy-norm correction (iterative solvers)
   double convergenceRate = 0;  ///< geometric mean of the correction ratios (iterative solvers)
   long long vcycles = -1;   ///< tnnmg, multigrid: V-cycles run (-1: not reported)
+  std::optional<TnnmgPhases> phases;  ///< static tnnmg solves
   std::optional<KktResiduals> kkt;  ///< contact solvers: KKT residuals of the solution
 };
 
