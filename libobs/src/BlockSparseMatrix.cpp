@@ -259,6 +259,47 @@ void BlockSparseMatrix<d>::unshareBlocks() {
 }
 
 template <int d>
+BlockSparseMatrix<d>::BlockWriter::BlockWriter(BlockSparseMatrix& A) : A_(A) {
+  if (!A_.shared()) return;
+  std::size_t size = 1024;
+  while (size < 2 * A_.blocks_.size()) size *= 2;
+  table_.assign(size, -1);
+  for (std::size_t u = 0; u < A_.blocks_.size(); ++u) insert(static_cast<std::uint32_t>(u));
+}
+
+template <int d>
+void BlockSparseMatrix<d>::BlockWriter::insert(std::uint32_t id) {
+  const std::size_t mask = table_.size() - 1;
+  std::size_t slot = blockHash(A_.blocks_[id]) & mask;
+  while (table_[slot] >= 0) slot = (slot + 1) & mask;
+  table_[slot] = id;
+}
+
+template <int d>
+void BlockSparseMatrix<d>::BlockWriter::set(Index k, const Block& value) {
+  if (!A_.shared()) {
+    A_.blocks_[static_cast<std::size_t>(k)] = value;
+    return;
+  }
+  const std::size_t mask = table_.size() - 1;
+  std::size_t slot = blockHash(value) & mask;
+  for (; table_[slot] >= 0; slot = (slot + 1) & mask)
+    if (sameBits(A_.blocks_[static_cast<std::size_t>(table_[slot])], value)) {
+      A_.blockIndex_[static_cast<std::size_t>(k)] = static_cast<std::uint32_t>(table_[slot]);
+      return;
+    }
+  const auto id = static_cast<std::uint32_t>(A_.blocks_.size());
+  A_.blocks_.push_back(value);
+  A_.blockIndex_[static_cast<std::size_t>(k)] = id;
+  if (2 * A_.blocks_.size() > table_.size()) {
+    table_.assign(2 * table_.size(), -1);
+    for (std::size_t u = 0; u < A_.blocks_.size(); ++u) insert(static_cast<std::uint32_t>(u));
+  } else {
+    table_[slot] = id;
+  }
+}
+
+template <int d>
 const SweepOrder& BlockSparseMatrix<d>::sweepOrder() const {
   const int parts = threads();
   if (!order_ || order_->requestedParts() != parts)

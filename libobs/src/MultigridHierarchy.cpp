@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <bit>
 #include <chrono>
+#include <optional>
+#include <utility>
 #include <span>
 #include <string>
 
@@ -133,7 +135,12 @@ void galerkinRows(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P, const
   const auto n = static_cast<Index>(rows.size());
   const Index chunks = (n + kGalerkinChunk - 1) / kGalerkinChunk;
   const int nt = n >= kParallelMinRows ? threads() : 1;
-  C.unshareBlocks();  // written row by row below
+  // A shared C (a local update) keeps its storage: the rows of a chunk are computed apart and
+  // written by one thread at a time through a BlockWriter. A plain C is written in place.
+  const bool shared = C.shared();
+  std::optional<typename BlockSparseMatrix<d>::BlockWriter> writer;
+  if (shared) writer.emplace(C);
+  Mat* plain = shared ? nullptr : &C.blockAt(0);
 #ifdef _OPENMP
 #pragma omp parallel num_threads(nt)
 #endif
@@ -141,7 +148,8 @@ void galerkinRows(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P, const
     // fineRow[p]: index of fine row p's (B P) row in this chunk, or -1; mark: coarse column -> slot
     std::vector<Index> fineRow(static_cast<std::size_t>(F.rows()), -1), mark(static_cast<std::size_t>(C.rows()), -1);
     std::vector<Index> formed, start, columns;  // the chunk's (B P) rows: fine row, row starts, columns
-    std::vector<Mat> values;
+    std::vector<Mat> values, rowsOut;           // rowsOut: the chunk's coarse rows (shared C)
+    std::vector<Index> positions;
 #ifdef _OPENMP
 #pragma omp for schedule(dynamic, 1)
 #endif
@@ -179,19 +187,33 @@ void galerkinRows(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P, const
           for (auto s = begin; s < static_cast<Index>(columns.size()); ++s) mark[columns[s]] = -1;
           start.push_back(static_cast<Index>(columns.size()));
         }
+      // the coarse rows: into C's blocks (plain), or into rowsOut at the same offsets (shared)
+      positions.clear();
+      for (Index i = first; i < last; ++i)
+        for (Index k = C.rowBegin(rows[i]); k < C.rowEnd(rows[i]); ++k) positions.push_back(k);
+      if (shared) rowsOut.assign(positions.size(), Mat::Zero());
+      Index offset = 0;
       for (Index i = first; i < last; ++i) {
         const Index I = rows[i];
+        Mat* out = shared ? rowsOut.data() + offset - C.rowBegin(I) : plain;  // out[k] for k in row I
         for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) {
           mark[C.column(k)] = k;
-          C.blockAt(k).setZero();
+          out[k].setZero();
         }
         for (Index a = Pt.rowStart[I]; a < Pt.rowStart[I + 1]; ++a) {
           const Index f = fineRow[Pt.columns[a]];
           if (f < 0) continue;  // all components of the fine vertex truncated
           const double w = Pt.values[a];
-          for (Index s = start[f]; s < start[f + 1]; ++s) C.blockAt(mark[columns[s]]) += w * values[s];
+          for (Index s = start[f]; s < start[f + 1]; ++s) out[mark[columns[s]]] += w * values[s];
         }
         for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) mark[C.column(k)] = -1;
+        offset += C.rowEnd(I) - C.rowBegin(I);
+      }
+      if (shared) {
+#ifdef _OPENMP
+#pragma omp critical(obs_galerkin_writer)
+#endif
+        for (std::size_t u = 0; u < positions.size(); ++u) writer->set(positions[u], rowsOut[u]);
       }
       for (Index p : formed) fineRow[p] = -1;
     }
@@ -218,9 +240,10 @@ DeadUpdate markDeadComponents(BlockSparseMatrix<d>& C, std::span<const Index> ro
     before[i] = dead[rows[i]];
     dead[rows[i]] = 0;
   }
+  const BlockSparseMatrix<d>& read = C;  // reads keep shared blocks shared
   double scale = 0;
   for (Index I = 0; I < C.rows(); ++I) {
-    const auto& D = C.blockAt(C.diagonal(I));
+    const auto& D = read.blockAt(C.diagonal(I));
     for (int c = 0; c < d; ++c)
       if (!(dead[I] & (1u << c))) scale = std::max(scale, D(c, c));
   }
@@ -228,22 +251,25 @@ DeadUpdate markDeadComponents(BlockSparseMatrix<d>& C, std::span<const Index> ro
   DeadUpdate out;
   for (std::size_t i = 0; i < rows.size(); ++i) {
     const Index I = rows[i];
-    const auto& D = C.blockAt(C.diagonal(I));
+    const auto& D = read.blockAt(C.diagonal(I));
     std::uint8_t b = 0;
     for (int c = 0; c < d; ++c)
       if (D(c, c) <= 1e-12 * scale) b |= static_cast<std::uint8_t>(1u << c);
     dead[I] = b;
     if (b != before[i]) out.flipped.push_back(I);
   }
+  typename BlockSparseMatrix<d>::BlockWriter writer(C);
   for (Index I = 0; I < C.rows(); ++I)
     if (dead[I]) {
-      auto& D = C.blockAt(C.diagonal(I));
+      const Index k = C.diagonal(I);
+      Eigen::Matrix<double, d, d> D = read.blockAt(k);
       bool moved = false;
       for (int c = 0; c < d; ++c)
         if ((dead[I] & (1u << c)) && D(c, c) != patch) {
           D(c, c) = patch;
           moved = true;
         }
+      if (moved) writer.set(k, D);
       if (moved && !std::binary_search(rows.begin(), rows.end(), I)) out.repatched.push_back(I);
     }
   return out;
@@ -584,6 +610,10 @@ void MultigridHierarchy<d>::computeCoarse(bool local) {
       // the vertices whose dead bits changed (within `touched` but for round-off at the threshold)
       // change the next product as well
       const DeadUpdate u = markDeadComponents(C, rows, dead_[l]);
+      if (C.shared() && 2 * C.storedBlocks() > C.nonZeroBlocks()) {  // the blocks no entry uses any more
+        C.unshareBlocks();
+        C.shareRepeatedBlocks();
+      }
       for (Index I : u.flipped)
         if (std::find(touched.begin(), touched.end(), I) == touched.end()) touched.push_back(I);
       updatedRows_[l] = rows;
@@ -594,8 +624,10 @@ void MultigridHierarchy<d>::computeCoarse(bool local) {
     } else {
       all.resize(C.rows());
       for (Index I = 0; I < C.rows(); ++I) all[I] = I;
+      C.unshareBlocks();  // written in place on the threads, then shared anew
       galerkinRows(F, P, transposed_[l], slot, E, all, C);
       markDeadComponents(C, all, dead_[l]);
+      C.shareRepeatedBlocks();
       rowsRecomputed_ += C.rows();
       local = false;  // all entries of this level may have changed
     }

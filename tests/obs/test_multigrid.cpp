@@ -9,6 +9,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <cstring>
 #include <iostream>
 
 #include "../GridCheck.hpp"
@@ -208,6 +209,43 @@ TEST(MultigridHierarchy, LocalUpdatesEqualAFullRecomputation) {
     };
     if (mesh::dimension(type) == 2) check(std::integral_constant<int, 2>{});
     else check(std::integral_constant<int, 3>{});
+  }
+}
+
+TEST(MultigridHierarchy, CoarseOperatorsShareTheirBlocksAndLocalUpdatesKeepThemShared) {
+  // docs/performance.md#galerkin-products: on a uniformly refined box the coarse operators repeat
+  // their blocks and are stored shared; a local update writes its rows into the shared storage
+  // (BlockWriter) and gives bitwise the operators of a hierarchy set up from scratch
+  constexpr int d = 3;
+  const mesh::Grid grid = refinedGrid(CellType::Hexahedron, 2, 3);
+  const mesh::Mesh m = grid.leafView().mesh;
+  auto s = linearSystem<d>(m);
+  ASSERT_TRUE(s.A.shareRepeatedBlocks());
+  std::vector<char> mask = s.g.constrained;
+  MultigridHierarchy<d> h(grid);
+  h.setFineOperator(s.A, {}, mask);
+  const int top = h.maxLevel() - 1;
+  ASSERT_TRUE(h.coarseOperator(top).shared());
+  EXPECT_LT(4 * h.coarseOperator(top).storedBlocks(), h.coarseOperator(top).nonZeroBlocks());
+  int added = 0;
+  for (Index v = 0; v < m.numVertices() && added < 3; ++v)
+    if (m.vertex(v)[0] == 0.0 && std::abs(m.vertex(v)[1] - 0.5) < 0.2 && std::abs(m.vertex(v)[2] - 0.5) < 0.2) {
+      mask[v * d] = 1;
+      ++added;
+    }
+  ASSERT_EQ(h.truncate(mask), 3);
+  EXPECT_FALSE(h.fullUpdate(top));
+  EXPECT_TRUE(h.coarseOperator(top).shared());
+  MultigridHierarchy<d> fresh(grid);
+  fresh.setFineOperator(s.A, {}, mask);
+  for (int l = 0; l <= top; ++l) {
+    const auto& a = h.coarseOperator(l);
+    const auto& b = fresh.coarseOperator(l);
+    ASSERT_EQ(a.nonZeroBlocks(), b.nonZeroBlocks());
+    Index differing = 0;
+    for (Index k = 0; k < a.nonZeroBlocks(); ++k)
+      differing += std::memcmp(a.blockAt(k).data(), b.blockAt(k).data(), sizeof(a.blockAt(k))) != 0;
+    EXPECT_EQ(differing, 0) << "level " << l;
   }
 }
 

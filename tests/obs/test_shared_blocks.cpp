@@ -237,3 +237,35 @@ TEST(SharedBlocks, WritersOnThreadsAcceptSharedMatrices) {
   ASSERT_EQ(A1.nonZeroBlocks(), A2.nonZeroBlocks());
   for (Index k = 0; k < A1.nonZeroBlocks(); ++k) ASSERT_TRUE(sameBits(A1.blockAt(k), A2.blockAt(k)));
 }
+
+// BlockSparseMatrix::BlockWriter: writes into a shared matrix keep it shared. A value equal (bit
+// for bit) to a stored block takes its number; a new one is appended once, however many entries
+// get it. The matrix reads, multiplies and sweeps as the plain matrix with the same writes.
+TEST(SharedBlocks, WriterKeepsTheBlocksSharedAndEqualToPlainWrites) {
+  const BlockSparseMatrix<3> A = cubeStiffness();
+  BlockSparseMatrix<3> plain = A, S = A;
+  ASSERT_TRUE(S.shareRepeatedBlocks());
+  const Index stored = S.storedBlocks();
+  using Block = BlockSparseMatrix<3>::Block;
+  Block fresh = A.blockAt(0);
+  fresh(0, 1) += 0.125;  // a value no entry has
+  std::vector<char> diagonal(static_cast<std::size_t>(A.nonZeroBlocks()), 0);  // kept: the sweeps invert them
+  for (Index i = 0; i < A.rows(); ++i) diagonal[static_cast<std::size_t>(A.diagonal(i))] = 1;
+  {
+    BlockSparseMatrix<3>::BlockWriter writer(S), plainWriter(plain);
+    for (Index k = 5; k < A.nonZeroBlocks(); k += 97) {
+      if (diagonal[static_cast<std::size_t>(k)]) continue;
+      const Block value = (k / 97) % 2 ? fresh : Block(A.blockAt(k + 1));  // new, or stored already
+      writer.set(k, value);
+      plainWriter.set(k, value);
+    }
+  }
+  EXPECT_TRUE(S.shared());
+  EXPECT_FALSE(plain.shared());
+  EXPECT_EQ(S.storedBlocks(), stored + 1);
+  Index differing = 0;
+  for (Index k = 0; k < A.nonZeroBlocks(); ++k)
+    differing += std::memcmp(S.blockAt(k).data(), plain.blockAt(k).data(), sizeof(Block)) != 0;
+  EXPECT_EQ(differing, 0);
+  EXPECT_TRUE(sameBits(kernels(S), kernels(plain)));
+}

@@ -78,6 +78,23 @@ public:
   /// Number of blocks stored: nonZeroBlocks(), or the distinct ones if shared().
   Index storedBlocks() const { return static_cast<Index>(blocks_.size()); }
 
+  /// Writes blocks of a matrix without returning a shared() matrix to one block per entry: each
+  /// value is looked up (bit for bit) among the stored blocks and appended if it is new; on a plain
+  /// matrix it is copied. Blocks that no entry uses any more stay stored until the matrix is shared
+  /// anew (unshareBlocks(), shareRepeatedBlocks()); storedBlocks() tells when that is worth it. One
+  /// writer at a time (it may run inside a parallel region if the calls are serialised), and no
+  /// other access to the blocks while it writes.
+  class BlockWriter {
+  public:
+    explicit BlockWriter(BlockSparseMatrix& A);
+    void set(Index k, const Block& value);
+
+  private:
+    void insert(std::uint32_t id);
+    BlockSparseMatrix& A_;
+    std::vector<std::int64_t> table_;  ///< open addressing over the stored blocks' numbers
+  };
+
   /// Position of block (i, j) in the storage, or -1 if not in the pattern.
   Index find(Index i, Index j) const {
     const auto b = cols_.begin() + rowStart_[i], e = cols_.begin() + rowStart_[i + 1];
