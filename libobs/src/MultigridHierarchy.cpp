@@ -188,17 +188,20 @@ void galerkinRows(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P, const
           start.push_back(static_cast<Index>(columns.size()));
         }
       // the coarse rows: into C's blocks (plain), or into rowsOut at the same offsets (shared)
-      positions.clear();
-      for (Index i = first; i < last; ++i)
-        for (Index k = C.rowBegin(rows[i]); k < C.rowEnd(rows[i]); ++k) positions.push_back(k);
-      if (shared) rowsOut.assign(positions.size(), Mat::Zero());
+      if (shared) {
+        positions.clear();
+        for (Index i = first; i < last; ++i)
+          for (Index k = C.rowBegin(rows[i]); k < C.rowEnd(rows[i]); ++k) positions.push_back(k);
+        rowsOut.resize(positions.size());
+      }
       Index offset = 0;
       for (Index i = first; i < last; ++i) {
         const Index I = rows[i];
-        Mat* out = shared ? rowsOut.data() + offset - C.rowBegin(I) : plain;  // out[k] for k in row I
+        // out[j]: the block at position rowBegin(I) + j of C
+        Mat* out = shared ? rowsOut.data() + offset : plain + C.rowBegin(I);
         for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) {
-          mark[C.column(k)] = k;
-          out[k].setZero();
+          mark[C.column(k)] = k - C.rowBegin(I);
+          out[k - C.rowBegin(I)].setZero();
         }
         for (Index a = Pt.rowStart[I]; a < Pt.rowStart[I + 1]; ++a) {
           const Index f = fineRow[Pt.columns[a]];
