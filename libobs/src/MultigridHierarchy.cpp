@@ -261,7 +261,7 @@ DeadUpdate markDeadComponents(BlockSparseMatrix<d>& C, std::span<const Index> ro
     dead[I] = b;
     if (b != before[i]) out.flipped.push_back(I);
   }
-  typename BlockSparseMatrix<d>::BlockWriter writer(C);
+  std::optional<typename BlockSparseMatrix<d>::BlockWriter> writer;  // made on the first patch written
   for (Index I = 0; I < C.rows(); ++I)
     if (dead[I]) {
       const Index k = C.diagonal(I);
@@ -272,7 +272,10 @@ DeadUpdate markDeadComponents(BlockSparseMatrix<d>& C, std::span<const Index> ro
           D(c, c) = patch;
           moved = true;
         }
-      if (moved) writer.set(k, D);
+      if (moved) {
+        if (!writer) writer.emplace(C);
+        writer->set(k, D);
+      }
       if (moved && !std::binary_search(rows.begin(), rows.end(), I)) out.repatched.push_back(I);
     }
   return out;
@@ -627,7 +630,7 @@ void MultigridHierarchy<d>::computeCoarse(bool local) {
     } else {
       all.resize(C.rows());
       for (Index I = 0; I < C.rows(); ++I) all[I] = I;
-      C.unshareBlocks();  // written in place on the threads, then shared anew
+      if (C.shared()) C.setZero();  // one block per entry again, without copying values every row overwrites
       galerkinRows(F, P, transposed_[l], slot, E, all, C);
       markDeadComponents(C, all, dead_[l]);
       C.shareRepeatedBlocks();
