@@ -15,6 +15,7 @@
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Grid.hpp"
+#include "obs/obs/ElasticityAssembly.hpp"
 #include "obs/obs/Newmark.hpp"
 
 using namespace obs;
@@ -129,6 +130,27 @@ TEST(Newmark3D, DroppedBlockDissipatesConservesAndDoesNotPenetrate) {
       EXPECT_LT(drift, 1e-9) << name(s);
       if (s == NewmarkScheme::LaursenChawla) { EXPECT_GT(penetration, 1e-4); }
     }
+  }
+}
+
+// On a grid of repeated cells the stepper keeps its matrices with shared blocks (one copy per
+// distinct block, docs/performance.md#shared-blocks): the products it forms every step give the bits
+// of the assembled stiffness.
+TEST(Newmark3D, MatricesOfRepeatedCellsShareTheirBlocksWithTheSameProducts) {
+  const Block3 b(0.01);
+  const mesh::Mesh m = b.grid.leafView().mesh;
+  const BlockSparseMatrix<3> plain = assembleStiffness<3>(m, material(200));
+  ASSERT_FALSE(plain.shared());
+  const Eigen::VectorXd x = Eigen::VectorXd::Random(3 * b.vertices());
+  const Eigen::VectorXd Ax = plain * x;
+  for (NewmarkScheme s : {NewmarkScheme::ImprovedContactStabilized, NewmarkScheme::HagerHuebnerWohlmuth}) {
+    NewmarkFamily<3> st(b.grid, material(200), {}, *b.contact, opts(s, 0.005));
+    EXPECT_TRUE(st.stiffness().shared()) << name(s);
+    EXPECT_TRUE(st.mass().shared()) << name(s);
+    EXPECT_LT(4 * st.stiffness().storedBlocks(), st.stiffness().nonZeroBlocks()) << name(s);
+    const Eigen::VectorXd y = st.stiffness() * x;
+    EXPECT_EQ((y - Ax).cwiseAbs().maxCoeff(), 0.0) << name(s);
+    EXPECT_EQ(st.stiffness().energy(x), plain.energy(x)) << name(s);
   }
 }
 
