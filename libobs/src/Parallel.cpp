@@ -107,6 +107,47 @@ void SweepOrder::build(std::span<const Index> rowStart, std::span<const Index> c
   for (Index p = 0; p < n; ++p)
     order_[fill[interface_[p] ? parts : part[static_cast<std::size_t>(p)]]++] = p;  // ascending per group
   parts_ = parts;
+  faceGroups_ = 0;
+  splitInterface(rowStart, columns);
+}
+
+void SweepOrder::splitInterface(std::span<const Index> rowStart, std::span<const Index> columns) {
+  const Index first = start_[parts_], faceSize = start_[parts_ + 1] - first;
+  if (faceSize < kInterfaceSplitMinRows) return;
+  // the graph of the interface vertices (their couplings among themselves), numbered 0..faceSize-1
+  // in ascending order
+  std::vector<Index> local(interface_.size(), -1);
+  for (Index i = 0; i < faceSize; ++i) local[static_cast<std::size_t>(order_[first + i])] = i;
+  std::vector<Index> faceStart(static_cast<std::size_t>(faceSize) + 1, 0), faceColumns;
+  for (Index i = 0; i < faceSize; ++i) {
+    const Index p = order_[first + i];
+    for (Index k = rowStart[p]; k < rowStart[p + 1]; ++k)
+      if (const Index q = local[static_cast<std::size_t>(columns[k])]; q >= 0) faceColumns.push_back(q);
+    faceStart[static_cast<std::size_t>(i) + 1] = static_cast<Index>(faceColumns.size());
+  }
+  const std::vector<int> group = partitionPattern(faceStart, faceColumns, parts_);
+  if (group.empty()) return;  // the whole interface stays the rest
+  // a vertex coupled to an interface vertex of another group belongs to the rest
+  std::vector<int> slot(static_cast<std::size_t>(faceSize));
+  std::vector<Index> count(static_cast<std::size_t>(parts_) + 1, 0);
+  for (Index i = 0; i < faceSize; ++i) {
+    int g = group[static_cast<std::size_t>(i)];
+    for (Index k = faceStart[i]; k < faceStart[i + 1]; ++k)
+      if (group[static_cast<std::size_t>(faceColumns[k])] != g) {
+        g = parts_;
+        break;
+      }
+    slot[static_cast<std::size_t>(i)] = g;
+    ++count[static_cast<std::size_t>(g)];
+  }
+  std::vector<Index> start(static_cast<std::size_t>(parts_) + 2, first);
+  for (int g = 0; g <= parts_; ++g) start[g + 1] = start[g] + count[g];
+  const std::vector<Index> face(order_.begin() + first, order_.begin() + first + faceSize);
+  std::vector<Index> fill(start.begin(), start.end() - 1);
+  for (Index i = 0; i < faceSize; ++i) order_[fill[slot[static_cast<std::size_t>(i)]]++] = face[i];  // ascending
+  start_.resize(static_cast<std::size_t>(parts_));
+  start_.insert(start_.end(), start.begin(), start.end());
+  faceGroups_ = parts_;
 }
 
 SweepOrder SweepOrder::subset(std::span<const char> member) const {
@@ -122,13 +163,14 @@ SweepOrder SweepOrder::subset(std::span<const char> member) const {
     return out;
   }
   out.parts_ = parts_;
+  out.faceGroups_ = faceGroups_;
   out.interface_ = interface_;
   out.start_.assign(start_.size(), 0);
   out.order_.reserve(static_cast<std::size_t>(members));
-  for (int k = 0; k <= parts_; ++k) {
-    for (Index i = start_[k]; i < start_[k + 1]; ++i)
+  for (std::size_t g = 0; g + 1 < start_.size(); ++g) {
+    for (Index i = start_[g]; i < start_[g + 1]; ++i)
       if (member[static_cast<std::size_t>(order_[i])]) out.order_.push_back(order_[i]);
-    out.start_[k + 1] = static_cast<Index>(out.order_.size());
+    out.start_[g + 1] = static_cast<Index>(out.order_.size());
   }
   return out;
 }

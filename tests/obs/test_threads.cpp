@@ -98,8 +98,36 @@ TEST(Threads, SweepOrderIsAPermutationWithUncoupledParts) {
           EXPECT_EQ(gp, gq) << "vertices " << p << " and " << A.column(k);
         }
       }
+    // the interface: `parts` groups, each ascending, never coupled to another group, then the rest
+    ASSERT_GE(order.interface().size(), static_cast<std::size_t>(kInterfaceSplitMinRows));
+    ASSERT_EQ(order.interfaceGroups(), parts);
+    std::vector<int> faceGroup(static_cast<std::size_t>(A.rows()), -1);
+    std::size_t inFace = order.interfaceRest().size();
+    for (int k = 0; k < parts; ++k) {
+      const auto g = order.interfaceGroup(k);
+      EXPECT_GT(g.size(), 0u) << parts;
+      inFace += g.size();
+      for (std::size_t i = 0; i < g.size(); ++i) {
+        if (i > 0) {
+          EXPECT_LT(g[i - 1], g[i]);
+        }
+        EXPECT_TRUE(order.isInterface(g[i]));
+        faceGroup[g[i]] = k;
+      }
+    }
+    for (std::size_t i = 1; i < order.interfaceRest().size(); ++i) EXPECT_LT(order.interfaceRest()[i - 1], order.interfaceRest()[i]);
+    EXPECT_EQ(inFace, order.interface().size());
+    for (Index p = 0; p < A.rows(); ++p)
+      for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k) {
+        const int gp = faceGroup[p], gq = faceGroup[A.column(k)];
+        if (gp >= 0 && gq >= 0) {
+          EXPECT_EQ(gp, gq) << "interface vertices " << p << " and " << A.column(k);
+        }
+      }
     // a small fraction of the vertices is swept sequentially
     EXPECT_LT(static_cast<double>(order.interface().size()), 0.5 * static_cast<double>(A.rows())) << parts;
+    EXPECT_LT(static_cast<double>(order.interfaceRest().size()), 0.5 * static_cast<double>(order.interface().size()))
+        << parts;
   }
   // one part, or a pattern below the threshold: the natural order
   EXPECT_TRUE(SweepOrder(A.rowStarts(), A.columns(), 1).sequential());
@@ -144,13 +172,15 @@ TEST(Threads, FineSweepOrderCarriedFromTheCoarserLevelIsValidAndBalanced) {
   EXPECT_THROW(SweepOrder(A.rowStarts(), A.columns(), 2, part), Error);
 }
 
-// The threaded linear sweep is the sequential sweep in the order interiors (part by part), interface.
+// The threaded linear sweep is the sequential sweep in the order interiors (part by part), interface
+// groups (group by group), interface rest.
 TEST(Threads, ThreadedSweepsAreSequentialSweepsInTheirOrder) {
   Cube c;
   const ThreadScope scope(2);
   const auto A = assembleStiffness<3>(c.mesh, c.material);
   const SweepOrder& order = A.sweepOrder();
   ASSERT_EQ(order.parts(), 2);
+  ASSERT_EQ(order.interfaceGroups(), 2);  // interiors, interface groups and the rest all take part
   std::vector<std::uint8_t> bits(static_cast<std::size_t>(A.rows()), 0);
   for (std::size_t p = 0; p < bits.size(); p += 7) bits[p] = p % 2 ? 0b010 : 0b111;
   TruncatedGaussSeidel<3> gs;
@@ -158,17 +188,13 @@ TEST(Threads, ThreadedSweepsAreSequentialSweepsInTheirOrder) {
   const Eigen::VectorXd r = wave(3 * A.rows());
 
   // reference: the same local solves, one thread, in the documented order
-  TruncatedGaussSeidel<3> one;
-  Eigen::VectorXd x0 = 0.1 * r;
-  Eigen::VectorXd reference = x0;
-  {
-    std::vector<Index> sequence;
-    for (int k = 0; k < order.parts(); ++k) sequence.insert(sequence.end(), order.interior(k).begin(), order.interior(k).end());
-    sequence.insert(sequence.end(), order.interface().begin(), order.interface().end());
-    // sweep vertex by vertex with a permuted copy of the problem is not needed: with the vertices
-    // visited in `sequence`, the update of p reads the current values of all neighbours
-    Eigen::VectorXd x = x0;
-    for (Index p : sequence) {
+  std::vector<Index> sequence;
+  for (int k = 0; k < order.parts(); ++k) sequence.insert(sequence.end(), order.interior(k).begin(), order.interior(k).end());
+  sequence.insert(sequence.end(), order.interface().begin(), order.interface().end());
+  // with the vertices visited in `sequence`, the update of p reads the current values of all
+  // neighbours (no permuted copy of the problem needed)
+  const auto sweepIn = [&](const std::vector<Index>& visits, Eigen::VectorXd x) {
+    for (Index p : visits) {
       if (bits[p] == 0b111) continue;
       Eigen::Vector3d s = r.segment<3>(3 * p);
       for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k)
@@ -183,8 +209,10 @@ TEST(Threads, ThreadedSweepsAreSequentialSweepsInTheirOrder) {
         }
       x.segment<3>(3 * p) = D.llt().solve(s);
     }
-    reference = x;
-  }
+    return x;
+  };
+  const Eigen::VectorXd x0 = 0.1 * r;
+  const Eigen::VectorXd reference = sweepIn(sequence, x0);
   Eigen::VectorXd x = x0;
   gs.sweep(r, x);
   EXPECT_LT((x - reference).lpNorm<Eigen::Infinity>(), 1e-13 * reference.lpNorm<Eigen::Infinity>());
@@ -192,9 +220,11 @@ TEST(Threads, ThreadedSweepsAreSequentialSweepsInTheirOrder) {
   Eigen::VectorXd y = x0;
   gs.sweep(r, y);
   EXPECT_TRUE(bitwiseEqual(x, y));
-  // forward then backward returns through the same order reversed: still reproducible
+  // the backward sweep is the same order reversed, and reproducible
+  const Eigen::VectorXd backward = sweepIn(std::vector<Index>(sequence.rbegin(), sequence.rend()), x);
   gs.sweep(r, x, true);
   gs.sweep(r, y, true);
+  EXPECT_LT((x - backward).lpNorm<Eigen::Infinity>(), 1e-13 * backward.lpNorm<Eigen::Infinity>());
   EXPECT_TRUE(bitwiseEqual(x, y));
 }
 
@@ -203,6 +233,7 @@ TEST(Threads, ThreadedHalfSweepsFromZeroAreFullSweepsOnZero) {
   const ThreadScope scope(2);
   const auto A = assembleStiffness<3>(c.mesh, c.material);
   ASSERT_FALSE(A.sweepOrder().sequential());
+  ASSERT_EQ(A.sweepOrder().interfaceGroups(), 2);
   std::vector<std::uint8_t> bits(static_cast<std::size_t>(A.rows()), 0);
   for (std::size_t p = 0; p < bits.size(); p += 5) bits[p] = p % 2 ? 0b001 : 0b111;
   TruncatedGaussSeidel<3> gs;

@@ -68,14 +68,21 @@ std::array<double, K> chunkedSums(Index n, F&& f) {
 std::vector<int> partitionPattern(std::span<const Index> rowStart, std::span<const Index> columns, int parts,
                                   std::span<const Index> weights = {});
 
+/// Interface sizes (vertices) from which SweepOrder splits the interface once more: below it, one
+/// thread sweeps the interface faster than a second parallel region pays for itself.
+inline constexpr Index kInterfaceSplitMinRows = 256;
+
 /// Order of a Gauss-Seidel sweep over the vertices of a (symmetric) matrix pattern that lets
 /// `parts` threads sweep at once without changing what a sweep is: a sequence of exact local solves
 /// in one fixed order, so every monotonicity property of the sequential sweep holds. METIS splits the
 /// matrix graph into `parts` parts; a vertex all of whose neighbours lie in its own part is
 /// *interior*, the others are *interface* vertices. Interior vertices of different parts are not
-/// coupled, so the parts' interiors are swept concurrently (each in ascending order), then the
-/// interface vertices in ascending order by one thread (a backward sweep is the exact reverse). The
-/// order depends on the pattern and `parts` only. With one part it is the natural order 0..n-1.
+/// coupled, so the parts' interiors are swept concurrently (each in ascending order). The interface
+/// (at least kInterfaceSplitMinRows vertices) is split the same way: METIS splits the graph of the
+/// interface vertices into `parts` groups, the vertices coupled only to interface vertices of their
+/// own group are swept concurrently group by group, and the rest (the *interface rest*) in ascending
+/// order by one thread. A backward sweep is the exact reverse. The order depends on the pattern and
+/// `parts` only. With one part it is the natural order 0..n-1.
 class SweepOrder {
 public:
   SweepOrder() = default;
@@ -100,12 +107,18 @@ public:
   bool sequential() const { return parts_ <= 1; }
   /// Whether the order visits a list of vertices (a subset()) rather than all of 0..n-1.
   bool listed() const { return listed_; }
-  std::span<const Index> interior(int part) const {
-    return {order_.data() + start_[part], static_cast<std::size_t>(start_[part + 1] - start_[part])};
-  }
+  /// The interior of a part (swept by one thread, ascending).
+  std::span<const Index> interior(int part) const { return group(part); }
+  /// All interface vertices, in sweep order: the interface groups, then the interface rest.
   std::span<const Index> interface() const {
-    return {order_.data() + start_[parts_], static_cast<std::size_t>(start_[parts_ + 1] - start_[parts_])};
+    return {order_.data() + start_[parts_], static_cast<std::size_t>(start_.back() - start_[parts_])};
   }
+  /// The groups the interface is split into: `parts` (then interfaceGroup(k) are swept concurrently
+  /// before the interface rest), or 0 (the whole interface is the rest).
+  int interfaceGroups() const { return faceGroups_; }
+  std::span<const Index> interfaceGroup(int k) const { return group(parts_ + k); }
+  /// The interface vertices swept by one thread, last (ascending).
+  std::span<const Index> interfaceRest() const { return group(parts_ + faceGroups_); }
   bool isInterface(Index p) const { return interface_[p] != 0; }
 
   /// f(part) for every part, concurrently (one thread per part).
@@ -129,7 +142,11 @@ public:
     forEachPart([&](int k) {
       for (Index p : interior(k)) visit(p);
     });
-    for (Index p : interface()) visit(p);
+    if (faceGroups_ > 0)
+      forEachPart([&](int k) {
+        for (Index p : interfaceGroup(k)) visit(p);
+      });
+    for (Index p : interfaceRest()) visit(p);
   }
   /// The first forward sweep on a vector that holds garbage (it is overwritten): row(p, full) in
   /// sweep order, where full = false means that every neighbour with a smaller index has been
@@ -150,7 +167,11 @@ public:
     forEachPart([&](int k) {
       for (Index p : interior(k)) row(p, false);
     });
-    for (Index p : interface()) row(p, true);
+    if (faceGroups_ > 0)
+      forEachPart([&](int k) {
+        for (Index p : interfaceGroup(k)) row(p, true);
+      });
+    for (Index p : interfaceRest()) row(p, true);
   }
   template <class Visit>
   void backward(Index n, Visit&& visit) const {
@@ -161,8 +182,13 @@ public:
         for (Index p = n; p-- > 0;) visit(p);
       return;
     }
-    const auto face = interface();
-    for (auto it = face.rbegin(); it != face.rend(); ++it) visit(*it);
+    const auto rest = interfaceRest();
+    for (auto it = rest.rbegin(); it != rest.rend(); ++it) visit(*it);
+    if (faceGroups_ > 0)
+      forEachPart([&](int k) {
+        const auto in = interfaceGroup(k);
+        for (auto it = in.rbegin(); it != in.rend(); ++it) visit(*it);
+      });
     forEachPart([&](int k) {
       const auto in = interior(k);
       for (auto it = in.rbegin(); it != in.rend(); ++it) visit(*it);
@@ -171,11 +197,18 @@ public:
 
 private:
   void build(std::span<const Index> rowStart, std::span<const Index> columns, int parts, std::span<const int> part);
+  void splitInterface(std::span<const Index> rowStart, std::span<const Index> columns);
+  std::span<const Index> group(int g) const {
+    return {order_.data() + start_[g], static_cast<std::size_t>(start_[g + 1] - start_[g])};
+  }
 
   int parts_ = 1;
   int requested_ = 1;
+  int faceGroups_ = 0;   ///< interface groups: parts_ or 0
   bool listed_ = false;  ///< sequential with an explicit vertex list in order_ (a subset)
-  std::vector<Index> start_;  ///< parts + 2 offsets into order_: interiors of parts 0..parts-1, interface
+  /// parts_ + faceGroups_ + 2 offsets into order_: the interiors of the parts, the interface groups,
+  /// the interface rest
+  std::vector<Index> start_;
   std::vector<Index> order_;
   std::vector<char> interface_;
 };
