@@ -292,9 +292,9 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
   }
   contact_ = std::make_unique<ContactSet>(contact);
   S_ = S;
-  // From here on the matrices are only read: on grids of repeated cells their products (A u^n and
-  // S base every step) read a block number per entry instead of a block (the same values and bits,
-  // docs/performance.md#shared-blocks)
+  // From here on the matrices are only read: on grids of repeated cells their products (S base and
+  // A u^{n+1} in every step) read a block number per entry instead of a block (the same values and
+  // bits, docs/performance.md#shared-blocks)
   for (BlockSparseMatrix<d>* m : {&A_, &M_, &Mr_, &S_}) m->shareRepeatedBlocks();
   // the step problem is posed for the increment u^{n+1} - base (base = u^n + tau v^n, see step()):
   // its Dirichlet values are zero
