@@ -149,9 +149,37 @@ bool sameBits(const Block& A, const Block& B) {
   return differ == 0;
 }
 
-/// The distinct blocks of a sequence, numbered in order of first appearance: an open-addressing
-/// table of distinct numbers (load at most 1/2) over the positions of their first appearances.
-/// Blocks compare bitwise (-0.0 and 0.0 differ), so every value is kept exactly.
+/// Block numbers in an open-addressing table (-1: empty; load at most 1/2): the number of a block
+/// with the bits of b, or -1. blockOf(u) is block number u; the blocks live elsewhere.
+template <class Block, class BlockOf>
+std::int64_t findNumber(const std::vector<std::int64_t>& table, const Block& b, const BlockOf& blockOf) {
+  const std::size_t mask = table.size() - 1;
+  for (std::size_t slot = blockHash(b) & mask; table[slot] >= 0; slot = (slot + 1) & mask)
+    if (sameBits(blockOf(table[slot]), b)) return table[slot];
+  return -1;
+}
+
+/// Enters number count - 1, the newest of `count` numbers; when the table would be more than half
+/// full, it doubles and takes all numbers anew.
+template <class BlockOf>
+void addNumber(std::vector<std::int64_t>& table, std::size_t count, const BlockOf& blockOf) {
+  const auto put = [&](std::size_t u) {
+    const std::size_t mask = table.size() - 1;
+    std::size_t slot = blockHash(blockOf(static_cast<std::int64_t>(u))) & mask;
+    while (table[slot] >= 0) slot = (slot + 1) & mask;
+    table[slot] = static_cast<std::int64_t>(u);
+  };
+  if (2 * count <= table.size()) {
+    put(count - 1);
+    return;
+  }
+  table.assign(2 * table.size(), -1);
+  for (std::size_t u = 0; u < count; ++u) put(u);
+}
+
+/// The distinct blocks of a sequence, numbered in order of first appearance (findNumber over the
+/// positions of their first appearances). Blocks compare bitwise (-0.0 and 0.0 differ), so every
+/// value is kept exactly.
 template <class Block>
 class DistinctBlocks {
 public:
@@ -159,29 +187,17 @@ public:
 
   /// Number of the block at position k (new if it is new); -1 if it would be number `limit`.
   std::int64_t number(std::size_t k, std::size_t limit) {
-    const std::uint64_t h = blockHash(blocks_[k]);
-    std::size_t slot = h & mask();
-    for (; table_[slot] >= 0; slot = (slot + 1) & mask())
-      if (sameBits(blocks_[first_[static_cast<std::size_t>(table_[slot])]], blocks_[k])) return table_[slot];
+    const auto blockOf = [this](std::int64_t u) -> const Block& { return blocks_[first_[static_cast<std::size_t>(u)]]; };
+    if (const std::int64_t id = findNumber(table_, blocks_[k], blockOf); id >= 0) return id;
     if (first_.size() >= limit) return -1;
-    const auto id = static_cast<std::int64_t>(first_.size());
     first_.push_back(k);
-    table_[slot] = id;
-    if (2 * first_.size() > table_.size()) {
-      table_.assign(2 * table_.size(), -1);
-      for (std::size_t u = 0; u < first_.size(); ++u) {
-        std::size_t t = blockHash(blocks_[first_[u]]) & mask();
-        while (table_[t] >= 0) t = (t + 1) & mask();
-        table_[t] = static_cast<std::int64_t>(u);
-      }
-    }
-    return id;
+    addNumber(table_, first_.size(), blockOf);
+    return static_cast<std::int64_t>(first_.size()) - 1;
   }
   /// Position of the first appearance of each distinct block, by number.
   const std::vector<std::size_t>& first() const { return first_; }
 
 private:
-  std::size_t mask() const { return table_.size() - 1; }
   const Block* blocks_;
   std::vector<std::size_t> first_;
   std::vector<std::int64_t> table_ = std::vector<std::int64_t>(1024, -1);
@@ -264,15 +280,8 @@ BlockSparseMatrix<d>::BlockWriter::BlockWriter(BlockSparseMatrix& A) : A_(A) {
   std::size_t size = 1024;
   while (size < 2 * A_.blocks_.size()) size *= 2;
   table_.assign(size, -1);
-  for (std::size_t u = 0; u < A_.blocks_.size(); ++u) insert(static_cast<std::uint32_t>(u));
-}
-
-template <int d>
-void BlockSparseMatrix<d>::BlockWriter::insert(std::uint32_t id) {
-  const std::size_t mask = table_.size() - 1;
-  std::size_t slot = blockHash(A_.blocks_[id]) & mask;
-  while (table_[slot] >= 0) slot = (slot + 1) & mask;
-  table_[slot] = id;
+  const auto blockOf = [this](std::int64_t u) -> const Block& { return A_.blocks_[static_cast<std::size_t>(u)]; };
+  for (std::size_t u = 0; u < A_.blocks_.size(); ++u) addNumber(table_, u + 1, blockOf);
 }
 
 template <int d>
@@ -281,22 +290,14 @@ void BlockSparseMatrix<d>::BlockWriter::set(Index k, const Block& value) {
     A_.blocks_[static_cast<std::size_t>(k)] = value;
     return;
   }
-  const std::size_t mask = table_.size() - 1;
-  std::size_t slot = blockHash(value) & mask;
-  for (; table_[slot] >= 0; slot = (slot + 1) & mask)
-    if (sameBits(A_.blocks_[static_cast<std::size_t>(table_[slot])], value)) {
-      A_.blockIndex_[static_cast<std::size_t>(k)] = static_cast<std::uint32_t>(table_[slot]);
-      return;
-    }
-  const auto id = static_cast<std::uint32_t>(A_.blocks_.size());
-  A_.blocks_.push_back(value);
-  A_.blockIndex_[static_cast<std::size_t>(k)] = id;
-  if (2 * A_.blocks_.size() > table_.size()) {
-    table_.assign(2 * table_.size(), -1);
-    for (std::size_t u = 0; u < A_.blocks_.size(); ++u) insert(static_cast<std::uint32_t>(u));
-  } else {
-    table_[slot] = id;
+  const auto blockOf = [this](std::int64_t u) -> const Block& { return A_.blocks_[static_cast<std::size_t>(u)]; };
+  std::int64_t id = findNumber(table_, value, blockOf);
+  if (id < 0) {  // a new block: appended
+    A_.blocks_.push_back(value);
+    addNumber(table_, A_.blocks_.size(), blockOf);
+    id = static_cast<std::int64_t>(A_.blocks_.size()) - 1;
   }
+  A_.blockIndex_[static_cast<std::size_t>(k)] = static_cast<std::uint32_t>(id);
 }
 
 template <int d>

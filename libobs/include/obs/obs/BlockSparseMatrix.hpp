@@ -90,7 +90,6 @@ public:
     void set(Index k, const Block& value);
 
   private:
-    void insert(std::uint32_t id);
     BlockSparseMatrix& A_;
     std::vector<std::int64_t> table_;  ///< open addressing over the stored blocks' numbers
   };
