@@ -68,8 +68,8 @@ std::array<double, K> chunkedSums(Index n, F&& f) {
 std::vector<int> partitionPattern(std::span<const Index> rowStart, std::span<const Index> columns, int parts,
                                   std::span<const Index> weights = {});
 
-/// Interface sizes (vertices) from which SweepOrder splits the interface once more: below it, one
-/// thread sweeps the interface faster than a second parallel region pays for itself.
+/// Interface sizes (vertices) from which SweepOrder splits the interface once more. Below it a
+/// second parallel region is assumed (not measured) to cost more than it saves.
 inline constexpr Index kInterfaceSplitMinRows = 256;
 
 /// Order of a Gauss-Seidel sweep over the vertices of a (symmetric) matrix pattern that lets
