@@ -217,7 +217,7 @@ std::string csvHeaderLine(std::size_t tracked) {
       "momentum_z,momentum_redistributed_x,momentum_redistributed_y,momentum_redistributed_z,"
       "contact_force_x,contact_force_y,contact_force_z,active_solution,active_predictor,"
       "predictor_only,solution_only,max_penetration,solver_iterations,solver_seconds,step_seconds,"
-      "solver_tolerance,time_error,solver_kkt";
+      "solver_tolerance,time_error,solver_kkt,solver_error_bound";
   for (std::size_t k = 0; k < tracked; ++k) {
     const std::string p = ",tracked" + std::to_string(k) + "_";
     h += p + "normal_displacement" + p + "normal_velocity" + p + "gap";
@@ -245,6 +245,8 @@ std::string csvLine(const StepRecord& r) {
   if (!std::isnan(r.timeError)) os << r.timeError;
   os << ",";
   if (!std::isnan(r.solverKkt)) os << r.solverKkt;
+  os << ",";
+  if (!std::isnan(r.solverErrorBound)) os << r.solverErrorBound;
   for (const TrackedVertex& t : r.tracked)
     os << "," << t.normalDisplacement << "," << t.normalVelocity << "," << t.gap;
   return os.str();

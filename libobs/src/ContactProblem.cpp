@@ -513,7 +513,47 @@ RotatedProblem<d> ContactProblem<d>::rotated() const {
   for (const Constraint& c : constraints_)
     if (c.bounded()) r.upper[c.vertex] = c.gap;
   r.prescribed = prescribedRotated_;
+  r.diagonalLowerBound = lowerBound_;
   return r;
+}
+
+template <int d>
+bool RotatedProblem<d>::hasErrorBound() const {
+  if (diagonalLowerBound.empty()) return false;
+  for (Index p = 0; p < numVertices(); ++p) {
+    bool free = false;
+    for (int a = 0; a < d; ++a) free = free || !prescribed[static_cast<std::size_t>(p) * d + a];
+    if (free && !(diagonalLowerBound[static_cast<std::size_t>(p)] > 0)) return false;
+  }
+  return true;
+}
+
+template <int d>
+double RotatedProblem<d>::errorBound(const Eigen::VectorXd& w, const Eigen::VectorXd& Aw) const {
+  if (!hasErrorBound()) return std::numeric_limits<double>::quiet_NaN();
+  double gain = 0;
+  for (Eigen::Index i = 0; i < w.size(); ++i) {
+    if (prescribed[static_cast<std::size_t>(i)]) continue;
+    const auto p = static_cast<std::size_t>(i / d);
+    const double room = i % d == 0 ? upper[p] - w[i] : kInf;
+    gain += componentGain(rhs[i] - Aw[i], diagonalLowerBound[p], room);
+  }
+  return std::sqrt(2 * gain);
+}
+
+template <int d>
+void ContactProblem<d>::setDiagonalLowerBound(std::vector<double> bound) {
+  if (transformed())
+    throw Error("contact problem: a diagonal lower bound cannot be declared for a problem with a basis "
+                "transformation (its operator T'AT has none in general)");
+  if (static_cast<Index>(bound.size()) != numVertices())
+    throw Error("contact problem: the diagonal lower bound has " + std::to_string(bound.size()) +
+                " entries, the problem " + std::to_string(numVertices()) + " vertices");
+  for (std::size_t p = 0; p < bound.size(); ++p)
+    if (!(bound[p] >= 0) || !std::isfinite(bound[p]))
+      throw Error("contact problem: the diagonal lower bound at vertex " + std::to_string(p) + " is " +
+                  std::to_string(bound[p]) + " (must be finite and >= 0)");
+  lowerBound_ = std::move(bound);
 }
 
 // --- outputs -----------------------------------------------------------------------------------

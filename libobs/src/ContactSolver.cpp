@@ -32,7 +32,8 @@ IterationMonitor::IterationMonitor(std::string solver, const ContactSolverOption
                 "divergenceFactor > 0 required)");
 }
 
-bool IterationMonitor::record(double energy, double correction, Index activeSetSize, Index truncationChanges) {
+bool IterationMonitor::record(double energy, double correction, Index activeSetSize, Index truncationChanges,
+                              double errorBound) {
   ++iteration_;
   const std::string at = solver_ + ", iteration " + std::to_string(iteration_) + ": ";
   if (!std::isfinite(energy) || !std::isfinite(correction))
@@ -51,7 +52,7 @@ bool IterationMonitor::record(double energy, double correction, Index activeSetS
     progress = true;
   }
   sinceProgress_ = progress ? 0 : sinceProgress_ + 1;
-  const bool converged = correction < options_.tolerance;
+  const bool converged = correction < options_.tolerance || errorBound < options_.tolerance;  // NaN: false
   if (!converged && sinceProgress_ >= options_.stagnationIterations)
     throw Error(at + "stagnated: no decrease of energy or correction in " +
                 std::to_string(options_.stagnationIterations) + " iterations (correction " + num(correction) +
@@ -61,7 +62,8 @@ bool IterationMonitor::record(double energy, double correction, Index activeSetS
   previousEnergy_ = lastEnergy_;
   lastEnergy_ = energy;
   lastCorrection_ = correction;
-  const IterationRecord record{iteration_, energy, correction, activeSetSize, truncationChanges};
+  lastErrorBound_ = errorBound;
+  const IterationRecord record{iteration_, energy, correction, activeSetSize, truncationChanges, errorBound};
   if (options_.recordHistory) history_.push_back(record);
   if (options_.onIteration) options_.onIteration(record);
   return converged;
@@ -81,6 +83,7 @@ ContactResult IterationMonitor::finish(bool converged, Index activeSetSize) {
   r.converged = converged;
   r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start_).count();
   r.correction = lastCorrection_;
+  r.errorBound = lastErrorBound_;
   r.energy = lastEnergy_;
   r.activeSetSize = activeSetSize;
   if (iteration_ >= 2 && firstCorrection_ > 0 && lastCorrection_ > 0)

@@ -70,6 +70,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     for (const auto& c : problem.constraints())
       if (c.bounded()) rotated_->upper[c.vertex] = c.gap;
     smoother_->setUpper(rotated_->upper);
+    rotated_->diagonalLowerBound = problem.diagonalLowerBound();
   } else {
     operatorId_ = 0;
     smoother_.reset();
@@ -98,6 +99,8 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   Eigen::VectorXd w = problem.toRotated(u);
   rot.project(w);
   const BlockGaussSeidelSweep<d>& smoother = *smoother_;
+  const bool errorBound = rot.hasErrorBound();  // RotatedProblem::errorBound, fused below
+  const std::vector<double>& lowerBound = rot.diagonalLowerBound;
 
   const auto n = static_cast<Eigen::Index>(problem.numDofs());
   // without post-smoothing A (w^{k+1} - w^k) comes from the fused product (step0, Astep0 below),
@@ -181,27 +184,40 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     }
     // ||w||_A over the free components only: the prescribed ones are identity rows of A~
     // (applyDirichlet), whose unit diagonal would make the relative test depend on the unit of E
-    const auto [wAw, bw, freeAw, deltaAdelta, ww] = chunkedSums<5>(N, [&](Index b, Index e) {
-      std::array<double, 5> s{};
+    // and, with a diagonal lower bound, the sum of RotatedProblem::errorBound (docs/theory.md#tnnmg-error-bound)
+    const auto [wAw, bw, freeAw, deltaAdelta, ww, gain] = chunkedSums<6>(N, [&](Index b, Index e) {
+      std::array<double, 6> s{};
       for (Index i = b; i < e; ++i) {
         const double wi = w[i], Awi = Aw[i];
         s[0] += wi * Awi;
         s[1] += rot.rhs[i] * wi;
-        if (!rot.prescribed[static_cast<std::size_t>(i)]) s[2] += wi * Awi;
+        const bool free = !rot.prescribed[static_cast<std::size_t>(i)];
+        if (free) s[2] += wi * Awi;
         const double di = wi - previous[i], Adi = fused ? Astep0[i] + step.alpha * Ac[i] : Adelta[i];
         s[3] += di * Adi;
         s[4] += wi * wi;
+        if (errorBound && free) {
+          const auto p = static_cast<std::size_t>(i / d);
+          const double room = i % d == 0 ? rot.upper[p] - wi : std::numeric_limits<double>::infinity();
+          s[5] += componentGain(rot.rhs[i] - Awi, lowerBound[p], room);
+        }
       }
       return s;
     });
     const double num = std::sqrt(std::max(0.0, deltaAdelta)), den = std::sqrt(std::max(0.0, freeAw));
     const double correction = den > 0 ? num / den : (num > 0 ? 1.0 : 0.0);
-    const bool small = monitor.record(0.5 * wAw - bw, correction, rot.countActive(w), changes);
+    // ||w - w*||_A <= sqrt(2 gain) for the admissible w (NaN: no bound declared)
+    const double bound = std::sqrt(2 * std::max(0.0, gain));
+    const double relativeError = !errorBound ? std::numeric_limits<double>::quiet_NaN()
+                                 : den > 0   ? bound / den
+                                             : (bound > 0 ? std::numeric_limits<double>::infinity() : 0.0);
+    const bool small = monitor.record(0.5 * wAw - bw, correction, rot.countActive(w), changes, relativeError);
     // scale of the energy's terms, including the round-off of w'Aw (<= eps |w|'|A||w|): for stiff
     // operators with soft modes (mass + tau^2 stiffness, rigid motions) it dominates |w'Aw|
     monitor.requireMonotone(0.5 * std::abs(wAw) + std::abs(bw) + 1e-4 * rowSumBound_ * ww);
     // the correction bounds the step, not the error: converged also needs the KKT residual of the
-    // iterate below the bound (docs/theory.md#tnnmg-stopping); evaluated only when the correction passed
+    // iterate below the bound (docs/theory.md#tnnmg-stopping); evaluated only when the correction (or
+    // the error bound) passed
     if (small) {
       u = problem.fromRotated(w);
       kkt = computeKktResiduals(problem, u);

@@ -101,9 +101,16 @@ TEST(DynamicScenes, EachDataSceneRunsAFewSteps) {
          {"t", "step", "energy", "energy_redistributed", "momentum_x", "momentum_z", "contact_force_x",
           "contact_force_z", "active_solution", "active_predictor", "predictor_only", "solution_only",
           "max_penetration", "solver_iterations", "solver_seconds", "tracked0_normal_displacement",
-          "tracked0_normal_velocity", "tracked0_gap"})
+          "tracked0_normal_velocity", "tracked0_gap", "solver_kkt", "solver_error_bound"})
       EXPECT_TRUE(ts.columns.count(col)) << col;
     EXPECT_EQ(ts["step"][3], 3);
+    // the lumped mass bounds every step's error (docs/theory.md#tnnmg-error-bound): empty at t^0, a
+    // bound of the solution's relative error afterwards, below the tolerance it stopped at
+    EXPECT_TRUE(std::isnan(ts["solver_error_bound"][0]));
+    for (std::size_t i = 1; i < ts.rows; ++i) {
+      EXPECT_GE(ts["solver_error_bound"][i], 0) << "row " << i;
+      EXPECT_LT(ts["solver_error_bound"][i], ts["solver_tolerance"][i]) << "row " << i;
+    }
     const nlohmann::json s = summaryOf(dir);
     const auto& d = s.at("dynamics");
     EXPECT_EQ(d.at("scheme"), "improved-contact-stabilized");

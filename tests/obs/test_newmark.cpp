@@ -763,18 +763,28 @@ TEST(Newmark, InexactSolvesSaveIterationsNotAccuracy) {
       forceDifference = std::max(forceDifference, (ri[k].contactForce - re[k].contactForce).norm());
     }
     const double energyDifference = std::abs(ri.back().energy - re.back().energy) / E0;
+    // the time error they are measured against: exact solves with tau / 2 to the same end time
+    NewmarkFamily<2> half(b.grid, material(200), {}, *b.contact, opts(s, 0.5 * exactOptions.timeStep));
+    const auto rh = runSteps(half, u0, v0, 200);
+    double timeForceDifference = 0;
+    for (std::size_t k = 1; k < re.size(); ++k)
+      timeForceDifference = std::max(timeForceDifference, (rh[2 * k].contactForce - re[k].contactForce).norm());
+    const double timeEnergyDifference = std::abs(rh.back().energy - re.back().energy) / E0;
     if (verbose())
       std::cout << name(s) << ": TNNMG iterations " << itExact << " -> " << itInexact << ", loose steps " << loose
                 << ", contact steps " << contactSteps << ", E_end/E_0 " << re.back().energy / E0 << " -> "
-                << ri.back().energy / E0 << " (difference " << energyDifference << "), max |F| " << maxForce
-                << ", max |F_inexact - F| " << forceDifference << "\n";
-    // measured: 300 -> 202 iterations (3 -> 2 per step from the third), energy and contact forces
-    // equal to ~1e-12 relative: TNNMG's second iteration is already at round-off here
+                << ri.back().energy / E0 << " (difference " << energyDifference << "; tau/2: "
+                << timeEnergyDifference << "), max |F| " << maxForce << ", max |F_inexact - F| " << forceDifference
+                << " (tau/2: " << timeForceDifference << ")\n";
+    // measured: 200 -> 102 iterations (2 -> 1 per step from the third; the exact solves stop on
+    // TNNMG's error bound after 2); the inexact solves change the end energy by 1e-7 (classical:
+    // 4e-6) of E_0 and the forces by 2e-6 to 7e-5: 1e-6 to 5e-6 of what halving tau changes. The
+    // contract of inexactFraction = 0.1: an algebraic error of at most a tenth of the time error
     EXPECT_GT(contactSteps, 20);
     EXPECT_GT(loose, 50);
     EXPECT_LT(itInexact, 0.75 * itExact);
-    EXPECT_LT(energyDifference, 1e-6);
-    EXPECT_LT(forceDifference, 1e-6 * maxForce);
+    EXPECT_LT(energyDifference, inexactOptions.inexactFraction * timeEnergyDifference);
+    EXPECT_LT(forceDifference, inexactOptions.inexactFraction * timeForceDifference);
   }
   // bad fractions
   for (double f : {-0.1, 1.0, std::numeric_limits<double>::quiet_NaN()}) {

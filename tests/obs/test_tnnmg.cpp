@@ -17,6 +17,7 @@
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/LineSearch.hpp"
 #include "obs/obs/LinearElasticity.hpp"
+#include "obs/obs/MassMatrix.hpp"
 #include "obs/obs/PrimalDualActiveSet.hpp"
 #include "obs/obs/TNNMG.hpp"
 #include "obs/obs/TruncatedLinearization.hpp"
@@ -562,4 +563,139 @@ TEST(TnnmgStopping, KktTestCostsNoIterationsOnAStandardSolve) {
   EXPECT_EQ(r.tnnmg.kktRejections, 0);
   EXPECT_LT(r.tnnmg.history.back().correction, 1e-10);
   EXPECT_LE(r.tnnmg.kkt.max(), 1e-8);
+}
+
+TEST(TnnmgStopping, LumpedMassBoundsTheErrorOfEveryIterate) {
+  // docs/theory.md#tnnmg-error-bound: for S = M + c A (a time step of the Newmark family, M lumped)
+  // the declared lower bound M gives ||w - w*||_S <= sqrt(2 sum_i max_t (r_i t - m_i t^2/2)) for
+  // every admissible iterate. A strip pushed into a disk (curved constraints, active nodes) with a
+  // roller on the left side (prescribed components); mass-dominated, balanced and stiff steps.
+  const mesh::Grid grid = uniformGrid(CellType::Quadrilateral, 2, 3);
+  const mesh::Mesh m = grid.leafView().mesh;
+  const ContactSet cs(m, mesh::kBottom, DiskObstacle(P(0.5, -0.5), 0.5));
+  const Eigen::VectorXd lumped = assembleLumpedMass(m, kMaterial);
+  const BlockSparseMatrix<2> A = assembleStiffness<2>(m, kMaterial);
+  const BlockSparseMatrix<2> M = expandLumpedMass<2>(lumped, A);
+  const DirichletValues roller =
+      collectDirichlet(m, {{mesh::kLeft, {true, false, false}, [](const Point&) { return Point::Zero(); }}});
+  const std::vector<double> bound(lumped.data(), lumped.data() + lumped.size());
+  Eigen::VectorXd g(2 * m.numVertices());  // the load of a uniform step (0.01, -0.02) of the mass
+  for (Index p = 0; p < m.numVertices(); ++p) g[2 * p] = 0.01, g[2 * p + 1] = -0.02;
+  // c A / M per vertex about 3e5 c / 1e-3: 0.3, 3, 300
+  for (double c : {1e-9, 1e-8, 1e-6}) {
+    SCOPED_TRACE("c = " + std::to_string(c));
+    BlockSparseMatrix<2> S = A;
+    for (Index k = 0; k < S.nonZeroBlocks(); ++k) S.blockAt(k) = M.blockAt(k) + c * A.blockAt(k);
+    ContactProblem<2> problem(S, M * g, roller, cs);
+    Eigen::VectorXd ref;
+    ASSERT_TRUE(PrimalDualActiveSet<2>().solve(problem, ref).converged);
+    ASSERT_GT(computeContactOutputs(problem, ref).contactNodes, 2);
+    // without a declared bound none is computed; with one, every iterate's bound is above its error
+    TNNMG<2> plain(grid, tightOptions<2>());
+    Eigen::VectorXd u;
+    const ContactResult without = plain.solve(problem, u);
+    EXPECT_TRUE(std::isnan(without.errorBound));
+    problem.setDiagonalLowerBound(bound);
+    double worst = 0;
+    int compared = 0;
+    for (int k = 1; k <= 4; ++k) {
+      auto o = tightOptions<2>();
+      o.tolerance = 0;  // never converged: iterate k
+      o.maxIterations = k;
+      TNNMG<2> capped(grid, o);
+      Eigen::VectorXd uk;
+      const ContactResult r = capped.solve(problem, uk);
+      ASSERT_EQ(r.iterations, k);
+      const double error = problem.energyNorm(uk - ref) / problem.energyNorm(uk);
+      EXPECT_EQ(r.errorBound, r.history.back().errorBound);
+      // TNNMG's fused sum is RotatedProblem::errorBound (its A w is updated, not recomputed)
+      const RotatedProblem<2> rot = problem.rotated();
+      const Eigen::VectorXd wk = problem.toRotated(uk);
+      const double direct = rot.errorBound(wk, rot.matrix() * wk) / problem.energyNorm(uk);
+      if (direct > 1e-10) {
+        EXPECT_NEAR(r.errorBound, direct, 1e-6 * direct) << "iteration " << k;
+      }
+      // below 1e-12 the "error" is the round-off of the reference (an iterate at a fixed point of the
+      // floating-point sweeps can have a zero residual, hence a zero bound)
+      if (error > 1e-12) {
+        EXPECT_GE(r.errorBound, error * (1 - 1e-9)) << "iteration " << k;
+        worst = std::max(worst, r.errorBound / error);
+        ++compared;
+      }
+      if (verbose())
+        std::cout << std::setprecision(3) << "  c " << c << ", iteration " << k << ": error " << error << ", bound " << r.errorBound
+                  << ", correction " << r.correction << "\n";
+    }
+    EXPECT_GE(compared, 1);  // not all iterates exact
+    // the bound is sharp when the mass dominates: S <= (1 + 3e5 c / 1e-3 * const) M
+    if (c == 1e-9) {
+      EXPECT_LT(worst, 2.0);
+    }
+    // stopping on it: at most the iterations of the correction test, the error below the tolerance
+    TNNMG<2> bounded(grid, tightOptions<2>());
+    Eigen::VectorXd ub;
+    const ContactResult withBound = bounded.solve(problem, ub);
+    ASSERT_TRUE(withBound.converged);
+    EXPECT_LE(withBound.iterations, without.iterations);
+    EXPECT_LT(problem.energyNorm(ub - ref) / problem.energyNorm(ub), tightOptions<2>().tolerance);
+    if (c == 1e-9) {
+      EXPECT_LT(withBound.iterations, without.iterations);
+    }
+    if (verbose())
+      std::cout << "  c " << c << ": " << without.iterations << " iterations without the bound, "
+                << withBound.iterations << " with it (bound " << withBound.errorBound << "), bound / error <= "
+                << worst << "\n";
+  }
+  // bad bounds
+  ContactProblem<2> problem(A, M * g, roller, cs);
+  EXPECT_THROW(problem.setDiagonalLowerBound(std::vector<double>(3, 1.0)), obs::Error);
+  std::vector<double> negative = bound;
+  negative[5] = -1e-3;
+  EXPECT_THROW(problem.setDiagonalLowerBound(negative), obs::Error);
+  negative[5] = std::nan("");
+  EXPECT_THROW(problem.setDiagonalLowerBound(negative), obs::Error);
+}
+
+TEST(TnnmgStopping, ErrorBoundOfADiagonalOperator) {
+  // A~ = diag(m_p I) itself: J is separable, and the bound is the exact energy-norm error in every
+  // component whose minimiser lies inside the admissible set; where the bound clamps the minimiser
+  // (r > m * room) it exceeds the error, as the constraint makes J(w) - J(w*) > ||w - w*||^2 / 2
+  const std::vector<double> m{2.0, 0.5, 1.0};
+  auto A = std::make_shared<BlockSparseMatrix<2>>(std::vector<Index>{0, 1, 2, 3}, std::vector<Index>{0, 1, 2});
+  for (Index p = 0; p < 3; ++p) A->blockAt(p) = m[static_cast<std::size_t>(p)] * Eigen::Matrix2d::Identity();
+  RotatedProblem<2> rot;
+  rot.matrixPtr = A;
+  rot.rhs = (Eigen::VectorXd(6) << 1.0, -2.0, 0.25, 0.5, -1.0, 4.0).finished();
+  rot.upper = {0.25, 1.0, std::numeric_limits<double>::infinity()};  // vertex 0: the minimiser 0.5 is clamped
+  rot.prescribed = {0, 0, 0, 0, 0, 1};                                 // vertex 2, second component: Dirichlet
+  const Eigen::VectorXd w = (Eigen::VectorXd(6) << 0.1, 0.0, 0.9, 0.0, 0.0, 4.0).finished();
+  EXPECT_FALSE(rot.hasErrorBound());
+  EXPECT_TRUE(std::isnan(rot.errorBound(w, (*A * w))));
+  rot.diagonalLowerBound = m;
+  ASSERT_TRUE(rot.hasErrorBound());
+  // the exact minimiser over w_{p,1} <= upper: componentwise min(rhs / m, upper), Dirichlet kept
+  Eigen::VectorXd exact = w;
+  for (Index i = 0; i < 5; ++i) exact[i] = rot.rhs[i] / m[static_cast<std::size_t>(i / 2)];
+  exact[0] = std::min(exact[0], rot.upper[0]);
+  exact[2] = std::min(exact[2], rot.upper[1]);
+  const Eigen::VectorXd Aw = (*A * w);
+  const double error = std::sqrt((w - exact).dot((*A * (w - exact))));
+  // component 0 clamped: r = 0.8 > m room = 0.3, gain 0.15 (0.8 - 0.15) = 0.0975, against an error
+  // of m (0.15)^2 = 0.045 in the squared norm
+  const double expected = std::sqrt(error * error - 0.045 + 2 * 0.0975);
+  EXPECT_NEAR(rot.errorBound(w, Aw), expected, 1e-14 * expected);
+  EXPECT_GT(rot.errorBound(w, Aw), error);
+  // away from the clamp (vertex 0 at its minimiser), the bound is the error
+  Eigen::VectorXd w2 = w;
+  w2[0] = 0.25;
+  const double error2 = std::sqrt((w2 - exact).dot((*A * (w2 - exact))));
+  EXPECT_NEAR(rot.errorBound(w2, (*A * w2)), error2, 1e-14 * error2);
+  // a vertex with a free component needs m > 0; a fully prescribed one does not
+  rot.diagonalLowerBound[1] = 0;
+  EXPECT_FALSE(rot.hasErrorBound());
+  rot.diagonalLowerBound[1] = 0.5;
+  rot.diagonalLowerBound[2] = 0;
+  EXPECT_FALSE(rot.hasErrorBound());
+  rot.prescribed[4] = 1;
+  EXPECT_TRUE(rot.hasErrorBound());
 }

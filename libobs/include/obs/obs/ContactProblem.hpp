@@ -54,16 +54,31 @@ struct RotatedProblem {
   Eigen::VectorXd rhs;           ///< b~ = Q'b
   std::vector<double> upper;     ///< bound of the first local component per vertex
   std::vector<char> prescribed;  ///< Dirichlet components in rotated numbering (identity rows of A~)
+  /// ContactProblem::diagonalLowerBound() (empty: none); rotation-invariant, so it bounds A~ too
+  std::vector<double> diagonalLowerBound;
 
   const BlockSparseMatrix<d>& matrix() const { return *matrixPtr; }
   Index numVertices() const { return matrix().rows(); }
   bool bounded(Index p) const { return upper[p] < std::numeric_limits<double>::infinity(); }
   double energy(const Eigen::VectorXd& w) const { return 0.5 * matrix().energy(w) - rhs.dot(w); }
+  /// True if diagonalLowerBound is given and positive at every vertex with a free component.
+  bool hasErrorBound() const;
+  /// The a posteriori bound sqrt(2 sum_i componentGain(r_i, m_p, room_i)) >= ||w - w*||_A~ of an
+  /// admissible w (docs/theory.md#tnnmg-error-bound), from Aw = A~ w: r = rhs - Aw over the free
+  /// components, room_i = upper[p] - w_i for the bounded first components, +inf otherwise. NaN
+  /// without hasErrorBound(). (TNNMG evaluates the same sum inside its fused vector pass.)
+  double errorBound(const Eigen::VectorXd& w, const Eigen::VectorXd& Aw) const;
   /// Clamps w[p*d] to upper[p] (the componentwise projection onto the admissible set).
   void project(Eigen::VectorXd& w) const;
   /// Number of vertices with w[p*d] >= upper[p] (exactly at the bound, as the solvers set it).
   Index countActive(const Eigen::VectorXd& w) const;
 };
+
+/// max over t <= room of r t - m t^2 / 2 (m > 0, room >= 0, +inf: unbounded): the largest decrease of
+/// J(w + t e_i) - J(w) that the lower bound m of the curvature allows (docs/theory.md#tnnmg-error-bound).
+inline double componentGain(double r, double m, double room) {
+  return r <= m * room ? 0.5 * r * r / m : room * (r - 0.5 * m * room);
+}
 
 template <int d>
 class ContactProblem {
@@ -147,6 +162,16 @@ public:
   /// values that violate a new gap (as the constructor).
   void setGaps(const std::vector<double>& gaps);
 
+  // --- a posteriori error bound (docs/theory.md#tnnmg-error-bound) ---
+  /// Declares m_p >= 0 per vertex with A - diag(m_p I) positive semidefinite for the stiffness given
+  /// to the constructor (e.g. the lumped masses of a time step's matrix M + c tau^2 A; after the
+  /// Dirichlet elimination it holds on the free components, the only ones the bound uses). Solvers may then bound the energy-norm error of an
+  /// admissible iterate by its residual (TNNMG stops on it). Part of the operator: kept by copies,
+  /// setLoad() and setGaps(). Throws obs::Error on a wrong size, a negative or non-finite entry, or
+  /// a transformed problem (T'AT has no such diagonal bound in general).
+  void setDiagonalLowerBound(std::vector<double> bound);
+  /// The bound of setDiagonalLowerBound (empty: none declared).
+  const std::vector<double>& diagonalLowerBound() const { return lowerBound_; }
   /// The rotated problem (built on each call; it shares the matrix, and copies the vectors).
   RotatedProblem<d> rotated() const;
   /// w = Q'u and u = Q w.
@@ -167,6 +192,7 @@ private:
   std::vector<Constraint> constraints_;
   Eigen::VectorXd dirichletLift_;  ///< A g (original A) on free rows, to eliminate the values in setLoad
   std::vector<char> rotated_;      ///< per contact node: a rotation was built at construction
+  std::vector<double> lowerBound_;  ///< setDiagonalLowerBound (empty: none)
   std::uint64_t operatorId_ = 0;
 };
 

@@ -7,7 +7,9 @@
 ///   ||u^{k+1} - u^k||_A / ||u^{k+1}||_A < tolerance
 /// (solvers with an exact stopping rule, like the active-set method, say so); TNNMG in addition
 /// requires the KKT residual KktResiduals::max() of the iterate <= max(kktTolerance, tolerance),
-/// checked only in the iterations whose correction passes (docs/theory.md#tnnmg-stopping). Reaching
+/// checked only in the iterations whose correction passes (docs/theory.md#tnnmg-stopping); where the
+/// problem declares a diagonal lower bound, TNNMG's error bound may pass instead of the correction
+/// (docs/theory.md#tnnmg-error-bound). Reaching
 /// maxIterations returns converged = false; NaN/Inf, divergence and stagnation throw obs::Error
 /// saying what happened.
 ///
@@ -17,6 +19,7 @@
 
 #include <chrono>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -31,6 +34,9 @@ struct IterationRecord {
   double correction = 0;  ///< ||u^k - u^{k-1}||_A / ||u^k||_A
   Index activeSetSize = 0;
   Index truncationChanges = 0;  ///< components whose truncation changed in this iteration (TNNMG; else 0)
+  /// Upper bound of the relative energy-norm error ||u^k - u*||_A / ||u^k||_A (TNNMG on problems with
+  /// a diagonal lower bound, docs/theory.md#tnnmg-error-bound); NaN where none is computed.
+  double errorBound = std::numeric_limits<double>::quiet_NaN();
 };
 
 struct ContactSolverOptions {
@@ -65,6 +71,7 @@ struct ContactResult {
   bool converged = false;
   double seconds = 0;
   double correction = 0;       ///< last relative energy-norm correction
+  double errorBound = std::numeric_limits<double>::quiet_NaN();  ///< last IterationRecord::errorBound
   double convergenceRate = 0;  ///< geometric mean of the correction ratios (0 if < 2 iterations)
   double energy = 0;           ///< final J(u)
   Index activeSetSize = 0;     ///< final number of nodes at their bound
@@ -90,9 +97,11 @@ public:
   /// Starts the clock; `initialEnergy` is J of the (projected) start.
   IterationMonitor(std::string solver, const ContactSolverOptions& options, double initialEnergy);
 
-  /// Records iteration k (1, 2, ...). Returns true if correction < tolerance. Throws obs::Error on
-  /// NaN/Inf, divergence or stagnation.
-  bool record(double energy, double correction, Index activeSetSize, Index truncationChanges = 0);
+  /// Records iteration k (1, 2, ...). Returns true if correction < tolerance or errorBound <
+  /// tolerance (an upper bound of the relative error, NaN if the solver has none). Throws obs::Error
+  /// on NaN/Inf, divergence or stagnation.
+  bool record(double energy, double correction, Index activeSetSize, Index truncationChanges = 0,
+              double errorBound = std::numeric_limits<double>::quiet_NaN());
   /// For energy-monotone methods: throws obs::Error if the last recorded energy exceeds the one
   /// before by more than round-off, 1e-10 * scale (scale: magnitude of the energy's terms).
   void requireMonotone(double scale) const;
@@ -109,6 +118,7 @@ private:
   std::chrono::steady_clock::time_point start_;
   double initialEnergy_, minEnergy_, previousEnergy_, lastEnergy_;
   double bestCorrection_, firstCorrection_ = 0, lastCorrection_ = 0;
+  double lastErrorBound_ = std::numeric_limits<double>::quiet_NaN();
   int iteration_ = 0, sinceProgress_ = 0;
   std::vector<IterationRecord> history_;
 };

@@ -206,6 +206,10 @@ struct StepRecord {
   /// KKT residual KktResiduals::max() of the step's contact solve (NaN in the record of the initial
   /// state and after a restart).
   double solverKkt = std::numeric_limits<double>::quiet_NaN();
+  /// TNNMG's bound of the relative error of the step's solution, ContactResult::errorBound (NaN where
+  /// the step problem has no diagonal lower bound, docs/theory.md#tnnmg-error-bound, in the record of
+  /// the initial state and after a restart).
+  double solverErrorBound = std::numeric_limits<double>::quiet_NaN();
   /// Local time-error estimate eta = |beta - 1/6| tau ||v^{n+1} - 2 v^n + v^{n-1}||_S of the step
   /// (docs/theory.md#dynamic-inexact-solves); computed only with NewmarkOptions::inexactFraction > 0
   /// and from the second step on, NaN otherwise.

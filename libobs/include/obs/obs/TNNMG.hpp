@@ -15,8 +15,10 @@
 ///      w^{k+1} = w^{k+1/2} + alpha c; optional nu2 post-smoothing sweeps.
 /// Every part minimises J exactly in a subspace or along a line inside the admissible set, so the
 /// energy never increases (checked each iteration by IterationMonitor::requireMonotone). Stopping:
-/// ||w^{k+1} - w^k||_A / ||w^{k+1}||_A < tolerance (ContactSolverOptions), then KKT residuals of the
-/// result are reported. History records energy, correction, active-set size and the number of
+/// ||w^{k+1} - w^k||_A / ||w^{k+1}||_A < tolerance (ContactSolverOptions), or, if the problem declares
+/// a diagonal lower bound of A (time steps with a lumped mass), the a posteriori error bound
+/// RotatedProblem::errorBound(w^{k+1}) / ||w^{k+1}||_A < tolerance (docs/theory.md#tnnmg-error-bound);
+/// either way the KKT residual of the iterate must pass as well (docs/theory.md#tnnmg-stopping). History records energy, correction, active-set size and the number of
 /// components whose truncation changed.
 ///
 /// The solver is built for one grid, or for the grids of several bodies (their hierarchies block-
