@@ -5,7 +5,9 @@
 //
 // Side by side in one run, for 1..T threads (obs::setThreads):
 //  1. the machine: STREAM-like triad bandwidth a = b + 3c over 3 x 512 MB (what a memory-bound loop
-//     can gain from more threads on this machine);
+//     can gain from more threads on this machine), and the throughput of T threads on a compute-bound
+//     loop in units of one thread (what a compute-bound loop can gain; 2 on two cores of its own,
+//     less when the virtual CPUs share a core with other work of the host);
 //  2. the kernels on the step-42 grid (unit cube of hexahedra, coarse 2^3, L levels: 64^3 cells for
 //     L = 5): stiffness assembly, y = A x, two products in one pass, one truncated linear
 //     Gauss-Seidel sweep (the V-cycle's smoother), one nonsmooth block Gauss-Seidel sweep (TNNMG's fine smoother); best of R;
@@ -17,9 +19,11 @@
 //  4. with --obs: the whole `obs run data/scenes/step42.toml --refine 4` per thread count (wall and
 //     CPU seconds, peak memory, from /usr/bin/time; the mesh, assembly, solve and output phases
 //     from summary.json, and the set-up within the solve where summary.json has TNNMG's phases; the
-//     size of the .vtu file); with --baseline also another obs binary (an older version, say), the
-//     two alternating run by run, with the solver's correction of each.
+//     size of the .vtu file; after every run on T > 1 threads the compute throughput of T threads,
+//     measured again); with --baseline also another obs binary (an older version, say), the two
+//     alternating run by run, with the solver's correction of each.
 // Writes the tables between the bench/threads markers of OUT.md (MarkdownBlock.hpp).
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -75,6 +79,32 @@ double triad(int threads, std::vector<double>& a, const std::vector<double>& b, 
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (long i = 0; i < n; ++i) a[i] = b[i] + 3.0 * c[i];
   return 3.0 * 8.0 * static_cast<double>(n) / since(t0) / 1e9;
+}
+
+/// Seconds of a compute-bound loop (8 independent multiply-add chains in registers, no memory
+/// traffic) run by `threads` threads at once, each thread the whole loop.
+double spin(int threads, long iterations) {
+  const auto t0 = Clock::now();
+  double sink = 0;
+#pragma omp parallel num_threads(threads) reduction(+ : sink)
+  {
+    double x[8] = {1, 2, 3, 4, 5, 6, 7, 8};
+    for (long i = 0; i < iterations; ++i)
+      for (double& v : x) v = v * 0.999999999 + 1e-9;
+    for (double v : x) sink += v;
+  }
+  const double seconds = since(t0);
+  if (!(sink > 0)) std::cerr << "";  // keeps the loop
+  return seconds;
+}
+
+/// The machine's throughput for compute-bound work on `threads` threads, in units of one thread:
+/// threads x (time of one thread alone) / (time of `threads` threads doing the same each). 2 on two
+/// cores of its own; less when the virtual CPUs share a core or the host runs other work on them.
+double computeCapacity(int threads) {
+  constexpr long kIterations = 100'000'000;
+  const double alone = spin(1, kIterations);
+  return threads * alone / spin(threads, kIterations);
 }
 
 struct Step42 {
@@ -141,6 +171,19 @@ int main(int argc, char** argv) {
       md << "| " << t << " | " << fmt(bw) << " |\n";
       std::cerr << "triad, " << t << " threads: " << fmt(bw) << " GB/s\n";
     }
+  }
+  // the compute throughput of more threads: measured R times, since it changes with what the host
+  // runs on the other virtual CPU
+  md << "\nCompute throughput (a loop of multiply-adds in registers, run alone and by T threads at once, each "
+        "the whole loop; in units of one thread, "
+     << repeat << " measurements):\n\n| threads | best | median | worst |\n|---:|---:|---:|---:|\n";
+  for (int t = 2; t <= maxThreads; ++t) {
+    std::vector<double> c;
+    for (int r = 0; r < repeat; ++r) c.push_back(computeCapacity(t));
+    std::sort(c.begin(), c.end());
+    md << "| " << t << " | " << fmt(c.back(), 3) << " | " << fmt(c[c.size() / 2], 3) << " | " << fmt(c.front(), 3)
+       << " |\n";
+    std::cerr << "compute throughput, " << t << " threads: " << fmt(c.back(), 3) << " best\n";
   }
 
   // 2. kernels
@@ -269,11 +312,11 @@ int main(int argc, char** argv) {
        << " alternate, best wall time of " << repeat << " runs, its CPU time, memory and phases):\n\n"
        << (two ? "| binary " : "")
        << "| threads | wall s | CPU s | peak MB | mesh s | assembly s | solve s | of it set-up s | output s | .vtu MB | "
-          "wall s of every run | solve s of every run | correction |\n"
-       << (two ? "|---" : "") << "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|---|\n";
+          "wall s of every run | solve s of every run | compute throughput after every run | correction |\n"
+       << (two ? "|---" : "") << "|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|---|---|---|\n";
     struct Run {
       double wall = 1e300, cpu = 0, mb = 0, mesh = 0, assembly = 0, solve = 0, setup = 0, output = 0, fileMb = 0;
-      std::string all, solves, correction;
+      std::string all, solves, capacities, correction;
     };
     std::vector<Run> runs(binaries.size() * static_cast<std::size_t>(maxThreads));
     for (int rep = 0; rep < repeat; ++rep)
@@ -303,13 +346,15 @@ int main(int argc, char** argv) {
           Run& r = runs[bin * static_cast<std::size_t>(maxThreads) + static_cast<std::size_t>(t - 1)];
           r.all += (r.all.empty() ? "" : ", ") + fmt(wall);
           r.solves += (r.solves.empty() ? "" : ", ") + fmt(number("solve_s"));
+          // what T threads could gain right then (a second, short measurement; see the table above)
+          if (t > 1) r.capacities += (r.capacities.empty() ? "" : ", ") + fmt(computeCapacity(t), 3);
           std::error_code noFile;
           const auto bytes = std::filesystem::file_size(dir + "/step42.vtu", noFile);
           const double fileMb = noFile ? std::nan("") : static_cast<double>(bytes) / 1e6;
           if (wall < r.wall)
             r = Run{wall,           user + sys,       kb / 1024,          number("mesh_s"), number("assembly_s"),
                     number("solve_s"), number("setup_s"), number("output_s"), fileMb,           r.all,
-                    r.solves,          correction};
+                    r.solves,          r.capacities,     correction};
           std::cerr << "obs run" << (two ? " (" + binaries[bin].first + ")" : std::string()) << ", " << t
                     << " threads: " << fmt(wall) << " s wall\n";
         }
@@ -321,7 +366,8 @@ int main(int argc, char** argv) {
            << (t > 1 ? " (" + fmt(row[0].wall / r.wall, 3) + "x)" : "") << " | " << fmt(r.cpu) << " | " << fmt(r.mb, 4)
            << " | " << fmt(r.mesh) << " | " << fmt(r.assembly) << " | " << fmt(r.solve) << " | "
            << (std::isnan(r.setup) ? std::string("-") : fmt(r.setup)) << " | " << fmt(r.output) << " | " << fmt(r.fileMb, 4)
-           << " | " << r.all << " | " << r.solves << " | " << r.correction << " |\n";
+           << " | " << r.all << " | " << r.solves << " | " << (t > 1 ? r.capacities : std::string("-")) << " | "
+           << r.correction << " |\n";
       }
   }
   if (!bench::writeMarkdownBlock(out, "threads", md.str())) {
