@@ -10,12 +10,14 @@
 //     less when the virtual CPUs share a core with other work of the host);
 //  2. the kernels on the step-42 grid (unit cube of hexahedra, coarse 2^3, L levels: 64^3 cells for
 //     L = 5): stiffness assembly, y = A x, two products in one pass, one truncated linear
-//     Gauss-Seidel sweep (the V-cycle's smoother), one nonsmooth block Gauss-Seidel sweep (TNNMG's fine smoother); best of R;
+//     Gauss-Seidel sweep (the V-cycle's smoother), one nonsmooth block Gauss-Seidel sweep (TNNMG's
+//     fine smoother); best of R, the thread counts alternating run by run;
 //     each with one block per entry and with the repeated blocks shared (the storage of obs' solves,
 //     BlockSparseMatrix::shareRepeatedBlocks); the sweep orders; the coarse operators of every level
 //     (MultigridHierarchy::setFineOperator: Galerkin patterns and products, TNNMG's set-up);
 //  3. TNNMG on the step-42 problem: iterations, solve seconds, energy; two solves per thread count
-//     must give bitwise the same solution (reproducibility for a fixed thread count);
+//     (the thread counts alternating) must give bitwise the same solution (reproducibility for a
+//     fixed thread count);
 //  4. with --obs: the whole `obs run data/scenes/step42.toml --refine 4` per thread count (wall and
 //     CPU seconds, peak memory, from /usr/bin/time; the mesh, assembly, solve and output phases
 //     from summary.json, and the set-up within the solve where summary.json has TNNMG's phases; the
@@ -32,6 +34,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <memory>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -190,30 +193,72 @@ int main(int argc, char** argv) {
   Step42 s(level);
   const Index nv = s.mesh.numVertices();
   md << "\nKernels on the step-42 grid (" << s.mesh.numCells() << " hexahedra, " << nv * 3
-     << " unknowns), seconds, best of " << repeat << ":\n\n"
+     << " unknowns), seconds, best of " << repeat
+     << " (assembly, products and sweeps: the thread counts alternating run by run):\n\n"
      << "| threads | blocks | assembly (sharing) | y = A x | two products in one pass | linear GS sweep | nonsmooth GS sweep | sweep order "
         "(METIS, fine graph) | interface vertices (of them on one thread) | sweep order (carried from level L - 1) | interface vertices (carried) | coarse operators (Galerkin) |\n"
      << "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+  // Assembly, products and sweeps with the thread counts alternating repeat by repeat, so that a
+  // change of the machine's state between the measurements enters every thread count alike. Each
+  // thread count has its own matrices (the sweep order is kept per matrix for threads() parts).
+  const auto T = static_cast<std::size_t>(maxThreads);
+  std::vector<BlockSparseMatrix<3>> plainA(T), sharedA(T);
+  std::vector<double> assemblyBest(T, 1e300);
+  for (int rep = 0; rep < repeat; ++rep)
+    for (int t = 1; t <= maxThreads; ++t) {
+      setThreads(t);
+      const auto t0 = Clock::now();
+      plainA[t - 1] = assembleStiffness<3>(s.mesh, s.material);
+      assemblyBest[t - 1] = std::min(assemblyBest[t - 1], since(t0));
+    }
+  // per thread count and storage: y = A x, y, y2 = A x, A x2 (TNNMG's A w, A (w - w^k)), one linear
+  // and one nonsmooth sweep
+  struct Kernels {
+    const BlockSparseMatrix<3>* matrix = nullptr;
+    TruncatedGaussSeidel<3> linear;
+    std::unique_ptr<BlockGaussSeidelSweep<3>> nonsmooth;
+    std::vector<double> best = std::vector<double>(4, 1e300);
+  };
+  std::vector<Kernels> kernelSets(2 * T);  // [2 (t - 1)]: one block per entry, [2 (t - 1) + 1]: shared
+  Eigen::VectorXd x = Eigen::VectorXd::Ones(nv * 3), y, r = Eigen::VectorXd::Ones(nv * 3);
+  Eigen::VectorXd x2 = Eigen::VectorXd::Constant(nv * 3, 0.5), y2;
+  for (int t = 1; t <= maxThreads; ++t) {
+    setThreads(t);
+    sharedA[t - 1] = plainA[t - 1];
+    if (!sharedA[t - 1].shareRepeatedBlocks()) std::cerr << "threads: the step-42 matrix did not share its blocks\n";
+    for (int k = 0; k < 2; ++k) {
+      Kernels& K = kernelSets[2 * (t - 1) + k];
+      K.matrix = k == 0 ? &plainA[t - 1] : &sharedA[t - 1];
+      K.linear.setMatrix(*K.matrix);
+      K.nonsmooth = std::make_unique<BlockGaussSeidelSweep<3>>(*K.matrix, std::vector<double>(static_cast<std::size_t>(nv), 0.0));
+      K.linear.sweep(r, x);  // the sweep orders for t parts, outside the timings
+      K.nonsmooth->sweep(r, x);
+    }
+  }
+  for (int rep = 0; rep < repeat; ++rep)
+    for (int t = 1; t <= maxThreads; ++t) {
+      setThreads(t);
+      for (int k = 0; k < 2; ++k) {
+        Kernels& K = kernelSets[2 * (t - 1) + k];
+        const auto time = [&](int cell, auto&& f) {
+          const auto t0 = Clock::now();
+          f();
+          K.best[static_cast<std::size_t>(cell)] = std::min(K.best[static_cast<std::size_t>(cell)], since(t0));
+        };
+        time(0, [&] { K.matrix->multiply(x, y); });
+        time(1, [&] { K.matrix->multiply(x, y, x2, y2); });
+        time(2, [&] { K.linear.sweep(r, x); });
+        time(3, [&] { K.nonsmooth->sweep(r, x); });
+      }
+    }
   std::vector<double> base;
   double galerkinBase = 0;
   for (int t = 1; t <= maxThreads; ++t) {
     setThreads(t);
-    BlockSparseMatrix<3> A;
-    const double assembly = best(repeat, [&] { A = assembleStiffness<3>(s.mesh, s.material); });
-    // the kernels of one matrix: products, linear and nonsmooth sweep
-    const auto kernels = [&](const BlockSparseMatrix<3>& M) {
-      Eigen::VectorXd x = Eigen::VectorXd::Ones(nv * 3), y, r = Eigen::VectorXd::Ones(nv * 3);
-      const double mult = best(repeat, [&] { M.multiply(x, y); });
-      Eigen::VectorXd x2 = Eigen::VectorXd::Constant(nv * 3, 0.5), y2;  // y, y2 = A x, A x2 (TNNMG's A w, A (w - w^k))
-      const double mult2 = best(repeat, [&] { M.multiply(x, y, x2, y2); });
-      TruncatedGaussSeidel<3> tgs;
-      tgs.setMatrix(M);
-      const double linear = best(repeat, [&] { tgs.sweep(r, x); });
-      BlockGaussSeidelSweep<3> ngs(M, std::vector<double>(static_cast<std::size_t>(nv), 0.0));
-      const double nonsmooth = best(repeat, [&] { ngs.sweep(r, x); });
-      return std::vector<double>{mult, mult2, linear, nonsmooth};
-    };
-    const std::vector<double> plain = kernels(A);
+    const BlockSparseMatrix<3>& A = plainA[t - 1];
+    const double assembly = assemblyBest[t - 1];
+    const std::vector<double>& plain = kernelSets[2 * (t - 1)].best;
+    const std::vector<double>& sharedKernels = kernelSets[2 * (t - 1) + 1].best;
     BlockSparseMatrix<3> S;
     double sharing = 1e300;  // the sharing alone, not the copy before it
     for (int rep = 0; rep < repeat; ++rep) {
@@ -222,7 +267,6 @@ int main(int argc, char** argv) {
       if (!S.shareRepeatedBlocks()) std::cerr << "threads: the step-42 matrix did not share its blocks\n";
       sharing = std::min(sharing, since(t0));
     }
-    const std::vector<double> sharedKernels = kernels(S);
     const SweepOrder metis(A.rowStarts(), A.columns(), t);
     const double partition = best(repeat, [&] { const SweepOrder o(A.rowStarts(), A.columns(), t); });
     // the fine order carried from level L - 1 (LinearMultigrid's default on threads), timed on
@@ -269,14 +313,18 @@ int main(int argc, char** argv) {
   }
 
   // 3. TNNMG
-  md << "\nTNNMG on the step-42 problem (tolerance 1e-10; the solve from zero, hierarchy set-up included):\n\n"
+  md << "\nTNNMG on the step-42 problem (tolerance 1e-10; the solve from zero, hierarchy set-up included; the "
+        "second of two solves per thread count, the thread counts alternating):\n\n"
      << "| threads | iterations | solve s | set-up | nonsmooth sweeps | operator updates | V-cycles | other | energy | "
         "bitwise equal to a second solve |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n";
+  // two solves per thread count, the thread counts alternating (1, 2, .., 1, 2, ..); the table has
+  // the second solve of each, which must repeat the first one's bits
+  std::vector<Eigen::VectorXd> first(static_cast<std::size_t>(maxThreads));
+  std::vector<std::string> tnnmgRows(static_cast<std::size_t>(maxThreads));
   double tnnmgBase = 0;
-  for (int t = 1; t <= maxThreads; ++t) {
-    setThreads(t);
-    Eigen::VectorXd first;
-    for (int run = 0; run < 2; ++run) {
+  for (int run = 0; run < 2; ++run)
+    for (int t = 1; t <= maxThreads; ++t) {
+      setThreads(t);
       const ContactSet set(s.mesh, mesh::kTop, s.ball);
       const ContactProblem<3> problem(s.mesh, s.material, s.bc, set);
       TNNMG<3>::Options o;
@@ -286,19 +334,23 @@ int main(int argc, char** argv) {
       const auto t0 = Clock::now();
       const ContactResult res = solver.solve(problem, u);
       const double sec = since(t0);
+      Eigen::VectorXd& u0 = first[static_cast<std::size_t>(t - 1)];
       if (run == 0) {
-        first = u;
+        u0 = u;
         continue;
       }
-      const bool same = u.size() == first.size() && std::memcmp(u.data(), first.data(), sizeof(double) * u.size()) == 0;
+      const bool same = u.size() == u0.size() && std::memcmp(u.data(), u0.data(), sizeof(double) * u.size()) == 0;
       if (t == 1) tnnmgBase = sec;
       const auto& st = solver.statistics();
-      md << "| " << t << " | " << res.iterations << " | " << fmt(sec) << (t > 1 ? " (" + fmt(tnnmgBase / sec, 2) + "x)" : "")
-         << " | " << fmt(st.setupSeconds) << " | " << fmt(st.smoothingSeconds) << " | " << fmt(st.updateSeconds) << " | "
-         << fmt(st.correctionSeconds) << " | " << fmt(st.otherSeconds) << " | " << fmt(problem.energy(u), 12) << " | " << (same ? "yes" : "**no**") << " |\n";
+      std::ostringstream row;
+      row << "| " << t << " | " << res.iterations << " | " << fmt(sec) << (t > 1 ? " (" + fmt(tnnmgBase / sec, 2) + "x)" : "")
+          << " | " << fmt(st.setupSeconds) << " | " << fmt(st.smoothingSeconds) << " | " << fmt(st.updateSeconds) << " | "
+          << fmt(st.correctionSeconds) << " | " << fmt(st.otherSeconds) << " | " << fmt(problem.energy(u), 12) << " | "
+          << (same ? "yes" : "**no**") << " |\n";
+      tnnmgRows[static_cast<std::size_t>(t - 1)] = row.str();
       std::cerr << "TNNMG, " << t << " threads: " << res.iterations << " iterations, " << fmt(sec) << " s\n";
     }
-  }
+  for (const std::string& row : tnnmgRows) md << row;
 
   // 4. the whole program, and a baseline binary alternating with it
   if (!obsBinary.empty()) {
