@@ -462,6 +462,10 @@ TEST(MortarTwoBody, RoundedBlockOnBoxTnnmgAgreesWithPdas3D) {
   const ContactOutputs out = computeContactOutputs(problem, xt);
   EXPECT_GT(out.contactNodes, 4);
   EXPECT_LT(out.force[2], 0);  // force = sum mu_p n_p along the slave normals (down); the box pushes up
+  EXPECT_TRUE(std::isnan(rt.errorBound));  // mortar unknowns: no diagonal lower bound can be declared
+  ContactProblem<3> copy = problem;
+  EXPECT_THROW(copy.setDiagonalLowerBound(std::vector<double>(static_cast<std::size_t>(sys.numVertices()), 1.0)),
+               obs::Error);
   if (verbose())
     std::cout << "3D: " << sys.load.size() << " unknowns, TNNMG " << rt.iterations << ", PDAS " << rp.iterations
               << ", contact nodes " << out.contactNodes << ", force " << out.force.transpose() << "\n";

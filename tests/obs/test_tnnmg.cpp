@@ -2,11 +2,13 @@
 // active set method for every element type (2D punch on a strip, 3D Hertz ball), KKT residuals,
 // monotone energy, mesh-independent iteration counts on uniformly and locally refined grids, curved
 // obstacles with varying normals, the linear limit, Dirichlet data on the contact boundary,
-// penetrating starts, an exchangeable linear correction and bad input.
+// penetrating starts, an exchangeable linear correction, bad input, and the stopping rules (KKT
+// test, the a posteriori error bound of a diagonal lower bound).
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <cstdlib>
+#include <iomanip>
 #include <iostream>
 #include <memory>
 
@@ -623,8 +625,8 @@ TEST(TnnmgStopping, LumpedMassBoundsTheErrorOfEveryIterate) {
         ++compared;
       }
       if (verbose())
-        std::cout << std::setprecision(3) << "  c " << c << ", iteration " << k << ": error " << error << ", bound " << r.errorBound
-                  << ", correction " << r.correction << "\n";
+        std::cout << std::setprecision(3) << "  c " << c << ", iteration " << k << ": error " << error
+                  << ", bound " << r.errorBound << ", correction " << r.correction << "\n";
     }
     EXPECT_GE(compared, 1);  // not all iterates exact
     // the bound is sharp when the mass dominates: S <= (1 + 3e5 c / 1e-3 * const) M
