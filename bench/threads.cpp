@@ -1,7 +1,7 @@
 // Threads: what obs gains from a second core, and why (docs/performance.md#threads).
 //
 //   build/bench/threads OUT.md [--threads T] [--level L] [--repeat R] [--obs build/drivers/obs]
-//                              [--baseline OLD_OBS]
+//                              [--baseline OLD_OBS] [--only SECTIONS]
 //
 // Side by side in one run, for 1..T threads (obs::setThreads):
 //  1. the machine: STREAM-like triad bandwidth a = b + 3c over 3 x 512 MB (what a memory-bound loop
@@ -18,12 +18,17 @@
 //  3. TNNMG on the step-42 problem: iterations, solve seconds, energy; two solves per thread count
 //     (the thread counts alternating) must give bitwise the same solution (reproducibility for a
 //     fixed thread count);
+//  3b. one V(3,3) cycle of the linear correction on the step-42 operator, level by level: smoothing,
+//     defect, transfers and the coarse solve (LinearMultigrid::levelSeconds), the thread counts
+//     alternating;
 //  4. with --obs: the whole `obs run data/scenes/step42.toml --refine 4` per thread count (wall and
 //     CPU seconds, peak memory, from /usr/bin/time; the mesh, assembly, solve and output phases
 //     from summary.json, and the set-up within the solve where summary.json has TNNMG's phases; the
 //     size of the .vtu file; after every run on T > 1 threads the compute throughput of T threads,
 //     measured again); with --baseline also another obs binary (an older version, say), the two
 //     alternating run by run, with the solver's correction of each.
+// --only machine,kernels,tnnmg,vcycles,obs (any of them, comma-separated) runs and writes only those
+// sections (experiments; write to a scratch file, not the docs).
 // Writes the tables between the bench/threads markers of OUT.md (MarkdownBlock.hpp).
 #include <algorithm>
 #include <chrono>
@@ -110,6 +115,41 @@ double computeCapacity(int threads) {
   return threads * alone / spin(threads, kIterations);
 }
 
+/// Rows of the V-cycle phases by level (finest first): per thread count the smoothing, defect,
+/// transfers (restriction to and prolongation from the level below) and coarse solve, in
+/// milliseconds after dividing by `cycles`, with the ratio against one thread; a last row with the
+/// totals.
+void levelTable(std::ostringstream& md, const std::vector<Index>& vertices,
+                const std::vector<std::vector<LinearMultigrid<3>::LevelSeconds>>& byThreads, long long cycles) {
+  const auto ms = [&](double sec) { return fmt(1e3 * sec / static_cast<double>(cycles)); };
+  const auto cell = [&](double sec, double one, bool ratio) {
+    return ms(sec) + (ratio && one > 0 && sec > 0 ? " (" + fmt(one / sec, 2) + "x)" : std::string());
+  };
+  md << "| level | vertices |";
+  for (std::size_t t = 1; t <= byThreads.size(); ++t) md << " smoothing, " << t << " th. | defect | transfers | coarse solve |";
+  md << "\n|---:|---:|";
+  for (std::size_t t = 1; t <= byThreads.size(); ++t) md << "---:|---:|---:|---:|";
+  md << "\n";
+  std::vector<double> totals(byThreads.size(), 0.0);
+  for (int l = static_cast<int>(vertices.size()) - 1; l >= 0; --l) {
+    md << "| " << l << " | " << vertices[static_cast<std::size_t>(l)] << " |";
+    const auto& one = byThreads[0][static_cast<std::size_t>(l)];
+    for (std::size_t t = 0; t < byThreads.size(); ++t) {
+      const auto& b = byThreads[t][static_cast<std::size_t>(l)];
+      const bool ratio = t > 0;
+      md << " " << cell(b.smoothing, one.smoothing, ratio) << " | " << cell(b.defect, one.defect, ratio) << " | "
+         << cell(b.restriction + b.prolongation, one.restriction + one.prolongation, ratio) << " | "
+         << cell(b.coarseSolve, one.coarseSolve, ratio) << " |";
+      totals[t] += b.smoothing + b.defect + b.restriction + b.prolongation + b.coarseSolve;
+    }
+    md << "\n";
+  }
+  md << "| all | |";
+  for (std::size_t t = 0; t < byThreads.size(); ++t)
+    md << " " << cell(totals[t], totals[0], t > 0) << " | | | |";
+  md << "\n";
+}
+
 struct Step42 {
   mesh::Grid grid;
   mesh::Mesh mesh;
@@ -130,12 +170,13 @@ struct Step42 {
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::cerr << "usage: threads OUT.md [--threads T] [--level L] [--repeat R] [--obs OBS]\n";
+    std::cerr << "usage: threads OUT.md [--threads T] [--level L] [--repeat R] [--obs OBS] [--baseline OLD_OBS]\n"
+                 "               [--only machine,kernels,tnnmg,vcycles,obs]\n";
     return 2;
   }
   const std::filesystem::path out = argv[1];
   int maxThreads = 2, level = 5, repeat = 3;
-  std::string obsBinary, baselineBinary;
+  std::string obsBinary, baselineBinary, only;
   for (int i = 2; i < argc; ++i) {
     const std::string a = argv[i];
     if (i + 1 >= argc) {
@@ -148,6 +189,7 @@ int main(int argc, char** argv) {
     else if (a == "--repeat") repeat = std::stoi(v);
     else if (a == "--obs") obsBinary = v;
     else if (a == "--baseline") baselineBinary = v;
+    else if (a == "--only") only = v;
     else {
       std::cerr << "threads: unknown option " << a << "\n";
       return 2;
@@ -161,199 +203,276 @@ int main(int argc, char** argv) {
     std::cerr << "threads: --baseline needs --obs\n";
     return 2;
   }
+  // --only: a comma-separated list of the sections to run (all without it)
+  const auto want = [&](const std::string& section) {
+    return only.empty() || ("," + only + ",").find("," + section + ",") != std::string::npos;
+  };
+  for (std::size_t b = 0; !only.empty() && b <= only.size();) {
+    const std::size_t e = std::min(only.find(',', b), only.size());
+    const std::string name = only.substr(b, e - b);
+    if (name != "machine" && name != "kernels" && name != "tnnmg" && name != "vcycles" && name != "obs") {
+      std::cerr << "threads: --only takes a comma-separated list of machine, kernels, tnnmg, vcycles, obs\n";
+      return 2;
+    }
+    b = e + 1;
+  }
   std::ostringstream md;
+  Step42 s(level);
+  const Index nv = s.mesh.numVertices();
+  const auto T = static_cast<std::size_t>(maxThreads);
 
   // 1. the machine's memory bandwidth
-  md << "Memory bandwidth (triad a = b + 3c, 3 x 512 MB, best of " << repeat << "):\n\n| threads | GB/s |\n|---:|---:|\n";
-  {
-    const std::size_t n = std::size_t(1) << 26;
-    std::vector<double> a(n, 1.0), b(n, 2.0), c(n, 3.0);
-    for (int t = 1; t <= maxThreads; ++t) {
-      double bw = 0;
-      for (int r = 0; r < repeat; ++r) bw = std::max(bw, triad(t, a, b, c));
-      md << "| " << t << " | " << fmt(bw) << " |\n";
-      std::cerr << "triad, " << t << " threads: " << fmt(bw) << " GB/s\n";
+  if (want("machine")) {
+    md << "Memory bandwidth (triad a = b + 3c, 3 x 512 MB, best of " << repeat << "):\n\n| threads | GB/s |\n|---:|---:|\n";
+    {
+      const std::size_t n = std::size_t(1) << 26;
+      std::vector<double> a(n, 1.0), b(n, 2.0), c(n, 3.0);
+      for (int t = 1; t <= maxThreads; ++t) {
+        double bw = 0;
+        for (int r = 0; r < repeat; ++r) bw = std::max(bw, triad(t, a, b, c));
+        md << "| " << t << " | " << fmt(bw) << " |\n";
+        std::cerr << "triad, " << t << " threads: " << fmt(bw) << " GB/s\n";
+      }
     }
-  }
-  // the compute throughput of more threads: measured R times, since it changes with what the host
-  // runs on the other virtual CPU
-  md << "\nCompute throughput (a loop of multiply-adds in registers, run alone and by T threads at once, each "
-        "the whole loop; in units of one thread, "
-     << repeat << " measurements):\n\n| threads | best | median | worst |\n|---:|---:|---:|---:|\n";
-  for (int t = 2; t <= maxThreads; ++t) {
-    std::vector<double> c;
-    for (int r = 0; r < repeat; ++r) c.push_back(computeCapacity(t));
-    std::sort(c.begin(), c.end());
-    md << "| " << t << " | " << fmt(c.back(), 3) << " | " << fmt(c[c.size() / 2], 3) << " | " << fmt(c.front(), 3)
-       << " |\n";
-    std::cerr << "compute throughput, " << t << " threads: " << fmt(c.back(), 3) << " best\n";
+    // the compute throughput of more threads: measured R times, since it changes with what the host
+    // runs on the other virtual CPU
+    md << "\nCompute throughput (a loop of multiply-adds in registers, run alone and by T threads at once, each "
+          "the whole loop; in units of one thread, "
+       << repeat << " measurements):\n\n| threads | best | median | worst |\n|---:|---:|---:|---:|\n";
+    for (int t = 2; t <= maxThreads; ++t) {
+      std::vector<double> c;
+      for (int r = 0; r < repeat; ++r) c.push_back(computeCapacity(t));
+      std::sort(c.begin(), c.end());
+      md << "| " << t << " | " << fmt(c.back(), 3) << " | " << fmt(c[c.size() / 2], 3) << " | " << fmt(c.front(), 3)
+         << " |\n";
+      std::cerr << "compute throughput, " << t << " threads: " << fmt(c.back(), 3) << " best\n";
+    }
   }
 
   // 2. kernels
-  Step42 s(level);
-  const Index nv = s.mesh.numVertices();
-  md << "\nKernels on the step-42 grid (" << s.mesh.numCells() << " hexahedra, " << nv * 3
-     << " unknowns), seconds, best of " << repeat
-     << " (assembly, products and sweeps: the thread counts alternating run by run):\n\n"
-     << "| threads | blocks | assembly (sharing) | y = A x | two products in one pass | linear GS sweep | nonsmooth GS sweep | sweep order "
-        "(METIS, fine graph) | interface vertices (of them on one thread) | sweep order (carried from level L - 1) | interface vertices (carried) | coarse operators (Galerkin) |\n"
-     << "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
-  // Assembly, products and sweeps with the thread counts alternating repeat by repeat, so that a
-  // change of the machine's state between the measurements enters every thread count alike. Each
-  // thread count has its own matrices (the sweep order is kept per matrix for threads() parts).
-  const auto T = static_cast<std::size_t>(maxThreads);
-  std::vector<BlockSparseMatrix<3>> plainA(T), sharedA(T);
-  std::vector<double> assemblyBest(T, 1e300);
-  for (int rep = 0; rep < repeat; ++rep)
+  if (want("kernels")) {
+    md << "\nKernels on the step-42 grid (" << s.mesh.numCells() << " hexahedra, " << nv * 3
+       << " unknowns), seconds, best of " << repeat
+       << " (assembly, products and sweeps: the thread counts alternating run by run):\n\n"
+       << "| threads | blocks | assembly (sharing) | y = A x | two products in one pass | linear GS sweep | nonsmooth GS sweep | sweep order "
+          "(METIS, fine graph) | interface vertices (of them on one thread) | sweep order (carried from level L - 1) | interface vertices (carried) | coarse operators (Galerkin) |\n"
+       << "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
+    // Assembly, products and sweeps with the thread counts alternating repeat by repeat, so that a
+    // change of the machine's state between the measurements enters every thread count alike. Each
+    // thread count has its own matrices (the sweep order is kept per matrix for threads() parts).
+    std::vector<BlockSparseMatrix<3>> plainA(T), sharedA(T);
+    std::vector<double> assemblyBest(T, 1e300);
+    for (int rep = 0; rep < repeat; ++rep)
+      for (int t = 1; t <= maxThreads; ++t) {
+        setThreads(t);
+        const auto t0 = Clock::now();
+        plainA[t - 1] = assembleStiffness<3>(s.mesh, s.material);
+        assemblyBest[t - 1] = std::min(assemblyBest[t - 1], since(t0));
+      }
+    // per thread count and storage: y = A x, y, y2 = A x, A x2 (TNNMG's A w, A (w - w^k)), one linear
+    // and one nonsmooth sweep
+    struct Kernels {
+      const BlockSparseMatrix<3>* matrix = nullptr;
+      TruncatedGaussSeidel<3> linear;
+      std::unique_ptr<BlockGaussSeidelSweep<3>> nonsmooth;
+      std::vector<double> best = std::vector<double>(4, 1e300);
+    };
+    std::vector<Kernels> kernelSets(2 * T);  // [2 (t - 1)]: one block per entry, [2 (t - 1) + 1]: shared
+    Eigen::VectorXd x = Eigen::VectorXd::Ones(nv * 3), y, r = Eigen::VectorXd::Ones(nv * 3);
+    Eigen::VectorXd x2 = Eigen::VectorXd::Constant(nv * 3, 0.5), y2;
     for (int t = 1; t <= maxThreads; ++t) {
       setThreads(t);
-      const auto t0 = Clock::now();
-      plainA[t - 1] = assembleStiffness<3>(s.mesh, s.material);
-      assemblyBest[t - 1] = std::min(assemblyBest[t - 1], since(t0));
-    }
-  // per thread count and storage: y = A x, y, y2 = A x, A x2 (TNNMG's A w, A (w - w^k)), one linear
-  // and one nonsmooth sweep
-  struct Kernels {
-    const BlockSparseMatrix<3>* matrix = nullptr;
-    TruncatedGaussSeidel<3> linear;
-    std::unique_ptr<BlockGaussSeidelSweep<3>> nonsmooth;
-    std::vector<double> best = std::vector<double>(4, 1e300);
-  };
-  std::vector<Kernels> kernelSets(2 * T);  // [2 (t - 1)]: one block per entry, [2 (t - 1) + 1]: shared
-  Eigen::VectorXd x = Eigen::VectorXd::Ones(nv * 3), y, r = Eigen::VectorXd::Ones(nv * 3);
-  Eigen::VectorXd x2 = Eigen::VectorXd::Constant(nv * 3, 0.5), y2;
-  for (int t = 1; t <= maxThreads; ++t) {
-    setThreads(t);
-    sharedA[t - 1] = plainA[t - 1];
-    if (!sharedA[t - 1].shareRepeatedBlocks()) std::cerr << "threads: the step-42 matrix did not share its blocks\n";
-    for (int k = 0; k < 2; ++k) {
-      Kernels& K = kernelSets[2 * (t - 1) + k];
-      K.matrix = k == 0 ? &plainA[t - 1] : &sharedA[t - 1];
-      K.linear.setMatrix(*K.matrix);
-      K.nonsmooth = std::make_unique<BlockGaussSeidelSweep<3>>(*K.matrix, std::vector<double>(static_cast<std::size_t>(nv), 0.0));
-      K.linear.sweep(r, x);  // the sweep orders for t parts, outside the timings
-      K.nonsmooth->sweep(r, x);
-    }
-  }
-  for (int rep = 0; rep < repeat; ++rep)
-    for (int t = 1; t <= maxThreads; ++t) {
-      setThreads(t);
+      sharedA[t - 1] = plainA[t - 1];
+      if (!sharedA[t - 1].shareRepeatedBlocks()) std::cerr << "threads: the step-42 matrix did not share its blocks\n";
       for (int k = 0; k < 2; ++k) {
         Kernels& K = kernelSets[2 * (t - 1) + k];
-        const auto time = [&](int cell, auto&& f) {
-          const auto t0 = Clock::now();
-          f();
-          K.best[static_cast<std::size_t>(cell)] = std::min(K.best[static_cast<std::size_t>(cell)], since(t0));
-        };
-        time(0, [&] { K.matrix->multiply(x, y); });
-        time(1, [&] { K.matrix->multiply(x, y, x2, y2); });
-        time(2, [&] { K.linear.sweep(r, x); });
-        time(3, [&] { K.nonsmooth->sweep(r, x); });
+        K.matrix = k == 0 ? &plainA[t - 1] : &sharedA[t - 1];
+        K.linear.setMatrix(*K.matrix);
+        K.nonsmooth = std::make_unique<BlockGaussSeidelSweep<3>>(*K.matrix, std::vector<double>(static_cast<std::size_t>(nv), 0.0));
+        K.linear.sweep(r, x);  // the sweep orders for t parts, outside the timings
+        K.nonsmooth->sweep(r, x);
       }
     }
-  std::vector<double> base;
-  double galerkinBase = 0;
-  for (int t = 1; t <= maxThreads; ++t) {
-    setThreads(t);
-    const BlockSparseMatrix<3>& A = plainA[t - 1];
-    const double assembly = assemblyBest[t - 1];
-    const std::vector<double>& plain = kernelSets[2 * (t - 1)].best;
-    const std::vector<double>& sharedKernels = kernelSets[2 * (t - 1) + 1].best;
-    BlockSparseMatrix<3> S;
-    double sharing = 1e300;  // the sharing alone, not the copy before it
-    for (int rep = 0; rep < repeat; ++rep) {
-      S = A;
-      const auto t0 = Clock::now();
-      if (!S.shareRepeatedBlocks()) std::cerr << "threads: the step-42 matrix did not share its blocks\n";
-      sharing = std::min(sharing, since(t0));
+    for (int rep = 0; rep < repeat; ++rep)
+      for (int t = 1; t <= maxThreads; ++t) {
+        setThreads(t);
+        for (int k = 0; k < 2; ++k) {
+          Kernels& K = kernelSets[2 * (t - 1) + k];
+          const auto time = [&](int cell, auto&& f) {
+            const auto t0 = Clock::now();
+            f();
+            K.best[static_cast<std::size_t>(cell)] = std::min(K.best[static_cast<std::size_t>(cell)], since(t0));
+          };
+          time(0, [&] { K.matrix->multiply(x, y); });
+          time(1, [&] { K.matrix->multiply(x, y, x2, y2); });
+          time(2, [&] { K.linear.sweep(r, x); });
+          time(3, [&] { K.nonsmooth->sweep(r, x); });
+        }
+      }
+    std::vector<double> base;
+    double galerkinBase = 0;
+    for (int t = 1; t <= maxThreads; ++t) {
+      setThreads(t);
+      const BlockSparseMatrix<3>& A = plainA[t - 1];
+      const double assembly = assemblyBest[t - 1];
+      const std::vector<double>& plain = kernelSets[2 * (t - 1)].best;
+      const std::vector<double>& sharedKernels = kernelSets[2 * (t - 1) + 1].best;
+      BlockSparseMatrix<3> S;
+      double sharing = 1e300;  // the sharing alone, not the copy before it
+      for (int rep = 0; rep < repeat; ++rep) {
+        S = A;
+        const auto t0 = Clock::now();
+        if (!S.shareRepeatedBlocks()) std::cerr << "threads: the step-42 matrix did not share its blocks\n";
+        sharing = std::min(sharing, since(t0));
+      }
+      const SweepOrder metis(A.rowStarts(), A.columns(), t);
+      const double partition = best(repeat, [&] { const SweepOrder o(A.rowStarts(), A.columns(), t); });
+      // the fine order carried from level L - 1 (LinearMultigrid's default on threads), timed on
+      // matrices of A's pattern without an order
+      MultigridHierarchy<3> hierarchy(s.grid);
+      // the coarse operators of every level: Galerkin patterns and products (TNNMG's set-up)
+      const double galerkin = best(repeat, [&] { hierarchy.setFineOperator(A, {}, {}); });
+      // interface vertices, and those of them one thread sweeps (the interface rest, SweepOrder)
+      const auto face = [](const SweepOrder& o) {
+        return o.sequential() ? std::string("0")
+                              : std::to_string(o.interface().size()) + " (" + std::to_string(o.interfaceRest().size()) + ")";
+      };
+      std::string carriedInterface = "0";
+      double carried = 1e300;
+      for (int rep = 0; rep < repeat; ++rep) {
+        const BlockSparseMatrix<3> B(std::vector<Index>(A.rowStarts().begin(), A.rowStarts().end()),
+                                     std::vector<Index>(A.columns().begin(), A.columns().end()));
+        const auto t0 = Clock::now();
+        const bool set = carrySweepPartition(hierarchy, B);
+        carried = std::min(carried, since(t0));
+        if (set) carriedInterface = face(B.sweepOrder());
+      }
+      std::vector<double> row{assembly};
+      row.insert(row.end(), plain.begin(), plain.end());
+      if (t == 1) {
+        base = row;
+        galerkinBase = galerkin;
+      }
+      const auto cells = [&](const std::vector<double>& r, bool first) {
+        for (std::size_t k = first ? 0 : 1; k < r.size(); ++k)
+          md << " | " << fmt(r[k]) << (t > 1 || !first ? " (" + fmt(base[k] / r[k], 2) + "x)" : std::string());
+      };
+      md << "| " << t << " | one per entry";
+      cells(row, true);
+      md << " | " << (t > 1 ? fmt(partition) : std::string("-")) << " | " << face(metis)
+         << " | " << (t > 1 ? fmt(carried) : std::string("-")) << " | " << carriedInterface << " | " << fmt(galerkin)
+         << (t > 1 ? " (" + fmt(galerkinBase / galerkin, 2) + "x)" : std::string()) << " |\n";
+      std::vector<double> sharedRow{0.0};
+      sharedRow.insert(sharedRow.end(), sharedKernels.begin(), sharedKernels.end());
+      md << "| " << t << " | shared (" << S.storedBlocks() << " distinct of " << S.nonZeroBlocks() << ") | (" << fmt(sharing) << ")";
+      cells(sharedRow, false);
+      md << " | - | - | - | - | - |\n";
+      std::cerr << "kernels, " << t << " threads done\n";
     }
-    const SweepOrder metis(A.rowStarts(), A.columns(), t);
-    const double partition = best(repeat, [&] { const SweepOrder o(A.rowStarts(), A.columns(), t); });
-    // the fine order carried from level L - 1 (LinearMultigrid's default on threads), timed on
-    // matrices of A's pattern without an order
-    MultigridHierarchy<3> hierarchy(s.grid);
-    // the coarse operators of every level: Galerkin patterns and products (TNNMG's set-up)
-    const double galerkin = best(repeat, [&] { hierarchy.setFineOperator(A, {}, {}); });
-    // interface vertices, and those of them one thread sweeps (the interface rest, SweepOrder)
-    const auto face = [](const SweepOrder& o) {
-      return o.sequential() ? std::string("0")
-                            : std::to_string(o.interface().size()) + " (" + std::to_string(o.interfaceRest().size()) + ")";
-    };
-    std::string carriedInterface = "0";
-    double carried = 1e300;
-    for (int rep = 0; rep < repeat; ++rep) {
-      const BlockSparseMatrix<3> B(std::vector<Index>(A.rowStarts().begin(), A.rowStarts().end()),
-                                   std::vector<Index>(A.columns().begin(), A.columns().end()));
-      const auto t0 = Clock::now();
-      const bool set = carrySweepPartition(hierarchy, B);
-      carried = std::min(carried, since(t0));
-      if (set) carriedInterface = face(B.sweepOrder());
-    }
-    std::vector<double> row{assembly};
-    row.insert(row.end(), plain.begin(), plain.end());
-    if (t == 1) {
-      base = row;
-      galerkinBase = galerkin;
-    }
-    const auto cells = [&](const std::vector<double>& r, bool first) {
-      for (std::size_t k = first ? 0 : 1; k < r.size(); ++k)
-        md << " | " << fmt(r[k]) << (t > 1 || !first ? " (" + fmt(base[k] / r[k], 2) + "x)" : std::string());
-    };
-    md << "| " << t << " | one per entry";
-    cells(row, true);
-    md << " | " << (t > 1 ? fmt(partition) : std::string("-")) << " | " << face(metis)
-       << " | " << (t > 1 ? fmt(carried) : std::string("-")) << " | " << carriedInterface << " | " << fmt(galerkin)
-       << (t > 1 ? " (" + fmt(galerkinBase / galerkin, 2) + "x)" : std::string()) << " |\n";
-    std::vector<double> sharedRow{0.0};
-    sharedRow.insert(sharedRow.end(), sharedKernels.begin(), sharedKernels.end());
-    md << "| " << t << " | shared (" << S.storedBlocks() << " distinct of " << S.nonZeroBlocks() << ") | (" << fmt(sharing) << ")";
-    cells(sharedRow, false);
-    md << " | - | - | - | - | - |\n";
-    std::cerr << "kernels, " << t << " threads done\n";
   }
 
   // 3. TNNMG
-  md << "\nTNNMG on the step-42 problem (tolerance 1e-10; the solve from zero, hierarchy set-up included; the "
-        "second of two solves per thread count, the thread counts alternating):\n\n"
-     << "| threads | iterations | solve s | set-up | nonsmooth sweeps | operator updates | V-cycles | other | energy | "
-        "bitwise equal to a second solve |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n";
-  // two solves per thread count, the thread counts alternating (1, 2, .., 1, 2, ..); the table has
-  // the second solve of each, which must repeat the first one's bits
-  std::vector<Eigen::VectorXd> first(static_cast<std::size_t>(maxThreads));
-  std::vector<std::string> tnnmgRows(static_cast<std::size_t>(maxThreads));
-  double tnnmgBase = 0;
-  for (int run = 0; run < 2; ++run)
+  if (want("tnnmg")) {
+    md << "\nTNNMG on the step-42 problem (tolerance 1e-10; the solve from zero, hierarchy set-up included; the "
+          "second of two solves per thread count, the thread counts alternating):\n\n"
+       << "| threads | iterations | solve s | set-up | nonsmooth sweeps | operator updates | V-cycles | other | energy | "
+          "bitwise equal to a second solve |\n|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|\n";
+    // two solves per thread count, the thread counts alternating (1, 2, .., 1, 2, ..); the table has
+    // the second solve of each, which must repeat the first one's bits
+    std::vector<Eigen::VectorXd> first(static_cast<std::size_t>(maxThreads));
+    std::vector<std::string> tnnmgRows(static_cast<std::size_t>(maxThreads));
+    std::vector<std::vector<LinearMultigrid<3>::LevelSeconds>> tnnmgLevels(T);
+    long long tnnmgCycles = 1;
+    std::vector<Index> levelVertices;
+    double tnnmgBase = 0;
+    for (int run = 0; run < 2; ++run)
+      for (int t = 1; t <= maxThreads; ++t) {
+        setThreads(t);
+        const ContactSet set(s.mesh, mesh::kTop, s.ball);
+        const ContactProblem<3> problem(s.mesh, s.material, s.bc, set);
+        TNNMG<3>::Options o;
+        o.tolerance = 1e-10;
+        auto multigrid = std::make_unique<LinearMultigrid<3>>(s.grid, o.multigrid);
+        const LinearMultigrid<3>& mg = *multigrid;
+        TNNMG<3> solver(s.grid, o, std::move(multigrid));
+        Eigen::VectorXd u;
+        const auto t0 = Clock::now();
+        const ContactResult res = solver.solve(problem, u);
+        const double sec = since(t0);
+        Eigen::VectorXd& u0 = first[static_cast<std::size_t>(t - 1)];
+        if (run == 0) {
+          u0 = u;
+          continue;
+        }
+        const bool same = u.size() == u0.size() && std::memcmp(u.data(), u0.data(), sizeof(double) * u.size()) == 0;
+        if (t == 1) tnnmgBase = sec;
+        tnnmgLevels[static_cast<std::size_t>(t - 1)] = mg.levelSeconds();
+        tnnmgCycles = mg.vcycles();
+        levelVertices.clear();
+        for (int l = 0; l <= mg.hierarchy().maxLevel(); ++l) levelVertices.push_back(mg.hierarchy().numVertices(l));
+        const auto& st = solver.statistics();
+        std::ostringstream row;
+        row << "| " << t << " | " << res.iterations << " | " << fmt(sec) << (t > 1 ? " (" + fmt(tnnmgBase / sec, 2) + "x)" : "")
+            << " | " << fmt(st.setupSeconds) << " | " << fmt(st.smoothingSeconds) << " | " << fmt(st.updateSeconds) << " | "
+            << fmt(st.correctionSeconds) << " | " << fmt(st.otherSeconds) << " | " << fmt(problem.energy(u), 12) << " | "
+            << (same ? "yes" : "**no**") << " |\n";
+        tnnmgRows[static_cast<std::size_t>(t - 1)] = row.str();
+        std::cerr << "TNNMG, " << t << " threads: " << res.iterations << " iterations, " << fmt(sec) << " s\n";
+      }
+    for (const std::string& row : tnnmgRows) md << row;
+    md << "\nIts V-cycles by level (milliseconds per cycle, " << tnnmgCycles << " cycles in the solve; LinearMultigrid::levelSeconds):\n\n";
+    levelTable(md, levelVertices, tnnmgLevels, tnnmgCycles);
+  }
+
+  // 3b. where a V-cycle's time goes, level by level: the linear multigrid of TNNMG's correction on the
+  // step-42 operator (rotated at the contact vertices, truncated at the Dirichlet components; shared
+  // blocks, as in obs' solves) alone, kCycles V-cycles per measurement, the thread counts
+  // alternating; the measurement with the least total time per thread count
+  if (want("vcycles")) {
+    constexpr int kCycles = 10;
+    md << "\nOne V(3,3) cycle of the linear correction alone, by level (the step-42 operator with shared blocks, "
+          "truncated at the Dirichlet components; milliseconds per cycle, the best of "
+       << repeat << " measurements of " << kCycles << " cycles, the thread counts alternating):\n\n";
+    struct Cycles {
+      std::unique_ptr<ContactProblem<3>> problem;
+      std::unique_ptr<LinearMultigrid<3>> mg;
+      std::vector<LinearMultigrid<3>::LevelSeconds> best;
+      double bestTotal = 1e300;
+    };
+    std::vector<Cycles> cycles(T);
+    const ContactSet set(s.mesh, mesh::kTop, s.ball);
     for (int t = 1; t <= maxThreads; ++t) {
       setThreads(t);
-      const ContactSet set(s.mesh, mesh::kTop, s.ball);
-      const ContactProblem<3> problem(s.mesh, s.material, s.bc, set);
-      TNNMG<3>::Options o;
-      o.tolerance = 1e-10;
-      TNNMG<3> solver(s.grid, o);
-      Eigen::VectorXd u;
-      const auto t0 = Clock::now();
-      const ContactResult res = solver.solve(problem, u);
-      const double sec = since(t0);
-      Eigen::VectorXd& u0 = first[static_cast<std::size_t>(t - 1)];
-      if (run == 0) {
-        u0 = u;
-        continue;
-      }
-      const bool same = u.size() == u0.size() && std::memcmp(u.data(), u0.data(), sizeof(double) * u.size()) == 0;
-      if (t == 1) tnnmgBase = sec;
-      const auto& st = solver.statistics();
-      std::ostringstream row;
-      row << "| " << t << " | " << res.iterations << " | " << fmt(sec) << (t > 1 ? " (" + fmt(tnnmgBase / sec, 2) + "x)" : "")
-          << " | " << fmt(st.setupSeconds) << " | " << fmt(st.smoothingSeconds) << " | " << fmt(st.updateSeconds) << " | "
-          << fmt(st.correctionSeconds) << " | " << fmt(st.otherSeconds) << " | " << fmt(problem.energy(u), 12) << " | "
-          << (same ? "yes" : "**no**") << " |\n";
-      tnnmgRows[static_cast<std::size_t>(t - 1)] = row.str();
-      std::cerr << "TNNMG, " << t << " threads: " << res.iterations << " iterations, " << fmt(sec) << " s\n";
+      Cycles& C = cycles[t - 1];
+      C.problem = std::make_unique<ContactProblem<3>>(s.mesh, s.material, s.bc, set);
+      C.mg = std::make_unique<LinearMultigrid<3>>(s.grid);
+      C.mg->setOperator(C.problem->rotatedMatrix(), problemRotations(*C.problem), C.problem->dirichlet().constrained);
     }
-  for (const std::string& row : tnnmgRows) md << row;
+    const Eigen::VectorXd rhs = cycles[0].problem->rhs();
+    Eigen::VectorXd c;
+    for (int rep = 0; rep <= repeat; ++rep)  // rep 0 warms up (sweep orders, buffers)
+      for (int t = 1; t <= maxThreads; ++t) {
+        setThreads(t);
+        Cycles& C = cycles[t - 1];
+        C.mg->resetLevelSeconds();
+        const auto t0 = Clock::now();
+        for (int k = 0; k < kCycles; ++k) C.mg->vcycle(rhs, c);
+        const double total = since(t0);
+        if (rep > 0 && total < C.bestTotal) {
+          C.bestTotal = total;
+          C.best = C.mg->levelSeconds();
+        }
+      }
+    std::vector<std::vector<LinearMultigrid<3>::LevelSeconds>> byThreads;
+    for (const Cycles& C : cycles) byThreads.push_back(C.best);
+    std::vector<Index> vertices;
+    for (int l = 0; l <= cycles[0].mg->hierarchy().maxLevel(); ++l) vertices.push_back(cycles[0].mg->hierarchy().numVertices(l));
+    levelTable(md, vertices, byThreads, kCycles);
+    std::cerr << "V-cycles by level done\n";
+  }
 
   // 4. the whole program, and a baseline binary alternating with it
-  if (!obsBinary.empty()) {
+  if (want("obs") && !obsBinary.empty()) {
     std::vector<std::pair<std::string, std::string>> binaries;  // label, path
     if (!baselineBinary.empty()) binaries.emplace_back("baseline", baselineBinary);
     binaries.emplace_back(baselineBinary.empty() ? "" : "this", obsBinary);

@@ -64,6 +64,7 @@ void LinearMultigrid<d>::setOperator(const BlockSparseMatrix<d>& A, std::vector<
   rhs_.assign(L + 1, Eigen::VectorXd());
   sol_.assign(L + 1, Eigen::VectorXd());
   work_.assign(L + 1, Eigen::VectorXd());
+  levelSeconds_.assign(static_cast<std::size_t>(L) + 1, LevelSeconds{});
   for (int l = 0; l <= L; ++l) {
     const auto n = static_cast<Eigen::Index>(hierarchy_.numVertices(l)) * d;
     rhs_[l].setZero(n);
@@ -178,6 +179,15 @@ void LinearMultigrid<d>::localDefect(int level, const Eigen::VectorXd& r, const 
 
 template <int d>
 void LinearMultigrid<d>::cycle(int l, const Eigen::VectorXd& r, Eigen::VectorXd& x) {
+  using Clock = std::chrono::steady_clock;
+  const auto seconds = [](Clock::time_point& t) {  // since t, and t moved to now
+    const Clock::time_point now = Clock::now();
+    const double s = std::chrono::duration<double>(now - t).count();
+    t = now;
+    return s;
+  };
+  LevelSeconds& spent = levelSeconds_[static_cast<std::size_t>(l)];
+  Clock::time_point t = Clock::now();
   const int L = hierarchy_.maxLevel();
   if (l == 0) {
     if (L == 0) {  // the explicit truncated fine operator: zero right-hand side at truncated rows
@@ -190,23 +200,30 @@ void LinearMultigrid<d>::cycle(int l, const Eigen::VectorXd& r, Eigen::VectorXd&
     } else {
       coarseSolver_->solve(r, x);
     }
+    spent.coarseSolve += seconds(t);
     return;
   }
   x.resize(r.size());
   if (options_.preSmoothing > 0) smoothFromZero(l, r, x);
   else x.setZero();
   for (int s = 1; s < options_.preSmoothing; ++s) smooth(l, r, x, false);
+  spent.smoothing += seconds(t);
   // coarse-grid correction, gamma times below the finest level (gamma = 1: V-cycle, 2: W-cycle)
   const int gamma = l == 1 ? 1 : options_.cycleIndex;
   for (int g = 0; g < gamma; ++g) {
     // x is zero outside the local smoothing set until the first coarse correction
     if (g == 0 && local_[l]) localDefect(l, r, x, work_[l]);
     else defect(l, r, x, work_[l]);
+    spent.defect += seconds(t);
     hierarchy_.restrict(l - 1, work_[l], rhs_[l - 1]);
+    spent.restriction += seconds(t);
     cycle(l - 1, rhs_[l - 1], sol_[l - 1]);
+    t = Clock::now();
     hierarchy_.prolongateAdd(l - 1, sol_[l - 1], x);
+    spent.prolongation += seconds(t);
   }
   for (int s = 0; s < options_.postSmoothing; ++s) smooth(l, r, x, true);
+  spent.smoothing += seconds(t);
 }
 
 template <int d>

@@ -462,6 +462,42 @@ TEST(LinearMultigrid, GridWithoutRefinementSolvesDirectly) {
   EXPECT_LT((x - ref).norm(), 1e-10 * ref.norm());
 }
 
+TEST(LinearMultigrid, LevelSecondsAccountForEveryPhaseOnItsLevel) {
+  // the phase timers: one entry per level, smoothing and transfers on levels 1 .. L only, the direct
+  // solve on level 0 only; they grow with every cycle and resetLevelSeconds() zeroes them
+  const mesh::Grid grid = refinedGrid(CellType::Quadrilateral, 2, 3);
+  const mesh::Mesh m = grid.leafView().mesh;
+  const auto s = linearSystem<2>(m);
+  LinearMultigrid<2> mg(grid);
+  mg.setOperator(s.A);
+  mg.truncate(s.g.constrained);
+  ASSERT_EQ(mg.levelSeconds().size(), 4u);
+  Eigen::VectorXd c;
+  const auto total = [&](const LinearMultigrid<2>::LevelSeconds& t) {
+    return t.smoothing + t.defect + t.restriction + t.prolongation + t.coarseSolve;
+  };
+  mg.vcycle(s.b, c);
+  const std::vector<LinearMultigrid<2>::LevelSeconds> once = mg.levelSeconds();
+  mg.vcycle(s.b, c);
+  for (std::size_t l = 0; l < 4; ++l) {
+    const auto& t = mg.levelSeconds()[l];
+    if (l == 0) {
+      EXPECT_GT(t.coarseSolve, 0.0);
+      EXPECT_EQ(t.smoothing + t.defect + t.restriction + t.prolongation, 0.0);
+    } else {
+      EXPECT_GT(t.smoothing, 0.0) << "level " << l;
+      EXPECT_GT(t.defect, 0.0) << "level " << l;
+      EXPECT_GT(t.restriction, 0.0) << "level " << l;
+      EXPECT_GT(t.prolongation, 0.0) << "level " << l;
+      EXPECT_EQ(t.coarseSolve, 0.0) << "level " << l;
+    }
+    EXPECT_GT(total(t), total(once[l])) << "level " << l;
+  }
+  mg.resetLevelSeconds();
+  ASSERT_EQ(mg.levelSeconds().size(), 4u);
+  for (const auto& t : mg.levelSeconds()) EXPECT_EQ(total(t), 0.0);
+}
+
 TEST(LinearMultigrid, LocallyRefinedGridConverges) {
   mesh::Grid grid(mesh::boxMesh(CellType::Triangle, 4));
   for (int cycle = 0; cycle < 4; ++cycle) {

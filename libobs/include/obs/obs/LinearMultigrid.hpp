@@ -122,6 +122,19 @@ public:
   std::size_t smootherMemoryBytes() const;
   /// V-cycles run since construction (apply() and solve() count each cycle).
   long long vcycles() const { return vcycles_; }
+  /// Wall seconds of the V-cycles' phases on one level, summed over the cycles since construction
+  /// (or the last resetLevelSeconds()). Level 0 has only the coarse solve; the transfers of level l
+  /// are those between l and l - 1.
+  struct LevelSeconds {
+    double smoothing = 0;    ///< pre- and post-smoothing sweeps
+    double defect = 0;       ///< r - A_l x before the restriction
+    double restriction = 0;  ///< the defect to level l - 1
+    double prolongation = 0; ///< the coarse correction added on level l
+    double coarseSolve = 0;  ///< level 0: the direct solve
+  };
+  /// One entry per level 0 .. maxLevel (bench/threads reports them per thread count).
+  const std::vector<LevelSeconds>& levelSeconds() const { return levelSeconds_; }
+  void resetLevelSeconds() { levelSeconds_.assign(levelSeconds_.size(), LevelSeconds{}); }
   /// Vertices one V-cycle's smoother visits per sweep, summed over the levels 1 .. L (local
   /// smoothing makes it smaller than the sum of the level sizes).
   Index smoothedVerticesPerSweep() const;
@@ -157,6 +170,7 @@ private:
   std::vector<TruncatedGaussSeidel<d>> smoothers_;
   std::vector<VertexPatchSmoother<d>> patchSmoothers_;
   long long vcycles_ = 0;
+  std::vector<LevelSeconds> levelSeconds_;
   std::vector<Eigen::VectorXd> rhs_, sol_, work_;  ///< per level
   static constexpr double kCoarseShift = 1e-10;  ///< relative diagonal shift of A_0 (L > 0)
   BlockSparseMatrix<d> shifted_;
