@@ -27,24 +27,49 @@ template <int d>
 bool carrySweepPartition(const MultigridHierarchy<d>& h, const BlockSparseMatrix<d>& A) {
   const int L = h.maxLevel();
   const int parts = threads();
-  if (L < 1 || parts < 2 || A.rows() < kParallelMinRows || A.hasSweepOrder()) return false;
-  const mesh::CsrMatrix& P = h.prolongation(L - 1);
-  const BlockSparseMatrix<d>& C = h.coarseOperator(L - 1);
-  if (P.rows != A.rows() || P.cols != C.rows() || C.rows() < 2 * parts) return false;
-  std::vector<Index> parent(static_cast<std::size_t>(P.rows)), weight(static_cast<std::size_t>(C.rows()), 0);
-  for (Index p = 0; p < P.rows; ++p) {
-    Index best = -1;
-    for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k)
-      if (best < 0 || P.values[k] > P.values[best]) best = k;
-    if (best < 0) return false;  // a fine vertex without a parent: leave the order to METIS on the fine graph
-    parent[p] = P.columns[best];
-    ++weight[parent[p]];
+  if (L < 1 || parts < 2 || A.rows() < kParallelMinRows) return false;
+  const auto level = [&](int l) -> const BlockSparseMatrix<d>& { return l == L ? A : h.coarseOperator(l); };
+  // the base: the lowest level with a threaded sweep, at most L - 1
+  int base = L - 1;
+  while (base > 0 && level(base - 1).rows() >= kParallelMinRows) --base;
+  if (level(base).rows() < 2 * parts) return false;
+  // parent[l][p]: the coarse vertex (level l - 1) of fine vertex p's largest prolongation weight
+  std::vector<std::vector<Index>> parent(static_cast<std::size_t>(L) + 1);
+  for (int l = base + 1; l <= L; ++l) {
+    const mesh::CsrMatrix& P = h.prolongation(l - 1);
+    if (P.rows != level(l).rows() || P.cols != level(l - 1).rows()) return false;
+    auto& up = parent[static_cast<std::size_t>(l)];
+    up.resize(static_cast<std::size_t>(P.rows));
+    for (Index p = 0; p < P.rows; ++p) {
+      Index best = -1;
+      for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k)
+        if (best < 0 || P.values[k] > P.values[best]) best = k;
+      if (best < 0) return false;  // a vertex without a parent: leave the orders to METIS on each level
+      up[static_cast<std::size_t>(p)] = P.columns[best];
+    }
   }
-  const std::vector<int> coarse = partitionPattern(C.rowStarts(), C.columns(), parts, weight);
-  if (coarse.empty()) return false;
-  std::vector<int> part(static_cast<std::size_t>(P.rows));
-  for (Index p = 0; p < P.rows; ++p) part[p] = coarse[parent[p]];
-  A.setSweepPartition(part);
+  // the base vertices weigh as many as their fine descendants, so that the fine parts are balanced
+  std::vector<Index> ancestor(static_cast<std::size_t>(A.rows()));
+  for (Index p = 0; p < A.rows(); ++p) {
+    Index q = p;
+    for (int l = L; l > base; --l) q = parent[static_cast<std::size_t>(l)][static_cast<std::size_t>(q)];
+    ancestor[static_cast<std::size_t>(p)] = q;
+  }
+  std::vector<Index> weight(static_cast<std::size_t>(level(base).rows()), 0);
+  for (Index q : ancestor) ++weight[static_cast<std::size_t>(q)];
+  const BlockSparseMatrix<d>& B = level(base);
+  std::vector<int> part = partitionPattern(B.rowStarts(), B.columns(), parts, weight);
+  if (part.empty()) return false;
+  // carried up level by level; levels whose order is known keep it
+  for (int l = base;; ++l) {
+    const BlockSparseMatrix<d>& C = level(l);
+    if (!C.hasSweepOrder()) C.setSweepPartition(part);
+    if (l == L) break;
+    const auto& up = parent[static_cast<std::size_t>(l) + 1];
+    std::vector<int> next(up.size());
+    for (std::size_t p = 0; p < up.size(); ++p) next[p] = part[static_cast<std::size_t>(up[p])];
+    part = std::move(next);
+  }
   return true;
 }
 

@@ -172,6 +172,56 @@ TEST(Threads, FineSweepOrderCarriedFromTheCoarserLevelIsValidAndBalanced) {
   EXPECT_THROW(SweepOrder(A.rowStarts(), A.columns(), 2, part), Error);
 }
 
+// With more than one level above the threshold, one METIS partition of the lowest such level (the
+// base) is carried up to every finer level: each of those levels gets its order at setOperator (no
+// METIS on its own graph in the first V-cycle), levels below the base do not, and the parts agree
+// across levels: a vertex interior to part k whose parent is interior on the coarser level has its
+// parent in part k.
+TEST(Threads, SweepOrdersOfAllThreadedLevelsAreCarriedFromOnePartition) {
+  mesh::Grid grid(mesh::boxMesh(mesh::CellType::Quadrilateral, 2));
+  for (int l = 0; l < 7; ++l) grid.refineUniformly();  // 257^2 vertices; levels 6, 5 above 2048, 4 below
+  const mesh::Mesh m = grid.leafView().mesh;
+  const auto A = assembleStiffness<2>(m, Material{1e3, 0.3});
+  const ThreadScope scope(2);
+  LinearMultigrid<2> mg(grid);
+  mg.setOperator(A, {}, std::vector<char>(static_cast<std::size_t>(A.rows()) * 2, 0));
+  const auto& h = mg.hierarchy();
+  const int L = h.maxLevel();
+  ASSERT_EQ(L, 7);
+  ASSERT_LT(h.numVertices(4), kParallelMinRows);
+  ASSERT_GE(h.numVertices(5), kParallelMinRows);
+  EXPECT_FALSE(h.coarseOperator(4).hasSweepOrder());
+  std::vector<std::vector<int>> group(static_cast<std::size_t>(L) + 1);  // part, or 2 on the interface
+  for (int l = 5; l <= L; ++l) {
+    const BlockSparseMatrix<2>& C = l == L ? A : h.coarseOperator(l);
+    ASSERT_TRUE(C.hasSweepOrder()) << "level " << l;
+    const SweepOrder& order = C.sweepOrder();
+    ASSERT_EQ(order.parts(), 2) << "level " << l;
+    auto& g = group[static_cast<std::size_t>(l)];
+    g.assign(static_cast<std::size_t>(C.rows()), 2);
+    for (int k = 0; k < 2; ++k)
+      for (Index p : order.interior(k)) g[static_cast<std::size_t>(p)] = k;
+    const double n0 = static_cast<double>(order.interior(0).size()), n1 = static_cast<double>(order.interior(1).size());
+    EXPECT_LT(std::abs(n0 - n1), 0.1 * (n0 + n1)) << "level " << l << ": " << n0 << " / " << n1;
+    EXPECT_LT(static_cast<double>(order.interface().size()), 0.05 * static_cast<double>(C.rows())) << "level " << l;
+  }
+  for (int l = 6; l <= L; ++l) {
+    const mesh::CsrMatrix& P = h.prolongation(l - 1);
+    Index checked = 0;
+    for (Index p = 0; p < P.rows; ++p) {
+      Index parent = -1;
+      for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k)
+        if (parent < 0 || P.values[k] > P.values[parent]) parent = k;
+      const int mine = group[static_cast<std::size_t>(l)][static_cast<std::size_t>(p)];
+      const int theirs = group[static_cast<std::size_t>(l) - 1][static_cast<std::size_t>(P.columns[parent])];
+      if (mine == 2 || theirs == 2) continue;
+      ++checked;
+      ASSERT_EQ(mine, theirs) << "level " << l << ", vertex " << p;
+    }
+    EXPECT_GT(checked, P.rows / 2) << "level " << l;
+  }
+}
+
 // The threaded linear sweep is the sequential sweep in the order interiors (part by part), interface
 // groups (group by group), interface rest.
 TEST(Threads, ThreadedSweepsAreSequentialSweepsInTheirOrder) {

@@ -77,14 +77,17 @@ struct LinearSolverResult {
   std::vector<double> history;   ///< relative corrections per iteration
 };
 
-/// Sets the Gauss-Seidel order of the fine operator A (Parallel.hpp) on threads() > 1 threads from
-/// METIS' partition of level L - 1 instead of the fine graph (in 3D about 8 times fewer vertices;
-/// docs/performance.md#serial-work). Every fine vertex goes to the part of its parent, the coarse
-/// vertex of its largest prolongation weight (the first on ties); the coarse vertices weigh as many
-/// as their children, so that the fine parts are balanced. Any partition gives a valid sweep order,
-/// and this one depends on the hierarchy and the thread count only. Returns false, and sets
-/// nothing, on one thread, below kParallelMinRows fine rows, if A's order is known already or if
-/// METIS fails. LinearMultigrid::setOperator calls it.
+/// Sets the Gauss-Seidel orders (Parallel.hpp) on threads() > 1 threads of the fine operator A and of
+/// the coarse operators above the *base* level from one METIS partition of the base level instead
+/// of METIS on every level's graph (docs/performance.md#serial-work). The base is the lowest level
+/// with at least kParallelMinRows rows, at most L - 1 (in 3D it has about 64 times fewer vertices
+/// than the fine level at L - 2). Every vertex of a finer level goes to the part of its parent, the
+/// coarser vertex of its largest prolongation weight (the first on ties); the base vertices weigh
+/// as many as their fine descendants, so that the fine parts are balanced. Any partition gives a
+/// valid sweep order, and these depend on the hierarchy and the thread count only. A level whose
+/// order is known already (the fine operator's, say, set by another smoother) keeps it. Returns
+/// false, and sets nothing, on one thread, below kParallelMinRows fine rows, if a vertex has no
+/// parent or if METIS fails. LinearMultigrid::setOperator calls it.
 template <int d>
 bool carrySweepPartition(const MultigridHierarchy<d>& hierarchy, const BlockSparseMatrix<d>& A);
 
