@@ -256,7 +256,7 @@ int main(int argc, char** argv) {
        << " unknowns), seconds, best of " << repeat
        << " (assembly, products and sweeps: the thread counts alternating run by run):\n\n"
        << "| threads | blocks | assembly (sharing) | y = A x | two products in one pass | linear GS sweep | nonsmooth GS sweep | sweep order "
-          "(METIS, fine graph) | interface vertices (of them on one thread) | sweep order (carried from level L - 1) | interface vertices (carried) | coarse operators (Galerkin) |\n"
+          "(METIS, fine graph) | interface vertices (of them on one thread) | sweep order (carried from the base level) | interface vertices (carried) | coarse operators (Galerkin) |\n"
        << "|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|\n";
     // Assembly, products and sweeps with the thread counts alternating repeat by repeat, so that a
     // change of the machine's state between the measurements enters every thread count alike. Each
@@ -328,8 +328,10 @@ int main(int argc, char** argv) {
       }
       const SweepOrder metis(A.rowStarts(), A.columns(), t);
       const double partition = best(repeat, [&] { const SweepOrder o(A.rowStarts(), A.columns(), t); });
-      // the fine order carried from level L - 1 (LinearMultigrid's default on threads), timed on
-      // matrices of A's pattern without an order
+      // the fine order carried from the base level (LinearMultigrid's default on threads: METIS on
+      // the lowest level that sweeps on threads), timed on matrices of A's pattern without an order;
+      // the coarse levels get their orders in the first repetition only, so the best time is METIS
+      // on the base level and the carrying
       MultigridHierarchy<3> hierarchy(s.grid);
       // the coarse operators of every level: Galerkin patterns and products (TNNMG's set-up)
       const double galerkin = best(repeat, [&] { hierarchy.setFineOperator(A, {}, {}); });
