@@ -151,6 +151,12 @@ void levelTable(std::ostringstream& md, const std::vector<Index>& vertices,
   md << "\n";
 }
 
+std::vector<Index> levelVertices(const MultigridHierarchy<3>& h) {
+  std::vector<Index> n;
+  for (int l = 0; l <= h.maxLevel(); ++l) n.push_back(h.numVertices(l));
+  return n;
+}
+
 struct Step42 {
   mesh::Grid grid;
   mesh::Mesh mesh;
@@ -392,7 +398,7 @@ int main(int argc, char** argv) {
     std::vector<char> same(T, 1);
     std::vector<int> tnnmgIterations(T, 0);
     long long tnnmgCycles = 1;
-    std::vector<Index> levelVertices;
+    std::vector<Index> vertices;
     for (int run = 0; run < solves; ++run)
       for (int t = 1; t <= maxThreads; ++t) {
         setThreads(t);
@@ -417,8 +423,7 @@ int main(int argc, char** argv) {
         fastest[ti] = sec;
         tnnmgLevels[ti] = mg.levelSeconds();
         tnnmgCycles = mg.vcycles();
-        levelVertices.clear();
-        for (int l = 0; l <= mg.hierarchy().maxLevel(); ++l) levelVertices.push_back(mg.hierarchy().numVertices(l));
+        vertices = levelVertices(mg.hierarchy());
         const auto& st = solver.statistics();
         std::ostringstream row;
         row << " | " << fmt(st.setupSeconds) << " | " << fmt(st.smoothingSeconds) << " | " << fmt(st.updateSeconds) << " | "
@@ -435,7 +440,7 @@ int main(int argc, char** argv) {
     for (const std::string& row : tnnmgRows) md << row;
     md << "\nThe V-cycles of the fastest solves by level (milliseconds per cycle, " << tnnmgCycles
        << " cycles in a solve; LinearMultigrid::levelSeconds):\n\n";
-    levelTable(md, levelVertices, tnnmgLevels, tnnmgCycles);
+    levelTable(md, vertices, tnnmgLevels, tnnmgCycles);
   }
 
   // 3b. where a V-cycle's time goes, level by level: the linear multigrid of TNNMG's correction on the
@@ -479,9 +484,7 @@ int main(int argc, char** argv) {
       }
     std::vector<std::vector<LinearMultigrid<3>::LevelSeconds>> byThreads;
     for (const Cycles& C : cycles) byThreads.push_back(C.best);
-    std::vector<Index> vertices;
-    for (int l = 0; l <= cycles[0].mg->hierarchy().maxLevel(); ++l) vertices.push_back(cycles[0].mg->hierarchy().numVertices(l));
-    levelTable(md, vertices, byThreads, kCycles);
+    levelTable(md, levelVertices(cycles[0].mg->hierarchy()), byThreads, kCycles);
     std::cerr << "V-cycles by level done\n";
   }
 

@@ -49,14 +49,12 @@ bool carrySweepPartition(const MultigridHierarchy<d>& h, const BlockSparseMatrix
     }
   }
   // the base vertices weigh as many as their fine descendants, so that the fine parts are balanced
-  std::vector<Index> ancestor(static_cast<std::size_t>(A.rows()));
-  for (Index p = 0; p < A.rows(); ++p) {
-    Index q = p;
-    for (int l = L; l > base; --l) q = parent[static_cast<std::size_t>(l)][static_cast<std::size_t>(q)];
-    ancestor[static_cast<std::size_t>(p)] = q;
-  }
   std::vector<Index> weight(static_cast<std::size_t>(level(base).rows()), 0);
-  for (Index q : ancestor) ++weight[static_cast<std::size_t>(q)];
+  for (Index p = 0; p < A.rows(); ++p) {
+    Index q = p;  // p's ancestor on the base level
+    for (int l = L; l > base; --l) q = parent[static_cast<std::size_t>(l)][static_cast<std::size_t>(q)];
+    ++weight[static_cast<std::size_t>(q)];
+  }
   const BlockSparseMatrix<d>& B = level(base);
   std::vector<int> part = partitionPattern(B.rowStarts(), B.columns(), parts, weight);
   if (part.empty()) return false;

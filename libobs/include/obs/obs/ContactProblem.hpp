@@ -165,8 +165,9 @@ public:
   // --- a posteriori error bound (docs/theory.md#tnnmg-error-bound) ---
   /// Declares m_p >= 0 per vertex with A - diag(m_p I) positive semidefinite for the stiffness given
   /// to the constructor (e.g. the lumped masses of a time step's matrix M + c tau^2 A; after the
-  /// Dirichlet elimination it holds on the free components, the only ones the bound uses). Solvers may then bound the energy-norm error of an
-  /// admissible iterate by its residual (TNNMG stops on it). Part of the operator: kept by copies,
+  /// Dirichlet elimination it holds on the free components, the only ones the bound uses). Solvers
+  /// may then bound the energy-norm error of an admissible iterate by its residual (TNNMG stops on
+  /// it). Part of the operator: kept by copies,
   /// setLoad() and setGaps(). Throws obs::Error on a wrong size, a negative or non-finite entry, or
   /// a transformed problem (T'AT has no such diagonal bound in general).
   void setDiagonalLowerBound(std::vector<double> bound);

@@ -18,8 +18,9 @@
 /// ||w^{k+1} - w^k||_A / ||w^{k+1}||_A < tolerance (ContactSolverOptions), or, if the problem declares
 /// a diagonal lower bound of A (time steps with a lumped mass), the a posteriori error bound
 /// RotatedProblem::errorBound(w^{k+1}) / ||w^{k+1}||_A < tolerance (docs/theory.md#tnnmg-error-bound);
-/// either way the KKT residual of the iterate must pass as well (docs/theory.md#tnnmg-stopping). History records energy, correction, active-set size and the number of
-/// components whose truncation changed.
+/// either way the KKT residual of the iterate must pass as well (docs/theory.md#tnnmg-stopping).
+/// History records energy, correction, active-set size and the number of components whose
+/// truncation changed.
 ///
 /// The solver is built for one grid, or for the grids of several bodies (their hierarchies block-
 /// stacked, MultigridHierarchy): the problem must be assembled on the leaf views, stacked in the same
