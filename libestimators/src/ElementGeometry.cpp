@@ -120,17 +120,7 @@ Point referencePointOnFace(const mesh::Mesh& mesh, Index cell, std::span<const I
 
 std::vector<double> patchDiameters(const mesh::Mesh& mesh) {
   const Index nv = mesh.numVertices();
-  // vertex -> cells (CSR)
-  std::vector<Index> start(static_cast<std::size_t>(nv) + 1, 0), cells;
-  for (Index c = 0; c < mesh.numCells(); ++c)
-    for (Index v : mesh.cellVertices(c)) ++start[v + 1];
-  for (Index v = 0; v < nv; ++v) start[v + 1] += start[v];
-  cells.resize(start.back());
-  {
-    std::vector<Index> fill(start.begin(), start.end() - 1);
-    for (Index c = 0; c < mesh.numCells(); ++c)
-      for (Index v : mesh.cellVertices(c)) cells[fill[v]++] = c;
-  }
+  const mesh::VertexCells around = mesh::vertexCells(mesh);
   // The patches on threads() threads, each vertex's own maximum (the same for any thread count).
   // A pair (a, b) is no farther apart than r_a + r_b, its distances from p (the triangle
   // inequality through x_p), so with the vertices sorted by r descending the pairs of a stop at the
@@ -149,8 +139,8 @@ std::vector<double> patchDiameters(const mesh::Mesh& mesh) {
     if (s.mark.empty()) s.mark.assign(static_cast<std::size_t>(nv), -1);
     s.x.clear();
     const Point& xp = mesh.vertex(p);
-    for (Index k = start[p]; k < start[p + 1]; ++k)
-      for (Index v : mesh.cellVertices(cells[k]))
+    for (const Index c : around.cellsOf(p))
+      for (Index v : mesh.cellVertices(c))
         if (s.mark[v] != p) {
           s.mark[v] = p;
           const Point& x = mesh.vertex(v);

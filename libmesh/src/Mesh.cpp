@@ -67,4 +67,17 @@ std::array<Index, 7> Mesh::cellCounts() const {
   return counts;
 }
 
+VertexCells vertexCells(const Mesh& mesh) {
+  VertexCells vc;
+  vc.start.assign(static_cast<std::size_t>(mesh.numVertices()) + 1, 0);
+  for (Index c = 0; c < mesh.numCells(); ++c)
+    for (Index v : mesh.cellVertices(c)) ++vc.start[static_cast<std::size_t>(v) + 1];
+  for (std::size_t v = 0; v + 1 < vc.start.size(); ++v) vc.start[v + 1] += vc.start[v];
+  vc.cells.resize(static_cast<std::size_t>(vc.start.back()));
+  std::vector<Index> fill(vc.start.begin(), vc.start.end() - 1);
+  for (Index c = 0; c < mesh.numCells(); ++c)
+    for (Index v : mesh.cellVertices(c)) vc.cells[static_cast<std::size_t>(fill[static_cast<std::size_t>(v)]++)] = c;
+  return vc;
+}
+
 }  // namespace obs::mesh

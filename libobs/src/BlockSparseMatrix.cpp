@@ -3,6 +3,9 @@
 #include <omp.h>
 
 #include <array>
+#include <atomic>
+#include <exception>
+#include <optional>
 #include <bit>
 #include <cstdio>
 #include <cstdlib>
@@ -12,26 +15,22 @@ namespace obs {
 
 template <int d>
 BlockSparseMatrix<d> BlockSparseMatrix<d>::withMeshPattern(const mesh::Mesh& mesh) {
+  Pattern p = meshPattern(mesh, mesh::vertexCells(mesh));
+  return BlockSparseMatrix(std::move(p.rowStart), std::move(p.columns));
+}
+
+template <int d>
+typename BlockSparseMatrix<d>::Pattern BlockSparseMatrix<d>::meshPattern(const mesh::Mesh& mesh,
+                                                                         const mesh::VertexCells& cells) {
   const Index n = mesh.numVertices();
-  // vertex -> cells (compressed)
-  std::vector<Index> start(n + 1, 0);
-  for (Index c = 0; c < mesh.numCells(); ++c)
-    for (Index v : mesh.cellVertices(c)) ++start[v + 1];
-  for (Index v = 0; v < n; ++v) start[v + 1] += start[v];
-  std::vector<Index> cellsOf(start[n]);
-  {
-    std::vector<Index> pos(start.begin(), start.end() - 1);
-    for (Index c = 0; c < mesh.numCells(); ++c)
-      for (Index v : mesh.cellVertices(c)) cellsOf[pos[v]++] = c;
-  }
   // neighbours of each vertex: union of the vertices of its cells, sorted; two passes over the rows
   // (count, then fill) so that rows can be built on threads() threads. A vertex is taken once per
   // row by marking it with the row (mark[w] == v), so only the distinct neighbours are sorted.
   const int nt = n >= kParallelMinRows ? threads() : 1;
   const auto neighbours = [&](Index v, std::vector<Index>& mark, Index* row) {
     Index count = 0;
-    for (Index k = start[v]; k < start[v + 1]; ++k)
-      for (Index w : mesh.cellVertices(cellsOf[k]))
+    for (Index c : cells.cellsOf(v))
+      for (Index w : mesh.cellVertices(c))
         if (mark[w] != v) {
           mark[w] = v;
           if (row) row[count] = w;
@@ -44,22 +43,23 @@ BlockSparseMatrix<d> BlockSparseMatrix<d>::withMeshPattern(const mesh::Mesh& mes
     if (row) std::sort(row, row + count);
     return count;
   };
-  std::vector<Index> rowStart(n + 1, 0);
+  Pattern p;
+  p.rowStart.assign(static_cast<std::size_t>(n) + 1, 0);
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
     std::vector<Index> mark(static_cast<std::size_t>(n), -1);
 #pragma omp for schedule(static)
-    for (Index v = 0; v < n; ++v) rowStart[v + 1] = neighbours(v, mark, nullptr);
+    for (Index v = 0; v < n; ++v) p.rowStart[v + 1] = neighbours(v, mark, nullptr);
   }
-  for (Index v = 0; v < n; ++v) rowStart[v + 1] += rowStart[v];
-  std::vector<Index> cols(static_cast<std::size_t>(rowStart[n]));
+  for (Index v = 0; v < n; ++v) p.rowStart[v + 1] += p.rowStart[v];
+  p.columns.resize(static_cast<std::size_t>(p.rowStart[n]));
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
     std::vector<Index> mark(static_cast<std::size_t>(n), -1);
 #pragma omp for schedule(static)
-    for (Index v = 0; v < n; ++v) neighbours(v, mark, cols.data() + rowStart[v]);
+    for (Index v = 0; v < n; ++v) neighbours(v, mark, p.columns.data() + p.rowStart[v]);
   }
-  return BlockSparseMatrix(std::move(rowStart), std::move(cols));
+  return p;
 }
 
 template <int d>
@@ -204,6 +204,111 @@ private:
 };
 
 }  // namespace
+
+template <int d>
+BlockSparseMatrix<d> BlockSparseMatrix<d>::fromRowRanges(Pattern pattern, const RowRangeFill& fill) {
+  BlockSparseMatrix A;
+  A.rowStart_ = std::move(pattern.rowStart);
+  A.cols_ = std::move(pattern.columns);
+  const Index n = A.rows();
+  const std::size_t nnz = A.cols_.size();
+  // ranges of whole rows of about kRange blocks (a row longer than that is a range of its own)
+  constexpr Index kRange = Index{1} << 16;
+  std::vector<Index> first{0};
+  while (first.back() < n) {
+    const Index from = first.back();
+    Index to = from + 1;
+    while (to < n && A.rowStart_[to + 1] - A.rowStart_[from] <= kRange) ++to;
+    first.push_back(to);
+  }
+  const auto ranges = static_cast<long long>(first.size()) - 1;
+  // The ranges are filled on the threads; in range order (omp ordered) each range's distinct
+  // blocks are merged into the matrix's, numbered in order of first appearance as by
+  // shareRepeatedBlocks(), and the prefix rule is checked. Until it fails, a range is filled into a
+  // scratch array of its thread and only its block numbers are kept; the range that fails it
+  // allocates one block per entry, and the ranges filled from then on write there directly. The
+  // shared ranges before it are expanded at the end.
+  using Blocks = decltype(A.blocks_);
+  std::atomic<bool> sharing{nnz / 4 > 0};
+  if (!sharing) A.blocks_ = Blocks(nnz);
+  long long plainFrom = 0;  // the first range not kept shared, once sharing stops
+  std::vector<std::uint32_t, LargeArrayAllocator<std::uint32_t>> index(sharing ? nnz : 0);
+  Blocks distinct;
+  std::vector<std::int64_t> table(1024, -1);  // over distinct
+  const auto distinctBlock = [&](std::int64_t u) -> const Block& { return distinct[static_cast<std::size_t>(u)]; };
+  std::size_t seen = 0;  // blocks of the ranges merged
+  std::exception_ptr error;
+  const int nt = ranges > 1 ? threads() : 1;
+#pragma omp parallel num_threads(nt) if (nt > 1)
+  {
+    std::vector<Block> scratch;
+    std::vector<std::uint32_t> toMatrix;  // a range's local block numbers -> the matrix's
+#pragma omp for schedule(dynamic, 1) ordered
+    for (long long r = 0; r < ranges; ++r) {
+      const Index rowFrom = first[static_cast<std::size_t>(r)], rowTo = first[static_cast<std::size_t>(r) + 1];
+      const Index base = A.rowStart_[rowFrom];
+      const auto size = static_cast<std::size_t>(A.rowStart_[rowTo] - base);
+      const bool direct = !sharing.load(std::memory_order_acquire);
+      if (!direct && scratch.size() < size) scratch.resize(size);
+      Block* out = direct ? A.blocks_.data() + base : scratch.data();
+      for (std::size_t k = 0; k < size; ++k) out[k].setZero();
+      std::exception_ptr failed;
+      try {
+        fill(rowFrom, rowTo, out);
+      } catch (...) {
+        failed = std::current_exception();
+      }
+      std::optional<DistinctBlocks<Block>> local;
+      if (!direct && !failed) {
+        local.emplace(scratch.data());
+        for (std::size_t k = 0; k < size; ++k)
+          index[base + k] = static_cast<std::uint32_t>(local->number(k, size));
+      }
+      bool merged = false, copy = false;
+#pragma omp ordered
+      {
+        if (failed) {
+          if (!error) error = failed;  // the lowest range's: the ordered regions run in range order
+        } else if (!direct) {
+          if (sharing.load(std::memory_order_relaxed)) {
+            toMatrix.clear();
+            for (const std::size_t k : local->first()) {
+              std::int64_t id = findNumber(table, scratch[k], distinctBlock);
+              if (id < 0) {
+                distinct.push_back(scratch[k]);
+                addNumber(table, distinct.size(), distinctBlock);
+                id = static_cast<std::int64_t>(distinct.size()) - 1;
+              }
+              toMatrix.push_back(static_cast<std::uint32_t>(id));
+            }
+            seen += size;
+            merged = distinct.size() <= seen / 4;
+            if (!merged) {
+              A.blocks_ = Blocks(nnz);  // not touched here: each range's thread writes its part
+              plainFrom = r;
+              sharing.store(false, std::memory_order_release);
+            }
+          }
+          copy = !merged;
+        }
+      }
+      if (merged)
+        for (std::size_t k = 0; k < size; ++k) index[base + k] = toMatrix[index[base + k]];
+      if (copy) std::copy(scratch.begin(), scratch.begin() + static_cast<std::ptrdiff_t>(size), A.blocks_.begin() + base);
+    }
+  }
+  if (error) std::rethrow_exception(error);
+  if (sharing) {
+    A.blocks_ = std::move(distinct);
+    A.blockIndex_ = std::move(index);
+  } else if (plainFrom > 0) {  // the ranges kept shared before sharing stopped
+    const Index end = A.rowStart_[first[static_cast<std::size_t>(plainFrom)]];
+    forRanges(end, [&](Index begin, Index stop) {
+      for (Index k = begin; k < stop; ++k) A.blocks_[k] = distinct[index[k]];
+    });
+  }
+  return A;
+}
 
 template <int d>
 bool BlockSparseMatrix<d>::shareRepeatedBlocks() {

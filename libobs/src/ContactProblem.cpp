@@ -348,16 +348,16 @@ void ContactProblem<d>::rotateOperator(BlockSparseMatrix<d>& A) {
   std::vector<const Mat*> Q(static_cast<std::size_t>(n), nullptr);
   for (const Constraint& c : constraints_) Q[c.vertex] = &c.rotation;
   prescribedRotated_.assign(dirichlet_.constrained.size(), 0);
-  A.unshareBlocks();  // written on threads below
-  const int nt = n >= kParallelMinRows ? threads() : 1;
-#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
-  for (Index p = 0; p < n; ++p) {
-    for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k) {
-      const Index q = A.column(k);
-      auto& B = A.blockAt(k);
-      if (Q[p]) B = Q[p]->transpose() * B;
-      if (Q[q]) B = B * (*Q[q]);
-    }
+  // rows on threads (BlockSparseMatrix::modifyBlocks, which keeps shared blocks shared); only the
+  // blocks of rotated rows or columns change
+  A.modifyBlocks([&](Index p, Index k, Mat& B) {
+    const Index q = A.column(k);
+    if (!Q[p] && !Q[q]) return false;
+    if (Q[p]) B = Q[p]->transpose() * B;
+    if (Q[q]) B = B * (*Q[q]);
+    return true;
+  });
+  for (Index p = 0; p < n; ++p)
     for (int a = 0; a < d; ++a) {
       const std::size_t i = static_cast<std::size_t>(p) * d + a;
       if (!dirichlet_.constrained[i]) continue;
@@ -368,7 +368,6 @@ void ContactProblem<d>::rotateOperator(BlockSparseMatrix<d>& A) {
       for (int j = 0; j < d; ++j)
         if (std::abs((*Q[p])(a, j)) == 1.0) prescribedRotated_[static_cast<std::size_t>(p) * d + j] = 1;
     }
-  }
 }
 
 template <int d>

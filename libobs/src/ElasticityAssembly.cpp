@@ -1,10 +1,8 @@
 #include "obs/obs/ElasticityAssembly.hpp"
 
 #include <algorithm>
-
-#ifdef _OPENMP
-#include <omp.h>
-#endif
+#include <atomic>
+#include <span>
 
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Quadrature.hpp"
@@ -58,10 +56,9 @@ std::vector<FacePoint> faceQuadrature(const mesh::Mesh& m, std::span<const Index
 }
 
 /// +1 if the face's vertex order gives the outward normal of the adjacent cell, else -1.
-double outwardSign(const mesh::Mesh& m, std::span<const Index> fv, const std::vector<Index>& cellStart,
-                   const std::vector<Index>& cellsOf, const Point& normal) {
-  for (Index k = cellStart[fv[0]]; k < cellStart[fv[0] + 1]; ++k) {
-    const Index c = cellsOf[k];
+double outwardSign(const mesh::Mesh& m, std::span<const Index> fv, const mesh::VertexCells& around,
+                   const Point& normal) {
+  for (const Index c : around.cellsOf(fv[0])) {
     const auto cv = m.cellVertices(c);
     const bool containsFace = std::all_of(fv.begin(), fv.end(), [&](Index v) {
       return std::find(cv.begin(), cv.end(), v) != cv.end();
@@ -83,7 +80,6 @@ double outwardSign(const mesh::Mesh& m, std::span<const Index> fv, const std::ve
 template <int d>
 BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& material) {
   if (mesh.dimension() != d) throw Error("assembleStiffness: mesh dimension mismatch");
-  auto A = BlockSparseMatrix<d>::withMeshPattern(mesh);
   const double mu = material.mu();
   // B-bar (docs/theory.md#b-bar): lambda/2 (div u)^2 = kappa/2 (div u)^2 - mu/3 (div u)^2, and the
   // kappa part takes the cell mean of div u: K_e = int [2 mu eps:eps - 2 mu/3 div div]
@@ -94,63 +90,12 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
   using Block = typename BlockSparseMatrix<d>::Block;
   using Vec = Eigen::Matrix<double, d, 1>;
   constexpr int kMax = 8;  // vertices per cell
-  // Per cell of a chunk: where its blocks go, and which cell's matrix it takes. The matrices live
-  // apart (CellMatrix), written only for the cells whose matrix is computed, so that a chunk of
-  // translates touches a few kilobytes of them, not the 4.6 KB of a hexahedron's matrix per cell.
-  // Neither is value-initialised (no zeroing of megabytes per call).
-  struct Local {
-    Local() {}
-    Index pos[kMax][kMax];
-    int n;
-    int source;  // the local (in this chunk) whose matrix is this cell's: itself, or a translate's
-  };
   struct CellMatrix {
-    CellMatrix() {}
+    CellMatrix() {}  // not value-initialised
     Block block[kMax][kMax];
   };
-  // cell matrices of a chunk of cells on threads() threads, added to A in cell order (below): the
-  // same sums in the same order as a sequential loop, whatever the thread count
-  struct Values {
-    // one CellValues per quadrature (simplices need one point) and, for each, the local (in this
-    // chunk) of the last cell whose matrix it computed (-1: none). CellValues::reinit tells when a
-    // cell is a translate of the previous one (the same type and bitwise the same vertex differences:
-    // most cells of generated and red-refined grids); its matrix is bitwise that cell's, and is reused.
-    CellValues<d> general{kStiffnessDegree}, simplex{kSimplexStiffnessDegree};
-    int computedGeneral = -1, computedSimplex = -1;
-  };
-  const auto cellMatrix = [&](Values& values, Index c, std::vector<Local>& chunkLocals,
-                              std::vector<CellMatrix>& chunkMatrices, int self) {
-    Local& out = chunkLocals[static_cast<std::size_t>(self)];
-    CellMatrix& K = chunkMatrices[static_cast<std::size_t>(self)];
-    const mesh::CellType type = mesh.cellType(c);
-    const auto verts = mesh.cellVertices(c);
-    const int n = static_cast<int>(verts.size());
-    out.n = n;
-    // positions of the blocks: the cell's vertices in ascending order, found by one forward scan of
-    // each of their (sorted) rows
-    int order[kMax];
-    for (int j = 0; j < n; ++j) {
-      int k = j;
-      for (; k > 0 && verts[order[k - 1]] > verts[j]; --k) order[k] = order[k - 1];
-      order[k] = j;
-    }
-    for (int i = 0; i < n; ++i) {
-      Index k = A.rowBegin(verts[i]);
-      for (int t = 0; t < n; ++t) {
-        const Index w = verts[order[t]];
-        while (A.column(k) < w) ++k;  // w is in the row: the pattern holds every cell's vertex pairs
-        out.pos[i][order[t]] = k;
-      }
-    }
-    const bool isSimplex = type == mesh::CellType::Triangle || type == mesh::CellType::Tetrahedron;
-    CellValues<d>& cv = isSimplex ? values.simplex : values.general;
-    int& computed = isSimplex ? values.computedSimplex : values.computedGeneral;
-    computed = cv.reinit(mesh, c) ? computed : -1;  // a translate keeps the last cell's matrix, if any
-    if (computed >= 0) {
-      out.source = computed;
-      return;
-    }
-    out.source = self;
+  // The matrix of cell c (cv reinitialised on c, n vertices).
+  const auto computeMatrix = [&](const CellValues<d>& cv, int n, CellMatrix& K) {
     Vec meanGradient[kMax];
     for (int i = 0; i < n; ++i) {
       meanGradient[i].setZero();
@@ -179,59 +124,82 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
       }
     // the diagonal blocks exactly symmetric too (their two off-diagonal triangles are rounded apart)
     for (int i = 0; i < n; ++i) K.block[i][i] = 0.5 * (K.block[i][i] + K.block[i][i].transpose()).eval();
-    computed = self;
   };
-  const Index cells = mesh.numCells();
-  const int nt = cells >= kParallelMinRows ? threads() : 1;
-  const Index chunk = std::min<Index>(cells, 4096);
-  std::vector<Local> locals(static_cast<std::size_t>(std::max<Index>(chunk, 1)));
-  std::vector<CellMatrix> matrices(locals.size());
-  std::vector<Values> values(static_cast<std::size_t>(nt));
-  // The chunk's matrices are added to A by nt threads, each owning a range of block rows (about the
-  // same number of blocks each) and visiting the cells in order: every block gets its sums in cell
-  // order, as in the sequential loop. A cell's row i lies in one range (its blocks pos[i][*] do).
-  std::vector<Index> ownedFrom(static_cast<std::size_t>(nt) + 1, A.nonZeroBlocks());
-  const auto starts = A.rowStarts();
-  for (int t = 0; t < nt; ++t) {
-    const Index target = static_cast<Index>((static_cast<long long>(A.nonZeroBlocks()) * t) / nt);
-    ownedFrom[static_cast<std::size_t>(t)] = *std::lower_bound(starts.begin(), starts.end(), target);
-  }
-  const auto addChunk = [&](Index first, Index last, Index from, Index to) {
-    for (Index c = first; c < last; ++c) {
-      const Local& l = locals[static_cast<std::size_t>(c - first)];
-      const CellMatrix& K = matrices[static_cast<std::size_t>(l.source)];
-      for (int i = 0; i < l.n; ++i) {
-        if (l.pos[i][0] < from || l.pos[i][0] >= to) continue;
-        for (int j = 0; j < l.n; ++j) A.blockAt(l.pos[i][j]) += K.block[i][j];
-      }
+  // One CellValues per quadrature (simplices need one point) with the matrix of the last cell it
+  // computed. CellValues::reinit tells when a cell is a translate of the previous one (the same type
+  // and bitwise the same vertex differences: most cells of generated and red-refined grids); its
+  // matrix is bitwise that cell's, and is reused (docs/performance.md#assembly).
+  struct Kind {
+    CellValues<d> cv;
+    CellMatrix K;
+    bool valid = false;
+    explicit Kind(int degree) : cv(degree) {}
+  };
+  const mesh::VertexCells around = mesh::vertexCells(mesh);
+  auto pattern = BlockSparseMatrix<d>::meshPattern(mesh, around);
+  // fromRowRanges takes the pattern's vectors over by moving them: their elements stay where they are
+  const std::span<const Index> rowStart = pattern.rowStart, columns = pattern.columns;
+  // The rows are filled range by range (BlockSparseMatrix::fromRowRanges, which shares the repeated
+  // blocks as they come): a range takes the cells around its vertices in ascending order and adds
+  // their blocks of its rows, so every block is the sum over its cells in cell order, whatever the
+  // ranges and the thread count. A degenerate cell is skipped there; the first one is computed again
+  // below to throw its error, as a sequential loop over the cells would.
+  std::atomic<Index> failed{mesh.numCells()};
+  const auto fill = [&](Index first, Index last, Block* out) {
+    const Index base = rowStart[first];
+    std::vector<Index> cells;
+    for (Index v = first; v < last; ++v) {
+      const auto of = around.cellsOf(v);
+      cells.insert(cells.end(), of.begin(), of.end());
     }
-  };
-  for (Index first = 0; first < cells; first += chunk) {
-    const Index last = std::min(cells, first + chunk);
-    for (Values& v : values) v.computedGeneral = v.computedSimplex = -1;  // the last chunk's locals are gone
-    // no exception may leave a parallel region: the first bad cell (a degenerate one) is found on
-    // the threads and its error thrown again afterwards, as the sequential loop would have thrown it
-    Index failed = last;
-#pragma omp parallel for schedule(static) num_threads(nt) reduction(min : failed) if (nt > 1)
-    for (Index c = first; c < last; ++c) {
-#ifdef _OPENMP
-      Values& cv = values[static_cast<std::size_t>(omp_get_thread_num())];
-#else
-      Values& cv = values.front();
-#endif
+    std::sort(cells.begin(), cells.end());
+    cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+    Kind general(kStiffnessDegree), simplex(kSimplexStiffnessDegree);
+    for (const Index c : cells) {
+      const mesh::CellType type = mesh.cellType(c);
+      const auto verts = mesh.cellVertices(c);
+      const int n = static_cast<int>(verts.size());
+      Kind& kind = type == mesh::CellType::Triangle || type == mesh::CellType::Tetrahedron ? simplex : general;
       try {
-        cellMatrix(cv, c, locals, matrices, static_cast<int>(c - first));
+        const bool translate = kind.cv.reinit(mesh, c);
+        if (!(translate && kind.valid)) {
+          kind.valid = false;
+          computeMatrix(kind.cv, n, kind.K);
+          kind.valid = true;
+        }
       } catch (const Error&) {
-        failed = std::min(failed, c);
+        kind.valid = false;
+        for (Index seen = failed.load(); c < seen && !failed.compare_exchange_weak(seen, c);) {
+        }
+        continue;
+      }
+      // the cell's vertices in ascending order; its blocks of each of its rows in the range found by
+      // one forward scan of the (sorted) row
+      int order[kMax];
+      for (int j = 0; j < n; ++j) {
+        int k = j;
+        for (; k > 0 && verts[order[k - 1]] > verts[j]; --k) order[k] = order[k - 1];
+        order[k] = j;
+      }
+      for (int i = 0; i < n; ++i) {
+        if (verts[i] < first || verts[i] >= last) continue;
+        Index k = rowStart[verts[i]];
+        for (int t = 0; t < n; ++t) {
+          const Index w = verts[order[t]];
+          while (columns[k] < w) ++k;  // w is in the row: the pattern holds every cell's vertex pairs
+          out[k - base] += kind.K.block[i][order[t]];
+        }
       }
     }
-    if (failed < last) {  // throws its obs::Error
-      Values fresh;
-      cellMatrix(fresh, failed, locals, matrices, static_cast<int>(failed - first));
-    }
-#pragma omp parallel for schedule(static, 1) num_threads(nt) if (nt > 1)
-    for (int t = 0; t < nt; ++t)
-      addChunk(first, last, ownedFrom[static_cast<std::size_t>(t)], ownedFrom[static_cast<std::size_t>(t) + 1]);
+  };
+  BlockSparseMatrix<d> A = BlockSparseMatrix<d>::fromRowRanges(std::move(pattern), fill);
+  if (const Index c = failed.load(); c < mesh.numCells()) {  // throws its obs::Error
+    const mesh::CellType type = mesh.cellType(c);
+    Kind kind(type == mesh::CellType::Triangle || type == mesh::CellType::Tetrahedron ? kSimplexStiffnessDegree
+                                                                                      : kStiffnessDegree);
+    kind.cv.reinit(mesh, c);
+    computeMatrix(kind.cv, static_cast<int>(mesh.cellVertices(c).size()), kind.K);
+    throw Error("assembleStiffness: cell " + std::to_string(c) + " could not be assembled");
   }
   return A;
 }
@@ -255,18 +223,7 @@ Eigen::VectorXd assembleLoad(const mesh::Mesh& mesh, const BoundaryConditions& b
   }
   if (bc.neumann.empty()) return b;
 
-  // vertex -> cells, to orient pressure loads along the outward normal
-  std::vector<Index> cellStart(mesh.numVertices() + 1, 0), cellsOf;
-  for (Index c = 0; c < mesh.numCells(); ++c)
-    for (Index v : mesh.cellVertices(c)) ++cellStart[v + 1];
-  for (Index v = 0; v < mesh.numVertices(); ++v) cellStart[v + 1] += cellStart[v];
-  cellsOf.resize(cellStart.back());
-  {
-    std::vector<Index> fill(cellStart.begin(), cellStart.end() - 1);
-    for (Index c = 0; c < mesh.numCells(); ++c)
-      for (Index v : mesh.cellVertices(c)) cellsOf[fill[v]++] = c;
-  }
-
+  const mesh::VertexCells around = mesh::vertexCells(mesh);  // to orient pressure loads outward
   std::vector<std::vector<double>> shape;
   for (const NeumannCondition& nc : bc.neumann) {
     if (!nc.traction && !nc.pressure) continue;
@@ -274,7 +231,7 @@ Eigen::VectorXd assembleLoad(const mesh::Mesh& mesh, const BoundaryConditions& b
       if (mesh.boundaryFaceId(f) != nc.boundaryId) continue;
       const auto fv = mesh.boundaryFaceVertices(f);
       const auto pts = faceQuadrature(mesh, fv, kLoadDegree, shape);
-      const double sign = nc.traction ? 1.0 : outwardSign(mesh, fv, cellStart, cellsOf, pts[0].normal);
+      const double sign = nc.traction ? 1.0 : outwardSign(mesh, fv, around, pts[0].normal);
       for (std::size_t q = 0; q < pts.size(); ++q) {
         const Eigen::Vector3d t =
             nc.traction ? nc.traction(pts[q].x) : Eigen::Vector3d(-nc.pressure(pts[q].x) * sign * pts[q].normal);
@@ -323,27 +280,24 @@ void applyDirichlet(BlockSparseMatrix<d>& A, Eigen::VectorXd& b, const Dirichlet
   for (std::size_t k = 0; k < g.constrained.size(); ++k)
     if (!g.constrained[k]) gv[static_cast<Eigen::Index>(k)] = 0;
   b -= A * gv;
-  // rows on threads (each writes its own blocks); blocks coupling two vertices without a
-  // constrained component are left as they are without looking at their entries
+  // rows on threads (BlockSparseMatrix::modifyBlocks, which keeps shared blocks shared); blocks
+  // coupling two vertices without a constrained component are left as they are without looking at
+  // their entries
   const Index n = A.rows();
   std::vector<char> fixedVertex(static_cast<std::size_t>(n), 0);
   for (Index i = 0; i < n; ++i)
     for (int a = 0; a < d; ++a) fixedVertex[static_cast<std::size_t>(i)] |= g.constrained[static_cast<std::size_t>(i) * d + a] ? 1 : 0;
-  const int nt = n >= kParallelMinRows ? threads() : 1;
-  A.unshareBlocks();  // written on threads below
-#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
-  for (Index i = 0; i < n; ++i)
-    for (Index k = A.rowBegin(i); k < A.rowEnd(i); ++k) {
-      const Index j = A.column(k);
-      if (!fixedVertex[static_cast<std::size_t>(i)] && !fixedVertex[static_cast<std::size_t>(j)]) continue;
-      auto& B = A.blockAt(k);
-      for (int a = 0; a < d; ++a)
-        for (int c = 0; c < d; ++c) {
-          const bool ra = g.constrained[static_cast<std::size_t>(i) * d + a];
-          const bool cc = g.constrained[static_cast<std::size_t>(j) * d + c];
-          if (ra || cc) B(a, c) = (i == j && a == c) ? 1.0 : 0.0;
-        }
-    }
+  A.modifyBlocks([&](Index i, Index k, typename BlockSparseMatrix<d>::Block& B) {
+    const Index j = A.column(k);
+    if (!fixedVertex[static_cast<std::size_t>(i)] && !fixedVertex[static_cast<std::size_t>(j)]) return false;
+    for (int a = 0; a < d; ++a)
+      for (int c = 0; c < d; ++c) {
+        const bool ra = g.constrained[static_cast<std::size_t>(i) * d + a];
+        const bool cc = g.constrained[static_cast<std::size_t>(j) * d + c];
+        if (ra || cc) B(a, c) = (i == j && a == c) ? 1.0 : 0.0;
+      }
+    return true;
+  });
   for (std::size_t k = 0; k < g.constrained.size(); ++k)
     if (g.constrained[k]) b[static_cast<Eigen::Index>(k)] = g.values[static_cast<Eigen::Index>(k)];
 }

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <limits>
 #include <sstream>
+#include <utility>
 
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/CholmodSolver.hpp"
@@ -265,7 +266,7 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
   const double c = scheme == NewmarkScheme::KhenousLabordeRenard ? 0.5 : 0.25;
   BlockSparseMatrix<d> S = A_;
   const BlockSparseMatrix<d>& Ms = redistributed ? Mr_ : M_;
-  for (Index k = 0; k < S.nonZeroBlocks(); ++k) S.blockAt(k) = Ms.blockAt(k) + c * tau * tau * A_.blockAt(k);
+  for (Index k = 0; k < S.nonZeroBlocks(); ++k) S.blockAt(k) = Ms.blockAt(k) + c * tau * tau * std::as_const(A_).blockAt(k);
   if (redistributed && !redistributedCheck_.positiveDefinite) {
     // M~ indefinite: the step problem is well posed only if S is positive definite on the free
     // components; an indefinite S would surface as a CHOLMOD error of TNNMG's coarse solve

@@ -5,11 +5,13 @@
 // distinct blocks keeps its storage; signed zeros are kept.
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <limits>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <type_traits>
 #include <vector>
@@ -36,10 +38,13 @@ bool sameBits(const T& a, const T& b) {
 
 /// Stiffness matrix of a cube of 16^3 hexahedra (4,913 vertices: above the size from which loops
 /// run on threads).
+/// The stiffness of a red-refined box, one block per entry (assembleStiffness shares its blocks).
 BlockSparseMatrix<3> cubeStiffness() {
   mesh::Grid grid(mesh::boxMesh(CellType::Hexahedron, 2));
   for (int l = 0; l < 3; ++l) grid.refineUniformly();
-  return assembleStiffness<3>(grid.leafView().mesh, Material{1e3, 0.3});
+  BlockSparseMatrix<3> A = assembleStiffness<3>(grid.leafView().mesh, Material{1e3, 0.3});
+  A.unshareBlocks();
+  return A;
 }
 
 /// Number of distinct bit patterns among the blocks.
@@ -205,8 +210,9 @@ TEST(SharedBlocks, ContactProblemOnABoxSharesItsRotatedOperator) {
   EXPECT_LE(4 * problem.rotatedMatrix().storedBlocks(), problem.rotatedMatrix().nonZeroBlocks());
 }
 
-// Loops that write blocks on threads (Dirichlet elimination, the rotation of a contact problem)
-// return a shared matrix to one block per entry first, with the results of a matrix that never shared.
+// Loops that write blocks on threads (Dirichlet elimination, the rotation of a contact problem) keep
+// a shared matrix shared (BlockSparseMatrix::modifyBlocks), with the results of a matrix that never
+// shared.
 TEST(SharedBlocks, WritersOnThreadsAcceptSharedMatrices) {
   const ThreadScope scope(2);
   mesh::Grid grid(mesh::boxMesh(CellType::Hexahedron, 2));
@@ -219,16 +225,19 @@ TEST(SharedBlocks, WritersOnThreadsAcceptSharedMatrices) {
   const Eigen::VectorXd load = assembleLoad<3>(mesh, bc);
 
   BlockSparseMatrix<3> plain = assembleStiffness<3>(mesh, material), shared = plain;
+  plain.unshareBlocks();
   ASSERT_TRUE(shared.shareRepeatedBlocks());
   Eigen::VectorXd b1 = load, b2 = load;
   applyDirichlet(plain, b1, g);
   applyDirichlet(shared, b2, g);
-  EXPECT_FALSE(shared.shared());
+  EXPECT_FALSE(plain.shared());
+  EXPECT_TRUE(shared.shared());
   EXPECT_TRUE(sameBits(b1, b2));
   for (Index k = 0; k < plain.nonZeroBlocks(); ++k) ASSERT_TRUE(sameBits(plain.blockAt(k), shared.blockAt(k)));
 
   const ContactSet contact(mesh, mesh::kBottom, PlaneObstacle(Point(0, 0, 0), Point(0, 0, -1)));
   BlockSparseMatrix<3> stiffness = assembleStiffness<3>(mesh, material), sharedStiffness = stiffness;
+  stiffness.unshareBlocks();
   ASSERT_TRUE(sharedStiffness.shareRepeatedBlocks());
   const ContactProblem<3> fromPlain(std::move(stiffness), load, g, contact);
   const ContactProblem<3> fromShared(std::move(sharedStiffness), load, g, contact);
@@ -267,5 +276,145 @@ TEST(SharedBlocks, WriterKeepsTheBlocksSharedAndEqualToPlainWrites) {
   for (Index k = 0; k < A.nonZeroBlocks(); ++k)
     differing += std::memcmp(S.blockAt(k).data(), plain.blockAt(k).data(), sizeof(Block)) != 0;
   EXPECT_EQ(differing, 0);
+  EXPECT_TRUE(sameBits(kernels(S), kernels(plain)));
+}
+
+namespace {
+
+/// A band pattern: row i couples to i - 4 .. i + 4 (clipped); n = 20,000 rows, about 180,000
+/// blocks, so fromRowRanges fills it in three ranges.
+BlockSparseMatrix<3>::Pattern bandPattern(Index n = 20000) {
+  BlockSparseMatrix<3>::Pattern p;
+  p.rowStart.push_back(0);
+  for (Index i = 0; i < n; ++i) {
+    for (Index j = std::max<Index>(0, i - 4); j <= std::min<Index>(n - 1, i + 4); ++j) p.columns.push_back(j);
+    p.rowStart.push_back(static_cast<Index>(p.columns.size()));
+  }
+  return p;
+}
+
+/// Block (i, j) of the test matrices: a function of j - i only for rows below `repeatBelow` (nine
+/// distinct blocks), a distinct block per entry from there on.
+BlockSparseMatrix<3>::Block bandBlock(Index i, Index j, Index repeatBelow) {
+  BlockSparseMatrix<3>::Block B;
+  for (int a = 0; a < 3; ++a)
+    for (int b = 0; b < 3; ++b) B(a, b) = 0.1 * (j - i) + a - 0.5 * b;
+  if (i >= repeatBelow) B(2, 2) += 1000.0 * i;  // exact: no two rows alike
+  return B;
+}
+
+struct RowRangeRun {
+  BlockSparseMatrix<3> A;
+  int nonZeroOnEntry = 0;  // blocks that fill found non-zero
+};
+
+RowRangeRun fillBand(Index repeatBelow) {
+  RowRangeRun run;
+  const auto p = bandPattern();
+  const std::vector<Index> rowStart = p.rowStart, columns = p.columns;
+  std::atomic<int> nonZero{0};
+  run.A = BlockSparseMatrix<3>::fromRowRanges(p, [&](Index first, Index last, BlockSparseMatrix<3>::Block* out) {
+    for (Index i = first; i < last; ++i)
+      for (Index k = rowStart[i]; k < rowStart[i + 1]; ++k) {
+        BlockSparseMatrix<3>::Block& B = out[k - rowStart[first]];
+        if (!B.isZero(0)) ++nonZero;
+        B += bandBlock(i, columns[k], repeatBelow);
+      }
+  });
+  run.nonZeroOnEntry = nonZero;
+  return run;
+}
+
+}  // namespace
+
+// BlockSparseMatrix::fromRowRanges: repeated blocks are shared as the ranges come in, numbered as
+// shareRepeatedBlocks numbers them; blocks that stop repeating switch the matrix to one block per
+// entry, also after ranges already kept shared (which are then expanded); distinct blocks from the
+// start give one block per entry. The values are those filled, and the storage is the same on one
+// and on two threads.
+TEST(SharedBlocks, RowRangesShareRepeatedBlocksAsTheyComeAndSwitchWhenTheyStopRepeating) {
+  const Index n = 20000;
+  struct Case {
+    const char* name;
+    Index repeatBelow;
+    bool shared;
+  };
+  for (const Case& c : {Case{"repeated", n, true}, Case{"distinct after the first range", 9000, false},
+                        Case{"distinct", 0, false}}) {
+    const RowRangeRun one = fillBand(c.repeatBelow);
+    const RowRangeRun two = [&] {
+      const ThreadScope scope(2);
+      return fillBand(c.repeatBelow);
+    }();
+    for (const RowRangeRun* run : {&one, &two}) {
+      const BlockSparseMatrix<3>& A = run->A;
+      EXPECT_EQ(run->nonZeroOnEntry, 0) << c.name;
+      ASSERT_EQ(A.shared(), c.shared) << c.name;
+      ASSERT_EQ(A.rows(), n);
+      for (Index i = 0; i < n; ++i)
+        for (Index k = A.rowBegin(i); k < A.rowEnd(i); ++k) {
+          const BlockSparseMatrix<3>::Block B = bandBlock(i, A.column(k), c.repeatBelow);
+          ASSERT_EQ(std::memcmp(A.blockAt(k).data(), B.data(), sizeof B), 0) << c.name << ", row " << i;
+        }
+    }
+    ASSERT_EQ(one.A.storedBlocks(), two.A.storedBlocks()) << c.name;
+    for (Index k = 0; k < one.A.nonZeroBlocks(); ++k)
+      ASSERT_EQ(&one.A.blockAt(k) - &one.A.blockAt(0), &two.A.blockAt(k) - &two.A.blockAt(0)) << c.name;
+    if (c.shared) {  // numbered in order of first appearance, as by shareRepeatedBlocks
+      BlockSparseMatrix<3> shared = one.A;
+      shared.unshareBlocks();
+      ASSERT_TRUE(shared.shareRepeatedBlocks());
+      const BlockSparseMatrix<3>& S = shared;
+      EXPECT_EQ(one.A.storedBlocks(), 9);
+      for (Index k = 0; k < S.nonZeroBlocks(); ++k)
+        ASSERT_EQ(&one.A.blockAt(k) - &one.A.blockAt(0), &S.blockAt(k) - &S.blockAt(0));
+    }
+  }
+}
+
+// An exception of the fill is thrown again by fromRowRanges: the one of the lowest range that threw,
+// on any number of threads.
+TEST(SharedBlocks, RowRangesThrowTheErrorOfTheLowestRange) {
+  for (const int t : {1, 2}) {
+    const ThreadScope scope(t);
+    try {
+      BlockSparseMatrix<3>::fromRowRanges(bandPattern(), [](Index first, Index, BlockSparseMatrix<3>::Block*) {
+        if (first > 0) throw std::runtime_error("range from row " + std::to_string(first));
+      });
+      ADD_FAILURE() << "no exception on " << t << " threads";
+    } catch (const std::runtime_error& e) {
+      EXPECT_EQ(std::string(e.what()), "range from row 7282") << t << " threads";
+    }
+  }
+}
+
+// BlockSparseMatrix::modifyBlocks keeps a shared matrix shared, with the blocks and products of the
+// same changes made to one block per entry, and the same storage on one and on two threads.
+TEST(SharedBlocks, ModifiedBlocksStaySharedWithTheValuesOfPlainChanges) {
+  const auto change = [](Index i, Index, BlockSparseMatrix<3>::Block& B) {
+    if (i % 5 != 0) return false;
+    B *= 2.0;
+    B(0, 0) += 1.0;
+    return true;
+  };
+  BlockSparseMatrix<3> plain = cubeStiffness(), shared = plain, sharedTwo = plain;
+  ASSERT_TRUE(shared.shareRepeatedBlocks());
+  ASSERT_TRUE(sharedTwo.shareRepeatedBlocks());
+  plain.modifyBlocks(change);
+  shared.modifyBlocks(change);
+  {
+    const ThreadScope scope(2);
+    sharedTwo.modifyBlocks(change);
+  }
+  EXPECT_FALSE(plain.shared());
+  EXPECT_TRUE(shared.shared());
+  EXPECT_TRUE(sharedTwo.shared());
+  EXPECT_EQ(shared.storedBlocks(), sharedTwo.storedBlocks());
+  const BlockSparseMatrix<3>& S = shared;
+  const BlockSparseMatrix<3>& S2 = sharedTwo;
+  for (Index k = 0; k < plain.nonZeroBlocks(); ++k) {
+    ASSERT_EQ(std::memcmp(S.blockAt(k).data(), plain.blockAt(k).data(), sizeof(double) * 9), 0) << "block " << k;
+    ASSERT_EQ(&S.blockAt(k) - &S.blockAt(0), &S2.blockAt(k) - &S2.blockAt(0)) << "block " << k;
+  }
   EXPECT_TRUE(sameBits(kernels(S), kernels(plain)));
 }

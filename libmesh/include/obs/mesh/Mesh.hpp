@@ -90,4 +90,15 @@ private:
   std::map<int, std::string> names_;
 };
 
+/// The cells around each vertex in compressed form: cellsOf(v) lists the cells having v as a
+/// vertex, in ascending order.
+struct VertexCells {
+  std::vector<Index> start;  ///< numVertices() + 1 offsets into cells
+  std::vector<Index> cells;
+  std::span<const Index> cellsOf(Index v) const {
+    return {cells.data() + start[static_cast<std::size_t>(v)], cells.data() + start[static_cast<std::size_t>(v) + 1]};
+  }
+};
+VertexCells vertexCells(const Mesh& mesh);
+
 }  // namespace obs::mesh

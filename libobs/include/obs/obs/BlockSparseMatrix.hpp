@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cassert>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <span>
 #include <vector>
@@ -40,6 +41,26 @@ public:
 
   /// Pattern coupling every pair of vertices that share a cell (diagonal included).
   static BlockSparseMatrix withMeshPattern(const mesh::Mesh& mesh);
+
+  /// A pattern in compressed rows: rowStart has n + 1 entries, the columns of each row sorted.
+  struct Pattern {
+    std::vector<Index> rowStart, columns;
+  };
+  /// The pattern of withMeshPattern(); `cells` is mesh::vertexCells(mesh).
+  static Pattern meshPattern(const mesh::Mesh& mesh, const mesh::VertexCells& cells);
+
+  /// Writes the blocks of the rows [first, last): block k to blocks[k - rowBegin(first)]; the
+  /// blocks are zero on entry.
+  using RowRangeFill = std::function<void(Index first, Index last, Block* blocks)>;
+  /// A matrix of `pattern` whose blocks `fill` writes, range of rows by range of rows (whole rows of
+  /// about 2^16 blocks each, on threads() threads, each range once). While at most a quarter of the
+  /// blocks written so far are distinct (bit for bit), the blocks are shared() as the ranges come
+  /// in, so that one block per entry is never stored; from the first range that breaks this on,
+  /// one block per entry. The values are the ones `fill` wrote in either case, and neither the
+  /// storage nor the numbering of the shared blocks depends on the thread count
+  /// (docs/performance.md#assembly-shared). An exception of `fill` is thrown again here, the one of
+  /// the lowest range that threw.
+  static BlockSparseMatrix fromRowRanges(Pattern pattern, const RowRangeFill& fill);
 
   Index rows() const { return static_cast<Index>(rowStart_.size()) - 1; }
   Index nonZeroBlocks() const { return static_cast<Index>(cols_.size()); }
@@ -93,6 +114,36 @@ public:
     BlockSparseMatrix& A_;
     std::vector<std::int64_t> table_;  ///< open addressing over the stored blocks' numbers
   };
+
+  /// Calls f(i, k, B) for every block k of every row i, where B is a modifiable copy of the block
+  /// (or the block itself); f returns whether it changed B. A plain matrix is changed in place, rows
+  /// on threads() threads; a shared() one stays shared: the changed blocks are collected on the
+  /// threads and written afterwards through a BlockWriter in the order of k, so the storage does not
+  /// depend on the thread count. For changes of a few rows and columns (Dirichlet values,
+  /// rotations) of a large shared matrix, which would otherwise be stored one block per entry.
+  template <class F>
+  void modifyBlocks(F&& f) {
+    const Index n = rows();
+    if (!shared()) {
+      forRanges(n, [&](Index begin, Index end) {
+        for (Index i = begin; i < end; ++i)
+          for (Index k = rowStart_[i]; k < rowStart_[i + 1]; ++k) f(i, k, blocks_[k]);
+      });
+      return;
+    }
+    std::vector<std::vector<std::pair<Index, Block>>> changed(static_cast<std::size_t>((n + kVectorChunk - 1) / kVectorChunk));
+    forRanges(n, [&](Index begin, Index end) {
+      auto& list = changed[static_cast<std::size_t>(begin / kVectorChunk)];
+      for (Index i = begin; i < end; ++i)
+        for (Index k = rowStart_[i]; k < rowStart_[i + 1]; ++k) {
+          Block B = blocks_[blockIndex_[k]];
+          if (f(i, k, B)) list.emplace_back(k, B);
+        }
+    });
+    BlockWriter writer(*this);
+    for (const auto& list : changed)
+      for (const auto& [k, B] : list) writer.set(k, B);
+  }
 
   /// Position of block (i, j) in the storage, or -1 if not in the pattern.
   Index find(Index i, Index j) const {
