@@ -210,6 +210,15 @@ BlockSparseMatrix<d> BlockSparseMatrix<d>::fromRowRanges(Pattern pattern, const 
   BlockSparseMatrix A;
   A.rowStart_ = std::move(pattern.rowStart);
   A.cols_ = std::move(pattern.columns);
+  A.fillByRowRanges(fill);
+  return A;
+}
+
+template <int d>
+void BlockSparseMatrix<d>::fillByRowRanges(const RowRangeFill& fill) {
+  BlockSparseMatrix& A = *this;
+  A.blocks_ = {};  // the old blocks go first: never two storages at once
+  A.blockIndex_ = {};
   const Index n = A.rows();
   const std::size_t nnz = A.cols_.size();
   // ranges of whole rows of about kRange blocks (a row longer than that is a range of its own)
@@ -297,7 +306,13 @@ BlockSparseMatrix<d> BlockSparseMatrix<d>::fromRowRanges(Pattern pattern, const 
       if (copy) std::copy(scratch.begin(), scratch.begin() + static_cast<std::ptrdiff_t>(size), A.blocks_.begin() + base);
     }
   }
-  if (error) std::rethrow_exception(error);
+  if (error) {  // the pattern stays, with zero blocks
+    A.blocks_ = {};
+    A.blockIndex_ = {};
+    A.blocks_ = Blocks(nnz);
+    A.setZero();
+    std::rethrow_exception(error);
+  }
   if (sharing) {
     A.blocks_ = std::move(distinct);
     A.blockIndex_ = std::move(index);
@@ -307,7 +322,6 @@ BlockSparseMatrix<d> BlockSparseMatrix<d>::fromRowRanges(Pattern pattern, const 
       for (Index k = begin; k < stop; ++k) A.blocks_[k] = distinct[index[k]];
     });
   }
-  return A;
 }
 
 template <int d>

@@ -129,18 +129,22 @@ BlockSparseMatrix<d> galerkinPattern(const BlockSparseMatrix<d>& F, const mesh::
 template <int d>
 void galerkinRows(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P, const mesh::CsrMatrix& Pt,
                   const std::vector<Index>* slot, const std::vector<Eigen::Matrix<double, d, d>>* E,
-                  std::span<const Index> rows, BlockSparseMatrix<d>& C) {
+                  std::span<const Index> rows, BlockSparseMatrix<d>& C,
+                  Eigen::Matrix<double, d, d>* target = nullptr, Index targetBase = 0) {
   using Mat = Eigen::Matrix<double, d, d>;
   constexpr Index kGalerkinChunk = 256;
   const auto n = static_cast<Index>(rows.size());
   const Index chunks = (n + kGalerkinChunk - 1) / kGalerkinChunk;
-  const int nt = n >= kParallelMinRows ? threads() : 1;
+  // with a target (a range of BlockSparseMatrix::fillByRowRanges, already on a thread of its own)
+  // the rows go to target[k - targetBase] on this thread, and C gives only its pattern
+  const int nt = target || n < kParallelMinRows ? 1 : threads();
   // A shared C (a local update) keeps its storage: the rows of a chunk are computed apart and
   // written by one thread at a time through a BlockWriter. A plain C is written in place.
-  const bool shared = C.shared();
+  const bool shared = !target && C.shared();
   std::optional<typename BlockSparseMatrix<d>::BlockWriter> writer;
   if (shared) writer.emplace(C);
-  Mat* plain = shared ? nullptr : &C.blockAt(0);
+  Mat* plain = target ? target : shared ? nullptr : &C.blockAt(0);
+  const Index plainBase = target ? targetBase : 0;
 #ifdef _OPENMP
 #pragma omp parallel num_threads(nt)
 #endif
@@ -198,7 +202,7 @@ void galerkinRows(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P, const
       for (Index i = first; i < last; ++i) {
         const Index I = rows[i];
         // out[j]: the block at position rowBegin(I) + j of C
-        Mat* out = shared ? rowsOut.data() + offset : plain + C.rowBegin(I);
+        Mat* out = shared ? rowsOut.data() + offset : plain + (C.rowBegin(I) - plainBase);
         for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) {
           mark[C.column(k)] = k - C.rowBegin(I);
           out[k - C.rowBegin(I)].setZero();
@@ -630,8 +634,12 @@ void MultigridHierarchy<d>::computeCoarse(bool local) {
     } else {
       all.resize(C.rows());
       for (Index I = 0; I < C.rows(); ++I) all[I] = I;
-      if (C.shared()) C.setZero();  // one block per entry again, without copying values every row overwrites
-      galerkinRows(F, P, transposed_[l], slot, E, all, C);
+      // every block anew, range of rows by range of rows, the repeated blocks shared as they come
+      // (BlockSparseMatrix::fillByRowRanges): one block per entry is not stored on the way
+      C.fillByRowRanges([&](Index first, Index last, Mat* out) {
+        galerkinRows(F, P, transposed_[l], slot, E, std::span<const Index>(all).subspan(first, last - first), C, out,
+                     C.rowBegin(first));
+      });
       markDeadComponents(C, all, dead_[l]);
       C.shareRepeatedBlocks();
       rowsRecomputed_ += C.rows();

@@ -61,6 +61,10 @@ public:
   /// (docs/performance.md#assembly-shared). An exception of `fill` is thrown again here, the one of
   /// the lowest range that threw.
   static BlockSparseMatrix fromRowRanges(Pattern pattern, const RowRangeFill& fill);
+  /// Sets every block of this matrix by fromRowRanges()' procedure; the pattern and the sweep order
+  /// stay. The old blocks are freed first. If `fill` throws, the blocks are zero and the exception
+  /// is thrown again.
+  void fillByRowRanges(const RowRangeFill& fill);
 
   Index rows() const { return static_cast<Index>(rowStart_.size()) - 1; }
   Index nonZeroBlocks() const { return static_cast<Index>(cols_.size()); }
