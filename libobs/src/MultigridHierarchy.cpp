@@ -110,7 +110,9 @@ BlockSparseMatrix<d> galerkinPattern(const BlockSparseMatrix<d>& F, const mesh::
     columns.insert(columns.end(), c.begin(), c.end());
     std::vector<Index>().swap(c);
   }
-  return BlockSparseMatrix<d>(std::move(rowStart), std::move(columns));
+  // zero blocks, stored once (shared), not one per entry: the Galerkin products fill them
+  return BlockSparseMatrix<d>::fromRowRanges({std::move(rowStart), std::move(columns)},
+                                            [](Index, Index, Eigen::Matrix<double, d, d>*) {});
 }
 
 /// Recomputes the rows `rows` (sorted) of C = P' B P with B_pq = E_p F_pq E_q' (E_p = I where
