@@ -6,6 +6,7 @@
 #include <string>
 
 #include "obs/mesh/Error.hpp"
+#include "obs/obs/Parallel.hpp"
 
 namespace obs {
 
@@ -73,6 +74,7 @@ CholmodSolver::CholmodSolver(const BlockSparseMatrix<d>& A) : impl_(std::make_un
   const auto t0 = std::chrono::steady_clock::now();
   impl_->n = static_cast<Eigen::Index>(A.rows()) * d;
   impl_->blocks = A.nonZeroBlocks();
+  useBlasThreadsFor(impl_->n);
   cholmod_sparse* S = toCholmod(A, &impl_->common);
   impl_->factor = cholmod_analyze(S, &impl_->common);
   if (!impl_->factor) {
@@ -88,6 +90,7 @@ void CholmodSolver::refactorize(const BlockSparseMatrix<d>& A) {
   const auto t0 = std::chrono::steady_clock::now();
   if (static_cast<Eigen::Index>(A.rows()) * d != impl_->n || A.nonZeroBlocks() != impl_->blocks)
     throw Error("CholmodSolver::refactorize: the matrix has another size or pattern than the analysed one");
+  useBlasThreadsFor(impl_->n);
   factorize(toCholmod(A, &impl_->common));
   factorSeconds_ = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -114,6 +117,7 @@ Eigen::VectorXd CholmodSolver::solve(const Eigen::VectorXd& b) const {
 
 void CholmodSolver::solve(const Eigen::VectorXd& b, Eigen::VectorXd& x) const {
   if (b.size() != impl_->n) throw Error("CholmodSolver::solve: right-hand side of wrong size");
+  useBlasThreadsFor(impl_->n);
   cholmod_dense B;
   B.nrow = B.d = static_cast<std::size_t>(b.size());
   B.ncol = 1;

@@ -21,14 +21,32 @@ void setThreads(int n) {
   threadCount.store(n, std::memory_order_relaxed);
 }
 
+namespace {
+using BlasSetter = void (*)(int);
+BlasSetter blasSetter() {
+  static const auto set = reinterpret_cast<BlasSetter>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
+  return set;
+}
+std::atomic<int> blasLimit{0};    // setBlasThreads()' count; 0: obs does not manage the BLAS threads
+std::atomic<int> blasCurrent{0};  // the count last given to OpenBLAS
+}  // namespace
+
 bool setBlasThreads(int n) {
   if (n < 1) throw Error("BLAS threads: " + std::to_string(n) + " (at least 1 expected)");
   if (const char* env = std::getenv("OPENBLAS_NUM_THREADS"); env && *env) return false;  // the user's choice
-  using Setter = void (*)(int);
-  const auto set = reinterpret_cast<Setter>(dlsym(RTLD_DEFAULT, "openblas_set_num_threads"));
+  const BlasSetter set = blasSetter();
   if (!set) return false;
   set(n);
+  blasCurrent.store(n);
+  blasLimit.store(n);
   return true;
+}
+
+void useBlasThreadsFor(long long unknowns) {
+  const int limit = blasLimit.load();
+  if (limit == 0) return;
+  const int n = unknowns >= kBlasMinUnknowns ? limit : 1;
+  if (blasCurrent.exchange(n) != n) blasSetter()(n);
 }
 
 std::vector<int> partitionPattern(std::span<const Index> rowStart, std::span<const Index> columns, int parts,

@@ -4,6 +4,8 @@
 // results of one thread, and a threaded TNNMG solve is reproducible and agrees with one thread.
 #include <gtest/gtest.h>
 
+#include <dlfcn.h>
+
 #include <cstdlib>
 
 #include <cmath>
@@ -16,6 +18,7 @@
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Grid.hpp"
+#include "obs/obs/CholmodSolver.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/LinearElasticity.hpp"
 #include "obs/obs/LinearMultigrid.hpp"
@@ -501,4 +504,32 @@ TEST(Threads, BlasThreadsFollowTheUserWhenOpenblasNumThreadsIsSet) {
   if (env && *env) {
     EXPECT_FALSE(setBlasThreads(2));
   }
+}
+
+// Once obs manages the BLAS threads (setBlasThreads succeeded), a CHOLMOD factorisation or solve
+// below kBlasMinUnknowns runs on one BLAS thread and a larger one on setBlasThreads()' count.
+TEST(Threads, SmallCholmodSolvesUseOneBlasThreadAndLargeOnesTheRunsThreads) {
+  const auto get = reinterpret_cast<int (*)()>(dlsym(RTLD_DEFAULT, "openblas_get_num_threads"));
+  if (!get) GTEST_SKIP() << "BLAS is not OpenBLAS";
+  unsetenv("OPENBLAS_NUM_THREADS");  // ctest sets it; this process runs this test alone
+  ASSERT_TRUE(setBlasThreads(2));
+  ASSERT_EQ(get(), 2);
+  const auto stiffness = [](int levels) {  // Dirichlet rows at the top: positive definite
+    const Cube c(levels);
+    BlockSparseMatrix<3> A = assembleStiffness<3>(c.mesh, c.material);
+    Eigen::VectorXd b = Eigen::VectorXd::Zero(3 * A.rows());
+    applyDirichlet(A, b, collectDirichlet(c.mesh, c.bc.dirichlet));
+    return A;
+  };
+  const BlockSparseMatrix<3> small = stiffness(1), large = stiffness(2);  // 375 and 2,187 unknowns
+  ASSERT_LT(3 * small.rows(), kBlasMinUnknowns);
+  ASSERT_GE(3 * large.rows(), kBlasMinUnknowns);
+  const CholmodSolver smallSolver(small);
+  EXPECT_EQ(get(), 1);
+  const CholmodSolver largeSolver(large);
+  EXPECT_EQ(get(), 2);
+  smallSolver.solve(Eigen::VectorXd::Ones(3 * small.rows()));
+  EXPECT_EQ(get(), 1);
+  largeSolver.solve(Eigen::VectorXd::Ones(3 * large.rows()));
+  EXPECT_EQ(get(), 2);
 }

@@ -26,8 +26,23 @@ void setThreads(int n);
 /// Sets the thread count of the BLAS library (OpenBLAS, used by CHOLMOD) to n if it offers
 /// openblas_set_num_threads and the user has not chosen one with OPENBLAS_NUM_THREADS; returns
 /// whether it did. OpenBLAS otherwise starts a thread per core, whose spinning costs more than it
-/// gains on the small coarse-grid solves of multigrid, and competes with obs' own threads.
+/// gains on the small coarse-grid solves of multigrid, and competes with obs' own threads. After a
+/// call that did, obs also chooses the BLAS threads of every CHOLMOD factorisation and solve by its
+/// size (useBlasThreadsFor).
 bool setBlasThreads(int n);
+
+/// Unknowns from which a CHOLMOD factorisation or solve uses the BLAS threads of setBlasThreads().
+/// Measured with PDAS on step-42 (docs/performance.md#blas-threads): a second BLAS thread made the
+/// solve phase 1.2-1.6x faster at 2,187 unknowns and 1.3-1.8x at 14,739 and 107,811, and gained
+/// nothing at 375. Below, a threaded BLAS call only wakes OpenBLAS' workers, which then spin in
+/// sched_yield for their time-out, taking CPU time from obs' own threads (TNNMG's coarse solve of
+/// step-42 has 81 unknowns).
+inline constexpr long long kBlasMinUnknowns = 1000;
+
+/// Sets the BLAS threads for a factorisation or solve of `unknowns` unknowns: those of
+/// setBlasThreads() from kBlasMinUnknowns on, one below. Does nothing unless setBlasThreads()
+/// succeeded, so that obs leaves the BLAS threads of an embedding program alone.
+void useBlasThreadsFor(long long unknowns);
 
 /// Rows below which loops and sweeps stay sequential (the fork costs more than the work).
 inline constexpr Index kParallelMinRows = 2048;
