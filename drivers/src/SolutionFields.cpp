@@ -2,23 +2,27 @@
 
 #include <algorithm>
 
+#include "obs/obs/Parallel.hpp"
+
 namespace obs::drivers {
 
 namespace {
 
 Field tensorField(const char* name, const std::vector<Stress>& stresses) {
-  Field f{name, 9, {}, false};
-  f.values.reserve(stresses.size() * 9);
-  for (const Stress& s : stresses)
-    for (int i = 0; i < 3; ++i)
-      for (int j = 0; j < 3; ++j) f.values.push_back(s(i, j));
+  Field f{name, 9, std::vector<double>(stresses.size() * 9), false};
+  forRanges(static_cast<Index>(stresses.size()), [&](Index begin, Index end) {
+    for (Index k = begin; k < end; ++k)
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) f.values[static_cast<std::size_t>(k) * 9 + 3 * i + j] = stresses[k](i, j);
+  });
   return f;
 }
 
 Field vonMisesField(const std::vector<Stress>& stresses) {
-  Field f{"von_mises", 1, {}, false};
-  f.values.reserve(stresses.size());
-  for (const Stress& s : stresses) f.values.push_back(vonMises(s));
+  Field f{"von_mises", 1, std::vector<double>(stresses.size()), false};
+  forRanges(static_cast<Index>(stresses.size()), [&](Index begin, Index end) {
+    for (Index k = begin; k < end; ++k) f.values[static_cast<std::size_t>(k)] = vonMises(stresses[k]);
+  });
   return f;
 }
 

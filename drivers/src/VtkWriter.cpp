@@ -11,6 +11,7 @@
 #include <fstream>
 #include <iomanip>
 #include <limits>
+#include <span>
 #include <sstream>
 #include <system_error>
 
@@ -34,20 +35,28 @@ constexpr std::array<int, 6> kPrismToVtk{0, 2, 1, 3, 5, 4};
 constexpr std::size_t kBlockBytes = 32768;
 constexpr int kDeflateLevel = 1;
 
-/// One data array of the file: its XML attributes and its raw little-endian bytes, then the
-/// compressed blocks.
+/// One data array of the file: its XML attributes and its raw little-endian bytes (its own, or a
+/// view of data that outlive the write: the doubles of a field), then the compressed blocks.
 struct Array {
   std::string type;  // VTK type name: Float64, Int32, Int64, UInt8
   std::string name;
   int components = 1;
   std::vector<unsigned char> raw;
+  std::span<const unsigned char> external;  // the bytes, if not in raw
   std::vector<std::vector<unsigned char>> blocks;
   // RangeMin/RangeMax as VTK writes them: of the values, or of the tuples' 2-norms for several
   // components (ParaView shows them before it reads the data); none for the cell connectivity
   bool ranged = false;
   double lo = 0, hi = 0;
-  std::size_t blockCount() const { return (raw.size() + kBlockBytes - 1) / kBlockBytes; }
+  std::span<const unsigned char> bytes() const { return external.empty() ? std::span<const unsigned char>(raw) : external; }
+  std::size_t blockCount() const { return (bytes().size() + kBlockBytes - 1) / kBlockBytes; }
 };
+
+/// The bytes of a vector of trivially copyable values.
+template <class T>
+std::span<const unsigned char> bytesOf(const std::vector<T>& v) {
+  return {reinterpret_cast<const unsigned char*>(v.data()), v.size() * sizeof(T)};
+}
 
 template <class T>
 void put(std::vector<unsigned char>& out, T value) {
@@ -58,18 +67,31 @@ void put(std::vector<unsigned char>& out, T value) {
 
 void setRange(Array& a, std::span<const double> values) {
   const auto k = static_cast<std::size_t>(a.components);
+  const auto tuples = static_cast<Index>(values.size() / k);
+  // the tuples in forRanges' chunks on the threads, then the chunks' extremes: a minimum and a
+  // maximum do not depend on the order
+  std::vector<std::array<double, 2>> chunk(static_cast<std::size_t>((tuples + kVectorChunk - 1) / kVectorChunk));
+  forRanges(tuples, [&](Index begin, Index end) {
+    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+    for (Index t = begin; t < end; ++t) {
+      const std::size_t i = static_cast<std::size_t>(t) * k;
+      double x = values[i];
+      if (k > 1) {
+        x = 0;
+        for (std::size_t c = 0; c < k; ++c) x += values[i + c] * values[i + c];
+        x = std::sqrt(x);
+      }
+      lo = std::min(lo, x);
+      hi = std::max(hi, x);
+    }
+    chunk[static_cast<std::size_t>(begin / kVectorChunk)] = {lo, hi};
+  });
   a.ranged = true;
   a.lo = std::numeric_limits<double>::infinity();
   a.hi = -a.lo;
-  for (std::size_t i = 0; i + k <= values.size(); i += k) {
-    double x = values[i];
-    if (k > 1) {
-      x = 0;
-      for (std::size_t c = 0; c < k; ++c) x += values[i + c] * values[i + c];
-      x = std::sqrt(x);
-    }
-    a.lo = std::min(a.lo, x);
-    a.hi = std::max(a.hi, x);
+  for (const auto& [lo, hi] : chunk) {
+    a.lo = std::min(a.lo, lo);
+    a.hi = std::max(a.hi, hi);
   }
   if (!std::isfinite(a.lo) || !std::isfinite(a.hi)) a.ranged = false;  // no tuples, or no finite one
 }
@@ -79,16 +101,15 @@ Array fieldArray(const Field& f, std::size_t tuples, const char* kind) {
     throw Error("writeVtu: " + std::string(kind) + " field '" + f.name + "' has " +
                 std::to_string(f.values.size()) + " values, expected " + std::to_string(tuples) +
                 " x " + std::to_string(f.components));
-  Array a{f.integer ? "Int32" : "Float64", f.name, f.components, {}, {}};
+  Array a{f.integer ? "Int32" : "Float64", f.name, f.components, {}, {}, {}};
   if (f.integer) {
     a.raw.resize(f.values.size() * sizeof(std::int32_t));
     for (std::size_t i = 0; i < f.values.size(); ++i) {
       const auto v = static_cast<std::int32_t>(f.values[i]);
       std::memcpy(a.raw.data() + i * sizeof v, &v, sizeof v);
     }
-  } else {  // little-endian doubles: the values' own bytes
-    a.raw.resize(f.values.size() * sizeof(double));
-    if (!f.values.empty()) std::memcpy(a.raw.data(), f.values.data(), a.raw.size());
+  } else {  // little-endian doubles: the values' own bytes, not copied
+    a.external = bytesOf(f.values);
   }
   setRange(a, f.values);
   return a;
@@ -128,12 +149,13 @@ void compress(std::vector<Array>& arrays) {
       if (compressor == nullptr) continue;
       Array& a = arrays[jobs[static_cast<std::size_t>(j)].first];
       const std::size_t b = jobs[static_cast<std::size_t>(j)].second;
-      const std::size_t begin = b * kBlockBytes, size = std::min(kBlockBytes, a.raw.size() - begin);
+      const std::span<const unsigned char> data = a.bytes();
+      const std::size_t begin = b * kBlockBytes, size = std::min(kBlockBytes, data.size() - begin);
       std::vector<unsigned char>& out = a.blocks[b];
       out.resize(libdeflate_zlib_compress_bound(compressor, size));
       // the bound above is always enough: 0 (no room) does not happen, but is checked all the same
       const std::size_t length =
-          libdeflate_zlib_compress(compressor, a.raw.data() + begin, size, out.data(), out.size());
+          libdeflate_zlib_compress(compressor, data.data() + begin, size, out.data(), out.size());
       if (length == 0) failed = std::min(failed, j);
       out.resize(length);
     }
@@ -171,28 +193,35 @@ void writeVtu(const std::filesystem::path& path, const mesh::Mesh& mesh,
   std::vector<Array> arrays;
   for (const Field& f : pointFields) arrays.push_back(fieldArray(f, points, "point"));
   for (const Field& f : cellFields) arrays.push_back(fieldArray(f, cells, "cell"));
-  Array xyz{"Float64", "Points", 3, {}, {}};
-  xyz.raw.reserve(points * 3 * sizeof(double));
-  std::vector<double> coordinates;
-  coordinates.reserve(points * 3);
-  for (mesh::Index v = 0; v < mesh.numVertices(); ++v)
-    for (int k = 0; k < 3; ++k) {
-      put(xyz.raw, mesh.vertex(v)[k]);
-      coordinates.push_back(mesh.vertex(v)[k]);
-    }
+  // points, connectivity, offsets and types in arrays of their own, filled on the threads; the
+  // file shows their bytes
+  std::vector<double> coordinates(points * 3);
+  forRanges(mesh.numVertices(), [&](Index begin, Index end) {
+    for (Index v = begin; v < end; ++v)
+      for (int k = 0; k < 3; ++k) coordinates[static_cast<std::size_t>(v) * 3 + k] = mesh.vertex(v)[k];
+  });
+  Array xyz{"Float64", "Points", 3, {}, bytesOf(coordinates), {}};
   setRange(xyz, coordinates);
-  Array connectivity{"Int64", "connectivity", 1, {}, {}}, offsets{"Int64", "offsets", 1, {}, {}},
-      types{"UInt8", "types", 1, {}, {}};
+  std::vector<std::int64_t> offsetValues(cells), connectivityValues;
+  std::vector<std::uint8_t> typeValues(cells);
   std::int64_t end = 0;
   for (mesh::Index c = 0; c < mesh.numCells(); ++c) {
-    const mesh::CellType type = mesh.cellType(c);
-    const auto verts = mesh.cellVertices(c);
-    for (std::size_t i = 0; i < verts.size(); ++i)
-      put<std::int64_t>(connectivity.raw, type == mesh::CellType::Prism ? verts[kPrismToVtk[i]] : verts[i]);
-    end += static_cast<std::int64_t>(verts.size());
-    put<std::int64_t>(offsets.raw, end);
-    put<std::uint8_t>(types.raw, static_cast<std::uint8_t>(vtkCellType(type)));
+    end += static_cast<std::int64_t>(mesh.cellVertices(c).size());
+    offsetValues[static_cast<std::size_t>(c)] = end;
   }
+  connectivityValues.resize(static_cast<std::size_t>(end));
+  forRanges(mesh.numCells(), [&](Index begin, Index stop) {
+    for (Index c = begin; c < stop; ++c) {
+      const mesh::CellType type = mesh.cellType(c);
+      const auto verts = mesh.cellVertices(c);
+      std::int64_t* out = connectivityValues.data() + offsetValues[static_cast<std::size_t>(c)] - verts.size();
+      for (std::size_t i = 0; i < verts.size(); ++i)
+        out[i] = type == mesh::CellType::Prism ? verts[kPrismToVtk[i]] : verts[i];
+      typeValues[static_cast<std::size_t>(c)] = static_cast<std::uint8_t>(vtkCellType(type));
+    }
+  });
+  Array connectivity{"Int64", "connectivity", 1, {}, bytesOf(connectivityValues), {}},
+      offsets{"Int64", "offsets", 1, {}, bytesOf(offsetValues), {}}, types{"UInt8", "types", 1, {}, bytesOf(typeValues), {}};
   arrays.push_back(std::move(xyz));
   arrays.push_back(std::move(connectivity));
   arrays.push_back(std::move(offsets));
@@ -243,7 +272,7 @@ void writeVtu(const std::filesystem::path& path, const mesh::Mesh& mesh,
     std::vector<unsigned char> header;
     put<std::uint64_t>(header, a.blocks.size());
     put<std::uint64_t>(header, kBlockBytes);
-    put<std::uint64_t>(header, a.raw.size() % kBlockBytes);
+    put<std::uint64_t>(header, a.bytes().size() % kBlockBytes);
     for (const auto& b : a.blocks) put<std::uint64_t>(header, b.size());
     out.write(reinterpret_cast<const char*>(header.data()), static_cast<std::streamsize>(header.size()));
     for (const auto& b : a.blocks)
