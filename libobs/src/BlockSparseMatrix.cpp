@@ -4,12 +4,12 @@
 
 #include <array>
 #include <atomic>
-#include <exception>
-#include <optional>
 #include <bit>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <exception>
+#include <optional>
 
 namespace obs {
 
