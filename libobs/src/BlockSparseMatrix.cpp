@@ -409,6 +409,11 @@ void BlockSparseMatrix<d>::BlockWriter::set(Index k, const Block& value) {
     A_.blocks_[static_cast<std::size_t>(k)] = value;
     return;
   }
+  A_.blockIndex_[static_cast<std::size_t>(k)] = number(value);
+}
+
+template <int d>
+std::uint32_t BlockSparseMatrix<d>::BlockWriter::number(const Block& value) {
   const auto blockOf = [this](std::int64_t u) -> const Block& { return A_.blocks_[static_cast<std::size_t>(u)]; };
   std::int64_t id = findNumber(table_, value, blockOf);
   if (id < 0) {  // a new block: appended
@@ -416,7 +421,43 @@ void BlockSparseMatrix<d>::BlockWriter::set(Index k, const Block& value) {
     addNumber(table_, A_.blocks_.size(), blockOf);
     id = static_cast<std::int64_t>(A_.blocks_.size()) - 1;
   }
-  A_.blockIndex_[static_cast<std::size_t>(k)] = static_cast<std::uint32_t>(id);
+  return static_cast<std::uint32_t>(id);
+}
+
+template <int d>
+void BlockSparseMatrix<d>::ChangedBlocks::add(Index k, const Block& value) {
+  if (table_.empty()) table_.assign(64, -1);
+  const auto valueOf = [this](std::int64_t u) -> const Block& { return values_[static_cast<std::size_t>(u)]; };
+  std::int64_t id = findNumber(table_, value, valueOf);
+  if (id < 0) {
+    values_.push_back(value);
+    addNumber(table_, values_.size(), valueOf);
+    id = static_cast<std::int64_t>(values_.size()) - 1;
+  }
+  entries_.push_back(k);
+  numbers_.push_back(static_cast<std::uint32_t>(id));
+}
+
+template <int d>
+void BlockSparseMatrix<d>::writeChanged(std::vector<ChangedBlocks>& changed) {
+  // a value's first appearance in the order of k is its first appearance in the first chunk that
+  // has it: looking the chunks' distinct values up chunk by chunk appends the new ones in the order
+  // of BlockWriter::set called entry by entry
+  BlockWriter writer(*this);
+  std::vector<std::vector<std::uint32_t>> toMatrix(changed.size());
+  for (std::size_t c = 0; c < changed.size(); ++c) {
+    toMatrix[c].reserve(changed[c].values_.size());
+    for (const Block& value : changed[c].values_) toMatrix[c].push_back(writer.number(value));
+  }
+  const auto chunks = static_cast<long long>(changed.size());
+  const int nt = chunks > 1 ? threads() : 1;
+#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
+  for (long long c = 0; c < chunks; ++c) {
+    const ChangedBlocks& list = changed[static_cast<std::size_t>(c)];
+    const std::vector<std::uint32_t>& map = toMatrix[static_cast<std::size_t>(c)];
+    for (std::size_t i = 0; i < list.entries_.size(); ++i)
+      blockIndex_[static_cast<std::size_t>(list.entries_[i])] = map[list.numbers_[i]];
+  }
 }
 
 template <int d>

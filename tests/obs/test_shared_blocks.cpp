@@ -389,7 +389,8 @@ TEST(SharedBlocks, RowRangesThrowTheErrorOfTheLowestRange) {
 }
 
 // BlockSparseMatrix::modifyBlocks keeps a shared matrix shared, with the blocks and products of the
-// same changes made to one block per entry, and the same storage on one and on two threads.
+// same changes made to one block per entry, and the storage of a BlockWriter writing the changes
+// entry by entry, on one and on two threads.
 TEST(SharedBlocks, ModifiedBlocksStaySharedWithTheValuesOfPlainChanges) {
   const auto change = [](Index i, Index, BlockSparseMatrix<3>::Block& B) {
     if (i % 5 != 0) return false;
@@ -397,9 +398,21 @@ TEST(SharedBlocks, ModifiedBlocksStaySharedWithTheValuesOfPlainChanges) {
     B(0, 0) += 1.0;
     return true;
   };
-  BlockSparseMatrix<3> plain = cubeStiffness(), shared = plain, sharedTwo = plain;
+  BlockSparseMatrix<3> plain = cubeStiffness(), shared = plain, sharedTwo = plain, written = plain;
   ASSERT_TRUE(shared.shareRepeatedBlocks());
   ASSERT_TRUE(sharedTwo.shareRepeatedBlocks());
+  ASSERT_TRUE(written.shareRepeatedBlocks());
+  {  // the same changes through a BlockWriter, entry by entry in the order of k
+    const BlockSparseMatrix<3>& before = written;
+    std::vector<std::pair<Index, BlockSparseMatrix<3>::Block>> changes;
+    for (Index i = 0; i < before.rows(); ++i)
+      for (Index k = before.rowBegin(i); k < before.rowEnd(i); ++k) {
+        BlockSparseMatrix<3>::Block B = before.blockAt(k);
+        if (change(i, k, B)) changes.emplace_back(k, B);
+      }
+    BlockSparseMatrix<3>::BlockWriter writer(written);
+    for (const auto& [k, B] : changes) writer.set(k, B);
+  }
   plain.modifyBlocks(change);
   shared.modifyBlocks(change);
   {
@@ -410,11 +423,51 @@ TEST(SharedBlocks, ModifiedBlocksStaySharedWithTheValuesOfPlainChanges) {
   EXPECT_TRUE(shared.shared());
   EXPECT_TRUE(sharedTwo.shared());
   EXPECT_EQ(shared.storedBlocks(), sharedTwo.storedBlocks());
+  EXPECT_EQ(shared.storedBlocks(), written.storedBlocks());
   const BlockSparseMatrix<3>& S = shared;
   const BlockSparseMatrix<3>& S2 = sharedTwo;
+  const BlockSparseMatrix<3>& W = written;
   for (Index k = 0; k < plain.nonZeroBlocks(); ++k) {
     ASSERT_EQ(std::memcmp(S.blockAt(k).data(), plain.blockAt(k).data(), sizeof(double) * 9), 0) << "block " << k;
     ASSERT_EQ(&S.blockAt(k) - &S.blockAt(0), &S2.blockAt(k) - &S2.blockAt(0)) << "block " << k;
+    ASSERT_EQ(&S.blockAt(k) - &S.blockAt(0), &W.blockAt(k) - &W.blockAt(0)) << "block " << k;
   }
   EXPECT_TRUE(sameBits(kernels(S), kernels(plain)));
+}
+
+// modifyBlocks on a matrix of several chunks of rows (a band of 20,000 rows), with new values that
+// first appear in different chunks: the storage is that of a BlockWriter writing the changes entry
+// by entry, on one and on two threads.
+TEST(SharedBlocks, ModifiedBlocksOfSeveralChunksAreNumberedAsWrittenEntryByEntry) {
+  const auto change = [](Index i, Index, BlockSparseMatrix<3>::Block& B) {
+    if (i % 7 != 0) return false;
+    B(1, 1) += 1.0 + static_cast<double>(i / 5000);
+    return true;
+  };
+  for (const int t : {1, 2}) {
+    const ThreadScope scope(t);
+    BlockSparseMatrix<3> modified = fillBand(20000).A, written = modified;
+    ASSERT_TRUE(modified.shared());
+    ASSERT_GT(modified.rows(), 2 * kVectorChunk);
+    {
+      const BlockSparseMatrix<3>& before = written;
+      std::vector<std::pair<Index, BlockSparseMatrix<3>::Block>> changes;
+      for (Index i = 0; i < before.rows(); ++i)
+        for (Index k = before.rowBegin(i); k < before.rowEnd(i); ++k) {
+          BlockSparseMatrix<3>::Block B = before.blockAt(k);
+          if (change(i, k, B)) changes.emplace_back(k, B);
+        }
+      BlockSparseMatrix<3>::BlockWriter writer(written);
+      for (const auto& [k, B] : changes) writer.set(k, B);
+    }
+    modified.modifyBlocks(change);
+    ASSERT_TRUE(modified.shared());
+    ASSERT_EQ(modified.storedBlocks(), written.storedBlocks());
+    const BlockSparseMatrix<3>& M = modified;
+    const BlockSparseMatrix<3>& W = written;
+    for (Index k = 0; k < M.nonZeroBlocks(); ++k) {
+      ASSERT_EQ(&M.blockAt(k) - &M.blockAt(0), &W.blockAt(k) - &W.blockAt(0)) << t << " threads, block " << k;
+      ASSERT_EQ(std::memcmp(M.blockAt(k).data(), W.blockAt(k).data(), sizeof(double) * 9), 0);
+    }
+  }
 }

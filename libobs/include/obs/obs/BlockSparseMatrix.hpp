@@ -113,6 +113,8 @@ public:
   public:
     explicit BlockWriter(BlockSparseMatrix& A);
     void set(Index k, const Block& value);
+    /// The number of `value` among the stored blocks of a shared() matrix, appended if it is new.
+    std::uint32_t number(const Block& value);
 
   private:
     BlockSparseMatrix& A_;
@@ -121,10 +123,12 @@ public:
 
   /// Calls f(i, k, B) for every block k of every row i, where B is a modifiable copy of the block
   /// (or the block itself); f returns whether it changed B. A plain matrix is changed in place, rows
-  /// on threads() threads; a shared() one stays shared: the changed blocks are collected on the
-  /// threads and written afterwards through a BlockWriter in the order of k, so the storage does not
-  /// depend on the thread count. For changes of a few rows and columns (Dirichlet values,
-  /// rotations) of a large shared matrix, which would otherwise be stored one block per entry.
+  /// on threads() threads; a shared() one stays shared: each chunk of rows collects its changed
+  /// entries on the threads with the distinct new values among them, and one thread then looks these
+  /// values up among the stored blocks (appending the new ones) in chunk order: the storage of
+  /// BlockWriter::set called in the order of k, for any thread count. For changes of some rows and
+  /// columns (Dirichlet values, rotations) of a large shared matrix, which would otherwise be stored
+  /// one block per entry.
   template <class F>
   void modifyBlocks(F&& f) {
     const Index n = rows();
@@ -135,18 +139,16 @@ public:
       });
       return;
     }
-    std::vector<std::vector<std::pair<Index, Block>>> changed(static_cast<std::size_t>((n + kVectorChunk - 1) / kVectorChunk));
+    std::vector<ChangedBlocks> changed(static_cast<std::size_t>((n + kVectorChunk - 1) / kVectorChunk));
     forRanges(n, [&](Index begin, Index end) {
-      auto& list = changed[static_cast<std::size_t>(begin / kVectorChunk)];
+      ChangedBlocks& list = changed[static_cast<std::size_t>(begin / kVectorChunk)];
       for (Index i = begin; i < end; ++i)
         for (Index k = rowStart_[i]; k < rowStart_[i + 1]; ++k) {
           Block B = blocks_[blockIndex_[k]];
-          if (f(i, k, B)) list.emplace_back(k, B);
+          if (f(i, k, B)) list.add(k, B);
         }
     });
-    BlockWriter writer(*this);
-    for (const auto& list : changed)
-      for (const auto& [k, B] : list) writer.set(k, B);
+    writeChanged(changed);
   }
 
   /// Position of block (i, j) in the storage, or -1 if not in the pattern.
@@ -215,6 +217,23 @@ public:
   };
 
 private:
+  /// The changed blocks of one chunk of rows in modifyBlocks(): the entries, and for each the number
+  /// of its value among the chunk's distinct values (in order of first appearance).
+  class ChangedBlocks {
+  public:
+    void add(Index k, const Block& value);
+
+  private:
+    friend class BlockSparseMatrix;
+    std::vector<Index> entries_;
+    std::vector<std::uint32_t> numbers_;
+    std::vector<Block> values_;
+    std::vector<std::int64_t> table_;  ///< open addressing over values_
+  };
+  /// Writes modifyBlocks()' changes to a shared() matrix (the chunks' values looked up in chunk
+  /// order, then the entries' numbers on the threads).
+  void writeChanged(std::vector<ChangedBlocks>& changed);
+
   std::vector<Index> rowStart_{0};
   std::vector<Index> cols_;
   /// One block per entry, or (shared()) the distinct blocks; huge pages for large matrices.
