@@ -325,6 +325,20 @@ RowRangeRun fillBand(Index repeatBelow) {
   return run;
 }
 
+/// The changes of modifyBlocks' f made through a BlockWriter, entry by entry in the order of k.
+template <class F>
+void writeEntryByEntry(BlockSparseMatrix<3>& A, const F& change) {
+  const BlockSparseMatrix<3>& before = A;
+  std::vector<std::pair<Index, BlockSparseMatrix<3>::Block>> changes;
+  for (Index i = 0; i < before.rows(); ++i)
+    for (Index k = before.rowBegin(i); k < before.rowEnd(i); ++k) {
+      BlockSparseMatrix<3>::Block B = before.blockAt(k);
+      if (change(i, k, B)) changes.emplace_back(k, B);
+    }
+  BlockSparseMatrix<3>::BlockWriter writer(A);
+  for (const auto& [k, B] : changes) writer.set(k, B);
+}
+
 }  // namespace
 
 // BlockSparseMatrix::fromRowRanges: repeated blocks are shared as the ranges come in, numbered as
@@ -402,17 +416,7 @@ TEST(SharedBlocks, ModifiedBlocksStaySharedWithTheValuesOfPlainChanges) {
   ASSERT_TRUE(shared.shareRepeatedBlocks());
   ASSERT_TRUE(sharedTwo.shareRepeatedBlocks());
   ASSERT_TRUE(written.shareRepeatedBlocks());
-  {  // the same changes through a BlockWriter, entry by entry in the order of k
-    const BlockSparseMatrix<3>& before = written;
-    std::vector<std::pair<Index, BlockSparseMatrix<3>::Block>> changes;
-    for (Index i = 0; i < before.rows(); ++i)
-      for (Index k = before.rowBegin(i); k < before.rowEnd(i); ++k) {
-        BlockSparseMatrix<3>::Block B = before.blockAt(k);
-        if (change(i, k, B)) changes.emplace_back(k, B);
-      }
-    BlockSparseMatrix<3>::BlockWriter writer(written);
-    for (const auto& [k, B] : changes) writer.set(k, B);
-  }
+  writeEntryByEntry(written, change);  // the same changes through a BlockWriter
   plain.modifyBlocks(change);
   shared.modifyBlocks(change);
   {
@@ -449,17 +453,7 @@ TEST(SharedBlocks, ModifiedBlocksOfSeveralChunksAreNumberedAsWrittenEntryByEntry
     BlockSparseMatrix<3> modified = fillBand(20000).A, written = modified;
     ASSERT_TRUE(modified.shared());
     ASSERT_GT(modified.rows(), 2 * kVectorChunk);
-    {
-      const BlockSparseMatrix<3>& before = written;
-      std::vector<std::pair<Index, BlockSparseMatrix<3>::Block>> changes;
-      for (Index i = 0; i < before.rows(); ++i)
-        for (Index k = before.rowBegin(i); k < before.rowEnd(i); ++k) {
-          BlockSparseMatrix<3>::Block B = before.blockAt(k);
-          if (change(i, k, B)) changes.emplace_back(k, B);
-        }
-      BlockSparseMatrix<3>::BlockWriter writer(written);
-      for (const auto& [k, B] : changes) writer.set(k, B);
-    }
+    writeEntryByEntry(written, change);
     modified.modifyBlocks(change);
     ASSERT_TRUE(modified.shared());
     ASSERT_EQ(modified.storedBlocks(), written.storedBlocks());
