@@ -98,7 +98,8 @@ public:
   bool shared() const { return !blockIndex_.empty(); }
   /// One block per entry again (nothing to do if not shared()). The non-const accessors do this on
   /// the first write, which must not happen inside a parallel region: loops that write blocks on
-  /// threads call this first (a write on threads to a shared matrix aborts with a message).
+  /// threads use modifyBlocks() or call this first (a write on threads to a shared matrix aborts
+  /// with a message).
   void unshareBlocks();
   /// Number of blocks stored: nonZeroBlocks(), or the distinct ones if shared().
   Index storedBlocks() const { return static_cast<Index>(blocks_.size()); }

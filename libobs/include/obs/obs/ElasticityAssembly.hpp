@@ -16,7 +16,10 @@
 
 namespace obs {
 
-/// Stiffness matrix on the mesh's vertex-adjacency pattern.
+/// Stiffness matrix on the mesh's vertex-adjacency pattern, filled by row ranges
+/// (BlockSparseMatrix::fromRowRanges): its repeated blocks are stored once (shared()) where at most
+/// a quarter of the blocks are distinct, as on grids of translated cells. Read it through a const
+/// reference; a non-const accessor returns it to one block per entry.
 template <int d>
 BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& material);
 
