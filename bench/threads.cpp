@@ -176,7 +176,7 @@ struct Step42 {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2) {
+  if (argc < 2 || std::string(argv[1]).starts_with("-")) {
     std::cerr << "usage: threads OUT.md [--threads T] [--level L] [--repeat R] [--obs OBS] [--baseline OLD_OBS]\n"
                  "               [--only machine,kernels,tnnmg,vcycles,obs]\n";
     return 2;

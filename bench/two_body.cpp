@@ -166,7 +166,7 @@ Measurement runOneBody(int levels) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc < 2) {
+  if (argc < 2 || std::string(argv[1]).starts_with("-")) {
     std::cerr << "usage: two_body OUTPUT.md [--levels a-b] [--pdas-max-dofs N] [--solvers tnnmg,pdas,onebody] "
                  "[--box-type tetrahedron|hexahedron]\n";
     return 2;

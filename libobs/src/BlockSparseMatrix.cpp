@@ -15,8 +15,7 @@ namespace obs {
 
 template <int d>
 BlockSparseMatrix<d> BlockSparseMatrix<d>::withMeshPattern(const mesh::Mesh& mesh) {
-  Pattern p = meshPattern(mesh, mesh::vertexCells(mesh));
-  return BlockSparseMatrix(std::move(p.rowStart), std::move(p.columns));
+  return BlockSparseMatrix(meshPattern(mesh, mesh::vertexCells(mesh)));
 }
 
 template <int d>
@@ -63,9 +62,13 @@ typename BlockSparseMatrix<d>::Pattern BlockSparseMatrix<d>::meshPattern(const m
 }
 
 template <int d>
-BlockSparseMatrix<d>::BlockSparseMatrix(std::vector<Index> rowStart, std::vector<Index> columns)
-    : rowStart_(std::move(rowStart)), cols_(std::move(columns)), blocks_(cols_.size()) {
-  setZero();  // Eigen leaves the blocks uninitialised: zeroed here, by the threads that will use them
+BlockSparseMatrix<d>::BlockSparseMatrix(std::vector<Index> rowStart, const std::vector<Index>& columns)
+    : BlockSparseMatrix(Pattern{std::move(rowStart), IndexArray(columns.begin(), columns.end())}) {}
+
+template <int d>
+BlockSparseMatrix<d>::BlockSparseMatrix(Pattern pattern)
+    : rowStart_(std::move(pattern.rowStart)), cols_(std::move(pattern.columns)), blocks_(cols_.size()) {
+  setZero();  // the blocks are left unset on allocation: zeroed here, by the threads that will use them
 }
 
 template <int d>

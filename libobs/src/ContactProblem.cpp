@@ -106,7 +106,8 @@ struct RowAccumulator {
     }
   }
   /// Appends the row to (rowStart, columns, values) and clears.
-  void flush(std::vector<Index>& rowStart, std::vector<Index>& columns, std::vector<Block>& values) {
+  template <class Columns>
+  void flush(std::vector<Index>& rowStart, Columns& columns, std::vector<Block>& values) {
     std::vector<Index> order(cols.size());
     for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<Index>(i);
     std::sort(order.begin(), order.end(), [&](Index a, Index b) { return cols[a] < cols[b]; });
@@ -172,7 +173,8 @@ BlockSparseMatrix<d> transformOperator(const BlockSparseMatrix<d>& A, const mesh
       }
   }
   // T'B, row by row: row p = B_p + sum_r C_rp B_r (a copy of B_p unless p is a master vertex)
-  std::vector<Index> rowStart{0}, cols;
+  std::vector<Index> rowStart{0};
+  typename BlockSparseMatrix<d>::IndexArray cols;
   std::vector<Block> vals;
   rowStart.reserve(n + 1);
   cols.reserve(bCols.size() + C.columns.size() * 16);
@@ -193,7 +195,7 @@ BlockSparseMatrix<d> transformOperator(const BlockSparseMatrix<d>& A, const mesh
     }
     acc.flush(rowStart, cols, vals);
   }
-  BlockSparseMatrix<d> out(std::move(rowStart), std::move(cols));
+  BlockSparseMatrix<d> out({std::move(rowStart), std::move(cols)});
   for (Index k = 0; k < out.nonZeroBlocks(); ++k) out.blockAt(k) = vals[k];
   return out;
 }

@@ -121,16 +121,17 @@ void ContactSet::build(const mesh::Mesh& mesh, const Obstacle& obstacle) {
   for (Index k = 0; k < n; ++k) {
     const Point& x = mesh.vertex(vertices_[k]);
     positions_[k] = x;
-    const std::string at = where + ", vertex " + std::to_string(vertices_[k]) + " at " + pointString(x, dim_);
+    // the location of an error, formatted only when there is one
+    const auto at = [&] { return where + ", vertex " + std::to_string(vertices_[k]) + " at " + pointString(x, dim_); };
     Point nu = obstacle.direction(x);
     if (dim_ == 2) nu[2] = 0;
     const double len = nu.norm();
     if (!nu.allFinite() || !(len > 1e-300))
-      throw Error(at + ": obstacle '" + obstacleName_ + "' gives a zero or non-finite constraint direction");
+      throw Error(at() + ": obstacle '" + obstacleName_ + "' gives a zero or non-finite constraint direction");
     nu /= len;
     const double g = obstacle.gap(x);
     if (std::isnan(g) || g == -std::numeric_limits<double>::infinity())
-      throw Error(at + ": obstacle '" + obstacleName_ + "' gives the gap " + std::to_string(g));
+      throw Error(at() + ": obstacle '" + obstacleName_ + "' gives the gap " + std::to_string(g));
     directions_[k] = nu;
     gaps_[k] = g;
     rotations_[k] = householderRotation(nu);

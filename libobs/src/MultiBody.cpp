@@ -33,7 +33,8 @@ BodySystem<d> stackBodies(std::vector<BodySystem<d>> bodies, std::vector<Index>*
     blocks += static_cast<std::size_t>(b.stiffness.nonZeroBlocks());
   }
   if (bodies.size() == 1) return std::move(bodies.front());  // no copy of the one body's matrix
-  std::vector<Index> rowStart{0}, columns;
+  std::vector<Index> rowStart{0};
+  typename BlockSparseMatrix<d>::IndexArray columns;
   rowStart.reserve(n + 1);
   columns.reserve(blocks);
   Index offset = 0;
@@ -46,7 +47,7 @@ BodySystem<d> stackBodies(std::vector<BodySystem<d>> bodies, std::vector<Index>*
     offset += A.rows();
   }
   BodySystem<d> out;
-  out.stiffness = BlockSparseMatrix<d>(std::move(rowStart), std::move(columns));
+  out.stiffness = BlockSparseMatrix<d>({std::move(rowStart), std::move(columns)});
   out.load.resize(static_cast<Eigen::Index>(n) * d);
   out.dirichlet.values.resize(static_cast<Eigen::Index>(n) * d);
   out.dirichlet.constrained.reserve(static_cast<std::size_t>(n) * d);

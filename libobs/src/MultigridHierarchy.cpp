@@ -104,10 +104,14 @@ BlockSparseMatrix<d> galerkinPattern(const BlockSparseMatrix<d>& F, const mesh::
     }
   }
   for (Index I = 0; I < nc; ++I) rowStart[I + 1] += rowStart[I];
-  std::vector<Index> columns;
-  columns.reserve(static_cast<std::size_t>(rowStart[nc]));
-  for (auto& c : chunkColumns) {
-    columns.insert(columns.end(), c.begin(), c.end());
+  // the chunks' columns joined on the threads (each writes, and first touches, its part)
+  typename BlockSparseMatrix<d>::IndexArray columns(static_cast<std::size_t>(rowStart[nc]));
+#ifdef _OPENMP
+#pragma omp parallel for schedule(dynamic, 1) num_threads(nt)
+#endif
+  for (Index chunk = 0; chunk < chunks; ++chunk) {
+    std::vector<Index>& c = chunkColumns[static_cast<std::size_t>(chunk)];
+    std::copy(c.begin(), c.end(), columns.begin() + rowStart[chunk * kChunk]);
     std::vector<Index>().swap(c);
   }
   // zero blocks, stored once (shared), not one per entry: the Galerkin products fill them

@@ -311,7 +311,8 @@ struct RowRangeRun {
 RowRangeRun fillBand(Index repeatBelow) {
   RowRangeRun run;
   const auto p = bandPattern();
-  const std::vector<Index> rowStart = p.rowStart, columns = p.columns;
+  const std::vector<Index> rowStart = p.rowStart;
+  const BlockSparseMatrix<3>::IndexArray columns = p.columns;
   std::atomic<int> nonZero{0};
   run.A = BlockSparseMatrix<3>::fromRowRanges(p, [&](Index first, Index last, BlockSparseMatrix<3>::Block* out) {
     for (Index i = first; i < last; ++i)

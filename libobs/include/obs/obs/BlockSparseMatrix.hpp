@@ -32,20 +32,26 @@ class BlockSparseMatrix {
 public:
   using Block = Eigen::Matrix<double, d, d>;
   static constexpr int blockSize = d;
+  /// The column indices: their pages are first touched by the threads that fill them
+  /// (LargeArrayAllocator leaves new entries unset).
+  using IndexArray = std::vector<Index, LargeArrayAllocator<Index>>;
 
   BlockSparseMatrix() = default;
 
   /// Pattern from compressed rows: rowStart has n + 1 entries, columns of each row sorted and
   /// unique. Blocks are zero.
-  BlockSparseMatrix(std::vector<Index> rowStart, std::vector<Index> columns);
+  BlockSparseMatrix(std::vector<Index> rowStart, const std::vector<Index>& columns);
 
   /// Pattern coupling every pair of vertices that share a cell (diagonal included).
   static BlockSparseMatrix withMeshPattern(const mesh::Mesh& mesh);
 
   /// A pattern in compressed rows: rowStart has n + 1 entries, the columns of each row sorted.
   struct Pattern {
-    std::vector<Index> rowStart, columns;
+    std::vector<Index> rowStart;
+    IndexArray columns;
   };
+  /// The same from a Pattern (its arrays are moved in). Blocks are zero.
+  explicit BlockSparseMatrix(Pattern pattern);
   /// The pattern of withMeshPattern(); `cells` is mesh::vertexCells(mesh).
   static Pattern meshPattern(const mesh::Mesh& mesh, const mesh::VertexCells& cells);
 
@@ -236,7 +242,7 @@ private:
   void writeChanged(std::vector<ChangedBlocks>& changed);
 
   std::vector<Index> rowStart_{0};
-  std::vector<Index> cols_;
+  IndexArray cols_;
   /// One block per entry, or (shared()) the distinct blocks; huge pages for large matrices.
   std::vector<Block, LargeArrayAllocator<Block>> blocks_;
   /// Empty, or (shared()) entry k's position in blocks_.

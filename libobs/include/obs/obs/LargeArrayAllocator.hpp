@@ -7,11 +7,18 @@
 /// faults and every sweep over it misses the TLB on each page; measured on the step-42 run: 10 %
 /// of the whole run (docs/performance.md#threads). Smaller arrays, and systems without huge pages,
 /// get ordinary memory.
+///
+/// New elements are default-initialised: `std::vector<int, LargeArrayAllocator<int>>(n)` and
+/// resize() leave the numbers unset (Eigen's fixed-size matrices are unset anyway), so that the
+/// threads that fill an array are the first to touch its pages, not one thread zeroing it before
+/// (docs/performance.md#first-touch). Code that needs zeros asks for them (assign(n, 0)).
 #include <sys/mman.h>
 
 #include <cstddef>
 #include <cstdlib>
 #include <new>
+#include <type_traits>
+#include <utility>
 
 namespace obs {
 
@@ -34,6 +41,15 @@ struct LargeArrayAllocator {
     madvise(p, rounded, MADV_HUGEPAGE);  // a hint: ignored where huge pages are off
 #endif
     return static_cast<T*>(p);
+  }
+  /// Default-initialisation (no value given): nothing is written for ints and Eigen's blocks.
+  template <class U>
+  void construct(U* p) noexcept(std::is_nothrow_default_constructible_v<U>) {
+    ::new (static_cast<void*>(p)) U;
+  }
+  template <class U, class... Args>
+  void construct(U* p, Args&&... args) {
+    ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
   }
   void deallocate(T* p, std::size_t n) noexcept {
     if (n * sizeof(T) < kHugePage) ::operator delete(p, std::align_val_t(alignof(T)));
