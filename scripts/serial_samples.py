@@ -13,7 +13,10 @@ number of samples, the serial ones, the serial ones by the innermost obs:: funct
 """
 import argparse
 import collections
+import re
 import signal
+
+HEADER = re.compile(r"^\s*(\d+)\s+(\d+\.\d+):")
 
 
 def read_samples(path):
@@ -26,9 +29,9 @@ def read_samples(path):
                     samples.append(current)
                 current = None
                 continue
-            if not line.startswith(("\t", " ")):
-                fields = line.split()
-                current = (int(fields[0]), float(fields[1].rstrip(":")), [])
+            header = HEADER.match(line)
+            if header:  # "TID TIME:" (perf pads the thread id with blanks)
+                current = (int(header.group(1)), float(header.group(2)), [])
             elif current:
                 parts = line.strip().split(None, 1)
                 current[2].append(parts[1] if len(parts) > 1 else "?")
