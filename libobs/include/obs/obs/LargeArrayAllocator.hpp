@@ -1,12 +1,12 @@
 #pragma once
 /// \file LargeArrayAllocator.hpp
-/// A std::allocator for the large arrays of obs (the blocks of the stiffness and Galerkin matrices):
-/// arrays of at least 2 MB are placed on 2 MB boundaries and marked for transparent huge pages
-/// (madvise MADV_HUGEPAGE; Linux's default mode "madvise" then backs them by 2 MB pages). A matrix
-/// of 823,875 unknowns holds 533 MB of blocks: with 4 KB pages its first touch costs 130,000 page
-/// faults and every sweep over it misses the TLB on each page; measured on the step-42 run: 10 %
-/// of the whole run (docs/performance.md#threads). Smaller arrays, and systems without huge pages,
-/// get ordinary memory.
+/// A std::allocator for the large arrays of obs (the blocks, block numbers and column indices of
+/// the stiffness and Galerkin matrices): arrays of at least 2 MB are placed on 2 MB boundaries and
+/// marked for transparent huge pages (madvise MADV_HUGEPAGE; Linux's default mode "madvise" then
+/// backs them by 2 MB pages). A matrix of 823,875 unknowns holds 533 MB of blocks: with 4 KB pages
+/// its first touch costs 130,000 page faults and every sweep over it misses the TLB on each page;
+/// measured on the step-42 run: 10 % of the whole run (docs/performance.md#threads). Smaller
+/// arrays, and systems without huge pages, get ordinary memory.
 ///
 /// New elements are default-initialised: `std::vector<int, LargeArrayAllocator<int>>(n)` and
 /// resize() leave the numbers unset (Eigen's fixed-size matrices are unset anyway), so that the
