@@ -217,6 +217,10 @@ struct PatchCase {
   CellType upper;
   int nUpper;
 };
+/// Prints the case by its fields (GoogleTest would print the struct's bytes, padding included).
+void PrintTo(const PatchCase& c, std::ostream* os) {
+  *os << mesh::name(c.lower) << " " << c.nLower << " / " << mesh::name(c.upper) << " " << c.nUpper;
+}
 
 class MortarPatch3D : public ::testing::TestWithParam<PatchCase> {};
 

@@ -85,6 +85,11 @@ struct RateCase {
   int maxLevels;
   int cycleIndex = 1;  ///< 1: V-cycle, 2: W-cycle
 };
+/// Prints the case by its fields (GoogleTest would print the struct's bytes, padding included).
+void PrintTo(const RateCase& c, std::ostream* os) {
+  *os << mesh::name(c.type) << ", " << c.coarseCells << " coarse cells, " << c.maxLevels << " levels, "
+      << (c.cycleIndex == 2 ? "W" : "V") << "-cycle";
+}
 
 }  // namespace
 
