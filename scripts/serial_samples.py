@@ -56,14 +56,17 @@ def main():
     args = parser.parse_args()
     samples = read_samples(args.perf_script_output)
     if not samples:
-        raise SystemExit(f"{args.perf_script_output}: no samples (the output of perf script -F tid,time,ip,sym?)")
+        raise SystemExit(f"{args.perf_script_output}: no samples "
+                         "(the output of perf script -F tid,time,ip,sym?)")
     main_tid, start = samples[0][0], samples[0][1]
     window = collections.defaultdict(set)
     for tid, t, _ in samples:
         window[int((t - start) / args.window)].add(tid)
-    serial = [(t, stack) for tid, t, stack in samples if tid == main_tid and window[int((t - start) / args.window)] == {main_tid}]
+    serial = [(t, stack) for tid, t, stack in samples
+              if tid == main_tid and window[int((t - start) / args.window)] == {main_tid}]
     threads = len({tid for tid, _, _ in samples})
-    print(f"samples {len(samples)} on {threads} threads; serial samples of the main thread {len(serial)}")
+    print(f"samples {len(samples)} on {threads} threads; "
+          f"serial samples of the main thread {len(serial)}")
     for name, count in collections.Counter(frame_name(s) for _, s in serial).most_common(args.top):
         print(f"{count:6d}  {name}")
     print("timeline of the serial samples (start s, samples, the three largest functions):")
