@@ -15,6 +15,9 @@
 //     each with one block per entry and with the repeated blocks shared (the storage of obs' solves,
 //     BlockSparseMatrix::shareRepeatedBlocks); the sweep orders; the coarse operators of every level
 //     (MultigridHierarchy::setFineOperator: Galerkin patterns and products, TNNMG's set-up);
+//  2b. the schedule of the row loops (T > 1): y = A x on the shared matrix, its rows in T fixed ranges
+//     against chunks of kRowChunk rows handed out as the threads ask (obs' schedule), alternating,
+//     20 R products each: best, quartiles, median, worst;
 //  3. TNNMG on the step-42 problem: iterations, solve seconds (the fastest of max(2, R) solves and
 //     every solve), energy, and its V-cycles by level; the solves of a thread count (the thread
 //     counts alternating) must give bitwise the same solution (reproducibility for a fixed thread
@@ -28,7 +31,7 @@
 //     size of the .vtu file; after every run on T > 1 threads the compute throughput of T threads,
 //     measured again); with --baseline also another obs binary (an older version, say), the two
 //     alternating run by run, with the solver's correction of each.
-// --only machine,kernels,tnnmg,vcycles,obs (any of them, comma-separated) runs and writes only those
+// --only machine,kernels,schedule,tnnmg,vcycles,obs (any of them, comma-separated) runs and writes only those
 // sections (experiments; write to a scratch file, not the docs).
 // Writes the tables between the bench/threads markers of OUT.md (MarkdownBlock.hpp).
 #include <algorithm>
@@ -178,7 +181,7 @@ struct Step42 {
 int main(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]).starts_with("-")) {
     std::cerr << "usage: threads OUT.md [--threads T] [--level L] [--repeat R] [--obs OBS] [--baseline OLD_OBS]\n"
-                 "               [--only machine,kernels,tnnmg,vcycles,obs]\n";
+                 "               [--only machine,kernels,schedule,tnnmg,vcycles,obs]\n";
     return 2;
   }
   const std::filesystem::path out = argv[1];
@@ -217,8 +220,9 @@ int main(int argc, char** argv) {
   for (std::size_t b = 0; !only.empty() && b <= only.size();) {
     const std::size_t e = std::min(only.find(',', b), only.size());
     const std::string name = only.substr(b, e - b);
-    if (name != "machine" && name != "kernels" && name != "tnnmg" && name != "vcycles" && name != "obs") {
-      std::cerr << "threads: --only takes a comma-separated list of machine, kernels, tnnmg, vcycles, obs\n";
+    if (name != "machine" && name != "kernels" && name != "schedule" && name != "tnnmg" && name != "vcycles" &&
+        name != "obs") {
+      std::cerr << "threads: --only takes a comma-separated list of machine, kernels, schedule, tnnmg, vcycles, obs\n";
       return 2;
     }
     b = e + 1;
@@ -379,6 +383,54 @@ int main(int argc, char** argv) {
       md << " | - | - | - | - | - |\n";
       std::cerr << "kernels, " << t << " threads done\n";
     }
+  }
+
+  // 2b. the schedule of the row loops: y = A x on the shared step-42 matrix, its rows in T fixed
+  // ranges (OpenMP static, the loops before kRowChunk) against chunks of kRowChunk rows handed out
+  // as the threads ask (dynamic, BlockSparseMatrix::multiply), alternating, 20 R products each
+  if (want("schedule") && maxThreads > 1) {
+    setThreads(maxThreads);
+    BlockSparseMatrix<3> A = assembleStiffness<3>(s.mesh, s.material);
+    if (!A.shared() && !A.shareRepeatedBlocks()) std::cerr << "threads: the step-42 matrix did not share its blocks\n";
+    const Index n = A.rows();
+    const Eigen::VectorXd x = Eigen::VectorXd::Ones(n * 3);
+    Eigen::VectorXd yStatic(n * 3), yDynamic(n * 3);
+    const auto fixedRanges = [&] {
+      A.withBlocks([&](const auto blocks) {
+#pragma omp parallel for schedule(static) num_threads(maxThreads)
+        for (Index i = 0; i < n; ++i) {
+          Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+          for (Index k = A.rowBegin(i); k < A.rowEnd(i); ++k)
+            sum.noalias() += blocks[k] * x.segment<3>(static_cast<Eigen::Index>(A.column(k)) * 3);
+          yStatic.segment<3>(static_cast<Eigen::Index>(i) * 3) = sum;
+        }
+      });
+    };
+    std::vector<double> fixed, chunks;
+    for (int r = 0; r < 20 * repeat; ++r) {
+      auto t0 = Clock::now();
+      fixedRanges();
+      fixed.push_back(since(t0));
+      t0 = Clock::now();
+      A.multiply(x, yDynamic);
+      chunks.push_back(since(t0));
+    }
+    if (yStatic != yDynamic) std::cerr << "threads: the two schedules gave different products\n";
+    std::sort(fixed.begin(), fixed.end());
+    std::sort(chunks.begin(), chunks.end());
+    const auto q = [](const std::vector<double>& v, double f) { return v[static_cast<std::size_t>(f * (v.size() - 1))]; };
+    md << "\nThe schedule of the row loops: y = A x on the shared step-42 matrix (" << n << " rows), " << maxThreads
+       << " threads, its rows in " << maxThreads << " fixed ranges (static) or in chunks of " << kRowChunk
+       << " rows handed out as the threads ask (dynamic, BlockSparseMatrix::multiply); " << 20 * repeat
+       << " products each, alternating; milliseconds:\n\n| schedule | best | quartile | median | quartile | worst | same bits |\n"
+       << "|---|---:|---:|---:|---:|---:|---|\n";
+    for (int k = 0; k < 2; ++k) {
+      const std::vector<double>& v = k == 0 ? fixed : chunks;
+      md << "| " << (k == 0 ? "fixed ranges" : "chunks") << " | " << fmt(1e3 * v.front()) << " | " << fmt(1e3 * q(v, 0.25))
+         << " | " << fmt(1e3 * q(v, 0.5)) << " | " << fmt(1e3 * q(v, 0.75)) << " | " << fmt(1e3 * v.back()) << " | "
+         << (yStatic == yDynamic ? "yes" : "no") << " |\n";
+    }
+    std::cerr << "schedule done\n";
   }
 
   // 3. TNNMG

@@ -47,7 +47,7 @@ typename BlockSparseMatrix<d>::Pattern BlockSparseMatrix<d>::meshPattern(const m
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
     std::vector<Index> mark(static_cast<std::size_t>(n), -1);
-#pragma omp for schedule(static)
+#pragma omp for schedule(dynamic, kRowChunk)
     for (Index v = 0; v < n; ++v) p.rowStart[v + 1] = neighbours(v, mark, nullptr);
   }
   for (Index v = 0; v < n; ++v) p.rowStart[v + 1] += p.rowStart[v];
@@ -55,7 +55,7 @@ typename BlockSparseMatrix<d>::Pattern BlockSparseMatrix<d>::meshPattern(const m
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
     std::vector<Index> mark(static_cast<std::size_t>(n), -1);
-#pragma omp for schedule(static)
+#pragma omp for schedule(dynamic, kRowChunk)
     for (Index v = 0; v < n; ++v) neighbours(v, mark, p.columns.data() + p.rowStart[v]);
   }
   return p;
@@ -90,7 +90,7 @@ void BlockSparseMatrix<d>::multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y
   y.resize(static_cast<Eigen::Index>(n) * d);
   const int nt = n >= kParallelMinRows ? threads() : 1;
   withBlocks([&](const auto blocks) {
-#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
+#pragma omp parallel for schedule(dynamic, kRowChunk) num_threads(nt) if (nt > 1)
     for (Index i = 0; i < n; ++i) {
       Eigen::Matrix<double, d, 1> s = Eigen::Matrix<double, d, 1>::Zero();
       for (Index k = rowStart_[i]; k < rowStart_[i + 1]; ++k)
@@ -108,7 +108,7 @@ void BlockSparseMatrix<d>::multiply(const Eigen::VectorXd& x1, Eigen::VectorXd& 
   y2.resize(static_cast<Eigen::Index>(n) * d);
   const int nt = n >= kParallelMinRows ? threads() : 1;
   withBlocks([&](const auto blocks) {
-#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
+#pragma omp parallel for schedule(dynamic, kRowChunk) num_threads(nt) if (nt > 1)
     for (Index i = 0; i < n; ++i) {
       Eigen::Matrix<double, d, 1> s1 = Eigen::Matrix<double, d, 1>::Zero(), s2 = Eigen::Matrix<double, d, 1>::Zero();
       for (Index k = rowStart_[i]; k < rowStart_[i + 1]; ++k) {

@@ -68,7 +68,7 @@ void recoverStressesOf(const mesh::Mesh& mesh, const Material& mat, ElasticitySo
 #pragma omp parallel num_threads(nt) if (nt > 1)
   {
     CellValues<d> general(2), simplex(1);
-#pragma omp for schedule(static) reduction(min : failed)
+#pragma omp for schedule(dynamic, kRowChunk) reduction(min : failed)
     for (Index c = 0; c < cells; ++c) {
       const mesh::CellType t = mesh.cellType(c);
       try {

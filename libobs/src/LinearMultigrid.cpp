@@ -189,7 +189,7 @@ void LinearMultigrid<d>::localDefect(int level, const Eigen::VectorXd& r, const 
   const auto n = static_cast<Index>(rows.size());
   const int nt = n >= kParallelMinRows ? threads() : 1;
   A.withBlocks([&](const auto blocks) {
-#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
+#pragma omp parallel for schedule(dynamic, kRowChunk) num_threads(nt) if (nt > 1)
     for (Index i = 0; i < n; ++i) {
       const Index p = rows[i];
       Eigen::Matrix<double, d, 1> s = Eigen::Matrix<double, d, 1>::Zero();

@@ -681,11 +681,11 @@ void MultigridHierarchy<d>::restrict(int l, const Eigen::VectorXd& fine, Eigen::
   restrictBuffer_.resize(fine.size());
 #pragma omp parallel num_threads(nt)
   {
-#pragma omp for schedule(static)
+#pragma omp for schedule(dynamic, kRowChunk)
     for (Index p = 0; p < P.rows; ++p)
       restrictBuffer_.template segment<d>(static_cast<Eigen::Index>(p) * d) = transformed(p);
     const mesh::CsrMatrix& Pt = transposed_[l];
-#pragma omp for schedule(static)
+#pragma omp for schedule(dynamic, kRowChunk)
     for (Index c = 0; c < Pt.rows; ++c) {
       Vec s = Vec::Zero();
       for (Index k = Pt.rowStart[c]; k < Pt.rowStart[c + 1]; ++k)
@@ -701,7 +701,7 @@ void MultigridHierarchy<d>::prolongateAdd(int l, const Eigen::VectorXd& coarse, 
   const mesh::CsrMatrix& P = prolongations_[l];
   const bool top = l + 1 == maxLevel();
   const int nt = P.rows >= kParallelMinRows ? threads() : 1;
-#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
+#pragma omp parallel for schedule(dynamic, kRowChunk) num_threads(nt) if (nt > 1)
   for (Index p = 0; p < P.rows; ++p) {
     Vec s = Vec::Zero();
     for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k)

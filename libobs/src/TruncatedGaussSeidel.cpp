@@ -55,7 +55,7 @@ void TruncatedGaussSeidel<d>::updateAll() {
     return;
   }
   Index failed = n;
-#pragma omp parallel for schedule(static) num_threads(nt) reduction(min : failed)
+#pragma omp parallel for schedule(dynamic, kRowChunk) num_threads(nt) reduction(min : failed)
   for (Index p = 0; p < n; ++p) {
     try {
       update(p);

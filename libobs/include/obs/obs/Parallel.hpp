@@ -50,15 +50,23 @@ inline constexpr Index kParallelMinRows = 2048;
 /// Entries of the fixed chunks of forRanges() and chunkedSums().
 inline constexpr Index kVectorChunk = 8192;
 
+/// Rows per chunk of the row loops on threads (products, transfers, the smoothers' diagonal blocks).
+/// The chunks are handed out as the threads ask for them (OpenMP dynamic schedule), so a thread
+/// that the machine slows (another process on its core) takes fewer of them instead of keeping the
+/// other one waiting at the end of the loop (docs/performance.md#dynamic-chunks). The rows are
+/// independent: the results do not depend on which thread computed which chunk.
+inline constexpr int kRowChunk = 1024;
+
 /// f(begin, end) for the fixed chunks [k C, min(n, (k + 1) C)) of 0..n-1 (C = kVectorChunk), on
-/// threads() threads when there are two chunks or more (else on the calling thread). For elementwise
-/// vector work: the chunks must not depend on each other.
+/// threads() threads when there are two chunks or more (else on the calling thread), handed out as
+/// the threads ask for them (see kRowChunk). For elementwise vector work: the chunks must not depend
+/// on each other.
 template <class F>
 void forRanges(Index n, F&& f) {
   const Index chunks = (n + kVectorChunk - 1) / kVectorChunk;
   [[maybe_unused]] const int nt = chunks >= 2 ? threads() : 1;
 #ifdef _OPENMP
-#pragma omp parallel for schedule(static) num_threads(nt) if (nt > 1)
+#pragma omp parallel for schedule(dynamic, 1) num_threads(nt) if (nt > 1)
 #endif
   for (Index k = 0; k < chunks; ++k) f(k * kVectorChunk, std::min(n, (k + 1) * kVectorChunk));
 }
