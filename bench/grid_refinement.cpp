@@ -3,10 +3,11 @@
 // quadrilaterals, red + green closure). Reports elements created per second of adapt() time and
 // bytes per element: the peak resident memory of the case (each case runs in its own forked
 // process, measured with wait4) above the process' size at the fork, divided by all elements the
-// grid holds (every level), as a markdown table.
+// grid holds (every level), as a markdown table. With --threads T every case runs on one thread and
+// on T (Grid::adapt(T): the red refinement on threads, the same grid), one after the other.
 //
 // Sample run (about a minute; writes the table of docs/performance.md):
-//   build/bench/grid_refinement bench-grid.md
+//   build/bench/grid_refinement bench-grid.md --threads 2
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -14,9 +15,11 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <iostream>
 #include <sstream>
+#include <vector>
 
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Grid.hpp"
@@ -70,14 +73,14 @@ std::string isolated(Body body) {
 }
 
 /// Uniform refinement until the leaf view has at least `target` elements.
-std::pair<std::string, double> uniform(CellType type, std::array<int, 3> cells, Index target) {
+std::pair<std::string, double> uniform(CellType type, std::array<int, 3> cells, Index target, int threads) {
   Grid grid(boxMesh(type, cells, Point(0, 0, 0), Point(1, 1, 1)));
   int step = 0;
   double total = 0;
   Index created = 0;
   while (grid.numLeafElements() < target) {
     const auto t0 = Clock::now();
-    const AdaptResult r = grid.refineUniformly();
+    const AdaptResult r = grid.refineUniformly(threads);
     const double s = std::chrono::duration<double>(Clock::now() - t0).count();
     total += s;
     created += grid.numElements() - r.firstNewElement;
@@ -86,8 +89,8 @@ std::pair<std::string, double> uniform(CellType type, std::array<int, 3> cells, 
               << " s\n";
   }
   char line[256];
-  std::snprintf(line, sizeof line, "| %s | uniform | %d | %d | %d | %.2f | %.3g | %%BYTES%% |\n",
-                std::string(name(type)).c_str(), step, grid.numLeafElements(), grid.numVertices(),
+  std::snprintf(line, sizeof line, "| %s | uniform | %d | %d | %d | %d | %.2f | %.3g | %%BYTES%% |\n",
+                std::string(name(type)).c_str(), threads, step, grid.numLeafElements(), grid.numVertices(),
                 total, created / total);
   return {line, static_cast<double>(grid.numElements())};
 }
@@ -95,7 +98,7 @@ std::pair<std::string, double> uniform(CellType type, std::array<int, 3> cells, 
 /// `cycles` cycles of local refinement of the unit square along the circle |x - (1/2, 1/2)| = 0.3
 /// (a free-boundary-like curve): leaves whose centroid is within their own size of the circle are
 /// marked, so every cycle about doubles the elements along the curve.
-std::pair<std::string, double> local(CellType type, int n, int cycles) {
+std::pair<std::string, double> local(CellType type, int n, int cycles, int threads) {
   Grid grid(boxMesh(type, {n, n, 1}, Point(0, 0, 0), Point(1, 1, 0)));
   double total = 0;
   Index created = 0;
@@ -108,13 +111,13 @@ std::pair<std::string, double> local(CellType type, int n, int cycles) {
       if (std::abs((centre - Point(0.5, 0.5, 0)).norm() - 0.3) < h) grid.mark(e);
     }
     const auto t0 = Clock::now();
-    const AdaptResult r = grid.adapt();
+    const AdaptResult r = grid.adapt(threads);
     total += std::chrono::duration<double>(Clock::now() - t0).count();
     created += grid.numElements() - r.firstNewElement;
   }
   char line[256];
-  std::snprintf(line, sizeof line, "| %s | %d local cycles | %d | %d | %d | %.2f | %.3g | %%BYTES%% |\n",
-                std::string(name(type)).c_str(), cycles, grid.maxLevel(), grid.numLeafElements(),
+  std::snprintf(line, sizeof line, "| %s | %d local cycles | %d | %d | %d | %d | %.2f | %.3g | %%BYTES%% |\n",
+                std::string(name(type)).c_str(), cycles, threads, grid.maxLevel(), grid.numLeafElements(),
                 grid.numVertices(), total, created / total);
   return {line, static_cast<double>(grid.numElements())};
 }
@@ -122,21 +125,35 @@ std::pair<std::string, double> local(CellType type, int n, int cycles) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc > 2 || (argc == 2 && std::string(argv[1]).starts_with("-"))) {
-    std::cerr << "usage: grid_refinement [OUTPUT.md]   (default: standard output)\n";
+  std::string output;
+  int threads = 1;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    if (a == "--threads" && i + 1 < argc) {
+      threads = std::atoi(argv[++i]);
+    } else if (!a.starts_with("-") && output.empty()) {
+      output = a;
+    } else {
+      threads = 0;
+      break;
+    }
+  }
+  if (threads < 1) {
+    std::cerr << "usage: grid_refinement [OUTPUT.md] [--threads T]   (default: standard output, one thread)\n";
     return 2;
   }
   std::ostringstream md;
-  md << "| cell type | refinement | steps / levels | leaf elements | vertices | adapt time [s] | "
-        "elements/s | bytes/element |\n|---|---|---:|---:|---:|---:|---:|---:|\n";
-  md << isolated([] { return uniform(CellType::Hexahedron, {4, 4, 4}, 1'000'000); });
-  md << isolated([] { return uniform(CellType::Tetrahedron, {4, 4, 4}, 1'000'000); });
-  md << isolated([] { return local(CellType::Triangle, 4, 15); });
-  md << isolated([] { return local(CellType::Quadrilateral, 4, 15); });
-  if (argc == 2) {
-    std::ofstream out(argv[1]);
+  md << "| cell type | refinement | threads | steps / levels | leaf elements | vertices | adapt time [s] | "
+        "elements/s | bytes/element |\n|---|---|---:|---:|---:|---:|---:|---:|---:|\n";
+  const std::vector<int> counts = threads > 1 ? std::vector<int>{1, threads} : std::vector<int>{1};
+  for (int t : counts) md << isolated([t] { return uniform(CellType::Hexahedron, {4, 4, 4}, 1'000'000, t); });
+  for (int t : counts) md << isolated([t] { return uniform(CellType::Tetrahedron, {4, 4, 4}, 1'000'000, t); });
+  for (int t : counts) md << isolated([t] { return local(CellType::Triangle, 4, 15, t); });
+  for (int t : counts) md << isolated([t] { return local(CellType::Quadrilateral, 4, 15, t); });
+  if (!output.empty()) {
+    std::ofstream out(output);
     if (!out) {
-      std::cerr << "grid_refinement: cannot write " << argv[1] << "\n";
+      std::cerr << "grid_refinement: cannot write " << output << "\n";
       return 1;
     }
     out << md.str();

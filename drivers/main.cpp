@@ -299,6 +299,11 @@ int main(int argc, char** argv) {
   meshCmd->add_option("--output,-o", meshOutput, "Write <scene name>_leaf.vtu (level, quality, boundary ids) here")
       ->type_name("DIR");
   meshCmd->add_flag("--levels", meshOptions.levels, "With --output: also write every level view");
+  meshCmd->add_option("--threads,-t", threadCount,
+                      "Threads for the red refinement (default: $OBS_THREADS, else 1); the grid is the same "
+                      "for any N (docs/performance.md#refinement-threads)")
+      ->type_name("N")
+      ->check(CLI::Range(1, 1024));
   meshCmd->footer(
       "Prints leaf elements per type and level, conformity violations, total volume, the shape\n"
       "quality range (minimum corner mean ratio, 1 for a cube corner) and times as JSON.\n"
@@ -330,7 +335,8 @@ int main(int argc, char** argv) {
   }
 
   try {
-    if (run->parsed()) {
+    // --threads, else $OBS_THREADS, else 1 (obs run and obs mesh)
+    const auto setThreadCount = [&] {
       if (threadCount) {
         obs::setThreads(*threadCount);
       } else if (const char* env = std::getenv("OBS_THREADS"); env && *env) {
@@ -340,6 +346,9 @@ int main(int argc, char** argv) {
           throw obs::Error(std::string("OBS_THREADS=") + env + ": a thread count from 1 to 1024 expected");
         obs::setThreads(static_cast<int>(n));
       }
+    };
+    if (run->parsed()) {
+      setThreadCount();
       obs::setBlasThreads(obs::threads());  // CHOLMOD's BLAS: the run's thread count, not every core
       return runCommand(scene, output, refine, quiet, verbose, runPlugins, overrides, runPlots,
                         compareSchemes, restart, stopAfterStep);
@@ -351,6 +360,7 @@ int main(int argc, char** argv) {
       return sweepCommand(sweepOptions, sweepVary, sweepQuiet);
     }
     if (meshCmd->parsed()) {
+      setThreadCount();
       meshOptions.scene = meshScene;
       if (!meshOutput.empty()) meshOptions.output = meshOutput;
       return meshCommand(meshOptions);

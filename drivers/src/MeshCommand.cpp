@@ -11,6 +11,7 @@
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Grid.hpp"
 #include "obs/mesh/MeshTopology.hpp"
+#include "obs/obs/Parallel.hpp"
 
 namespace obs::drivers {
 namespace {
@@ -60,7 +61,7 @@ nlohmann::json runMeshCommand(const MeshCommandOptions& options) {
   const double coarseSeconds = since(t0);
 
   t0 = Clock::now();
-  for (int k = 0; k < uniform; ++k) grid.refineUniformly();
+  for (int k = 0; k < uniform; ++k) grid.refineUniformly(threads());
   const double uniformSeconds = since(t0);
 
   std::mt19937 rng(options.seed);
@@ -70,7 +71,7 @@ nlohmann::json runMeshCommand(const MeshCommandOptions& options) {
     for (mesh::Index e : grid.leafElements())
       if (U(rng) < options.fraction) grid.mark(e);
     t0 = Clock::now();
-    grid.adapt();
+    grid.adapt(threads());
     randomSeconds += since(t0);
   }
 
@@ -123,6 +124,7 @@ nlohmann::json runMeshCommand(const MeshCommandOptions& options) {
                        {"min", qmin},
                        {"max", qmax}};
   report["coarse_cells_reoriented"] = grid.reorientedCells();
+  report["threads"] = threads();
   report["times_s"] = {{"coarse", coarseSeconds},
                        {"uniform", uniformSeconds},
                        {"random", randomSeconds},

@@ -11,6 +11,7 @@
 #include "obs/mesh/CurvedMeshes.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/MortarCoupling.hpp"
+#include "obs/obs/Parallel.hpp"
 #include "obs/obs/SurfaceObstacle.hpp"
 #include "obs/mesh/Gmsh.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
@@ -214,7 +215,7 @@ mesh::Grid buildGrid(const Scene& scene, std::optional<int> refineOverride) {
   }
   mesh::Grid grid(m);
   for (const auto& [id, projection] : curved.projections) grid.setBoundaryProjection(id, projection);
-  for (int k = 0; k < refine; ++k) grid.refineUniformly();
+  for (int k = 0; k < refine; ++k) grid.refineUniformly(threads());
   return grid;
 }
 

@@ -17,6 +17,7 @@
 #include "obs/obs/ContactSet.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
 #include "obs/obs/MultiBody.hpp"
+#include "obs/obs/Parallel.hpp"
 #include "obs/obs/SurfaceObstacle.hpp"
 #include "obs/obs/PrimalDualActiveSet.hpp"
 #include "obs/obs/TNNMG.hpp"
@@ -186,7 +187,7 @@ void AdaptiveLoop::restore(AdaptiveLoopState state) {
     for (std::size_t i = 0; i < nb; ++i) {
       mesh::Grid& grid = *bodies_[i].grid;
       if (options_.mode == RefinementMode::Uniform) {
-        grid.refineUniformly();
+        grid.refineUniformly(threads());
         continue;
       }
       const std::vector<Index>& marked = state.refinements[static_cast<std::size_t>(j)][i];
@@ -203,7 +204,7 @@ void AdaptiveLoop::restore(AdaptiveLoopState state) {
         grid.mark(view.elements[static_cast<std::size_t>(c)]);
       }
       grid.setClosureRule(options_.closure);
-      grid.adapt();
+      grid.adapt(threads());
     }
   resume_ = std::move(state);
 }
@@ -739,12 +740,12 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
         if (body[i].marked.empty()) continue;
         for (Index c : body[i].marked) grid.mark(views[i].elements[c]);
         grid.setClosureRule(options_.closure);
-        const mesh::AdaptResult r = grid.adapt();
+        const mesh::AdaptResult r = grid.adapt(threads());
         steps.back().refinedRed += r.redRefined;
         steps.back().closureRed += r.propagated;
         steps.back().greenClosed += r.greenClosed;
       } else {
-        grid.refineUniformly();
+        grid.refineUniformly(threads());
       }
     }
     steps.back().refinementSeconds = markSeconds + since(t);

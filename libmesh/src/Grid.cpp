@@ -220,9 +220,9 @@ void Grid::markAll() {
 
 void Grid::clearMarks() { std::fill(marks_.begin(), marks_.end(), 0); }
 
-AdaptResult Grid::refineUniformly() {
+AdaptResult Grid::refineUniformly(int threads) {
   markAll();
-  return adapt();
+  return adapt(threads);
 }
 
 // ------------------------------------------------------------------------------------------------

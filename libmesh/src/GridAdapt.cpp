@@ -5,7 +5,13 @@
 // itself: one vertex -> element adjacency of the regular leaves, a work list for the propagation,
 // and flat hash maps keyed on sorted vertex pairs (edge midpoints) and sorted quadrilateral faces
 // (face centres), so shared vertices are created once and found in O(1).
+//
+// adapt(threads) with threads > 1 refines red on the threads from kRedOnThreadsMin red elements on
+// (refineRedOnThreads), and a uniform refinement (every regular element red from the start) also
+// propagates on them (propagateAllRed); both give the grid of one thread, bit for bit
+// (docs/performance.md#refinement-threads). Boundary projections (user functions) keep it on one.
 #include <algorithm>
+#include <atomic>
 #include <bit>
 #include <climits>
 
@@ -84,6 +90,9 @@ const AdaptTables& tables() {
   return t;
 }
 
+/// Red refinements below this many elements stay on one thread (the fork does not pay).
+constexpr std::size_t kRedOnThreadsMin = 2048;
+
 int localIndex(std::span<const Index> v, Index g) {
   for (std::size_t i = 0; i < v.size(); ++i)
     if (v[i] == g) return static_cast<int>(i);
@@ -110,7 +119,7 @@ struct Grid::Context {
 };
 
 // ------------------------------------------------------------------------------------------------
-AdaptResult Grid::adapt() {
+AdaptResult Grid::adapt(int threads) {
   AdaptResult result;
   result.firstNewElement = numElements();
   result.firstNewVertex = numVertices();
@@ -148,8 +157,13 @@ AdaptResult Grid::adapt() {
       }
     }
   const std::size_t initiallyRed = ctx.queue.size();
-  ctx.newEdges.reserve(3 * initiallyRed);  // about the new edges per refined cell (grows if needed)
-  propagate(ctx);
+  if (threads > 1 && initiallyRed >= kRedOnThreadsMin && projections_.empty() &&
+      static_cast<std::size_t>(std::count(ctx.regular.begin(), ctx.regular.end(), 1)) == initiallyRed) {
+    propagateAllRed(ctx, threads);  // ctx.newEdges stays empty: refineRedOnThreads() counts them
+  } else {
+    ctx.newEdges.reserve(3 * initiallyRed);  // about the new edges per refined cell (grows if needed)
+    propagate(ctx);
+  }
   result.propagated = static_cast<Index>(ctx.queue.size() - initiallyRed);
 
   // Red refinement, in element order (deterministic vertex and element numbering).
@@ -172,12 +186,23 @@ AdaptResult Grid::adapt() {
     edgeMidpoints_.reserve(edgeMidpoints_.size() + ctx.newEdges.size());
     faceCentres_.reserve(faceCentres_.size() + quadFaces);
   }
-  for (Index e : red) {
-    if (refinement_[e] == Refinement::Green) {
-      removeChildren(e);
-      ++result.greenRemoved;
+  // On threads where it pays and no boundary projection (a user function) is involved; the same
+  // grid either way.
+  if (threads > 1 && red.size() >= kRedOnThreadsMin && projections_.empty()) {
+    for (Index e : red)
+      if (refinement_[e] == Refinement::Green) {
+        removeChildren(e);
+        ++result.greenRemoved;
+      }
+    refineRedOnThreads(red, ctx, threads);
+  } else {
+    for (Index e : red) {
+      if (refinement_[e] == Refinement::Green) {
+        removeChildren(e);
+        ++result.greenRemoved;
+      }
+      refineRed(e);
     }
-    refineRed(e);
   }
   result.redRefined = static_cast<Index>(red.size());
 
@@ -221,8 +246,51 @@ AdaptResult Grid::adapt() {
 }
 
 // ------------------------------------------------------------------------------------------------
-void Grid::propagate(Context& ctx) {
+/// Does regular element g have the corners vs[0..k-1] as an edge (k = 2) or a face?
+bool Grid::hasEntity(Index g, const std::array<Index, 4>& vs, int k) const {
+  const auto gv = vertices(g);
+  unsigned bits = 0;
+  for (int i = 0; i < k; ++i) {
+    const int l = localIndex(gv, vs[i]);
+    if (l < 0) return false;
+    bits |= 1u << l;
+  }
+  const int ti = static_cast<int>(type_[g]);
+  if (k == 2) return LocalPoints::of(type_[g]).edge(std::countr_zero(bits), 31 - std::countl_zero(bits)) >= 0;
+  for (int f = 0; f < LocalPoints::of(type_[g]).numFaces; ++f)
+    if (tables().faceCorners[ti][f] == bits) return true;
+  return false;
+}
+
+/// The corners of entity `ent` of element p (edge e: value e, face f: 16 + f) and their number.
+int Grid::entityCorners(Index p, int ent, std::array<Index, 4>& vs) const {
+  const auto pv = vertices(p);
+  vs = {-1, -1, -1, -1};
+  if (ent < 16) {
+    const auto& le = localEdges(type_[p])[ent];
+    vs = {pv[le[0]], pv[le[1]], -1, -1};
+    return 2;
+  }
+  const LocalFace& f = localFaces(type_[p])[ent - 16];
+  for (int k = 0; k < f.size; ++k) vs[k] = pv[f.vertices[k]];
+  return f.size;
+}
+
+/// The edges and faces of e's father (bits e, 16 + f) on which edges of e lie.
+std::uint32_t Grid::fatherEntitiesOfEdges(Index e) const {
   const AdaptTables& tab = tables();
+  const int pt = static_cast<int>(type_[father_[e]]);
+  const auto& sup = tab.support[pt];
+  std::uint32_t bits = 0;
+  for (const auto& le : localEdges(type_[e])) {
+    const int ent = tab.entity[pt][sup[inFather_[e][le[0]]] | sup[inFather_[e][le[1]]]];
+    if (ent >= 0) bits |= 1u << ent;
+  }
+  return bits;
+}
+
+// ------------------------------------------------------------------------------------------------
+void Grid::propagate(Context& ctx) {
   auto push = [&](Index g) {
     if (!ctx.red[g]) {
       ctx.red[g] = 1;
@@ -241,22 +309,6 @@ void Grid::propagate(Context& ctx) {
     for (const auto& le : edges) count += refinedEdge(edgeKey(gv[le[0]], gv[le[1]]));
     const int n = static_cast<int>(edges.size());
     return allEdges ? count == n : 2 * count > n;
-  };
-  // Does regular element g have the corners vs[0..k-1] as an edge (k = 2) or a face?
-  auto hasEntity = [&](Index g, const std::array<Index, 4>& vs, int k) {
-    const auto gv = vertices(g);
-    unsigned bits = 0;
-    for (int i = 0; i < k; ++i) {
-      const int l = localIndex(gv, vs[i]);
-      if (l < 0) return false;
-      bits |= 1u << l;
-    }
-    const int ti = static_cast<int>(type_[g]);
-    if (k == 2) return LocalPoints::of(type_[g]).edge(std::countr_zero(bits),
-                                                       31 - std::countl_zero(bits)) >= 0;
-    for (int f = 0; f < LocalPoints::of(type_[g]).numFaces; ++f)
-      if (tab.faceCorners[ti][f] == bits) return true;
-    return false;
   };
 
   for (std::size_t qi = 0; qi < ctx.queue.size(); ++qi) {
@@ -282,34 +334,50 @@ void Grid::propagate(Context& ctx) {
     // must be refined in every regular element containing them.
     if (level_[e] == 0) continue;
     const Index p = father_[e];
-    const int pt = static_cast<int>(type_[p]);
-    std::uint32_t bits = 0;
-    const auto& sup = tab.support[pt];
-    for (const auto& le : localEdges(t)) {
-      const int ent = tab.entity[pt][sup[inFather_[e][le[0]]] | sup[inFather_[e][le[1]]]];
-      if (ent >= 0) bits |= 1u << ent;
-    }
-    bits &= ~ctx.scanned[p];
+    std::uint32_t bits = fatherEntitiesOfEdges(e) & ~ctx.scanned[p];
     ctx.scanned[p] |= bits;
-    const auto pv = vertices(p);
     while (bits) {
       const int ent = std::countr_zero(bits);
       bits &= bits - 1;
-      std::array<Index, 4> vs{-1, -1, -1, -1};
-      int k = 0;
-      if (ent < 16) {
-        const auto& le = localEdges(type_[p])[ent];
-        vs = {pv[le[0]], pv[le[1]], -1, -1};
-        k = 2;
-      } else {
-        const LocalFace& f = localFaces(type_[p])[ent - 16];
-        for (k = 0; k < f.size; ++k) vs[k] = pv[f.vertices[k]];
-      }
+      std::array<Index, 4> vs;
+      const int k = entityCorners(p, ent, vs);
       for (Index g : ctx.around(vs[0]))
         if (hasEntity(g, vs, k)) {
           ctx.childCheck[g] = 1;
           push(g);
         }
+    }
+  }
+}
+
+// propagate() when every regular element is red from the start (a uniform refinement): rule 2 and
+// the touched elements concern elements that are not red, and rule 1 pushes only red ones, so what
+// is left of it is rule 1's childCheck. It is set here on threads, father by father: the entities of
+// a father scanned are those of all its queued children, as propagate() scans them child by child.
+void Grid::propagateAllRed(Context& ctx, int threads) {
+  std::vector<Index> fathers;
+  {
+    std::vector<char> seen(static_cast<std::size_t>(ctx.numOld), 0);
+    for (Index e : ctx.queue)
+      if (level_[e] > 0 && !seen[father_[e]]) {
+        seen[father_[e]] = 1;
+        fathers.push_back(father_[e]);
+      }
+  }
+  const auto nf = static_cast<Index>(fathers.size());
+#pragma omp parallel for schedule(dynamic, 256) num_threads(threads)
+  for (Index i = 0; i < nf; ++i) {
+    const Index p = fathers[i];
+    std::uint32_t bits = 0;
+    for (int k = 0; k < numChildren_[p]; ++k)
+      if (const Index c = firstChild_[p] + k; ctx.red[c]) bits |= fatherEntitiesOfEdges(c);
+    while (bits) {
+      const int ent = std::countr_zero(bits);
+      bits &= bits - 1;
+      std::array<Index, 4> vs;
+      const int k = entityCorners(p, ent, vs);
+      for (Index g : ctx.around(vs[0]))
+        if (hasEntity(g, vs, k)) std::atomic_ref<char>(ctx.childCheck[g]).store(1, std::memory_order_relaxed);
     }
   }
 }
@@ -369,6 +437,313 @@ void Grid::refineRed(Index e) {
   refinement_[e] = Refinement::Red;
   firstChild_[e] = first;
   numChildren_[e] = static_cast<std::uint8_t>(children.size());
+}
+
+// refineRed() creates the new vertices of an element in local point order, each the first time an
+// element needs it. On threads the same happens in three passes: (1) for each point of each red
+// element, the vertex it had before this refinement, or else the element that creates it: the
+// first red element (in `red` order) that uses the point, found among the regular elements around
+// the point's smallest corner (ctx.around lists them in ascending order); (2) the numbers: an
+// element's new vertices follow those of the elements before it, in its local point order, and its
+// children follow theirs; (3) the vertices and children written at these numbers. The new points
+// then go into the hash maps, on the threads too (FlatIndexMap::insertAbsentConcurrently): their
+// keys are new and distinct, so what the maps return for a key does not depend on the order.
+void Grid::refineRedOnThreads(const std::vector<Index>& red, const Context& ctx, int threads) {
+  const AdaptTables& tab = tables();
+  const auto nr = static_cast<Index>(red.size());
+  for (Index e : red) {
+    if (level_[e] + 1 > 255) throw Error("Grid: more than 255 refinement levels");
+    maxLevel_ = std::max(maxLevel_, level_[e] + 1);
+  }
+  std::vector<Index> position(static_cast<std::size_t>(ctx.numOld), -1);  // in red
+  for (Index i = 0; i < nr; ++i) position[red[i]] = i;
+  // the rule of each element, and where its points' entries start (the points after the corners)
+  std::vector<std::uint8_t> variant(static_cast<std::size_t>(nr));
+  std::vector<std::size_t> pointStart(static_cast<std::size_t>(nr) + 1, 0);
+  for (Index i = 0; i < nr; ++i) {
+    const LocalPoints& lp = LocalPoints::of(type_[red[i]]);
+    pointStart[i + 1] = pointStart[i] + static_cast<std::size_t>(lp.size - lp.numCorners);
+  }
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (Index i = 0; i < nr; ++i) {
+    const Index e = red[i];
+    if (type_[e] != CellType::Tetrahedron) continue;
+    std::array<Point, 4> x;
+    for (int k = 0; k < 4; ++k) x[k] = x_[vertices(e)[k]];
+    variant[i] = static_cast<std::uint8_t>(shortestTetDiagonal(std::span<const Point>(x.data(), 4)));
+  }
+  const auto uses = [&](Index i, int point) {
+    return ((tab.redUsed[static_cast<int>(type_[red[i]])][variant[i]] >> point) & 1u) != 0;
+  };
+  // (1) per point: a vertex (>= 0), or -1 - (creator's position * 32 + its local point). An edge
+  // point is decided at the edge's smaller vertex, a face point at the face's smallest vertex: of the
+  // red elements around that vertex (ascending, so in `red` order) that use the point, the first
+  // creates it. Each entry is written by the vertex of its edge or face only.
+  std::vector<std::int64_t> source(pointStart[nr], 0);
+  const auto entry = [&](Index j, int point) -> std::int64_t& {
+    return source[pointStart[j] + static_cast<std::size_t>(point - LocalPoints::of(type_[red[j]]).numCorners)];
+  };
+  const auto code = [](Index j, int point) { return -1 - (static_cast<std::int64_t>(j) * 32 + point); };
+#pragma omp parallel num_threads(threads)
+  {
+    struct Candidate {
+      std::array<Index, 4> key;  // the other end of the edge, or the face's corners (sorted)
+      Index j;
+      int point;
+    };
+    std::vector<Candidate> candidates;
+#pragma omp for schedule(dynamic, 256)
+    for (Index i = 0; i < nr; ++i)
+      for (const Index a : vertices(red[i])) {
+        // each corner once: by the first red element around it
+        if (const auto around = ctx.around(a);
+            *std::find_if(around.begin(), around.end(), [&](Index g) { return position[g] >= 0; }) != red[i])
+          continue;
+        candidates.clear();
+        for (Index g : ctx.around(a)) {
+          const Index j = position[g];
+          if (j < 0) continue;
+          const CellType t = type_[g];
+          const LocalPoints& lp = LocalPoints::of(t);
+          const auto gv = vertices(g);
+          const int la = localIndex(gv, a);
+          const auto edges = localEdges(t);
+          for (int k = 0; k < lp.numEdges; ++k) {
+            const auto& le = edges[k];
+            if (le[0] != la && le[1] != la) continue;
+            const Index b = gv[le[0] == la ? le[1] : le[0]];
+            if (b < a || !uses(j, lp.edgePoint(k))) continue;
+            candidates.push_back({{b, -1, -1, -1}, j, lp.edgePoint(k)});
+          }
+          const auto faces = localFaces(t);
+          for (int f = 0; f < lp.numFaces; ++f) {
+            if (faces[f].size != 4 || !uses(j, lp.facePoint(f))) continue;
+            std::array<Index, 4> key{};
+            bool smallest = false;  // a is a corner of the face and the smallest
+            for (int k = 0; k < 4; ++k) {
+              key[k] = gv[faces[f].vertices[k]];
+              smallest = smallest || key[k] == a;
+            }
+            if (!smallest || *std::min_element(key.begin(), key.end()) != a) continue;
+            std::sort(key.begin(), key.end());
+            candidates.push_back({key, j, lp.facePoint(f)});
+          }
+        }
+        // the first candidate of each key creates its point (the candidates are in `red` order)
+        for (std::size_t c = 0; c < candidates.size(); ++c) {
+          std::size_t first = c;
+          for (std::size_t k = 0; k < c; ++k)
+            if (candidates[k].key == candidates[c].key) {
+              first = k;
+              break;
+            }
+          entry(candidates[c].j, candidates[c].point) = code(candidates[first].j, candidates[first].point);
+        }
+      }
+  }
+  // then each element: the points it creates, unless they exist already (looked up by the creator
+  // only; the others find the vertex at the creator's entry in (3)), and its centroid
+  std::vector<std::uint32_t> created(static_cast<std::size_t>(nr), 0);  // bit p: the element creates point p
+#pragma omp parallel for schedule(dynamic, 1024) num_threads(threads)
+  for (Index i = 0; i < nr; ++i) {
+    const Index e = red[i];
+    const CellType t = type_[e];
+    const LocalPoints& lp = LocalPoints::of(t);
+    const auto ev = vertices(e);
+    std::uint32_t mine = 0;
+    for (int p = lp.numCorners; p < lp.size; ++p) {
+      if (!uses(i, p)) continue;
+      std::int64_t& out = entry(i, p);
+      Index existing = -1;
+      if (p < lp.centroidPoint()) {
+        if (out != code(i, p)) continue;  // another element creates it
+        if (p < lp.numCorners + lp.numEdges) {
+          const auto& le = localEdges(t)[p - lp.numCorners];
+          existing = edgeMidpoints_.find(edgeKey(ev[le[0]], ev[le[1]]));
+        } else {
+          const LocalFace& f = localFaces(t)[p - lp.numCorners - lp.numEdges];
+          std::array<Index, 4> key{};
+          for (int k = 0; k < 4; ++k) key[k] = ev[f.vertices[k]];
+          std::sort(key.begin(), key.end());
+          existing = faceCentres_.find(key);
+        }
+      } else {
+        existing = centroids_.find(static_cast<std::uint64_t>(e));
+      }
+      if (existing >= 0) {
+        out = existing;
+      } else {
+        out = code(i, p);
+        mine |= 1u << p;
+      }
+    }
+    created[static_cast<std::size_t>(i)] = mine;
+  }
+  // (2) the numbers
+  std::vector<Index> firstVertex(static_cast<std::size_t>(nr) + 1), firstElement(static_cast<std::size_t>(nr) + 1);
+  std::vector<std::size_t> firstConn(static_cast<std::size_t>(nr) + 1);
+  firstVertex[0] = numVertices();
+  firstElement[0] = numElements();
+  firstConn[0] = conn_.size();
+  for (Index i = 0; i < nr; ++i) {
+    const auto& children = tab.red[static_cast<int>(type_[red[i]])][variant[i]];
+    std::size_t conn = 0;
+    for (const CodedChild& c : children) conn += static_cast<std::size_t>(mesh::numVertices(c.type));
+    firstVertex[i + 1] = firstVertex[i] + std::popcount(created[i]);
+    firstElement[i + 1] = firstElement[i] + static_cast<Index>(children.size());
+    firstConn[i + 1] = firstConn[i] + conn;
+  }
+  const auto vertexOf = [&](std::int64_t s) -> Index {
+    if (s >= 0) return static_cast<Index>(s);
+    const std::int64_t code = -1 - s;
+    const auto j = static_cast<std::size_t>(code / 32);
+    const int point = static_cast<int>(code % 32);
+    // the creator's own entry: the vertex the point had before, or the one it creates
+    const std::int64_t own = entry(static_cast<Index>(j), point);
+    if (own >= 0) return static_cast<Index>(own);
+    return firstVertex[j] + std::popcount(created[j] & ((1u << point) - 1u));
+  };
+  const auto nv = static_cast<std::size_t>(firstVertex[nr]), ne = static_cast<std::size_t>(firstElement[nr]);
+  reserve(firstElement[nr], firstConn[nr], firstVertex[nr]);  // room for the closures too (geometric growth)
+  x_.resize(nv);
+  vertexCreator_.resize(nv);
+  vertexPoint_.resize(nv);
+  boundaryVertex_.resize(nv);
+  type_.resize(ne);
+  level_.resize(ne);
+  flags_.resize(ne);
+  refinement_.resize(ne);
+  father_.resize(ne);
+  firstChild_.resize(ne);
+  numChildren_.resize(ne);
+  connOffset_.resize(ne);
+  conn_.resize(firstConn[nr]);
+  inFather_.resize(ne);
+  greenPattern_.resize(ne);
+  marks_.resize(ne);
+  // (3) the vertices and the children, as refineRed() writes them
+#pragma omp parallel num_threads(threads)
+  {
+    std::vector<int> ids;
+#pragma omp for schedule(static)
+    for (Index i = 0; i < nr; ++i) {
+      const Index e = red[i];
+      const CellType t = type_[e];
+      const LocalPoints& lp = LocalPoints::of(t);
+      const int nvc = lp.numCorners;
+      std::array<Index, 8> ev{};
+      std::copy(vertices(e).begin(), vertices(e).end(), ev.begin());
+      std::array<Index, LocalPoints::kMaxPoints> g{};
+      for (int p = 0; p < lp.size; ++p) {
+        if (p < nvc) {
+          g[p] = ev[p];
+          continue;
+        }
+        if (!uses(i, p)) continue;
+        g[p] = vertexOf(source[pointStart[i] + static_cast<std::size_t>(p - nvc)]);
+        if (!((created[i] >> p) & 1u)) continue;
+        Point x;
+        bool boundary = false;
+        if (p < nvc + lp.numEdges) {  // as edgeMidpoint()
+          const int localEdge = p - nvc;
+          const auto& le = localEdges(t)[localEdge];
+          Index a = ev[le[0]], b = ev[le[1]];
+          if (a > b) std::swap(a, b);
+          x = 0.5 * (x_[a] + x_[b]);
+          ids.clear();
+          if (boundaryVertex_[a] && boundaryVertex_[b]) edgeBoundaryIds(e, localEdge, ids);
+          boundary = !ids.empty();
+        } else if (p < lp.centroidPoint()) {  // as faceCentre()
+          const int localFace = p - nvc - lp.numEdges;
+          const LocalFace& f = localFaces(t)[localFace];
+          std::array<Index, 4> key{};
+          for (int k = 0; k < 4; ++k) key[k] = ev[f.vertices[k]];
+          std::sort(key.begin(), key.end());
+          x = 0.25 * (((x_[key[0]] + x_[key[1]]) + x_[key[2]]) + x_[key[3]]);
+          if (boundaryVertex_[key[0]] && boundaryVertex_[key[1]] && boundaryVertex_[key[2]] &&
+              boundaryVertex_[key[3]])
+            boundary = boundaryId(e, localFace) >= 0;
+        } else {  // as centroid()
+          x = pointPosition(e, p);
+        }
+        const auto v = static_cast<std::size_t>(g[p]);
+        x_[v] = x;
+        vertexCreator_[v] = e;
+        vertexPoint_[v] = static_cast<std::uint8_t>(p);
+        boundaryVertex_[v] = boundary ? 1 : 0;
+      }
+      const auto& children = tab.red[static_cast<int>(t)][variant[i]];
+      Index child = firstElement[i];
+      std::size_t conn = firstConn[i];
+      for (const CodedChild& c : children) {
+        const int n = mesh::numVertices(c.type);
+        type_[child] = c.type;
+        level_[child] = static_cast<std::uint8_t>(level_[e] + 1);
+        flags_[child] = 0;
+        refinement_[child] = Refinement::None;
+        father_[child] = e;
+        firstChild_[child] = -1;
+        numChildren_[child] = 0;
+        connOffset_[child] = static_cast<Index>(conn);
+        for (int k = 0; k < n; ++k) conn_[conn + k] = g[c.points[k]];
+        std::array<std::uint8_t, 8> points{};
+        std::copy(c.points.begin(), c.points.begin() + n, points.begin());
+        inFather_[child] = points;
+        greenPattern_[child] = 0;
+        marks_[child] = 0;
+        conn += static_cast<std::size_t>(n);
+        ++child;
+      }
+      refinement_[e] = Refinement::Red;
+      firstChild_[e] = firstElement[i];
+      numChildren_[e] = static_cast<std::uint8_t>(children.size());
+    }
+  }
+  // the new points in the hash maps: their keys are new and distinct (each point has one creator),
+  // so the threads insert them at once; what the maps return for a key does not depend on the order
+  std::size_t newEdges = 0, newFaces = 0, newCentroids = 0;
+  for (Index i = 0; i < nr; ++i) {
+    const LocalPoints& lp = LocalPoints::of(type_[red[i]]);
+    const std::uint32_t bits = created[static_cast<std::size_t>(i)];
+    const std::uint32_t edgeBits = ((1u << lp.numEdges) - 1u) << lp.numCorners;
+    const std::uint32_t faceBits = ((1u << lp.numFaces) - 1u) << (lp.numCorners + lp.numEdges);
+    newEdges += static_cast<std::size_t>(std::popcount(bits & edgeBits));
+    newFaces += static_cast<std::size_t>(std::popcount(bits & faceBits));
+    newCentroids += (bits >> lp.centroidPoint()) & 1u;
+  }
+  edgeMidpoints_.reserve(edgeMidpoints_.size() + newEdges);
+  faceCentres_.reserve(faceCentres_.size() + newFaces);
+  centroids_.reserve(centroids_.size() + newCentroids);
+#pragma omp parallel for schedule(static) num_threads(threads)
+  for (Index i = 0; i < nr; ++i) {
+    std::uint32_t bits = created[static_cast<std::size_t>(i)];
+    if (bits == 0) continue;
+    const Index e = red[i];
+    const CellType t = type_[e];
+    const LocalPoints& lp = LocalPoints::of(t);
+    const auto ev = vertices(e);
+    Index v = firstVertex[i];
+    while (bits) {
+      const int p = std::countr_zero(bits);
+      bits &= bits - 1;
+      if (p < lp.numCorners + lp.numEdges) {
+        const auto& le = localEdges(t)[p - lp.numCorners];
+        edgeMidpoints_.insertAbsentConcurrently(edgeKey(ev[le[0]], ev[le[1]]), v);
+      } else if (p < lp.centroidPoint()) {
+        const LocalFace& f = localFaces(t)[p - lp.numCorners - lp.numEdges];
+        std::array<Index, 4> key{};
+        for (int k = 0; k < 4; ++k) key[k] = ev[f.vertices[k]];
+        std::sort(key.begin(), key.end());
+        faceCentres_.insertAbsentConcurrently(key, v);
+      } else {
+        centroids_.insertAbsentConcurrently(static_cast<std::uint64_t>(e), v);
+      }
+      ++v;
+    }
+  }
+  edgeMidpoints_.addToSize(newEdges);
+  faceCentres_.addToSize(newFaces);
+  centroids_.addToSize(newCentroids);
 }
 
 void Grid::closeGreen(Index e, unsigned pattern, std::vector<LocalChild>& children) {

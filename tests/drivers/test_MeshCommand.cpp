@@ -7,6 +7,7 @@
 
 #include "obs/drivers/MeshCommand.hpp"
 #include "obs/mesh/Error.hpp"
+#include "obs/obs/Parallel.hpp"
 
 namespace fs = std::filesystem;
 using namespace obs::drivers;
@@ -60,6 +61,32 @@ TEST_P(MeshCommandTest, RandomRefinementReportIsConsistent) {
 INSTANTIATE_TEST_SUITE_P(AllTypes, MeshCommandTest,
                          ::testing::Values("triangle", "quadrilateral", "tetrahedron", "hexahedron",
                                            "prism", "pyramid"));
+
+// On two threads (obs mesh --threads 2: the red refinement and the uniform propagation on threads,
+// Grid::adapt) the report is that of one thread but for the times and the thread count: the same
+// grid. 16^3 hexahedra refined uniformly (4,096 red elements), then a random local cycle of a
+// quarter of the leaves (some 8,000 red elements, green closures): both on threads (from 2,048).
+TEST(MeshCommand, TwoThreadsReportTheGridOfOne) {
+  MeshCommandOptions o;
+  o.scene = writeScene("hexahedron", "[16, 16, 16]", "[1.0, 1.0, 1.0]");
+  o.uniform = 1;
+  o.randomCycles = 1;
+  o.fraction = 0.25;
+  o.seed = 5;
+  obs::setThreads(1);
+  auto one = runMeshCommand(o);
+  obs::setThreads(2);
+  auto two = runMeshCommand(o);
+  obs::setThreads(1);
+  EXPECT_EQ(one["threads"].get<int>(), 1);
+  EXPECT_EQ(two["threads"].get<int>(), 2);
+  EXPECT_GT(one["leaf_elements"].get<long long>(), 32768);
+  for (auto* r : {&one, &two}) {
+    r->erase("times_s");
+    r->erase("threads");
+  }
+  EXPECT_EQ(one, two);
+}
 
 TEST(MeshCommand, RejectsBadOptions) {
   MeshCommandOptions o;

@@ -10,6 +10,7 @@
 #include <bit>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <functional>
 #include <random>
 #include <set>
@@ -262,6 +263,103 @@ TEST_P(GridTest, DeterministicForEqualMarks) {
     const auto x = a.cellVertices(c), y = b.cellVertices(c);
     EXPECT_TRUE(std::equal(x.begin(), x.end(), y.begin(), y.end()));
   }
+}
+
+/// Every array of two grids, bit for bit: vertices (position, boundary flag, origin) and elements
+/// (type, level, flags, refinement, father, children, vertices, points in the father, boundary ids).
+void expectSameGrid(const Grid& a, const Grid& b) {
+  ASSERT_EQ(a.numVertices(), b.numVertices());
+  ASSERT_EQ(a.numElements(), b.numElements());
+  EXPECT_EQ(a.maxLevel(), b.maxLevel());
+  Index differentVertices = 0, differentElements = 0;
+  for (Index v = 0; v < a.numVertices(); ++v) {
+    const auto oa = a.vertexOrigin(v), ob = b.vertexOrigin(v);
+    differentVertices += std::memcmp(a.vertex(v).data(), b.vertex(v).data(), 3 * sizeof(double)) != 0 ||
+                         a.isBoundaryVertex(v) != b.isBoundaryVertex(v) || oa.element != ob.element ||
+                         oa.point != ob.point;
+  }
+  for (Index e = 0; e < a.numElements(); ++e) {
+    bool same = a.type(e) == b.type(e) && a.level(e) == b.level(e) && a.isGreen(e) == b.isGreen(e) &&
+                a.isRemoved(e) == b.isRemoved(e) && a.refinement(e) == b.refinement(e) &&
+                a.father(e) == b.father(e) && a.numChildren(e) == b.numChildren(e) &&
+                (a.numChildren(e) == 0 || a.child(e, 0) == b.child(e, 0));
+    if (same) {
+      const auto va = a.vertices(e), vb = b.vertices(e);
+      same = std::equal(va.begin(), va.end(), vb.begin(), vb.end());
+    }
+    if (same && e >= 0 && a.level(e) > 0) {
+      const auto pa = a.pointsInFather(e), pb = b.pointsInFather(e);
+      same = std::equal(pa.begin(), pa.end(), pb.begin(), pb.end());
+    }
+    if (same && !a.isRemoved(e))
+      for (int f = 0; f < static_cast<int>(localFaces(a.type(e)).size()); ++f)
+        same = same && a.boundaryId(e, f) == b.boundaryId(e, f);
+    differentElements += !same;
+  }
+  EXPECT_EQ(differentVertices, 0);
+  EXPECT_EQ(differentElements, 0);
+}
+
+// The red refinement on threads (adapt(2), from 2,048 red elements on) builds the grid of one
+// thread, bit for bit: uniform refinements to at least 16,384 leaves, then two cycles of local
+// refinement marking the leaves whose first vertex lies in a ball around the origin (radius 1: green
+// closures around it; then 1.2: their green fathers refined red; propagation in both). The grids of
+// one thread are checked for conformity by the tests above.
+TEST_P(GridTest, RedRefinementOnThreadsGivesTheGridOfOneThread) {
+  Grid one(GetParam().make()), two(GetParam().make());
+  while (one.numLeafElements() < 16384) {
+    one.refineUniformly(1);
+    two.refineUniformly(2);
+  }
+  expectSameGrid(one, two);
+  Index greenClosed = 0, greenRemoved = 0;
+  for (const double radius : {1.0, 1.2}) {
+    const std::vector<Index> leaves = one.leafElements();
+    ASSERT_EQ(leaves, two.leafElements());
+    for (Index e : leaves)
+      if (one.vertex(one.vertices(e)[0]).norm() < radius) {
+        one.mark(e);
+        two.mark(e);
+      }
+    const AdaptResult r1 = one.adapt(1), r2 = two.adapt(2);
+    EXPECT_GE(r1.redRefined, 2048);  // on threads
+    EXPECT_EQ(r1.redRefined, r2.redRefined);
+    EXPECT_EQ(r1.greenClosed, r2.greenClosed);
+    EXPECT_EQ(r1.greenRemoved, r2.greenRemoved);
+    greenClosed += r1.greenClosed;
+    greenRemoved += r1.greenRemoved;
+    SCOPED_TRACE("radius " + std::to_string(radius));
+    expectSameGrid(one, two);
+    if (::testing::Test::HasFailure()) break;
+  }
+  EXPECT_GT(greenClosed, 0);
+  EXPECT_GT(greenRemoved, 0);
+}
+
+// A uniform refinement of a locally refined grid on threads: every regular element is red from the
+// start (Grid::propagateAllRed), and the leaves of two levels and the green fathers among them give
+// red children of this refinement refined edges from their finer neighbours' children (rule 1), so
+// that the closure has work. The grid of one thread, bit for bit.
+TEST_P(GridTest, UniformRefinementOfALocallyRefinedGridOnThreadsGivesTheGridOfOneThread) {
+  Grid one(GetParam().make()), two(GetParam().make());
+  while (one.numLeafElements() < 2048) {
+    one.refineUniformly(1);
+    two.refineUniformly(1);
+  }
+  for (Index e : one.leafElements())
+    if (one.vertex(one.vertices(e)[0]).norm() < 1.0) {
+      one.mark(e);
+      two.mark(e);
+    }
+  one.adapt(1);
+  two.adapt(1);
+  const AdaptResult r1 = one.refineUniformly(1), r2 = two.refineUniformly(2);
+  EXPECT_GE(r1.redRefined, 2048);  // on threads
+  EXPECT_EQ(r1.propagated, 0);
+  EXPECT_EQ(r1.redRefined, r2.redRefined);
+  EXPECT_EQ(r1.greenClosed, r2.greenClosed);
+  EXPECT_GT(r1.greenClosed, 0);
+  expectSameGrid(one, two);
 }
 
 TEST_P(GridTest, MarkingAGreenLeafRefinesItsFatherRed) {

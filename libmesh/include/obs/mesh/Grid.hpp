@@ -72,6 +72,7 @@
 /// sign), duplicate cells, faces shared by more than two cells, overlapping cells and boundary
 /// faces that are not the face of exactly one cell are obs::Errors naming the cell or face.
 #include <array>
+#include <atomic>
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -208,6 +209,24 @@ public:
     while (cap < 2 * n) cap *= 2;
     if (cap > keys_.size()) rehash(cap);
   }
+  /// insert() for a key that is not in the map, callable from several threads at once after
+  /// reserve(size() + the number of such inserts), with nothing else using the map meanwhile; then
+  /// addToSize(that number). The value must be >= 0: a slot is claimed by setting its value from -1
+  /// (empty) by compare-and-swap. Which slot a key gets may depend on the threads' timing; what
+  /// find() returns does not.
+  void insertAbsentConcurrently(const Key& key, Index value) {
+    const std::size_t mask = keys_.size() - 1;
+    for (std::size_t i = Hash{}(key)&mask;; i = (i + 1) & mask) {
+      std::atomic_ref<Index> slot(values_[i]);
+      Index expected = -1;
+      if (slot.load(std::memory_order_relaxed) == -1 &&
+          slot.compare_exchange_strong(expected, value, std::memory_order_relaxed)) {
+        keys_[i] = key;
+        return;
+      }
+    }
+  }
+  void addToSize(std::size_t n) { size_ += n; }
 
 private:
   void rehash(std::size_t capacity) {
@@ -334,9 +353,13 @@ public:
   unsigned edgePattern(Index e) const;
   void clearMarks();
   /// Refines the marked leaves, propagates and closes (see the file comment); clears the marks.
-  AdaptResult adapt();
-  /// markAll() and adapt().
-  AdaptResult refineUniformly();
+  /// The red refinement of many elements (from 2,048 on), and the propagation of a uniform
+  /// refinement, run on `threads` threads (OpenMP) where no boundary projection is set; the grid is
+  /// the same for any thread count: the same vertices, elements and numbers, bit for bit
+  /// (docs/performance.md#refinement-threads).
+  AdaptResult adapt(int threads = 1);
+  /// markAll() and adapt(threads).
+  AdaptResult refineUniformly(int threads = 1);
 
   // --- views -------------------------------------------------------------------------------------
   std::vector<Index> leafElements() const;
@@ -373,7 +396,14 @@ private:
   GridView makeView(int level) const;
   // GridAdapt.cpp
   void propagate(Context& ctx);
+  void propagateAllRed(Context& ctx, int threads);
+  bool hasEntity(Index g, const std::array<Index, 4>& vs, int k) const;
+  int entityCorners(Index p, int ent, std::array<Index, 4>& vs) const;
+  std::uint32_t fatherEntitiesOfEdges(Index e) const;
   void refineRed(Index e);
+  /// refineRed() of every element of `red` (ascending, regular in ctx) on `threads` threads, with
+  /// the numbers and values of refineRed() called in that order.
+  void refineRedOnThreads(const std::vector<Index>& red, const Context& ctx, int threads);
   void closeGreen(Index e, unsigned pattern, std::vector<LocalChild>& scratch);
   void removeChildren(Index e);
   Index edgeMidpoint(Index e, int localEdge);
