@@ -289,6 +289,20 @@ std::uint32_t Grid::fatherEntitiesOfEdges(Index e) const {
   return bits;
 }
 
+/// f(g) for every regular element g that has one of the entities `bits` of element p (as
+/// fatherEntitiesOfEdges) as an edge or face (once per entity it has).
+template <class F>
+void Grid::forElementsWithEntities(const Context& ctx, Index p, std::uint32_t bits, F&& f) const {
+  while (bits) {
+    const int ent = std::countr_zero(bits);
+    bits &= bits - 1;
+    std::array<Index, 4> vs;
+    const int k = entityCorners(p, ent, vs);
+    for (Index g : ctx.around(vs[0]))
+      if (hasEntity(g, vs, k)) f(g);
+  }
+}
+
 // ------------------------------------------------------------------------------------------------
 void Grid::propagate(Context& ctx) {
   auto push = [&](Index g) {
@@ -334,19 +348,12 @@ void Grid::propagate(Context& ctx) {
     // must be refined in every regular element containing them.
     if (level_[e] == 0) continue;
     const Index p = father_[e];
-    std::uint32_t bits = fatherEntitiesOfEdges(e) & ~ctx.scanned[p];
+    const std::uint32_t bits = fatherEntitiesOfEdges(e) & ~ctx.scanned[p];
     ctx.scanned[p] |= bits;
-    while (bits) {
-      const int ent = std::countr_zero(bits);
-      bits &= bits - 1;
-      std::array<Index, 4> vs;
-      const int k = entityCorners(p, ent, vs);
-      for (Index g : ctx.around(vs[0]))
-        if (hasEntity(g, vs, k)) {
-          ctx.childCheck[g] = 1;
-          push(g);
-        }
-    }
+    forElementsWithEntities(ctx, p, bits, [&](Index g) {
+      ctx.childCheck[g] = 1;
+      push(g);
+    });
   }
 }
 
@@ -371,14 +378,9 @@ void Grid::propagateAllRed(Context& ctx, int threads) {
     std::uint32_t bits = 0;
     for (int k = 0; k < numChildren_[p]; ++k)
       if (const Index c = firstChild_[p] + k; ctx.red[c]) bits |= fatherEntitiesOfEdges(c);
-    while (bits) {
-      const int ent = std::countr_zero(bits);
-      bits &= bits - 1;
-      std::array<Index, 4> vs;
-      const int k = entityCorners(p, ent, vs);
-      for (Index g : ctx.around(vs[0]))
-        if (hasEntity(g, vs, k)) std::atomic_ref<char>(ctx.childCheck[g]).store(1, std::memory_order_relaxed);
-    }
+    forElementsWithEntities(ctx, p, bits, [&](Index g) {
+      std::atomic_ref<char>(ctx.childCheck[g]).store(1, std::memory_order_relaxed);
+    });
   }
 }
 

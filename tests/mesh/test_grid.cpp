@@ -300,6 +300,16 @@ void expectSameGrid(const Grid& a, const Grid& b) {
   EXPECT_EQ(differentElements, 0);
 }
 
+/// Marks the leaves of `one` whose first vertex lies in the ball of `radius` around the origin, in
+/// both grids (which have the same leaves).
+void markBall(Grid& one, Grid& two, double radius) {
+  for (Index e : one.leafElements())
+    if (one.vertex(one.vertices(e)[0]).norm() < radius) {
+      one.mark(e);
+      two.mark(e);
+    }
+}
+
 // The red refinement on threads (adapt(2), from 2,048 red elements on) builds the grid of one
 // thread, bit for bit: uniform refinements to at least 16,384 leaves, then two cycles of local
 // refinement marking the leaves whose first vertex lies in a ball around the origin (radius 1: green
@@ -314,13 +324,8 @@ TEST_P(GridTest, RedRefinementOnThreadsGivesTheGridOfOneThread) {
   expectSameGrid(one, two);
   Index greenClosed = 0, greenRemoved = 0;
   for (const double radius : {1.0, 1.2}) {
-    const std::vector<Index> leaves = one.leafElements();
-    ASSERT_EQ(leaves, two.leafElements());
-    for (Index e : leaves)
-      if (one.vertex(one.vertices(e)[0]).norm() < radius) {
-        one.mark(e);
-        two.mark(e);
-      }
+    ASSERT_EQ(one.leafElements(), two.leafElements());
+    markBall(one, two, radius);
     const AdaptResult r1 = one.adapt(1), r2 = two.adapt(2);
     EXPECT_GE(r1.redRefined, 2048);  // on threads
     EXPECT_EQ(r1.redRefined, r2.redRefined);
@@ -346,11 +351,7 @@ TEST_P(GridTest, UniformRefinementOfALocallyRefinedGridOnThreadsGivesTheGridOfOn
     one.refineUniformly(1);
     two.refineUniformly(1);
   }
-  for (Index e : one.leafElements())
-    if (one.vertex(one.vertices(e)[0]).norm() < 1.0) {
-      one.mark(e);
-      two.mark(e);
-    }
+  markBall(one, two, 1.0);
   one.adapt(1);
   two.adapt(1);
   const AdaptResult r1 = one.refineUniformly(1), r2 = two.refineUniformly(2);

@@ -400,6 +400,8 @@ private:
   bool hasEntity(Index g, const std::array<Index, 4>& vs, int k) const;
   int entityCorners(Index p, int ent, std::array<Index, 4>& vs) const;
   std::uint32_t fatherEntitiesOfEdges(Index e) const;
+  template <class F>
+  void forElementsWithEntities(const Context& ctx, Index p, std::uint32_t bits, F&& f) const;
   void refineRed(Index e);
   /// refineRed() of every element of `red` (ascending, regular in ctx) on `threads` threads, with
   /// the numbers and values of refineRed() called in that order.
