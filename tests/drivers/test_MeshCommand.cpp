@@ -16,9 +16,11 @@ namespace {
 
 const fs::path kTmp = fs::path(OBS_TEST_TMP_DIR) / "mesh_command";
 
-fs::path writeScene(const std::string& type, const std::string& cells, const std::string& upper) {
+/// The scene file kTmp/<name or type>.toml (tests running at once need different names).
+fs::path writeScene(const std::string& type, const std::string& cells, const std::string& upper,
+                    const std::string& name = "") {
   fs::create_directories(kTmp);
-  const fs::path p = kTmp / (type + ".toml");
+  const fs::path p = kTmp / ((name.empty() ? type : name) + ".toml");
   std::ofstream(p) << "[mesh]\ngenerator = \"box\"\ntype = \"" << type << "\"\ncells = " << cells
                    << "\nupper = " << upper << "\n[material]\nE = 1\nnu = 0.3\n[[dirichlet]]\n"
                       "boundary = \"left\"\n";
@@ -68,7 +70,7 @@ INSTANTIATE_TEST_SUITE_P(AllTypes, MeshCommandTest,
 // quarter of the leaves (some 8,000 red elements, green closures): both on threads (from 2,048).
 TEST(MeshCommand, TwoThreadsReportTheGridOfOne) {
   MeshCommandOptions o;
-  o.scene = writeScene("hexahedron", "[16, 16, 16]", "[1.0, 1.0, 1.0]");
+  o.scene = writeScene("hexahedron", "[16, 16, 16]", "[1.0, 1.0, 1.0]", "two_threads");
   o.uniform = 1;
   o.randomCycles = 1;
   o.fraction = 0.25;
