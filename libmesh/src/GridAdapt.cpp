@@ -480,7 +480,8 @@ void Grid::refineRedOnThreads(const std::vector<Index>& red, const Context& ctx,
   // (1) per point: a vertex (>= 0), or -1 - (creator's position * 32 + its local point). An edge
   // point is decided at the edge's smaller vertex, a face point at the face's smallest vertex: of the
   // red elements around that vertex (ascending, so in `red` order) that use the point, the first
-  // creates it. Each entry is written by the vertex of its edge or face only.
+  // creates it. Here every entry is written once, at the corner of its edge or face (each corner
+  // is handled by the first red element around it); below, each element rewrites its own entries.
   std::vector<std::int64_t> source(pointStart[nr], 0);
   const auto entry = [&](Index j, int point) -> std::int64_t& {
     return source[pointStart[j] + static_cast<std::size_t>(point - LocalPoints::of(type_[red[j]]).numCorners)];
