@@ -157,7 +157,12 @@ AdaptResult Grid::adapt(int threads) {
       }
     }
   const std::size_t initiallyRed = ctx.queue.size();
-  if (threads > 1 && initiallyRed >= kRedOnThreadsMin && projections_.empty() &&
+  // on threads where it pays and no boundary projection (a user function) is involved; the same
+  // grid either way
+  const auto onThreads = [&](std::size_t red) {
+    return threads > 1 && red >= kRedOnThreadsMin && projections_.empty();
+  };
+  if (onThreads(initiallyRed) &&
       static_cast<std::size_t>(std::count(ctx.regular.begin(), ctx.regular.end(), 1)) == initiallyRed) {
     propagateAllRed(ctx, threads);  // ctx.newEdges stays empty: refineRedOnThreads() counts them
   } else {
@@ -186,23 +191,15 @@ AdaptResult Grid::adapt(int threads) {
     edgeMidpoints_.reserve(edgeMidpoints_.size() + ctx.newEdges.size());
     faceCentres_.reserve(faceCentres_.size() + quadFaces);
   }
-  // On threads where it pays and no boundary projection (a user function) is involved; the same
-  // grid either way.
-  if (threads > 1 && red.size() >= kRedOnThreadsMin && projections_.empty()) {
-    for (Index e : red)
-      if (refinement_[e] == Refinement::Green) {
-        removeChildren(e);
-        ++result.greenRemoved;
-      }
+  for (Index e : red)  // green fathers lose their green children (refineRed does not read them)
+    if (refinement_[e] == Refinement::Green) {
+      removeChildren(e);
+      ++result.greenRemoved;
+    }
+  if (onThreads(red.size())) {
     refineRedOnThreads(red, ctx, threads);
   } else {
-    for (Index e : red) {
-      if (refinement_[e] == Refinement::Green) {
-        removeChildren(e);
-        ++result.greenRemoved;
-      }
-      refineRed(e);
-    }
+    for (Index e : red) refineRed(e);
   }
   result.redRefined = static_cast<Index>(red.size());
 
@@ -564,11 +561,7 @@ void Grid::refineRedOnThreads(const std::vector<Index>& red, const Context& ctx,
           const auto& le = localEdges(t)[p - lp.numCorners];
           existing = edgeMidpoints_.find(edgeKey(ev[le[0]], ev[le[1]]));
         } else {
-          const LocalFace& f = localFaces(t)[p - lp.numCorners - lp.numEdges];
-          std::array<Index, 4> key{};
-          for (int k = 0; k < 4; ++k) key[k] = ev[f.vertices[k]];
-          std::sort(key.begin(), key.end());
-          existing = faceCentres_.find(key);
+          existing = faceCentres_.find(faceKey(e, p - lp.numCorners - lp.numEdges));
         }
       } else {
         existing = centroids_.find(static_cast<std::uint64_t>(e));
@@ -648,24 +641,11 @@ void Grid::refineRedOnThreads(const std::vector<Index>& red, const Context& ctx,
         Point x;
         bool boundary = false;
         if (p < nvc + lp.numEdges) {  // as edgeMidpoint()
-          const int localEdge = p - nvc;
-          const auto& le = localEdges(t)[localEdge];
-          Index a = ev[le[0]], b = ev[le[1]];
-          if (a > b) std::swap(a, b);
-          x = 0.5 * (x_[a] + x_[b]);
-          ids.clear();
-          if (boundaryVertex_[a] && boundaryVertex_[b]) edgeBoundaryIds(e, localEdge, ids);
+          x = edgePointPosition(e, p - nvc, ids);
           boundary = !ids.empty();
         } else if (p < lp.centroidPoint()) {  // as faceCentre()
           const int localFace = p - nvc - lp.numEdges;
-          const LocalFace& f = localFaces(t)[localFace];
-          std::array<Index, 4> key{};
-          for (int k = 0; k < 4; ++k) key[k] = ev[f.vertices[k]];
-          std::sort(key.begin(), key.end());
-          x = 0.25 * (((x_[key[0]] + x_[key[1]]) + x_[key[2]]) + x_[key[3]]);
-          if (boundaryVertex_[key[0]] && boundaryVertex_[key[1]] && boundaryVertex_[key[2]] &&
-              boundaryVertex_[key[3]])
-            boundary = boundaryId(e, localFace) >= 0;
+          x = facePointPosition(e, localFace, faceKey(e, localFace), boundary);
         } else {  // as centroid()
           x = pointPosition(e, p);
         }
@@ -733,11 +713,7 @@ void Grid::refineRedOnThreads(const std::vector<Index>& red, const Context& ctx,
         const auto& le = localEdges(t)[p - lp.numCorners];
         edgeMidpoints_.insertAbsentConcurrently(edgeKey(ev[le[0]], ev[le[1]]), v);
       } else if (p < lp.centroidPoint()) {
-        const LocalFace& f = localFaces(t)[p - lp.numCorners - lp.numEdges];
-        std::array<Index, 4> key{};
-        for (int k = 0; k < 4; ++k) key[k] = ev[f.vertices[k]];
-        std::sort(key.begin(), key.end());
-        faceCentres_.insertAbsentConcurrently(key, v);
+        faceCentres_.insertAbsentConcurrently(faceKey(e, p - lp.numCorners - lp.numEdges), v);
       } else {
         centroids_.insertAbsentConcurrently(static_cast<std::uint64_t>(e), v);
       }
@@ -791,17 +767,26 @@ void Grid::closeGreen(Index e, unsigned pattern, std::vector<LocalChild>& childr
 // New vertices.
 Index Grid::edgeMidpoint(Index e, int localEdge) {
   const auto& le = localEdges(type_[e])[localEdge];
-  Index a = vertices(e)[le[0]], b = vertices(e)[le[1]];
-  const std::uint64_t key = edgeKey(a, b);
+  const std::uint64_t key = edgeKey(vertices(e)[le[0]], vertices(e)[le[1]]);
   if (const Index m = edgeMidpoints_.find(key); m >= 0) return m;
-  if (a > b) std::swap(a, b);
-  Point x = 0.5 * (x_[a] + x_[b]);
   std::vector<int> ids;
-  if (boundaryVertex_[a] && boundaryVertex_[b]) edgeBoundaryIds(e, localEdge, ids);
-  if (!ids.empty() && !projections_.empty()) x = project(x, ids);
+  const Point x = edgePointPosition(e, localEdge, ids);
   const Index m = addVertex(x, e, LocalPoints::of(type_[e]).edgePoint(localEdge), !ids.empty());
   edgeMidpoints_.insert(key, m);
   return m;
+}
+
+/// The midpoint of edge localEdge of e (projected where the edge lies on a boundary with a
+/// projection), and in ids the boundary ids of the edge: the vertex edgeMidpoint() creates.
+Point Grid::edgePointPosition(Index e, int localEdge, std::vector<int>& ids) const {
+  const auto& le = localEdges(type_[e])[localEdge];
+  Index a = vertices(e)[le[0]], b = vertices(e)[le[1]];
+  if (a > b) std::swap(a, b);
+  Point x = 0.5 * (x_[a] + x_[b]);
+  ids.clear();
+  if (boundaryVertex_[a] && boundaryVertex_[b]) edgeBoundaryIds(e, localEdge, ids);
+  if (!ids.empty() && !projections_.empty()) x = project(x, ids);
+  return x;
 }
 
 /// Boundary ids of the boundary faces containing an edge, found through the hierarchy (the
@@ -833,23 +818,36 @@ void Grid::edgeBoundaryIds(Index e, int localEdge, std::vector<int>& ids) const 
 }
 
 Index Grid::faceCentre(Index e, int localFace) {
+  const std::array<Index, 4> key = faceKey(e, localFace);
+  if (const Index c = faceCentres_.find(key); c >= 0) return c;
+  bool boundary = false;
+  const Point x = facePointPosition(e, localFace, key, boundary);
+  const Index c = addVertex(x, e, LocalPoints::of(type_[e]).facePoint(localFace), boundary);
+  faceCentres_.insert(key, c);
+  return c;
+}
+
+/// The corners of quadrilateral face localFace of e, ascending: the key of its centre.
+std::array<Index, 4> Grid::faceKey(Index e, int localFace) const {
   const LocalFace& f = localFaces(type_[e])[localFace];
   std::array<Index, 4> key{};
   for (int k = 0; k < 4; ++k) key[k] = vertices(e)[f.vertices[k]];
   for (int i = 1; i < 4; ++i)  // insertion sort of 4
     for (int j = i; j > 0 && key[j - 1] > key[j]; --j) std::swap(key[j - 1], key[j]);
-  if (const Index c = faceCentres_.find(key); c >= 0) return c;
+  return key;
+}
+
+/// The centre of quadrilateral face localFace of e (key: faceKey), projected where the face lies on
+/// a boundary with a projection, and whether it lies on the boundary: the vertex faceCentre() creates.
+Point Grid::facePointPosition(Index e, int localFace, const std::array<Index, 4>& key, bool& boundary) const {
   Point x = 0.25 * (((x_[key[0]] + x_[key[1]]) + x_[key[2]]) + x_[key[3]]);
-  bool boundary = false;
-  if (boundaryVertex_[key[0]] && boundaryVertex_[key[1]] && boundaryVertex_[key[2]] &&
-      boundaryVertex_[key[3]]) {
+  boundary = false;
+  if (boundaryVertex_[key[0]] && boundaryVertex_[key[1]] && boundaryVertex_[key[2]] && boundaryVertex_[key[3]]) {
     const int id = boundaryId(e, localFace);
     boundary = id >= 0;
     if (boundary && !projections_.empty()) x = project(x, {id});
   }
-  const Index c = addVertex(x, e, LocalPoints::of(type_[e]).facePoint(localFace), boundary);
-  faceCentres_.insert(key, c);
-  return c;
+  return x;
 }
 
 Index Grid::centroid(Index e) {

@@ -411,6 +411,9 @@ private:
   Index edgeMidpoint(Index e, int localEdge);
   void edgeBoundaryIds(Index e, int localEdge, std::vector<int>& ids) const;
   Index faceCentre(Index e, int localFace);
+  Point edgePointPosition(Index e, int localEdge, std::vector<int>& ids) const;
+  std::array<Index, 4> faceKey(Index e, int localFace) const;
+  Point facePointPosition(Index e, int localFace, const std::array<Index, 4>& key, bool& boundary) const;
   Index centroid(Index e);
   Point project(const Point& x, const std::vector<int>& ids) const;
   // GridClosure.cpp: the closure rules, in local points
