@@ -216,11 +216,12 @@ TEST(TwoBodyAdaptivity, CylinderOnBlockRefinesBothBodiesAtTheContactZone) {
                 1e-12 * s.eta * s.eta);
     EXPECT_EQ(s.vertices, s.bodies[0].vertices + s.bodies[1].vertices);
     // TNNMG to 1e-12: 38 iterations at step 4 before coarse components without fine support were
-    // truncated on the coarser levels (docs/verification.md#adaptive-two-body-contact). The largest
-    // count now depends on OpenBLAS' kernel through the round-off of the coarse CHOLMOD solve: 22 with
-    // the Haswell, Sandybridge and Prescott kernels, 23 with SkylakeX (OPENBLAS_CORETYPE=...; the
-    // AVX-512 machines pick it), so the bound leaves one iteration above the largest measured
-    EXPECT_LE(s.solverIterations, 24);
+    // truncated on the coarser levels (docs/verification.md#adaptive-two-body-contact); 20 .. 25,
+    // depending on OpenBLAS' kernel, while the Gauss-Seidel smoother inverted diagonal blocks that
+    // are singular up to round-off (eigenvalues 1e-17 of the largest; TruncatedGaussSeidel::update).
+    // Now 14, 13, 14, 16, 15 on every kernel (scripts/blas-kernels): one iteration of margin
+    EXPECT_LE(s.solverIterations, 17);
+    if (std::getenv("OBS_TEST_VERBOSE")) std::cout << "step " << s.step << ": TNNMG " << s.solverIterations << " iterations\n";
   }
   // both bodies are refined, the estimate decreases
   Index markedBlock = 0, markedCylinder = 0;

@@ -77,9 +77,18 @@ private:
     }
     Mat W;
     const Eigen::LLT<Mat> llt(D);
-    if (llt.info() == Eigen::Success && D.diagonal().minCoeff() > 0) {
+    bool regular = llt.info() == Eigen::Success && D.diagonal().minCoeff() > 0;
+    if (regular) {
       W = llt.solve(Mat::Identity());
-    } else {
+      // A block that is singular in exact arithmetic often passes the factorisation with a pivot of
+      // round-off size (eigenvalues 1e-17 of the largest, seen on the truncated coarse levels of
+      // two-body problems); its inverse would amplify the round-off of every sweep by 1e17 and make
+      // the iterates depend on the last bits of the input (on the BLAS kernel of the coarse solve).
+      // ||D||_F ||W||_F >= cond_2(D): up to 1e12 every eigenvalue is above the cut of the
+      // pseudo-inverse below, which then equals the inverse, so the inverse is kept as it is.
+      regular = D.norm() * W.norm() <= 1e12;
+    }
+    if (!regular) {
       // a positive semidefinite block (possible on truncated coarse levels: a combination of the
       // vertex's components with a zero fine prolongation): pseudo-inverse
       const Eigen::SelfAdjointEigenSolver<Mat> eig(D);
