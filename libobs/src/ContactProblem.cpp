@@ -78,14 +78,28 @@ ContactProblem<d>::ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorX
 
 namespace {
 
-/// y = (I + C') x for a scalar C acting on every component (d components per vertex).
+/// x_p with the components of `skip[p]` (bit a: component a) zeroed; x_p itself without skips.
 template <int d>
-Eigen::VectorXd applyTransposedBasis(const mesh::CsrMatrix& C, const Eigen::VectorXd& x) {
+Eigen::Matrix<double, d, 1> transformedPart(const Eigen::VectorXd& x, Index p, const std::vector<std::uint8_t>& skip) {
+  Eigen::Matrix<double, d, 1> v = x.template segment<d>(static_cast<Eigen::Index>(p) * d);
+  if (!skip.empty() && skip[p])
+    for (int a = 0; a < d; ++a)
+      if (skip[p] & (1u << a)) v[a] = 0;
+  return v;
+}
+
+/// y = (I + C') x for a scalar C acting on every component (d components per vertex) but the
+/// components of row p that skip[p] exempts (see ContactProblem::basisSkip()).
+template <int d>
+Eigen::VectorXd applyTransposedBasis(const mesh::CsrMatrix& C, const std::vector<std::uint8_t>& skip,
+                                     const Eigen::VectorXd& x) {
   Eigen::VectorXd y = x;
-  for (Index p = 0; p < C.rows; ++p)
+  for (Index p = 0; p < C.rows; ++p) {
+    if (C.rowStart[p + 1] == C.rowStart[p]) continue;
+    const Eigen::Matrix<double, d, 1> xp = transformedPart<d>(x, p, skip);
     for (Index k = C.rowStart[p]; k < C.rowStart[p + 1]; ++k)
-      y.template segment<d>(static_cast<Eigen::Index>(C.columns[k]) * d) +=
-          C.values[k] * x.template segment<d>(static_cast<Eigen::Index>(p) * d);
+      y.template segment<d>(static_cast<Eigen::Index>(C.columns[k]) * d) += C.values[k] * xp;
+  }
   return y;
 }
 
@@ -125,8 +139,18 @@ struct RowAccumulator {
 /// T'AT with T = I + C (C scalar, acting on every component). Only the rows next to transformed
 /// (slave) vertices and the rows of master vertices change; all others are copied.
 template <int d>
-BlockSparseMatrix<d> transformOperator(const BlockSparseMatrix<d>& A, const mesh::CsrMatrix& C) {
+BlockSparseMatrix<d> transformOperator(const BlockSparseMatrix<d>& A, const mesh::CsrMatrix& C,
+                                       const std::vector<std::uint8_t>& skip) {
   using Block = Eigen::Matrix<double, d, d>;
+  // T = I + C (x) F with F_s = diag(components of row s the transformation acts on): identity
+  // unless skip[s] exempts components (then the columns / rows of those are left out)
+  const auto exempt = [&](Index s) { return !skip.empty() && skip[s] != 0; };
+  const auto F = [&](Index s) {
+    Block f = Block::Identity();
+    for (int a = 0; a < d; ++a)
+      if (skip[s] & (1u << a)) f(a, a) = 0;
+    return f;
+  };
   const Index n = A.rows();
   std::vector<char> slave(n, 0), master(n, 0);
   for (Index r = 0; r < n; ++r)
@@ -153,7 +177,9 @@ BlockSparseMatrix<d> transformOperator(const BlockSparseMatrix<d>& A, const mesh
     for (Index k = A.rowBegin(r); k < A.rowEnd(r); ++k) {
       const Index s = A.column(k);
       acc.add(s, A.blockAt(k));
-      for (Index m = C.rowStart[s]; m < C.rowStart[s + 1]; ++m) acc.add(C.columns[m], C.values[m] * A.blockAt(k));
+      if (C.rowStart[s + 1] == C.rowStart[s]) continue;
+      const Block As = exempt(s) ? Block(A.blockAt(k) * F(s)) : Block(A.blockAt(k));
+      for (Index m = C.rowStart[s]; m < C.rowStart[s + 1]; ++m) acc.add(C.columns[m], C.values[m] * As);
     }
     acc.flush(bStart, bCols, bVals);
   }
@@ -191,7 +217,12 @@ BlockSparseMatrix<d> transformOperator(const BlockSparseMatrix<d>& A, const mesh
     for (Index k = bStart[p]; k < bStart[p + 1]; ++k) acc.add(bCols[k], bVals[k]);
     for (Index m = tStart[p]; m < tStart[p + 1]; ++m) {
       const Index r = tRows[m];
-      for (Index k = bStart[r]; k < bStart[r + 1]; ++k) acc.add(bCols[k], tVals[m] * bVals[k]);
+      if (exempt(r)) {
+        const Block Fr = F(r);
+        for (Index k = bStart[r]; k < bStart[r + 1]; ++k) acc.add(bCols[k], tVals[m] * Block(Fr * bVals[k]));
+      } else {
+        for (Index k = bStart[r]; k < bStart[r + 1]; ++k) acc.add(bCols[k], tVals[m] * bVals[k]);
+      }
     }
     acc.flush(rowStart, cols, vals);
   }
@@ -209,13 +240,31 @@ void ContactProblem<d>::transform(BlockSparseMatrix<d>& A) {
   if (C.rows != n || C.cols != n || C.rowStart.size() != static_cast<std::size_t>(n) + 1)
     throw Error("contact problem: basis transformation of size " + std::to_string(C.rows) + " x " +
                 std::to_string(C.cols) + " for " + std::to_string(n) + " vertices");
+  // Dirichlet components at transformed (slave) vertices: as for one body, a prescribed component
+  // orthogonal to the constraint direction is allowed (a roller side meeting the contact surface).
+  // The transformation then leaves that component alone (u_{p,a} = x_{p,a}, so the value is a
+  // Dirichlet value of x as well), which does not change the constraint n_p.(D u_p - sum M u_q):
+  // its n_{p,a} is zero. A component with n_{p,a} != 0 would tie x_{p,a} to the master unknowns.
+  std::vector<Index> constraintOf(static_cast<std::size_t>(n), -1);
+  for (Index k = 0; k < contact_.size(); ++k) constraintOf[contact_.vertex(k)] = k;
+  skip_.clear();
   for (Index p = 0; p < n; ++p) {
     if (C.rowStart[p + 1] == C.rowStart[p]) continue;
-    for (int a = 0; a < d; ++a)
-      if (dirichlet_.constrained[static_cast<std::size_t>(p) * d + a])
-        throw Error("contact problem: vertex " + std::to_string(p) +
-                    " is a mortar slave node with a Dirichlet condition (prescribe Dirichlet data on the master "
-                    "side or away from the contact interface)");
+    for (int a = 0; a < d; ++a) {
+      if (!dirichlet_.constrained[static_cast<std::size_t>(p) * d + a]) continue;
+      const Index k = constraintOf[p];
+      const double na = k >= 0 ? contact_.direction(k)[a] : 1.0;
+      if (!(std::abs(na) <= 1e-10)) {
+        std::ostringstream os;
+        os << "contact problem: vertex " << p << " is a mortar slave node whose prescribed component "
+           << "xyz"[a] << " is not orthogonal to its contact normal (normal component " << na
+           << "); prescribe only components orthogonal to the contact surface there (rollers), or move the "
+              "Dirichlet data to the master side or away from the contact interface";
+        throw Error(os.str());
+      }
+      if (skip_.empty()) skip_.assign(static_cast<std::size_t>(n), 0);
+      skip_[p] |= static_cast<std::uint8_t>(1u << a);
+    }
     for (Index k = C.rowStart[p]; k < C.rowStart[p + 1]; ++k) {
       const Index q = C.columns[k];
       if (q < 0 || q >= n || C.rowStart[q + 1] != C.rowStart[q] || !std::isfinite(C.values[k]))
@@ -223,30 +272,48 @@ void ContactProblem<d>::transform(BlockSparseMatrix<d>& A) {
                     "non-finite entry in row " + std::to_string(p) + ")");
     }
   }
-  A = transformOperator(A, C);
-  b_ = applyTransposedBasis<d>(C, b_);
+  A = transformOperator(A, C, skip_);
+  b_ = applyTransposedBasis<d>(C, skip_, b_);
 }
 
 template <int d>
 Eigen::VectorXd ContactProblem<d>::toDisplacement(const Eigen::VectorXd& x) const {
-  Eigen::VectorXd u = x;
-  const mesh::CsrMatrix& C = basis_;
-  for (Index p = 0; p < C.rows; ++p)
-    for (Index k = C.rowStart[p]; k < C.rowStart[p + 1]; ++k)
-      u.template segment<d>(static_cast<Eigen::Index>(p) * d) +=
-          C.values[k] * x.template segment<d>(static_cast<Eigen::Index>(C.columns[k]) * d);
-  return u;
+  return applyBasis(x, 1.0);
 }
 
 template <int d>
 Eigen::VectorXd ContactProblem<d>::fromDisplacement(const Eigen::VectorXd& u) const {
-  Eigen::VectorXd x = u;
+  return applyBasis(u, -1.0);  // (I + C)^{-1} = I - C, as C^2 = 0
+}
+
+template <int d>
+Eigen::VectorXd ContactProblem<d>::applyBasis(const Eigen::VectorXd& x, double sign) const {
+  Eigen::VectorXd u = x;
   const mesh::CsrMatrix& C = basis_;
-  for (Index p = 0; p < C.rows; ++p)
+  for (Index p = 0; p < C.rows; ++p) {
+    if (C.rowStart[p + 1] == C.rowStart[p]) continue;
+    Eigen::Matrix<double, d, 1> sum = Eigen::Matrix<double, d, 1>::Zero();
     for (Index k = C.rowStart[p]; k < C.rowStart[p + 1]; ++k)
-      x.template segment<d>(static_cast<Eigen::Index>(p) * d) -=
-          C.values[k] * u.template segment<d>(static_cast<Eigen::Index>(C.columns[k]) * d);
-  return x;
+      sum += C.values[k] * x.template segment<d>(static_cast<Eigen::Index>(C.columns[k]) * d);
+    if (!skip_.empty() && skip_[p])
+      for (int a = 0; a < d; ++a)
+        if (skip_[p] & (1u << a)) sum[a] = 0;
+    u.template segment<d>(static_cast<Eigen::Index>(p) * d) += sign * sum;
+  }
+  return u;
+}
+
+template <int d>
+Eigen::VectorXd ContactProblem<d>::applyInverseTransposedBasis(const Eigen::VectorXd& y) const {
+  Eigen::VectorXd f = y;
+  const mesh::CsrMatrix& C = basis_;
+  for (Index p = 0; p < C.rows; ++p) {
+    if (C.rowStart[p + 1] == C.rowStart[p]) continue;
+    const Eigen::Matrix<double, d, 1> yp = transformedPart<d>(y, p, skip_);
+    for (Index k = C.rowStart[p]; k < C.rowStart[p + 1]; ++k)
+      f.template segment<d>(static_cast<Eigen::Index>(C.columns[k]) * d) -= C.values[k] * yp;
+  }
+  return f;
 }
 
 template <int d>
@@ -451,7 +518,7 @@ void ContactProblem<d>::setLoad(const Eigen::VectorXd& load) {
   if (load.size() != b_.size())
     throw Error("contact problem: setLoad with " + std::to_string(load.size()) + " entries, the problem has " +
                 std::to_string(b_.size()) + " unknowns");
-  b_ = (transformed() ? applyTransposedBasis<d>(basis_, load) : load) - dirichletLift_;
+  b_ = (transformed() ? applyTransposedBasis<d>(basis_, skip_, load) : load) - dirichletLift_;
   for (std::size_t i = 0; i < dirichlet_.constrained.size(); ++i)
     if (dirichlet_.constrained[i]) b_[static_cast<Eigen::Index>(i)] = dirichlet_.values[static_cast<Eigen::Index>(i)];
 }

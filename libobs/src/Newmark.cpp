@@ -325,7 +325,8 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
   for (Index k = 0; k < contact.size(); ++k) gaps_[static_cast<std::size_t>(k)] = contact.gap(k);
   multiplierFactor_ = scheme == NewmarkScheme::Classical ? 0.25 : 0.5;
 
-  // mortar: the rows of B for the predictor (slave vertices carry no Dirichlet component)
+  // mortar: the rows of B for the predictor (a Dirichlet component of a slave vertex is orthogonal
+  // to its direction, ContactProblem::basisSkip(), so it adds nothing to the row)
   if (basis_.rows > 0) {
     rows_.resize(constraints_.size());
     for (std::size_t k = 0; k < constraints_.size(); ++k) {
@@ -359,12 +360,7 @@ Eigen::VectorXd NewmarkFamily<d>::relative(const Eigen::VectorXd& u) const {
 
 template <int d>
 Eigen::VectorXd NewmarkFamily<d>::physicalForce(const Eigen::VectorXd& y) const {
-  Eigen::VectorXd f = y;
-  for (Index p = 0; p < basis_.rows; ++p)
-    for (Index m = basis_.rowStart[p]; m < basis_.rowStart[p + 1]; ++m)
-      f.template segment<d>(static_cast<Eigen::Index>(basis_.columns[m]) * d) -=
-          basis_.values[m] * y.template segment<d>(static_cast<Eigen::Index>(p) * d);
-  return f;
+  return problem_->applyInverseTransposedBasis(y);
 }
 
 template <int d>

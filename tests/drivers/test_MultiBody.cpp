@@ -74,6 +74,74 @@ TEST(MultiBodyScene, PatchSceneTransmitsConstantPressureExactly) {
   EXPECT_NE(pvd.find("part=\"1\" file=\"twobody_patch_upper.vtu\""), std::string::npos) << pvd;
 }
 
+TEST(MultiBodyScene, RollersOnTheSlaveSideMeetTheContactZone) {
+  // step-42 with the rigid ball replaced by a meshed elastic ball as master: the cube's top face is
+  // the slave surface and the search distance reaches its edges, whose vertices sit on the roller
+  // sides (u_x, u_y prescribed, orthogonal to the contact normal e_z): allowed as for one body
+  fs::create_directories(kTmp);
+  const fs::path scene = kTmp / "step42_meshed_ball.toml";
+  std::ofstream(scene) << R"(
+[[body]]
+name = "cube"
+[body.mesh]
+generator = "box"
+type = "hexahedron"
+cells = [4, 4, 4]
+lower = [0, 0, 0]
+upper = [1, 1, 1]
+refine = 1
+[body.material]
+E = 2e5
+nu = 0.3
+[[body.dirichlet]]
+boundary = "bottom"
+[[body.dirichlet]]
+boundary = "left"
+components = ["x", "y"]
+[[body.dirichlet]]
+boundary = "right"
+components = ["x", "y"]
+[[body.dirichlet]]
+boundary = "front"
+components = ["x", "y"]
+[[body.dirichlet]]
+boundary = "back"
+components = ["x", "y"]
+
+[[body]]
+name = "ball"
+[body.mesh]
+generator = "half_ball"
+type = "hexahedron"
+centre = [0.5, 0.5, 1.6]
+radius = 0.6
+cells = 2
+refine = 1
+[body.material]
+E = 2e5
+nu = 0.3
+[[body.dirichlet]]
+boundary = "top"
+value = [0, 0, -0.01]
+
+[[contact]]
+slave = { body = "cube", boundary = "top" }
+master = { body = "ball", boundary = "surface" }
+search_distance = 2.0
+)";
+  const RunResult r = run(scene, "step42_meshed_ball");
+  ASSERT_EQ(r.pairs.size(), 1u);
+  const PairReport& p = r.pairs.front();
+  // the top face has 9 x 9 vertices, 7 x 7 off its edges: more than 49 constrained means slave
+  // vertices on the roller sides have constraints (69: all but the 12 next to the corners, which the
+  // ball's shadow of radius 0.6 does not cover)
+  EXPECT_GT(p.potentialVertices, 49);
+  EXPECT_GT(p.actualVertices, 0);
+  EXPECT_GT(p.load, 0);
+  for (int a = 0; a < 3; ++a) EXPECT_NEAR(p.forceSlave[a] + p.forceMaster[a], 0.0, 1e-10 * p.load);
+  EXPECT_LT(p.forceSlave[2], 0);  // the ball pushes the cube down
+}
+
 TEST(MultiBodyScene, CylinderSceneTnnmgAgreesWithPdas) {
   RunOptions o;  // --refine 2 for both bodies
   o.refine = 2;
@@ -532,7 +600,7 @@ friction = 0.3
   free = free.substr(0, free.find("[[body.dirichlet]]"));
   expect(kLower + free + kPair, "(in [[body]] 'upper')");
   // a Dirichlet condition on the slave side of the interface
-  expect(kLower + upper("[0.0, 0.5]", "[1.0, 1.0]", "bottom") + kPair, "mortar slave node with a Dirichlet condition",
+  expect(kLower + upper("[0.0, 0.5]", "[1.0, 1.0]", "bottom") + kPair, "not orthogonal to its contact normal",
          true);
 }
 

@@ -3,7 +3,9 @@
 #   2. configure CONSUMER_SOURCE_DIR in CONSUMER_BINARY_DIR with CMAKE_PREFIX_PATH=PREFIX,
 #   3. build it, 4. run its programs and require OK_PATTERN in the output of each.
 # Every failing step stops the test with the command and its full output.
-# Optional: CONFIG (build configuration), GENERATOR, MAKE_PROGRAM, CXX_COMPILER; EXECUTABLES, the
+# Optional: CONFIG (build configuration), GENERATOR, MAKE_PROGRAM, CXX_COMPILER; CXX_FLAGS and
+# EXE_LINKER_FLAGS, the flags obs was built with (a sanitizer build's consumers must link the same
+# sanitizer runtime, first in the library list); EXECUTABLES, the
 # programs to run, comma-separated (default: consumer); OK_PATTERN, the regular expression each
 # program's output must match (default: embedding ok).
 cmake_minimum_required(VERSION 3.25)
@@ -51,7 +53,13 @@ if(NOT "${GENERATOR}" STREQUAL "")
 endif()
 set(compiler_args "")
 if(NOT "${CXX_COMPILER}" STREQUAL "")
-  set(compiler_args "-DCMAKE_CXX_COMPILER=${CXX_COMPILER}")
+  list(APPEND compiler_args "-DCMAKE_CXX_COMPILER=${CXX_COMPILER}")
+endif()
+if(NOT "${CXX_FLAGS}" STREQUAL "")
+  list(APPEND compiler_args "-DCMAKE_CXX_FLAGS=${CXX_FLAGS}")
+endif()
+if(NOT "${EXE_LINKER_FLAGS}" STREQUAL "")
+  list(APPEND compiler_args "-DCMAKE_EXE_LINKER_FLAGS=${EXE_LINKER_FLAGS}")
 endif()
 
 # Start from nothing so that stale files of an earlier run cannot hide a packaging error.

@@ -5,8 +5,12 @@
 // iteration counts under refinement, matching meshes against directly glued nodes, and bad input.
 #include <gtest/gtest.h>
 
+#include <Eigen/Geometry>
+
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
+#include <iomanip>
 #include <iostream>
 #include <limits>
 #include <memory>
@@ -59,7 +63,11 @@ struct StackedBlocks {
   std::unique_ptr<MortarCoupling> coupling;
   std::unique_ptr<ContactProblem<d>> problem;
 
-  StackedBlocks(CellType lowerType, int nLower, CellType upperType, int nUpper, int levels, int extraLowerLevels = 0)
+  /// slaveRollers: the upper (slave) block's sides x = 0 (and y = 0 in 3D) on rollers, so that the slave
+  /// nodes on those sides carry a Dirichlet component orthogonal to the contact normal (the exact
+  /// solution, lateral strain times x, is zero there)
+  StackedBlocks(CellType lowerType, int nLower, CellType upperType, int nUpper, int levels, int extraLowerLevels = 0,
+                bool slaveRollers = false)
       : lower(mesh::boxMesh(lowerType, nLower)),
         upper(shifted(mesh::boxMesh(upperType, nUpper), d == 2 ? Point(0, 1, 0) : Point(0, 0, 1))) {
     for (int l = 0; l < levels; ++l) upper.refineUniformly();
@@ -72,6 +80,10 @@ struct StackedBlocks {
     bl.dirichlet.push_back({mesh::kBottom, normalOnly});
     const double pressure = p;
     bu.neumann.push_back({mesh::kTop, {}, [pressure](const Point&) { return pressure; }});
+    if (slaveRollers) {
+      bu.dirichlet.push_back({mesh::kLeft, {true, false, false}});
+      if (d == 3) bu.dirichlet.push_back({mesh::kFront, {false, true, false}});
+    }
     auto sl = assembleBody<d>(ml, lowerMaterial, bl);
     auto su = assembleBody<d>(mu, upperMaterial, bu);
     if (d == 2) {
@@ -246,12 +258,194 @@ INSTANTIATE_TEST_SUITE_P(FaceTypes, MortarPatch3D,
                                   std::string(mesh::name(c.upper)) + std::to_string(c.nUpper);
                          });
 
+// --- patch test on distorted and inclined interfaces ---------------------------------------------
+
+/// Two blocks as in StackedBlocks, with the vertices of both meshes moved within the interface plane
+/// (every vertex off the blocks' sides by its own pseudo-random offset of up to `distortion` times
+/// the mesh size per component, the same for a whole column, so that the interface faces stay planar
+/// but the quadrilaterals are no longer parallelograms), then the whole geometry rotated (inclined:
+/// the interface normal is no coordinate axis). Both blocks are held by the exact solution on their
+/// far faces (lower bottom, upper top), so the discrete problem reproduces the linear solution of
+/// uniaxial stress p exactly if and only if the coupling is exact on these faces.
+struct DistortedBlocks {
+  mesh::Mesh lower, upper;
+  Material lowerMaterial{2e5, 0.3}, upperMaterial{1e5, 0.25};
+  double p = 10;
+  Eigen::Matrix3d R = Eigen::Matrix3d::Identity();
+  BodySystem<3> system;
+  std::vector<Index> offsets;
+  std::unique_ptr<MortarCoupling> coupling;
+  std::unique_ptr<ContactProblem<3>> problem;
+
+  /// Exact displacement at the unrotated point y (lower block: y_z <= 1).
+  Point exactAt(const Point& y, bool upperBlock) const {
+    const Material& m = upperBlock ? upperMaterial : lowerMaterial;
+    const double lateral = m.poissonRatio * p / m.youngsModulus, normal = -p / m.youngsModulus;
+    const double lowerNormal = -p / lowerMaterial.youngsModulus;
+    return Point(lateral * y[0], lateral * y[1], upperBlock ? lowerNormal + normal * (y[2] - 1) : normal * y[2]);
+  }
+
+  static void distort(mesh::Mesh& m, int n, double distortion, unsigned seed) {
+    const double h = 1.0 / n;
+    for (Index v = 0; v < m.numVertices(); ++v) {
+      Point& x = m.vertex(v);
+      if (x[0] < 1e-12 || x[0] > 1 - 1e-12 || x[1] < 1e-12 || x[1] > 1 - 1e-12) continue;
+      // SplitMix64 of the column (i, j) and the seed: the same offset for every vertex of a column
+      std::uint64_t z = (static_cast<std::uint64_t>(std::lround(x[0] * n)) * 1000003u +
+                         static_cast<std::uint64_t>(std::lround(x[1] * n))) * 7919u + seed;
+      auto next = [&z]() {
+        z += 0x9e3779b97f4a7c15ull;
+        std::uint64_t r = z;
+        r = (r ^ (r >> 30)) * 0xbf58476d1ce4e5b9ull;
+        r = (r ^ (r >> 27)) * 0x94d049bb133111ebull;
+        return static_cast<double>((r ^ (r >> 31)) >> 11) * 0x1.0p-53 * 2 - 1;  // in [-1, 1)
+      };
+      const double dx = next(), dy = next();
+      x[0] += distortion * h * dx;
+      x[1] += distortion * h * dy;
+    }
+  }
+
+  DistortedBlocks(CellType lowerType, int nLower, CellType upperType, int nUpper, double distortion, unsigned seed,
+                  bool inclined)
+      : lower(mesh::boxMesh(lowerType, nLower)), upper(shifted(mesh::boxMesh(upperType, nUpper), Point(0, 0, 1))) {
+    distort(lower, nLower, distortion, seed);
+    distort(upper, nUpper, distortion, seed + 1);
+    if (inclined) R = Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+    for (mesh::Mesh* m : {&lower, &upper})
+      for (Index v = 0; v < m->numVertices(); ++v) m->vertex(v) = R * m->vertex(v);
+    const Eigen::Matrix3d Rt = R.transpose();
+    BoundaryConditions bl, bu;
+    bl.dirichlet.push_back({mesh::kBottom, {true, true, true}, [this, Rt](const Point& x) { return Point(R * exactAt(Rt * x, false)); }});
+    bu.dirichlet.push_back({mesh::kTop, {true, true, true}, [this, Rt](const Point& x) { return Point(R * exactAt(Rt * x, true)); }});
+    system = stackBodies<3>({assembleBody<3>(lower, lowerMaterial, bl), assembleBody<3>(upper, upperMaterial, bu)}, &offsets);
+    coupling = std::make_unique<MortarCoupling>(MortarSurface{&upper, mesh::kBottom, offsets[1], "upper bottom"},
+                                                MortarSurface{&lower, mesh::kTop, offsets[0], "lower top"},
+                                                system.numVertices());
+    problem = std::make_unique<ContactProblem<3>>(system.stiffness, system.load, system.dirichlet,
+                                                  coupling->contactSet(), coupling->transformation());
+  }
+
+  Eigen::VectorXd exact() const {
+    Eigen::VectorXd u(system.load.size());
+    const Eigen::Matrix3d Rt = R.transpose();
+    for (Index v = 0; v < lower.numVertices(); ++v) u.segment<3>((offsets[0] + v) * 3) = R * exactAt(Rt * lower.vertex(v), false);
+    for (Index v = 0; v < upper.numVertices(); ++v) u.segment<3>((offsets[1] + v) * 3) = R * exactAt(Rt * upper.vertex(v), true);
+    return u;
+  }
+};
+
+struct DistortedCase {
+  CellType lower;
+  int nLower;
+  CellType upper;
+  int nUpper;
+  unsigned seed;
+  bool inclined;
+  double distortion = 0.3;  ///< largest move per component, in mesh sizes
+};
+void PrintTo(const DistortedCase& c, std::ostream* os) {
+  *os << mesh::name(c.lower) << " " << c.nLower << " / " << mesh::name(c.upper) << " " << c.nUpper << ", seed "
+      << c.seed << (c.inclined ? ", inclined" : "") << ", distortion " << c.distortion;
+}
+
+class MortarPatchDistorted : public ::testing::TestWithParam<DistortedCase> {};
+
+TEST_P(MortarPatchDistorted, ConstantPressureAndLinearDisplacementExact) {
+  const DistortedCase c = GetParam();
+  DistortedBlocks s(c.lower, c.nLower, c.upper, c.nUpper, c.distortion, c.seed, c.inclined);
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(s.system.load.size());
+  PrimalDualActiveSet<3> pdas;
+  const ContactResult r = pdas.solve(*s.problem, x);
+  ASSERT_TRUE(r.converged);
+  const Eigen::VectorXd u = s.problem->toDisplacement(x), ue = s.exact();
+  const ContactOutputs out = computeContactOutputs(*s.problem, x);
+  EXPECT_EQ(out.contactNodes, s.coupling->size());
+  double pmin = 1e300, pmax = -1e300;
+  for (double pk : out.pressure) {
+    pmin = std::min(pmin, pk);
+    pmax = std::max(pmax, pk);
+  }
+  // exact up to the round-off of the solve: 1e-10 relative (the pressure of a coupling with a
+  // quadrature error on these faces is off by 1e-7 .. 1e-6)
+  EXPECT_NEAR(pmin, s.p, 1e-10 * s.p);
+  EXPECT_NEAR(pmax, s.p, 1e-10 * s.p);
+  EXPECT_LE((u - ue).lpNorm<Eigen::Infinity>(), 1e-10 * ue.lpNorm<Eigen::Infinity>());
+  if (verbose())
+    std::cout << "pressure " << std::setprecision(12) << pmin << " .. " << pmax << ", |u - u_exact| / |u| "
+              << (u - ue).lpNorm<Eigen::Infinity>() / ue.lpNorm<Eigen::Infinity>() << "\n";
+}
+
+// slave (upper) / master (lower): distorted quadrilaterals over triangles and over distorted
+// quadrilaterals, triangles over distorted quadrilaterals; flat and inclined; several seeds; moves of
+// 0.3 h (non-affinity up to 0.5) and, in the last three, 0.1 h and 0.03 h (the quadrature degree of
+// MortarCoupling depends on the non-affinity of the faces)
+INSTANTIATE_TEST_SUITE_P(
+    FaceTypes, MortarPatchDistorted,
+    ::testing::Values(DistortedCase{CellType::Tetrahedron, 3, CellType::Hexahedron, 4, 1, false},
+                      DistortedCase{CellType::Tetrahedron, 3, CellType::Hexahedron, 4, 2, true},
+                      DistortedCase{CellType::Tetrahedron, 5, CellType::Hexahedron, 3, 3, false},
+                      DistortedCase{CellType::Hexahedron, 3, CellType::Hexahedron, 4, 4, false},
+                      DistortedCase{CellType::Hexahedron, 5, CellType::Hexahedron, 4, 5, true},
+                      DistortedCase{CellType::Hexahedron, 4, CellType::Tetrahedron, 3, 6, true},
+                      DistortedCase{CellType::Prism, 4, CellType::Hexahedron, 3, 7, true},
+                      DistortedCase{CellType::Tetrahedron, 3, CellType::Hexahedron, 4, 8, true, 0.1},
+                      DistortedCase{CellType::Hexahedron, 5, CellType::Hexahedron, 4, 9, false, 0.1},
+                      DistortedCase{CellType::Hexahedron, 3, CellType::Hexahedron, 4, 10, true, 0.03}),
+    [](const ::testing::TestParamInfo<DistortedCase>& info) {
+      const DistortedCase& c = info.param;
+      return std::string(mesh::name(c.lower)) + std::to_string(c.nLower) + "_" + std::string(mesh::name(c.upper)) +
+             std::to_string(c.nUpper) + "_seed" + std::to_string(c.seed) + (c.inclined ? "_inclined" : "_flat") +
+             "_distortion" + std::to_string(static_cast<int>(std::lround(100 * c.distortion)));
+    });
+
 TEST(MortarPatch2D, ConstantPressureAndLinearDisplacementExact) {
   for (auto [lt, ut] : {std::pair{CellType::Quadrilateral, CellType::Triangle},
                         std::pair{CellType::Triangle, CellType::Quadrilateral}}) {
     StackedBlocks<2> s(lt, 5, ut, 7, 0);
     PrimalDualActiveSet<2> pdas;
     checkPatch(s, pdas, 1e-10);
+  }
+}
+
+TEST(MortarPatch, RollersOnTheSlaveSideKeepThePatchTestExact) {
+  // the slave nodes on the rollers have u_x (and u_y) prescribed, orthogonal to their normal -e_d:
+  // allowed as for one body, and the patch test stays exact (PDAS and TNNMG)
+  {
+    StackedBlocks<2> s(CellType::Quadrilateral, 5, CellType::Triangle, 7, 0, 0, true);
+    ASSERT_FALSE(s.problem->basisSkip().empty());
+    PrimalDualActiveSet<2> pdas;
+    checkPatch(s, pdas, 1e-10);
+  }
+  {
+    StackedBlocks<3> s(CellType::Tetrahedron, 3, CellType::Hexahedron, 4, 0, 0, true);
+    Index skipped = 0;
+    for (std::uint8_t b : s.problem->basisSkip()) skipped += b != 0;
+    EXPECT_EQ(skipped, 9);  // the slave nodes on x = 0 or y = 0 of the 5 x 5 interface nodes
+    PrimalDualActiveSet<3> pdas;
+    checkPatch(s, pdas, 1e-10);
+  }
+  {
+    StackedBlocks<3> s(CellType::Hexahedron, 2, CellType::Tetrahedron, 3, 1, 0, true);
+    TNNMG<3>::Options o;
+    o.tolerance = 1e-13;
+    o.maxIterations = 100;
+    TNNMG<3> tnnmg({&s.lower, &s.upper}, o);
+    checkPatch(s, tnnmg, 1e-9);
+  }
+}
+
+TEST(MortarPatch, SlaveDirichletAlongTheNormalIsAnError) {
+  // u_y prescribed at the slave nodes on x = 0 of the 2D interface: along the normal, not allowed
+  StackedBlocks<2> s(CellType::Quadrilateral, 5, CellType::Triangle, 7, 0);
+  DirichletValues dir = s.system.dirichlet;
+  const mesh::Mesh& mu = s.upper.leafView().mesh;
+  fix(dir, s.offsets[1] + vertexAt(mu, Point(0, 1, 0)), 1, 2);
+  try {
+    ContactProblem<2>(s.system.stiffness, s.system.load, dir, s.coupling->contactSet(), s.coupling->transformation());
+    ADD_FAILURE() << "no obs::Error";
+  } catch (const obs::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("not orthogonal to its contact normal"), std::string::npos) << e.what();
   }
 }
 
@@ -535,14 +729,14 @@ TEST(MortarCoupling, BadInput) {
   // offsets outside the stacked numbering
   EXPECT_NE(message([&] { MortarCoupling({&upper, mesh::kBottom, n, "upper"}, {&lower, mesh::kTop, 0, "lower"}, n); })
                 .find("offsets"), std::string::npos);
-  // a Dirichlet condition at a slave node
+  // a clamped slave node (its normal component prescribed)
   BoundaryConditions bu;
   bu.dirichlet.push_back({mesh::kBottom});
   std::vector<Index> offsets;
   const auto sys = stackBodies<3>({assembleBody<3>(lower, Material{1, 0.3}, {}), assembleBody<3>(upper, Material{1, 0.3}, bu)}, &offsets);
   MortarCoupling c({&upper, mesh::kBottom, offsets[1], "upper"}, {&lower, mesh::kTop, 0, "lower"}, sys.numVertices());
   EXPECT_NE(message([&] { ContactProblem<3>(sys.stiffness, sys.load, sys.dirichlet, c.contactSet(), c.transformation()); })
-                .find("mortar slave node with a Dirichlet condition"), std::string::npos);
+                .find("not orthogonal to its contact normal"), std::string::npos);
 }
 
 }  // namespace

@@ -23,10 +23,12 @@
 /// Basis transformation (two-body contact, see MortarCoupling.hpp). A problem may be given a sparse
 /// scalar matrix C with C^2 = 0 (rows: the constrained slave vertices; columns: master vertices) that
 /// relates its unknowns x to the stacked displacements u of the bodies by
-///   u = (I + C) x,   x = (I - C) u   (C acts on every component alike).
+///   u = (I + C) x,   x = (I - C) u   (C acts on every component alike, see below for one exception).
 /// The stiffness and load given to the constructor are those of u; the problem stores
-/// A = T'A_u T and b = T'b_u (T = I + C) and eliminates the Dirichlet values afterwards (they are
-/// values of x as well, since Dirichlet vertices must not be transformed slave vertices). Every
+/// A = T'A_u T and b = T'b_u (T = I + C) and eliminates the Dirichlet values afterwards. A transformed
+/// (slave) vertex may have Dirichlet components only orthogonal to its constraint direction (rollers,
+/// as for one body; others throw obs::Error): the transformation leaves those components alone
+/// (basisSkip()), so their values are values of x as well and the constraint is unchanged. Every
 /// member function, and every solver, works with the problem unknowns x; toDisplacement() and
 /// fromDisplacement() convert. Without a transformation (one body against obstacles) x = u.
 #include <Eigen/Core>
@@ -106,7 +108,8 @@ public:
   ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorXd load, DirichletValues dirichlet,
                  const ContactSet& contact);
   /// With a basis transformation C (see the file comment; C.rows == 0: none). Throws obs::Error if
-  /// C has the wrong size, C^2 != 0, or a transformed vertex has a Dirichlet component.
+  /// C has the wrong size, C^2 != 0, or a transformed vertex has a Dirichlet component that is not
+  /// orthogonal to its constraint direction.
   ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorXd load, DirichletValues dirichlet,
                  const ContactSet& contact, mesh::CsrMatrix basis);
 
@@ -117,6 +120,12 @@ public:
   Eigen::VectorXd toDisplacement(const Eigen::VectorXd& x) const;
   /// x = (I - C) u: the problem unknowns of displacements u (e.g. a warm start).
   Eigen::VectorXd fromDisplacement(const Eigen::VectorXd& u) const;
+  /// f = (I - C)' y: forces on the displacements u of forces y on the problem unknowns x (the
+  /// multipliers of the bounds, for one).
+  Eigen::VectorXd applyInverseTransposedBasis(const Eigen::VectorXd& y) const;
+  /// Per vertex, the components (bit a: component a) the transformation leaves alone: Dirichlet
+  /// components of slave vertices (see the file comment). Empty if there are none.
+  const std::vector<std::uint8_t>& basisSkip() const { return skip_; }
 
   Index numVertices() const { return A_->rows(); }
   Index numDofs() const { return A_->rows() * d; }
@@ -184,7 +193,11 @@ private:
   void transform(BlockSparseMatrix<d>& A);
   void rotateOperator(BlockSparseMatrix<d>& A);
 
+  /// (I +- C) x with the components of basisSkip() left alone
+  Eigen::VectorXd applyBasis(const Eigen::VectorXd& x, double sign) const;
+
   mesh::CsrMatrix basis_;  ///< C (empty: no transformation)
+  std::vector<std::uint8_t> skip_;  ///< basisSkip()
   std::shared_ptr<const BlockSparseMatrix<d>> A_;  ///< A~ = Q'AQ (shared with rotated problems)
   std::vector<char> prescribedRotated_;  ///< Dirichlet components in rotated numbering
   Eigen::VectorXd b_;

@@ -13,7 +13,9 @@
 ///  - every master face facing e whose bounding box overlaps e's (enlarged by the search distance) is
 ///    projected along the slave face normal n_e onto e's plane, clipped against e (interval
 ///    intersection in 2D, Sutherland-Hodgman for convex polygons in 3D), the clipped polygon is
-///    split into triangles from its centroid and integrated with a Gauss rule of degree 6;
+///    split into triangles from its centroid and integrated with a Gauss rule: degree 6 (exact) where
+///    both faces are affine, a higher degree chosen by how far a quadrilateral is from a
+///    parallelogram otherwise (docs/theory.md#mortar-matrices);
 ///  - at each quadrature point the slave and master local coordinates are those of the projected
 ///    faces (exact for flat faces; Newton's method on bilinear quadrilaterals) and
 ///      M_pq += w psi_p phi^M_q,   gap_p += w psi_p n_p.(x^M - x^S),
