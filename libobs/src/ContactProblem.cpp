@@ -638,6 +638,14 @@ ContactOutputs computeContactOutputs(const ContactProblem<d>& problem, const Eig
     if (std::isfinite(cs.gap(k))) U = std::max(U, std::abs(cs.gap(k)));
   if (!(U > 0)) U = 1;
 
+  // force scale F = max(|b_i|, |(A u)_i|) over the free components, as for the KKT residuals
+  Eigen::VectorXd Au;
+  problem.multiply(u, Au);
+  double F = 0;
+  const auto& prescribed = problem.dirichlet().constrained;
+  for (Eigen::Index i = 0; i < Au.size(); ++i)
+    if (!prescribed[static_cast<std::size_t>(i)]) F = std::max({F, std::abs(problem.rhs()[i]), std::abs(Au[i])});
+
   ContactOutputs out;
   out.inContact.assign(n, 0);
   out.multiplier.assign(n, 0.0);
@@ -647,7 +655,9 @@ ContactOutputs computeContactOutputs(const ContactProblem<d>& problem, const Eig
     const auto& c = problem.constraint(k);
     const Point& nu = cs.direction(k);
     const double un = nu.template head<d>().dot(u.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d));
-    out.inContact[k] = std::isfinite(cs.gap(k)) && cs.gap(k) - un <= relativeTolerance * U;
+    // closed, and carrying a force: two bodies touching without load are not in contact
+    out.inContact[k] = std::isfinite(cs.gap(k)) && cs.gap(k) - un <= relativeTolerance * U &&
+                       mu[k] > relativeTolerance * F;
     out.contactNodes += out.inContact[k];
     out.multiplier[k] = mu[k] / c.scale;
     out.pressure[k] = out.multiplier[k] / cs.boundaryMass(k);

@@ -450,6 +450,16 @@ MortarCoupling::MortarCoupling(const MortarSurface& slave, const MortarSurface& 
     }
   }
 
+  // The weighted gap integrates n_p.(x^M - x^S) from coordinates that carry their rounding, about
+  // eps |x| each: surfaces that touch get gaps of +-1e-17 instead of zero, and a start at rest then
+  // "penetrates" by round-off, which the solver pushes apart with round-off forces. A weighted gap
+  // within 16 eps X D_pp of zero (X the largest coordinate of either surface; |psi_p| integrates to
+  // at most a few D_pp) is zero within the accuracy of its data, and is set to zero.
+  double X = 0;
+  for (const auto& f : sf) X = std::max({X, f.box.min().cwiseAbs().maxCoeff(), f.box.max().cwiseAbs().maxCoeff()});
+  for (const auto& g : mf) X = std::max({X, g.box.min().cwiseAbs().maxCoeff(), g.box.max().cwiseAbs().maxCoeff()});
+  const double gapRounding = 16 * std::numeric_limits<double>::epsilon() * X;
+
   // constrained nodes: D_pp = sum_q M_pq, coverage D_pp / int phi_p
   std::vector<Index> node(ns, -1);
   for (std::size_t k = 0; k < ns; ++k) {
@@ -466,7 +476,7 @@ MortarCoupling::MortarCoupling(const MortarSurface& slave, const MortarSurface& 
     positions_.push_back(sm.vertex(verts[k]));
     D_.push_back(s);
     mass_.push_back(mass[k]);
-    gap_.push_back(gap[k]);
+    gap_.push_back(std::abs(gap[k]) <= gapRounding * s ? 0.0 : gap[k]);
     M_.push_back(std::move(rows[k]));
   }
   if (nodes_.empty()) {

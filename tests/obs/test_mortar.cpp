@@ -449,6 +449,32 @@ TEST(MortarPatch, SlaveDirichletAlongTheNormalIsAnError) {
   }
 }
 
+TEST(MortarTwoBody, TouchingWithoutLoadIsNoContactAndTheZeroStartIsTheSolution) {
+  // two blocks touching with gap 0, no load, zero Dirichlet data: the weighted gaps are exactly zero
+  // (their rounding, +-1e-17, is cut), so the zero start is the exact solution: TNNMG stops at its
+  // first iteration, and no vertex is in contact (closed, but without force)
+  for (CellType lower : {CellType::Tetrahedron, CellType::Hexahedron}) {
+    StackedBlocks<3> s(lower, 3, CellType::Hexahedron, 4, 1);
+    for (Index k = 0; k < s.coupling->size(); ++k) ASSERT_EQ(s.coupling->weightedGap(k), 0.0) << k;
+    s.problem->setLoad(Eigen::VectorXd::Zero(s.system.load.size()));
+    TNNMG<3> tnnmg({&s.lower, &s.upper});
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(s.system.load.size());
+    const ContactResult r = tnnmg.solve(*s.problem, x);
+    EXPECT_TRUE(r.converged);
+    EXPECT_LE(r.iterations, 1);
+    EXPECT_EQ(x.lpNorm<Eigen::Infinity>(), 0.0);
+    const ContactOutputs out = computeContactOutputs(*s.problem, x);
+    EXPECT_EQ(out.contactNodes, 0);
+    EXPECT_EQ(out.force.norm(), 0.0);
+    // with the load, every slave node is in contact again
+    StackedBlocks<3> loaded(lower, 3, CellType::Hexahedron, 4, 1);
+    Eigen::VectorXd y = Eigen::VectorXd::Zero(loaded.system.load.size());
+    TNNMG<3> tnnmgLoaded({&loaded.lower, &loaded.upper});
+    ASSERT_TRUE(tnnmgLoaded.solve(*loaded.problem, y).converged);
+    EXPECT_EQ(computeContactOutputs(*loaded.problem, y).contactNodes, loaded.coupling->size());
+  }
+}
+
 TEST(MortarPatch2D, TnnmgOnStackedHierarchies) {
   StackedBlocks<2> s(CellType::Quadrilateral, 3, CellType::Triangle, 4, 3);
   TNNMG<2>::Options o;

@@ -211,8 +211,12 @@ private:
 };
 
 /// Contact quantities of a solution (docs/theory.md#contact-pressure), per contact node k of the ContactSet:
-///   inContact[k]  actual contact: g_p - nu_p'u_p <= relativeTolerance * U, U = max(|u|_inf, |g|_inf)
-///                 over finite gaps (docs/theory.md#node-classes);
+///   inContact[k]  actual contact: the gap is closed, g_p - nu_p'u_p <= relativeTolerance * U with
+///                 U = max(|u|_inf, |g|_inf) over finite gaps, and the node carries a force,
+///                 mu_p > relativeTolerance * F with F = max(|b_i|, |(A u)_i|) over the free
+///                 components (the KKT force scale): surfaces that touch without load, or nodes
+///                 whose multiplier is round-off of the force scale, are not in contact
+///                 (docs/theory.md#node-classes);
 ///   multiplier[k] mu_p = (b - A u)_p . nu_p (physical constraint, see Constraint::scale);
 ///   pressure[k]   s_p = mu_p / m_p^C  (docs/theory.md#contact-pressure, thesis (4.1)), an approximation of
 ///   -sigma_nu;

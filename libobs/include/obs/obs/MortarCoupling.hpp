@@ -20,6 +20,8 @@
 ///    faces (exact for flat faces; Newton's method on bilinear quadrilaterals) and
 ///      M_pq += w psi_p phi^M_q,   gap_p += w psi_p n_p.(x^M - x^S),
 ///    with n_p the slave nodal normal (face normals averaged with their measures).
+/// A weighted gap within the rounding of the coordinates it is computed from (16 eps X D_pp, X the
+/// largest coordinate of the surfaces) is set to zero: surfaces that touch touch exactly.
 /// D_pp is the row sum of M (= int psi_p over the covered part of the slave surface, which is
 /// int_S phi_p wherever the support of phi_p is covered by master faces), so rigid translations of
 /// both bodies leave every constraint unchanged. Slave nodes whose support is covered less than
