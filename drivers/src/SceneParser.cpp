@@ -125,8 +125,51 @@ void parseBox(const TomlSection& s, MeshSpec& spec) {
     }
 }
 
+/// A point or direction of 2 or 3 finite numbers (the mesh dimension is known only when it is built).
+mesh::Point pointOf(const TomlSection& s, const std::string& key) {
+  const toml::value& v = s.at(key);
+  if (!v.is_array() || (v.as_array().size() != 2 && v.as_array().size() != 3))
+    s.fail(key, "= " + literalOf(v) + " must be an array of 2 or 3 numbers");
+  const auto x = finiteNumberEntries(s, v, key);
+  mesh::Point p = mesh::Point::Zero();
+  for (std::size_t i = 0; i < x.size(); ++i) p[static_cast<Eigen::Index>(i)] = x[i];
+  return p;
+}
+
+ProjectionSpec parseProjection(const Scene& scene, const toml::value& table) {
+  const TomlSection s(scene.fileName, "[mesh] projection", table, {"boundary", "shape", "centre", "radius", "axis", "normal"});
+  ProjectionSpec p;
+  p.line = s.line() > 0 ? s.line() : 0;
+  p.boundary = s.boundary("boundary");
+  const std::string shape = s.string("shape");
+  if (shape == "sphere" || shape == "circle") p.shape = ProjectionSpec::Shape::Sphere;
+  else if (shape == "cylinder") p.shape = ProjectionSpec::Shape::Cylinder;
+  else if (shape == "plane") p.shape = ProjectionSpec::Shape::Plane;
+  else s.fail("shape", "= \"" + shape + "\" is unknown (known: \"sphere\", \"circle\", \"cylinder\", \"plane\")");
+  p.centre = pointOf(s, "centre");
+  const bool round = p.shape != ProjectionSpec::Shape::Plane;
+  if (round) {
+    p.radius = s.number("radius");
+    if (!(p.radius > 0)) s.fail("radius", "= " + literalOf(s.at("radius")) + " must be positive");
+  } else if (s.has("radius")) {
+    s.fail("radius", "does not apply to shape = \"plane\"");
+  }
+  const char* dirKey = p.shape == ProjectionSpec::Shape::Cylinder ? "axis" : "normal";
+  for (const char* key : {"axis", "normal"})
+    if (s.has(key) && std::string(key) != dirKey)
+      s.fail(key, std::string("does not apply to shape = \"") + shape + "\"" +
+                      (p.shape == ProjectionSpec::Shape::Sphere ? "" : std::string(" (it takes ") + dirKey + ")"));
+  if (p.shape != ProjectionSpec::Shape::Sphere) {
+    p.direction = pointOf(s, dirKey);
+    if (!(p.direction.norm() > 0)) s.fail(dirKey, "must not be the zero vector");
+    p.direction.normalize();
+  }
+  return p;
+}
+
 MeshSpec parseMesh(const Scene& scene, const toml::value& table) {
-  std::vector<std::string> keys = {"generator", "type", "cells", "lower", "upper", "file", "physical", "refine"};
+  std::vector<std::string> keys = {"generator", "type", "cells", "lower", "upper", "file", "physical", "refine",
+                                   "projection"};
   keys.insert(keys.end(), curvedMeshKeys().begin(), curvedMeshKeys().end());
   const TomlSection s(scene.fileName, "[mesh]", table, keys);
   MeshSpec spec;
@@ -176,6 +219,22 @@ MeshSpec parseMesh(const Scene& scene, const toml::value& table) {
     throw Error(
         scene.where(spec.line) +
         "[mesh] needs generator = \"box\" (with type, cells, lower, upper) or file = \"mesh.msh\"");
+  }
+  if (s.has("projection")) {
+    const toml::value& v = s.at("projection");
+    if (v.is_table()) {
+      spec.projections.push_back(parseProjection(scene, v));
+    } else if (v.is_array()) {
+      for (const toml::value& e : v.as_array()) {
+        if (!e.is_table()) s.failAt(e, "projection", "entries must be tables { boundary = ..., shape = ..., ... }");
+        spec.projections.push_back(parseProjection(scene, e));
+      }
+    } else {
+      s.fail("projection", "must be a table { boundary = ..., shape = ..., ... } or an array of them, got " +
+                               typeNameOf(v));
+    }
+    for (ProjectionSpec& p : spec.projections)
+      if (p.line == 0) p.line = s.line("projection");
   }
   if (s.has("refine")) {
     const long long r = s.integer("refine");

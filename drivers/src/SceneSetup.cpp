@@ -151,6 +151,76 @@ mesh::Mesh readMeshFile(const Scene& scene) {
   }
 }
 
+/// x moved onto the shape of p (sphere or circle, cylinder, plane); points on the centre or the axis
+/// stay where they are.
+mesh::Grid::Projection shapeProjection(const ProjectionSpec& p) {
+  const mesh::Point c = p.centre, a = p.direction;
+  const double r = p.radius;
+  switch (p.shape) {
+    case ProjectionSpec::Shape::Sphere:
+      return [c, r](const mesh::Point& x) -> mesh::Point {
+        const mesh::Point y = x - c;
+        const double n = y.norm();
+        return n > 0 ? mesh::Point(c + (r / n) * y) : x;
+      };
+    case ProjectionSpec::Shape::Cylinder:
+      return [c, a, r](const mesh::Point& x) -> mesh::Point {
+        const mesh::Point y = x - c;
+        const mesh::Point axial = y.dot(a) * a, radial = y - axial;
+        const double n = radial.norm();
+        return n > 0 ? mesh::Point(c + axial + (r / n) * radial) : x;
+      };
+    case ProjectionSpec::Shape::Plane:
+    default:
+      return [c, a](const mesh::Point& x) -> mesh::Point { return x - (x - c).dot(a) * a; };
+  }
+}
+
+/// The boundary id of a projection, after checking that the shape fits the mesh: a cylinder needs
+/// 3D, and every vertex of the boundary must lie on the shape to 1e-4 of its size (radius, or the
+/// boundary's extent for a plane): a projection of a boundary that is not on the shape would move
+/// the new vertices away from their neighbours (a wrong centre, radius or boundary).
+int projectionBoundary(const Scene& scene, const mesh::Mesh& m, const ProjectionSpec& p) {
+  const int id = resolveBoundary(scene, m, p.boundary, "[mesh] projection");
+  const char* shape = p.shape == ProjectionSpec::Shape::Sphere     ? (m.dimension() == 2 ? "circle" : "sphere")
+                      : p.shape == ProjectionSpec::Shape::Cylinder ? "cylinder"
+                                                                   : "plane";
+  const std::string what = scene.where(p.line) + "[mesh] projection of boundary " + p.boundary.describe() + " onto the " + shape;
+  if (p.shape == ProjectionSpec::Shape::Cylinder && m.dimension() != 3)
+    throw Error(what + ": a cylinder needs a 3D mesh (in 2D write shape = \"circle\")");
+  if (m.dimension() == 2 && (p.centre[2] != 0 || (p.shape == ProjectionSpec::Shape::Plane && p.direction[2] != 0)))
+    throw Error(what + ": the mesh is 2D, give 2 coordinates");
+  const auto f = shapeProjection(p);
+  Eigen::AlignedBox3d box;
+  double worst = 0;
+  mesh::Point at = mesh::Point::Zero();
+  bool any = false;
+  for (mesh::Index k = 0; k < m.numBoundaryFaces(); ++k) {
+    if (m.boundaryFaceId(k) != id) continue;
+    any = true;
+    for (mesh::Index v : m.boundaryFaceVertices(k)) {
+      const mesh::Point& x = m.vertex(v);
+      box.extend(x);
+      const double dist = (f(x) - x).norm();
+      if (dist > worst) {
+        worst = dist;
+        at = x;
+      }
+    }
+  }
+  if (!any) throw Error(what + ": the boundary has no faces");
+  const double size = p.shape == ProjectionSpec::Shape::Plane ? box.diagonal().norm() : p.radius;
+  if (worst > 1e-4 * size) {
+    std::ostringstream os;
+    os << what << ": its vertex at (" << at[0] << ", " << at[1];
+    if (m.dimension() == 3) os << ", " << at[2];
+    os << ") is " << worst << " away from the " << shape << " (more than 1e-4 of its size " << size
+       << "): check the centre, radius, axis and the boundary";
+    throw Error(os.str());
+  }
+  return id;
+}
+
 }  // namespace
 
 mesh::Grid buildGrid(const Scene& scene, std::optional<int> refineOverride) {
@@ -215,6 +285,7 @@ mesh::Grid buildGrid(const Scene& scene, std::optional<int> refineOverride) {
   }
   mesh::Grid grid(m);
   for (const auto& [id, projection] : curved.projections) grid.setBoundaryProjection(id, projection);
+  for (const ProjectionSpec& p : spec.projections) grid.setBoundaryProjection(projectionBoundary(scene, m, p), shapeProjection(p));
   for (int k = 0; k < refine; ++k) grid.refineUniformly(threads());
   return grid;
 }

@@ -35,9 +35,23 @@ struct BoundaryRef {
   std::string describe() const;  ///< "\"left\"" or "3", as written in the scene
 };
 
+/// One entry of [mesh] projection: the vertices that refinement creates on the faces of `boundary`
+/// are moved onto an exact shape (mesh::Grid::setBoundaryProjection), so that the refined surface of
+/// an imported mesh converges to the curved geometry instead of staying the coarse polygon.
+struct ProjectionSpec {
+  enum class Shape { Sphere, Cylinder, Plane };  ///< sphere (a circle in 2D), cylinder (3D), plane
+  BoundaryRef boundary;
+  Shape shape = Shape::Sphere;
+  mesh::Point centre = mesh::Point::Zero();  ///< sphere centre, a point of the cylinder axis or the plane
+  mesh::Point direction = mesh::Point::UnitZ();  ///< cylinder axis or plane normal (unit)
+  double radius = 0;                           ///< sphere and cylinder
+  int line = 0;
+};
+
 /// [mesh]: a generated box, ball, rounded block, disk or half disk, or a Gmsh file (or one physical
 /// group of its cells), then `refine` uniform
-/// refinements (new vertices on curved boundaries are projected onto the exact surface).
+/// refinements (new vertices on curved boundaries are projected onto the exact surface: by the
+/// generators on their curved boundaries, by `projection` entries on any boundary).
 struct MeshSpec {
   enum class Source { Box, File, Ball, RoundedBlock, Disk, HalfDisk, HalfBall };
   Source source = Source::Box;
@@ -57,6 +71,7 @@ struct MeshSpec {
   std::optional<std::string> physicalName;
   std::optional<int> physicalTag;
   int physicalLine = 0;  ///< line of physical (0: not given)
+  std::vector<ProjectionSpec> projections;  ///< projection = {...} or [{...}, ...]
   int refine = 0;
   int line = 0;        ///< line of [mesh]
   int refineLine = 0;  ///< line of refine (0: not given)
