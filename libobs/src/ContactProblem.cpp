@@ -288,17 +288,21 @@ Eigen::VectorXd ContactProblem<d>::fromDisplacement(const Eigen::VectorXd& u) co
 
 template <int d>
 Eigen::VectorXd ContactProblem<d>::applyBasis(const Eigen::VectorXd& x, double sign) const {
+  // entry by entry into u_p (sign * v is exact for sign = +-1): the bits of the plain product
+  // without skipped components
   Eigen::VectorXd u = x;
   const mesh::CsrMatrix& C = basis_;
   for (Index p = 0; p < C.rows; ++p) {
     if (C.rowStart[p + 1] == C.rowStart[p]) continue;
-    Eigen::Matrix<double, d, 1> sum = Eigen::Matrix<double, d, 1>::Zero();
-    for (Index k = C.rowStart[p]; k < C.rowStart[p + 1]; ++k)
-      sum += C.values[k] * x.template segment<d>(static_cast<Eigen::Index>(C.columns[k]) * d);
-    if (!skip_.empty() && skip_[p])
-      for (int a = 0; a < d; ++a)
-        if (skip_[p] & (1u << a)) sum[a] = 0;
-    u.template segment<d>(static_cast<Eigen::Index>(p) * d) += sign * sum;
+    const std::uint8_t skip = skip_.empty() ? 0 : skip_[p];
+    auto up = u.template segment<d>(static_cast<Eigen::Index>(p) * d);
+    for (Index k = C.rowStart[p]; k < C.rowStart[p + 1]; ++k) {
+      Eigen::Matrix<double, d, 1> v = C.values[k] * x.template segment<d>(static_cast<Eigen::Index>(C.columns[k]) * d);
+      if (skip)
+        for (int a = 0; a < d; ++a)
+          if (skip & (1u << a)) v[a] = 0;
+      up += sign * v;
+    }
   }
   return u;
 }
