@@ -139,7 +139,7 @@ mesh::Point pointOf(const TomlSection& s, const std::string& key) {
 ProjectionSpec parseProjection(const Scene& scene, const toml::value& table) {
   const TomlSection s(scene.fileName, "[mesh] projection", table, {"boundary", "shape", "centre", "radius", "axis", "normal"});
   ProjectionSpec p;
-  p.line = s.line() > 0 ? s.line() : 0;
+  p.line = s.line();  // 0 for an inline table: parseMesh gives it the line of projection
   p.boundary = s.boundary("boundary");
   const std::string shape = s.string("shape");
   if (shape == "sphere" || shape == "circle") p.shape = ProjectionSpec::Shape::Sphere;
