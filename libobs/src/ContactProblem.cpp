@@ -88,17 +88,18 @@ Eigen::Matrix<double, d, 1> transformedPart(const Eigen::VectorXd& x, Index p, c
   return v;
 }
 
-/// y = (I + C') x for a scalar C acting on every component (d components per vertex) but the
-/// components of row p that skip[p] exempts (see ContactProblem::basisSkip()).
+/// y = (I +- C') x for a scalar C acting on every component (d components per vertex) but the
+/// components of row p that skip[p] exempts (see ContactProblem::basisSkip()); sign = +-1 (sign * v
+/// is exact, so -1 gives the bits of subtracting).
 template <int d>
 Eigen::VectorXd applyTransposedBasis(const mesh::CsrMatrix& C, const std::vector<std::uint8_t>& skip,
-                                     const Eigen::VectorXd& x) {
+                                     const Eigen::VectorXd& x, double sign = 1.0) {
   Eigen::VectorXd y = x;
   for (Index p = 0; p < C.rows; ++p) {
     if (C.rowStart[p + 1] == C.rowStart[p]) continue;
     const Eigen::Matrix<double, d, 1> xp = transformedPart<d>(x, p, skip);
     for (Index k = C.rowStart[p]; k < C.rowStart[p + 1]; ++k)
-      y.template segment<d>(static_cast<Eigen::Index>(C.columns[k]) * d) += C.values[k] * xp;
+      y.template segment<d>(static_cast<Eigen::Index>(C.columns[k]) * d) += sign * (C.values[k] * xp);
   }
   return y;
 }
@@ -309,15 +310,7 @@ Eigen::VectorXd ContactProblem<d>::applyBasis(const Eigen::VectorXd& x, double s
 
 template <int d>
 Eigen::VectorXd ContactProblem<d>::applyInverseTransposedBasis(const Eigen::VectorXd& y) const {
-  Eigen::VectorXd f = y;
-  const mesh::CsrMatrix& C = basis_;
-  for (Index p = 0; p < C.rows; ++p) {
-    if (C.rowStart[p + 1] == C.rowStart[p]) continue;
-    const Eigen::Matrix<double, d, 1> yp = transformedPart<d>(y, p, skip_);
-    for (Index k = C.rowStart[p]; k < C.rowStart[p + 1]; ++k)
-      f.template segment<d>(static_cast<Eigen::Index>(C.columns[k]) * d) -= C.values[k] * yp;
-  }
-  return f;
+  return applyTransposedBasis<d>(basis_, skip_, y, -1.0);  // (I + C)^{-T} = I - C'
 }
 
 template <int d>

@@ -32,6 +32,15 @@ namespace {
 
 bool verbose() { return std::getenv("OBS_TEST_VERBOSE") != nullptr; }
 
+/// TNNMG on the stacked hierarchies of two grids, solved far below the patch tests' tolerance.
+template <int d>
+TNNMG<d> tightTnnmg(const mesh::Grid& lower, const mesh::Grid& upper) {
+  typename TNNMG<d>::Options o;
+  o.tolerance = 1e-13;
+  o.maxIterations = 100;
+  return TNNMG<d>({&lower, &upper}, o);
+}
+
 mesh::Mesh shifted(mesh::Mesh m, const Point& by) {
   for (Index v = 0; v < m.numVertices(); ++v) m.vertex(v) += by;
   return m;
@@ -427,10 +436,7 @@ TEST(MortarPatch, RollersOnTheSlaveSideKeepThePatchTestExact) {
   }
   {
     StackedBlocks<3> s(CellType::Hexahedron, 2, CellType::Tetrahedron, 3, 1, 0, true);
-    TNNMG<3>::Options o;
-    o.tolerance = 1e-13;
-    o.maxIterations = 100;
-    TNNMG<3> tnnmg({&s.lower, &s.upper}, o);
+    TNNMG<3> tnnmg = tightTnnmg<3>(s.lower, s.upper);
     checkPatch(s, tnnmg, 1e-9);
   }
 }
@@ -477,10 +483,7 @@ TEST(MortarTwoBody, TouchingWithoutLoadIsNoContactAndTheZeroStartIsTheSolution) 
 
 TEST(MortarPatch2D, TnnmgOnStackedHierarchies) {
   StackedBlocks<2> s(CellType::Quadrilateral, 3, CellType::Triangle, 4, 3);
-  TNNMG<2>::Options o;
-  o.tolerance = 1e-13;
-  o.maxIterations = 100;
-  TNNMG<2> tnnmg({&s.lower, &s.upper}, o);
+  TNNMG<2> tnnmg = tightTnnmg<2>(s.lower, s.upper);
   checkPatch(s, tnnmg, 1e-9);
 }
 
@@ -490,10 +493,7 @@ TEST(MortarPatch3D, TnnmgOnStackedHierarchiesWithDifferentDepths) {
   StackedBlocks<3> s(CellType::Hexahedron, 2, CellType::Tetrahedron, 3, 1, 1);
   ASSERT_EQ(s.lower.maxLevel(), 2);
   ASSERT_EQ(s.upper.maxLevel(), 1);
-  TNNMG<3>::Options o;
-  o.tolerance = 1e-13;
-  o.maxIterations = 100;
-  TNNMG<3> tnnmg({&s.lower, &s.upper}, o);
+  TNNMG<3> tnnmg = tightTnnmg<3>(s.lower, s.upper);
   checkPatch(s, tnnmg, 1e-9);
 }
 
