@@ -610,11 +610,15 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
       }
       u = problem->toDisplacement(x);
     } else {
-      std::vector<BodySystem<d>> systems;
-      for (std::size_t i = 0; i < nb; ++i)
-        systems.push_back(assembleBody<d>(views[i].mesh, *bodies_[i].material, *bodies_[i].bc));
-      BodySystem<d> sys = stackBodies<d>(std::move(systems));
-      systems.clear();
+      std::vector<const mesh::Mesh*> meshes;
+      std::vector<const Material*> materials;
+      std::vector<const BoundaryConditions*> conditions;
+      for (std::size_t i = 0; i < nb; ++i) {
+        meshes.push_back(&views[i].mesh);
+        materials.push_back(bodies_[i].material);
+        conditions.push_back(bodies_[i].bc);
+      }
+      BodySystem<d> sys = assembleBodies<d>(meshes, materials, conditions);
       applyDirichlet(sys.stiffness, sys.load, sys.dirichlet);
       rec.assemblySeconds = since(t);
       t = Clock::now();

@@ -1,6 +1,7 @@
 #include "obs/obs/ContactModel.hpp"
 
 #include <algorithm>
+#include <functional>
 #include <limits>
 #include <numeric>
 #include <optional>
@@ -56,20 +57,31 @@ ContactProblem<d> ContactModel<d>::assemble() {
 template <int d>
 typename ContactModel<d>::Parts ContactModel<d>::assembleParts() {
   if (bodies_.empty()) throw Error("contact model: no body");
-  std::vector<BodySystem<d>> systems;
-  for (const Body& b : bodies_) systems.push_back(assembleBody<d>(*b.mesh, b.material, b.bc));
-  std::vector<Index> offsets;
-  BodySystem<d> system = stackBodies<d>(std::move(systems), &offsets);
-  systems.clear();
-  numVertices_ = system.numVertices();
-  for (std::size_t i = 0; i < bodies_.size(); ++i) bodies_[i].offset = offsets[i];
+  // the stacked numbering (vertex v of body i is offset_i + v), known from the meshes
+  numVertices_ = 0;
+  for (Body& b : bodies_) {
+    b.offset = numVertices_;
+    numVertices_ += b.mesh->numVertices();
+  }
+  std::vector<const mesh::Mesh*> meshes;
+  std::vector<const Material*> materials;
+  std::vector<const BoundaryConditions*> conditions;
+  for (const Body& b : bodies_) {
+    b.material.validate();  // before the couplings look at the meshes (assembleBodies checks again)
+    if (b.mesh->dimension() != d)
+      throw Error("body '" + b.name + "': the mesh has dimension " + std::to_string(b.mesh->dimension()) +
+                  ", the problem " + std::to_string(d));
+    meshes.push_back(b.mesh);
+    materials.push_back(&b.material);
+    conditions.push_back(&b.bc);
+  }
 
   // one-body special case: the obstacle set is already over the stacked (= the body's) vertices
   if (bodies_.size() == 1 && couplings_.size() == 1 && !couplings_[0].mortar) {
     Coupling& c = couplings_[0];
     c.nodes.resize(c.obstacleSet->size());
     std::iota(c.nodes.begin(), c.nodes.end(), 0);
-    return Parts{std::move(system), *c.obstacleSet, mesh::CsrMatrix{}};
+    return Parts{assembleBodies<d>(meshes, materials, conditions), *c.obstacleSet, mesh::CsrMatrix{}};
   }
 
   // the couplings' nodes over the stacked vertices
@@ -151,6 +163,15 @@ typename ContactModel<d>::Parts ContactModel<d>::assembleParts() {
       basis.rowStart[r + 1] = static_cast<Index>(basis.columns.size());
     }
   }
+  // the bodies, straight into the stacked matrix on the pattern of the transformed operator (the
+  // ContactProblem then transforms it in place: the operator is stored once)
+  std::function<void(typename BlockSparseMatrix<d>::Pattern&)> widen;
+  if (basis.rows > 0)
+    widen = [&](typename BlockSparseMatrix<d>::Pattern& p) {
+      p = ContactProblem<d>::transformedPattern(std::move(p), basis);
+    };
+  std::vector<Index> offsets;
+  BodySystem<d> system = assembleBodies<d>(meshes, materials, conditions, &offsets, widen);
   return Parts{std::move(system), ContactSet(std::move(merged)), std::move(basis)};
 }
 

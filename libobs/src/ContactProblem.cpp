@@ -4,6 +4,8 @@
 #include <atomic>
 #include <cmath>
 #include <numbers>
+#include <span>
+#include <utility>
 #include <sstream>
 
 #include "obs/mesh/Error.hpp"
@@ -120,9 +122,8 @@ struct RowAccumulator {
       blocks[position[j]] += B;
     }
   }
-  /// Appends the row to (rowStart, columns, values) and clears.
-  template <class Columns>
-  void flush(std::vector<Index>& rowStart, Columns& columns, std::vector<Block>& values) {
+  /// Appends the row to `rows` and clears.
+  void flush(std::vector<Index>& rowStart, std::vector<Index>& columns, std::vector<Block>& values) {
     std::vector<Index> order(cols.size());
     for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<Index>(i);
     std::sort(order.begin(), order.end(), [&](Index a, Index b) { return cols[a] < cols[b]; });
@@ -137,11 +138,48 @@ struct RowAccumulator {
   }
 };
 
-/// T'AT with T = I + C (C scalar, acting on every component). Only the rows next to transformed
-/// (slave) vertices and the rows of master vertices change; all others are copied.
+/// A few block rows of a matrix, stored apart: row `slot` is [start[slot], start[slot + 1]).
 template <int d>
-BlockSparseMatrix<d> transformOperator(const BlockSparseMatrix<d>& A, const mesh::CsrMatrix& C,
-                                       const std::vector<std::uint8_t>& skip) {
+struct SideRows {
+  std::vector<Index> start{0}, cols;
+  std::vector<Eigen::Matrix<double, d, d>> blocks;
+};
+
+/// The slave rows of C (a non-empty row) and its master columns.
+struct TransformationRoles {
+  std::vector<char> slave, master;
+  TransformationRoles(const mesh::CsrMatrix& C, Index n) : slave(n, 0), master(n, 0) {
+    for (Index r = 0; r < n; ++r)
+      if (C.rowStart[r + 1] > C.rowStart[r]) slave[r] = 1;
+    for (Index c : C.columns) master[c] = 1;
+  }
+};
+
+/// C' as lists: for column p of C, the rows r with C_rp != 0 and the values, in ascending r.
+struct TransposedBasis {
+  std::vector<Index> start, rows;
+  std::vector<double> values;
+  TransposedBasis(const mesh::CsrMatrix& C, Index n) : start(n + 1, 0), rows(C.columns.size()), values(C.columns.size()) {
+    for (Index c : C.columns) ++start[c + 1];
+    for (Index i = 0; i < n; ++i) start[i + 1] += start[i];
+    std::vector<Index> next(start.begin(), start.end() - 1);
+    for (Index r = 0; r < n; ++r)
+      for (Index m = C.rowStart[r]; m < C.rowStart[r + 1]; ++m) {
+        rows[next[C.columns[m]]] = r;
+        values[next[C.columns[m]]++] = C.values[m];
+      }
+  }
+};
+
+/// T'AT with T = I + C (C scalar, acting on every component), in A. Only the rows next to
+/// transformed (slave) vertices and the rows of master vertices change: these are computed apart (a
+/// few rows near the interfaces). If A's pattern already holds T'AT's (A assembled on
+/// ContactProblem::transformedPattern(), zero blocks where A itself has none), they are written
+/// into A in place, and the operator is never stored twice; otherwise a new matrix of T'AT's pattern
+/// is written in one pass that copies every other row of A. Repeated blocks stay shared either way
+/// (docs/performance.md#multi-body-assembly).
+template <int d>
+void transformOperator(BlockSparseMatrix<d>& A, const mesh::CsrMatrix& C, const std::vector<std::uint8_t>& skip) {
   using Block = Eigen::Matrix<double, d, d>;
   // T = I + C (x) F with F_s = diag(components of row s the transformation acts on): identity
   // unless skip[s] exempts components (then the columns / rows of those are left out)
@@ -153,83 +191,111 @@ BlockSparseMatrix<d> transformOperator(const BlockSparseMatrix<d>& A, const mesh
     return f;
   };
   const Index n = A.rows();
-  std::vector<char> slave(n, 0), master(n, 0);
-  for (Index r = 0; r < n; ++r)
-    if (C.rowStart[r + 1] > C.rowStart[r]) slave[r] = 1;
-  for (Index c : C.columns) master[c] = 1;
+  const BlockSparseMatrix<d>& Ac = A;  // read access that keeps shared blocks shared
+  const TransformationRoles roles(C, n);
   RowAccumulator<d> acc(n);
-  // B = A T, row by row: B_r = A_r + sum_s A_rs C_s (a copy of A_r if no column of A_r is a slave)
-  std::vector<Index> bStart{0}, bCols;
-  std::vector<Block> bVals;
-  bStart.reserve(n + 1);
-  bCols.reserve(static_cast<std::size_t>(A.nonZeroBlocks()) + C.columns.size() * 8);
-  bVals.reserve(bCols.capacity());
+  // B = A T on the touched rows (those with a slave column; every slave row is one, through its
+  // diagonal): B_r = A_r + sum_s A_rs C_s. Any other row of B is A_r.
+  std::vector<Index> bSlot(n, -1);
+  SideRows<d> B;
   for (Index r = 0; r < n; ++r) {
     bool touched = false;
-    for (Index k = A.rowBegin(r); k < A.rowEnd(r) && !touched; ++k) touched = slave[A.column(k)] != 0;
-    if (!touched) {
-      for (Index k = A.rowBegin(r); k < A.rowEnd(r); ++k) {
-        bCols.push_back(A.column(k));
-        bVals.push_back(A.blockAt(k));
-      }
-      bStart.push_back(static_cast<Index>(bCols.size()));
-      continue;
-    }
-    for (Index k = A.rowBegin(r); k < A.rowEnd(r); ++k) {
-      const Index s = A.column(k);
-      acc.add(s, A.blockAt(k));
+    for (Index k = Ac.rowBegin(r); k < Ac.rowEnd(r) && !touched; ++k) touched = roles.slave[Ac.column(k)] != 0;
+    if (!touched) continue;
+    for (Index k = Ac.rowBegin(r); k < Ac.rowEnd(r); ++k) {
+      const Index s = Ac.column(k);
+      acc.add(s, Ac.blockAt(k));
       if (C.rowStart[s + 1] == C.rowStart[s]) continue;
-      const Block As = exempt(s) ? Block(A.blockAt(k) * F(s)) : Block(A.blockAt(k));
+      const Block As = exempt(s) ? Block(Ac.blockAt(k) * F(s)) : Block(Ac.blockAt(k));
       for (Index m = C.rowStart[s]; m < C.rowStart[s + 1]; ++m) acc.add(C.columns[m], C.values[m] * As);
     }
-    acc.flush(bStart, bCols, bVals);
+    bSlot[r] = static_cast<Index>(B.start.size()) - 1;
+    acc.flush(B.start, B.cols, B.blocks);
   }
-  // C' as lists: for each column p of C, the rows r with C_rp != 0
-  std::vector<Index> tStart(n + 1, 0), tRows;
-  std::vector<double> tVals;
-  for (Index c : C.columns) ++tStart[c + 1];
-  for (Index i = 0; i < n; ++i) tStart[i + 1] += tStart[i];
-  tRows.resize(C.columns.size());
-  tVals.resize(C.columns.size());
-  {
-    std::vector<Index> next(tStart.begin(), tStart.end() - 1);
-    for (Index r = 0; r < n; ++r)
-      for (Index m = C.rowStart[r]; m < C.rowStart[r + 1]; ++m) {
-        tRows[next[C.columns[m]]] = r;
-        tVals[next[C.columns[m]]++] = C.values[m];
-      }
-  }
-  // T'B, row by row: row p = B_p + sum_r C_rp B_r (a copy of B_p unless p is a master vertex)
-  std::vector<Index> rowStart{0};
-  typename BlockSparseMatrix<d>::IndexArray cols;
-  std::vector<Block> vals;
-  rowStart.reserve(n + 1);
-  cols.reserve(bCols.size() + C.columns.size() * 16);
-  vals.reserve(cols.capacity());
-  for (Index p = 0; p < n; ++p) {
-    if (!master[p]) {
-      for (Index k = bStart[p]; k < bStart[p + 1]; ++k) {
-        cols.push_back(bCols[k]);
-        vals.push_back(bVals[k]);
-      }
-      rowStart.push_back(static_cast<Index>(cols.size()));
-      continue;
+  // T'B on the master rows: row p = B_p + sum_r C_rp F_r B_r (r is a slave row, so B_r is stored).
+  // The rows of T'B that differ from A: the master rows (here) and the touched ones (B_p).
+  const TransposedBasis Ct(C, n);
+  std::vector<Index> slot(n, -1);  // into R, or -1: row p of the result is row p of B
+  SideRows<d> R;
+  const auto forRowOfB = [&](Index r, auto&& f) {
+    if (bSlot[r] >= 0) {
+      for (Index k = B.start[bSlot[r]]; k < B.start[bSlot[r] + 1]; ++k) f(B.cols[k], B.blocks[k]);
+    } else {
+      for (Index k = Ac.rowBegin(r); k < Ac.rowEnd(r); ++k) f(Ac.column(k), Ac.blockAt(k));
     }
-    for (Index k = bStart[p]; k < bStart[p + 1]; ++k) acc.add(bCols[k], bVals[k]);
-    for (Index m = tStart[p]; m < tStart[p + 1]; ++m) {
-      const Index r = tRows[m];
+  };
+  for (Index p = 0; p < n; ++p) {
+    if (!roles.master[p]) continue;
+    forRowOfB(p, [&](Index j, const Block& v) { acc.add(j, v); });
+    for (Index m = Ct.start[p]; m < Ct.start[p + 1]; ++m) {
+      const Index r = Ct.rows[m];
+      const double c = Ct.values[m];
       if (exempt(r)) {
         const Block Fr = F(r);
-        for (Index k = bStart[r]; k < bStart[r + 1]; ++k) acc.add(bCols[k], tVals[m] * Block(Fr * bVals[k]));
+        forRowOfB(r, [&](Index j, const Block& v) { acc.add(j, c * Block(Fr * v)); });
       } else {
-        for (Index k = bStart[r]; k < bStart[r + 1]; ++k) acc.add(bCols[k], tVals[m] * bVals[k]);
+        forRowOfB(r, [&](Index j, const Block& v) { acc.add(j, c * v); });
       }
     }
-    acc.flush(rowStart, cols, vals);
+    slot[p] = static_cast<Index>(R.start.size()) - 1;
+    acc.flush(R.start, R.cols, R.blocks);
   }
-  BlockSparseMatrix<d> out({std::move(rowStart), std::move(cols)});
-  for (Index k = 0; k < out.nonZeroBlocks(); ++k) out.blockAt(k) = vals[k];
-  return out;
+  // the changed rows: their columns and first block
+  const auto changedRow = [&](Index p) -> std::pair<std::span<const Index>, const Block*> {
+    if (slot[p] >= 0) {
+      const Index b = R.start[slot[p]], e = R.start[slot[p] + 1];
+      return {std::span<const Index>(R.cols.data() + b, static_cast<std::size_t>(e - b)), R.blocks.data() + b};
+    }
+    const Index b = B.start[bSlot[p]], e = B.start[bSlot[p] + 1];
+    return {std::span<const Index>(B.cols.data() + b, static_cast<std::size_t>(e - b)), B.blocks.data() + b};
+  };
+  bool inPlace = true;
+  for (Index p = 0; p < n && inPlace; ++p) {
+    if (slot[p] < 0 && bSlot[p] < 0) continue;
+    const auto cols = changedRow(p).first;
+    inPlace = static_cast<Index>(cols.size()) == Ac.rowEnd(p) - Ac.rowBegin(p) &&
+              std::equal(cols.begin(), cols.end(), Ac.columns().begin() + Ac.rowBegin(p));
+  }
+  if (inPlace) {
+    A.modifyBlocks([&](Index p, Index k, Block& value) {
+      if (slot[p] < 0 && bSlot[p] < 0) return false;
+      value = changedRow(p).second[k - Ac.rowBegin(p)];
+      return true;
+    });
+    return;
+  }
+  // a new matrix: T'AT's pattern, then its blocks in one pass over the rows
+  const auto rowOf = [&](Index p, auto&& f) {
+    if (slot[p] < 0 && bSlot[p] < 0) {
+      for (Index k = Ac.rowBegin(p); k < Ac.rowEnd(p); ++k) f(Ac.column(k), Ac.blockAt(k));
+      return;
+    }
+    const auto [cols, blocks] = changedRow(p);
+    for (std::size_t i = 0; i < cols.size(); ++i) f(cols[i], blocks[i]);
+  };
+  typename BlockSparseMatrix<d>::Pattern pattern;
+  pattern.rowStart.resize(static_cast<std::size_t>(n) + 1);
+  pattern.rowStart[0] = 0;
+  for (Index p = 0; p < n; ++p) {
+    const Index length = slot[p] < 0 && bSlot[p] < 0 ? Ac.rowEnd(p) - Ac.rowBegin(p)
+                                                     : static_cast<Index>(changedRow(p).first.size());
+    pattern.rowStart[p + 1] = pattern.rowStart[p] + length;
+  }
+  pattern.columns.resize(static_cast<std::size_t>(pattern.rowStart[n]));
+  forRanges(n, [&](Index begin, Index end) {
+    for (Index p = begin; p < end; ++p) {
+      Index k = pattern.rowStart[p];
+      rowOf(p, [&](Index j, const Block&) { pattern.columns[k++] = j; });
+    }
+  });
+  const std::vector<Index> rowStart = pattern.rowStart;
+  A = BlockSparseMatrix<d>::fromRowRanges(std::move(pattern), [&](Index first, Index last, Block* blocks) {
+    const Index base = rowStart[first];
+    for (Index p = first; p < last; ++p) {
+      Index k = rowStart[p] - base;
+      rowOf(p, [&](Index, const Block& v) { blocks[k++] = v; });
+    }
+  });
 }
 
 }  // namespace
@@ -273,8 +339,85 @@ void ContactProblem<d>::transform(BlockSparseMatrix<d>& A) {
                     "non-finite entry in row " + std::to_string(p) + ")");
     }
   }
-  A = transformOperator(A, C, skip_);
+  transformOperator(A, C, skip_);
   b_ = applyTransposedBasis<d>(C, skip_, b_);
+}
+
+template <int d>
+typename BlockSparseMatrix<d>::Pattern ContactProblem<d>::transformedPattern(typename BlockSparseMatrix<d>::Pattern pattern,
+                                                                           const mesh::CsrMatrix& C) {
+  const Index n = static_cast<Index>(pattern.rowStart.size()) - 1;
+  if (C.rows == 0) return pattern;
+  if (C.rows != n || C.cols != n || C.rowStart.size() != static_cast<std::size_t>(n) + 1)
+    throw Error("contact problem: basis transformation of size " + std::to_string(C.rows) + " x " +
+                std::to_string(C.cols) + " for a pattern of " + std::to_string(n) + " rows");
+  const auto& rs = pattern.rowStart;
+  const auto& cs = pattern.columns;
+  const TransformationRoles roles(C, n);
+  // the columns transformOperator() produces, symbolically: B_r = cols(A_r) + the C columns of its
+  // slave columns on touched rows; T'B_p = cols(B_p) + cols(B_r) over C_rp != 0 on master rows
+  std::vector<Index> bSlot(n, -1), slot(n, -1);
+  std::vector<Index> bStart{0}, bCols, start{0}, cols;
+  std::vector<char> seen(static_cast<std::size_t>(n), 0);
+  std::vector<Index> row;
+  const auto flush = [&](std::vector<Index>& starts, std::vector<Index>& out) {
+    std::sort(row.begin(), row.end());
+    out.insert(out.end(), row.begin(), row.end());
+    starts.push_back(static_cast<Index>(out.size()));
+    for (Index j : row) seen[j] = 0;
+    row.clear();
+  };
+  const auto add = [&](Index j) {
+    if (!seen[j]) {
+      seen[j] = 1;
+      row.push_back(j);
+    }
+  };
+  for (Index r = 0; r < n; ++r) {
+    bool touched = false;
+    for (Index k = rs[r]; k < rs[r + 1] && !touched; ++k) touched = roles.slave[cs[k]] != 0;
+    if (!touched) continue;
+    for (Index k = rs[r]; k < rs[r + 1]; ++k) {
+      add(cs[k]);
+      for (Index m = C.rowStart[cs[k]]; m < C.rowStart[cs[k] + 1]; ++m) add(C.columns[m]);
+    }
+    bSlot[r] = static_cast<Index>(bStart.size()) - 1;
+    flush(bStart, bCols);
+  }
+  const auto forRowOfB = [&](Index r, auto&& f) {
+    if (bSlot[r] >= 0)
+      for (Index k = bStart[bSlot[r]]; k < bStart[bSlot[r] + 1]; ++k) f(bCols[k]);
+    else
+      for (Index k = rs[r]; k < rs[r + 1]; ++k) f(cs[k]);
+  };
+  const TransposedBasis Ct(C, n);
+  for (Index p = 0; p < n; ++p) {
+    if (!roles.master[p]) continue;
+    forRowOfB(p, add);
+    for (Index m = Ct.start[p]; m < Ct.start[p + 1]; ++m) forRowOfB(Ct.rows[m], add);
+    slot[p] = static_cast<Index>(start.size()) - 1;
+    flush(start, cols);
+  }
+  typename BlockSparseMatrix<d>::Pattern out;
+  out.rowStart.resize(static_cast<std::size_t>(n) + 1);
+  out.rowStart[0] = 0;
+  const auto length = [&](Index p) {
+    return slot[p] >= 0 ? start[slot[p] + 1] - start[slot[p]]
+           : bSlot[p] >= 0 ? bStart[bSlot[p] + 1] - bStart[bSlot[p]]
+                           : rs[p + 1] - rs[p];
+  };
+  for (Index p = 0; p < n; ++p) out.rowStart[p + 1] = out.rowStart[p] + length(p);
+  out.columns.resize(static_cast<std::size_t>(out.rowStart[n]));
+  forRanges(n, [&](Index begin, Index end) {
+    for (Index p = begin; p < end; ++p) {
+      Index k = out.rowStart[p];
+      if (slot[p] >= 0)
+        for (Index i = start[slot[p]]; i < start[slot[p] + 1]; ++i) out.columns[k++] = cols[i];
+      else
+        forRowOfB(p, [&](Index j) { out.columns[k++] = j; });
+    }
+  });
+  return out;
 }
 
 template <int d>

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <memory>
 #include <span>
 
 #include "obs/mesh/Error.hpp"
@@ -77,91 +78,54 @@ double outwardSign(const mesh::Mesh& m, std::span<const Index> fv, const mesh::V
 
 }  // namespace
 
+namespace {
+
+/// The stiffness rows of one mesh, written into its rows of a (possibly stacked) pattern: the mesh's
+/// vertex v is row offset + v there, and the rows hold the mesh's vertex pairs (shifted by offset).
 template <int d>
-BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& material) {
-  if (mesh.dimension() != d) throw Error("assembleStiffness: mesh dimension mismatch");
-  const double mu = material.mu();
-  // B-bar (docs/theory.md#b-bar): lambda/2 (div u)^2 = kappa/2 (div u)^2 - mu/3 (div u)^2, and the
-  // kappa part takes the cell mean of div u: K_e = int [2 mu eps:eps - 2 mu/3 div div]
-  // + kappa/|e| (int div phi_i)(int div phi_j). Standard: the lambda part pointwise.
-  const bool bbar = material.formulation == VolumetricFormulation::BBar;
-  const double pointwise = bbar ? -2 * mu / 3 : material.lambda();
-  const double kappa = material.bulkModulus();
+class MeshStiffness {
+public:
   using Block = typename BlockSparseMatrix<d>::Block;
-  using Vec = Eigen::Matrix<double, d, 1>;
-  constexpr int kMax = 8;  // vertices per cell
-  struct CellMatrix {
-    CellMatrix() {}  // not value-initialised
-    Block block[kMax][kMax];
-  };
-  // The matrix of cell c (cv reinitialised on c, n vertices).
-  const auto computeMatrix = [&](const CellValues<d>& cv, int n, CellMatrix& K) {
-    Vec meanGradient[kMax];
-    for (int i = 0; i < n; ++i) {
-      meanGradient[i].setZero();
-      for (int j = i; j < n; ++j) K.block[i][j].setZero();
-    }
-    double volume = 0;
-    for (int q = 0; q < cv.numPoints(); ++q) {
-      const double w = cv.JxW(q);
-      volume += w;
-      for (int i = 0; i < n; ++i) {
-        const auto& gi = cv.gradient(q, i);
-        if (bbar) meanGradient[i] += w * gi;
-        for (int j = i; j < n; ++j) {  // the upper half; K_ji = K_ij' (below)
-          const auto& gj = cv.gradient(q, j);
-          // K_ij[a][b] = lambda d_a phi_i d_b phi_j + mu (delta_ab grad phi_i . grad phi_j
-          //              + d_b phi_i d_a phi_j)
-          K.block[i][j].noalias() += w * (pointwise * gi * gj.transpose() + mu * gj * gi.transpose());
-          K.block[i][j].diagonal().array() += w * mu * gi.dot(gj);
-        }
-      }
-    }
-    for (int i = 0; i < n; ++i)
-      for (int j = i; j < n; ++j) {
-        if (bbar) K.block[i][j].noalias() += (kappa / volume) * meanGradient[i] * meanGradient[j].transpose();
-        if (j > i) K.block[j][i] = K.block[i][j].transpose();
-      }
-    // the diagonal blocks exactly symmetric too (their two off-diagonal triangles are rounded apart)
-    for (int i = 0; i < n; ++i) K.block[i][i] = 0.5 * (K.block[i][i] + K.block[i][i].transpose()).eval();
-  };
-  // One CellValues per quadrature (simplices need one point) with the matrix of the last cell it
-  // computed. CellValues::reinit tells when a cell is a translate of the previous one (the same type
-  // and bitwise the same vertex differences: most cells of generated and red-refined grids); its
-  // matrix is bitwise that cell's, and is reused (docs/performance.md#assembly).
-  struct Kind {
-    CellValues<d> cv;
-    CellMatrix K;
-    bool valid = false;
-    explicit Kind(int degree) : cv(degree) {}
-  };
-  const mesh::VertexCells around = mesh::vertexCells(mesh);
-  auto pattern = BlockSparseMatrix<d>::meshPattern(mesh, around);
-  // fromRowRanges takes the pattern's vectors over by moving them: their elements stay where they are
-  const std::span<const Index> rowStart = pattern.rowStart, columns = pattern.columns;
-  // The rows are filled range by range (BlockSparseMatrix::fromRowRanges, which shares the repeated
-  // blocks as they come): a range takes the cells around its vertices in ascending order and adds
-  // their blocks of its rows, so every block is the sum over its cells in cell order, whatever the
-  // ranges and the thread count. A degenerate cell is skipped there; the first one is computed again
-  // below to throw its error, as a sequential loop over the cells would.
-  std::atomic<Index> failed{mesh.numCells()};
-  const auto fill = [&](Index first, Index last, Block* out) {
-    const Index base = rowStart[first];
+
+  MeshStiffness(const mesh::Mesh& mesh, const Material& material, Index offset)
+      : mesh_(mesh), offset_(offset), around_(mesh::vertexCells(mesh)), failed_(mesh.numCells()) {
+    if (mesh.dimension() != d) throw Error("assembleStiffness: mesh dimension mismatch");
+    mu_ = material.mu();
+    // B-bar (docs/theory.md#b-bar): lambda/2 (div u)^2 = kappa/2 (div u)^2 - mu/3 (div u)^2, and the
+    // kappa part takes the cell mean of div u: K_e = int [2 mu eps:eps - 2 mu/3 div div]
+    // + kappa/|e| (int div phi_i)(int div phi_j). Standard: the lambda part pointwise.
+    bbar_ = material.formulation == VolumetricFormulation::BBar;
+    pointwise_ = bbar_ ? -2 * mu_ / 3 : material.lambda();
+    kappa_ = material.bulkModulus();
+  }
+  MeshStiffness(const MeshStiffness&) = delete;
+
+  const mesh::VertexCells& around() const { return around_; }
+
+  /// Adds the blocks of the mesh's rows [first, last) (local numbering) to `out`, where out[0] is
+  /// the block at position rowStart[offset + first] of the target pattern.
+  ///
+  /// A range takes the cells around its vertices in ascending order and adds their blocks of its
+  /// rows, so every block is the sum over its cells in cell order, whatever the ranges and the
+  /// thread count. A degenerate cell is skipped here and remembered; throwIfFailed() computes the
+  /// first one again to throw its error, as a sequential loop over the cells would.
+  void fill(Index first, Index last, Block* out, std::span<const Index> rowStart, std::span<const Index> columns) const {
+    const Index base = rowStart[offset_ + first];
     std::vector<Index> cells;
     for (Index v = first; v < last; ++v) {
-      const auto of = around.cellsOf(v);
+      const auto of = around_.cellsOf(v);
       cells.insert(cells.end(), of.begin(), of.end());
     }
     std::sort(cells.begin(), cells.end());
     cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
     Kind general(kStiffnessDegree), simplex(kSimplexStiffnessDegree);
     for (const Index c : cells) {
-      const mesh::CellType type = mesh.cellType(c);
-      const auto verts = mesh.cellVertices(c);
+      const mesh::CellType type = mesh_.cellType(c);
+      const auto verts = mesh_.cellVertices(c);
       const int n = static_cast<int>(verts.size());
       Kind& kind = type == mesh::CellType::Triangle || type == mesh::CellType::Tetrahedron ? simplex : general;
       try {
-        const bool translate = kind.cv.reinit(mesh, c);
+        const bool translate = kind.cv.reinit(mesh_, c);
         if (!(translate && kind.valid)) {
           kind.valid = false;
           computeMatrix(kind.cv, n, kind.K);
@@ -169,7 +133,7 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
         }
       } catch (const Error&) {
         kind.valid = false;
-        for (Index seen = failed.load(); c < seen && !failed.compare_exchange_weak(seen, c);) {
+        for (Index seen = failed_.load(); c < seen && !failed_.compare_exchange_weak(seen, c);) {
         }
         continue;
       }
@@ -183,24 +147,156 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
       }
       for (int i = 0; i < n; ++i) {
         if (verts[i] < first || verts[i] >= last) continue;
-        Index k = rowStart[verts[i]];
+        Index k = rowStart[offset_ + verts[i]];
         for (int t = 0; t < n; ++t) {
-          const Index w = verts[order[t]];
+          const Index w = offset_ + verts[order[t]];
           while (columns[k] < w) ++k;  // w is in the row: the pattern holds every cell's vertex pairs
           out[k - base] += kind.K.block[i][order[t]];
         }
       }
     }
-  };
-  BlockSparseMatrix<d> A = BlockSparseMatrix<d>::fromRowRanges(std::move(pattern), fill);
-  if (const Index c = failed.load(); c < mesh.numCells()) {  // throws its obs::Error
-    const mesh::CellType type = mesh.cellType(c);
+  }
+
+  /// Throws the obs::Error of the first cell that could not be assembled, if any.
+  void throwIfFailed() const {
+    const Index c = failed_.load();
+    if (c >= mesh_.numCells()) return;
+    const mesh::CellType type = mesh_.cellType(c);
     Kind kind(type == mesh::CellType::Triangle || type == mesh::CellType::Tetrahedron ? kSimplexStiffnessDegree
                                                                                       : kStiffnessDegree);
-    kind.cv.reinit(mesh, c);
-    computeMatrix(kind.cv, static_cast<int>(mesh.cellVertices(c).size()), kind.K);
+    kind.cv.reinit(mesh_, c);  // throws its obs::Error
+    computeMatrix(kind.cv, static_cast<int>(mesh_.cellVertices(c).size()), kind.K);
     throw Error("assembleStiffness: cell " + std::to_string(c) + " could not be assembled");
   }
+
+private:
+  using Vec = Eigen::Matrix<double, d, 1>;
+  static constexpr int kMax = 8;  // vertices per cell
+  struct CellMatrix {
+    CellMatrix() {}  // not value-initialised
+    Block block[kMax][kMax];
+  };
+  // One CellValues per quadrature (simplices need one point) with the matrix of the last cell it
+  // computed. CellValues::reinit tells when a cell is a translate of the previous one (the same type
+  // and bitwise the same vertex differences: most cells of generated and red-refined grids); its
+  // matrix is bitwise that cell's, and is reused (docs/performance.md#assembly).
+  struct Kind {
+    CellValues<d> cv;
+    CellMatrix K;
+    bool valid = false;
+    explicit Kind(int degree) : cv(degree) {}
+  };
+
+  /// The matrix of a cell (cv reinitialised on it, n vertices).
+  void computeMatrix(const CellValues<d>& cv, int n, CellMatrix& K) const {
+    Vec meanGradient[kMax];
+    for (int i = 0; i < n; ++i) {
+      meanGradient[i].setZero();
+      for (int j = i; j < n; ++j) K.block[i][j].setZero();
+    }
+    double volume = 0;
+    for (int q = 0; q < cv.numPoints(); ++q) {
+      const double w = cv.JxW(q);
+      volume += w;
+      for (int i = 0; i < n; ++i) {
+        const auto& gi = cv.gradient(q, i);
+        if (bbar_) meanGradient[i] += w * gi;
+        for (int j = i; j < n; ++j) {  // the upper half; K_ji = K_ij' (below)
+          const auto& gj = cv.gradient(q, j);
+          // K_ij[a][b] = lambda d_a phi_i d_b phi_j + mu (delta_ab grad phi_i . grad phi_j
+          //              + d_b phi_i d_a phi_j)
+          K.block[i][j].noalias() += w * (pointwise_ * gi * gj.transpose() + mu_ * gj * gi.transpose());
+          K.block[i][j].diagonal().array() += w * mu_ * gi.dot(gj);
+        }
+      }
+    }
+    for (int i = 0; i < n; ++i)
+      for (int j = i; j < n; ++j) {
+        if (bbar_) K.block[i][j].noalias() += (kappa_ / volume) * meanGradient[i] * meanGradient[j].transpose();
+        if (j > i) K.block[j][i] = K.block[i][j].transpose();
+      }
+    // the diagonal blocks exactly symmetric too (their two off-diagonal triangles are rounded apart)
+    for (int i = 0; i < n; ++i) K.block[i][i] = 0.5 * (K.block[i][i] + K.block[i][i].transpose()).eval();
+  }
+
+  const mesh::Mesh& mesh_;
+  Index offset_;
+  double mu_ = 0, pointwise_ = 0, kappa_ = 0;
+  bool bbar_ = false;
+  mesh::VertexCells around_;
+  mutable std::atomic<Index> failed_;
+};
+
+}  // namespace
+
+template <int d>
+BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& material) {
+  const mesh::Mesh* meshes[] = {&mesh};
+  const Material* materials[] = {&material};
+  return assembleStackedStiffness<d>(meshes, materials, {});
+}
+
+template <int d>
+BlockSparseMatrix<d> assembleStackedStiffness(std::span<const mesh::Mesh* const> meshes,
+                                              std::span<const Material* const> materials,
+                                              const std::function<void(typename BlockSparseMatrix<d>::Pattern&)>& widen) {
+  if (meshes.empty() || meshes.size() != materials.size())
+    throw Error("assembleStackedStiffness: " + std::to_string(meshes.size()) + " meshes and " +
+                std::to_string(materials.size()) + " materials");
+  using Block = typename BlockSparseMatrix<d>::Block;
+  std::vector<std::unique_ptr<MeshStiffness<d>>> parts;
+  std::vector<Index> first;  // each mesh's first stacked row
+  Index n = 0;
+  for (std::size_t i = 0; i < meshes.size(); ++i) {
+    parts.push_back(std::make_unique<MeshStiffness<d>>(*meshes[i], *materials[i], n));
+    first.push_back(n);
+    n += meshes[i]->numVertices();
+  }
+  // the stacked pattern: the meshes' vertex-adjacency patterns, shifted along the diagonal
+  typename BlockSparseMatrix<d>::Pattern pattern;
+  if (parts.size() == 1) {
+    pattern = BlockSparseMatrix<d>::meshPattern(*meshes[0], parts[0]->around());
+  } else {
+    std::vector<typename BlockSparseMatrix<d>::Pattern> each;
+    std::size_t blocks = 0;
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+      each.push_back(BlockSparseMatrix<d>::meshPattern(*meshes[i], parts[i]->around()));
+      blocks += each.back().columns.size();
+    }
+    pattern.rowStart.resize(static_cast<std::size_t>(n) + 1);
+    pattern.rowStart[0] = 0;
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+      const auto& p = each[i];
+      const Index base = pattern.rowStart[first[i]];
+      for (Index r = 0; r + 1 < static_cast<Index>(p.rowStart.size()); ++r)
+        pattern.rowStart[first[i] + r + 1] = base + p.rowStart[r + 1];
+    }
+    pattern.columns.resize(blocks);
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+      const auto& p = each[i];
+      const Index base = pattern.rowStart[first[i]], offset = first[i];
+      const auto count = static_cast<Index>(p.columns.size());
+      forRanges(count, [&](Index begin, Index end) {
+        for (Index k = begin; k < end; ++k) pattern.columns[base + k] = offset + p.columns[k];
+      });
+      each[i] = {};
+    }
+  }
+  if (widen) widen(pattern);
+  // fromRowRanges takes the pattern's vectors over by moving them: their elements stay where they are
+  const std::span<const Index> rowStart = pattern.rowStart, columns = pattern.columns;
+  // The rows are filled range by range (BlockSparseMatrix::fromRowRanges, which shares the repeated
+  // blocks as they come); a range that spans meshes is split at their first rows.
+  const auto fill = [&](Index from, Index to, Block* out) {
+    const Index base = rowStart[from];
+    for (std::size_t i = 0; i < parts.size(); ++i) {
+      const Index end = i + 1 < parts.size() ? first[i + 1] : n;
+      const Index a = std::max(from, first[i]), b = std::min(to, end);
+      if (a < b) parts[i]->fill(a - first[i], b - first[i], out + (rowStart[a] - base), rowStart, columns);
+    }
+  };
+  BlockSparseMatrix<d> A = BlockSparseMatrix<d>::fromRowRanges(std::move(pattern), fill);
+  for (const auto& part : parts) part->throwIfFailed();
   return A;
 }
 
@@ -304,6 +400,12 @@ void applyDirichlet(BlockSparseMatrix<d>& A, Eigen::VectorXd& b, const Dirichlet
 
 template BlockSparseMatrix<2> assembleStiffness<2>(const mesh::Mesh&, const Material&);
 template BlockSparseMatrix<3> assembleStiffness<3>(const mesh::Mesh&, const Material&);
+template BlockSparseMatrix<2> assembleStackedStiffness<2>(std::span<const mesh::Mesh* const>,
+                                                          std::span<const Material* const>,
+                                                          const std::function<void(BlockSparseMatrix<2>::Pattern&)>&);
+template BlockSparseMatrix<3> assembleStackedStiffness<3>(std::span<const mesh::Mesh* const>,
+                                                          std::span<const Material* const>,
+                                                          const std::function<void(BlockSparseMatrix<3>::Pattern&)>&);
 template Eigen::VectorXd assembleLoad<2>(const mesh::Mesh&, const BoundaryConditions&);
 template Eigen::VectorXd assembleLoad<3>(const mesh::Mesh&, const BoundaryConditions&);
 template void applyDirichlet<2>(BlockSparseMatrix<2>&, Eigen::VectorXd&, const DirichletValues&);

@@ -441,6 +441,63 @@ TEST(MortarPatch, RollersOnTheSlaveSideKeepThePatchTestExact) {
   }
 }
 
+/// The operators of two problems agree bit for bit: pattern and every block.
+template <int d>
+void expectSameOperator(const ContactProblem<d>& a, const ContactProblem<d>& b) {
+  const BlockSparseMatrix<d>& A = a.rotatedMatrix();
+  const BlockSparseMatrix<d>& B = b.rotatedMatrix();
+  ASSERT_EQ(A.rows(), B.rows());
+  ASSERT_TRUE(std::ranges::equal(A.rowStarts(), B.rowStarts()));
+  ASSERT_TRUE(std::ranges::equal(A.columns(), B.columns()));
+  Index differ = 0;
+  for (Index k = 0; k < A.nonZeroBlocks(); ++k) differ += A.blockAt(k) != B.blockAt(k);
+  EXPECT_EQ(differ, 0);
+  EXPECT_TRUE(a.rhs().cwiseEqual(b.rhs()).all());
+}
+
+/// assembleBodies on ContactProblem::transformedPattern (zero blocks where T'AT gains columns) is
+/// transformed in place; stackBodies of the bodies' own matrices is transformed into a new matrix.
+/// Both give T'AT bit for bit.
+template <int d>
+void compareTransformations(StackedBlocks<d>& s) {
+  const mesh::Mesh& ml = s.lower.leafView().mesh;
+  const mesh::Mesh& mu = s.upper.leafView().mesh;
+  const mesh::Mesh* meshes[] = {&ml, &mu};
+  const Material* materials[] = {&s.lowerMaterial, &s.upperMaterial};
+  const BoundaryConditions none;
+  const BoundaryConditions* conditions[] = {&none, &none};
+  const mesh::CsrMatrix C = s.coupling->transformation();
+  // the stiffness alone: assembleBodies is bitwise stackBodies of assembleBody
+  BodySystem<d> plain = assembleBodies<d>(meshes, materials, conditions);
+  BodySystem<d> stacked =
+      stackBodies<d>({assembleBody<d>(ml, s.lowerMaterial, none), assembleBody<d>(mu, s.upperMaterial, none)});
+  ASSERT_TRUE(std::ranges::equal(plain.stiffness.columns(), stacked.stiffness.columns()));
+  for (Index k = 0; k < plain.stiffness.nonZeroBlocks(); ++k)
+    ASSERT_TRUE(plain.stiffness.blockAt(k) == stacked.stiffness.blockAt(k)) << "block " << k;
+  // widened: the pattern grows, the matrix's own blocks stay
+  BodySystem<d> widened = assembleBodies<d>(meshes, materials, conditions, nullptr,
+                                            [&](typename BlockSparseMatrix<d>::Pattern& p) {
+                                              p = ContactProblem<d>::transformedPattern(std::move(p), C);
+                                            });
+  EXPECT_GT(widened.stiffness.nonZeroBlocks(), plain.stiffness.nonZeroBlocks());
+  const ContactProblem<d> copy(s.system.stiffness, s.system.load, s.system.dirichlet, s.coupling->contactSet(), C);
+  const ContactProblem<d> inPlace(std::move(widened.stiffness), s.system.load, s.system.dirichlet,
+                                  s.coupling->contactSet(), C);
+  expectSameOperator(copy, inPlace);
+}
+
+TEST(MortarPatch, TransformationInPlaceEqualsTheCopy) {
+  {  // with slave rollers (basisSkip)
+    StackedBlocks<3> s(CellType::Tetrahedron, 3, CellType::Hexahedron, 4, 1, 0, true);
+    ASSERT_FALSE(s.problem->basisSkip().empty());
+    compareTransformations(s);
+  }
+  {
+    StackedBlocks<2> s(CellType::Quadrilateral, 5, CellType::Triangle, 7, 1);
+    compareTransformations(s);
+  }
+}
+
 TEST(MortarPatch, SlaveDirichletAlongTheNormalIsAnError) {
   // u_y prescribed at the slave nodes on x = 0 of the 2D interface: along the normal, not allowed
   StackedBlocks<2> s(CellType::Quadrilateral, 5, CellType::Triangle, 7, 0);

@@ -113,6 +113,14 @@ public:
   ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorXd load, DirichletValues dirichlet,
                  const ContactSet& contact, mesh::CsrMatrix basis);
 
+  /// The pattern of T'AT (T = I + C) for a matrix A of `pattern`: the rows next to transformed
+  /// (slave) vertices and the rows of master vertices gain columns. A stiffness matrix assembled on
+  /// this pattern (zero blocks where A has none; assembleStackedStiffness' `widen`) is transformed
+  /// in place by the constructor, so the operator is never stored twice. Any other pattern works
+  /// too, at the cost of one copy of the operator. C.rows == 0: the pattern itself.
+  static typename BlockSparseMatrix<d>::Pattern transformedPattern(typename BlockSparseMatrix<d>::Pattern pattern,
+                                                                   const mesh::CsrMatrix& C);
+
   /// The basis transformation C (rows() == 0 if there is none).
   const mesh::CsrMatrix& basisTransformation() const { return basis_; }
   bool transformed() const { return basis_.rows > 0; }

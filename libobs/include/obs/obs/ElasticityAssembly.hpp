@@ -7,6 +7,8 @@
 /// and the symmetric elimination of Dirichlet values.
 #include <Eigen/Core>
 
+#include <functional>
+#include <span>
 #include <vector>
 
 #include "obs/mesh/Mesh.hpp"
@@ -22,6 +24,19 @@ namespace obs {
 /// reference; a non-const accessor returns it to one block per entry.
 template <int d>
 BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& material);
+
+/// The stiffness matrices of several meshes stacked block-diagonally (mesh i's vertex v is row
+/// n_0 + ... + n_{i-1} + v), each block bitwise that of assembleStiffness(*meshes[i], *materials[i]),
+/// assembled straight into the stacked matrix (no per-mesh matrix and no copy: the bodies of a
+/// multi-body problem cost what they cost alone, docs/performance.md#multi-body-assembly).
+/// assembleStiffness() is the case of one mesh. `widen` (if set) may add columns to the stacked
+/// pattern before the blocks are written (they stay zero there): the fill-in of a later
+/// transformation in place (ContactProblem::transformedPattern). Throws obs::Error on a mesh of
+/// another dimension, a degenerate cell, or as many materials as meshes missing.
+template <int d>
+BlockSparseMatrix<d> assembleStackedStiffness(
+    std::span<const mesh::Mesh* const> meshes, std::span<const Material* const> materials,
+    const std::function<void(typename BlockSparseMatrix<d>::Pattern&)>& widen = {});
 
 /// Load vector from the body force and the Neumann conditions of `bc` (Dirichlet data ignored).
 template <int d>

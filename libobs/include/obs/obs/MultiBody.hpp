@@ -7,6 +7,7 @@
 /// constraints and basis transformation, so one body is the one-element case of the same path.
 #include <Eigen/Core>
 
+#include <span>
 #include <vector>
 
 #include "obs/mesh/Mesh.hpp"
@@ -30,6 +31,16 @@ struct BodySystem {
 /// Throws obs::Error on an invalid material or a mesh of another dimension.
 template <int d>
 BodySystem<d> assembleBody(const mesh::Mesh& mesh, const Material& material, const BoundaryConditions& bc);
+
+/// The stacked system of several bodies assembled at once: bitwise stackBodies() of the
+/// assembleBody() of each, but the stiffness blocks are written straight into the stacked matrix
+/// (assembleStackedStiffness), so no body's matrix is stored twice. offsets (if given) receives the
+/// first stacked vertex of each body; `widen` is assembleStackedStiffness'. Throws as assembleBody().
+template <int d>
+BodySystem<d> assembleBodies(std::span<const mesh::Mesh* const> meshes, std::span<const Material* const> materials,
+                             std::span<const BoundaryConditions* const> conditions,
+                             std::vector<Index>* offsets = nullptr,
+                             const std::function<void(typename BlockSparseMatrix<d>::Pattern&)>& widen = {});
 
 /// Block-diagonal stacking of the bodies' systems; offsets (if given) receives the first stacked
 /// vertex of each body. Throws obs::Error on inconsistent sizes. Takes the systems by value: pass
