@@ -14,6 +14,10 @@ namespace obs {
 namespace {
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+/// The largest normal component |n_{p,a}| of a prescribed component a at a mortar slave vertex
+/// (ContactProblem::transform): a symmetry line through a curved slave surface, whose last face
+/// tilts the averaged normal by half its angle (0.1: 11 degrees of face angle).
+constexpr double kMaxPrescribedNormal = 0.1;
 
 /// Orthogonal m x m matrix with first column y (unit): the Householder construction of
 /// householderRotation() in m dimensions.
@@ -310,8 +314,13 @@ void ContactProblem<d>::transform(BlockSparseMatrix<d>& A) {
   // Dirichlet components at transformed (slave) vertices: as for one body, a prescribed component
   // orthogonal to the constraint direction is allowed (a roller side meeting the contact surface).
   // The transformation then leaves that component alone (u_{p,a} = x_{p,a}, so the value is a
-  // Dirichlet value of x as well), which does not change the constraint n_p.(D u_p - sum M u_q):
-  // its n_{p,a} is zero. A component with n_{p,a} != 0 would tie x_{p,a} to the master unknowns.
+  // Dirichlet value of x as well), which does not change the constraint n_p.(D u_p - sum M u_q)
+  // when n_{p,a} is zero. A symmetry or roller line through a curved slave surface meets it at a
+  // vertex with one slave face, whose averaged normal leans by half that face's angle: there
+  // |n_{p,a}| <= kMaxPrescribedNormal is accepted too, and the constraint acts along the normal
+  // projected onto the free components, as for one body (setup()); the term n_{p,a} (C x)_{p,a} of
+  // the master side is dropped from it (docs/theory.md#dual-mortar). A larger component would tie
+  // x_{p,a} to the master unknowns and is an error.
   std::vector<Index> constraintOf(static_cast<std::size_t>(n), -1);
   for (Index k = 0; k < contact_.size(); ++k) constraintOf[contact_.vertex(k)] = k;
   skip_.clear();
@@ -321,10 +330,11 @@ void ContactProblem<d>::transform(BlockSparseMatrix<d>& A) {
       if (!dirichlet_.constrained[static_cast<std::size_t>(p) * d + a]) continue;
       const Index k = constraintOf[p];
       const double na = k >= 0 ? contact_.direction(k)[a] : 1.0;
-      if (!(std::abs(na) <= 1e-10)) {
+      if (!(std::abs(na) <= kMaxPrescribedNormal)) {
         std::ostringstream os;
         os << "contact problem: vertex " << p << " is a mortar slave node whose prescribed component "
-           << "xyz"[a] << " is not orthogonal to its contact normal (normal component " << na
+           << "xyz"[a] << " is not orthogonal to its contact normal (normal component " << na << ", more than "
+           << kMaxPrescribedNormal
            << "); prescribe only components orthogonal to the contact surface there (rollers), or move the "
               "Dirichlet data to the master side or away from the contact interface";
         throw Error(os.str());

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
+#include <sstream>
 #include <string>
 
 #include "obs/drivers/RunScene.hpp"
@@ -14,6 +16,7 @@
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Gmsh.hpp"
 #include "obs/mesh/Grid.hpp"
+#include "DriverTestSupport.hpp"
 
 using namespace obs;
 using namespace obs::drivers;
@@ -167,4 +170,79 @@ projection = { boundary = "arc", shape = "circle", centre = [0, 1], radius = 1 }
   EXPECT_NEAR(projected.load, generated.load, 1e-10 * generated.load);
   EXPECT_NEAR(projected.pressureMax, generated.pressureMax, 1e-9 * generated.pressureMax);
   EXPECT_GT(std::abs(polygon.pressureMax - generated.pressureMax), 0.01 * generated.pressureMax);
+}
+
+namespace {
+
+/// The largest |p - p_Hertz| / p0 over the slave vertices of data/scenes/twobody_gmsh_cylinders.toml
+/// in contact with |x| <= 0.8 a (away from the edge of the zone, where the square root is steepest),
+/// and their number; p_Hertz for the computed load, two cylinders of radius 1 and one material.
+struct HertzDeviation {
+  double worst = 0;
+  int vertices = 0;
+  double halfWidth = 0;
+};
+HertzDeviation hertzDeviation(const std::string& name, const std::string& sceneText) {
+  const fs::path dir = fs::path(OBS_TEST_TMP_DIR) / "gmsh_cylinders";
+  fs::create_directories(dir);
+  // the scene's mesh files, relative to data/scenes, from the test's own directory
+  const std::string relative = "\"../meshes/";
+  const std::string absolute = std::string(1, '"').append((kScenes.parent_path() / "meshes").string()).append("/");
+  std::string text;
+  for (std::size_t from = 0;;) {
+    const std::size_t at = sceneText.find(relative, from);
+    text += sceneText.substr(from, at == std::string::npos ? std::string::npos : at - from);
+    if (at == std::string::npos) break;
+    text += absolute;
+    from = at + relative.size();
+  }
+  const fs::path file = dir / (name + ".toml");
+  std::ofstream(file) << text;
+  RunOptions o;
+  o.outputDirectory = dir / name;
+  const RunResult r = runScene(file, o);
+  EXPECT_EQ(r.pairs.size(), 1u);
+  const double P = r.pairs.front().load;
+  const double E = 1, nu = 0.3, Rstar = 0.5, Estar = E / (2 * (1 - nu * nu));
+  HertzDeviation h;
+  h.halfWidth = std::sqrt(4 * P * Rstar / (M_PI * Estar));
+  const double a = h.halfWidth, p0 = 2 * P / (M_PI * a);
+  const obs::test::Vtu upper = obs::test::readVtu(dir / name / (name + "_upper.vtu"));
+  const auto p = upper.array("contact_pressure");
+  EXPECT_EQ(p.size(), upper.points.size());
+  for (std::size_t v = 0; v < p.size(); ++v) {
+    const double x = upper.points[v][0];
+    if (!(p[v] > 0) || std::abs(x) > 0.8 * a) continue;
+    const double exact = p0 * std::sqrt(1 - x * x / (a * a));
+    h.worst = std::max(h.worst, std::abs(p[v] - exact) / p0);
+    ++h.vertices;
+  }
+  return h;
+}
+
+std::string slurpFile(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+}  // namespace
+
+TEST(MeshProjection, TwoCylindersFromGmshFilesMatchHertz) {
+  // data/scenes/twobody_gmsh_cylinders.toml: two graded half-cylinders from Gmsh files, refined twice
+  // with the arcs projected onto the circles. The dual-mortar pressure at every contact vertex away
+  // from the edge of the zone is Hertz's within 3 % of p0 (for the computed load); without the
+  // projections the refined arcs are the coarse polygons and their corners break that bound.
+  const std::string text = slurpFile(kScenes / "twobody_gmsh_cylinders.toml");
+  const HertzDeviation projected = hertzDeviation("projected", text);
+  EXPECT_GT(projected.vertices, 50);
+  EXPECT_GT(projected.halfWidth, 0.02);
+  EXPECT_LT(projected.worst, 0.03) << projected.vertices << " vertices, a = " << projected.halfWidth;
+  std::string polygon;
+  std::istringstream lines(text);
+  for (std::string line; std::getline(lines, line);)
+    if (line.rfind("projection", 0) != 0) polygon += line + "\n";
+  const HertzDeviation chords = hertzDeviation("polygon", polygon);
+  EXPECT_GT(chords.worst, 0.03) << chords.vertices << " vertices";
+  std::cout << "largest |p - p_Hertz| / p0 within 0.8 a: " << projected.worst << " projected (" << projected.vertices
+            << " vertices, a = " << projected.halfWidth << "), " << chords.worst << " without projections\n";
 }

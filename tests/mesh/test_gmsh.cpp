@@ -669,6 +669,9 @@ TEST(Gmsh, ExampleMeshContents) {
       // upper bodies of the Geometry B readings (scripts/make_geometry_b.py): one rotated unit cube
       {"cube_on_corner.msh", 3, 8, {0, 0, 0, 0, 1, 0, 0}, 6, {{1, "corner"}, {2, "free"}}},
       {"cube_on_edge.msh", 3, 8, {0, 0, 0, 0, 1, 0, 0}, 6, {{1, "edge"}, {2, "free"}}},
+      // the graded half-cylinders of data/scenes/twobody_gmsh_cylinders.toml (Gmsh 4.8.4)
+      {"half_cylinder_upper.msh", 2, 1533, {0, 2922, 0, 0, 0, 0, 0}, 142, {{1, "arc"}, {2, "flat"}}},
+      {"half_cylinder_lower.msh", 2, 1533, {0, 2922, 0, 0, 0, 0, 0}, 142, {{1, "arc"}, {2, "flat"}}},
   };
   for (const ExampleMesh& e : examples) {
     SCOPED_TRACE(e.file);

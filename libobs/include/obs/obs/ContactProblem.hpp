@@ -26,9 +26,11 @@
 ///   u = (I + C) x,   x = (I - C) u   (C acts on every component alike, see below for one exception).
 /// The stiffness and load given to the constructor are those of u; the problem stores
 /// A = T'A_u T and b = T'b_u (T = I + C) and eliminates the Dirichlet values afterwards. A transformed
-/// (slave) vertex may have Dirichlet components only orthogonal to its constraint direction (rollers,
-/// as for one body; others throw obs::Error): the transformation leaves those components alone
-/// (basisSkip()), so their values are values of x as well and the constraint is unchanged. Every
+/// (slave) vertex may have Dirichlet components only (nearly) orthogonal to its constraint direction
+/// (rollers, as for one body; normal components up to 0.1 for a symmetry line through a curved slave
+/// surface, whose constraint then acts along the projected normal; others throw obs::Error,
+/// docs/theory.md#mortar-transformation): the transformation leaves those components alone
+/// (basisSkip()), so their values are values of x as well. Every
 /// member function, and every solver, works with the problem unknowns x; toDisplacement() and
 /// fromDisplacement() convert. Without a transformation (one body against obstacles) x = u.
 #include <Eigen/Core>
@@ -108,8 +110,8 @@ public:
   ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorXd load, DirichletValues dirichlet,
                  const ContactSet& contact);
   /// With a basis transformation C (see the file comment; C.rows == 0: none). Throws obs::Error if
-  /// C has the wrong size, C^2 != 0, or a transformed vertex has a Dirichlet component that is not
-  /// orthogonal to its constraint direction.
+  /// C has the wrong size, C^2 != 0, or a transformed vertex has a Dirichlet component with a normal
+  /// component above 0.1.
   ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorXd load, DirichletValues dirichlet,
                  const ContactSet& contact, mesh::CsrMatrix basis);
 
