@@ -282,10 +282,13 @@ const toml::array& entries(const Scene& scene, const toml::value& v, const std::
 }
 
 DirichletSpec parseDirichlet(const Scene& scene, const toml::value& table) {
-  const TomlSection s(scene.fileName, "[[dirichlet]]", table, {"boundary", "value", "components"});
+  const TomlSection s(scene.fileName, "[[dirichlet]]", table, {"boundary", "everywhere", "value", "components"});
   DirichletSpec spec;
   spec.line = s.line();
-  spec.boundary = s.boundary("boundary");
+  spec.everywhere = s.has("everywhere") && s.boolean("everywhere");
+  if (spec.everywhere && s.has("boundary"))
+    s.fail("everywhere", "prescribes every vertex of the body: remove the boundary (or set everywhere = false)");
+  if (!spec.everywhere) spec.boundary = s.boundary("boundary");
   if (s.has("components")) {
     const toml::value& v = s.at("components");
     if (!v.is_array() || v.as_array().empty())

@@ -105,7 +105,8 @@ std::vector<DirichletCondition> dirichletConditions(const Scene& scene, const me
   std::vector<DirichletCondition> out;
   for (const DirichletSpec& spec : scene.dirichlet) {
     DirichletCondition dc;
-    dc.boundaryId = resolveBoundary(scene, mesh, spec.boundary, "[[dirichlet]]");
+    dc.everywhere = spec.everywhere;
+    if (!spec.everywhere) dc.boundaryId = resolveBoundary(scene, mesh, spec.boundary, "[[dirichlet]]");
     if (!spec.components.empty()) {
       dc.fixed = {false, false, false};
       for (int c : spec.components) dc.fixed[c] = true;
@@ -364,7 +365,11 @@ void checkDirichletContact(const Scene& scene, const mesh::Mesh& mesh, const Con
     if (shift <= gap + 1e-12 * std::max({1.0, std::abs(gap), std::abs(shift)})) continue;
     // the [[dirichlet]] entry that prescribes the vertex (later entries win, as in collectDirichlet)
     std::string entry;
-    for (std::size_t e = 0; e < scene.dirichlet.size(); ++e)
+    for (std::size_t e = 0; e < scene.dirichlet.size(); ++e) {
+      if (conditions[e].everywhere) {
+        entry = "[[dirichlet]] everywhere = true (line " + std::to_string(scene.dirichlet[e].line) + ")";
+        continue;
+      }
       for (mesh::Index f = 0; f < mesh.numBoundaryFaces(); ++f) {
         if (mesh.boundaryFaceId(f) != conditions[e].boundaryId) continue;
         const auto fv = mesh.boundaryFaceVertices(f);
@@ -374,6 +379,7 @@ void checkDirichletContact(const Scene& scene, const mesh::Mesh& mesh, const Con
           break;
         }
       }
+    }
     std::ostringstream os;
     os << scene.where(scene.contact->boundary.line) << "[contact] boundary = "
        << scene.contact->boundary.describe() << ": vertex " << v << " at "
@@ -387,7 +393,7 @@ void checkDirichletContact(const Scene& scene, const mesh::Mesh& mesh, const Con
 void validateScene(const Scene& scene, const mesh::Mesh& mesh) {
   const int dim = mesh.dimension();
   for (const DirichletSpec& spec : scene.dirichlet) {
-    resolveBoundary(scene, mesh, spec.boundary, "[[dirichlet]]");
+    if (!spec.everywhere) resolveBoundary(scene, mesh, spec.boundary, "[[dirichlet]]");
     for (int c : spec.components)
       if (c >= dim)
         throw Error(scene.where(spec.componentsLine) + "[[dirichlet]] components: \"" +

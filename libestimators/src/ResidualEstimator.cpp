@@ -76,6 +76,7 @@ struct BoundaryData {
 BoundaryData boundaryData(const EstimatorInput& in) {
   BoundaryData b;
   for (const DirichletCondition& dc : in.boundaryConditions.dirichlet) {
+    if (dc.everywhere) continue;  // no boundary faces of its own
     auto& f = b.fixed.try_emplace(dc.boundaryId, std::array<bool, 3>{false, false, false}).first->second;
     for (int c = 0; c < 3; ++c) f[c] = f[c] || dc.fixed[c];
   }

@@ -11,6 +11,8 @@
 #include <exception>
 #include <optional>
 
+#include "obs/mesh/Error.hpp"
+
 namespace obs {
 
 template <int d>
@@ -380,6 +382,44 @@ bool BlockSparseMatrix<d>::shareRepeatedBlocks() {
   blocks_ = std::move(distinct);
   blockIndex_ = std::move(index);
   return true;
+}
+
+template <int d>
+Index BlockSparseMatrix<d>::isolatedBlocks(const std::vector<char>& isolated) const {
+  const Index n = rows();
+  Index count = 0;
+  for (Index i = 0; i < n; ++i)
+    for (Index k = rowStart_[i]; k < rowStart_[i + 1]; ++k)
+      count += cols_[k] != i && (isolated[i] || isolated[cols_[k]]);
+  return count;
+}
+
+template <int d>
+Index BlockSparseMatrix<d>::isolate(const std::vector<char>& isolated) {
+  if (static_cast<Index>(isolated.size()) != rows())
+    throw Error("BlockSparseMatrix::isolate: " + std::to_string(isolated.size()) + " flags for " +
+                std::to_string(rows()) + " rows");
+  const Index n = rows();
+  Index out = 0;
+  for (Index i = 0; i < n; ++i) {
+    const Index begin = rowStart_[i], end = rowStart_[i + 1];
+    rowStart_[i] = out;
+    for (Index k = begin; k < end; ++k) {
+      const Index j = cols_[k];
+      if (j != i && (isolated[i] || isolated[j])) continue;
+      cols_[out] = j;
+      if (shared()) blockIndex_[out] = blockIndex_[k];
+      else blocks_[out] = blocks_[k];
+      ++out;
+    }
+  }
+  const Index removed = rowStart_[n] - out;
+  rowStart_[n] = out;
+  cols_.resize(static_cast<std::size_t>(out));
+  if (shared()) blockIndex_.resize(static_cast<std::size_t>(out));
+  else blocks_.resize(static_cast<std::size_t>(out));
+  order_.reset();
+  return removed;
 }
 
 template <int d>

@@ -49,13 +49,13 @@ void ContactModel<d>::addMortarPair(int slave, int slaveId, int master, int mast
 
 template <int d>
 ContactProblem<d> ContactModel<d>::assemble() {
-  Parts p = assembleParts();
+  Parts p = assembleParts(true);
   return ContactProblem<d>(std::move(p.system.stiffness), std::move(p.system.load), std::move(p.system.dirichlet),
                            p.contact, std::move(p.basis));
 }
 
 template <int d>
-typename ContactModel<d>::Parts ContactModel<d>::assembleParts() {
+typename ContactModel<d>::Parts ContactModel<d>::assembleParts(bool skipPrescribedBodies) {
   if (bodies_.empty()) throw Error("contact model: no body");
   // the stacked numbering (vertex v of body i is offset_i + v), known from the meshes
   numVertices_ = 0;
@@ -81,7 +81,8 @@ typename ContactModel<d>::Parts ContactModel<d>::assembleParts() {
     Coupling& c = couplings_[0];
     c.nodes.resize(c.obstacleSet->size());
     std::iota(c.nodes.begin(), c.nodes.end(), 0);
-    return Parts{assembleBodies<d>(meshes, materials, conditions), *c.obstacleSet, mesh::CsrMatrix{}};
+    return Parts{assembleBodies<d>(meshes, materials, conditions, nullptr, {}, skipPrescribedBodies), *c.obstacleSet,
+                 mesh::CsrMatrix{}};
   }
 
   // the couplings' nodes over the stacked vertices
@@ -171,7 +172,7 @@ typename ContactModel<d>::Parts ContactModel<d>::assembleParts() {
       p = ContactProblem<d>::transformedPattern(std::move(p), basis);
     };
   std::vector<Index> offsets;
-  BodySystem<d> system = assembleBodies<d>(meshes, materials, conditions, &offsets, widen);
+  BodySystem<d> system = assembleBodies<d>(meshes, materials, conditions, &offsets, widen, skipPrescribedBodies);
   return Parts{std::move(system), ContactSet(std::move(merged)), std::move(basis)};
 }
 

@@ -555,8 +555,31 @@ void ContactProblem<d>::setup(BlockSparseMatrix<d> A) {
     }
   }
   rotateOperator(A);
+  isolatePrescribed(A);
   A.shareRepeatedBlocks();  // the same values; fewer bytes per sweep on grids of repeated cells
   A_ = std::make_shared<const BlockSparseMatrix<d>>(std::move(A));
+}
+
+template <int d>
+void ContactProblem<d>::isolatePrescribed(BlockSparseMatrix<d>& A) const {
+  // A vertex whose every component is prescribed has an identity row and column in A~ (applyDirichlet,
+  // its rotation is the identity): its off-diagonal blocks are zero. When such vertices hold half of
+  // the blocks or more (a body prescribed everywhere: a meshed rigid master), the blocks leave the
+  // pattern, and every product, sweep and coarse operator skips them. Otherwise (clamped faces) the
+  // pattern stays, and with it the bits of every result: a smaller pattern changes the coarse
+  // operators' patterns, hence CHOLMOD's ordering and the last bits of the solution.
+  const Index n = A.rows();
+  std::vector<char> fixed(static_cast<std::size_t>(n), 0);
+  Index count = 0;
+  for (Index p = 0; p < n; ++p) {
+    bool all = true;
+    for (int a = 0; a < d && all; ++a) all = dirichlet_.constrained[static_cast<std::size_t>(p) * d + a] != 0;
+    fixed[static_cast<std::size_t>(p)] = all;
+    count += all;
+  }
+  if (count == 0) return;
+  if (2 * A.isolatedBlocks(fixed) < A.nonZeroBlocks()) return;
+  A.isolate(fixed);
 }
 
 template <int d>

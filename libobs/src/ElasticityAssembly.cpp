@@ -233,34 +233,48 @@ template <int d>
 BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& material) {
   const mesh::Mesh* meshes[] = {&mesh};
   const Material* materials[] = {&material};
-  return assembleStackedStiffness<d>(meshes, materials, {});
+  return assembleStackedStiffness<d>(meshes, materials, {}, {});
 }
 
 template <int d>
 BlockSparseMatrix<d> assembleStackedStiffness(std::span<const mesh::Mesh* const> meshes,
                                               std::span<const Material* const> materials,
-                                              const std::function<void(typename BlockSparseMatrix<d>::Pattern&)>& widen) {
-  if (meshes.empty() || meshes.size() != materials.size())
-    throw Error("assembleStackedStiffness: " + std::to_string(meshes.size()) + " meshes and " +
-                std::to_string(materials.size()) + " materials");
+                                              const std::function<void(typename BlockSparseMatrix<d>::Pattern&)>& widen,
+                                              std::span<const char> skip) {
+  if (meshes.empty() || meshes.size() != materials.size() || (!skip.empty() && skip.size() != meshes.size()))
+    throw Error("assembleStackedStiffness: " + std::to_string(meshes.size()) + " meshes, " +
+                std::to_string(materials.size()) + " materials and " + std::to_string(skip.size()) + " skip flags");
   using Block = typename BlockSparseMatrix<d>::Block;
-  std::vector<std::unique_ptr<MeshStiffness<d>>> parts;
-  std::vector<Index> first;  // each mesh's first stacked row
+  const auto skipped = [&](std::size_t i) { return !skip.empty() && skip[i] != 0; };
+  std::vector<std::unique_ptr<MeshStiffness<d>>> parts;  // null for a skipped mesh
+  std::vector<Index> first;                              // each mesh's first stacked row
   Index n = 0;
   for (std::size_t i = 0; i < meshes.size(); ++i) {
-    parts.push_back(std::make_unique<MeshStiffness<d>>(*meshes[i], *materials[i], n));
+    if (meshes[i]->dimension() != d) throw Error("assembleStiffness: mesh dimension mismatch");
+    parts.push_back(skipped(i) ? nullptr : std::make_unique<MeshStiffness<d>>(*meshes[i], *materials[i], n));
     first.push_back(n);
     n += meshes[i]->numVertices();
   }
-  // the stacked pattern: the meshes' vertex-adjacency patterns, shifted along the diagonal
+  // each mesh's pattern: the vertex adjacency, or the diagonal of a skipped mesh
+  const auto patternOf = [&](std::size_t i) {
+    if (parts[i]) return BlockSparseMatrix<d>::meshPattern(*meshes[i], parts[i]->around());
+    typename BlockSparseMatrix<d>::Pattern p;
+    const Index m = meshes[i]->numVertices();
+    p.rowStart.resize(static_cast<std::size_t>(m) + 1);
+    p.columns.resize(static_cast<std::size_t>(m));
+    for (Index v = 0; v <= m; ++v) p.rowStart[static_cast<std::size_t>(v)] = v;
+    for (Index v = 0; v < m; ++v) p.columns[static_cast<std::size_t>(v)] = v;
+    return p;
+  };
+  // the stacked pattern: the meshes' patterns, shifted along the diagonal
   typename BlockSparseMatrix<d>::Pattern pattern;
   if (parts.size() == 1) {
-    pattern = BlockSparseMatrix<d>::meshPattern(*meshes[0], parts[0]->around());
+    pattern = patternOf(0);
   } else {
     std::vector<typename BlockSparseMatrix<d>::Pattern> each;
     std::size_t blocks = 0;
     for (std::size_t i = 0; i < parts.size(); ++i) {
-      each.push_back(BlockSparseMatrix<d>::meshPattern(*meshes[i], parts[i]->around()));
+      each.push_back(patternOf(i));
       blocks += each.back().columns.size();
     }
     pattern.rowStart.resize(static_cast<std::size_t>(n) + 1);
@@ -286,17 +300,20 @@ BlockSparseMatrix<d> assembleStackedStiffness(std::span<const mesh::Mesh* const>
   // fromRowRanges takes the pattern's vectors over by moving them: their elements stay where they are
   const std::span<const Index> rowStart = pattern.rowStart, columns = pattern.columns;
   // The rows are filled range by range (BlockSparseMatrix::fromRowRanges, which shares the repeated
-  // blocks as they come); a range that spans meshes is split at their first rows.
+  // blocks as they come); a range that spans meshes is split at their first rows. A skipped mesh's
+  // blocks stay zero.
   const auto fill = [&](Index from, Index to, Block* out) {
     const Index base = rowStart[from];
     for (std::size_t i = 0; i < parts.size(); ++i) {
+      if (!parts[i]) continue;
       const Index end = i + 1 < parts.size() ? first[i + 1] : n;
       const Index a = std::max(from, first[i]), b = std::min(to, end);
       if (a < b) parts[i]->fill(a - first[i], b - first[i], out + (rowStart[a] - base), rowStart, columns);
     }
   };
   BlockSparseMatrix<d> A = BlockSparseMatrix<d>::fromRowRanges(std::move(pattern), fill);
-  for (const auto& part : parts) part->throwIfFailed();
+  for (const auto& part : parts)
+    if (part) part->throwIfFailed();
   return A;
 }
 
@@ -351,18 +368,25 @@ DirichletValues collectDirichlet(const mesh::Mesh& mesh, const std::vector<Diric
   g.values = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(mesh.numVertices()) * d);
   std::vector<char> seen(mesh.numVertices());
   for (const DirichletCondition& dc : dirichlet) {
+    const auto prescribe = [&](Index v) {
+      const Eigen::Vector3d value = dc.value(mesh.vertex(v));
+      for (int c = 0; c < d; ++c)
+        if (dc.fixed[c]) {
+          g.constrained[static_cast<std::size_t>(v) * d + c] = 1;
+          g.values[static_cast<Eigen::Index>(v) * d + c] = value[c];
+        }
+    };
+    if (dc.everywhere) {
+      for (Index v = 0; v < mesh.numVertices(); ++v) prescribe(v);
+      continue;
+    }
     std::fill(seen.begin(), seen.end(), 0);
     for (Index f = 0; f < mesh.numBoundaryFaces(); ++f) {
       if (mesh.boundaryFaceId(f) != dc.boundaryId) continue;
       for (Index v : mesh.boundaryFaceVertices(f)) {
         if (seen[v]) continue;
         seen[v] = 1;
-        const Eigen::Vector3d value = dc.value(mesh.vertex(v));
-        for (int c = 0; c < d; ++c)
-          if (dc.fixed[c]) {
-            g.constrained[static_cast<std::size_t>(v) * d + c] = 1;
-            g.values[static_cast<Eigen::Index>(v) * d + c] = value[c];
-          }
+        prescribe(v);
       }
     }
   }
@@ -402,10 +426,12 @@ template BlockSparseMatrix<2> assembleStiffness<2>(const mesh::Mesh&, const Mate
 template BlockSparseMatrix<3> assembleStiffness<3>(const mesh::Mesh&, const Material&);
 template BlockSparseMatrix<2> assembleStackedStiffness<2>(std::span<const mesh::Mesh* const>,
                                                           std::span<const Material* const>,
-                                                          const std::function<void(BlockSparseMatrix<2>::Pattern&)>&);
+                                                          const std::function<void(BlockSparseMatrix<2>::Pattern&)>&,
+                                                          std::span<const char>);
 template BlockSparseMatrix<3> assembleStackedStiffness<3>(std::span<const mesh::Mesh* const>,
                                                           std::span<const Material* const>,
-                                                          const std::function<void(BlockSparseMatrix<3>::Pattern&)>&);
+                                                          const std::function<void(BlockSparseMatrix<3>::Pattern&)>&,
+                                                          std::span<const char>);
 template Eigen::VectorXd assembleLoad<2>(const mesh::Mesh&, const BoundaryConditions&);
 template Eigen::VectorXd assembleLoad<3>(const mesh::Mesh&, const BoundaryConditions&);
 template void applyDirichlet<2>(BlockSparseMatrix<2>&, Eigen::VectorXd&, const DirichletValues&);

@@ -19,7 +19,8 @@ BodySystem<d> assembleBody(const mesh::Mesh& mesh, const Material& material, con
 template <int d>
 BodySystem<d> assembleBodies(std::span<const mesh::Mesh* const> meshes, std::span<const Material* const> materials,
                              std::span<const BoundaryConditions* const> conditions, std::vector<Index>* offsets,
-                             const std::function<void(typename BlockSparseMatrix<d>::Pattern&)>& widen) {
+                             const std::function<void(typename BlockSparseMatrix<d>::Pattern&)>& widen,
+                             bool skipPrescribedBodies) {
   if (meshes.empty() || meshes.size() != materials.size() || meshes.size() != conditions.size())
     throw Error("assembleBodies: " + std::to_string(meshes.size()) + " meshes, " + std::to_string(materials.size()) +
                 " materials and " + std::to_string(conditions.size()) + " sets of boundary conditions");
@@ -29,8 +30,15 @@ BodySystem<d> assembleBodies(std::span<const mesh::Mesh* const> meshes, std::spa
       throw Error("body: the mesh has dimension " + std::to_string(meshes[i]->dimension()) + ", the problem " +
                   std::to_string(d));
   }
+  std::vector<DirichletValues> dirichlet;
+  std::vector<char> skip(meshes.size(), 0);
+  for (std::size_t i = 0; i < meshes.size(); ++i) {
+    dirichlet.push_back(collectDirichlet(*meshes[i], conditions[i]->dirichlet));
+    const auto& c = dirichlet.back().constrained;
+    skip[i] = skipPrescribedBodies && std::all_of(c.begin(), c.end(), [](char f) { return f != 0; });
+  }
   BodySystem<d> out;
-  out.stiffness = assembleStackedStiffness<d>(meshes, materials, widen);
+  out.stiffness = assembleStackedStiffness<d>(meshes, materials, widen, skip);
   const Index n = out.stiffness.rows();
   out.load.resize(static_cast<Eigen::Index>(n) * d);
   out.dirichlet.values.resize(static_cast<Eigen::Index>(n) * d);
@@ -40,7 +48,7 @@ BodySystem<d> assembleBodies(std::span<const mesh::Mesh* const> meshes, std::spa
   for (std::size_t i = 0; i < meshes.size(); ++i) {
     if (offsets) offsets->push_back(static_cast<Index>(at / d));
     const Eigen::VectorXd load = assembleLoad<d>(*meshes[i], *conditions[i]);
-    const DirichletValues g = collectDirichlet(*meshes[i], conditions[i]->dirichlet);
+    const DirichletValues& g = dirichlet[i];
     out.load.segment(at, load.size()) = load;
     out.dirichlet.values.segment(at, load.size()) = g.values;
     out.dirichlet.constrained.insert(out.dirichlet.constrained.end(), g.constrained.begin(), g.constrained.end());
@@ -126,10 +134,10 @@ template BodySystem<2> assembleBody<2>(const mesh::Mesh&, const Material&, const
 template BodySystem<3> assembleBody<3>(const mesh::Mesh&, const Material&, const BoundaryConditions&);
 template BodySystem<2> assembleBodies<2>(std::span<const mesh::Mesh* const>, std::span<const Material* const>,
                                          std::span<const BoundaryConditions* const>, std::vector<Index>*,
-                                         const std::function<void(BlockSparseMatrix<2>::Pattern&)>&);
+                                         const std::function<void(BlockSparseMatrix<2>::Pattern&)>&, bool);
 template BodySystem<3> assembleBodies<3>(std::span<const mesh::Mesh* const>, std::span<const Material* const>,
                                          std::span<const BoundaryConditions* const>, std::vector<Index>*,
-                                         const std::function<void(BlockSparseMatrix<3>::Pattern&)>&);
+                                         const std::function<void(BlockSparseMatrix<3>::Pattern&)>&, bool);
 template BodySystem<2> stackBodies<2>(std::vector<BodySystem<2>>, std::vector<Index>*);
 template BodySystem<3> stackBodies<3>(std::vector<BodySystem<3>>, std::vector<Index>*);
 

@@ -533,6 +533,39 @@ TEST(MultiBodyScene, ValidSceneChecks) {
   EXPECT_EQ(errorOf(kLower + upper() + kPair), "no error");
 }
 
+TEST(MultiBodyScene, BodyPrescribedEverywhereIsARigidMaster) {
+  // [[body.dirichlet]] everywhere = true: the lower block (master) is prescribed at every vertex;
+  // with a zero value it is a rigid support, and the result equals that of the block clamped on all
+  // its sides (its interior is then zero too)
+  std::string rigid = kLower;
+  rigid.replace(rigid.find("boundary = \"bottom\""), std::string("boundary = \"bottom\"").size(), "everywhere = true");
+  EXPECT_EQ(errorOf(rigid + upper() + kPair), "no error");
+  std::string clamped = kLower;
+  for (const char* side : {"left", "right", "top"})
+    clamped += std::string("[[body.dirichlet]]\nboundary = \"") + side + "\"\n";
+  const auto load = [&](const std::string& text, const std::string& name) {
+    const fs::path dir = kTmp / "everywhere";
+    fs::create_directories(dir);
+    std::ofstream(dir / (name + ".toml")) << text;
+    RunOptions o;
+    o.outputDirectory = dir / name;
+    const RunResult r = runScene(dir / (name + ".toml"), o);
+    EXPECT_EQ(r.pairs.size(), 1u);
+    return r.pairs.front().load;
+  };
+  const double a = load(rigid + upper() + kPair, "rigid"), b = load(clamped + upper() + kPair, "clamped");
+  EXPECT_GT(a, 0);
+  EXPECT_NEAR(a, b, 1e-8 * b);
+  // everywhere replaces the boundary: both at once is a one-line error with the line
+  std::string both = kLower;
+  both.replace(both.find("boundary = \"bottom\""), std::string("boundary = \"bottom\"").size(),
+               "boundary = \"bottom\"\neverywhere = true");
+  const std::string m = errorOf(both + upper() + kPair);
+  EXPECT_NE(m.find("everywhere"), std::string::npos) << m;
+  EXPECT_NE(m.find("remove the boundary"), std::string::npos) << m;
+  EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+}
+
 TEST(MultiBodyScene, BadInputIsOneLineErrorWithLine) {
   auto expect = [](const std::string& text, const std::string& part, bool run = false) {
     const std::string m = errorOf(text, run);

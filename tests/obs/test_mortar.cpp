@@ -737,6 +737,49 @@ TEST(MortarTwoBody, SymmetryPlaneThroughACurvedSlaveSurface2D) {
   EXPECT_LT(difference[2], 4e-4);
 }
 
+TEST(MortarTwoBody, MasterPrescribedEverywhereIsARigidBodyAtNoCost) {
+  // The lower block (master) prescribed at every vertex (DirichletCondition::everywhere) against the
+  // same block with all six sides clamped (its interior free, and zero in the solution): the same
+  // contact solution. The first costs no stiffness (ContactModel::assemble skips its cells) and no
+  // sweeps (its rows keep only their diagonal block: ContactProblem's isolated prescribed vertices).
+  const mesh::Mesh lower = mesh::boxMesh(CellType::Tetrahedron, 4);
+  const mesh::Mesh upper = shifted(mesh::boxMesh(CellType::Hexahedron, 5), Point(0, 0, 1));
+  const Material material{2e5, 0.3};
+  BoundaryConditions bu;
+  bu.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point& x) { return Point(0, 0, -1e-4 * (1 + x[0])); }});
+  const auto solve = [&](bool everywhere, Index& masterBlocks) {
+    BoundaryConditions bl;
+    if (everywhere) {
+      DirichletCondition all;
+      all.everywhere = true;
+      bl.dirichlet.push_back(all);
+    } else {
+      for (int side : {mesh::kLeft, mesh::kRight, mesh::kFront, mesh::kBack, mesh::kBottom, mesh::kTop})
+        bl.dirichlet.push_back({side});
+    }
+    ContactModel<3> model;
+    model.addBody("lower", lower, material, bl);
+    model.addBody("upper", upper, material, bu);
+    model.addMortarPair(1, mesh::kBottom, 0, mesh::kTop, "bottom / top");
+    const ContactProblem<3> problem = model.assemble();
+    const BlockSparseMatrix<3>& A = problem.rotatedMatrix();
+    masterBlocks = A.rowStarts()[static_cast<std::size_t>(lower.numVertices())];
+    PrimalDualActiveSet<3> pdas;
+    Eigen::VectorXd x = Eigen::VectorXd::Zero(problem.numDofs());
+    const ContactResult r = pdas.solve(problem, x);
+    EXPECT_TRUE(r.converged);
+    return std::pair<Eigen::VectorXd, double>(problem.toDisplacement(x), computeContactOutputs(problem, x).force.norm());
+  };
+  Index rigidBlocks = 0, clampedBlocks = 0;
+  const auto [rigid, rigidLoad] = solve(true, rigidBlocks);
+  const auto [clamped, clampedLoad] = solve(false, clampedBlocks);
+  EXPECT_EQ(rigidBlocks, lower.numVertices());  // one block per master row
+  EXPECT_GT(clampedBlocks, rigidBlocks);  // the free interior vertices keep their rows
+  EXPECT_GT(rigidLoad, 0);
+  EXPECT_NEAR(rigidLoad, clampedLoad, 1e-9 * clampedLoad);
+  EXPECT_LT((rigid - clamped).lpNorm<Eigen::Infinity>(), 1e-9 * clamped.lpNorm<Eigen::Infinity>());
+}
+
 TEST(MortarCoupling, MatchingMeshesCoupleNodeToNode) {
   // identical interface meshes: M = D, so C pairs every slave node with the coincident master node
   for (CellType type : {CellType::Hexahedron, CellType::Tetrahedron, CellType::Prism}) {

@@ -79,7 +79,9 @@ struct MeshSpec {
 
 /// One [[dirichlet]] entry: prescribed displacement components on a boundary.
 struct DirichletSpec {
-  BoundaryRef boundary;
+  BoundaryRef boundary;  ///< unset (line 0) with `everywhere`
+  /// Every vertex of the body, interior ones included, instead of a boundary (a rigid or driven body).
+  bool everywhere = false;
   /// Empty: zero. One entry: the same value for every fixed component. Otherwise one entry per
   /// coordinate direction (length = dimension); entries of free components are ignored.
   VectorValue value;

@@ -181,6 +181,15 @@ public:
   /// Zeroes every block (on threads() threads for large matrices).
   void setZero();
 
+  /// Removes the off-diagonal blocks of the rows and columns of the vertices with isolated[p] != 0
+  /// from the pattern, in place (the storage is compacted; shared blocks stay shared, the sweep
+  /// order is recomputed on next use). The caller guarantees that those blocks are zero, as the
+  /// rows and columns of fully prescribed vertices are after applyDirichlet(): products and sweeps
+  /// then skip them. Returns the number of blocks removed.
+  Index isolate(const std::vector<char>& isolated);
+  /// The number of blocks isolate(isolated) would remove (a pass over the column indices).
+  Index isolatedBlocks(const std::vector<char>& isolated) const;
+
   /// y = A x for vertex-major vectors (x[v*d + c]); rows on threads() threads (each row's sum in
   /// column order, so the result does not depend on the thread count).
   void multiply(const Eigen::VectorXd& x, Eigen::VectorXd& y) const;

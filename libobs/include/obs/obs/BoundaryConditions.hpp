@@ -16,12 +16,15 @@ using VectorField = std::function<Eigen::Vector3d(const Point&)>;
 /// A scalar field of the position.
 using ScalarField = std::function<double(const Point&)>;
 
-/// Prescribed displacement components on the faces with `boundaryId` (and their vertices).
-/// Only components with fixed[c] are prescribed: a clamp fixes all, a roller or symmetry plane one.
+/// Prescribed displacement components on the faces with `boundaryId` (and their vertices), or with
+/// `everywhere` at every vertex of the mesh, interior ones included (a rigid or driven body: a meshed
+/// obstacle that takes part in mortar contact; boundaryId is then ignored). Only components with
+/// fixed[c] are prescribed: a clamp fixes all, a roller or symmetry plane one.
 struct DirichletCondition {
   int boundaryId = 0;
   std::array<bool, 3> fixed{true, true, true};
   VectorField value = [](const Point&) { return Eigen::Vector3d::Zero(); };
+  bool everywhere = false;
 };
 
 /// Surface load on the faces with `boundaryId`: a traction vector t(x), or a pressure p(x) acting

@@ -67,10 +67,13 @@ public:
     mesh::CsrMatrix basis;
   };
   /// Stacks the bodies and builds the couplings (sets Body::offset, Coupling::coupling/nodes).
-  /// Throws obs::Error on invalid indices, a vertex constrained by two couplings, and every error of
-  /// the parts (MortarCoupling).
-  Parts assembleParts();
-  /// assembleParts() made into the ContactProblem. Throws what assembleParts() and the
+  /// With `skipPrescribedBodies`, a body whose every vertex and component is prescribed (a meshed
+  /// rigid or driven body) gets zero diagonal blocks instead of its stiffness: its rows are Dirichlet
+  /// rows of the problem, so the solution is the same, and its cells cost nothing (the stiffness is
+  /// then not that body's, e.g. for an elastic energy). Throws obs::Error on invalid indices, a vertex
+  /// constrained by two couplings, and every error of the parts (MortarCoupling).
+  Parts assembleParts(bool skipPrescribedBodies = false);
+  /// assembleParts(true) made into the ContactProblem. Throws what assembleParts() and the
   /// ContactProblem constructor throw.
   ContactProblem<d> assemble();
 

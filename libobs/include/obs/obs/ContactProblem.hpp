@@ -201,6 +201,9 @@ public:
 private:
   void setup(BlockSparseMatrix<d> A);
   void transform(BlockSparseMatrix<d>& A);
+  /// Removes the (zero) off-diagonal blocks of fully prescribed vertices from A~'s pattern when they
+  /// are half of its blocks or more (BlockSparseMatrix::isolate).
+  void isolatePrescribed(BlockSparseMatrix<d>& A) const;
   void rotateOperator(BlockSparseMatrix<d>& A);
 
   /// (I +- C) x with the components of basisSkip() left alone

@@ -31,12 +31,14 @@ BlockSparseMatrix<d> assembleStiffness(const mesh::Mesh& mesh, const Material& m
 /// multi-body problem cost what they cost alone, docs/performance.md#multi-body-assembly).
 /// assembleStiffness() is the case of one mesh. `widen` (if set) may add columns to the stacked
 /// pattern before the blocks are written (they stay zero there): the fill-in of a later
-/// transformation in place (ContactProblem::transformedPattern). Throws obs::Error on a mesh of
-/// another dimension, a degenerate cell, or as many materials as meshes missing.
+/// transformation in place (ContactProblem::transformedPattern). A mesh with skip[i] != 0 (skip
+/// empty: none) gets zero diagonal blocks and nothing else, and its cells are not visited (a body
+/// prescribed everywhere, whose rows are Dirichlet rows). Throws obs::Error on a mesh of another
+/// dimension, a degenerate cell, or as many materials (or skip flags) as meshes missing.
 template <int d>
 BlockSparseMatrix<d> assembleStackedStiffness(
     std::span<const mesh::Mesh* const> meshes, std::span<const Material* const> materials,
-    const std::function<void(typename BlockSparseMatrix<d>::Pattern&)>& widen = {});
+    const std::function<void(typename BlockSparseMatrix<d>::Pattern&)>& widen = {}, std::span<const char> skip = {});
 
 /// Load vector from the body force and the Neumann conditions of `bc` (Dirichlet data ignored).
 template <int d>

@@ -35,12 +35,16 @@ BodySystem<d> assembleBody(const mesh::Mesh& mesh, const Material& material, con
 /// The stacked system of several bodies assembled at once: bitwise stackBodies() of the
 /// assembleBody() of each, but the stiffness blocks are written straight into the stacked matrix
 /// (assembleStackedStiffness), so no body's matrix is stored twice. offsets (if given) receives the
-/// first stacked vertex of each body; `widen` is assembleStackedStiffness'. Throws as assembleBody().
+/// first stacked vertex of each body; `widen` is assembleStackedStiffness'. With
+/// `skipPrescribedBodies`, a body whose Dirichlet data prescribe every component of every vertex gets
+/// zero diagonal blocks instead of its stiffness (ContactModel::assembleParts). Throws as
+/// assembleBody().
 template <int d>
 BodySystem<d> assembleBodies(std::span<const mesh::Mesh* const> meshes, std::span<const Material* const> materials,
                              std::span<const BoundaryConditions* const> conditions,
                              std::vector<Index>* offsets = nullptr,
-                             const std::function<void(typename BlockSparseMatrix<d>::Pattern&)>& widen = {});
+                             const std::function<void(typename BlockSparseMatrix<d>::Pattern&)>& widen = {},
+                             bool skipPrescribedBodies = false);
 
 /// Block-diagonal stacking of the bodies' systems; offsets (if given) receives the first stacked
 /// vertex of each body. Throws obs::Error on inconsistent sizes. Takes the systems by value: pass
