@@ -11,9 +11,6 @@
 
 namespace obs::drivers {
 
-/// File name given to the TOML values of --set overrides; messages about such a value say
-/// "<scene> (from --set): " instead of "<scene>:<line>: " (TomlSection.cpp).
-inline constexpr const char* kOverrideSource = "(from --set)";
 
 /// Applies each override "section.key=value" (value in TOML syntax, e.g. 3, "uniform", [0, -1],
 /// true) to the root table of a scene: sets `key` in table `section` (created if absent). Throws

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <sstream>
 
-#include "SceneExtensions.hpp"
 #include "obs/mesh/Error.hpp"
 
 namespace obs::drivers {

@@ -16,6 +16,10 @@
 
 namespace obs::drivers {
 
+/// File name given to the TOML values of --set overrides; messages about such a value say
+/// "<scene> (from --set): " instead of "<scene>:<line>: " (TomlSection.cpp).
+inline constexpr const char* kOverrideSource = "(from --set)";
+
 /// "file:line: " for a TOML value (file name as passed to the TOML parser).
 std::string whereOf(const std::string& fileName, const toml::value& v);
 /// The literal text of a value as written in the file (falls back to its TOML serialisation).

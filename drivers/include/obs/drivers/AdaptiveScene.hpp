@@ -42,8 +42,8 @@
 ///                  last two then throw RunInterrupted); RunOptions::restart continues such a run
 ///                  with step k + 1 into its output directory, with the same outputs, bit for bit
 ///                  (wall times aside), as a run that was never interrupted.
+#include "obs/drivers/RunOptions.hpp"
 #include "obs/drivers/RunResult.hpp"
-#include "obs/drivers/RunScene.hpp"
 #include "obs/drivers/Scene.hpp"
 
 namespace obs::drivers {

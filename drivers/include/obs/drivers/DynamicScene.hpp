@@ -33,8 +33,8 @@
 #include <string>
 #include <vector>
 
+#include "obs/drivers/RunOptions.hpp"
 #include "obs/drivers/RunResult.hpp"
-#include "obs/drivers/RunScene.hpp"
 #include "obs/drivers/Scene.hpp"
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/BoundaryConditions.hpp"

@@ -6,48 +6,14 @@
 /// max_iterations without converging writes the outputs (summary.json says converged: false) and
 /// then throws obs::Error.
 #include <filesystem>
-#include <functional>
-#include <optional>
 #include <string>
-#include <vector>
 
+#include "obs/drivers/RunOptions.hpp"
 #include "obs/drivers/RunResult.hpp"
 #include "obs/drivers/Scene.hpp"
 #include "obs/mesh/Grid.hpp"
-#include "obs/mesh/Error.hpp"
 
 namespace obs::drivers {
-
-struct RunOptions {
-  std::optional<std::filesystem::path> outputDirectory;  ///< replaces [output] directory
-  std::optional<int> refine;                             ///< replaces [mesh] refine
-  /// Receives one short line per stage ("mesh built: ..."); nothing is printed by runScene itself.
-  std::function<void(const std::string&)> progress;
-  /// Receives one line per block of solver iterations (`obs run --verbose`); see SceneSolver.hpp.
-  std::function<void(const std::string&)> iterationProgress = {};
-  /// `obs run --set section.key=value` overrides (SceneParser.hpp), applied when the file is read.
-  std::vector<std::string> overrides = {};
-  /// [adaptivity] runs: one line per step (AdaptiveScene.hpp; `obs run` prints them on stderr).
-  std::function<void(const std::string&)> stepProgress = {};
-  bool plots = false;  ///< `--plots`: as [output] plots = true
-  /// `--compare-schemes`: a [dynamics] scene also runs every other scheme (DynamicScene.hpp).
-  bool compareSchemes = false;
-  /// `--restart FILE.h5`: a [dynamics] run continues from this checkpoint (docs/checkpoint.md); the
-  /// scene and grid must be those it was written for, the output directory must hold the outputs
-  /// of the interrupted run.
-  std::optional<std::filesystem::path> restart = {};
-  /// `--stop-after-step K`: a [dynamics] run stops after time step K (< the scene's steps) with a
-  /// checkpoint, as on SIGINT/SIGTERM (RunInterrupted).
-  std::optional<int> stopAfterStep = {};
-};
-
-/// A run that stopped early (SIGINT/SIGTERM, RunOptions::stopAfterStep); the message says where it
-/// stopped, names the checkpoint and how to continue (a scheme comparison stops without one). `obs
-/// run` exits with 3.
-class RunInterrupted : public Error {
-public:
-  using Error::Error;
-};
 
 /// Runs the scene file; throws obs::Error on any problem (invalid scene, solver failure, I/O).
 RunResult runScene(const std::filesystem::path& sceneFile, const RunOptions& options = {});

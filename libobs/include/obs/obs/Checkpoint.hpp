@@ -19,9 +19,10 @@
 /// (rename is atomic on POSIX file systems), so a process killed while writing (even by SIGKILL)
 /// leaves the previous checkpoint intact; only the .tmp file may be incomplete.
 ///
-/// The state of a Newmark time stepper (Newmark.hpp) is stored and loaded by storeNewmarkState /
-/// loadNewmarkState under "scheme/..."; the obs program adds its own entries (docs/checkpoint.md
-/// lists them). Embedding codes may add theirs: a record holds any entries.
+/// A plain record format: the solvers store their states themselves (a Newmark time stepper by
+/// storeNewmarkState / loadNewmarkState in Newmark.hpp, the adaptive loop by its checkpoint functions
+/// in AdaptiveLoop.hpp); the obs program adds its own entries (docs/checkpoint.md lists them).
+/// Embedding codes may add theirs: a record holds any entries.
 #include <Eigen/Core>
 
 #include <cstdint>
@@ -32,7 +33,6 @@
 #include <variant>
 #include <vector>
 
-#include "obs/obs/Newmark.hpp"
 
 namespace obs {
 
@@ -88,12 +88,5 @@ const char* checkpointObsVersion();
 inline constexpr std::uint64_t kFnvOffset = 14695981039346656037ull;
 std::uint64_t fnv1a(const void* data, std::size_t bytes, std::uint64_t hash = kFnvOffset);
 std::string hexHash(std::uint64_t hash);
-
-/// Stores a Newmark stepper's state (NewmarkFamily::schemeState) under "scheme/": name, step, time,
-/// displacement, velocity, acceleration, multiplier, previous_multiplier and the counters of the
-/// last step; with inexact solves also previous_velocity and next_solver_tolerance (loaded when present).
-void storeNewmarkState(CheckpointRecord& record, const NewmarkSchemeState& state);
-/// The state stored by storeNewmarkState (obs::Error naming a missing entry).
-NewmarkSchemeState loadNewmarkState(const CheckpointRecord& record);
 
 }  // namespace obs

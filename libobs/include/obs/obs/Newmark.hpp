@@ -71,6 +71,7 @@
 
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/Checkpoint.hpp"
 #include "obs/obs/ContactModel.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/ContactSet.hpp"
@@ -236,6 +237,15 @@ struct NewmarkSchemeState {
   /// for mortar pairs; empty before the first step and for the other start).
   Eigen::VectorXd previousIncrement;
 };
+
+/// Stores a Newmark stepper's state (NewmarkFamily::schemeState) under "scheme/" of a checkpoint
+/// record (Checkpoint.hpp): name, step, time, displacement, velocity, acceleration, multiplier,
+/// previous_multiplier and the counters of the last step; with inexact solves also
+/// previous_velocity and next_solver_tolerance, with the previous-increment warm start
+/// previous_increment (loaded when present).
+void storeNewmarkState(CheckpointRecord& record, const NewmarkSchemeState& state);
+/// The state stored by storeNewmarkState (obs::Error naming a missing entry).
+NewmarkSchemeState loadNewmarkState(const CheckpointRecord& record);
 
 /// A time integrator for dynamic contact: initialise with u^0, v^0, then step().
 template <int d>
