@@ -823,6 +823,13 @@ RunResult runDynamics(const Scene& scene, const mesh::Grid& grid, const mesh::Me
     dirichlet.values = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n) * dim);
     for (const Context::Body& b : bodies) {
       const DirichletValues own = collectDirichlet(*b.mesh, b.bc->dirichlet);
+      // a body prescribed everywhere moves as its Dirichlet data say: an initial velocity of its own
+      // would be overwritten below without a word
+      if (!b.spec->bodyInitialVelocity.empty() &&
+          std::all_of(own.constrained.begin(), own.constrained.end(), [](char f) { return f != 0; }))
+        throw Error(scene.where(b.spec->bodyInitialVelocityLine) + "[[body]] '" + b.spec->name +
+                    "' initial_velocity: every vertex of the body is prescribed ([[dirichlet]] everywhere = true), "
+                    "so it moves as its prescribed displacement says; remove initial_velocity");
       const auto off = static_cast<std::size_t>(b.offset) * dim;
       std::copy(own.constrained.begin(), own.constrained.end(), dirichlet.constrained.begin() + static_cast<std::ptrdiff_t>(off));
       dirichlet.values.segment(static_cast<Eigen::Index>(off), own.values.size()) = own.values;

@@ -566,6 +566,22 @@ TEST(MultiBodyScene, BodyPrescribedEverywhereIsARigidMaster) {
   EXPECT_EQ(m.find('\n'), std::string::npos) << m;
 }
 
+TEST(MultiBodyScene, InitialVelocityOfABodyPrescribedEverywhereIsAnError) {
+  // dynamics: the body's motion is its prescribed displacement, an initial velocity of its own would
+  // be dropped silently
+  std::string rigid = kLower;
+  rigid.replace(rigid.find("boundary = \"bottom\""), std::string("boundary = \"bottom\"").size(), "everywhere = true");
+  rigid.replace(rigid.find("[body.mesh]"), std::string("[body.mesh]").size(), "initial_velocity = [0.0, 1.0]\n[body.mesh]");
+  rigid.replace(rigid.find("nu = 0.3"), std::string("nu = 0.3").size(), "nu = 0.3\ndensity = 1.0");
+  std::string up = upper();
+  up.replace(up.find("nu = 0.3"), std::string("nu = 0.3").size(), "nu = 0.3\ndensity = 1.0");
+  const std::string m =
+      errorOf(rigid + up + kPair + "\n[dynamics]\nscheme = \"contact-stabilized\"\ntau = 1e-3\nsteps = 2\n", true);
+  EXPECT_NE(m.find("initial_velocity: every vertex of the body is prescribed"), std::string::npos) << m;
+  EXPECT_NE(m.find("bad.toml:"), std::string::npos) << m;
+  EXPECT_EQ(m.find('\n'), std::string::npos) << m;
+}
+
 TEST(MultiBodyScene, BadInputIsOneLineErrorWithLine) {
   auto expect = [](const std::string& text, const std::string& part, bool run = false) {
     const std::string m = errorOf(text, run);
