@@ -96,6 +96,13 @@ Measurement isolated(F f) {
   return m;
 }
 
+/// The problem's size and the mortar figures of the model's (first) pair.
+void recordModel(Measurement& m, const ContactModel<3>& model, const ContactProblem<3>& problem) {
+  m.mortarSeconds = model.couplings().front().coupling->statistics().seconds;
+  m.slaveNodes = model.couplings().front().coupling->size();
+  m.dofs = problem.numDofs();
+}
+
 mesh::Grid roundedBlock(int levels) {
   mesh::CurvedMesh rb = mesh::roundedBlockMesh(1.0, 0.5, 0.5, 1.0, mesh::CellType::Hexahedron, {4, 2, 2});
   const Point shift(-0.5, -0.25, 0);
@@ -130,9 +137,7 @@ Measurement runTwoBody(int levels, const std::string& solverName) {
   model.addMortarPair(1, mesh::kBottom, 0, mesh::kTop, "bottom / top");
   const ContactProblem<3> problem = model.assemble();
   m.assemblySeconds = since(t0);
-  m.mortarSeconds = model.couplings().front().coupling->statistics().seconds;
-  m.slaveNodes = model.couplings().front().coupling->size();
-  m.dofs = problem.numDofs();
+  recordModel(m, model, problem);
   Eigen::VectorXd x;
   t0 = Clock::now();
   ContactResult r;
@@ -217,9 +222,7 @@ Measurement runStep42Ball(int levels, bool rigid) {
   model.addMortarPair(0, mesh::kTop, 1, mesh::kCurvedSurface, "top / ball", options);
   const ContactProblem<3> problem = model.assemble();
   m.assemblySeconds = since(t0);
-  m.mortarSeconds = model.couplings().front().coupling->statistics().seconds;
-  m.slaveNodes = model.couplings().front().coupling->size();
-  m.dofs = problem.numDofs();
+  recordModel(m, model, problem);
   Eigen::VectorXd x;
   t0 = Clock::now();
   TNNMG<3> solver({&cube, &ball});

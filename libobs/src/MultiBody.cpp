@@ -62,25 +62,20 @@ BodySystem<d> stackBodies(std::vector<BodySystem<d>> bodies, std::vector<Index>*
   if (bodies.empty()) throw Error("stackBodies: no body");
   Index n = 0;
   std::size_t blocks = 0;
-  if (offsets) offsets->clear();
+  std::vector<Index> first;  // first stacked row of each body
   for (const auto& b : bodies) {
     const Index m = b.stiffness.rows();
     if (b.load.size() != static_cast<Eigen::Index>(m) * d || b.dirichlet.constrained.size() != static_cast<std::size_t>(m) * d ||
         b.dirichlet.values.size() != static_cast<Eigen::Index>(m) * d)
-      throw Error("stackBodies: body " + std::to_string(offsets ? offsets->size() : 0) +
-                  " has inconsistent matrix, load and Dirichlet sizes");
-    if (offsets) offsets->push_back(n);
+      throw Error("stackBodies: body " + std::to_string(first.size()) + " has inconsistent matrix, load and Dirichlet sizes");
+    first.push_back(n);
     n += m;
     blocks += static_cast<std::size_t>(b.stiffness.nonZeroBlocks());
   }
+  if (offsets) *offsets = first;
   if (bodies.size() == 1) return std::move(bodies.front());  // no copy of the one body's matrix
   // the stacked pattern, then the blocks in one pass over the rows (BlockSparseMatrix::fromRowRanges:
   // on the threads, each page written once, repeated blocks shared as in the bodies' matrices)
-  std::vector<Index> first;  // first stacked row of each body
-  for (Index o = 0; const auto& b : bodies) {
-    first.push_back(o);
-    o += b.stiffness.rows();
-  }
   const auto bodyOf = [&](Index r) {
     return static_cast<std::size_t>(std::upper_bound(first.begin(), first.end(), r) - first.begin()) - 1;
   };
