@@ -51,7 +51,7 @@ std::vector<Row> run(mesh::CellType type, int refine, int steps) {
   estimators::AdaptiveLoopOptions o;
   o.maxSteps = steps;
   o.markingParameter = 1.1;
-  o.solverTolerance = 1e-10;
+  o.solver.tolerance = 1e-10;
   estimators::AdaptiveLoop loop(grid, material, bc, o);
   loop.setContact(ball, mesh::kBottom);
   std::vector<Row> rows;

@@ -221,18 +221,6 @@ nlohmann::json stepJson(const est::AdaptiveStep& s, double nodalError, double no
   return j;
 }
 
-void writePvd(const fs::path& path, const std::vector<PvdEntry>& files) {
-  std::ofstream out(path);
-  if (!out) throw Error(path.string() + ": cannot write the VTK collection");
-  out << "<?xml version=\"1.0\"?>\n"
-      << "<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n  <Collection>\n";
-  for (const PvdEntry& e : files)
-    out << "    <DataSet timestep=\"" << static_cast<int>(e.time) << "\" group=\"\" part=\"0\" file=\"" << e.file
-        << "\"/>\n";
-  out << "  </Collection>\n</VTKFile>\n";
-  if (!out) throw Error(path.string() + ": cannot write the VTK collection");
-}
-
 void writePressureCsv(const fs::path& path, const std::vector<PressureRow>& rows) {
   std::ofstream out(path);
   if (!out) throw Error(path.string() + ": cannot write the pressure table");
@@ -349,8 +337,8 @@ void snapshotStep(const Scene& scene, const est::AdaptiveStepView& v, const std:
   fin.contact = c;
 }
 
-/// The loop options of a scene's [adaptivity] and [solver] (one place for the one-body and the
-/// multi-body runner); `contact`: the scene has a contact coupling.
+}  // namespace
+
 est::AdaptiveLoopOptions adaptiveLoopOptions(const Scene& scene, bool contact) {
   const AdaptivitySpec& spec = *scene.adaptivity;
   est::AdaptiveLoopOptions o;
@@ -365,31 +353,18 @@ est::AdaptiveLoopOptions adaptiveLoopOptions(const Scene& scene, bool contact) {
   o.warmStart = spec.warmStart;
   o.inexactFraction = spec.inexact;
   if (spec.closureAllEdges) o.closure = mesh::ClosureRule::AllEdges;
+  o.solver = solverConfig(scene);
   const std::string type = scene.solverType();
-  if (contact) {
-    if (type == "tnnmg")
-      o.solver = est::ContactSolverKind::TNNMG;
-    else if (type == "pdas" && spec.inexact > 0)
-      throw Error(scene.where(scene.solver.line) + "[solver] type = \"pdas\" solves every step exactly; "
-                  "[adaptivity] inexact applies to tnnmg only");
-    else if (type == "pdas")
-      o.solver = est::ContactSolverKind::PrimalDualActiveSet;
-    else
-      throw Error(scene.where(scene.solver.line) + "[solver] type = \"" + type +
-                  "\" is not available with [adaptivity] (use tnnmg or pdas)");
-  }
-  if (!scene.solver.smoother.empty() || scene.solver.krylovSteps || scene.solver.linearSmoothing)
-    throw Error(scene.where(scene.solver.line) + "[solver] smoother, krylov_steps and linear_smoothing apply to "
-                "static scenes only "
-                "(not yet to [adaptivity])");
-  o.solverTolerance = scene.solver.tolerance.value_or(o.solverTolerance);
-  o.maxSolverIterations = scene.solver.maxIterations.value_or(o.maxSolverIterations);
-  o.preSmoothing = scene.solver.preSmoothing.value_or(o.preSmoothing);  // were ignored before
-  o.postSmoothing = scene.solver.postSmoothing.value_or(o.postSmoothing);
-  o.localSmoothing = scene.solver.localSmoothing.value_or(o.localSmoothing);
-  o.cycleIndex = scene.solver.cycleIndex.value_or(o.cycleIndex);
+  if (contact && type == "pdas" && spec.inexact > 0)
+    throw Error(scene.where(scene.solver.line) + "[solver] type = \"pdas\" solves every step exactly; "
+                "[adaptivity] inexact applies to tnnmg only");
+  if (contact && type != "tnnmg" && type != "pdas")
+    throw Error(scene.where(scene.solver.line) + "[solver] type = \"" + type +
+                "\" is not available with [adaptivity] (use tnnmg or pdas)");
   return o;
 }
+
+namespace {
 
 std::string stepLine(const est::AdaptiveStep& s, int steps) {
   std::ostringstream os;
@@ -740,7 +715,7 @@ RunResult runAdaptiveMultiBody(const Scene& scene, const RunOptions& options) {
   r.solver.iterations = final.solverIterations;
   r.solver.converged = final.converged;
   r.solver.seconds = final.solverSeconds;
-  r.solver.tolerance = contact && type == "tnnmg" ? o.solverTolerance : 0.0;
+  r.solver.tolerance = contact && type == "tnnmg" ? o.solver.tolerance : 0.0;
   for (std::size_t k = 0; k < final.couplings.size(); ++k)
     r.pairs.push_back(pairReport(final.couplings[k], sides[k].first, sides[k].second, dim));
   finishAdaptiveRun(scene, options, dir, stepsCsv, steps, {}, est::MarkingStrategy(spec.marking, spec.theta).parameter(),
@@ -850,7 +825,7 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
   t = Clock::now();
   if (!vtkFiles.empty()) {
     const fs::path pvd = dir / (scene.name + ".pvd");
-    writePvd(pvd, vtkFiles);
+    writePvdCollection(pvd, vtkFiles);
     for (const PvdEntry& e : vtkFiles) r.outputFiles.push_back(dir / e.file);
     r.outputFiles.push_back(pvd);
   }
@@ -878,7 +853,7 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
   r.solver.iterations = final.solverIterations;
   r.solver.converged = final.converged;
   r.solver.seconds = final.solverSeconds;
-  r.solver.tolerance = scene.contact && type == "tnnmg" ? o.solverTolerance : 0.0;
+  r.solver.tolerance = scene.contact && type == "tnnmg" ? o.solver.tolerance : 0.0;
   r.contact = fin.contact;
 
   finishAdaptiveRun(scene, options, dir, stepsCsv, steps, nodalErrors, marking.parameter(), r, t, start);

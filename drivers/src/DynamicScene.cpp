@@ -327,51 +327,16 @@ std::vector<Field> stateFields(const Context& c, std::size_t b, const Eigen::Vec
   return pf;
 }
 
-/// The .pvd collection over time; with `parts` > 1 the files come in groups of `parts` per time
-/// (one per body), numbered as parts.
-void writePvd(const fs::path& path, const std::vector<fs::path>& files, const std::vector<double>& times,
-              std::size_t parts = 1) {
-  std::ofstream out(path);
-  if (!out) throw Error(path.string() + ": cannot write the .pvd collection");
-  out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
-         "  <Collection>\n";
-  for (std::size_t i = 0; i < files.size(); ++i)
-    out << "    <DataSet timestep=\"" << std::setprecision(17) << times[i] << "\" part=\"" << i % parts << "\" file=\""
-        << files[i].filename().string() << "\"/>\n";
-  out << "  </Collection>\n</VTKFile>\n";
-  if (!out) throw Error(path.string() + ": cannot write the .pvd collection");
-}
-
+/// The time stepper of one scheme on the scene's bodies (the contact model of a multi-body scene,
+/// kept in `model` and `obstacles`, which must outlive it), initialised with the initial state.
+/// Errors name the [dynamics] line of the scheme or of the initial state.
 template <int d>
-SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeVtk,
-                    const std::string& timeseriesName) {
+std::unique_ptr<TimeStepper<d>> makeSchemeStepper(const Context& c, const std::string& schemeName,
+                                                  const NewmarkOptions& o, ContactModel<d>& model,
+                                                  std::vector<std::unique_ptr<Obstacle>>& obstacles) {
   const Scene& scene = c.scene;
   const DynamicsSpec& dyn = *scene.dynamics;
-  SchemeRun run;
-  run.scheme = schemeName;
-  NewmarkOptions o;
-  o.scheme = newmarkSchemeFromName(schemeName);
-  o.timeStep = dyn.timeStep;
-  o.mass = dyn.consistentMass ? MassKind::Consistent : MassKind::Lumped;
-  if (!scene.solver.smoother.empty() || scene.solver.krylovSteps || scene.solver.linearSmoothing)
-    throw Error(scene.where(scene.solver.line) + "[solver] smoother, krylov_steps and linear_smoothing apply to "
-                "static scenes only "
-                "(not yet to [dynamics])");
-  if (scene.solver.tolerance) o.solverTolerance = *scene.solver.tolerance;
-  if (scene.solver.maxIterations) o.maxSolverIterations = *scene.solver.maxIterations;
-  if (scene.solver.preSmoothing) o.preSmoothing = *scene.solver.preSmoothing;
-  if (scene.solver.postSmoothing) o.postSmoothing = *scene.solver.postSmoothing;
-  if (scene.solver.localSmoothing) o.multigrid.localSmoothing = *scene.solver.localSmoothing;
-  if (scene.solver.cycleIndex) o.multigrid.cycleIndex = *scene.solver.cycleIndex;
-  o.inexactFraction = dyn.inexact;
-  o.redistribution.moments = dyn.redistributionMoments;
-  o.start = newmarkStartFromName(dyn.warmStart);
-  for (const TrackedInfo& t : c.tracked) o.trackedVertices.push_back(t.vertex);
-
-  const auto t0 = Clock::now();
   std::unique_ptr<TimeStepper<d>> stepper;
-  ContactModel<d> model;  // multi-body scenes: the bodies and the [[contact]] couplings
-  std::vector<std::unique_ptr<Obstacle>> obstacles;
   try {
     if (c.multiBody()) {
       std::vector<const mesh::Mesh*> meshes;
@@ -399,12 +364,166 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
     throw Error(scene.where(line) + "[dynamics] the initial state (initial_displacement, initial_velocity) " +
                 "is not admissible, nothing was integrated: " + e.what());
   }
-  run.setupSeconds = secondsSince(t0);
-  auto* newmark = dynamic_cast<NewmarkFamily<d>*>(stepper.get());
+  const bool newmark = dynamic_cast<NewmarkFamily<d>*>(stepper.get()) != nullptr;
   if (c.multiBody() && !newmark)  // the .vtu fields need its mortar transformation
     throw Error(scene.where(dyn.schemeLine) + "[dynamics] scheme = \"" + schemeName + "\" cannot integrate several bodies");
   if ((c.checkpointing || c.restart) && !newmark)
     throw Error(scene.where(dyn.schemeLine) + "[dynamics] scheme = \"" + schemeName + "\" cannot be checkpointed");
+  return stepper;
+}
+
+/// The time series of a scheme (timeseries.csv): the rows as they are written, with the length and
+/// FNV-1a hash of the bytes so far, which go into checkpoints; a restart checks the file against
+/// them and cuts it back to them.
+class TimeSeriesFile {
+public:
+  explicit TimeSeriesFile(fs::path path) : path_(std::move(path)) {}
+
+  /// A new file with the header and the initial state's row.
+  void start(std::size_t tracked, const StepRecord& first) {
+    out_.open(path_, std::ios::binary);
+    if (!out_) throw Error(path_.string() + ": cannot write the time series");
+    emit(csvHeaderLine(tracked));
+    emit(csvLine(first));
+  }
+
+  /// Continues the file of an interrupted run at the checkpoint's length (`step`: the checkpoint's
+  /// step, for the message); throws if the file does not begin with the bytes it recorded.
+  void resume(const CheckpointRecord& cp, std::size_t tracked, int step) {
+    bytes_ = cp.integer("run/timeseries_bytes");
+    const std::string hash = cp.text("run/timeseries_hash");
+    std::ifstream in(path_, std::ios::binary);
+    std::string text(static_cast<std::size_t>(std::max(bytes_, 0LL)), '\0');
+    if (!in || !in.read(text.data(), static_cast<std::streamsize>(text.size())) ||
+        hexHash(fnv1a(text.data(), text.size())) != hash)
+      throw Error(path_.string() + " does not begin with the " + std::to_string(bytes_) +
+                  " bytes the interrupted run wrote up to step " + std::to_string(step) +
+                  " (restart into the output directory of the interrupted run)");
+    // the rows appended below must have the columns of the rows already there
+    const std::string header = csvHeaderLine(tracked) + "\n";
+    if (text.compare(0, header.size(), header) != 0)
+      throw Error(path_.string() +
+                  " has other columns than this version of obs writes (written by another version; "
+                  "start the run again without --restart)");
+    in.close();
+    hash_ = std::stoull(hash, nullptr, 16);
+    fs::resize_file(path_, static_cast<std::uintmax_t>(bytes_));
+  }
+
+  /// Opens the resumed file for appending (after resume, outside its error context).
+  void openForAppend() {
+    out_.open(path_, std::ios::app | std::ios::binary);
+    if (!out_) throw Error(path_.string() + ": cannot write the time series");
+  }
+
+  void emit(const std::string& line) {
+    const std::string text = line + "\n";
+    out_ << text;
+    bytes_ += static_cast<long long>(text.size());
+    hash_ = fnv1a(text.data(), text.size(), hash_);
+  }
+
+  /// Flushes; throws if anything could not be written.
+  void flush() {
+    out_.flush();
+    if (!out_) throw Error(path_.string() + ": cannot write the time series");
+  }
+
+  long long bytes() const { return bytes_; }
+  std::uint64_t hash() const { return hash_; }
+
+private:
+  fs::path path_;
+  std::ofstream out_;
+  long long bytes_ = 0;
+  std::uint64_t hash_ = kFnvOffset;
+};
+
+/// Writes the .vtu files of the stepper's state at record r: one per body (the .pvd lists them as
+/// parts of one time step), or one, and adds them to run.vtuFiles / vtuTimes.
+template <int d>
+void writeStateVtu(const Context& c, const TimeStepper<d>& stepper, const NewmarkFamily<d>* newmark,
+                   const StepRecord& r, SchemeRun& run) {
+  const DynamicState& state = stepper.state();
+  StateContact sc;
+  if (newmark) {
+    sc.x = newmark->problem().fromDisplacement(state.u);  // (I - C) u; a copy of u without mortar pairs
+    sc.w = newmark->problem().fromDisplacement(state.v);
+    sc.nodal = newmark->nodalContactForces();
+    if (c.multiBody()) sc.forces = newmark->contactForces();
+  } else {
+    sc.x = state.u;
+    sc.w = state.v;
+  }
+  const std::size_t parts = c.multiBody() ? c.bodies.size() : 1;
+  for (std::size_t b = 0; b < parts; ++b) {
+    std::ostringstream name;
+    name << c.scene.name << "_";
+    if (c.multiBody()) name << c.bodies[b].spec->name << "_";
+    name << std::setw(6) << std::setfill('0') << r.step << ".vtu";
+    const fs::path path = c.dir / name.str();
+    std::vector<Field> cells;
+    const auto pf = stateFields(c, b, state.u, state.v, sc, &cells);
+    writeVtu(path, c.multiBody() ? *c.bodies[b].mesh : c.mesh, pf, cells);
+    run.vtuFiles.push_back(path);
+    run.vtuTimes.push_back(r.time);
+  }
+}
+
+/// The contact times of the tracked vertices after record r: first contact, detachment (the gap
+/// opens again) and release (the normal velocity points away beyond round-off).
+void trackContactTimes(const StepRecord& r, std::vector<TrackedTimes>& times) {
+  for (std::size_t k = 0; k < r.tracked.size() && k < times.size(); ++k) {
+    const TrackedVertex& t = r.tracked[k];
+    if (!t.contactNode) continue;
+    TrackedTimes& tt = times[k];
+    tt.velocityScale = std::max(tt.velocityScale, std::abs(t.normalVelocity));
+    const double tol = 1e-8 * std::max({1.0, std::abs(t.normalDisplacement), std::abs(t.gap)});
+    const bool touching = t.gap <= tol;
+    if (std::isnan(tt.firstContact)) {
+      if (touching) tt.firstContact = r.time;
+      continue;
+    }
+    if (std::isnan(tt.detachment) && !touching) tt.detachment = r.time;
+    if (std::isnan(tt.release) && t.normalVelocity < -1e-8 * tt.velocityScale) tt.release = r.time;
+  }
+}
+
+/// The run's totals and extremes after step r (previous: the step before).
+void accumulateStep(const StepRecord& r, const StepRecord& previous, SchemeRun& run) {
+  ++run.steps;
+  run.iterations += r.solverIterations;
+  run.maxIterations = std::max(run.maxIterations, r.solverIterations);
+  run.solverSeconds += r.solverSeconds;
+  run.stepSeconds += r.stepSeconds;
+  run.maxPenetration = std::max(run.maxPenetration, r.maxPenetration);
+  run.forceVariation += (r.contactForce - previous.contactForce).norm();
+  run.maxForce = std::max(run.maxForce, r.contactForce.norm());
+  run.maxActive = std::max<long long>(run.maxActive, r.activeSolution);
+  run.minTolerance = std::min(run.minTolerance, r.solverTolerance);
+  run.maxTolerance = std::max(run.maxTolerance, r.solverTolerance);
+}
+
+/// Integrates one scheme over the scene's steps: the stepper (makeSchemeStepper), the time series
+/// (TimeSeriesFile), the .vtu files every output_stride steps (writeStateVtu), the contact times of
+/// the tracked vertices, progress lines, checkpoints and --stop-after-step / signals; a restart
+/// continues from the checkpoint's state and time series.
+template <int d>
+SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeVtk,
+                    const std::string& timeseriesName) {
+  const Scene& scene = c.scene;
+  const DynamicsSpec& dyn = *scene.dynamics;
+  SchemeRun run;
+  run.scheme = schemeName;
+  NewmarkOptions o = newmarkOptions(scene, schemeName);
+  for (const TrackedInfo& t : c.tracked) o.trackedVertices.push_back(t.vertex);
+
+  const auto t0 = Clock::now();
+  ContactModel<d> model;  // multi-body scenes: the bodies and the [[contact]] couplings
+  std::vector<std::unique_ptr<Obstacle>> obstacles;
+  const std::unique_ptr<TimeStepper<d>> stepper = makeSchemeStepper<d>(c, schemeName, o, model, obstacles);
+  run.setupSeconds = secondsSince(t0);
+  auto* newmark = dynamic_cast<NewmarkFamily<d>*>(stepper.get());
 
   const StepRecord first = stepper->record();
   run.initialEnergy = first.energy;
@@ -417,18 +536,8 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
   }
   run.times.assign(c.tracked.size(), TrackedTimes{});
 
-  // The time series; its length and FNV-1a hash so far go into checkpoints, and a restart cuts the
-  // file back to them.
   run.timeseries = c.dir / timeseriesName;
-  std::ofstream csv;
-  long long csvBytes = 0;
-  std::uint64_t csvHash = kFnvOffset;
-  auto emit = [&](const std::string& line) {
-    const std::string text = line + "\n";
-    csv << text;
-    csvBytes += static_cast<long long>(text.size());
-    csvHash = fnv1a(text.data(), text.size(), csvHash);
-  };
+  TimeSeriesFile csv(run.timeseries);
   int startStep = 0;
   if (c.restart) {
     const CheckpointRecord& cp = *c.restart;
@@ -440,94 +549,25 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
       newmark->setSchemeState(state);
       startStep = state.state.step;
       restoreSchemeRun(cp, run, c.dir);
-      csvBytes = cp.integer("run/timeseries_bytes");
-      const std::string hash = cp.text("run/timeseries_hash");
-      std::ifstream in(run.timeseries, std::ios::binary);
-      std::string text(static_cast<std::size_t>(std::max(csvBytes, 0LL)), '\0');
-      if (!in || !in.read(text.data(), static_cast<std::streamsize>(text.size())) ||
-          hexHash(fnv1a(text.data(), text.size())) != hash)
-        throw Error(run.timeseries.string() + " does not begin with the " + std::to_string(csvBytes) +
-                    " bytes the interrupted run wrote up to step " + std::to_string(startStep) +
-                    " (restart into the output directory of the interrupted run)");
-      // the rows appended below must have the columns of the rows already there
-      const std::string header = csvHeaderLine(c.tracked.size()) + "\n";
-      if (text.compare(0, header.size(), header) != 0)
-        throw Error(run.timeseries.string() +
-                    " has other columns than this version of obs writes (written by another version; "
-                    "start the run again without --restart)");
-      in.close();
-      csvHash = std::stoull(hash, nullptr, 16);
-      fs::resize_file(run.timeseries, static_cast<std::uintmax_t>(csvBytes));
+      csv.resume(cp, c.tracked.size(), startStep);
     } catch (const Error& e) {
       throw Error(c.restartFile.string() + ": " + e.what());
     }
-    csv.open(run.timeseries, std::ios::app | std::ios::binary);
-    if (!csv) throw Error(run.timeseries.string() + ": cannot write the time series");
+    csv.openForAppend();
   } else {
-    csv.open(run.timeseries, std::ios::binary);
-    if (!csv) throw Error(run.timeseries.string() + ": cannot write the time series");
-    emit(csvHeaderLine(c.tracked.size()));
-    emit(csvLine(first));
+    csv.start(c.tracked.size(), first);
+    if (writeVtk) writeStateVtu<d>(c, *stepper, newmark, first, run);
+    trackContactTimes(first, run.times);
   }
-
-  auto writeState = [&](const StepRecord& r) {
-    if (!writeVtk) return;
-    const DynamicState& state = stepper->state();
-    StateContact sc;
-    if (newmark) {
-      sc.x = newmark->problem().fromDisplacement(state.u);  // (I - C) u; a copy of u without mortar pairs
-      sc.w = newmark->problem().fromDisplacement(state.v);
-      sc.nodal = newmark->nodalContactForces();
-      if (c.multiBody()) sc.forces = newmark->contactForces();
-    } else {
-      sc.x = state.u;
-      sc.w = state.v;
-    }
-    // one .vtu per body and step (the .pvd lists them as parts of one time step), or one
-    const std::size_t parts = c.multiBody() ? c.bodies.size() : 1;
-    for (std::size_t b = 0; b < parts; ++b) {
-      std::ostringstream name;
-      name << scene.name << "_";
-      if (c.multiBody()) name << c.bodies[b].spec->name << "_";
-      name << std::setw(6) << std::setfill('0') << r.step << ".vtu";
-      const fs::path path = c.dir / name.str();
-      std::vector<Field> cells;
-      const auto pf = stateFields(c, b, state.u, state.v, sc, &cells);
-      writeVtu(path, c.multiBody() ? *c.bodies[b].mesh : c.mesh, pf, cells);
-      run.vtuFiles.push_back(path);
-      run.vtuTimes.push_back(r.time);
-    }
-  };
-  if (!c.restart) writeState(first);
-
-  auto track = [&](const StepRecord& r) {
-    for (std::size_t k = 0; k < r.tracked.size() && k < run.times.size(); ++k) {
-      const TrackedVertex& t = r.tracked[k];
-      if (!t.contactNode) continue;
-      TrackedTimes& tt = run.times[k];
-      tt.velocityScale = std::max(tt.velocityScale, std::abs(t.normalVelocity));
-      const double tol = 1e-8 * std::max({1.0, std::abs(t.normalDisplacement), std::abs(t.gap)});
-      const bool touching = t.gap <= tol;
-      if (std::isnan(tt.firstContact)) {
-        if (touching) tt.firstContact = r.time;
-        continue;
-      }
-      if (std::isnan(tt.detachment) && !touching) tt.detachment = r.time;
-      // release: the normal velocity points away beyond round-off of the velocities seen so far
-      if (std::isnan(tt.release) && t.normalVelocity < -1e-8 * tt.velocityScale) tt.release = r.time;
-    }
-  };
-  if (!c.restart) track(first);
 
   CheckpointSchedule schedule(scene.output.checkpoint);
   auto writeCheckpointAt = [&](int k) {
     csv.flush();  // the checkpoint refers to these bytes
-    if (!csv) throw Error(run.timeseries.string() + ": cannot write the time series");
     CheckpointRecord cp;
     cp.kind = "dynamic";
     storeRunIdentity(cp, scene, runBodies(c.mesh, c.bodies));
     storeNewmarkState(cp, newmark->schemeState());
-    storeSchemeRun(cp, run, csvBytes, csvHash);
+    storeSchemeRun(cp, run, csv.bytes(), csv.hash());
     writeCheckpoint(c.checkpointFile, cp);
     schedule.written();
     if (c.options.stepProgress)
@@ -547,20 +587,10 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
          << fmt(k * dyn.timeStep) << ") failed: " << e.what();
       throw Error(os.str());
     }
-    emit(csvLine(r));
-    ++run.steps;
-    run.iterations += r.solverIterations;
-    run.maxIterations = std::max(run.maxIterations, r.solverIterations);
-    run.solverSeconds += r.solverSeconds;
-    run.stepSeconds += r.stepSeconds;
-    run.maxPenetration = std::max(run.maxPenetration, r.maxPenetration);
-    run.forceVariation += (r.contactForce - previous.contactForce).norm();
-    run.maxForce = std::max(run.maxForce, r.contactForce.norm());
-    run.maxActive = std::max<long long>(run.maxActive, r.activeSolution);
-    run.minTolerance = std::min(run.minTolerance, r.solverTolerance);
-    run.maxTolerance = std::max(run.maxTolerance, r.solverTolerance);
-    track(r);
-    if (k % dyn.outputStride == 0 || k == c.steps) writeState(r);
+    csv.emit(csvLine(r));
+    accumulateStep(r, previous, run);
+    trackContactTimes(r, run.times);
+    if (writeVtk && (k % dyn.outputStride == 0 || k == c.steps)) writeStateVtu<d>(c, *stepper, newmark, r, run);
     if (c.options.stepProgress && (secondsSince(lastReport) >= 2.0 || k == c.steps)) {
       lastReport = Clock::now();
       std::ostringstream os;
@@ -592,7 +622,6 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
   run.u = stepper->state().u;
   run.v = stepper->state().v;
   csv.flush();
-  if (!csv) throw Error(run.timeseries.string() + ": cannot write the time series");
   return run;
 }
 
@@ -691,6 +720,19 @@ std::vector<std::string> dynamicSchemes(const Scene& scene, bool compareAll) {
   for (const std::string& s : more)
     if (std::find(out.begin(), out.end(), s) == out.end()) out.push_back(s);
   return out;
+}
+
+NewmarkOptions newmarkOptions(const Scene& scene, const std::string& scheme) {
+  const DynamicsSpec& dyn = *scene.dynamics;
+  NewmarkOptions o;
+  o.scheme = newmarkSchemeFromName(scheme);
+  o.timeStep = dyn.timeStep;
+  o.mass = dyn.consistentMass ? MassKind::Consistent : MassKind::Lumped;
+  o.solver = solverConfig(scene);
+  o.inexactFraction = dyn.inexact;
+  o.redistribution.moments = dyn.redistributionMoments;
+  o.start = newmarkStartFromName(dyn.warmStart);
+  return o;
 }
 
 namespace {
@@ -919,7 +961,7 @@ RunResult runDynamics(const Scene& scene, const mesh::Grid& grid, const mesh::Me
   r.solver.iterations = static_cast<int>(std::min<long long>(primary.iterations, std::numeric_limits<int>::max()));
   r.solver.converged = true;
   r.solver.seconds = primary.solverSeconds;
-  r.solver.tolerance = scene.solver.tolerance.value_or(NewmarkOptions{}.solverTolerance);
+  r.solver.tolerance = solverConfig(scene).tolerance;
   ContactReport cr;
   cr.obstacle = multi ? contact.obstacleName() : scene.contact->obstacle;
   cr.boundary = multi ? contact.boundaryLabel() : scene.contact->boundary.describe();
@@ -964,7 +1006,11 @@ RunResult runDynamics(const Scene& scene, const mesh::Grid& grid, const mesh::Me
   for (const fs::path& f : primary.vtuFiles) r.outputFiles.push_back(f);
   if (!primary.vtuFiles.empty()) {
     const fs::path pvd = c.dir / (scene.name + ".pvd");
-    writePvd(pvd, primary.vtuFiles, primary.vtuTimes, c.multiBody() ? c.bodies.size() : 1);
+    const std::size_t parts = c.multiBody() ? c.bodies.size() : 1;  // the files come in groups of parts per time
+    std::vector<PvdEntry> entries;
+    for (std::size_t i = 0; i < primary.vtuFiles.size(); ++i)
+      entries.push_back(PvdEntry{primary.vtuTimes[i], static_cast<int>(i % parts), primary.vtuFiles[i].filename().string()});
+    writePvdCollection(pvd, entries);
     r.outputFiles.push_back(pvd);
   }
   recordRunRow(scene, c.dir, r, t, start);

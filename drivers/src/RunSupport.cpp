@@ -63,15 +63,4 @@ BodyGrids buildBodyGrids(const Scene& scene, const std::optional<int>& refine) {
   return b;
 }
 
-void writePvdCollection(const std::filesystem::path& path, const std::vector<PvdEntry>& entries) {
-  std::ofstream out(path);
-  if (!out) throw Error(path.string() + ": cannot write the .pvd collection");
-  out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
-         "  <Collection>\n";
-  for (const PvdEntry& e : entries)
-    out << "    <DataSet timestep=\"" << e.time << "\" part=\"" << e.part << "\" file=\"" << e.file << "\"/>\n";
-  out << "  </Collection>\n</VTKFile>\n";
-  if (!out) throw Error(path.string() + ": cannot write the .pvd collection");
-}
-
 }  // namespace obs::drivers

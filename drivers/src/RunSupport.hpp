@@ -12,6 +12,7 @@
 
 #include "obs/drivers/RunResult.hpp"
 #include "obs/drivers/Scene.hpp"
+#include "obs/drivers/VtkWriter.hpp"
 
 namespace obs::drivers {
 
@@ -40,13 +41,5 @@ struct BodyGrids {
   std::vector<const mesh::Mesh*> meshPointers() const;
 };
 BodyGrids buildBodyGrids(const Scene& scene, const std::optional<int>& refine);
-
-/// A .pvd collection of .vtu files: (time step, part, file name relative to the .pvd) each.
-struct PvdEntry {
-  double time = 0;
-  int part = 0;
-  std::string file;
-};
-void writePvdCollection(const std::filesystem::path& path, const std::vector<PvdEntry>& entries);
 
 }  // namespace obs::drivers

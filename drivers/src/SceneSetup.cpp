@@ -496,4 +496,21 @@ std::string checkMultiBodyScene(const Scene& scene, std::optional<int> refineOve
          " constrained slave vertices";
 }
 
+SolverConfig solverConfig(const Scene& scene) {
+  const SolverSpec& spec = scene.solver;
+  SolverConfig c;
+  c.kind = contactSolverKindFromName(scene.solverType()).value_or(ContactSolverKind::TNNMG);
+  c.tolerance = spec.tolerance.value_or(c.tolerance);
+  c.maxIterations = spec.maxIterations;
+  c.preSmoothing = spec.preSmoothing.value_or(c.preSmoothing);
+  c.postSmoothing = spec.postSmoothing.value_or(c.postSmoothing);
+  LinearMultigridOptions& mg = c.multigrid;
+  if (spec.smoother == "vertex-patch") mg.smoother = LinearSmoother::VertexPatch;
+  mg.krylovSteps = spec.krylovSteps.value_or(mg.krylovSteps);
+  if (spec.linearSmoothing) mg.preSmoothing = mg.postSmoothing = *spec.linearSmoothing;
+  mg.localSmoothing = spec.localSmoothing.value_or(mg.localSmoothing);
+  mg.cycleIndex = spec.cycleIndex.value_or(mg.cycleIndex);
+  return c;
+}
+
 }  // namespace obs::drivers

@@ -17,8 +17,7 @@
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
 #include "obs/obs/LinearMultigrid.hpp"
-#include "obs/obs/PrimalDualActiveSet.hpp"
-#include "obs/obs/ProjectedGaussSeidel.hpp"
+#include "obs/obs/SolverConfig.hpp"
 #include "obs/obs/TNNMG.hpp"
 
 namespace obs::drivers {
@@ -28,18 +27,7 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
-constexpr double kDefaultTolerance = 1e-10;
 constexpr double kContactTolerance = 1e-8;  ///< relative tolerance of "actual contact"
-
-/// [solver] smoother, krylov_steps, linear_smoothing, local_smoothing and cycle (docs/scenes.md) on the options of a
-/// linear multigrid.
-void applyMultigridSpec(const SolverSpec& spec, LinearMultigridOptions& o) {
-  o.localSmoothing = spec.localSmoothing.value_or(o.localSmoothing);
-  o.cycleIndex = spec.cycleIndex.value_or(o.cycleIndex);
-  if (spec.smoother == "vertex-patch") o.smoother = LinearSmoother::VertexPatch;
-  o.krylovSteps = spec.krylovSteps.value_or(o.krylovSteps);
-  if (spec.linearSmoothing) o.preSmoothing = o.postSmoothing = *spec.linearSmoothing;
-}
 
 /// "file:line: [solver] <type> failed: <what>" for errors of a solver.
 [[noreturn]] void solverFailed(const Scene& scene, const std::string& type, const Error& e) {
@@ -94,10 +82,10 @@ SceneSolution solveLinear(const Scene& scene, const mesh::Grid& grid, const mesh
   if (assembled) assembled(e);
 
   t0 = Clock::now();
-  LinearMultigridOptions options;
-  options.tolerance = scene.solver.tolerance.value_or(kDefaultTolerance);
-  options.maxIterations = scene.solver.maxIterations.value_or(100);
-  applyMultigridSpec(scene.solver, options);
+  const SolverConfig config = solverConfig(scene);
+  LinearMultigridOptions options = config.multigrid;
+  options.tolerance = config.tolerance;
+  options.maxIterations = config.maxIterations.value_or(options.maxIterations);
   LinearSolverResult r;
   try {
     LinearMultigrid<d> mg(grid, options);
@@ -121,39 +109,19 @@ SceneSolution solveLinear(const Scene& scene, const mesh::Grid& grid, const mesh
   return s;
 }
 
+/// The contact solver of the scene's solverConfig on the bodies' grids, with the iteration lines
+/// of `progress`; `tolerance` receives the stopping tolerance it reports (0 for the active-set
+/// method's exact rule).
 template <int d>
-std::unique_ptr<ContactSolver<d>> makeContactSolver(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
-                                                    const IterationProgress& progress,
-                                                    double& tolerance) {
+std::unique_ptr<ContactSolver<d>> sceneContactSolver(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
+                                                     const IterationProgress& progress, double& tolerance) {
   const std::string type = scene.solverType();
-  const SolverSpec& spec = scene.solver;
-  auto common = [&](ContactSolverOptions& o, int maxIterations) {
-    o.tolerance = spec.tolerance.value_or(kDefaultTolerance);
-    o.maxIterations = spec.maxIterations.value_or(maxIterations);
-    o.onIteration = iterationLines(type, progress);
-    tolerance = o.tolerance;
-  };
-  if (type == "tnnmg") {
-    typename TNNMG<d>::Options o;
-    common(o, 200);
-    o.preSmoothing = spec.preSmoothing.value_or(o.preSmoothing);
-    o.postSmoothing = spec.postSmoothing.value_or(o.postSmoothing);
-    applyMultigridSpec(spec, o.multigrid);
-    return std::make_unique<TNNMG<d>>(grids, o);
-  }
-  if (type == "pdas") {
-    typename PrimalDualActiveSet<d>::Options o;
-    common(o, o.maxIterations);
-    tolerance = 0;  // exact stopping rule: the active set repeats
-    return std::make_unique<PrimalDualActiveSet<d>>(o);
-  }
-  if (type == "pgs") {
-    typename ProjectedGaussSeidel<d>::Options o;
-    common(o, 10000);
-    return std::make_unique<ProjectedGaussSeidel<d>>(o);
-  }
-  throw Error(scene.where(spec.line) + "[solver] type = \"" + type +
-              "\" cannot solve contact problems (known: tnnmg, pdas, pgs)");
+  if (!contactSolverKindFromName(type))
+    throw Error(scene.where(scene.solver.line) + "[solver] type = \"" + type +
+                "\" cannot solve contact problems (known: tnnmg, pdas, pgs)");
+  const SolverConfig config = solverConfig(scene);
+  tolerance = config.kind == ContactSolverKind::PrimalDualActiveSet ? 0 : config.tolerance;
+  return makeContactSolver<d>(config, grids, iterationLines(type, progress));
 }
 
 template <int d>
@@ -182,7 +150,7 @@ SceneSolution solveContact(const Scene& scene, const mesh::Grid& grid, const mes
   double tolerance = 0;
   ContactResult result;
   try {
-    const auto solver = makeContactSolver<d>(scene, {&grid}, progress, tolerance);
+    const auto solver = sceneContactSolver<d>(scene, {&grid}, progress, tolerance);
     result = solver->solve(problem, e.displacement);
     if (const auto* tnnmg = dynamic_cast<const TNNMG<d>*>(solver.get())) reportTnnmg(tnnmg->statistics(), s.solver);
   } catch (const Error& err) {
@@ -311,7 +279,7 @@ MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mes
   ContactResult result;
   Eigen::VectorXd x;
   try {
-    const auto solver = makeContactSolver<d>(scene, grids, progress, tolerance);
+    const auto solver = sceneContactSolver<d>(scene, grids, progress, tolerance);
     result = solver->solve(*problem, x);
     if (const auto* tnnmg = dynamic_cast<const TNNMG<d>*>(solver.get())) reportTnnmg(tnnmg->statistics(), s.solver);
   } catch (const Error& err) {

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <array>
 #include <bit>
+#include <charconv>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
@@ -283,6 +284,21 @@ void writeVtu(const std::filesystem::path& path, const mesh::Mesh& mesh,
   out << "\n  </AppendedData>\n</VTKFile>\n";
   out.close();
   if (!out) throw Error(path.string() + ": cannot write the VTK file");
+}
+
+void writePvdCollection(const std::filesystem::path& path, const std::vector<PvdEntry>& entries) {
+  std::ofstream out(path);
+  if (!out) throw Error(path.string() + ": cannot write the .pvd collection");
+  out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"Collection\" version=\"0.1\" byte_order=\"LittleEndian\">\n"
+         "  <Collection>\n";
+  for (const PvdEntry& e : entries) {
+    std::array<char, 32> time{};
+    const auto end = std::to_chars(time.data(), time.data() + time.size(), e.time).ptr;  // shortest round trip
+    out << "    <DataSet timestep=\"" << std::string_view(time.data(), static_cast<std::size_t>(end - time.data()))
+        << "\" part=\"" << e.part << "\" file=\"" << e.file << "\"/>\n";
+  }
+  out << "  </Collection>\n</VTKFile>\n";
+  if (!out) throw Error(path.string() + ": cannot write the .pvd collection");
 }
 
 }  // namespace obs::drivers

@@ -230,7 +230,7 @@ double freeEnergyNorm(const ContactProblem<d>& problem, const Eigen::VectorXd& u
 }  // namespace
 
 double AdaptiveLoop::inexactTolerance(const std::vector<AdaptiveStep>& steps, const AdaptiveStep& rec, int d) const {
-  const double base = options_.solverTolerance;
+  const double base = options_.solver.tolerance;
   if (!(options_.inexactFraction > 0) || steps.empty()) return base;
   const bool knownLast = rec.step + 1 == options_.maxSteps ||
                          (options_.targetVertices > 0 && rec.vertices >= options_.targetVertices);
@@ -579,26 +579,10 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
       x = warm ? problem->fromDisplacement(start) : Eigen::VectorXd::Zero(rec.unknowns);
       t = Clock::now();
       ContactResult result;
-      rec.solverTolerance = options_.solverTolerance;
-      if (options_.solver == ContactSolverKind::TNNMG) {
-        typename TNNMG<d>::Options o;
-        o.tolerance = rec.solverTolerance = inexactTolerance(steps, rec, d);
-        o.maxIterations = options_.maxSolverIterations;
-        o.preSmoothing = options_.preSmoothing;
-        o.postSmoothing = options_.postSmoothing;
-        o.multigrid.localSmoothing = options_.localSmoothing;
-        o.multigrid.cycleIndex = options_.cycleIndex;
-        o.recordHistory = false;
-        TNNMG<d> solver(grids, o);
-        result = solver.solve(*problem, x);
-      } else {
-        typename PrimalDualActiveSet<d>::Options o;
-        o.tolerance = options_.solverTolerance;
-        o.maxIterations = options_.maxSolverIterations;
-        o.recordHistory = false;
-        PrimalDualActiveSet<d> solver(o);
-        result = solver.solve(*problem, x);
-      }
+      SolverConfig config = options_.solver;
+      if (config.kind == ContactSolverKind::TNNMG) config.tolerance = inexactTolerance(steps, rec, d);
+      rec.solverTolerance = config.tolerance;
+      result = makeContactSolver<d>(config, grids, {}, false)->solve(*problem, x);
       rec.solverSeconds = since(t);
       rec.solver = result.solver;
       rec.solverIterations = result.iterations;

@@ -167,6 +167,8 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
     throw Error("time stepping: active tolerance must be non-negative and finite");
   if (!(options.predictorTolerance > 0) || options.maxPredictorSweeps < 1)
     throw Error("time stepping: the predictor tolerance must be positive and the sweep cap at least 1");
+  if (options.solver.kind != ContactSolverKind::TNNMG)
+    throw Error("time stepping: the step solver is TNNMG, got " + std::string(obs::name(options.solver.kind)));
   if (!(options.inexactFraction >= 0 && options.inexactFraction < 1))
     throw Error("time stepping: the inexact fraction must lie in [0, 1), got " + num(options.inexactFraction));
 
@@ -343,12 +345,7 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
     }
   }
 
-  typename TNNMG<d>::Options so;
-  so.tolerance = options.solverTolerance;
-  so.maxIterations = options.maxSolverIterations;
-  so.preSmoothing = options.preSmoothing;
-  so.postSmoothing = options.postSmoothing;
-  so.multigrid = options.multigrid;
+  typename TNNMG<d>::Options so = tnnmgOptions<d>(options.solver);
   so.recordHistory = false;
   solver_ = grids.size() == 1 ? std::make_unique<TNNMG<d>>(*grids.front(), so) : std::make_unique<TNNMG<d>>(grids, so);
 }
@@ -437,7 +434,7 @@ double NewmarkFamily<d>::activeTolerance(const Eigen::VectorXd& u) const {
 
 template <int d>
 double NewmarkFamily<d>::inexactTolerance(double timeError, double incrementNorm, double rate) const {
-  const double base = options_.solverTolerance;
+  const double base = options_.solver.tolerance;
   const double ratio = timeError / incrementNorm;
   if (!(options_.inexactFraction > 0) || !(timeError > 0) || !(incrementNorm > 0) || !std::isfinite(ratio)) return base;
   // algebraic error ~ rho / (1 - rho) * last correction (geometric convergence with rate rho), as in
@@ -672,7 +669,7 @@ StepRecord NewmarkFamily<d>::step() {
 
   // inexact solves: the tolerance predicted from the previous step (docs/theory.md#dynamic-inexact-solves)
   const bool inexact = options_.inexactFraction > 0;
-  const double tolerance = inexact && nextTolerance_ > 0 ? nextTolerance_ : options_.solverTolerance;
+  const double tolerance = inexact && nextTolerance_ > 0 ? nextTolerance_ : options_.solver.tolerance;
   if (inexact) solver_->setTolerance(tolerance);
   // initial iterate (NewmarkStart): zero, or the previous step's increment (projected by the solver)
   const bool fromPrevious = options_.start == NewmarkStart::PreviousIncrement && previousIncrement_.size() == n;

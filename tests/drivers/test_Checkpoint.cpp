@@ -312,6 +312,7 @@ TEST(CheckpointNewmark, StepperSetToAStoredStateContinuesBitwise) {
     obs::NewmarkOptions o;
     o.scheme = scheme;
     o.timeStep = 3e-3;
+    o.solver.tolerance = 1e-11;
     Eigen::VectorXd u0 = Eigen::VectorXd::Zero(mesh.numVertices() * 2), v0 = u0;
     for (obs::mesh::Index p = 0; p < mesh.numVertices(); ++p) v0[2 * p + 1] = -10;
     obs::NewmarkFamily<2> a(grid, scene.material, bc, contact, o);

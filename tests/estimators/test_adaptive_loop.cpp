@@ -278,7 +278,7 @@ TEST(AdaptiveLoop, WarmStartSavesIterations) {
 
 TEST(AdaptiveLoop, InexactSolvesSaveIterationsNotAccuracy) {
   // docs/estimators.md#inexact-solves: intermediate steps stop at an algebraic error below a fraction
-  // of the predicted estimator; the first and the last step are solved to solverTolerance
+  // of the predicted estimator; the first and the last step are solved to solver.tolerance
   AdaptiveLoopOptions o;
   o.maxSteps = 8;
   const PunchRun exact = runPunch(o);
@@ -287,14 +287,14 @@ TEST(AdaptiveLoop, InexactSolvesSaveIterationsNotAccuracy) {
   ASSERT_EQ(inexact.steps.size(), exact.steps.size());
   int ie = 0, ii = 0;
   for (const AdaptiveStep& s : exact.steps) {
-    EXPECT_EQ(s.solverTolerance, o.solverTolerance);
+    EXPECT_EQ(s.solverTolerance, o.solver.tolerance);
     ie += s.solverIterations;
   }
   for (std::size_t k = 0; k < inexact.steps.size(); ++k) {
     const AdaptiveStep& s = inexact.steps[k];
     const bool tight = k == 0 || k + 1 == inexact.steps.size();
-    if (tight) EXPECT_EQ(s.solverTolerance, o.solverTolerance) << k;
-    else EXPECT_GT(s.solverTolerance, 1e3 * o.solverTolerance) << k;
+    if (tight) EXPECT_EQ(s.solverTolerance, o.solver.tolerance) << k;
+    else EXPECT_GT(s.solverTolerance, 1e3 * o.solver.tolerance) << k;
     EXPECT_LE(s.solverTolerance, 1e-2);
     ii += s.solverIterations;
   }
@@ -317,7 +317,7 @@ TEST(AdaptiveLoop, StopsAtAnUnconvergedSolveWithoutEstimating) {
   for (const AdaptiveStep& s : full.steps)
     if (first < 0 && s.solverIterations > 8) first = s.step;
   ASSERT_GE(first, 1) << "the test needs a step beyond the first that takes more than 8 iterations";
-  o.maxSolverIterations = 8;
+  o.solver.maxIterations = 8;
   const PunchRun capped = runPunch(o);
   ASSERT_EQ(static_cast<int>(capped.steps.size()), first + 1);  // the loop stopped at that step
   EXPECT_EQ(capped.callbacks, first + 1);                       // which the callback still saw
@@ -331,7 +331,7 @@ TEST(AdaptiveLoop, StopsAtAnUnconvergedSolveWithoutEstimating) {
 TEST(AdaptiveLoop, StoppingRulesSolversAndErrors) {
   // PDAS, a target number of vertices, uniform refinement without an estimator
   AdaptiveLoopOptions o;
-  o.solver = ContactSolverKind::PrimalDualActiveSet;
+  o.solver.kind = ContactSolverKind::PrimalDualActiveSet;
   o.maxSteps = 10;
   o.targetVertices = 100;
   const PunchRun p = runPunch(o);
@@ -382,8 +382,8 @@ TEST(AdaptiveLoop, StoppingRulesSolversAndErrors) {
   // the smoothing steps reach the loop's TNNMG (they were not forwarded before): none at all is
   // TNNMG's own error, at the first solve
   bad = {};
-  bad.preSmoothing = 0;
-  bad.postSmoothing = 0;
+  bad.solver.preSmoothing = 0;
+  bad.solver.postSmoothing = 0;
   {
     mesh::Grid g(mesh::boxMesh(CellType::Quadrilateral, 4));
     AdaptiveLoop loop(g, kMaterial, bc, bad);

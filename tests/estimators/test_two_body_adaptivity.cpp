@@ -93,8 +93,8 @@ AdaptiveStep patchStep(CellType lowerType, int nLower, CellType upperType, int n
   o.estimateUniform = true;
   o.maxSteps = 1;
   o.estimator = estimator;
-  o.solver = ContactSolverKind::PrimalDualActiveSet;
-  o.solverTolerance = 1e-13;
+  o.solver.kind = ContactSolverKind::PrimalDualActiveSet;
+  o.solver.tolerance = 1e-13;
   return s.loop(o).run().front();
 }
 
@@ -156,8 +156,8 @@ struct Cylinders {
   std::vector<AdaptiveStep> run(ContactSolverKind solver, int steps, std::vector<double>* minDiameter = nullptr) {
     AdaptiveLoopOptions o;
     o.maxSteps = steps;
-    o.solver = solver;
-    o.solverTolerance = 1e-12;
+    o.solver.kind = solver;
+    o.solver.tolerance = 1e-12;
     AdaptiveLoop loop({AdaptiveBody{"block", &block, &material, &blockBc},
                        AdaptiveBody{"cylinder", &cylinder, &material, &cylinderBc}},
                       o);

@@ -58,6 +58,7 @@ NewmarkOptions opts(NewmarkScheme s, double tau) {
   NewmarkOptions o;
   o.scheme = s;
   o.timeStep = tau;
+  o.solver.tolerance = 1e-11;  // tighter than the default 1e-10: the checks below are this tight
   return o;
 }
 

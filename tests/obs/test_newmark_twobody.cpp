@@ -71,7 +71,7 @@ NewmarkOptions opts(NewmarkScheme s, double tau) {
   NewmarkOptions o;
   o.scheme = s;
   o.timeStep = tau;
-  o.solverTolerance = 1e-12;
+  o.solver.tolerance = 1e-12;
   return o;
 }
 

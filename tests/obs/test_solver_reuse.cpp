@@ -165,7 +165,7 @@ TEST(NewmarkWarmStart, PreviousIncrementSolvesTheSameStepsAndRestartsBitwise) {
     NewmarkOptions o;
     o.scheme = scheme;
     o.timeStep = 2e-3;
-    o.solverTolerance = 1e-12;
+    o.solver.tolerance = 1e-12;
     NewmarkFamily<3> predictor(grid, mat, {}, contact, o);
     o.start = NewmarkStart::PreviousIncrement;
     NewmarkFamily<3> previous(grid, mat, {}, contact, o), restarted(grid, mat, {}, contact, o);

@@ -45,11 +45,17 @@
 #include "obs/drivers/RunOptions.hpp"
 #include "obs/drivers/RunResult.hpp"
 #include "obs/drivers/Scene.hpp"
+#include "obs/estimators/AdaptiveLoop.hpp"
 
 namespace obs::drivers {
 
 /// Runs a scene with [adaptivity] (see the file comment); throws obs::Error like runScene.
 RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options);
+
+/// The loop options of the scene's [adaptivity] and [solver] sections (the solver by solverConfig,
+/// as for a static and a dynamic run); `contact`: the scene has a contact coupling, whose solver
+/// must then be tnnmg or pdas (obs::Error naming the [solver] line otherwise).
+estimators::AdaptiveLoopOptions adaptiveLoopOptions(const Scene& scene, bool contact);
 
 /// The header of steps.csv for the given contribution names (without newline).
 std::string stepsCsvHeader(const std::vector<std::string>& contributions);

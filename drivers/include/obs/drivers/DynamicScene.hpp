@@ -38,12 +38,18 @@
 #include "obs/drivers/Scene.hpp"
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/Newmark.hpp"
 
 namespace obs::drivers {
 
 /// The schemes a dynamic scene runs: [dynamics] scheme first, then the ones of compare (all
 /// schemes with `compareAll`, the --compare-schemes option), without repetitions.
 std::vector<std::string> dynamicSchemes(const Scene& scene, bool compareAll);
+
+/// The time stepper's options for one scheme of the scene: [dynamics] time step, mass, inexact
+/// solves and warm start, and the [solver] section by solverConfig (as for a static and an adaptive
+/// run); the tracked vertices are the runner's.
+NewmarkOptions newmarkOptions(const Scene& scene, const std::string& scheme);
 
 /// Runs the scene (scene.dynamics set, validateScene passed) on `mesh` = grid.leafView().mesh.
 /// `result` holds the mesh figures of runScene, `start` the time the run began.

@@ -9,6 +9,7 @@
 #include "obs/mesh/Mesh.hpp"
 #include "obs/obs/BoundaryConditions.hpp"
 #include "obs/obs/ContactSet.hpp"
+#include "obs/obs/SolverConfig.hpp"
 
 namespace obs::drivers {
 
@@ -54,6 +55,13 @@ ContactSet makeContactSet(const Scene& scene, const mesh::Mesh& mesh, const Obst
 /// by [[dirichlet]] has nu.u_D > g (the data violate the constraint); the message names the vertex,
 /// its coordinates, nu.u_D, the gap and the [[dirichlet]] entry.
 void checkDirichletContact(const Scene& scene, const mesh::Mesh& mesh, const ContactSet& contact);
+
+/// The solver configuration of the scene's [solver] section (docs/scenes.md#solver), one function
+/// for the static, adaptive and dynamic runs: the kind named by type (TNNMG when type names no
+/// contact solver: "direct" and "multigrid" solve without contact, and a linear multigrid reads the
+/// tolerance, the iteration cap and the multigrid options), every option given, SolverConfig's
+/// defaults for the others. Which kinds a run accepts is the runner's check.
+SolverConfig solverConfig(const Scene& scene);
 
 /// The boundary conditions of a validated scene at time t = 0. The fields evaluate the scene's
 /// expressions and throw obs::Error (naming the key) if a value is not finite.

@@ -40,4 +40,17 @@ int vtkCellType(mesh::CellType type);
 void writeVtu(const std::filesystem::path& path, const mesh::Mesh& mesh,
               std::span<const Field> pointFields, std::span<const Field> cellFields);
 
+/// One data set of a .pvd collection: its time (the step of an adaptive run, the time of a dynamic
+/// one, 0 for a static one), its part (the body) and the .vtu file name relative to the .pvd.
+struct PvdEntry {
+  double time = 0;
+  int part = 0;
+  std::string file;
+};
+
+/// Writes the .pvd collection of every run kind (ParaView's time series and parts): one DataSet
+/// per entry in the given order, the time written as the shortest decimal that reads back to the
+/// same double ("0", "3", "0.015"). Throws obs::Error if the file cannot be written.
+void writePvdCollection(const std::filesystem::path& path, const std::vector<PvdEntry>& entries);
+
 }  // namespace obs::drivers

@@ -66,6 +66,7 @@
 #include "obs/obs/LinearMultigrid.hpp"
 #include "obs/obs/Material.hpp"
 #include "obs/obs/MortarCoupling.hpp"
+#include "obs/obs/SolverConfig.hpp"
 
 namespace obs::estimators {
 
@@ -73,8 +74,6 @@ class EstimatorRegistry;
 
 /// Adaptive: refine the cells the marking strategy chooses; Uniform: refine every cell.
 enum class RefinementMode { Adaptive, Uniform };
-/// The contact solver of each step (TNNMG.hpp, PrimalDualActiveSet.hpp).
-enum class ContactSolverKind { TNNMG, PrimalDualActiveSet };
 
 /// What the loop does: estimator, marking, stopping rules, solver.
 struct AdaptiveLoopOptions {
@@ -86,20 +85,13 @@ struct AdaptiveLoopOptions {
   int maxSteps = 5;              ///< number of solves (>= 1); refinements = solves - 1 at most
   Index targetVertices = 0;      ///< stop once the leaf view has at least this many vertices (0: off)
   double etaTolerance = 0;       ///< stop once eta <= etaTolerance (0: off)
-  ContactSolverKind solver = ContactSolverKind::TNNMG;  ///< contact solver of every step
-  double solverTolerance = 1e-10;  ///< relative energy-norm correction (ContactSolverOptions)
-  int maxSolverIterations = 500;   ///< iteration cap of the contact solver
-  int preSmoothing = 3;            ///< TNNMG nonsmooth sweeps before the correction (TNNMG::Options)
-  int postSmoothing = 0;           ///< TNNMG nonsmooth sweeps after the correction
-  /// Local smoothing in TNNMG's V-cycle (LinearMultigridOptions::localSmoothing).
-  bool localSmoothing = LinearMultigridOptions{}.localSmoothing;
-  /// Cycle of TNNMG's linear correction: 1 V-cycle, 2 W-cycle (LinearMultigridOptions::cycleIndex).
-  int cycleIndex = LinearMultigridOptions{}.cycleIndex;
+  /// The contact solver of every step (SolverConfig.hpp; TNNMG on the bodies' hierarchies by default).
+  SolverConfig solver;
   bool warmStart = true;           ///< start from the prolonged previous solution
   /// Inexact solves (docs/estimators.md#inexact-solves): > 0 stops TNNMG once the estimated
   /// algebraic error is below this fraction of the estimator predicted for the step (from the
   /// previous step's eta and eoc); steps that are known to be the last (maxSteps, targetVertices)
-  /// and the first step use solverTolerance. 0: every step to solverTolerance.
+  /// and the first step use solver.tolerance. 0: every step to solver.tolerance.
   double inexactFraction = 0;
   /// Rule 2 of the marking closure of every grid's adapt() (mesh::ClosureRule; the loop sets it on
   /// the grids before refining them). docs/estimators.md#closure-overhead compares the two.

@@ -64,6 +64,7 @@ struct LinearMultigridOptions {
   bool localSmoothing = true;
   double tolerance = 1e-10;  ///< solve(): relative energy-norm correction
   int maxIterations = 100;   ///< solve(): iteration cap (converged = false when reached)
+  bool operator==(const LinearMultigridOptions&) const = default;
 };
 
 /// Result of LinearMultigrid::solve (cf. DUNE's InverseOperatorResult).

@@ -78,6 +78,7 @@
 #include "obs/obs/MassMatrix.hpp"
 #include "obs/obs/MassRedistribution.hpp"
 #include "obs/obs/Material.hpp"
+#include "obs/obs/SolverConfig.hpp"
 #include "obs/obs/TNNMG.hpp"
 
 namespace obs {
@@ -126,18 +127,15 @@ struct NewmarkOptions {
   NewmarkScheme scheme = NewmarkScheme::ImprovedContactStabilized;
   double timeStep = 0;  ///< tau > 0
   MassKind mass = MassKind::Lumped;
-  /// TNNMG (relative energy-norm correction; iteration cap: obs::Error if reached).
-  double solverTolerance = 1e-11;
-  int maxSolverIterations = 200;
-  int preSmoothing = 3;
-  int postSmoothing = 0;
-  /// The V-cycle of TNNMG's linear correction (smoothing steps per level, cycles).
-  LinearMultigridOptions multigrid;
+  /// The solver of every step (SolverConfig.hpp): TNNMG, the only kind time stepping takes; its
+  /// tolerance is the relative energy-norm correction of the step's increment, and reaching its
+  /// iteration cap is an obs::Error.
+  SolverConfig solver;
   /// Inexact solves (docs/theory.md#dynamic-inexact-solves): f > 0 solves step n+1 only to the
-  /// relative tolerance clamp(f * eta_n / ||w_n||_S * (1 - rho_n) / rho_n, solverTolerance, 1e-2),
+  /// relative tolerance clamp(f * eta_n / ||w_n||_S * (1 - rho_n) / rho_n, solver.tolerance, 1e-2),
   /// eta_n the local time-error estimate of step n (StepRecord::timeError), w_n its increment,
   /// rho_n its TNNMG convergence rate (clamped to [0.05, 0.9]); the first two steps (no estimate
-  /// yet) use solverTolerance. 0 (default): every step to solverTolerance. Must lie in [0, 1).
+  /// yet) use solver.tolerance. 0 (default): every step to solver.tolerance. Must lie in [0, 1).
   double inexactFraction = 0;
   /// Initial iterate of each step's solve (NewmarkStart).
   NewmarkStart start = NewmarkStart::Predictor;
@@ -368,7 +366,7 @@ private:
   Eigen::VectorXd multiplier_;          ///< nodal multiplier vector of the last step
   double multiplierFactor_ = 0.5;       ///< c' (lambda = c' tau^2 M F_con)
   Eigen::VectorXd previousVelocity_;    ///< inexact solves: v^{n-1} (empty before the first step)
-  double nextTolerance_ = 0;            ///< inexact solves: tolerance of the next step (0: solverTolerance)
+  double nextTolerance_ = 0;            ///< inexact solves: tolerance of the next step (0: options.solver.tolerance)
   Eigen::VectorXd previousIncrement_;   ///< NewmarkStart::PreviousIncrement: w of the last step (else empty)
   Eigen::VectorXd Au_;                  ///< A u^n of the current state (energy and the next right-hand side)
   StepRecord last_;
