@@ -583,146 +583,6 @@ void finishAdaptiveRun(const Scene& scene, const RunOptions& options, const fs::
   }
 }
 
-/// `obs run` of a multi-body scene with [adaptivity]: the bodies' grids refined by one AdaptiveLoop
-/// (all bodies' cells marked together, the couplings rebuilt on every step's leaf views), one .vtu
-/// per body and step as parts of one .pvd, steps.csv with the totals, per-body and per-pair figures
-/// in summary.json.
-RunResult runAdaptiveMultiBody(const Scene& scene, const RunOptions& options) {
-  const auto start = Clock::now();
-  const AdaptivitySpec& spec = *scene.adaptivity;
-  auto progress = [&](const std::string& line) {
-    if (options.progress) options.progress(line);
-  };
-  RunResult r;
-  r.scene = scene.fileName;
-  auto t = Clock::now();
-  BodyGrids built = buildBodyGrids(scene, options.refine);
-  const int dim = built.meshes.front().dimension();
-  r.meshSeconds = secondsSince(t);
-  r.dimension = dim;
-  r.refine = options.refine.value_or(scene.bodies.front().mesh.refine);
-
-  const bool contact = !scene.pairs.empty() ||
-                       std::any_of(scene.bodies.begin(), scene.bodies.end(), [](const Scene& b) { return b.contact.has_value(); });
-  const est::AdaptiveLoopOptions o = adaptiveLoopOptions(scene, contact);
-  std::vector<est::AdaptiveBody> bodies;
-  for (std::size_t i = 0; i < scene.bodies.size(); ++i)
-    bodies.push_back({scene.bodies[i].name, &built.grids[i], &scene.bodies[i].material, &built.bcs[i]});
-  est::AdaptiveLoop loop(std::move(bodies), o);
-  std::vector<std::unique_ptr<Obstacle>> obstacles;
-  std::vector<std::pair<std::string, std::string>> sides;  // per coupling: slave, master labels
-  CouplingVisitor visit;
-  visit.pair = [&](int slave, int sid, int master, int mid, const std::string& label, const MortarOptions& mo,
-                   const std::string& sl, const std::string& ml) {
-    loop.addMortarContact(slave, sid, master, mid, label, mo);
-    sides.emplace_back(sl, ml);
-  };
-  visit.obstacle = [&](int body, const Obstacle& obstacle, const std::string& label, const std::string& sl,
-                       const std::string& ml) {
-    loop.addObstacleContact(body, obstacle, contactBoundaryId(scene.bodies[body], built.meshes[body]), label);
-    sides.emplace_back(sl, ml);
-  };
-  visitCouplings(scene, built.meshPointers(), obstacles, visit);
-  Index vertices = 0;
-  for (const mesh::Mesh& m : built.meshes) vertices += m.numVertices();
-  progress("adaptive loop: " + std::string(spec.uniform ? "uniform" : "adaptive") + " refinement of " +
-           std::to_string(scene.bodies.size()) + " bodies, estimator " + spec.estimator +
-           (spec.uniform ? "" : ", marking " + spec.marking) + ", up to " + std::to_string(spec.steps) +
-           " steps from " + std::to_string(vertices) + " vertices");
-
-  const fs::path dir = options.outputDirectory.value_or(scene.output.directory);
-  std::error_code ec;
-  fs::create_directories(dir, ec);
-  if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
-
-  const InterruptGuard interrupts;  // SIGINT/SIGTERM: finish the step, checkpoint, stop
-  std::vector<mesh::Grid*> gridList;
-  std::vector<std::string> names;
-  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
-    gridList.push_back(&built.grids[i]);
-    names.push_back(scene.bodies[i].name);
-  }
-  AdaptiveCheckpoints checkpoints(scene, options, dir, gridList, names);
-  AdaptiveCheckpoints::Outputs written;
-  std::vector<PvdEntry>& vtkFiles = written.vtu;
-  checkpoints.restore(loop, written, progress);
-  loop.setStateHook([&](const est::AdaptiveLoopState& state) { checkpoints.after(state, written); });
-  std::vector<BodyReport> finalBodies;
-  std::array<long long, 7> cellsPerType{};
-  loop.setCallback([&](const est::AdaptiveStepView& v) {
-    const bool isLast = v.record.marked == 0;
-    const bool write = spec.vtk == AdaptivitySpec::Vtk::Every || (spec.vtk == AdaptivitySpec::Vtk::Last && isLast);
-    finalBodies.clear();
-    cellsPerType.fill(0);
-    for (std::size_t i = 0; i < v.bodies.size(); ++i) {
-      const est::AdaptiveBodyView& b = v.bodies[i];
-      const est::AdaptiveStepView bodyView{v.record, b.grid, b.view, b.displacement, b.contactSet,
-                                           b.outputs, b.classes, b.estimate, v.bodies};
-      StepSnapshot snap;
-      FinalState fin;
-      if (dim == 2)
-        snapshotStep<2>(scene.bodies[i], bodyView, b.marked, !isLast && spec.uniform, snap, fin, std::nullopt);
-      else
-        snapshotStep<3>(scene.bodies[i], bodyView, b.marked, !isLast && spec.uniform, snap, fin, std::nullopt);
-      if (write) {
-        char name[64];
-        std::snprintf(name, sizeof name, "step_%03d_", v.record.step);
-        const std::string file = name + scene.bodies[i].name + ".vtu";
-        writeVtu(dir / file, snap.mesh, snap.points, snap.cells);
-        vtkFiles.push_back(PvdEntry{static_cast<double>(v.record.step), static_cast<int>(i), file});
-      }
-      BodyReport br;
-      br.name = scene.bodies[i].name;
-      br.vertices = b.view.mesh.numVertices();
-      br.cells = b.view.mesh.numCells();
-      br.maxDisplacement = fin.maxDisplacement;
-      br.maxVonMises = fin.maxVonMises;
-      finalBodies.push_back(br);
-      for (std::size_t k = 0; k < cellsPerType.size(); ++k) cellsPerType[k] += fin.cellsPerType[k];
-    }
-    if (options.stepProgress) options.stepProgress(stepLine(v.record, spec.steps));
-  });
-  const std::vector<est::AdaptiveStep> steps = loop.run();
-  const est::AdaptiveStep& final = steps.back();
-
-  t = Clock::now();
-  if (!vtkFiles.empty()) {
-    const fs::path pvd = dir / (scene.name + ".pvd");
-    writePvdCollection(pvd, vtkFiles);
-    for (const PvdEntry& e : vtkFiles) r.outputFiles.push_back(dir / e.file);
-    r.outputFiles.push_back(pvd);
-  }
-  const fs::path stepsCsv = dir / "steps.csv";
-  writeStepsCsv(stepsCsv, steps, {});
-  r.outputFiles.push_back(stepsCsv);
-
-  r.vertices = final.vertices;
-  r.cells = final.cells;
-  r.cellsPerType = cellsPerType;
-  r.dofs = final.unknowns;
-  r.freeDofs = final.unknowns;
-  for (const auto& s : steps) {
-    r.assemblySeconds += s.assemblySeconds;
-    r.solveSeconds += s.solverSeconds;
-  }
-  r.bodies = finalBodies;
-  for (const BodyReport& b : r.bodies) {
-    r.maxDisplacement = std::max(r.maxDisplacement, b.maxDisplacement);
-    r.maxVonMises = std::max(r.maxVonMises, b.maxVonMises);
-  }
-  const std::string type = scene.solverType();
-  r.solver.type = contact ? type : "direct";
-  r.solver.iterations = final.solverIterations;
-  r.solver.converged = final.converged;
-  r.solver.seconds = final.solverSeconds;
-  r.solver.tolerance = contact && type == "tnnmg" ? o.solver.tolerance : 0.0;
-  for (std::size_t k = 0; k < final.couplings.size(); ++k)
-    r.pairs.push_back(pairReport(final.couplings[k], sides[k].first, sides[k].second, dim));
-  finishAdaptiveRun(scene, options, dir, stepsCsv, steps, {}, est::MarkingStrategy(spec.marking, spec.theta).parameter(),
-                    r, t, start);
-  return r;
-}
-
 }  // namespace
 
 std::string stepsCsvHeader(const std::vector<std::string>& contributions) {
@@ -737,7 +597,6 @@ std::string stepsCsvHeader(const std::vector<std::string>& contributions) {
 }
 
 RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
-  if (scene.multiBody()) return runAdaptiveMultiBody(scene, options);
   const auto start = Clock::now();
   const AdaptivitySpec& spec = *scene.adaptivity;
   auto progress = [&](const std::string& line) {
@@ -745,63 +604,88 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
   };
   RunResult r;
   r.scene = scene.fileName;
+  const std::vector<const Scene*> specs = scene.bodyScenes();
+  const OutputLayout layout(scene);
 
-  // grid, checks, boundary conditions
+  // the bodies' grids, checks, boundary conditions
   auto t = Clock::now();
-  mesh::Grid grid = buildGrid(scene, options.refine);
-  const mesh::Mesh coarse = grid.leafView().mesh;
-  validateScene(scene, coarse);
-  const BoundaryConditions bc = makeBoundaryConditions(scene, coarse);
-  const int dim = coarse.dimension();
+  BodyGrids built = buildBodyGrids(scene, options.refine);
+  const int dim = built.meshes.front().dimension();
   r.meshSeconds = secondsSince(t);
   r.dimension = dim;
-  r.refine = options.refine.value_or(scene.mesh.refine);
+  r.refine = options.refine.value_or(specs.front()->mesh.refine);
 
-  const est::AdaptiveLoopOptions o = adaptiveLoopOptions(scene, scene.contact.has_value());
-  const std::string type = scene.solverType();
-  std::unique_ptr<Obstacle> obstacle;
-  std::optional<est::ContactReference> reference;
-  est::AdaptiveLoop loop(grid, scene.material, bc, o);
-  if (scene.contact) {
-    obstacle = makeObstacle(scene, dim);
-    loop.setContact(*obstacle, contactBoundaryId(scene, coarse));
-    reference = makeReference(scene, dim);
-    if (reference) loop.setReference(*reference);
-  }
-  progress("adaptive loop: " + std::string(spec.uniform ? "uniform" : "adaptive") + " refinement, estimator " +
+  // the loop on the bodies and couplings of the scene
+  const bool contact = scene.hasContact();
+  const est::AdaptiveLoopOptions o = adaptiveLoopOptions(scene, contact);
+  std::vector<est::AdaptiveBody> bodies;
+  for (std::size_t i = 0; i < specs.size(); ++i)
+    bodies.push_back({specs[i]->name, &built.grids[i], &specs[i]->material, &built.bcs[i]});
+  est::AdaptiveLoop loop(std::move(bodies), o);
+  std::vector<std::unique_ptr<Obstacle>> obstacles;
+  std::vector<std::pair<std::string, std::string>> sides;  // per coupling: slave, master labels
+  CouplingVisitor visit;
+  visit.pair = [&](int slave, int sid, int master, int mid, const std::string& label, const MortarOptions& mo,
+                   const std::string& sl, const std::string& ml) {
+    loop.addMortarContact(slave, sid, master, mid, label, mo);
+    sides.emplace_back(sl, ml);
+  };
+  visit.obstacle = [&](int body, const Obstacle& obstacle, const std::string& label, const std::string& sl,
+                       const std::string& ml) {
+    loop.addObstacleContact(body, obstacle, contactBoundaryId(*specs[body], built.meshes[body]), label);
+    sides.emplace_back(sl, ml);
+  };
+  visitCouplings(scene, built.meshPointers(), obstacles, visit);
+  // the analytic reference (punch, wedge, Hertz) of one body against an obstacle
+  const std::optional<est::ContactReference> reference =
+      specs.size() == 1 && specs.front()->contact ? makeReference(*specs.front(), dim) : std::nullopt;
+  if (reference) loop.setReference(*reference);
+  Index vertices = 0;
+  for (const mesh::Mesh& m : built.meshes) vertices += m.numVertices();
+  progress("adaptive loop: " + std::string(spec.uniform ? "uniform" : "adaptive") + " refinement" +
+           (specs.size() > 1 ? " of " + std::to_string(specs.size()) + " bodies" : std::string()) + ", estimator " +
            spec.estimator + (spec.uniform ? "" : ", marking " + spec.marking) + ", up to " +
-           std::to_string(spec.steps) + " steps from " + std::to_string(coarse.numVertices()) + " vertices");
+           std::to_string(spec.steps) + " steps from " + std::to_string(vertices) + " vertices");
 
   const fs::path dir = options.outputDirectory.value_or(scene.output.directory);
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
 
-  // checkpoints: the same as for several bodies, with the one body's grid
+  // checkpoints: the grids of the bodies (named as in the layout's files)
   const InterruptGuard interrupts;  // SIGINT/SIGTERM: finish the step, checkpoint, stop
-  AdaptiveCheckpoints checkpoints(scene, options, dir, {&grid}, {std::string()});
+  std::vector<mesh::Grid*> gridList;
+  std::vector<std::string> names;
+  for (std::size_t i = 0; i < specs.size(); ++i) {
+    gridList.push_back(&built.grids[i]);
+    names.push_back(layout.perBody() ? specs[i]->name : std::string());
+  }
+  AdaptiveCheckpoints checkpoints(scene, options, dir, gridList, names);
   AdaptiveCheckpoints::Outputs written;
   std::vector<PvdEntry>& vtkFiles = written.vtu;
   NodalErrors& nodalErrors = written.nodalErrors;
   checkpoints.restore(loop, written, progress);
   loop.setStateHook([&](const est::AdaptiveLoopState& state) { checkpoints.after(state, written); });
-  FinalState fin;
-  const est::MarkingStrategy marking(spec.marking, spec.theta);
+
+  // every step: the .vtu of each body, the figures of the last step so far
+  std::vector<FinalState> finals(specs.size());
   loop.setCallback([&](const est::AdaptiveStepView& v) {
     const bool isLast = v.record.marked == 0;
-    std::vector<Index> marked;
-    if (!isLast && !spec.uniform && v.estimate) marked = marking.mark(v.estimate->indicators);
     const bool write = spec.vtk == AdaptivitySpec::Vtk::Every || (spec.vtk == AdaptivitySpec::Vtk::Last && isLast);
-    StepSnapshot snap;
-    if (dim == 2)
-      snapshotStep<2>(scene, v, marked, !isLast && spec.uniform, snap, fin, reference);
-    else
-      snapshotStep<3>(scene, v, marked, !isLast && spec.uniform, snap, fin, reference);
-    if (write) {
-      char name[32];
-      std::snprintf(name, sizeof name, "step_%03d.vtu", v.record.step);
-      writeVtu(dir / name, snap.mesh, snap.points, snap.cells);
-      vtkFiles.push_back(PvdEntry{static_cast<double>(v.record.step), 0, name});
+    for (std::size_t i = 0; i < v.bodies.size(); ++i) {
+      const est::AdaptiveBodyView& b = v.bodies[i];
+      const est::AdaptiveStepView bodyView{v.record, b.grid, b.view, b.displacement, b.contactSet,
+                                           b.outputs, b.classes, b.estimate, v.bodies};
+      StepSnapshot snap;
+      if (dim == 2)
+        snapshotStep<2>(*specs[i], bodyView, b.marked, !isLast && spec.uniform, snap, finals[i], reference);
+      else
+        snapshotStep<3>(*specs[i], bodyView, b.marked, !isLast && spec.uniform, snap, finals[i], reference);
+      if (write) {
+        const std::string file = layout.adaptiveVtu(v.record.step, i);
+        writeVtu(dir / file, snap.mesh, snap.points, snap.cells);
+        vtkFiles.push_back(PvdEntry{static_cast<double>(v.record.step), static_cast<int>(i), file});
+      }
     }
     if (reference && v.contactSet && v.outputs && v.record.reference) {
       const auto k = static_cast<std::size_t>(v.record.step);
@@ -811,10 +695,10 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
       nodalErrors.fixedLoad.resize(k + 1, std::nan(""));
       if (spec.referenceLoad) nodalErrors.fixedLoad[k] = est::nodalPressureError(nodes, *reference, *spec.referenceLoad);
     }
-    if (spec.pressureEvery && scene.contact && fin.contact) {
+    if (spec.pressureEvery && !layout.perBody() && finals.front().contact) {
       char name[32];
       std::snprintf(name, sizeof name, "pressure_%03d.csv", v.record.step);
-      writePressureCsv(dir / name, fin.pressure);
+      writePressureCsv(dir / name, finals.front().pressure);
     }
     if (options.stepProgress) options.stepProgress(stepLine(v.record, spec.steps));
   });
@@ -832,31 +716,48 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
   const fs::path stepsCsv = dir / "steps.csv";
   writeStepsCsv(stepsCsv, steps, nodalErrors);
   r.outputFiles.push_back(stepsCsv);
-  if (scene.contact) {
+  if (!layout.perBody() && scene.contact) {
     const fs::path p = dir / "pressure.csv";
-    writePressureCsv(p, fin.pressure);
+    writePressureCsv(p, finals.front().pressure);
     r.outputFiles.push_back(p);
   }
 
   r.vertices = final.vertices;
   r.cells = final.cells;
-  r.cellsPerType = fin.cellsPerType;
   r.dofs = final.unknowns;
   r.freeDofs = final.unknowns;
   for (const auto& s : steps) {
     r.assemblySeconds += s.assemblySeconds;
     r.solveSeconds += s.solverSeconds;
   }
-  r.maxDisplacement = fin.maxDisplacement;
-  r.maxVonMises = fin.maxVonMises;
-  r.solver.type = scene.contact ? type : "direct";
+  for (std::size_t i = 0; i < specs.size(); ++i) {
+    const FinalState& fin = finals[i];
+    for (std::size_t k = 0; k < r.cellsPerType.size(); ++k) r.cellsPerType[k] += fin.cellsPerType[k];
+    r.maxDisplacement = std::max(r.maxDisplacement, fin.maxDisplacement);
+    r.maxVonMises = std::max(r.maxVonMises, fin.maxVonMises);
+    if (!layout.perBody()) continue;
+    BodyReport br;
+    br.name = specs[i]->name;
+    br.vertices = final.bodies[i].vertices;
+    br.cells = final.bodies[i].cells;
+    br.maxDisplacement = fin.maxDisplacement;
+    br.maxVonMises = fin.maxVonMises;
+    r.bodies.push_back(br);
+  }
+  const std::string type = scene.solverType();
+  r.solver.type = contact ? type : "direct";
   r.solver.iterations = final.solverIterations;
   r.solver.converged = final.converged;
   r.solver.seconds = final.solverSeconds;
-  r.solver.tolerance = scene.contact && type == "tnnmg" ? o.solver.tolerance : 0.0;
-  r.contact = fin.contact;
+  r.solver.tolerance = contact && type == "tnnmg" ? o.solver.tolerance : 0.0;
+  if (layout.perBody())
+    for (std::size_t k = 0; k < final.couplings.size(); ++k)
+      r.pairs.push_back(pairReport(final.couplings[k], sides[k].first, sides[k].second, dim));
+  else
+    r.contact = finals.front().contact;
 
-  finishAdaptiveRun(scene, options, dir, stepsCsv, steps, nodalErrors, marking.parameter(), r, t, start);
+  finishAdaptiveRun(scene, options, dir, stepsCsv, steps, nodalErrors,
+                    est::MarkingStrategy(spec.marking, spec.theta).parameter(), r, t, start);
   return r;
 }
 

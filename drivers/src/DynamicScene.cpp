@@ -456,12 +456,9 @@ void writeStateVtu(const Context& c, const TimeStepper<d>& stepper, const Newmar
     sc.w = state.v;
   }
   const std::size_t parts = c.multiBody() ? c.bodies.size() : 1;
+  const OutputLayout layout(c.scene);
   for (std::size_t b = 0; b < parts; ++b) {
-    std::ostringstream name;
-    name << c.scene.name << "_";
-    if (c.multiBody()) name << c.bodies[b].spec->name << "_";
-    name << std::setw(6) << std::setfill('0') << r.step << ".vtu";
-    const fs::path path = c.dir / name.str();
+    const fs::path path = c.dir / layout.dynamicVtu(r.step, b);
     std::vector<Field> cells;
     const auto pf = stateFields(c, b, state.u, state.v, sc, &cells);
     writeVtu(path, c.multiBody() ? *c.bodies[b].mesh : c.mesh, pf, cells);
@@ -1046,20 +1043,15 @@ RunResult runDynamics(const Scene& scene, const mesh::Grid& grid, const mesh::Me
 
 }  // namespace
 
-RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh::Mesh& mesh,
-                          const BoundaryConditions& bc, const RunOptions& options, RunResult r,
-                          Clock::time_point start) {
-  return runDynamics(scene, grid, mesh, bc, {}, options, std::move(r), start);
-}
-
 RunResult runDynamicScene(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
                           const std::vector<const mesh::Mesh*>& meshes, const std::vector<BoundaryConditions>& bcs,
                           const RunOptions& options, RunResult r, Clock::time_point start) {
-  if (grids.size() != scene.bodies.size() || meshes.size() != grids.size() || bcs.size() != grids.size())
-    throw Error(scene.where(0) + "internal: multi-body dynamics with inconsistent body lists");
-  std::vector<Context::Body> bodies;
+  const std::size_t n = scene.bodyScenes().size();
+  if (grids.size() != n || meshes.size() != n || bcs.size() != n)
+    throw Error(scene.where(0) + "internal: dynamics with inconsistent body lists");
+  std::vector<Context::Body> bodies;  // (empty for a one-body file: Context's one-body case)
   Index offset = 0;
-  for (std::size_t i = 0; i < grids.size(); ++i) {
+  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
     bodies.push_back({&scene.bodies[i], grids[i], meshes[i], &bcs[i], offset});
     offset += meshes[i]->numVertices();
   }

@@ -42,44 +42,14 @@ std::string describeCells(const RunResult& r) {
   return std::to_string(r.cells) + " cells (" + types + ")";
 }
 
-/// `obs run` of a multi-body scene (Scene::bodies): every body's grid, then the same contact model
-/// path as a one-body contact scene (SceneSolver.hpp), outputs per body and per pair.
-RunResult runMultiBodyScene(const Scene& scene, const RunOptions& options) {
-  const auto start = Clock::now();
-  auto progress = [&](const std::string& line) {
-    if (options.progress) options.progress(line);
-  };
-  RunResult r;
-  r.scene = scene.fileName;
-  auto t = Clock::now();
-  const BodyGrids built = buildBodyGrids(scene, options.refine);
-  const std::vector<mesh::Mesh>& meshes = built.meshes;
-  const std::vector<BoundaryConditions>& bcs = built.bcs;
-  r.meshSeconds = secondsSince(t);
-  r.dimension = meshes.front().dimension();
-  r.refine = options.refine.value_or(scene.bodies.front().mesh.refine);
-  for (std::size_t i = 0; i < meshes.size(); ++i) {
-    r.vertices += meshes[i].numVertices();
-    r.cells += meshes[i].numCells();
-    const auto counts = meshes[i].cellCounts();
-    for (std::size_t k = 0; k < counts.size(); ++k) r.cellsPerType[k] += counts[k];
-  }
-  progress("meshes built: " + std::to_string(meshes.size()) + " bodies, " + describeCells(r) + " / " +
-           std::to_string(r.vertices) + " vertices (" + std::to_string(r.dimension) + "D, " + seconds(r.meshSeconds) + ")");
-
-  const std::vector<const mesh::Grid*> gridPtrs = built.gridPointers();
-  const std::vector<const mesh::Mesh*> meshPtrs = built.meshPointers();
-  if (scene.dynamics) return runDynamicScene(scene, gridPtrs, meshPtrs, bcs, options, std::move(r), start);
-  const MultiBodySolution solved = solveMultiBodyScene(scene, gridPtrs, meshPtrs, bcs, options.iterationProgress);
-  r.dofs = solved.dofs;
-  r.freeDofs = solved.freeDofs;
-  r.assemblySeconds = solved.assemblySeconds;
-  r.solveSeconds = solved.solveSeconds;
-  r.solver = solved.solver;
-  r.pairs = solved.pairs;
+/// The figures of the solution: max |u| and max von Mises over all bodies, and per body where the
+/// OutputLayout reports per body (summary.json "bodies").
+void reportBodies(const Scene& scene, const std::vector<mesh::Mesh>& meshes, const SceneSolution& solved,
+                  RunResult& r) {
+  const std::vector<const Scene*> bodies = scene.bodyScenes();
   for (std::size_t i = 0; i < meshes.size(); ++i) {
     BodyReport b;
-    b.name = scene.bodies[i].name;
+    b.name = bodies[i]->name;
     b.vertices = meshes[i].numVertices();
     b.cells = meshes[i].numCells();
     const ElasticitySolution& e = solved.bodies[i];
@@ -88,68 +58,43 @@ RunResult runMultiBodyScene(const Scene& scene, const RunOptions& options) {
     for (const Stress& st : e.cellStress) b.maxVonMises = std::max(b.maxVonMises, vonMises(st));
     r.maxDisplacement = std::max(r.maxDisplacement, b.maxDisplacement);
     r.maxVonMises = std::max(r.maxVonMises, b.maxVonMises);
-    r.bodies.push_back(b);
+    if (OutputLayout(scene).perBody()) r.bodies.push_back(b);
   }
-  {
-    std::ostringstream os;
-    os << "solved in " << seconds(r.solveSeconds) << " (" << r.solver.type << ", " << r.solver.iterations
-       << " iterations" << (r.solver.converged ? "" : ", NOT converged") << "): max |u| = " << std::setprecision(6)
-       << r.maxDisplacement;
-    for (const PairReport& p : r.pairs)
-      os << "; " << p.slave << " / " << p.master << ": " << p.actualVertices << " of " << p.potentialVertices
-         << " slave vertices in contact, P = " << p.load;
-    progress(os.str());
-  }
+}
 
-  t = Clock::now();
-  const std::filesystem::path dir = options.outputDirectory.value_or(scene.output.directory);
-  std::error_code ec;
-  std::filesystem::create_directories(dir, ec);
-  if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
-  if (scene.output.vtk) {
-    std::vector<PvdEntry> parts;
-    for (std::size_t i = 0; i < meshes.size(); ++i) {
-      const auto path = dir / (scene.name + "_" + scene.bodies[i].name + ".vtu");
-      auto pf = pointFields(meshes[i], solved.bodies[i]);
-      pf.insert(pf.end(), solved.contactFields[i].begin(), solved.contactFields[i].end());
-      const auto cf = cellFields(meshes[i], solved.bodies[i]);
-      writeVtu(path, meshes[i], pf, cf);
-      parts.push_back(PvdEntry{0, static_cast<int>(i), path.filename().string()});
-      r.outputFiles.push_back(path);
-    }
-    const auto pvd = dir / (scene.name + ".pvd");
-    writePvdCollection(pvd, parts);
-    r.outputFiles.push_back(pvd);
+/// The .vtu files of a static run in the scene's OutputLayout (several bodies: with the .pvd
+/// collection of them as parts), appended to r.outputFiles.
+void writeStaticVtk(const Scene& scene, const std::filesystem::path& dir, const std::vector<mesh::Mesh>& meshes,
+                    const SceneSolution& solved, RunResult& r) {
+  const OutputLayout layout(scene);
+  std::vector<PvdEntry> parts;
+  for (std::size_t i = 0; i < meshes.size(); ++i) {
+    const auto path = dir / layout.staticVtu(i);
+    auto pf = pointFields(meshes[i], solved.bodies[i]);
+    pf.insert(pf.end(), solved.contactFields[i].begin(), solved.contactFields[i].end());
+    writeVtu(path, meshes[i], pf, cellFields(meshes[i], solved.bodies[i]));
+    parts.push_back(PvdEntry{0, static_cast<int>(i), path.filename().string()});
+    r.outputFiles.push_back(path);
   }
-  recordRunRow(scene, dir, r, t, start);
-  const auto summary = dir / "summary.json";
-  r.outputFiles.push_back(summary);
-  r.outputSeconds = secondsSince(t);
-  r.totalSeconds = secondsSince(start);
-  writeSummary(summary, r);
-  std::string written;
-  for (const auto& f : r.outputFiles) written += (written.empty() ? "" : ", ") + f.string();
-  progress("written: " + written);
-  if (!r.solver.converged) {
-    std::ostringstream os;
-    os << scene.where(scene.solver.line) << "[solver] " << r.solver.type << " did not converge in "
-       << r.solver.iterations << " iterations (correction " << std::setprecision(3) << r.solver.correction
-       << ", tolerance " << r.solver.tolerance << "); raise [solver] max_iterations or tolerance (outputs written to "
-       << dir.string() << ")";
-    throw Error(os.str());
-  }
-  return r;
+  if (!layout.perBody()) return;
+  const auto pvd = dir / (scene.name + ".pvd");
+  writePvdCollection(pvd, parts);
+  r.outputFiles.push_back(pvd);
 }
 
 }  // namespace
 
-std::string singleLevelWarning(const Scene& scene, const mesh::Grid& grid) {
+namespace {
+
+/// singleLevelWarning for one body of a scene: the solver and contact are the scene's, the mesh's
+/// source the body's.
+std::string singleLevelWarning(const Scene& scene, const Scene& body, const mesh::Grid& grid) {
   if (grid.maxLevel() > 0) return {};
   const std::string& type = scene.solver.type;
-  const bool tnnmg = scene.contact && (type.empty() || type == "tnnmg");
+  const bool tnnmg = scene.hasContact() && (type.empty() || type == "tnnmg");
   if (!tnnmg && type != "multigrid") return {};
   return "warning: the grid has a single level (" +
-         std::string(scene.mesh.source == MeshSpec::Source::File ? "a mesh file" : "a generated mesh") +
+         std::string(body.mesh.source == MeshSpec::Source::File ? "a mesh file" : "a generated mesh") +
          " without refine), so " + (tnnmg ? "TNNMG" : "multigrid") +
          " has no coarse levels: its linear correction is a direct (CHOLMOD) solve" +
          (tnnmg ? ", refactorised whenever the active set changes: a nonsmooth Newton method "
@@ -157,6 +102,12 @@ std::string singleLevelWarning(const Scene& scene, const mesh::Grid& grid) {
                   "cycle per iteration"
                 : " costing one sparse factorisation") +
          "; set [mesh] refine = 1 or more (or --refine) to solve on a grid hierarchy";
+}
+
+}  // namespace
+
+std::string singleLevelWarning(const Scene& scene, const mesh::Grid& grid) {
+  return singleLevelWarning(scene, scene, grid);
 }
 
 std::string bbarWarning(const Scene& scene, const mesh::Mesh& mesh) {
@@ -179,64 +130,70 @@ RunResult runScene(const Scene& scene, const RunOptions& options) {
     throw Error(scene.fileName + ": " + (options.restart ? "--restart" : "--stop-after-step") +
                 " applies to [dynamics] and [adaptivity] scenes only (static runs write no checkpoints)");
   if (scene.adaptivity) return runAdaptiveScene(scene, options);
-  if (scene.multiBody()) return runMultiBodyScene(scene, options);
   const auto start = Clock::now();
   auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
   };
+  auto warn = [&](const std::string& w) {
+    if (!w.empty() && options.stepProgress) options.stepProgress(w);
+  };
   RunResult r;
   r.scene = scene.fileName;
+  const std::vector<const Scene*> bodies = scene.bodyScenes();
 
-  // mesh
+  // the bodies' grids, leaf meshes and boundary conditions
   auto t = Clock::now();
-  const mesh::Grid grid = buildGrid(scene, options.refine);
-  const mesh::Mesh mesh = grid.leafView().mesh;
-  validateScene(scene, mesh);
-  const BoundaryConditions bc = makeBoundaryConditions(scene, mesh);
+  const BodyGrids built = buildBodyGrids(scene, options.refine);
+  const std::vector<mesh::Mesh>& meshes = built.meshes;
   r.meshSeconds = secondsSince(t);
-  r.dimension = mesh.dimension();
-  r.vertices = mesh.numVertices();
-  r.cells = mesh.numCells();
-  const auto counts = mesh.cellCounts();
-  for (std::size_t i = 0; i < counts.size(); ++i) r.cellsPerType[i] = counts[i];
-  r.refine = options.refine.value_or(scene.mesh.refine);
-  progress("mesh built: " + describeCells(r) + " / " + std::to_string(r.vertices) + " vertices (" +
-           std::to_string(r.dimension) + "D, " + seconds(r.meshSeconds) + ")");
-  if (const std::string w = singleLevelWarning(scene, grid); !w.empty() && options.stepProgress)
-    options.stepProgress(w);
-  if (const std::string w = bbarWarning(scene, mesh); !w.empty() && options.stepProgress) options.stepProgress(w);
-  if (scene.dynamics) return runDynamicScene(scene, grid, mesh, bc, options, std::move(r), start);
+  r.dimension = meshes.front().dimension();
+  r.refine = options.refine.value_or(bodies.front()->mesh.refine);
+  for (const mesh::Mesh& m : meshes) {
+    r.vertices += m.numVertices();
+    r.cells += m.numCells();
+    const auto counts = m.cellCounts();
+    for (std::size_t k = 0; k < counts.size(); ++k) r.cellsPerType[k] += counts[k];
+  }
+  progress((meshes.size() == 1 ? "mesh built: " : "meshes built: " + std::to_string(meshes.size()) + " bodies, ") +
+           describeCells(r) + " / " + std::to_string(r.vertices) + " vertices (" + std::to_string(r.dimension) +
+           "D, " + seconds(r.meshSeconds) + ")");
+  std::vector<std::string> warnings;  // each once, also when several bodies have it
+  for (std::size_t i = 0; i < meshes.size(); ++i)
+    for (const std::string& w : {singleLevelWarning(scene, *bodies[i], built.grids[i]), bbarWarning(*bodies[i], meshes[i])})
+      if (!w.empty() && std::find(warnings.begin(), warnings.end(), w) == warnings.end()) warnings.push_back(w);
+  for (const std::string& w : warnings) warn(w);
+  const std::vector<const mesh::Grid*> grids = built.gridPointers();
+  const std::vector<const mesh::Mesh*> meshPointers = built.meshPointers();
+  if (scene.dynamics) return runDynamicScene(scene, grids, meshPointers, built.bcs, options, std::move(r), start);
 
   // assemble and solve
   auto assembled = [&](const ElasticitySolution& e) {
-    progress("assembled: " + std::to_string(e.dofs) + " dofs (" + std::to_string(e.freeDofs) +
-             " free) in " + seconds(e.assemblySeconds));
+    progress("assembled: " + std::to_string(e.dofs) + " dofs (" + std::to_string(e.freeDofs) + " free) in " +
+             seconds(e.assemblySeconds));
   };
-  const SceneSolution solved =
-      solveScene(scene, grid, mesh, bc, options.iterationProgress, assembled);
-  const ElasticitySolution& solution = solved.elasticity;
-  r.dofs = solution.dofs;
-  r.freeDofs = solution.freeDofs;
-  r.assemblySeconds = solution.assemblySeconds;
-  r.solveSeconds = solution.solveSeconds;
+  const SceneSolution solved = solveScene(scene, grids, meshPointers, built.bcs, options.iterationProgress, assembled);
+  r.dofs = solved.dofs;
+  r.freeDofs = solved.freeDofs;
+  r.assemblySeconds = solved.assemblySeconds;
+  r.solveSeconds = solved.solveSeconds;
   r.solver = solved.solver;
   r.contact = solved.contact;
-  for (mesh::Index v = 0; v < mesh.numVertices(); ++v)
-    r.maxDisplacement = std::max(
-        r.maxDisplacement, solution.displacement.segment(v * r.dimension, r.dimension).norm());
-  for (const Stress& s : solution.cellStress) r.maxVonMises = std::max(r.maxVonMises, vonMises(s));
+  r.pairs = solved.pairs;
+  reportBodies(scene, meshes, solved, r);
   {
     std::ostringstream os;
     os << "solved in " << seconds(r.solveSeconds);
     if (r.solver.type != "direct")
       os << " (" << r.solver.type << ", " << r.solver.iterations
-         << (r.solver.iterations == 1 ? " iteration" : " iterations")
-         << (r.solver.converged ? "" : ", NOT converged") << ")";
-    os << ": max |u| = " << std::setprecision(6) << r.maxDisplacement
-       << ", max von Mises = " << r.maxVonMises;
+         << (r.solver.iterations == 1 ? " iteration" : " iterations") << (r.solver.converged ? "" : ", NOT converged")
+         << ")";
+    os << ": max |u| = " << std::setprecision(6) << r.maxDisplacement << ", max von Mises = " << r.maxVonMises;
     if (r.contact)
       os << "; contact: " << r.contact->actualVertices << " of " << r.contact->potentialVertices
          << " vertices, P = " << r.contact->load;
+    for (const PairReport& p : r.pairs)
+      os << "; " << p.slave << " / " << p.master << ": " << p.actualVertices << " of " << p.potentialVertices
+         << " slave vertices in contact, P = " << p.load;
     progress(os.str());
   }
 
@@ -246,14 +203,7 @@ RunResult runScene(const Scene& scene, const RunOptions& options) {
   std::error_code ec;
   std::filesystem::create_directories(dir, ec);
   if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
-  if (scene.output.vtk) {
-    const auto path = dir / (scene.name + ".vtu");
-    auto pf = pointFields(mesh, solution);
-    pf.insert(pf.end(), solved.contactFields.begin(), solved.contactFields.end());
-    const auto cf = cellFields(mesh, solution);
-    writeVtu(path, mesh, pf, cf);
-    r.outputFiles.push_back(path);
-  }
+  if (scene.output.vtk) writeStaticVtk(scene, dir, meshes, solved, r);
   recordRunRow(scene, dir, r, t, start);
   const auto summary = dir / "summary.json";
   r.outputFiles.push_back(summary);

@@ -1,5 +1,7 @@
 #include "RunSupport.hpp"
 
+#include <cstdio>
+
 #include <sys/resource.h>
 
 #include <fstream>
@@ -45,22 +47,45 @@ std::vector<const mesh::Mesh*> BodyGrids::meshPointers() const {
 
 BodyGrids buildBodyGrids(const Scene& scene, const std::optional<int>& refine) {
   BodyGrids b;
-  b.grids.reserve(scene.bodies.size());
-  for (const Scene& body : scene.bodies) {
+  const std::vector<const Scene*> bodies = scene.bodyScenes();
+  b.grids.reserve(bodies.size());
+  for (const Scene* spec : bodies) {
+    const Scene& body = *spec;
     try {
       b.grids.push_back(buildGrid(body, refine));
       b.meshes.push_back(b.grids.back().leafView().mesh);
       validateScene(body, b.meshes.back());
       b.bcs.push_back(makeBoundaryConditions(body, b.meshes.back()));
     } catch (const Error& e) {
+      if (!scene.multiBody()) throw;
       throw Error(std::string(e.what()) + " (in [[body]] '" + body.name + "')");
     }
     if (b.meshes.back().dimension() != b.meshes.front().dimension())
       throw Error(scene.where(body.bodyLine) + "[[body]] '" + body.name + "' has dimension " +
-                  std::to_string(b.meshes.back().dimension()) + ", body '" + scene.bodies.front().name + "' " +
+                  std::to_string(b.meshes.back().dimension()) + ", body '" + bodies.front()->name + "' " +
                   std::to_string(b.meshes.front().dimension()) + " (all bodies must have the same dimension)");
   }
   return b;
+}
+
+OutputLayout::OutputLayout(const Scene& scene) : scene_(scene.name), perBody_(scene.multiBody()) {
+  for (const Scene* b : scene.bodyScenes()) bodies_.push_back(b->name);
+}
+
+std::string OutputLayout::staticVtu(std::size_t b) const {
+  return perBody_ ? scene_ + "_" + bodies_[b] + ".vtu" : scene_ + ".vtu";
+}
+
+std::string OutputLayout::adaptiveVtu(int k, std::size_t b) const {
+  char step[32];
+  std::snprintf(step, sizeof step, "step_%03d", k);
+  return std::string(step) + (perBody_ ? "_" + bodies_[b] : std::string()) + ".vtu";
+}
+
+std::string OutputLayout::dynamicVtu(int n, std::size_t b) const {
+  char step[32];
+  std::snprintf(step, sizeof step, "%06d", n);
+  return scene_ + "_" + (perBody_ ? bodies_[b] + "_" : std::string()) + step + ".vtu";
 }
 
 }  // namespace obs::drivers

@@ -30,9 +30,9 @@ double peakMemoryMB();
 void recordRunRow(const Scene& scene, const std::filesystem::path& dir, RunResult& r, Clock::time_point outputStart,
                   Clock::time_point start);
 
-/// The bodies of a multi-body scene, built and checked (buildGrid, validateScene,
-/// makeBoundaryConditions per body; one dimension for all): their grids, coarse leaf meshes and
-/// boundary conditions in the order of Scene::bodies. Errors name the body.
+/// The bodies of a scene (Scene::bodyScenes: one for a one-body file), built and checked
+/// (buildGrid, validateScene, makeBoundaryConditions per body; one dimension for all): their grids,
+/// leaf meshes and boundary conditions in that order. Errors of a multi-body file name the body.
 struct BodyGrids {
   std::vector<mesh::Grid> grids;
   std::vector<mesh::Mesh> meshes;
@@ -41,5 +41,30 @@ struct BodyGrids {
   std::vector<const mesh::Mesh*> meshPointers() const;
 };
 BodyGrids buildBodyGrids(const Scene& scene, const std::optional<int>& refine);
+
+/// The file layout of a run's outputs: the one place that knows the two forms of a scene file.
+/// A one-body file (the top-level [mesh], [material], [contact]) writes one .vtu per output
+/// (<scene>.vtu, step_NNN.vtu, <scene>_NNNNNN.vtu) and reports its obstacle contact as summary.json
+/// "contact" (adaptive runs: with pressure.csv and the analytic reference); a multi-body file
+/// ([[body]]) one .vtu per body as parts of the .pvd (<scene>_<body>.vtu, step_NNN_<body>.vtu,
+/// <scene>_<body>_NNNNNN.vtu) and summary.json "bodies" and "pairs" (one per coupling). The
+/// runners solve and report both forms the same way (Scene::bodyScenes) and ask the layout.
+class OutputLayout {
+public:
+  explicit OutputLayout(const Scene& scene);
+  /// Files and reports per body and per coupling (a multi-body file).
+  bool perBody() const { return perBody_; }
+  /// The .vtu of a static run for body b.
+  std::string staticVtu(std::size_t b) const;
+  /// The .vtu of adaptive step k for body b.
+  std::string adaptiveVtu(int k, std::size_t b) const;
+  /// The .vtu of time step n for body b.
+  std::string dynamicVtu(int n, std::size_t b) const;
+
+private:
+  std::string scene_;
+  std::vector<std::string> bodies_;
+  bool perBody_ = false;
+};
 
 }  // namespace obs::drivers

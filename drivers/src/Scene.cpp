@@ -15,4 +15,11 @@ std::string Scene::solverType() const {
   return contact || multiBody() ? "tnnmg" : "direct";
 }
 
+std::vector<const Scene*> Scene::bodyScenes() const {
+  if (bodies.empty()) return {this};
+  std::vector<const Scene*> out;
+  for (const Scene& b : bodies) out.push_back(&b);
+  return out;
+}
+
 }  // namespace obs::drivers

@@ -54,17 +54,20 @@ void reportTnnmg(const Statistics& st, SolverReport& report) {
                               st.correctionSeconds, st.otherSeconds,     st.operatorUpdates};
 }
 
+/// A scene without contact (one body): CHOLMOD ("direct") or the linear multigrid iteration.
 template <int d>
 SceneSolution solveLinear(const Scene& scene, const mesh::Grid& grid, const mesh::Mesh& mesh,
                           const BoundaryConditions& bc, const AssembledCallback& assembled) {
   SceneSolution s;
   const std::string type = scene.solverType();
   s.solver.type = type;
+  s.bodies.resize(1);
+  s.contactFields.resize(1);
   if (type == "direct") {
-    s.elasticity = solveLinearElasticity(mesh, scene.material, bc);
+    s.bodies[0] = solveLinearElasticity(mesh, scene.material, bc);
     s.solver.iterations = 1;
-    s.solver.seconds = s.elasticity.solveSeconds;
-    if (assembled) assembled(s.elasticity);
+    s.solver.seconds = s.bodies[0].solveSeconds;
+    if (assembled) assembled(s.bodies[0]);
     return s;
   }
   // multigrid
@@ -74,7 +77,7 @@ SceneSolution solveLinear(const Scene& scene, const mesh::Grid& grid, const mesh
   const DirichletValues g = collectDirichlet(mesh, bc.dirichlet);
   applyDirichlet(A, b, g);
   A.shareRepeatedBlocks();  // the same values; fewer bytes per sweep on grids of repeated cells
-  ElasticitySolution& e = s.elasticity;
+  ElasticitySolution& e = s.bodies[0];
   e.dimension = d;
   e.assemblySeconds = since(t0);
   e.dofs = static_cast<long long>(mesh.numVertices()) * d;
@@ -124,55 +127,13 @@ std::unique_ptr<ContactSolver<d>> sceneContactSolver(const Scene& scene, const s
   return makeContactSolver<d>(config, grids, iterationLines(type, progress));
 }
 
+/// The report of a one-body scene's [contact] (summary.json "contact": the obstacle coupling's
+/// counts, force, load, area and radii) and the point fields of its .vtu (gap, normal_displacement,
+/// contact_pressure, contact_state, constraint_direction) from the solution u of the problem.
 template <int d>
-SceneSolution solveContact(const Scene& scene, const mesh::Grid& grid, const mesh::Mesh& mesh,
-                           const BoundaryConditions& bc, const IterationProgress& progress,
-                           const AssembledCallback& assembled) {
-  SceneSolution s;
-  const std::string type = scene.solverType();
-  ElasticitySolution& e = s.elasticity;
-  e.dimension = d;
-
-  auto t0 = Clock::now();
-  const auto obstacle = makeObstacle(scene, d);
-  // the contact model of one body and one obstacle coupling (the multi-body path with one body)
-  ContactModel<d> model;
-  model.addBody(scene.name, mesh, scene.material, bc);
-  model.addObstacleContact(0, makeContactSet(scene, mesh, *obstacle), "[contact]");
-  const ContactProblem<d> problem = model.assemble();
+void reportObstacleContact(const Scene& scene, const mesh::Mesh& mesh, const ContactProblem<d>& problem,
+                           const Eigen::VectorXd& u, const ContactOutputs& out, SceneSolution& s) {
   const ContactSet& contactSet = problem.contactSet();
-  e.assemblySeconds = since(t0);
-  e.dofs = static_cast<long long>(mesh.numVertices()) * d;
-  e.freeDofs = e.dofs - problem.dirichlet().count();
-  if (assembled) assembled(e);
-
-  t0 = Clock::now();
-  double tolerance = 0;
-  ContactResult result;
-  try {
-    const auto solver = sceneContactSolver<d>(scene, {&grid}, progress, tolerance);
-    result = solver->solve(problem, e.displacement);
-    if (const auto* tnnmg = dynamic_cast<const TNNMG<d>*>(solver.get())) reportTnnmg(tnnmg->statistics(), s.solver);
-  } catch (const Error& err) {
-    solverFailed(scene, type, err);
-  }
-  e.solveSeconds = since(t0);
-  if (!e.displacement.allFinite())
-    throw Error(scene.where(scene.solver.line) + "[solver] " + type +
-                " failed: NaN or Inf in the solution");
-  recoverStresses(mesh, scene.material, e);
-
-  s.solver.type = type;
-  s.solver.iterations = result.iterations;
-  s.solver.converged = result.converged;
-  s.solver.seconds = e.solveSeconds;
-  s.solver.tolerance = tolerance;
-  s.solver.correction = result.correction;
-  s.solver.convergenceRate = result.convergenceRate;
-  s.solver.kkt = result.kkt;
-
-  // contact quantities
-  const ContactOutputs out = computeContactOutputs(problem, e.displacement, kContactTolerance);
   ContactReport c;
   c.obstacle = scene.contact->obstacle;
   c.boundary = scene.contact->boundary.name.empty() ? std::to_string(scene.contact->boundary.id)
@@ -208,7 +169,7 @@ SceneSolution solveContact(const Scene& scene, const mesh::Grid& grid, const mes
   }
   c.area = out.contactArea;
   c.radius = out.contactRadius;
-  c.maxViolation = problem.maxViolation(e.displacement);
+  c.maxViolation = problem.maxViolation(u);
   s.contact = c;
 
   // point fields
@@ -223,23 +184,14 @@ SceneSolution solveContact(const Scene& scene, const mesh::Grid& grid, const mes
     const Point& nu = contactSet.direction(k);
     for (int i = 0; i < 3; ++i) direction.values[3 * v + i] = nu[i];
     normalDisplacement.values[v] =
-        nu.template head<d>().dot(e.displacement.template segment<d>(static_cast<Eigen::Index>(v) * d));
+        nu.template head<d>().dot(u.template segment<d>(static_cast<Eigen::Index>(v) * d));
     if (!problem.constraint(k).bounded()) continue;
     gap.values[v] = contactSet.gap(k);
     pressure.values[v] = out.pressure[k];
     state.values[v] = out.inContact[k] ? 2 : 1;
   }
-  s.contactFields = {std::move(gap), std::move(normalDisplacement), std::move(pressure),
-                     std::move(state), std::move(direction)};
-  return s;
-}
-
-template <int d>
-SceneSolution solve(const Scene& scene, const mesh::Grid& grid, const mesh::Mesh& mesh,
-                    const BoundaryConditions& bc, const IterationProgress& progress,
-                    const AssembledCallback& assembled) {
-  return scene.contact ? solveContact<d>(scene, grid, mesh, bc, progress, assembled)
-                       : solveLinear<d>(scene, grid, mesh, bc, assembled);
+  s.contactFields.front() = {std::move(gap), std::move(normalDisplacement), std::move(pressure), std::move(state),
+                             std::move(direction)};
 }
 
 /// "body:boundary" (the boundary's name, or its id).
@@ -254,11 +206,15 @@ MortarCouplingSpecLabels pairLabels(const MortarPairSpec& p) {
   return {sideLabel(p.slaveBody, p.slave), sideLabel(p.masterBody, p.master)};
 }
 
+/// A contact scene, one body or several: the contact model of its bodies and couplings
+/// (buildContactModel), one solve by the [solver], the displacement and stresses of every body,
+/// then the report in the layout of the scene file: a one-body scene's [contact]
+/// (reportObstacleContact), or one report per coupling and the contact fields of every body.
 template <int d>
-MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
-                                 const std::vector<const mesh::Mesh*>& meshes, const std::vector<BoundaryConditions>& bcs,
-                                 const IterationProgress& progress) {
-  MultiBodySolution s;
+SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
+                                const std::vector<const mesh::Mesh*>& meshes, const std::vector<BoundaryConditions>& bcs,
+                                const IterationProgress& progress, const AssembledCallback& assembled) {
+  SceneSolution s;
   const std::string type = scene.solverType();
   auto t0 = Clock::now();
   ContactModel<d> model;
@@ -268,11 +224,20 @@ MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mes
   try {
     problem.emplace(model.assemble());
   } catch (const Error& e) {
+    if (scene.pairs.empty()) throw;
     throw Error(scene.where(scene.pairs.front().line) + "[[contact]] " + e.what());
   }
   s.assemblySeconds = since(t0);
   s.dofs = static_cast<long long>(model.numVertices()) * d;
   s.freeDofs = s.dofs - problem->dirichlet().count();
+  if (assembled) {
+    ElasticitySolution e;
+    e.dimension = d;
+    e.dofs = s.dofs;
+    e.freeDofs = s.freeDofs;
+    e.assemblySeconds = s.assemblySeconds;
+    assembled(e);
+  }
 
   t0 = Clock::now();
   double tolerance = 0;
@@ -300,27 +265,32 @@ MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mes
   // displacements per body
   const Eigen::VectorXd u = problem->toDisplacement(x);
   const ContactOutputs out = computeContactOutputs(*problem, x, kContactTolerance);
-  const ContactSet& cs = problem->contactSet();
-  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+  const std::vector<const Scene*> bodies = scene.bodyScenes();
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
     const auto& b = model.bodies()[i];
     ElasticitySolution e;
     e.dimension = d;
     e.dofs = static_cast<long long>(meshes[i]->numVertices()) * d;
     e.displacement = u.segment(static_cast<Eigen::Index>(b.offset) * d, e.dofs);
-    recoverStresses(*meshes[i], scene.bodies[i].material, e);
+    recoverStresses(*meshes[i], bodies[i]->material, e);
     s.bodies.push_back(std::move(e));
+  }
+  s.contactFields.resize(bodies.size());
+  if (!scene.multiBody()) {  // the layout of a one-body scene file: summary.json "contact"
+    reportObstacleContact<d>(scene, *meshes.front(), *problem, u, out, s);
+    return s;
   }
 
   // per pair: forces on both sides, pressures, areas; point fields on both bodies
-  std::vector<Field> fields;
-  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
+  const ContactSet& cs = problem->contactSet();
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
     const std::size_t n = static_cast<std::size_t>(meshes[i]->numVertices());
-    s.contactFields.push_back({Field{"gap", 1, std::vector<double>(n, 0.0), false},
-                               Field{"normal_displacement", 1, std::vector<double>(n, 0.0), false},
-                               Field{"contact_pressure", 1, std::vector<double>(n, 0.0), false},
-                               Field{"contact_state", 1, std::vector<double>(n, 0.0), true},
-                               Field{"constraint_direction", 3, std::vector<double>(3 * n, 0.0), false},
-                               Field{"contact_force", 3, std::vector<double>(3 * n, 0.0), false}});
+    s.contactFields[i] = {Field{"gap", 1, std::vector<double>(n, 0.0), false},
+                          Field{"normal_displacement", 1, std::vector<double>(n, 0.0), false},
+                          Field{"contact_pressure", 1, std::vector<double>(n, 0.0), false},
+                          Field{"contact_state", 1, std::vector<double>(n, 0.0), true},
+                          Field{"constraint_direction", 3, std::vector<double>(3 * n, 0.0), false},
+                          Field{"contact_force", 3, std::vector<double>(3 * n, 0.0), false}};
   }
   // the figures per pair from the model (one report for every runner), the fields per body here
   const std::vector<CouplingRecord> records = couplingRecords(model, *problem, x, out);
@@ -334,7 +304,7 @@ MultiBodySolution solveMultiBody(const Scene& scene, const std::vector<const mes
       slave = labels.slave;
       master = labels.master;
     } else {
-      const Scene& body = scene.bodies[obstacleBody[obstacleIndex++]];
+      const Scene& body = *bodies[obstacleBody[obstacleIndex++]];
       slave = sideLabel(body.name, body.contact->boundary);
       master = "obstacle " + body.contact->obstacle;
     }
@@ -387,10 +357,12 @@ std::vector<int> visitCouplings(const Scene& scene, const std::vector<const mesh
     const std::string slave = sideLabel(p.slaveBody, p.slave), master = sideLabel(p.masterBody, p.master);
     visit.pair(p.slaveIndex, sid, p.masterIndex, mid, slave + " / " + master, o, slave, master);
   }
-  // rigid obstacles of single bodies ([[contact]] with body = ...), after the pairs
+  // rigid obstacles of single bodies ([[contact]] with body = ..., or a one-body scene's [contact]),
+  // after the pairs
   std::vector<int> obstacleBody;
-  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
-    const Scene& body = scene.bodies[i];
+  const std::vector<const Scene*> bodies = scene.bodyScenes();
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    const Scene& body = *bodies[i];
     if (!body.contact) continue;
     obstacles.push_back(makeObstacle(body, meshes[i]->dimension()));
     const std::string slave = sideLabel(body.name, body.contact->boundary);
@@ -405,14 +377,14 @@ template <int d>
 std::vector<int> buildContactModel(const Scene& scene, const std::vector<const mesh::Mesh*>& meshes,
                                    const std::vector<BoundaryConditions>& bcs, ContactModel<d>& model,
                                    std::vector<std::unique_ptr<Obstacle>>& obstacles) {
-  for (std::size_t i = 0; i < scene.bodies.size(); ++i)
-    model.addBody(scene.bodies[i].name, *meshes[i], scene.bodies[i].material, bcs[i]);
+  const std::vector<const Scene*> bodies = scene.bodyScenes();
+  for (std::size_t i = 0; i < bodies.size(); ++i) model.addBody(bodies[i]->name, *meshes[i], bodies[i]->material, bcs[i]);
   CouplingVisitor visit;
   visit.pair = [&](int slave, int sid, int master, int mid, const std::string& label, const MortarOptions& o,
                    const std::string&, const std::string&) { model.addMortarPair(slave, sid, master, mid, label, o); };
   visit.obstacle = [&](int body, const Obstacle& obstacle, const std::string& label, const std::string&,
                        const std::string&) {
-    model.addObstacleContact(body, makeContactSet(scene.bodies[body], *meshes[body], obstacle), label);
+    model.addObstacleContact(body, makeContactSet(*bodies[body], *meshes[body], obstacle), label);
   };
   return visitCouplings(scene, meshes, obstacles, visit);
 }
@@ -447,15 +419,6 @@ PairReport pairReport(const CouplingRecord& rec, const std::string& slave, const
   return r;
 }
 
-MultiBodySolution solveMultiBodyScene(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
-                                      const std::vector<const mesh::Mesh*>& meshes,
-                                      const std::vector<BoundaryConditions>& bcs, const IterationProgress& progress) {
-  if (meshes.empty() || meshes.size() != scene.bodies.size() || grids.size() != meshes.size() || bcs.size() != meshes.size())
-    throw Error(scene.where(0) + "internal: multi-body solve with inconsistent body lists");
-  return meshes.front()->dimension() == 2 ? solveMultiBody<2>(scene, grids, meshes, bcs, progress)
-                                          : solveMultiBody<3>(scene, grids, meshes, bcs, progress);
-}
-
 bool reportsIteration(int iteration) {
   if (iteration <= 10) return iteration >= 1;
   int step = 10;
@@ -463,11 +426,24 @@ bool reportsIteration(int iteration) {
   return iteration % step == 0;
 }
 
-SceneSolution solveScene(const Scene& scene, const mesh::Grid& grid, const mesh::Mesh& mesh,
-                         const BoundaryConditions& bc, const IterationProgress& progress,
-                         const AssembledCallback& assembled) {
-  return mesh.dimension() == 2 ? solve<2>(scene, grid, mesh, bc, progress, assembled)
-                               : solve<3>(scene, grid, mesh, bc, progress, assembled);
+SceneSolution solveScene(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
+                         const std::vector<const mesh::Mesh*>& meshes, const std::vector<BoundaryConditions>& bcs,
+                         const IterationProgress& progress, const AssembledCallback& assembled) {
+  const std::size_t n = scene.bodyScenes().size();
+  if (meshes.empty() || meshes.size() != n || grids.size() != n || bcs.size() != n)
+    throw Error(scene.where(0) + "internal: solve with inconsistent body lists");
+  const int dim = meshes.front()->dimension();
+  if (scene.hasContact())
+    return dim == 2 ? solveContactModel<2>(scene, grids, meshes, bcs, progress, assembled)
+                    : solveContactModel<3>(scene, grids, meshes, bcs, progress, assembled);
+  SceneSolution s = dim == 2 ? solveLinear<2>(scene, *grids.front(), *meshes.front(), bcs.front(), assembled)
+                             : solveLinear<3>(scene, *grids.front(), *meshes.front(), bcs.front(), assembled);
+  const ElasticitySolution& e = s.bodies.front();
+  s.dofs = e.dofs;
+  s.freeDofs = e.freeDofs;
+  s.assemblySeconds = e.assemblySeconds;
+  s.solveSeconds = e.solveSeconds;
+  return s;
 }
 
 }  // namespace obs::drivers

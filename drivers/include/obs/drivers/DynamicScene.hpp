@@ -51,20 +51,15 @@ std::vector<std::string> dynamicSchemes(const Scene& scene, bool compareAll);
 /// run); the tracked vertices are the runner's.
 NewmarkOptions newmarkOptions(const Scene& scene, const std::string& scheme);
 
-/// Runs the scene (scene.dynamics set, validateScene passed) on `mesh` = grid.leafView().mesh.
-/// `result` holds the mesh figures of runScene, `start` the time the run began.
-RunResult runDynamicScene(const Scene& scene, const mesh::Grid& grid, const mesh::Mesh& mesh,
-                          const BoundaryConditions& bc, const RunOptions& options, RunResult result,
-                          std::chrono::steady_clock::time_point start);
-
-/// A multi-body scene (scene.bodies, [[contact]] pairs) with [dynamics]: body i on grids[i] with
-/// leaf mesh meshes[i] and conditions bcs[i], stacked in this order; the same runner with the
-/// contact model of the scene (SceneSolver.hpp buildContactModel). Initial states per body
+/// Runs the scene (scene.dynamics set, its bodies built and validated): body i of
+/// Scene::bodyScenes on grids[i] with leaf mesh meshes[i] and conditions bcs[i], stacked in this
+/// order, with the contact model of the scene (SceneSolver.hpp buildContactModel). `result` holds
+/// the mesh figures of runScene, `start` the time the run began. Initial states per body
 /// ([[body]] initial_velocity / initial_displacement, default the [dynamics] ones); one .vtu per
-/// body and output step (<scene>_<body>_NNNNNN.vtu, parts of the .pvd); tracked points are the
-/// nearest vertex of any body (a slave node of a pair reports the normal jump [u]_nu). Checkpoints
-/// and --restart as for one body, of the stacked state with per-body grid identities
-/// (docs/checkpoint.md#several-bodies).
+/// body and output step (a one-body file: <scene>_NNNNNN.vtu; several bodies:
+/// <scene>_<body>_NNNNNN.vtu, parts of the .pvd); tracked points are the nearest vertex of any body
+/// (a slave node of a pair reports the normal jump [u]_nu). Checkpoints and --restart of the
+/// stacked state with per-body grid identities (docs/checkpoint.md#several-bodies).
 RunResult runDynamicScene(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
                           const std::vector<const mesh::Mesh*>& meshes, const std::vector<BoundaryConditions>& bcs,
                           const RunOptions& options, RunResult result, std::chrono::steady_clock::time_point start);

@@ -218,7 +218,14 @@ struct Scene {
   int bodyInitialVelocityLine = 0, bodyInitialDisplacementLine = 0;
   /// [[contact]] pairs of a multi-body scene.
   std::vector<MortarPairSpec> pairs;
+  /// True for a file written with [[body]] sections. Its outputs are per body (<scene>_<body>.vtu,
+  /// summary.json "bodies" and "pairs"); a one-body file keeps its layout (<scene>.vtu, "contact").
   bool multiBody() const { return !bodies.empty(); }
+  /// The bodies every runner works on: the [[body]] entries, or the scene itself for a one-body
+  /// file (a list of one, whose name is the scene's and whose [contact] is its obstacle coupling).
+  std::vector<const Scene*> bodyScenes() const;
+  /// The scene has contact: a one-body [contact], or (multi-body files always) [[contact]] couplings.
+  bool hasContact() const { return contact.has_value() || multiBody(); }
 
   /// The solver type to use: solver.type, or "tnnmg" with [contact] and "direct" without.
   std::string solverType() const;

@@ -1,13 +1,13 @@
 #pragma once
 /// \file SceneSolver.hpp
-/// Solving a validated scene on its grid (the solve step of `obs run`):
-///  - without [contact]: linear elasticity, [solver] type "direct" (CHOLMOD, default) or
+/// Solving a validated scene on its bodies' grids (the solve step of `obs run`), one body or several:
+///  - without contact (one body): linear elasticity, [solver] type "direct" (CHOLMOD, default) or
 ///    "multigrid" (V-cycle iteration of LinearMultigrid on the grid's levels);
-///  - with [contact]: the Signorini problem min 1/2 u'Au - b'u s.t. nu_p.u_p <= g_p
-///    (docs/theory.md#signorini)
-///    with "tnnmg" (default; docs/theory.md#tnnmg, on the grid hierarchy), "pdas" (primal-dual active set
-///    with CHOLMOD) or "pgs" (projected block Gauss-Seidel), then the contact quantities
-///    (computeContactOutputs) and the contact point fields of the .vtu.
+///  - with contact: the ContactModel of the bodies, their obstacle couplings and mortar pairs
+///    (docs/theory.md#signorini, docs/theory.md#dual-mortar), min 1/2 u'Au - b'u subject to the
+///    nodal constraints, with "tnnmg" (default; docs/theory.md#tnnmg, on the grid hierarchies),
+///    "pdas" (primal-dual active set with CHOLMOD) or "pgs" (projected block Gauss-Seidel), then
+///    the contact quantities (computeContactOutputs) and the contact point fields of the .vtu.
 /// Solver failures (NaN, divergence, stagnation) are obs::Errors naming the scene and solver; an
 /// iteration that reaches max_iterations returns converged = false (the caller decides).
 #include <functional>
@@ -27,16 +27,6 @@
 
 namespace obs::drivers {
 
-struct SceneSolution {
-  /// Displacement, recovered stresses, dofs and the assembly / solve times.
-  ElasticitySolution elasticity;
-  SolverReport solver;
-  std::optional<ContactReport> contact;
-  /// Contact scenes: the point fields gap, normal_displacement, contact_pressure, contact_state,
-  /// constraint_direction (SolutionFields.hpp documents them).
-  std::vector<Field> contactFields;
-};
-
 /// Receives one line per block of solver iterations: every iteration up to 10, then every 10th up
 /// to 100, every 100th up to 1000, ... (the `obs run --verbose` lines).
 using IterationProgress = std::function<void(const std::string&)>;
@@ -49,24 +39,31 @@ bool reportsIteration(int iteration);
 /// assemblySeconds filled in.
 using AssembledCallback = std::function<void(const ElasticitySolution&)>;
 
-/// Solves the scene on `mesh` = grid.leafView().mesh with boundary conditions `bc`
-/// (makeBoundaryConditions); the scene must have passed validateScene.
-SceneSolution solveScene(const Scene& scene, const mesh::Grid& grid, const mesh::Mesh& mesh,
-                         const BoundaryConditions& bc, const IterationProgress& progress = {},
-                         const AssembledCallback& assembled = {});
-
-/// The solution of a multi-body scene: per body the displacement (stresses recovered) and the
-/// contact point fields of its .vtu, the solver report and one report per [[contact]] pair.
-struct MultiBodySolution {
+/// The solution of a scene, one body or several (Scene::bodyScenes): per body the displacement
+/// (stresses recovered) and the contact point fields of its .vtu, the solver report, and the
+/// contact report in the layout of the scene file: `contact` for a one-body file with [contact]
+/// (summary.json "contact"), `pairs` for a multi-body file, one per coupling (summary.json "pairs").
+struct SceneSolution {
   std::vector<ElasticitySolution> bodies;
+  /// Per body: gap, normal_displacement, contact_pressure, contact_state, constraint_direction
+  /// (and contact_force for multi-body files; SolutionFields.hpp documents them); empty without contact.
   std::vector<std::vector<Field>> contactFields;
   SolverReport solver;
+  std::optional<ContactReport> contact;
   std::vector<PairReport> pairs;
   long long dofs = 0, freeDofs = 0;
   double assemblySeconds = 0, solveSeconds = 0;
 };
 
-/// What visitCouplings reports of each coupling of a multi-body scene: a mortar pair (slave body
+/// Solves a validated scene on its bodies' grids, leaf meshes and boundary conditions (in the
+/// order of Scene::bodyScenes). With contact the problem is the ContactModel of the bodies and
+/// couplings (buildContactModel), solved by the [solver] (TNNMG on the block-stacked hierarchies by
+/// default); without contact (one body) linear elasticity by CHOLMOD or linear multigrid.
+SceneSolution solveScene(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
+                         const std::vector<const mesh::Mesh*>& meshes, const std::vector<BoundaryConditions>& bcs,
+                         const IterationProgress& progress = {}, const AssembledCallback& assembled = {});
+
+/// What visitCouplings reports of each coupling of a scene: a mortar pair (slave body
 /// and boundary id, master body and boundary id, label "slave / master", options, the two side
 /// labels "body:boundary") or a rigid obstacle of one body (the obstacle, label, side labels).
 struct CouplingVisitor {
@@ -78,8 +75,8 @@ struct CouplingVisitor {
       obstacle;
 };
 
-/// The couplings of a multi-body scene in the order every runner uses: the [[contact]] mortar pairs
-/// in scene order, then the rigid obstacles of single bodies (created with makeObstacle and kept in
+/// The couplings of a scene in the order every runner uses: the [[contact]] mortar pairs in scene
+/// order, then the rigid obstacles of single bodies (a one-body scene: its [contact]) (created with makeObstacle and kept in
 /// `obstacles`, which must outlive their use). Boundaries are resolved on `meshes` (the bodies'
 /// meshes; obs::Error naming the scene line if one does not exist). Returns the body of each
 /// obstacle coupling, in order. buildContactModel and the adaptive runner build on it.
@@ -91,8 +88,8 @@ std::vector<int> visitCouplings(const Scene& scene, const std::vector<const mesh
 /// sqrt(area / pi), 2D: area / 2); shared by the static and the adaptive runner.
 PairReport pairReport(const CouplingRecord& record, const std::string& slave, const std::string& master, int dim);
 
-/// The contact model of a multi-body scene, built once for every runner (static, dynamic): the
-/// bodies (scene.bodies[i] on meshes[i] with bcs[i]), the [[contact]] mortar pairs in scene order,
+/// The contact model of a scene, built once for every runner (static, dynamic): the bodies
+/// (scene.bodyScenes()[i] on meshes[i] with bcs[i]), the [[contact]] mortar pairs in scene order,
 /// then the rigid obstacles of single bodies (their obstacles are kept in `obstacles`, which must
 /// outlive the model). Returns the body of each obstacle coupling, in order. Throws obs::Error
 /// naming the scene line for unknown boundaries.
@@ -100,14 +97,5 @@ template <int d>
 std::vector<int> buildContactModel(const Scene& scene, const std::vector<const mesh::Mesh*>& meshes,
                                    const std::vector<BoundaryConditions>& bcs, ContactModel<d>& model,
                                    std::vector<std::unique_ptr<Obstacle>>& obstacles);
-
-/// Solves a validated multi-body scene (Scene::bodies, Scene::pairs): the bodies' grids, their leaf
-/// meshes and boundary conditions in the order of Scene::bodies. The problem is built by the same
-/// ContactModel as a one-body contact scene (bodies stacked, mortar pairs as couplings) and solved
-/// by the [solver] (TNNMG on the block-stacked hierarchies by default).
-MultiBodySolution solveMultiBodyScene(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
-                                      const std::vector<const mesh::Mesh*>& meshes,
-                                      const std::vector<BoundaryConditions>& bcs,
-                                      const IterationProgress& progress = {});
 
 }  // namespace obs::drivers
