@@ -92,9 +92,6 @@ struct SchemeRun {
 
 struct Context {
   const Scene& scene;
-  const mesh::Grid& grid;
-  const mesh::Mesh& mesh;
-  const BoundaryConditions& bc;
   const RunOptions& options;
   const ContactSet& contact;
   const std::vector<TrackedInfo>& tracked;
@@ -107,8 +104,8 @@ struct Context {
   fs::path checkpointFile;
   const CheckpointRecord* restart = nullptr;  ///< --restart: the checkpoint to continue from
   fs::path restartFile;
-  /// Multi-body scenes: the bodies in stacked order (grid, leaf mesh, boundary conditions, first
-  /// stacked vertex); grid/mesh/bc above are the first body's. Empty for one-body scenes.
+  /// The bodies in stacked order (Scene::bodyScenes: grid, leaf mesh, boundary conditions, first
+  /// stacked vertex).
   struct Body {
     const Scene* spec = nullptr;
     const mesh::Grid* grid = nullptr;
@@ -117,14 +114,14 @@ struct Context {
     Index offset = 0;
   };
   std::vector<Body> bodies;
-  bool multiBody() const { return !bodies.empty(); }
+  OutputLayout layout;
 };
 
-/// The bodies whose grids a checkpoint identifies, in stacked order (one body: the scene's mesh).
-std::vector<RunBody> runBodies(const mesh::Mesh& mesh, const std::vector<Context::Body>& bodies) {
-  if (bodies.empty()) return {RunBody{"", &mesh}};
+/// The bodies whose grids a checkpoint identifies, in stacked order, named as in the layout's files
+/// (a one-body file: "").
+std::vector<RunBody> runBodies(const std::vector<Context::Body>& bodies, const OutputLayout& layout) {
   std::vector<RunBody> out;
-  for (const Context::Body& b : bodies) out.push_back({b.spec->name, b.mesh});
+  for (const Context::Body& b : bodies) out.push_back({layout.perBody() ? b.spec->name : std::string(), b.mesh});
   return out;
 }
 
@@ -264,19 +261,18 @@ struct StateContact {
   std::optional<Eigen::VectorXd> nodal, forces;
 };
 
-/// The .vtu fields of a state on one body (one-body scenes: the mesh; several bodies: body b of
-/// Context::bodies, its segment of the stacked vectors): displacement, stress, von_mises, boundary_id,
+/// The .vtu fields of a state on body b of Context::bodies (its segment of the stacked vectors): displacement, stress, von_mises, boundary_id,
 /// velocity and the contact fields of the body's constrained nodes (gap g - nu'x, normal_displacement
 /// nu'x, normal_velocity nu'w, contact_state 0 / 1 potential / 2 active; at a mortar slave node these
 /// are of the normal jump) and, given the nodal forces F~, contact_pressure s_p = F~_p / m_p^C as in
 /// static scenes (slave nodes: the dual-mortar pressure lambda_p); given the vertex forces F,
 /// contact_force -F (the nodal contact force on the body, both sides of a pair, as in static
-/// multi-body scenes). Vertices without a constraint (a master side) have 0 in the contact fields.
+/// runs with several bodies). Vertices without a constraint (a master side) have 0 in the contact fields.
 std::vector<Field> stateFields(const Context& c, std::size_t b, const Eigen::VectorXd& u, const Eigen::VectorXd& v,
                                const StateContact& sc, std::vector<Field>* cells) {
-  const mesh::Mesh& mesh = c.multiBody() ? *c.bodies[b].mesh : c.mesh;
-  const Material& material = c.multiBody() ? c.bodies[b].spec->material : c.scene.material;
-  const Index offset = c.multiBody() ? c.bodies[b].offset : 0;
+  const mesh::Mesh& mesh = *c.bodies[b].mesh;
+  const Material& material = c.bodies[b].spec->material;
+  const Index offset = c.bodies[b].offset;
   const int dim = mesh.dimension();
   const mesh::Index n = mesh.numVertices();
   ElasticitySolution s;
@@ -327,8 +323,8 @@ std::vector<Field> stateFields(const Context& c, std::size_t b, const Eigen::Vec
   return pf;
 }
 
-/// The time stepper of one scheme on the scene's bodies (the contact model of a multi-body scene,
-/// kept in `model` and `obstacles`, which must outlive it), initialised with the initial state.
+/// The time stepper of one scheme on the scene's bodies (the contact model of the scene, kept in
+/// `model` and `obstacles`, which must outlive it), initialised with the initial state.
 /// Errors name the [dynamics] line of the scheme or of the initial state.
 template <int d>
 std::unique_ptr<TimeStepper<d>> makeSchemeStepper(const Context& c, const std::string& schemeName,
@@ -338,20 +334,16 @@ std::unique_ptr<TimeStepper<d>> makeSchemeStepper(const Context& c, const std::s
   const DynamicsSpec& dyn = *scene.dynamics;
   std::unique_ptr<TimeStepper<d>> stepper;
   try {
-    if (c.multiBody()) {
-      std::vector<const mesh::Mesh*> meshes;
-      std::vector<const mesh::Grid*> grids;
-      std::vector<BoundaryConditions> bcs;
-      for (const Context::Body& b : c.bodies) {
-        meshes.push_back(b.mesh);
-        grids.push_back(b.grid);
-        bcs.push_back(*b.bc);
-      }
-      buildContactModel<d>(scene, meshes, bcs, model, obstacles);
-      stepper = makeTimeStepper<d>(grids, model, o);
-    } else {
-      stepper = makeTimeStepper<d>(c.grid, scene.material, c.bc, c.contact, o);
+    std::vector<const mesh::Mesh*> meshes;
+    std::vector<const mesh::Grid*> grids;
+    std::vector<BoundaryConditions> bcs;
+    for (const Context::Body& b : c.bodies) {
+      meshes.push_back(b.mesh);
+      grids.push_back(b.grid);
+      bcs.push_back(*b.bc);
     }
+    buildContactModel<d>(scene, meshes, bcs, model, obstacles);
+    stepper = makeTimeStepper<d>(grids, model, o);
   } catch (const Error& e) {
     const int line = schemeName == dyn.scheme ? dyn.schemeLine : dyn.compareLine;  // 0: --compare-schemes
     throw Error(scene.where(line ? line : dyn.line) + "[dynamics] scheme = \"" +
@@ -364,11 +356,9 @@ std::unique_ptr<TimeStepper<d>> makeSchemeStepper(const Context& c, const std::s
     throw Error(scene.where(line) + "[dynamics] the initial state (initial_displacement, initial_velocity) " +
                 "is not admissible, nothing was integrated: " + e.what());
   }
-  const bool newmark = dynamic_cast<NewmarkFamily<d>*>(stepper.get()) != nullptr;
-  if (c.multiBody() && !newmark)  // the .vtu fields need its mortar transformation
-    throw Error(scene.where(dyn.schemeLine) + "[dynamics] scheme = \"" + schemeName + "\" cannot integrate several bodies");
-  if ((c.checkpointing || c.restart) && !newmark)
-    throw Error(scene.where(dyn.schemeLine) + "[dynamics] scheme = \"" + schemeName + "\" cannot be checkpointed");
+  if (!dynamic_cast<NewmarkFamily<d>*>(stepper.get()))  // the .vtu fields need its transformation
+    throw Error(scene.where(dyn.schemeLine) + "[dynamics] scheme = \"" + schemeName +
+                "\" is no NewmarkFamily scheme, which the runner needs for its outputs and checkpoints");
   return stepper;
 }
 
@@ -450,18 +440,16 @@ void writeStateVtu(const Context& c, const TimeStepper<d>& stepper, const Newmar
     sc.x = newmark->problem().fromDisplacement(state.u);  // (I - C) u; a copy of u without mortar pairs
     sc.w = newmark->problem().fromDisplacement(state.v);
     sc.nodal = newmark->nodalContactForces();
-    if (c.multiBody()) sc.forces = newmark->contactForces();
+    if (c.layout.perBody()) sc.forces = newmark->contactForces();  // the contact_force field
   } else {
     sc.x = state.u;
     sc.w = state.v;
   }
-  const std::size_t parts = c.multiBody() ? c.bodies.size() : 1;
-  const OutputLayout layout(c.scene);
-  for (std::size_t b = 0; b < parts; ++b) {
-    const fs::path path = c.dir / layout.dynamicVtu(r.step, b);
+  for (std::size_t b = 0; b < c.bodies.size(); ++b) {
+    const fs::path path = c.dir / c.layout.dynamicVtu(r.step, b);
     std::vector<Field> cells;
     const auto pf = stateFields(c, b, state.u, state.v, sc, &cells);
-    writeVtu(path, c.multiBody() ? *c.bodies[b].mesh : c.mesh, pf, cells);
+    writeVtu(path, *c.bodies[b].mesh, pf, cells);
     run.vtuFiles.push_back(path);
     run.vtuTimes.push_back(r.time);
   }
@@ -516,7 +504,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
   for (const TrackedInfo& t : c.tracked) o.trackedVertices.push_back(t.vertex);
 
   const auto t0 = Clock::now();
-  ContactModel<d> model;  // multi-body scenes: the bodies and the [[contact]] couplings
+  ContactModel<d> model;  // the bodies and the couplings
   std::vector<std::unique_ptr<Obstacle>> obstacles;
   const std::unique_ptr<TimeStepper<d>> stepper = makeSchemeStepper<d>(c, schemeName, o, model, obstacles);
   run.setupSeconds = secondsSince(t0);
@@ -562,7 +550,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
     csv.flush();  // the checkpoint refers to these bytes
     CheckpointRecord cp;
     cp.kind = "dynamic";
-    storeRunIdentity(cp, scene, runBodies(c.mesh, c.bodies));
+    storeRunIdentity(cp, scene, runBodies(c.bodies, c.layout));
     storeNewmarkState(cp, newmark->schemeState());
     storeSchemeRun(cp, run, csv.bytes(), csv.hash());
     writeCheckpoint(c.checkpointFile, cp);
@@ -630,7 +618,7 @@ nlohmann::json schemeJson(const Context& c, const SchemeRun& run) {
   for (std::size_t k = 0; k < c.tracked.size(); ++k) {
     const TrackedInfo& t = c.tracked[k];
     nlohmann::json p = nlohmann::json::array(), x = nlohmann::json::array();
-    for (int a = 0; a < c.mesh.dimension(); ++a) {
+    for (int a = 0; a < c.bodies.front().mesh->dimension(); ++a) {
       p.push_back(t.requested[a]);
       x.push_back(t.position[a]);
     }
@@ -734,8 +722,9 @@ NewmarkOptions newmarkOptions(const Scene& scene, const std::string& scheme) {
 
 namespace {
 
-/// The couplings of a multi-body scene merged into one ContactSet over the stacked vertices (the
-/// steppers build the same model again; this one names the contact nodes for tracking and reports).
+/// The couplings of the scene merged into one ContactSet over the stacked vertices (the steppers
+/// build the same model again; this one names the contact nodes for tracking and reports; no
+/// stiffness is assembled for it).
 template <int d>
 ContactSet mergedContactSet(const Scene& scene, const std::vector<Context::Body>& bodies) {
   std::vector<const mesh::Mesh*> meshes;
@@ -748,50 +737,42 @@ ContactSet mergedContactSet(const Scene& scene, const std::vector<Context::Body>
   std::vector<std::unique_ptr<Obstacle>> obstacles;
   buildContactModel<d>(scene, meshes, bcs, model, obstacles);
   try {
-    return model.assembleParts().contact;
+    return model.constraints().contact;
   } catch (const Error& e) {
+    if (scene.pairs.empty()) throw;
     throw Error(scene.where(scene.pairs.front().line) + "[[contact]] " + e.what());
   }
 }
 
-/// runDynamicScene for one body (bodies empty) or several (Context::bodies).
-RunResult runDynamics(const Scene& scene, const mesh::Grid& grid, const mesh::Mesh& mesh, const BoundaryConditions& bc,
-                      const std::vector<Context::Body>& bodies, const RunOptions& options, RunResult r,
-                      Clock::time_point start) {
+/// runDynamicScene on the bodies of the scene (Context::bodies, in stacked order).
+RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodies, const RunOptions& options,
+                      RunResult r, Clock::time_point start) {
   const DynamicsSpec& dyn = *scene.dynamics;
   auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
   };
-  const bool multi = !bodies.empty();
-  const int dim = mesh.dimension();
-  const mesh::Index n = multi ? bodies.back().offset + bodies.back().mesh->numVertices() : mesh.numVertices();
+  const OutputLayout layout(scene);
+  const int dim = bodies.front().mesh->dimension();
+  const mesh::Index n = bodies.back().offset + bodies.back().mesh->numVertices();
   const InterruptGuard interrupts;  // SIGINT/SIGTERM: finish the step, checkpoint, stop
-  // the stacked vertex positions (one body: the mesh's)
+  // the stacked vertex positions
   std::vector<mesh::Point> positions;
   std::vector<const Scene*> owner;  // the body description of each stacked vertex
-  if (multi) {
-    for (const Context::Body& b : bodies)
-      for (mesh::Index v = 0; v < b.mesh->numVertices(); ++v) {
-        positions.push_back(b.mesh->vertex(v));
-        owner.push_back(b.spec);
-      }
-  } else {
-    positions = mesh.vertices();
-    owner.assign(static_cast<std::size_t>(n), &scene);
-  }
+  for (const Context::Body& b : bodies)
+    for (mesh::Index v = 0; v < b.mesh->numVertices(); ++v) {
+      positions.push_back(b.mesh->vertex(v));
+      owner.push_back(b.spec);
+    }
 
   // --restart: the checkpoint must belong to this scene, its bodies and grids
   std::optional<CheckpointRecord> restart;
   if (options.restart) {
     restart = readCheckpoint(*options.restart);
-    checkRunIdentity(*restart, *options.restart, "dynamic", scene, runBodies(mesh, bodies));
+    checkRunIdentity(*restart, *options.restart, "dynamic", scene, runBodies(bodies, layout));
   }
 
   // contact set, tracked vertices, initial state (all checked before any time step)
-  std::unique_ptr<Obstacle> obstacle;
-  if (!multi) obstacle = makeObstacle(scene, dim);
-  const ContactSet contact = multi ? (dim == 2 ? mergedContactSet<2>(scene, bodies) : mergedContactSet<3>(scene, bodies))
-                                   : makeContactSet(scene, mesh, *obstacle);
+  const ContactSet contact = dim == 2 ? mergedContactSet<2>(scene, bodies) : mergedContactSet<3>(scene, bodies);
   std::vector<TrackedInfo> tracked;
   for (std::size_t k = 0; k < dyn.tracked.size(); ++k) {
     if (dyn.trackedDimensions[k] != dim)
@@ -826,7 +807,7 @@ RunResult runDynamics(const Scene& scene, const mesh::Grid& grid, const mesh::Me
     tracked.push_back(t);
   }
 
-  Context c{scene, grid, mesh, bc, options, contact, tracked, {}, {}, 0, {}, false, {}, nullptr, {}, bodies};
+  Context c{scene, options, contact, tracked, {}, {}, 0, {}, false, {}, nullptr, {}, bodies, layout};
   c.steps = dyn.steps ? *dyn.steps : static_cast<int>(std::ceil(*dyn.endTime / dyn.timeStep - 1e-9));
   c.u0 = Eigen::VectorXd::Zero(n * dim);
   c.v0 = Eigen::VectorXd::Zero(n * dim);
@@ -835,7 +816,7 @@ RunResult runDynamics(const Scene& scene, const mesh::Grid& grid, const mesh::Me
     for (mesh::Index v = 0; v < n; ++v) {
       const Scene& body = *owner[static_cast<std::size_t>(v)];
       const std::vector<Expression>& own = velocity ? body.bodyInitialVelocity : body.bodyInitialDisplacement;
-      const bool local = multi && !own.empty();
+      const bool local = !own.empty();  // ([[body]] only)
       const std::vector<Expression>& e = local ? own : velocity ? dyn.initialVelocity : dyn.initialDisplacement;
       if (e.empty()) continue;
       const int line = local ? (velocity ? body.bodyInitialVelocityLine : body.bodyInitialDisplacementLine)
@@ -857,7 +838,7 @@ RunResult runDynamics(const Scene& scene, const mesh::Grid& grid, const mesh::Me
   evaluate(false, c.u0);
   evaluate(true, c.v0);
   DirichletValues dirichlet;
-  if (multi) {
+  {
     dirichlet.constrained.assign(static_cast<std::size_t>(n) * dim, 0);
     dirichlet.values = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n) * dim);
     for (const Context::Body& b : bodies) {
@@ -873,8 +854,6 @@ RunResult runDynamics(const Scene& scene, const mesh::Grid& grid, const mesh::Me
       std::copy(own.constrained.begin(), own.constrained.end(), dirichlet.constrained.begin() + static_cast<std::ptrdiff_t>(off));
       dirichlet.values.segment(static_cast<Eigen::Index>(off), own.values.size()) = own.values;
     }
-  } else {
-    dirichlet = collectDirichlet(mesh, bc.dirichlet);
   }
   for (Eigen::Index i = 0; i < c.u0.size(); ++i)
     if (dirichlet.constrained[static_cast<std::size_t>(i)]) {
@@ -960,8 +939,8 @@ RunResult runDynamics(const Scene& scene, const mesh::Grid& grid, const mesh::Me
   r.solver.seconds = primary.solverSeconds;
   r.solver.tolerance = solverConfig(scene).tolerance;
   ContactReport cr;
-  cr.obstacle = multi ? contact.obstacleName() : scene.contact->obstacle;
-  cr.boundary = multi ? contact.boundaryLabel() : scene.contact->boundary.describe();
+  cr.obstacle = layout.perBody() ? contact.obstacleName() : scene.contact->obstacle;
+  cr.boundary = layout.perBody() ? contact.boundaryLabel() : scene.contact->boundary.describe();
   cr.boundaryVertices = contact.size();
   for (Index k = 0; k < contact.size(); ++k)
     if (std::isfinite(contact.gap(k))) ++cr.potentialVertices;
@@ -970,31 +949,21 @@ RunResult runDynamics(const Scene& scene, const mesh::Grid& grid, const mesh::Me
   cr.load = primary.last.contactForce.norm();
   cr.maxViolation = primary.last.maxPenetration;
   r.contact = cr;
-  if (multi) {
-    for (const Context::Body& b : bodies) {
-      BodyReport br;
-      br.name = b.spec->name;
-      br.vertices = b.mesh->numVertices();
-      br.cells = b.mesh->numCells();
-      ElasticitySolution s;
-      s.dimension = dim;
-      s.displacement = primary.u.segment(static_cast<Eigen::Index>(b.offset) * dim, br.vertices * dim);
-      recoverStresses(*b.mesh, b.spec->material, s);
-      for (mesh::Index v = 0; v < b.mesh->numVertices(); ++v)
-        br.maxDisplacement = std::max(br.maxDisplacement, s.displacement.segment(v * dim, dim).norm());
-      for (const Stress& st : s.cellStress) br.maxVonMises = std::max(br.maxVonMises, vonMises(st));
-      r.maxDisplacement = std::max(r.maxDisplacement, br.maxDisplacement);
-      r.maxVonMises = std::max(r.maxVonMises, br.maxVonMises);
-      r.bodies.push_back(br);
-    }
-  } else {
-    ElasticitySolution s;
-    s.dimension = dim;
-    s.displacement = primary.u;
-    recoverStresses(mesh, scene.material, s);
-    for (mesh::Index v = 0; v < n; ++v)
-      r.maxDisplacement = std::max(r.maxDisplacement, primary.u.segment(v * dim, dim).norm());
-    for (const Stress& st : s.cellStress) r.maxVonMises = std::max(r.maxVonMises, vonMises(st));
+  for (const Context::Body& b : bodies) {
+    BodyReport br;
+    br.name = b.spec->name;
+    br.vertices = b.mesh->numVertices();
+    br.cells = b.mesh->numCells();
+    ElasticitySolution sol;
+    sol.dimension = dim;
+    sol.displacement = primary.u.segment(static_cast<Eigen::Index>(b.offset) * dim, br.vertices * dim);
+    recoverStresses(*b.mesh, b.spec->material, sol);
+    for (mesh::Index v = 0; v < b.mesh->numVertices(); ++v)
+      br.maxDisplacement = std::max(br.maxDisplacement, sol.displacement.segment(v * dim, dim).norm());
+    for (const Stress& st : sol.cellStress) br.maxVonMises = std::max(br.maxVonMises, vonMises(st));
+    r.maxDisplacement = std::max(r.maxDisplacement, br.maxDisplacement);
+    r.maxVonMises = std::max(r.maxVonMises, br.maxVonMises);
+    if (layout.perBody()) r.bodies.push_back(br);
   }
 
   // outputs
@@ -1003,7 +972,7 @@ RunResult runDynamics(const Scene& scene, const mesh::Grid& grid, const mesh::Me
   for (const fs::path& f : primary.vtuFiles) r.outputFiles.push_back(f);
   if (!primary.vtuFiles.empty()) {
     const fs::path pvd = c.dir / (scene.name + ".pvd");
-    const std::size_t parts = c.multiBody() ? c.bodies.size() : 1;  // the files come in groups of parts per time
+    const std::size_t parts = c.bodies.size();  // the files come in groups of parts per time
     std::vector<PvdEntry> entries;
     for (std::size_t i = 0; i < primary.vtuFiles.size(); ++i)
       entries.push_back(PvdEntry{primary.vtuTimes[i], static_cast<int>(i % parts), primary.vtuFiles[i].filename().string()});
@@ -1049,13 +1018,14 @@ RunResult runDynamicScene(const Scene& scene, const std::vector<const mesh::Grid
   const std::size_t n = scene.bodyScenes().size();
   if (grids.size() != n || meshes.size() != n || bcs.size() != n)
     throw Error(scene.where(0) + "internal: dynamics with inconsistent body lists");
-  std::vector<Context::Body> bodies;  // (empty for a one-body file: Context's one-body case)
+  const std::vector<const Scene*> specs = scene.bodyScenes();
+  std::vector<Context::Body> bodies;
   Index offset = 0;
-  for (std::size_t i = 0; i < scene.bodies.size(); ++i) {
-    bodies.push_back({&scene.bodies[i], grids[i], meshes[i], &bcs[i], offset});
+  for (std::size_t i = 0; i < n; ++i) {
+    bodies.push_back({specs[i], grids[i], meshes[i], &bcs[i], offset});
     offset += meshes[i]->numVertices();
   }
-  return runDynamics(scene, *grids.front(), *meshes.front(), bcs.front(), bodies, options, std::move(r), start);
+  return runDynamics(scene, bodies, options, std::move(r), start);
 }
 
 }  // namespace obs::drivers

@@ -55,7 +55,7 @@ ContactProblem<d> ContactModel<d>::assemble() {
 }
 
 template <int d>
-typename ContactModel<d>::Parts ContactModel<d>::assembleParts(bool skipPrescribedBodies) {
+void ContactModel<d>::stackBodies() {
   if (bodies_.empty()) throw Error("contact model: no body");
   // the stacked numbering (vertex v of body i is offset_i + v), known from the meshes
   numVertices_ = 0;
@@ -63,26 +63,45 @@ typename ContactModel<d>::Parts ContactModel<d>::assembleParts(bool skipPrescrib
     b.offset = numVertices_;
     numVertices_ += b.mesh->numVertices();
   }
-  std::vector<const mesh::Mesh*> meshes;
-  std::vector<const Material*> materials;
-  std::vector<const BoundaryConditions*> conditions;
   for (const Body& b : bodies_) {
     b.material.validate();  // before the couplings look at the meshes (assembleBodies checks again)
     if (b.mesh->dimension() != d)
       throw Error("body '" + b.name + "': the mesh has dimension " + std::to_string(b.mesh->dimension()) +
                   ", the problem " + std::to_string(d));
+  }
+}
+
+template <int d>
+typename ContactModel<d>::Parts ContactModel<d>::assembleParts(bool skipPrescribedBodies) {
+  Constraints k = constraints();
+  std::vector<const mesh::Mesh*> meshes;
+  std::vector<const Material*> materials;
+  std::vector<const BoundaryConditions*> conditions;
+  for (const Body& b : bodies_) {
     meshes.push_back(b.mesh);
     materials.push_back(&b.material);
     conditions.push_back(&b.bc);
   }
+  // the bodies, straight into the stacked matrix on the pattern of the transformed operator (the
+  // ContactProblem then transforms it in place: the operator is stored once)
+  std::function<void(typename BlockSparseMatrix<d>::Pattern&)> widen;
+  if (k.basis.rows > 0)
+    widen = [&](typename BlockSparseMatrix<d>::Pattern& p) {
+      p = ContactProblem<d>::transformedPattern(std::move(p), k.basis);
+    };
+  BodySystem<d> system = assembleBodies<d>(meshes, materials, conditions, nullptr, widen, skipPrescribedBodies);
+  return Parts{std::move(system), std::move(k.contact), std::move(k.basis)};
+}
 
+template <int d>
+typename ContactModel<d>::Constraints ContactModel<d>::constraints() {
+  stackBodies();
   // one-body special case: the obstacle set is already over the stacked (= the body's) vertices
   if (bodies_.size() == 1 && couplings_.size() == 1 && !couplings_[0].mortar) {
     Coupling& c = couplings_[0];
     c.nodes.resize(c.obstacleSet->size());
     std::iota(c.nodes.begin(), c.nodes.end(), 0);
-    return Parts{assembleBodies<d>(meshes, materials, conditions, nullptr, {}, skipPrescribedBodies), *c.obstacleSet,
-                 mesh::CsrMatrix{}};
+    return Constraints{*c.obstacleSet, mesh::CsrMatrix{}};
   }
 
   // the couplings' nodes over the stacked vertices
@@ -164,16 +183,7 @@ typename ContactModel<d>::Parts ContactModel<d>::assembleParts(bool skipPrescrib
       basis.rowStart[r + 1] = static_cast<Index>(basis.columns.size());
     }
   }
-  // the bodies, straight into the stacked matrix on the pattern of the transformed operator (the
-  // ContactProblem then transforms it in place: the operator is stored once)
-  std::function<void(typename BlockSparseMatrix<d>::Pattern&)> widen;
-  if (basis.rows > 0)
-    widen = [&](typename BlockSparseMatrix<d>::Pattern& p) {
-      p = ContactProblem<d>::transformedPattern(std::move(p), basis);
-    };
-  std::vector<Index> offsets;
-  BodySystem<d> system = assembleBodies<d>(meshes, materials, conditions, &offsets, widen, skipPrescribedBodies);
-  return Parts{std::move(system), ContactSet(std::move(merged)), std::move(basis)};
+  return Constraints{ContactSet(std::move(merged)), std::move(basis)};
 }
 
 template <int d>

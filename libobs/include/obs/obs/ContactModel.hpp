@@ -73,6 +73,15 @@ public:
   /// then not that body's, e.g. for an elastic energy). Throws obs::Error on invalid indices, a vertex
   /// constrained by two couplings, and every error of the parts (MortarCoupling).
   Parts assembleParts(bool skipPrescribedBodies = false);
+  /// The constraints of the couplings without the bodies' stiffness: the merged ContactSet over
+  /// the stacked vertices and the basis transformation C (the parts of assembleParts() that name
+  /// the contact nodes, e.g. for a runner that tracks them before it builds its time stepper).
+  /// Sets Body::offset and Coupling::coupling/nodes; throws what assembleParts() throws for them.
+  struct Constraints {
+    ContactSet contact;
+    mesh::CsrMatrix basis;
+  };
+  Constraints constraints();
   /// assembleParts(true) made into the ContactProblem. Throws what assembleParts() and the
   /// ContactProblem constructor throw.
   ContactProblem<d> assemble();
@@ -82,6 +91,10 @@ public:
   Index numVertices() const { return numVertices_; }
 
 private:
+  /// The stacked numbering (Body::offset, numVertices_) and the checks of the bodies' materials and
+  /// dimensions.
+  void stackBodies();
+
   std::vector<Body> bodies_;
   std::vector<Coupling> couplings_;
   Index numVertices_ = 0;
