@@ -10,7 +10,7 @@
 // of OUTPUT.md, or standard output.
 //
 // Sample run (a minute or two; the figures of docs/performance.md#estimator-cost):
-//   build/bench/estimator_cost docs/performance.md --baseline /path/to/old/obs
+//   build/bench/estimator_cost OUT.md --baseline /path/to/old/obs
 // Options:
 //   --obs PATH         the obs binary measured (default build/drivers/obs)
 //   --baseline PATH    a second obs binary run first on the same scene (side by side in one run)

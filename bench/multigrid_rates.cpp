@@ -25,7 +25,9 @@
 // Writes the markdown block "multigrid_rates" (with --w "multigrid_rates-w"; MarkdownBlock.hpp) of
 // OUTPUT.md, or standard output.
 //
-//   OPENBLAS_NUM_THREADS=1 build/bench/multigrid_rates docs/performance.md --coarse 1 --levels 5 --two-grid --check
+//   OPENBLAS_NUM_THREADS=1 build/bench/multigrid_rates OUT.md --coarse 1 --levels 5 --two-grid --check
+// (docs/performance.md#tetrahedral-multigrid-rates summarises the table; the full one of the last run
+// is kept in docs/performance-history.md)
 // Options: --type tetrahedron|hexahedron (may repeat; default both), --problem elasticity|laplace
 // (may repeat; default both), --coarse N (box blocks per direction, default 1), --levels L (largest
 // number of refinements, default 4), --smoothing NU (nu1 = nu2, may repeat; default 1 and 3), --nu
