@@ -622,20 +622,10 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
   for (std::size_t i = 0; i < specs.size(); ++i)
     bodies.push_back({specs[i]->name, &built.grids[i], &specs[i]->material, &built.bcs[i]});
   est::AdaptiveLoop loop(std::move(bodies), o);
-  std::vector<std::unique_ptr<Obstacle>> obstacles;
-  std::vector<std::pair<std::string, std::string>> sides;  // per coupling: slave, master labels
-  CouplingVisitor visit;
-  visit.pair = [&](int slave, int sid, int master, int mid, const std::string& label, const MortarOptions& mo,
-                   const std::string& sl, const std::string& ml) {
-    loop.addMortarContact(slave, sid, master, mid, label, mo);
-    sides.emplace_back(sl, ml);
-  };
-  visit.obstacle = [&](int body, const Obstacle& obstacle, const std::string& label, const std::string& sl,
-                       const std::string& ml) {
-    loop.addObstacleContact(body, obstacle, contactBoundaryId(*specs[body], built.meshes[body]), label);
-    sides.emplace_back(sl, ml);
-  };
-  visitCouplings(scene, built.meshPointers(), obstacles, visit);
+  // the couplings of the scene (the loop builds the model on every step's leaf views)
+  const SceneCouplings couplings = sceneCouplings(scene, built.meshPointers(), built.bcs);
+  for (const ContactModelSpec::Coupling& c : couplings.spec.couplings) loop.addCoupling(c);
+  const std::vector<std::pair<std::string, std::string>>& sides = couplings.sides;
   // the analytic reference (punch, wedge, Hertz) of one body against an obstacle
   const std::optional<est::ContactReference> reference =
       specs.size() == 1 && specs.front()->contact ? makeReference(*specs.front(), dim) : std::nullopt;

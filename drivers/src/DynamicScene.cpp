@@ -94,6 +94,7 @@ struct Context {
   const Scene& scene;
   const RunOptions& options;
   const ContactSet& contact;
+  const SceneCouplings& couplings;  ///< the contact model of the scene without meshes
   const std::vector<TrackedInfo>& tracked;
   Eigen::VectorXd u0, v0;
   int steps = 0;
@@ -323,26 +324,23 @@ std::vector<Field> stateFields(const Context& c, std::size_t b, const Eigen::Vec
   return pf;
 }
 
-/// The time stepper of one scheme on the scene's bodies (the contact model of the scene, kept in
-/// `model` and `obstacles`, which must outlive it), initialised with the initial state.
+/// The time stepper of one scheme on the scene's bodies (the contact model of the scene's
+/// couplings, kept in `model`, which must outlive it), initialised with the initial state.
 /// Errors name the [dynamics] line of the scheme or of the initial state.
 template <int d>
 std::unique_ptr<TimeStepper<d>> makeSchemeStepper(const Context& c, const std::string& schemeName,
-                                                  const NewmarkOptions& o, ContactModel<d>& model,
-                                                  std::vector<std::unique_ptr<Obstacle>>& obstacles) {
+                                                  const NewmarkOptions& o, ContactModel<d>& model) {
   const Scene& scene = c.scene;
   const DynamicsSpec& dyn = *scene.dynamics;
   std::unique_ptr<TimeStepper<d>> stepper;
   try {
     std::vector<const mesh::Mesh*> meshes;
     std::vector<const mesh::Grid*> grids;
-    std::vector<BoundaryConditions> bcs;
     for (const Context::Body& b : c.bodies) {
       meshes.push_back(b.mesh);
       grids.push_back(b.grid);
-      bcs.push_back(*b.bc);
     }
-    buildContactModel<d>(scene, meshes, bcs, model, obstacles);
+    model = makeContactModel<d>(c.couplings.spec, meshes);
     stepper = makeTimeStepper<d>(grids, model, o);
   } catch (const Error& e) {
     const int line = schemeName == dyn.scheme ? dyn.schemeLine : dyn.compareLine;  // 0: --compare-schemes
@@ -505,8 +503,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
 
   const auto t0 = Clock::now();
   ContactModel<d> model;  // the bodies and the couplings
-  std::vector<std::unique_ptr<Obstacle>> obstacles;
-  const std::unique_ptr<TimeStepper<d>> stepper = makeSchemeStepper<d>(c, schemeName, o, model, obstacles);
+  const std::unique_ptr<TimeStepper<d>> stepper = makeSchemeStepper<d>(c, schemeName, o, model);
   run.setupSeconds = secondsSince(t0);
   auto* newmark = dynamic_cast<NewmarkFamily<d>*>(stepper.get());
 
@@ -726,16 +723,10 @@ namespace {
 /// build the same model again; this one names the contact nodes for tracking and reports; no
 /// stiffness is assembled for it).
 template <int d>
-ContactSet mergedContactSet(const Scene& scene, const std::vector<Context::Body>& bodies) {
+ContactSet mergedContactSet(const Scene& scene, const SceneCouplings& couplings, const std::vector<Context::Body>& bodies) {
   std::vector<const mesh::Mesh*> meshes;
-  std::vector<BoundaryConditions> bcs;
-  for (const Context::Body& b : bodies) {
-    meshes.push_back(b.mesh);
-    bcs.push_back(*b.bc);
-  }
-  ContactModel<d> model;
-  std::vector<std::unique_ptr<Obstacle>> obstacles;
-  buildContactModel<d>(scene, meshes, bcs, model, obstacles);
+  for (const Context::Body& b : bodies) meshes.push_back(b.mesh);
+  ContactModel<d> model = makeContactModel<d>(couplings.spec, meshes);
   try {
     return model.constraints().contact;
   } catch (const Error& e) {
@@ -745,8 +736,8 @@ ContactSet mergedContactSet(const Scene& scene, const std::vector<Context::Body>
 }
 
 /// runDynamicScene on the bodies of the scene (Context::bodies, in stacked order).
-RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodies, const RunOptions& options,
-                      RunResult r, Clock::time_point start) {
+RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodies, const SceneCouplings& couplings,
+                      const RunOptions& options, RunResult r, Clock::time_point start) {
   const DynamicsSpec& dyn = *scene.dynamics;
   auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
@@ -772,7 +763,8 @@ RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodi
   }
 
   // contact set, tracked vertices, initial state (all checked before any time step)
-  const ContactSet contact = dim == 2 ? mergedContactSet<2>(scene, bodies) : mergedContactSet<3>(scene, bodies);
+  const ContactSet contact =
+      dim == 2 ? mergedContactSet<2>(scene, couplings, bodies) : mergedContactSet<3>(scene, couplings, bodies);
   std::vector<TrackedInfo> tracked;
   for (std::size_t k = 0; k < dyn.tracked.size(); ++k) {
     if (dyn.trackedDimensions[k] != dim)
@@ -807,7 +799,7 @@ RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodi
     tracked.push_back(t);
   }
 
-  Context c{scene, options, contact, tracked, {}, {}, 0, {}, false, {}, nullptr, {}, bodies, layout};
+  Context c{scene, options, contact, couplings, tracked, {}, {}, 0, {}, false, {}, nullptr, {}, bodies, layout};
   c.steps = dyn.steps ? *dyn.steps : static_cast<int>(std::ceil(*dyn.endTime / dyn.timeStep - 1e-9));
   c.u0 = Eigen::VectorXd::Zero(n * dim);
   c.v0 = Eigen::VectorXd::Zero(n * dim);
@@ -1025,7 +1017,8 @@ RunResult runDynamicScene(const Scene& scene, const std::vector<const mesh::Grid
     bodies.push_back({specs[i], grids[i], meshes[i], &bcs[i], offset});
     offset += meshes[i]->numVertices();
   }
-  return runDynamics(scene, bodies, options, std::move(r), start);
+  const SceneCouplings couplings = sceneCouplings(scene, meshes, bcs);
+  return runDynamics(scene, bodies, couplings, options, std::move(r), start);
 }
 
 }  // namespace obs::drivers

@@ -199,15 +199,8 @@ std::string sideLabel(const std::string& body, const BoundaryRef& ref) {
   return body + ":" + (ref.name.empty() ? std::to_string(ref.id) : ref.name);
 }
 
-struct MortarCouplingSpecLabels {
-  std::string slave, master;
-};
-MortarCouplingSpecLabels pairLabels(const MortarPairSpec& p) {
-  return {sideLabel(p.slaveBody, p.slave), sideLabel(p.masterBody, p.master)};
-}
-
 /// A contact scene, one body or several: the contact model of its bodies and couplings
-/// (buildContactModel), one solve by the [solver], the displacement and stresses of every body,
+/// (sceneCouplings, makeContactModel), one solve by the [solver], the displacement and stresses of every body,
 /// then the report in the layout of the scene file: a one-body scene's [contact]
 /// (reportObstacleContact), or one report per coupling and the contact fields of every body.
 template <int d>
@@ -217,9 +210,8 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
   SceneSolution s;
   const std::string type = scene.solverType();
   auto t0 = Clock::now();
-  ContactModel<d> model;
-  std::vector<std::unique_ptr<Obstacle>> obstacles;
-  const std::vector<int> obstacleBody = buildContactModel<d>(scene, meshes, bcs, model, obstacles);
+  const SceneCouplings couplings = sceneCouplings(scene, meshes, bcs);
+  ContactModel<d> model = makeContactModel<d>(couplings.spec, meshes);
   std::optional<ContactProblem<d>> problem;
   try {
     problem.emplace(model.assemble());
@@ -294,21 +286,9 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
   }
   // the figures per pair from the model (one report for every runner), the fields per body here
   const std::vector<CouplingRecord> records = couplingRecords(model, *problem, x, out);
-  std::size_t mortarIndex = 0, obstacleIndex = 0;  // couplings: the pairs in scene order, then obstacles
   for (std::size_t j = 0; j < model.couplings().size(); ++j) {
     const auto& c = model.couplings()[j];
-    const CouplingRecord& rec = records[j];
-    std::string slave, master;
-    if (c.mortar) {
-      const MortarCouplingSpecLabels labels = pairLabels(scene.pairs[mortarIndex++]);
-      slave = labels.slave;
-      master = labels.master;
-    } else {
-      const Scene& body = *bodies[obstacleBody[obstacleIndex++]];
-      slave = sideLabel(body.name, body.contact->boundary);
-      master = "obstacle " + body.contact->obstacle;
-    }
-    const PairReport r = pairReport(rec, slave, master, d);
+    const PairReport r = pairReport(records[j], couplings.sides[j].first, couplings.sides[j].second, d);
     // point fields: the coupling's nodes (stacked vertex, direction, multiplier mu = D_pp lambda_p
     // for mortar, the nodal force for obstacles) on the constrained body, master forces on the master
     const int slaveBody = c.mortar ? c.slave : c.body;
@@ -344,57 +324,42 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
 
 }  // namespace
 
-std::vector<int> visitCouplings(const Scene& scene, const std::vector<const mesh::Mesh*>& meshes,
-                                std::vector<std::unique_ptr<Obstacle>>& obstacles, const CouplingVisitor& visit) {
+SceneCouplings sceneCouplings(const Scene& scene, const std::vector<const mesh::Mesh*>& meshes,
+                              const std::vector<BoundaryConditions>& bcs) {
+  const std::vector<const Scene*> bodies = scene.bodyScenes();
+  if (meshes.size() != bodies.size() || bcs.size() != bodies.size())
+    throw Error(scene.where(0) + "internal: couplings with inconsistent body lists");
+  SceneCouplings out;
+  for (std::size_t i = 0; i < bodies.size(); ++i) out.spec.addBody(bodies[i]->name, bodies[i]->material, bcs[i]);
   for (const MortarPairSpec& p : scene.pairs) {
-    const Scene& sb = scene.bodies[p.slaveIndex];
-    const Scene& mb = scene.bodies[p.masterIndex];
+    const Scene& sb = *bodies[p.slaveIndex];
+    const Scene& mb = *bodies[p.masterIndex];
     const int sid = boundaryIdOf(scene, *meshes[p.slaveIndex], p.slave, "[[contact]] slave of body '" + sb.name + "':");
     const int mid = boundaryIdOf(scene, *meshes[p.masterIndex], p.master, "[[contact]] master of body '" + mb.name + "':");
     MortarOptions o;
     o.minCoverage = p.minCoverage;
     o.searchDistance = p.searchDistance;
     const std::string slave = sideLabel(p.slaveBody, p.slave), master = sideLabel(p.masterBody, p.master);
-    visit.pair(p.slaveIndex, sid, p.masterIndex, mid, slave + " / " + master, o, slave, master);
+    out.spec.addMortarPair(p.slaveIndex, sid, p.masterIndex, mid, slave + " / " + master, o);
+    out.sides.emplace_back(slave, master);
   }
   // rigid obstacles of single bodies ([[contact]] with body = ..., or a one-body scene's [contact]),
   // after the pairs
-  std::vector<int> obstacleBody;
-  const std::vector<const Scene*> bodies = scene.bodyScenes();
   for (std::size_t i = 0; i < bodies.size(); ++i) {
     const Scene& body = *bodies[i];
     if (!body.contact) continue;
-    obstacles.push_back(makeObstacle(body, meshes[i]->dimension()));
+    out.obstacles.push_back(makeObstacle(body, meshes[i]->dimension()));
+    const Obstacle& obstacle = *out.obstacles.back();
     const std::string slave = sideLabel(body.name, body.contact->boundary);
-    visit.obstacle(static_cast<int>(i), *obstacles.back(), slave + " / obstacle " + body.contact->obstacle, slave,
-                   "obstacle " + body.contact->obstacle);
-    obstacleBody.push_back(static_cast<int>(i));
+    const std::string master = "obstacle " + body.contact->obstacle;
+    out.spec.addObstacleContact(static_cast<int>(i), obstacle, contactBoundaryId(body, *meshes[i]), slave + " / " + master);
+    out.spec.couplings.back().contactSet = [&body, &obstacle](const mesh::Mesh& mesh) {
+      return makeContactSet(body, mesh, obstacle);
+    };
+    out.sides.emplace_back(slave, master);
   }
-  return obstacleBody;
+  return out;
 }
-
-template <int d>
-std::vector<int> buildContactModel(const Scene& scene, const std::vector<const mesh::Mesh*>& meshes,
-                                   const std::vector<BoundaryConditions>& bcs, ContactModel<d>& model,
-                                   std::vector<std::unique_ptr<Obstacle>>& obstacles) {
-  const std::vector<const Scene*> bodies = scene.bodyScenes();
-  for (std::size_t i = 0; i < bodies.size(); ++i) model.addBody(bodies[i]->name, *meshes[i], bodies[i]->material, bcs[i]);
-  CouplingVisitor visit;
-  visit.pair = [&](int slave, int sid, int master, int mid, const std::string& label, const MortarOptions& o,
-                   const std::string&, const std::string&) { model.addMortarPair(slave, sid, master, mid, label, o); };
-  visit.obstacle = [&](int body, const Obstacle& obstacle, const std::string& label, const std::string&,
-                       const std::string&) {
-    model.addObstacleContact(body, makeContactSet(*bodies[body], *meshes[body], obstacle), label);
-  };
-  return visitCouplings(scene, meshes, obstacles, visit);
-}
-
-template std::vector<int> buildContactModel<2>(const Scene&, const std::vector<const mesh::Mesh*>&,
-                                               const std::vector<BoundaryConditions>&, ContactModel<2>&,
-                                               std::vector<std::unique_ptr<Obstacle>>&);
-template std::vector<int> buildContactModel<3>(const Scene&, const std::vector<const mesh::Mesh*>&,
-                                               const std::vector<BoundaryConditions>&, ContactModel<3>&,
-                                               std::vector<std::unique_ptr<Obstacle>>&);
 
 PairReport pairReport(const CouplingRecord& rec, const std::string& slave, const std::string& master, int dim) {
   PairReport r;

@@ -116,7 +116,10 @@ AdaptiveLoop::AdaptiveLoop(std::vector<AdaptiveBody> bodies, AdaptiveLoopOptions
   }
   if (options_.maxSteps < 1)
     throw Error("adaptive loop: maxSteps must be at least 1, got " + std::to_string(options_.maxSteps));
-  for (const AdaptiveBody& b : bodies_) b.material->validate();
+  for (const AdaptiveBody& b : bodies_) {
+    b.material->validate();
+    model_.addBody(b.name, *b.material, *b.bc);
+  }
   const bool needEstimator = options_.mode == RefinementMode::Adaptive || options_.estimateUniform;
   if (needEstimator) registryOf(options_).description(options_.estimator);  // throws, listing the names
   if (options_.mode == RefinementMode::Adaptive) MarkingStrategy(options_.marking, options_.markingParameter);
@@ -129,27 +132,22 @@ void AdaptiveLoop::checkBody(int body, const std::string& what) const {
 }
 
 void AdaptiveLoop::setContact(const Obstacle& obstacle, int boundaryId) {
-  couplings_.clear();
+  model_.couplings.clear();
   addObstacleContact(0, obstacle, boundaryId);
 }
 
 void AdaptiveLoop::addObstacleContact(int body, const Obstacle& obstacle, int boundaryId, std::string label) {
-  checkBody(body, "obstacle contact '" + label + "'");
-  CouplingSpec c;
+  ContactModelSpec::Coupling c;
   c.label = std::move(label);
   c.body = body;
   c.boundaryId = boundaryId;
   c.obstacle = &obstacle;
-  couplings_.push_back(std::move(c));
+  addCoupling(std::move(c));
 }
 
 void AdaptiveLoop::addMortarContact(int slave, int slaveId, int master, int masterId, std::string label,
                                     const MortarOptions& options) {
-  checkBody(slave, "mortar pair '" + label + "'");
-  checkBody(master, "mortar pair '" + label + "'");
-  if (slave == master)
-    throw Error("adaptive loop: mortar pair '" + label + "': slave and master belong to the same body");
-  CouplingSpec c;
+  ContactModelSpec::Coupling c;
   c.label = std::move(label);
   c.mortar = true;
   c.body = slave;
@@ -157,7 +155,20 @@ void AdaptiveLoop::addMortarContact(int slave, int slaveId, int master, int mast
   c.master = master;
   c.masterId = masterId;
   c.options = options;
-  couplings_.push_back(std::move(c));
+  addCoupling(std::move(c));
+}
+
+void AdaptiveLoop::addCoupling(ContactModelSpec::Coupling c) {
+  if (c.mortar) {
+    checkBody(c.body, "mortar pair '" + c.label + "'");
+    checkBody(c.master, "mortar pair '" + c.label + "'");
+    if (c.body == c.master)
+      throw Error("adaptive loop: mortar pair '" + c.label + "': slave and master belong to the same body");
+  } else {
+    checkBody(c.body, "obstacle contact '" + c.label + "'");
+    if (!c.obstacle) throw Error("adaptive loop: obstacle contact '" + c.label + "' without obstacle");
+  }
+  model_.couplings.push_back(std::move(c));
 }
 
 void AdaptiveLoop::setReference(ContactReference reference) { reference_ = std::move(reference); }
@@ -515,7 +526,7 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
   std::vector<const mesh::Grid*> grids;
   for (const AdaptiveBody& b : bodies_) grids.push_back(b.grid);
   std::vector<const Obstacle*> couplingObstacles;  // per coupling, null for mortar pairs
-  for (const CouplingSpec& c : couplings_) couplingObstacles.push_back(c.mortar ? nullptr : c.obstacle);
+  for (const ContactModelSpec::Coupling& c : model_.couplings) couplingObstacles.push_back(c.mortar ? nullptr : c.obstacle);
 
   std::vector<AdaptiveStep> steps;
   lastRate_ = lastEnergyNorm_ = 0;
@@ -561,19 +572,10 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
     std::optional<ContactProblem<d>> problem;
     Eigen::VectorXd u, x;
     const bool warm = options_.warmStart && start.size() == rec.unknowns;
-    if (!couplings_.empty()) {
-      model.emplace();  // the contact model, as in static and dynamic runs
-      for (std::size_t i = 0; i < nb; ++i)
-        model->addBody(bodies_[i].name, views[i].mesh, *bodies_[i].material, *bodies_[i].bc);
-      for (const CouplingSpec& c : couplings_) {
-        if (c.mortar) {
-          model->addMortarPair(c.body, c.boundaryId, c.master, c.masterId, c.label, c.options);
-        } else {
-          ContactSet set(views[c.body].mesh, c.boundaryId, *c.obstacle);
-          const std::string label = c.label.empty() ? set.boundaryLabel() : c.label;
-          model->addObstacleContact(c.body, std::move(set), label);
-        }
-      }
+    if (!model_.couplings.empty()) {
+      std::vector<const mesh::Mesh*> meshes;
+      for (const mesh::GridView& v : views) meshes.push_back(&v.mesh);
+      model.emplace(makeContactModel<d>(model_, meshes));  // the contact model, as in static and dynamic runs
       problem.emplace(model->assemble());
       rec.assemblySeconds = since(t);
       x = warm ? problem->fromDisplacement(start) : Eigen::VectorXd::Zero(rec.unknowns);
@@ -634,7 +636,7 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
     }
     if (outputs)
       for (double mu : outputs->multiplier) rec.load += mu;
-    if (reference_ && nb == 1 && couplings_.size() == 1 && !couplings_[0].mortar)
+    if (reference_ && nb == 1 && model_.couplings.size() == 1 && !model_.couplings[0].mortar)
       rec.reference = referenceErrors(views[0].mesh, *body[0].set, *body[0].outputs, *reference_);
 
     // estimate (not on an unconverged solution: its residual is the solver's, not the

@@ -47,6 +47,57 @@ void ContactModel<d>::addMortarPair(int slave, int slaveId, int master, int mast
   couplings_.push_back(std::move(c));
 }
 
+int ContactModelSpec::addBody(std::string name, const Material& material, const BoundaryConditions& bc) {
+  bodies.push_back(Body{std::move(name), &material, &bc});
+  return static_cast<int>(bodies.size()) - 1;
+}
+
+void ContactModelSpec::addObstacleContact(int body, const Obstacle& obstacle, int boundaryId, std::string label) {
+  Coupling c;
+  c.label = std::move(label);
+  c.body = body;
+  c.boundaryId = boundaryId;
+  c.obstacle = &obstacle;
+  couplings.push_back(std::move(c));
+}
+
+void ContactModelSpec::addMortarPair(int slave, int slaveId, int master, int masterId, std::string label,
+                                     const MortarOptions& options) {
+  Coupling c;
+  c.label = std::move(label);
+  c.mortar = true;
+  c.body = slave;
+  c.boundaryId = slaveId;
+  c.master = master;
+  c.masterId = masterId;
+  c.options = options;
+  couplings.push_back(std::move(c));
+}
+
+template <int d>
+ContactModel<d> makeContactModel(const ContactModelSpec& spec, const std::vector<const mesh::Mesh*>& meshes) {
+  if (meshes.size() != spec.bodies.size())
+    throw Error("contact model: " + std::to_string(meshes.size()) + " meshes for " +
+                std::to_string(spec.bodies.size()) + " bodies");
+  ContactModel<d> model;
+  for (std::size_t i = 0; i < spec.bodies.size(); ++i)
+    model.addBody(spec.bodies[i].name, *meshes[i], *spec.bodies[i].material, *spec.bodies[i].bc);
+  for (const ContactModelSpec::Coupling& c : spec.couplings) {
+    if (c.mortar) {
+      model.addMortarPair(c.body, c.boundaryId, c.master, c.masterId, c.label, c.options);
+      continue;
+    }
+    if (c.body < 0 || c.body >= static_cast<int>(meshes.size()))
+      throw Error("contact model: obstacle contact '" + c.label + "' for body " + std::to_string(c.body) +
+                  " (no such body)");
+    if (!c.obstacle && !c.contactSet) throw Error("contact model: obstacle contact '" + c.label + "' without obstacle");
+    ContactSet set = c.contactSet ? c.contactSet(*meshes[c.body]) : ContactSet(*meshes[c.body], c.boundaryId, *c.obstacle);
+    std::string label = c.label.empty() ? set.boundaryLabel() : c.label;
+    model.addObstacleContact(c.body, std::move(set), std::move(label));
+  }
+  return model;
+}
+
 template <int d>
 ContactProblem<d> ContactModel<d>::assemble() {
   Parts p = assembleParts(true);
@@ -257,5 +308,7 @@ template std::vector<CouplingRecord> couplingRecords<2>(const ContactModel<2>&, 
 template std::vector<CouplingRecord> couplingRecords<3>(const ContactModel<3>&, const ContactProblem<3>&,
                                                         const Eigen::VectorXd&, const ContactOutputs&);
 template class ContactModel<3>;
+template ContactModel<2> makeContactModel<2>(const ContactModelSpec&, const std::vector<const mesh::Mesh*>&);
+template ContactModel<3> makeContactModel<3>(const ContactModelSpec&, const std::vector<const mesh::Mesh*>&);
 
 }  // namespace obs

@@ -53,7 +53,7 @@ NewmarkOptions newmarkOptions(const Scene& scene, const std::string& scheme);
 
 /// Runs the scene (scene.dynamics set, its bodies built and validated): body i of
 /// Scene::bodyScenes on grids[i] with leaf mesh meshes[i] and conditions bcs[i], stacked in this
-/// order, with the contact model of the scene (SceneSolver.hpp buildContactModel). `result` holds
+/// order, with the contact model of the scene (SceneSolver.hpp sceneCouplings). `result` holds
 /// the mesh figures of runScene, `start` the time the run began. Initial states per body
 /// ([[body]] initial_velocity / initial_displacement, default the [dynamics] ones); one .vtu per
 /// body and output step (a one-body file: <scene>_NNNNNN.vtu; several bodies:

@@ -57,45 +57,35 @@ struct SceneSolution {
 
 /// Solves a validated scene on its bodies' grids, leaf meshes and boundary conditions (in the
 /// order of Scene::bodyScenes). With contact the problem is the ContactModel of the bodies and
-/// couplings (buildContactModel), solved by the [solver] (TNNMG on the block-stacked hierarchies by
+/// couplings (sceneCouplings, makeContactModel), solved by the [solver] (TNNMG on the block-stacked hierarchies by
 /// default); without contact (one body) linear elasticity by CHOLMOD or linear multigrid.
 SceneSolution solveScene(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
                          const std::vector<const mesh::Mesh*>& meshes, const std::vector<BoundaryConditions>& bcs,
                          const IterationProgress& progress = {}, const AssembledCallback& assembled = {});
 
-/// What visitCouplings reports of each coupling of a scene: a mortar pair (slave body
-/// and boundary id, master body and boundary id, label "slave / master", options, the two side
-/// labels "body:boundary") or a rigid obstacle of one body (the obstacle, label, side labels).
-struct CouplingVisitor {
-  std::function<void(int slave, int slaveId, int master, int masterId, const std::string& label,
-                     const MortarOptions& options, const std::string& slaveLabel, const std::string& masterLabel)>
-      pair;
-  std::function<void(int body, const Obstacle& obstacle, const std::string& label, const std::string& slaveLabel,
-                     const std::string& masterLabel)>
-      obstacle;
+/// The contact model of a scene without meshes (ContactModelSpec), resolved once for every runner:
+/// the bodies (Scene::bodyScenes with their boundary conditions), then the couplings in the order
+/// every runner uses: the [[contact]] mortar pairs in scene order, then the rigid obstacles of single
+/// bodies (a one-body scene: its [contact]), whose contact sets makeContactSet makes (with its
+/// checks and the scene's lines in messages). Static and dynamic runs build the model with
+/// makeContactModel on the bodies' meshes; the adaptive loop keeps the specification and builds
+/// the model on every step's leaf views.
+struct SceneCouplings {
+  ContactModelSpec spec;
+  std::vector<std::unique_ptr<Obstacle>> obstacles;  ///< of the obstacle couplings (owned here)
+  /// Per coupling: the side labels "body:boundary" of the slave and master side ("obstacle <type>").
+  std::vector<std::pair<std::string, std::string>> sides;
 };
 
-/// The couplings of a scene in the order every runner uses: the [[contact]] mortar pairs in scene
-/// order, then the rigid obstacles of single bodies (a one-body scene: its [contact]) (created with makeObstacle and kept in
-/// `obstacles`, which must outlive their use). Boundaries are resolved on `meshes` (the bodies'
-/// meshes; obs::Error naming the scene line if one does not exist). Returns the body of each
-/// obstacle coupling, in order. buildContactModel and the adaptive runner build on it.
-std::vector<int> visitCouplings(const Scene& scene, const std::vector<const mesh::Mesh*>& meshes,
-                                std::vector<std::unique_ptr<Obstacle>>& obstacles, const CouplingVisitor& visit);
+/// The SceneCouplings of a scene on its bodies' meshes (boundaries are resolved on them; obs::Error
+/// naming the scene line if one does not exist) with the boundary conditions `bcs` (kept by
+/// pointer: they must outlive the specification's use).
+SceneCouplings sceneCouplings(const Scene& scene, const std::vector<const mesh::Mesh*>& meshes,
+                              const std::vector<BoundaryConditions>& bcs);
 
 /// The report of one contact pair (summary.json "pairs") from the model's CouplingRecord, with the
 /// side labels "body:boundary" (or "obstacle <type>") and the radius of the contact zone (3D:
 /// sqrt(area / pi), 2D: area / 2); shared by the static and the adaptive runner.
 PairReport pairReport(const CouplingRecord& record, const std::string& slave, const std::string& master, int dim);
-
-/// The contact model of a scene, built once for every runner (static, dynamic): the bodies
-/// (scene.bodyScenes()[i] on meshes[i] with bcs[i]), the [[contact]] mortar pairs in scene order,
-/// then the rigid obstacles of single bodies (their obstacles are kept in `obstacles`, which must
-/// outlive the model). Returns the body of each obstacle coupling, in order. Throws obs::Error
-/// naming the scene line for unknown boundaries.
-template <int d>
-std::vector<int> buildContactModel(const Scene& scene, const std::vector<const mesh::Mesh*>& meshes,
-                                   const std::vector<BoundaryConditions>& bcs, ContactModel<d>& model,
-                                   std::vector<std::unique_ptr<Obstacle>>& obstacles);
 
 }  // namespace obs::drivers

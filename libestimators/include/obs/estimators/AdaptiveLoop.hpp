@@ -249,6 +249,9 @@ public:
   /// `master` (MortarCoupling.hpp), rebuilt on the leaf views of every step.
   void addMortarContact(int slave, int slaveId, int master, int masterId, std::string label = {},
                         const MortarOptions& options = {});
+  /// Adds a coupling of a ContactModelSpec (the loop's bodies are the specification's bodies): the
+  /// two functions above, or an obstacle coupling whose contact set a driver makes itself.
+  void addCoupling(ContactModelSpec::Coupling coupling);
   /// An analytic reference (AnalyticContact.hpp): every step then records ReferenceErrors.
   void setReference(ContactReference reference);
   /// The function called after every step (replaces an earlier one).
@@ -281,21 +284,11 @@ private:
   /// The relative solver tolerance of step rec (AdaptiveLoopOptions::inexactFraction).
   double inexactTolerance(const std::vector<AdaptiveStep>& steps, const AdaptiveStep& rec, int d) const;
 
-  /// A coupling as given (rebuilt on the leaf views of every step).
-  struct CouplingSpec {
-    std::string label;
-    bool mortar = false;
-    int body = -1;             ///< obstacle: the body; mortar: the slave body
-    int boundaryId = 0;        ///< obstacle: the contact boundary; mortar: the slave boundary
-    const Obstacle* obstacle = nullptr;
-    int master = -1, masterId = 0;
-    MortarOptions options;
-  };
   void checkBody(int body, const std::string& what) const;
 
   std::vector<AdaptiveBody> bodies_;
   AdaptiveLoopOptions options_;
-  std::vector<CouplingSpec> couplings_;
+  ContactModelSpec model_;  ///< the bodies and couplings, built on every step's leaf views
   std::optional<ContactReference> reference_;
   Callback callback_;
   StateHook stateHook_;

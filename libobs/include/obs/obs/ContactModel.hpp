@@ -12,6 +12,7 @@
 /// bc, contactSet).
 #include <Eigen/Core>
 
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -23,6 +24,7 @@
 #include "obs/obs/Material.hpp"
 #include "obs/obs/MortarCoupling.hpp"
 #include "obs/obs/MultiBody.hpp"
+#include "obs/obs/Obstacle.hpp"
 
 namespace obs {
 
@@ -99,6 +101,47 @@ private:
   std::vector<Coupling> couplings_;
   Index numVertices_ = 0;
 };
+
+/// A contact model without meshes: the bodies (name, material, boundary conditions) and the
+/// couplings by boundary id, valid on every refinement of the bodies' grids (refinement keeps the
+/// boundary ids). makeContactModel builds the ContactModel on the bodies' current meshes; the
+/// adaptive loop keeps a specification and builds the model once per step's leaf views, the
+/// drivers once per scene (docs/architecture.md#multi-body). Materials, boundary conditions and
+/// obstacles are held by pointer and must outlive the specification's use.
+struct ContactModelSpec {
+  struct Body {
+    std::string name;
+    const Material* material = nullptr;
+    const BoundaryConditions* bc = nullptr;
+  };
+  struct Coupling {
+    std::string label;
+    bool mortar = false;
+    int body = -1;       ///< obstacle: the body; mortar: the slave body
+    int boundaryId = 0;  ///< obstacle: the contact boundary; mortar: the slave boundary
+    const Obstacle* obstacle = nullptr;  ///< obstacle couplings
+    /// Obstacle couplings: makes the ContactSet on the body's mesh (unset: ContactSet(mesh,
+    /// boundaryId, *obstacle); a driver sets it to add the checks and messages of its input).
+    std::function<ContactSet(const mesh::Mesh&)> contactSet;
+    int master = -1, masterId = 0;  ///< mortar pairs: the master body and boundary
+    MortarOptions options;          ///< mortar pairs
+  };
+  std::vector<Body> bodies;
+  std::vector<Coupling> couplings;
+
+  /// Adds a body; returns its index.
+  int addBody(std::string name, const Material& material, const BoundaryConditions& bc);
+  /// Body `body` against a rigid obstacle on its boundary `boundaryId`.
+  void addObstacleContact(int body, const Obstacle& obstacle, int boundaryId, std::string label = {});
+  /// A dual-mortar pair between boundary `slaveId` of body `slave` and `masterId` of body `master`.
+  void addMortarPair(int slave, int slaveId, int master, int masterId, std::string label,
+                     const MortarOptions& options = {});
+};
+
+/// The ContactModel of `spec` on the bodies' meshes (meshes[i] of spec.bodies[i]; they must outlive
+/// the model). An obstacle coupling without label is named by its contact set (boundaryLabel()).
+template <int d>
+ContactModel<d> makeContactModel(const ContactModelSpec& spec, const std::vector<const mesh::Mesh*>& meshes);
 
 /// The figures of one coupling of a solved model (an obstacle on a body's boundary or a mortar pair),
 /// reported per pair by every runner (couplingRecords).
