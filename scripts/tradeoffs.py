@@ -112,18 +112,17 @@ def dynamic_inexact():
                       f"{fmt(d['max_contact_force'], 5)} | {fmt(d['contact_force_variation'], 4)} | {saved_it} | {saved} |")
     md += ["", "The time error is so much larger than 1e-11 that the tolerance sits at the cap 1e-2 in",
            "almost every step (the rows' maximum; the minimum is the first two steps). What that saves is",
-           "bounded from below by the stopping test itself: TNNMG starts each step from the predictor, its",
-           "first relative correction is 1, so a step takes at least 2 iterations. Geometry 1 already",
-           "converges to 1e-11 in those 2 (the step matrix M + tau^2/4 A is dominated by the lumped mass at",
-           "tau = 1e-3), so inexact solves change nothing there: both runs write bitwise the same",
-           "results, and the difference of their times is the noise of the machine. The saving is where",
-           "the exact solves need more (the ball: 3 -> 2 per step, Geometry B: 6 -> ~2). Energy,",
-           "penetration and contact forces agree to the digits shown for the ball and to five digits for",
-           "Geometry B (the second iteration is already accurate far below the time error). Against the",
-           "issue's goal of 30 % less solver time: nothing on Geometry 1, about 20 % on the ball, about",
-           "half on Geometry B. Solver time falls less than the iteration count: every solve has fixed",
-           "costs (right-hand side and bounds in the rotated basis, KKT residuals of the result), and the",
-           "estimate costs two products with S per step outside the solver."]
+           "bounded from below by one iteration per step. Geometry 1 already converges to 1e-11 in one, which",
+           "TNNMG's error bound certifies (docs/theory.md#tnnmg-error-bound; the step matrix M + tau^2/4 A is",
+           "dominated by the lumped mass at tau = 1e-3), so inexact solves change nothing there: both runs",
+           "take 200 iterations and write the same energies, and the difference of their times is the noise of",
+           "the machine. The saving is where the exact solves need more (the ball: 2 -> 1 per step, Geometry B:",
+           "6 -> ~2). Energy, penetration and contact forces agree to the digits shown for the ball and to five",
+           "digits for Geometry B. Against the issue's goal of 30 % less solver time: nothing on Geometry 1,",
+           "about a third on the ball, about half on Geometry B. Solver time falls less than the iteration",
+           "count: every solve has fixed costs (right-hand side and bounds in the rotated basis, KKT residuals",
+           "of the result), and the estimate costs two products with S per step outside the solver.",
+           "(History: [docs/history.md](history.md#tradeoffs-inexact-time-stepping-history).)"]
     return md
 
 
