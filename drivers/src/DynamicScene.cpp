@@ -735,36 +735,12 @@ ContactSet mergedContactSet(const Scene& scene, const SceneCouplings& couplings,
   }
 }
 
-/// runDynamicScene on the bodies of the scene (Context::bodies, in stacked order).
-RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodies, const SceneCouplings& couplings,
-                      const RunOptions& options, RunResult r, Clock::time_point start) {
+/// The tracked vertices of [dynamics] tracked: the stacked vertex nearest to each point (of
+/// coinciding vertices, the two sides of a contact interface, the contact node).
+std::vector<TrackedInfo> trackedVertices(const Scene& scene, const std::vector<mesh::Point>& positions,
+                                         const ContactSet& contact, int dim) {
   const DynamicsSpec& dyn = *scene.dynamics;
-  auto progress = [&](const std::string& line) {
-    if (options.progress) options.progress(line);
-  };
-  const OutputLayout layout(scene);
-  const int dim = bodies.front().mesh->dimension();
-  const mesh::Index n = bodies.back().offset + bodies.back().mesh->numVertices();
-  const InterruptGuard interrupts;  // SIGINT/SIGTERM: finish the step, checkpoint, stop
-  // the stacked vertex positions
-  std::vector<mesh::Point> positions;
-  std::vector<const Scene*> owner;  // the body description of each stacked vertex
-  for (const Context::Body& b : bodies)
-    for (mesh::Index v = 0; v < b.mesh->numVertices(); ++v) {
-      positions.push_back(b.mesh->vertex(v));
-      owner.push_back(b.spec);
-    }
-
-  // --restart: the checkpoint must belong to this scene, its bodies and grids
-  std::optional<CheckpointRecord> restart;
-  if (options.restart) {
-    restart = readCheckpoint(*options.restart);
-    checkRunIdentity(*restart, *options.restart, "dynamic", scene, runBodies(bodies, layout));
-  }
-
-  // contact set, tracked vertices, initial state (all checked before any time step)
-  const ContactSet contact =
-      dim == 2 ? mergedContactSet<2>(scene, couplings, bodies) : mergedContactSet<3>(scene, couplings, bodies);
+  const auto n = static_cast<mesh::Index>(positions.size());
   std::vector<TrackedInfo> tracked;
   for (std::size_t k = 0; k < dyn.tracked.size(); ++k) {
     if (dyn.trackedDimensions[k] != dim)
@@ -798,11 +774,20 @@ RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodi
     t.contactNode = node >= 0 && std::isfinite(contact.gap(node));
     tracked.push_back(t);
   }
+  return tracked;
+}
 
-  Context c{scene, options, contact, couplings, tracked, {}, {}, 0, {}, false, {}, nullptr, {}, bodies, layout};
-  c.steps = dyn.steps ? *dyn.steps : static_cast<int>(std::ceil(*dyn.endTime / dyn.timeStep - 1e-9));
-  c.u0 = Eigen::VectorXd::Zero(n * dim);
-  c.v0 = Eigen::VectorXd::Zero(n * dim);
+/// The initial state u^0, v^0 on the stacked vertices: a body's own [[body]] initial_displacement /
+/// initial_velocity, else the [dynamics] ones, evaluated at the vertices (owner: the body of each),
+/// then the Dirichlet values with velocity 0 at the prescribed components. Returns the stacked
+/// Dirichlet data.
+DirichletValues initialState(const Scene& scene, const std::vector<Context::Body>& bodies,
+                             const std::vector<mesh::Point>& positions, const std::vector<const Scene*>& owner, int dim,
+                             Eigen::VectorXd& u0, Eigen::VectorXd& v0) {
+  const DynamicsSpec& dyn = *scene.dynamics;
+  const auto n = static_cast<mesh::Index>(positions.size());
+  u0 = Eigen::VectorXd::Zero(n * dim);
+  v0 = Eigen::VectorXd::Zero(n * dim);
   // u^0, v^0: a body's own [[body]] initial_displacement / initial_velocity, else the [dynamics] ones
   auto evaluate = [&](bool velocity, Eigen::VectorXd& x) {
     for (mesh::Index v = 0; v < n; ++v) {
@@ -827,31 +812,162 @@ RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodi
       }
     }
   };
-  evaluate(false, c.u0);
-  evaluate(true, c.v0);
+  evaluate(false, u0);
+  evaluate(true, v0);
   DirichletValues dirichlet;
-  {
-    dirichlet.constrained.assign(static_cast<std::size_t>(n) * dim, 0);
-    dirichlet.values = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n) * dim);
-    for (const Context::Body& b : bodies) {
-      const DirichletValues own = collectDirichlet(*b.mesh, b.bc->dirichlet);
-      // a body prescribed everywhere moves as its Dirichlet data say: an initial velocity of its own
-      // would be overwritten below without a word
-      if (!b.spec->bodyInitialVelocity.empty() &&
-          std::all_of(own.constrained.begin(), own.constrained.end(), [](char f) { return f != 0; }))
-        throw Error(scene.where(b.spec->bodyInitialVelocityLine) + "[[body]] '" + b.spec->name +
-                    "' initial_velocity: every vertex of the body is prescribed ([[dirichlet]] everywhere = true), "
-                    "so it moves as its prescribed displacement says; remove initial_velocity");
-      const auto off = static_cast<std::size_t>(b.offset) * dim;
-      std::copy(own.constrained.begin(), own.constrained.end(), dirichlet.constrained.begin() + static_cast<std::ptrdiff_t>(off));
-      dirichlet.values.segment(static_cast<Eigen::Index>(off), own.values.size()) = own.values;
-    }
+  dirichlet.constrained.assign(static_cast<std::size_t>(n) * dim, 0);
+  dirichlet.values = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n) * dim);
+  for (const Context::Body& b : bodies) {
+    const DirichletValues own = collectDirichlet(*b.mesh, b.bc->dirichlet);
+    // a body prescribed everywhere moves as its Dirichlet data say: an initial velocity of its own
+    // would be overwritten below without a word
+    if (!b.spec->bodyInitialVelocity.empty() &&
+        std::all_of(own.constrained.begin(), own.constrained.end(), [](char f) { return f != 0; }))
+      throw Error(scene.where(b.spec->bodyInitialVelocityLine) + "[[body]] '" + b.spec->name +
+                  "' initial_velocity: every vertex of the body is prescribed ([[dirichlet]] everywhere = true), "
+                  "so it moves as its prescribed displacement says; remove initial_velocity");
+    const auto off = static_cast<std::size_t>(b.offset) * dim;
+    std::copy(own.constrained.begin(), own.constrained.end(), dirichlet.constrained.begin() + static_cast<std::ptrdiff_t>(off));
+    dirichlet.values.segment(static_cast<Eigen::Index>(off), own.values.size()) = own.values;
   }
-  for (Eigen::Index i = 0; i < c.u0.size(); ++i)
+  for (Eigen::Index i = 0; i < u0.size(); ++i)
     if (dirichlet.constrained[static_cast<std::size_t>(i)]) {
-      c.u0[i] = dirichlet.values[i];
-      c.v0[i] = 0;
+      u0[i] = dirichlet.values[i];
+      v0[i] = 0;
     }
+  return dirichlet;
+}
+
+/// The run's figures (RunResult): the first scheme's solver and contact figures, the setup and
+/// step times of all schemes, max |u| and max von Mises of the final state (per body where the
+/// layout reports bodies).
+void reportDynamics(const Scene& scene, const OutputLayout& layout, const ContactSet& contact,
+                    const std::vector<Context::Body>& bodies, const std::vector<SchemeRun>& runs, RunResult& r) {
+  const int dim = bodies.front().mesh->dimension();
+  const SchemeRun& primary = runs.front();
+  for (const SchemeRun& run : runs) {
+    r.assemblySeconds += run.setupSeconds;
+    r.solveSeconds += run.stepSeconds;
+  }
+  r.solver.type = "tnnmg";
+  r.solver.iterations = static_cast<int>(std::min<long long>(primary.iterations, std::numeric_limits<int>::max()));
+  r.solver.converged = true;
+  r.solver.seconds = primary.solverSeconds;
+  r.solver.tolerance = solverConfig(scene).tolerance;
+  ContactReport cr;
+  cr.obstacle = layout.perBody() ? contact.obstacleName() : scene.contact->obstacle;
+  cr.boundary = layout.perBody() ? contact.boundaryLabel() : scene.contact->boundary.describe();
+  cr.boundaryVertices = contact.size();
+  for (Index k = 0; k < contact.size(); ++k)
+    if (std::isfinite(contact.gap(k))) ++cr.potentialVertices;
+  cr.actualVertices = primary.last.activeSolution;
+  for (int a = 0; a < 3; ++a) cr.force[a] = primary.last.contactForce[a];
+  cr.load = primary.last.contactForce.norm();
+  cr.maxViolation = primary.last.maxPenetration;
+  r.contact = cr;
+  for (const Context::Body& b : bodies) {
+    BodyReport br;
+    br.name = b.spec->name;
+    br.vertices = b.mesh->numVertices();
+    br.cells = b.mesh->numCells();
+    ElasticitySolution sol;
+    sol.dimension = dim;
+    sol.displacement = primary.u.segment(static_cast<Eigen::Index>(b.offset) * dim, br.vertices * dim);
+    recoverStresses(*b.mesh, b.spec->material, sol);
+    for (mesh::Index v = 0; v < b.mesh->numVertices(); ++v)
+      br.maxDisplacement = std::max(br.maxDisplacement, sol.displacement.segment(v * dim, dim).norm());
+    for (const Stress& st : sol.cellStress) br.maxVonMises = std::max(br.maxVonMises, vonMises(st));
+    r.maxDisplacement = std::max(r.maxDisplacement, br.maxDisplacement);
+    r.maxVonMises = std::max(r.maxVonMises, br.maxVonMises);
+    if (layout.perBody()) r.bodies.push_back(br);
+  }
+}
+
+/// The end of a dynamic run: the .pvd of the first scheme's .vtu files (one part per body), the
+/// runs.csv row, the plots, summary.json (the run, "dynamics" of the first scheme and, comparing
+/// schemes, "dynamics_comparison" with the schemes that failed) and the "written" line.
+void writeDynamicOutputs(const Context& c, const RunOptions& options, const std::vector<SchemeRun>& runs,
+                         const std::vector<std::pair<std::string, std::string>>& failed, bool comparison,
+                         RunResult& r, Clock::time_point start) {
+  const Scene& scene = c.scene;
+  const SchemeRun& primary = runs.front();
+  const auto t = Clock::now();
+  for (const SchemeRun& run : runs) r.outputFiles.push_back(run.timeseries);
+  for (const fs::path& f : primary.vtuFiles) r.outputFiles.push_back(f);
+  if (!primary.vtuFiles.empty()) {
+    const fs::path pvd = c.dir / (scene.name + ".pvd");
+    const std::size_t parts = c.bodies.size();  // the files come in groups of parts per time
+    std::vector<PvdEntry> entries;
+    for (std::size_t i = 0; i < primary.vtuFiles.size(); ++i)
+      entries.push_back(PvdEntry{primary.vtuTimes[i], static_cast<int>(i % parts), primary.vtuFiles[i].filename().string()});
+    writePvdCollection(pvd, entries);
+    r.outputFiles.push_back(pvd);
+  }
+  recordRunRow(scene, c.dir, r, t, start);
+  if (scene.output.plots || options.plots) {
+    runPlots(c.dir, options);
+    for (const char* png : {"dyn_energy.png", "dyn_contact_force.png", "dyn_active.png", "dyn_velocity.png"})
+      if (fs::exists(c.dir / png)) r.outputFiles.push_back(c.dir / png);
+  }
+  const fs::path summary = c.dir / "summary.json";
+  r.outputFiles.push_back(summary);
+  r.outputSeconds = secondsSince(t);
+  r.totalSeconds = secondsSince(start);
+  nlohmann::json j = summaryJson(r);
+  j["dynamics"] = schemeJson(c, primary);
+  if (comparison) {
+    nlohmann::json all = nlohmann::json::array();
+    for (const SchemeRun& run : runs) all.push_back(schemeJson(c, run));
+    for (const auto& [scheme, message] : failed) all.push_back({{"scheme", scheme}, {"error", message}});
+    j["dynamics_comparison"] = all;
+  }
+  {
+    std::ofstream out(summary);
+    out << j.dump(2) << "\n";
+    if (!out) throw Error(summary.string() + ": cannot write the summary");
+  }
+  std::string written = c.dir.string() + "/{";
+  for (std::size_t i = 0; i < r.outputFiles.size() && i < 6; ++i)
+    written += (i ? ", " : "") + r.outputFiles[i].filename().string();
+  if (r.outputFiles.size() > 6) written += ", ... (" + std::to_string(r.outputFiles.size()) + " files)";
+  if (options.progress) options.progress("written: " + written + "}");
+}
+
+/// runDynamicScene on the bodies of the scene (Context::bodies, in stacked order).
+RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodies, const SceneCouplings& couplings,
+                      const RunOptions& options, RunResult r, Clock::time_point start) {
+  const DynamicsSpec& dyn = *scene.dynamics;
+  auto progress = [&](const std::string& line) {
+    if (options.progress) options.progress(line);
+  };
+  const OutputLayout layout(scene);
+  const int dim = bodies.front().mesh->dimension();
+  const mesh::Index n = bodies.back().offset + bodies.back().mesh->numVertices();
+  const InterruptGuard interrupts;  // SIGINT/SIGTERM: finish the step, checkpoint, stop
+  // the stacked vertex positions
+  std::vector<mesh::Point> positions;
+  std::vector<const Scene*> owner;  // the body description of each stacked vertex
+  for (const Context::Body& b : bodies)
+    for (mesh::Index v = 0; v < b.mesh->numVertices(); ++v) {
+      positions.push_back(b.mesh->vertex(v));
+      owner.push_back(b.spec);
+    }
+
+  // --restart: the checkpoint must belong to this scene, its bodies and grids
+  std::optional<CheckpointRecord> restart;
+  if (options.restart) {
+    restart = readCheckpoint(*options.restart);
+    checkRunIdentity(*restart, *options.restart, "dynamic", scene, runBodies(bodies, layout));
+  }
+
+  // contact set, tracked vertices, initial state (all checked before any time step)
+  const ContactSet contact =
+      dim == 2 ? mergedContactSet<2>(scene, couplings, bodies) : mergedContactSet<3>(scene, couplings, bodies);
+  const std::vector<TrackedInfo> tracked = trackedVertices(scene, positions, contact, dim);
+
+  Context c{scene, options, contact, couplings, tracked, {}, {}, 0, {}, false, {}, nullptr, {}, bodies, layout};
+  c.steps = dyn.steps ? *dyn.steps : static_cast<int>(std::ceil(*dyn.endTime / dyn.timeStep - 1e-9));
+  const DirichletValues dirichlet = initialState(scene, bodies, positions, owner, dim, c.u0, c.v0);
   r.dofs = static_cast<long long>(n) * dim;
   r.freeDofs = r.dofs - dirichlet.count();
 
@@ -919,86 +1035,8 @@ RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodi
     progress(os.str());
   }
 
-  // the run's figures are the first scheme's
-  const SchemeRun& primary = runs.front();
-  for (const SchemeRun& run : runs) {
-    r.assemblySeconds += run.setupSeconds;
-    r.solveSeconds += run.stepSeconds;
-  }
-  r.solver.type = "tnnmg";
-  r.solver.iterations = static_cast<int>(std::min<long long>(primary.iterations, std::numeric_limits<int>::max()));
-  r.solver.converged = true;
-  r.solver.seconds = primary.solverSeconds;
-  r.solver.tolerance = solverConfig(scene).tolerance;
-  ContactReport cr;
-  cr.obstacle = layout.perBody() ? contact.obstacleName() : scene.contact->obstacle;
-  cr.boundary = layout.perBody() ? contact.boundaryLabel() : scene.contact->boundary.describe();
-  cr.boundaryVertices = contact.size();
-  for (Index k = 0; k < contact.size(); ++k)
-    if (std::isfinite(contact.gap(k))) ++cr.potentialVertices;
-  cr.actualVertices = primary.last.activeSolution;
-  for (int a = 0; a < 3; ++a) cr.force[a] = primary.last.contactForce[a];
-  cr.load = primary.last.contactForce.norm();
-  cr.maxViolation = primary.last.maxPenetration;
-  r.contact = cr;
-  for (const Context::Body& b : bodies) {
-    BodyReport br;
-    br.name = b.spec->name;
-    br.vertices = b.mesh->numVertices();
-    br.cells = b.mesh->numCells();
-    ElasticitySolution sol;
-    sol.dimension = dim;
-    sol.displacement = primary.u.segment(static_cast<Eigen::Index>(b.offset) * dim, br.vertices * dim);
-    recoverStresses(*b.mesh, b.spec->material, sol);
-    for (mesh::Index v = 0; v < b.mesh->numVertices(); ++v)
-      br.maxDisplacement = std::max(br.maxDisplacement, sol.displacement.segment(v * dim, dim).norm());
-    for (const Stress& st : sol.cellStress) br.maxVonMises = std::max(br.maxVonMises, vonMises(st));
-    r.maxDisplacement = std::max(r.maxDisplacement, br.maxDisplacement);
-    r.maxVonMises = std::max(r.maxVonMises, br.maxVonMises);
-    if (layout.perBody()) r.bodies.push_back(br);
-  }
-
-  // outputs
-  const auto t = Clock::now();
-  for (const SchemeRun& run : runs) r.outputFiles.push_back(run.timeseries);
-  for (const fs::path& f : primary.vtuFiles) r.outputFiles.push_back(f);
-  if (!primary.vtuFiles.empty()) {
-    const fs::path pvd = c.dir / (scene.name + ".pvd");
-    const std::size_t parts = c.bodies.size();  // the files come in groups of parts per time
-    std::vector<PvdEntry> entries;
-    for (std::size_t i = 0; i < primary.vtuFiles.size(); ++i)
-      entries.push_back(PvdEntry{primary.vtuTimes[i], static_cast<int>(i % parts), primary.vtuFiles[i].filename().string()});
-    writePvdCollection(pvd, entries);
-    r.outputFiles.push_back(pvd);
-  }
-  recordRunRow(scene, c.dir, r, t, start);
-  if (scene.output.plots || options.plots) {
-    runPlots(c.dir, options);
-    for (const char* png : {"dyn_energy.png", "dyn_contact_force.png", "dyn_active.png", "dyn_velocity.png"})
-      if (fs::exists(c.dir / png)) r.outputFiles.push_back(c.dir / png);
-  }
-  const fs::path summary = c.dir / "summary.json";
-  r.outputFiles.push_back(summary);
-  r.outputSeconds = secondsSince(t);
-  r.totalSeconds = secondsSince(start);
-  nlohmann::json j = summaryJson(r);
-  j["dynamics"] = schemeJson(c, primary);
-  if (comparison) {
-    nlohmann::json all = nlohmann::json::array();
-    for (const SchemeRun& run : runs) all.push_back(schemeJson(c, run));
-    for (const auto& [scheme, message] : failed) all.push_back({{"scheme", scheme}, {"error", message}});
-    j["dynamics_comparison"] = all;
-  }
-  {
-    std::ofstream out(summary);
-    out << j.dump(2) << "\n";
-    if (!out) throw Error(summary.string() + ": cannot write the summary");
-  }
-  std::string written = c.dir.string() + "/{";
-  for (std::size_t i = 0; i < r.outputFiles.size() && i < 6; ++i)
-    written += (i ? ", " : "") + r.outputFiles[i].filename().string();
-  if (r.outputFiles.size() > 6) written += ", ... (" + std::to_string(r.outputFiles.size()) + " files)";
-  progress("written: " + written + "}");
+  reportDynamics(scene, layout, contact, bodies, runs, r);
+  writeDynamicOutputs(c, options, runs, failed, comparison, r, start);
   return r;
 }
 

@@ -512,7 +512,190 @@ void bodyContactData(const ContactModel<d>& model, const ContactProblem<d>& prob
   }
 }
 
+/// The contact figures of a step from the solution of the model's problem: per coupling
+/// (couplingRecords), per body (its constrained nodes, outputs, exact gap and master traction:
+/// bodyContactData; then the node classes of every body), the total load, and the reference errors
+/// of one body against one obstacle.
+template <int d>
+void contactFigures(const std::optional<ContactModel<d>>& model, const std::optional<ContactProblem<d>>& problem,
+                    const Eigen::VectorXd& u, const Eigen::VectorXd& x, const std::vector<const Obstacle*>& couplingObstacles,
+                    const std::vector<mesh::GridView>& views, double contactTolerance,
+                    const std::optional<ContactReference>& reference, bool oneObstacle, AdaptiveStep& rec,
+                    std::vector<BodyState>& body) {
+  std::optional<ContactOutputs> outputs;
+  if (problem) {
+    outputs = computeContactOutputs(*problem, x, contactTolerance);
+    rec.couplings = couplingRecords(*model, *problem, x, *outputs);
+    bodyContactData(*model, *problem, u, x, *outputs, couplingObstacles, views, body);
+  }
+  for (std::size_t i = 0; i < body.size(); ++i) {
+    BodyState& b = body[i];
+    b.classes = classifyContactNodes(views[i].mesh, b.contactIds, b.set, b.u, contactTolerance);
+    rec.potentialContact += b.classes.potential;
+    rec.actualContact += b.classes.actual;
+    rec.semiContact += b.classes.semi;
+    rec.fullContact += b.classes.full;
+  }
+  if (outputs)
+    for (double mu : outputs->multiplier) rec.load += mu;
+  if (reference && body.size() == 1 && oneObstacle)
+    rec.reference = referenceErrors(views[0].mesh, *body[0].set, *body[0].outputs, *reference);
+}
+
+/// The estimate of every body on its own contact data, eta = (sum_i eta_i^2)^1/2 and the
+/// contributions summed the same way, and the eoc against the previous step.
+void estimateStep(Estimator& estimator, const std::vector<AdaptiveBody>& bodies, const std::vector<mesh::GridView>& views,
+                  int k, const std::vector<AdaptiveStep>& steps, AdaptiveStep& rec, std::vector<BodyState>& body) {
+  const auto t = Clock::now();
+  const std::size_t nb = body.size();
+  double eta2 = 0;
+  std::vector<Contribution> contributions;
+  for (std::size_t i = 0; i < nb; ++i) {
+    BodyState& b = body[i];
+    EstimatorInput in(views[i].mesh, *bodies[i].material, *bodies[i].bc, b.u);
+    in.meshRevision = static_cast<std::uint64_t>(k);
+    in.contactBoundaryIds = b.estimatorIds;
+    ContactData data;
+    if (b.set || b.traction.size() > 0) {
+      data = ContactData{b.set, b.outputs ? &*b.outputs : nullptr, b.gap, b.traction.size() > 0 ? &b.traction : nullptr,
+                         b.masterIds};
+      in.contact = &data;
+    }
+    b.estimate = estimator.estimate(in);
+    rec.bodies[i].eta = b.estimate->total;
+    eta2 += b.estimate->total * b.estimate->total;
+    for (const Contribution& c : b.estimate->contributions) {
+      auto it = std::find_if(contributions.begin(), contributions.end(),
+                             [&](const Contribution& e) { return e.name == c.name; });
+      if (it == contributions.end()) it = contributions.insert(contributions.end(), Contribution{c.name, 0});
+      it->value += c.value * c.value;
+    }
+  }
+  for (Contribution& c : contributions) c.value = std::sqrt(c.value);
+  rec.estimatorSeconds = since(t);
+  rec.eta = nb == 1 ? body[0].estimate->total : std::sqrt(eta2);
+  rec.contributions = nb == 1 ? body[0].estimate->contributions : contributions;
+  if (!steps.empty())
+    rec.eoc = experimentalOrder(steps.back().eta, static_cast<double>(steps.back().vertices), rec.eta,
+                                static_cast<double>(rec.vertices));
+}
+
+/// Marks among the cells of all bodies (their indicators in body order) and hands each body its
+/// cells; returns the seconds taken. No marked cell makes the step the last.
+double markStep(const MarkingStrategy& marking, AdaptiveStep& rec, std::vector<BodyState>& body, bool& last) {
+  const auto t = Clock::now();
+  std::vector<double> indicators;
+  for (const BodyState& b : body)
+    indicators.insert(indicators.end(), b.estimate->indicators.begin(), b.estimate->indicators.end());
+  std::vector<Index> cells = marking.mark(indicators);
+  std::sort(cells.begin(), cells.end());
+  std::size_t i = 0;
+  Index first = 0;
+  for (Index c : cells) {
+    while (c >= first + rec.bodies[i].cells) first += rec.bodies[i++].cells;
+    body[i].marked.push_back(c - first);
+  }
+  rec.marked = static_cast<Index>(cells.size());
+  for (std::size_t j = 0; j < body.size(); ++j) rec.bodies[j].marked = static_cast<Index>(body[j].marked.size());
+  if (cells.empty()) last = true;
+  return since(t);
+}
+
+/// Refines every body's grid: its marked cells (adaptive; the closure rule set first) or all of
+/// them (uniform); records the marked cells per body in `refinement` and the counts in rec.
+void refineGrids(const std::vector<AdaptiveBody>& bodies, const std::vector<mesh::GridView>& views,
+                 const std::vector<BodyState>& body, bool adaptive, mesh::ClosureRule closure,
+                 std::vector<std::vector<Index>>& refinement, AdaptiveStep& rec) {
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    mesh::Grid& grid = *bodies[i].grid;
+    if (!adaptive) {
+      grid.refineUniformly(threads());
+      continue;
+    }
+    refinement[i] = body[i].marked;
+    if (body[i].marked.empty()) continue;
+    for (Index c : body[i].marked) grid.mark(views[i].elements[c]);
+    grid.setClosureRule(closure);
+    const mesh::AdaptResult r = grid.adapt(threads());
+    rec.refinedRed += r.redRefined;
+    rec.closureRed += r.propagated;
+    rec.greenClosed += r.greenClosed;
+  }
+}
+
+/// The start vector on the new leaf views `next`: each body's solution transferred from `views`
+/// (Prolongation.hpp), stacked; empty without warm starts.
+Eigen::VectorXd transferStart(const std::vector<AdaptiveBody>& bodies, const std::vector<mesh::GridView>& views,
+                              const std::vector<mesh::GridView>& next, const std::vector<BodyState>& body, int d) {
+  std::vector<Eigen::VectorXd> parts;
+  Index total = 0;
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    total += next[i].mesh.numVertices();
+    parts.push_back(transfer(mesh::transferMatrix(*bodies[i].grid, views[i], next[i]), body[i].u, d));
+  }
+  if (parts.size() == 1) return std::move(parts.front());
+  Eigen::VectorXd start(static_cast<Eigen::Index>(total) * d);
+  Eigen::Index at = 0;
+  for (const Eigen::VectorXd& p : parts) {
+    start.segment(at, p.size()) = p;
+    at += p.size();
+  }
+  return start;
+}
+
 }  // namespace
+
+template <int d>
+void AdaptiveLoop::solveStep(const std::vector<mesh::GridView>& views, const std::vector<const mesh::Grid*>& grids,
+                             const Eigen::VectorXd& start, const std::vector<AdaptiveStep>& steps, AdaptiveStep& rec,
+                             std::optional<ContactModel<d>>& model, std::optional<ContactProblem<d>>& problem,
+                             Eigen::VectorXd& u, Eigen::VectorXd& x) {
+  auto t = Clock::now();
+  if (model_.couplings.empty()) {  // linear elasticity: the stacked bodies, CHOLMOD
+    std::vector<const mesh::Mesh*> meshes;
+    std::vector<const Material*> materials;
+    std::vector<const BoundaryConditions*> conditions;
+    for (std::size_t i = 0; i < bodies_.size(); ++i) {
+      meshes.push_back(&views[i].mesh);
+      materials.push_back(bodies_[i].material);
+      conditions.push_back(bodies_[i].bc);
+    }
+    BodySystem<d> sys = assembleBodies<d>(meshes, materials, conditions);
+    applyDirichlet(sys.stiffness, sys.load, sys.dirichlet);
+    rec.assemblySeconds = since(t);
+    t = Clock::now();
+    const CholmodSolver cholmod(sys.stiffness);
+    u = cholmod.solve(sys.load);
+    rec.solverSeconds = since(t);
+    rec.solver = "cholmod";
+    rec.solverIterations = 1;
+    rec.converged = u.allFinite();
+    if (!rec.converged) throw Error("adaptive loop, step " + std::to_string(rec.step) + ": the direct solve gave NaN");
+    return;
+  }
+  std::vector<const mesh::Mesh*> meshes;
+  for (const mesh::GridView& v : views) meshes.push_back(&v.mesh);
+  model.emplace(makeContactModel<d>(model_, meshes));  // the contact model, as in static and dynamic runs
+  problem.emplace(model->assemble());
+  rec.assemblySeconds = since(t);
+  const bool warm = options_.warmStart && start.size() == rec.unknowns;
+  x = warm ? problem->fromDisplacement(start) : Eigen::VectorXd::Zero(rec.unknowns);
+  t = Clock::now();
+  SolverConfig config = options_.solver;
+  if (config.kind == ContactSolverKind::TNNMG) config.tolerance = inexactTolerance(steps, rec, d);
+  rec.solverTolerance = config.tolerance;
+  const ContactResult result = makeContactSolver<d>(config, grids, {}, false)->solve(*problem, x);
+  rec.solverSeconds = since(t);
+  rec.solver = result.solver;
+  rec.solverIterations = result.iterations;
+  rec.converged = result.converged;
+  rec.kkt = result.kkt.max();
+  if (options_.inexactFraction > 0) {  // inputs of the next step's tolerance (inexactTolerance)
+    lastRate_ = result.convergenceRate;
+    lastEnergyNorm_ = freeEnergyNorm<d>(*problem, x, problem->dirichlet());
+  }
+  u = problem->toDisplacement(x);
+}
 
 template <int d>
 std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
@@ -527,6 +710,7 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
   for (const AdaptiveBody& b : bodies_) grids.push_back(b.grid);
   std::vector<const Obstacle*> couplingObstacles;  // per coupling, null for mortar pairs
   for (const ContactModelSpec::Coupling& c : model_.couplings) couplingObstacles.push_back(c.mortar ? nullptr : c.obstacle);
+  const bool oneObstacle = model_.couplings.size() == 1 && !model_.couplings[0].mortar;
 
   std::vector<AdaptiveStep> steps;
   lastRate_ = lastEnergyNorm_ = 0;
@@ -566,139 +750,28 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
     }
     rec.unknowns = rec.vertices * d;
 
-    // assemble and solve
-    auto t = Clock::now();
+    // solve, then the contact figures of the couplings and of every body
     std::optional<ContactModel<d>> model;
     std::optional<ContactProblem<d>> problem;
     Eigen::VectorXd u, x;
-    const bool warm = options_.warmStart && start.size() == rec.unknowns;
-    if (!model_.couplings.empty()) {
-      std::vector<const mesh::Mesh*> meshes;
-      for (const mesh::GridView& v : views) meshes.push_back(&v.mesh);
-      model.emplace(makeContactModel<d>(model_, meshes));  // the contact model, as in static and dynamic runs
-      problem.emplace(model->assemble());
-      rec.assemblySeconds = since(t);
-      x = warm ? problem->fromDisplacement(start) : Eigen::VectorXd::Zero(rec.unknowns);
-      t = Clock::now();
-      ContactResult result;
-      SolverConfig config = options_.solver;
-      if (config.kind == ContactSolverKind::TNNMG) config.tolerance = inexactTolerance(steps, rec, d);
-      rec.solverTolerance = config.tolerance;
-      result = makeContactSolver<d>(config, grids, {}, false)->solve(*problem, x);
-      rec.solverSeconds = since(t);
-      rec.solver = result.solver;
-      rec.solverIterations = result.iterations;
-      rec.converged = result.converged;
-      rec.kkt = result.kkt.max();
-      if (options_.inexactFraction > 0) {  // inputs of the next step's tolerance (inexactTolerance)
-        lastRate_ = result.convergenceRate;
-        lastEnergyNorm_ = freeEnergyNorm<d>(*problem, x, problem->dirichlet());
-      }
-      u = problem->toDisplacement(x);
-    } else {
-      std::vector<const mesh::Mesh*> meshes;
-      std::vector<const Material*> materials;
-      std::vector<const BoundaryConditions*> conditions;
-      for (std::size_t i = 0; i < nb; ++i) {
-        meshes.push_back(&views[i].mesh);
-        materials.push_back(bodies_[i].material);
-        conditions.push_back(bodies_[i].bc);
-      }
-      BodySystem<d> sys = assembleBodies<d>(meshes, materials, conditions);
-      applyDirichlet(sys.stiffness, sys.load, sys.dirichlet);
-      rec.assemblySeconds = since(t);
-      t = Clock::now();
-      const CholmodSolver cholmod(sys.stiffness);
-      u = cholmod.solve(sys.load);
-      rec.solverSeconds = since(t);
-      rec.solver = "cholmod";
-      rec.solverIterations = 1;
-      rec.converged = u.allFinite();
-      if (!rec.converged) throw Error("adaptive loop, step " + std::to_string(k) + ": the direct solve gave NaN");
-    }
+    solveStep<d>(views, grids, start, steps, rec, model, problem, u, x);
     for (std::size_t i = 0; i < nb; ++i)
       body[i].u = u.segment(static_cast<Eigen::Index>(body[i].offset) * d, views[i].mesh.numVertices() * d);
-
-    // contact quantities, per coupling and per body
-    std::optional<ContactOutputs> outputs;
-    if (problem) {
-      outputs = computeContactOutputs(*problem, x, options_.contactTolerance);
-      rec.couplings = couplingRecords(*model, *problem, x, *outputs);
-      bodyContactData(*model, *problem, u, x, *outputs, couplingObstacles, views, body);
-    }
-    for (std::size_t i = 0; i < nb; ++i) {
-      BodyState& b = body[i];
-      b.classes = classifyContactNodes(views[i].mesh, b.contactIds, b.set, b.u, options_.contactTolerance);
-      rec.potentialContact += b.classes.potential;
-      rec.actualContact += b.classes.actual;
-      rec.semiContact += b.classes.semi;
-      rec.fullContact += b.classes.full;
-    }
-    if (outputs)
-      for (double mu : outputs->multiplier) rec.load += mu;
-    if (reference_ && nb == 1 && model_.couplings.size() == 1 && !model_.couplings[0].mortar)
-      rec.reference = referenceErrors(views[0].mesh, *body[0].set, *body[0].outputs, *reference_);
+    contactFigures<d>(model, problem, u, x, couplingObstacles, views, options_.contactTolerance, reference_, oneObstacle,
+                      rec, body);
 
     // estimate (not on an unconverged solution: its residual is the solver's, not the
     // discretisation's, and marking on it would refine the wrong cells; the loop stops there)
-    if (estimator && rec.converged) {
-      t = Clock::now();
-      double eta2 = 0;
-      std::vector<Contribution> contributions;
-      for (std::size_t i = 0; i < nb; ++i) {
-        BodyState& b = body[i];
-        EstimatorInput in(views[i].mesh, *bodies_[i].material, *bodies_[i].bc, b.u);
-        in.meshRevision = static_cast<std::uint64_t>(k);
-        in.contactBoundaryIds = b.estimatorIds;
-        ContactData data;
-        if (b.set || b.traction.size() > 0) {
-          data = ContactData{b.set, b.outputs ? &*b.outputs : nullptr, b.gap,
-                             b.traction.size() > 0 ? &b.traction : nullptr, b.masterIds};
-          in.contact = &data;
-        }
-        b.estimate = estimator->estimate(in);
-        rec.bodies[i].eta = b.estimate->total;
-        eta2 += b.estimate->total * b.estimate->total;
-        for (const Contribution& c : b.estimate->contributions) {
-          auto it = std::find_if(contributions.begin(), contributions.end(),
-                                 [&](const Contribution& e) { return e.name == c.name; });
-          if (it == contributions.end()) it = contributions.insert(contributions.end(), Contribution{c.name, 0});
-          it->value += c.value * c.value;
-        }
-      }
-      for (Contribution& c : contributions) c.value = std::sqrt(c.value);
-      rec.estimatorSeconds = since(t);
-      rec.eta = nb == 1 ? body[0].estimate->total : std::sqrt(eta2);
-      rec.contributions = nb == 1 ? body[0].estimate->contributions : contributions;
-      if (!steps.empty())
-        rec.eoc = experimentalOrder(steps.back().eta, static_cast<double>(steps.back().vertices), rec.eta,
-                                    static_cast<double>(rec.vertices));
-    }
+    if (estimator && rec.converged) estimateStep(*estimator, bodies_, views, k, steps, rec, body);
 
-    // stop?
+    // stop? marking among the cells of all bodies (the refinement itself follows the callback, so
+    // that it sees the grids of the step)
     bool last = !rec.converged || k + 1 == options_.maxSteps ||
                 (options_.targetVertices > 0 && rec.vertices >= options_.targetVertices) ||
                 (options_.etaTolerance > 0 && body[0].estimate && rec.eta <= options_.etaTolerance);
-    // marking among the cells of all bodies (the refinement itself follows the callback, so that it
-    // sees the grids of the step)
     double markSeconds = 0;
     if (!last && adaptive) {
-      t = Clock::now();
-      std::vector<double> indicators;
-      for (const BodyState& b : body)
-        indicators.insert(indicators.end(), b.estimate->indicators.begin(), b.estimate->indicators.end());
-      std::vector<Index> cells = marking->mark(indicators);
-      std::sort(cells.begin(), cells.end());
-      std::size_t i = 0;
-      Index first = 0;
-      for (Index c : cells) {
-        while (c >= first + rec.bodies[i].cells) first += rec.bodies[i++].cells;
-        body[i].marked.push_back(c - first);
-      }
-      rec.marked = static_cast<Index>(cells.size());
-      for (std::size_t j = 0; j < nb; ++j) rec.bodies[j].marked = static_cast<Index>(body[j].marked.size());
-      if (cells.empty()) last = true;
-      markSeconds = since(t);
+      markSeconds = markStep(*marking, rec, body, last);
     } else if (!last) {
       rec.marked = rec.cells;
       for (BodyRecord& br : rec.bodies) br.marked = br.cells;
@@ -721,49 +794,16 @@ std::vector<AdaptiveStep> AdaptiveLoop::runDim() {
       u_ = std::move(u);
       break;
     }
-    t = Clock::now();
-    refinements.emplace_back(nb);
-    for (std::size_t i = 0; i < nb; ++i) {
-      mesh::Grid& grid = *bodies_[i].grid;
-      if (adaptive) refinements.back()[i] = body[i].marked;
-      if (adaptive) {
-        if (body[i].marked.empty()) continue;
-        for (Index c : body[i].marked) grid.mark(views[i].elements[c]);
-        grid.setClosureRule(options_.closure);
-        const mesh::AdaptResult r = grid.adapt(threads());
-        steps.back().refinedRed += r.redRefined;
-        steps.back().closureRed += r.propagated;
-        steps.back().greenClosed += r.greenClosed;
-      } else {
-        grid.refineUniformly(threads());
-      }
-    }
-    steps.back().refinementSeconds = markSeconds + since(t);
 
-    // the next leaf views and the start vector on them
+    // refine, then the next leaf views and the start vector on them
+    auto t = Clock::now();
+    refinements.emplace_back(nb);
+    refineGrids(bodies_, views, body, adaptive, options_.closure, refinements.back(), steps.back());
+    steps.back().refinementSeconds = markSeconds + since(t);
     t = Clock::now();
     std::vector<mesh::GridView> next;
-    std::vector<Eigen::VectorXd> parts;
-    Index total = 0;
-    for (std::size_t i = 0; i < nb; ++i) {
-      next.push_back(bodies_[i].grid->leafView());
-      total += next.back().mesh.numVertices();
-      if (options_.warmStart)
-        parts.push_back(transfer(mesh::transferMatrix(*bodies_[i].grid, views[i], next.back()), body[i].u, d));
-    }
-    start.resize(0);
-    if (options_.warmStart) {
-      if (nb == 1) {
-        start = std::move(parts.front());
-      } else {
-        start.resize(static_cast<Eigen::Index>(total) * d);
-        Eigen::Index at = 0;
-        for (const Eigen::VectorXd& p : parts) {
-          start.segment(at, p.size()) = p;
-          at += p.size();
-        }
-      }
-    }
+    for (const AdaptiveBody& b : bodies_) next.push_back(b.grid->leafView());
+    start = options_.warmStart ? transferStart(bodies_, views, next, body, d) : Eigen::VectorXd();
     transferSeconds = since(t);
     views = std::move(next);
     u_ = std::move(u);

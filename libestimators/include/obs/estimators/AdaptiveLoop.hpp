@@ -281,6 +281,14 @@ public:
 private:
   template <int d>
   std::vector<AdaptiveStep> runDim();
+  /// Assembles and solves step rec on the leaf views (the contact model of model_ and its problem,
+  /// or linear elasticity without couplings) from `start` (warm starts); u the stacked
+  /// displacements, x the problem's unknowns.
+  template <int d>
+  void solveStep(const std::vector<mesh::GridView>& views, const std::vector<const mesh::Grid*>& grids,
+                 const Eigen::VectorXd& start, const std::vector<AdaptiveStep>& steps, AdaptiveStep& rec,
+                 std::optional<ContactModel<d>>& model, std::optional<ContactProblem<d>>& problem, Eigen::VectorXd& u,
+                 Eigen::VectorXd& x);
   /// The relative solver tolerance of step rec (AdaptiveLoopOptions::inexactFraction).
   double inexactTolerance(const std::vector<AdaptiveStep>& steps, const AdaptiveStep& rec, int d) const;
 
