@@ -515,16 +515,13 @@ private:
   std::vector<mesh::Mesh> initial_;
 };
 
-/// The common end of the one-body and multi-body adaptive runs: plots, runs.csv row, summary.json
-/// (the run plus "adaptivity"), the "written" line, and the error of an unconverged last step.
+/// The end of an adaptive run: the plots, finishRun with summary.json "adaptivity", and the error
+/// of an unconverged last step.
 void finishAdaptiveRun(const Scene& scene, const RunOptions& options, const fs::path& dir, const fs::path& stepsCsv,
                        const std::vector<est::AdaptiveStep>& steps, const NodalErrors& nodalErrors,
                        double theta, RunResult& r, Clock::time_point t, Clock::time_point start) {
   const AdaptivitySpec& spec = *scene.adaptivity;
   const est::AdaptiveStep& final = steps.back();
-  auto progress = [&](const std::string& line) {
-    if (options.progress) options.progress(line);
-  };
   if (scene.output.plots || options.plots) {
     std::vector<std::string> args = {"--output", dir.string(), "--label", scene.name};
     if (scene.contact) args.insert(args.end(), {"--pressure", (dir / "pressure.csv").string()});
@@ -542,12 +539,6 @@ void finishAdaptiveRun(const Scene& scene, const RunOptions& options, const fs::
     }
   }
 
-  recordRunRow(scene, dir, r, t, start);
-  const fs::path summary = dir / "summary.json";
-  r.outputFiles.push_back(summary);
-  r.outputSeconds = secondsSince(t);
-  r.totalSeconds = secondsSince(start);
-  nlohmann::json j = summaryJson(r);
   nlohmann::json a;
   a["refinement"] = spec.uniform ? "uniform" : "adaptive";
   a["estimator"] = spec.estimator;
@@ -562,16 +553,7 @@ void finishAdaptiveRun(const Scene& scene, const RunOptions& options, const fs::
   for (const auto& s : steps)
     a["steps"].push_back(
         stepJson(s, nodalErrors.at(nodalErrors.load, s.step), nodalErrors.at(nodalErrors.fixedLoad, s.step)));
-  j["adaptivity"] = a;
-  {
-    std::ofstream out(summary);
-    out << j.dump(2) << "\n";
-    if (!out) throw Error(summary.string() + ": cannot write the summary");
-  }
-
-  std::string written;
-  for (const auto& f : r.outputFiles) written += (written.empty() ? "" : ", ") + f.string();
-  progress("written: " + written);
+  finishRun(scene, options, dir, r, t, start, {{"adaptivity", a}});
   if (!final.converged) {
     std::ostringstream os;
     os << scene.where(scene.solver.line) << "[solver] " << final.solver << " did not converge in step "

@@ -903,34 +903,20 @@ void writeDynamicOutputs(const Context& c, const RunOptions& options, const std:
     writePvdCollection(pvd, entries);
     r.outputFiles.push_back(pvd);
   }
-  recordRunRow(scene, c.dir, r, t, start);
   if (scene.output.plots || options.plots) {
     runPlots(c.dir, options);
     for (const char* png : {"dyn_energy.png", "dyn_contact_force.png", "dyn_active.png", "dyn_velocity.png"})
       if (fs::exists(c.dir / png)) r.outputFiles.push_back(c.dir / png);
   }
-  const fs::path summary = c.dir / "summary.json";
-  r.outputFiles.push_back(summary);
-  r.outputSeconds = secondsSince(t);
-  r.totalSeconds = secondsSince(start);
-  nlohmann::json j = summaryJson(r);
-  j["dynamics"] = schemeJson(c, primary);
+  nlohmann::json extra;
+  extra["dynamics"] = schemeJson(c, primary);
   if (comparison) {
     nlohmann::json all = nlohmann::json::array();
     for (const SchemeRun& run : runs) all.push_back(schemeJson(c, run));
     for (const auto& [scheme, message] : failed) all.push_back({{"scheme", scheme}, {"error", message}});
-    j["dynamics_comparison"] = all;
+    extra["dynamics_comparison"] = all;
   }
-  {
-    std::ofstream out(summary);
-    out << j.dump(2) << "\n";
-    if (!out) throw Error(summary.string() + ": cannot write the summary");
-  }
-  std::string written = c.dir.string() + "/{";
-  for (std::size_t i = 0; i < r.outputFiles.size() && i < 6; ++i)
-    written += (i ? ", " : "") + r.outputFiles[i].filename().string();
-  if (r.outputFiles.size() > 6) written += ", ... (" + std::to_string(r.outputFiles.size()) + " files)";
-  if (options.progress) options.progress("written: " + written + "}");
+  finishRun(scene, options, c.dir, r, t, start, extra);
 }
 
 /// runDynamicScene on the bodies of the scene (Context::bodies, in stacked order).

@@ -13,7 +13,6 @@
 #include "obs/drivers/SceneSetup.hpp"
 #include "obs/drivers/SceneSolver.hpp"
 #include "obs/drivers/SolutionFields.hpp"
-#include "obs/drivers/Summary.hpp"
 #include "obs/drivers/VtkWriter.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/LinearElasticity.hpp"
@@ -204,16 +203,7 @@ RunResult runScene(const Scene& scene, const RunOptions& options) {
   std::filesystem::create_directories(dir, ec);
   if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
   if (scene.output.vtk) writeStaticVtk(scene, dir, meshes, solved, r);
-  recordRunRow(scene, dir, r, t, start);
-  const auto summary = dir / "summary.json";
-  r.outputFiles.push_back(summary);
-  r.outputSeconds = secondsSince(t);
-  r.totalSeconds = secondsSince(start);
-  writeSummary(summary, r);
-
-  std::string written;
-  for (const auto& f : r.outputFiles) written += (written.empty() ? "" : ", ") + f.string();
-  progress("written: " + written);
+  finishRun(scene, options, dir, r, t, start);
   if (!r.solver.converged) {
     std::ostringstream os;
     os << scene.where(scene.solver.line) << "[solver] " << r.solver.type << " did not converge in "

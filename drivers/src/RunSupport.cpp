@@ -8,6 +8,7 @@
 
 #include "obs/drivers/CsvWriter.hpp"
 #include "obs/drivers/SceneSetup.hpp"
+#include "obs/drivers/Summary.hpp"
 #include "obs/mesh/Error.hpp"
 
 namespace obs::drivers {
@@ -31,6 +32,33 @@ void recordRunRow(const Scene& scene, const std::filesystem::path& dir, RunResul
   r.totalSeconds = secondsSince(start);
   appendCsvRow(path, r);
   r.outputFiles.push_back(path);
+}
+
+void finishRun(const Scene& scene, const RunOptions& options, const std::filesystem::path& dir, RunResult& r,
+               Clock::time_point outputStart, Clock::time_point start, const nlohmann::json& extra) {
+  recordRunRow(scene, dir, r, outputStart, start);
+  const std::filesystem::path summary = dir / "summary.json";
+  r.outputFiles.push_back(summary);
+  r.outputSeconds = secondsSince(outputStart);
+  r.totalSeconds = secondsSince(start);
+  nlohmann::json j = summaryJson(r);
+  if (extra.is_object())
+    for (const auto& [key, value] : extra.items()) j[key] = value;
+  {
+    std::ofstream out(summary);
+    out << j.dump(2) << "\n";
+    if (!out) throw Error(summary.string() + ": cannot write the summary");
+  }
+  if (!options.progress) return;
+  std::string written;
+  if (r.outputFiles.size() <= 6) {
+    for (const auto& f : r.outputFiles) written += (written.empty() ? "" : ", ") + f.string();
+  } else {
+    written = dir.string() + "/{";
+    for (std::size_t i = 0; i < 6; ++i) written += (i ? ", " : "") + r.outputFiles[i].filename().string();
+    written += ", ... (" + std::to_string(r.outputFiles.size()) + " files)}";
+  }
+  options.progress("written: " + written);
 }
 
 std::vector<const mesh::Grid*> BodyGrids::gridPointers() const {

@@ -10,9 +10,12 @@
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/BoundaryConditions.hpp"
 
+#include "obs/drivers/RunOptions.hpp"
 #include "obs/drivers/RunResult.hpp"
 #include "obs/drivers/Scene.hpp"
 #include "obs/drivers/VtkWriter.hpp"
+
+#include <nlohmann/json.hpp>
 
 namespace obs::drivers {
 
@@ -29,6 +32,14 @@ double peakMemoryMB();
 /// outputStart: when the run began writing outputs; start: when the run began.
 void recordRunRow(const Scene& scene, const std::filesystem::path& dir, RunResult& r, Clock::time_point outputStart,
                   Clock::time_point start);
+
+/// The common end of every run: the runs.csv row (recordRunRow), summary.json (summaryJson of the
+/// run with the sections of `extra` added: "adaptivity", "dynamics", ...) and the "written" line
+/// (RunOptions::progress; more than six files as "dir/{first six, ... (N files)}"). The run's own
+/// files, plots included, are in r.outputFiles before; runs.csv and summary.json are added.
+/// outputStart: when the run began writing outputs; start: when the run began.
+void finishRun(const Scene& scene, const RunOptions& options, const std::filesystem::path& dir, RunResult& r,
+               Clock::time_point outputStart, Clock::time_point start, const nlohmann::json& extra = nullptr);
 
 /// The bodies of a scene (Scene::bodyScenes: one for a one-body file), built and checked
 /// (buildGrid, validateScene, makeBoundaryConditions per body; one dimension for all): their grids,

@@ -117,13 +117,4 @@ nlohmann::json summaryJson(const RunResult& r) {
   return j;
 }
 
-void writeSummary(const std::filesystem::path& path, const RunResult& result) {
-  std::error_code ec;
-  if (path.has_parent_path()) std::filesystem::create_directories(path.parent_path(), ec);
-  std::ofstream out(path);
-  if (!out) throw Error(path.string() + ": cannot open for writing");
-  out << summaryJson(result).dump(2) << '\n';
-  if (!out) throw Error(path.string() + ": write failed");
-}
-
 }  // namespace obs::drivers

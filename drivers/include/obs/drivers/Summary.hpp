@@ -12,18 +12,15 @@
 /// also "kkt" (feasibility, multiplier_sign, complementarity, stationarity, dirichlet). Contact
 /// scenes add "contact": obstacle, boundary, boundary_vertices, potential_vertices,
 /// actual_vertices, force, load_P, area (3D) or width (2D), radius, radius_nodes, max_violation
-/// (RunResult.hpp, docs/scenes.md).
-#include <filesystem>
-
+/// (RunResult.hpp, docs/scenes.md). The runners write it with the sections of their kind
+/// ("adaptivity", "dynamics") in finishRun (drivers/src/RunSupport.hpp).
 #include <nlohmann/json.hpp>
 
 #include "obs/drivers/RunResult.hpp"
 
 namespace obs::drivers {
 
+/// The summary.json object of a run's figures.
 nlohmann::json summaryJson(const RunResult& result);
-
-/// Writes summaryJson(result) to `path` (indented); throws obs::Error if it cannot be written.
-void writeSummary(const std::filesystem::path& path, const RunResult& result);
 
 }  // namespace obs::drivers
