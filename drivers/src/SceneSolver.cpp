@@ -363,24 +363,10 @@ SceneCouplings sceneCouplings(const Scene& scene, const std::vector<const mesh::
 
 PairReport pairReport(const CouplingRecord& rec, const std::string& slave, const std::string& master, int dim) {
   PairReport r;
+  static_cast<CouplingRecord&>(r) = rec;
   r.slave = slave;
   r.master = master;
-  r.slaveVertices = rec.slaveVertices;
-  r.potentialVertices = rec.potentialVertices;
-  r.actualVertices = rec.actualVertices;
-  for (int a = 0; a < 3; ++a) {
-    r.forceSlave[a] = rec.forceSlave[a];
-    r.forceMaster[a] = rec.forceMaster[a];
-  }
-  r.load = rec.load;
-  r.pressureMin = rec.pressureMin;
-  r.pressureMax = rec.pressureMax;
-  r.area = rec.area;
   r.radius = dim == 3 ? std::sqrt(r.area / std::numbers::pi) : r.area / 2;
-  r.maxViolation = rec.maxViolation;
-  r.segments = rec.segments;
-  r.uncovered = rec.uncovered;
-  r.mortarSeconds = rec.mortarSeconds;
   return r;
 }
 

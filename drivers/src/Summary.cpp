@@ -90,7 +90,7 @@ nlohmann::json summaryJson(const RunResult& r) {
     j["bodies"] = bodies;
   }
   if (!r.pairs.empty()) {
-    auto vec = [&](const std::array<double, 3>& v) {
+    auto vec = [&](const Eigen::Vector3d& v) {
       nlohmann::json a = nlohmann::json::array();
       for (int i = 0; i < r.dimension; ++i) a.push_back(v[i]);
       return a;

@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "obs/obs/ContactModel.hpp"
 #include "obs/obs/KktResiduals.hpp"
 
 namespace obs::drivers {
@@ -52,23 +53,12 @@ struct ContactReport {
   double maxViolation = 0; ///< max_p (nu_p.u_p - g_p)^+
 };
 
-/// One [[contact]] pair of a multi-body scene (dual mortar, MortarCoupling.hpp).
-struct PairReport {
-  std::string slave, master;          ///< "body:boundary" as written
-  long long slaveVertices = 0;        ///< slave nodes of the boundary
-  long long potentialVertices = 0;    ///< constrained slave nodes (covered by the master surface)
-  long long actualVertices = 0;       ///< in actual contact
-  std::array<double, 3> forceSlave{};   ///< total force on the slave body (from the master)
-  std::array<double, 3> forceMaster{};  ///< total force on the master body; = -forceSlave
-  double load = 0;          ///< P = sum_p D_pp lambda_p (normal force)
-  double pressureMin = 0;   ///< min / max of the dual-mortar pressure lambda_p over the actual
-  double pressureMax = 0;   ///< contact vertices (0 without contact)
-  double area = 0;          ///< measure of the slave faces with all vertices in contact
-  double radius = 0;        ///< 3D: sqrt(area / pi); 2D: area / 2
-  double maxViolation = 0;  ///< max_p of the weighted-gap violation (n_p.w_p - g_p)^+
-  long long segments = 0;   ///< slave/master face pairs with an intersection
-  long long uncovered = 0;  ///< slave nodes below the coverage threshold (unconstrained)
-  double mortarSeconds = 0; ///< search, clipping, quadrature, transformation
+/// One coupling of a scene reported per coupling (summary.json "pairs"): the model's record
+/// (ContactModel.hpp CouplingRecord: nodes, forces on both sides, load, pressure range, area,
+/// violation, mortar statistics) with the side labels and the radius of the contact zone.
+struct PairReport : CouplingRecord {
+  std::string slave, master;  ///< "body:boundary" as written, or "obstacle <type>"
+  double radius = 0;          ///< 3D: sqrt(area / pi); 2D: area / 2
 };
 
 /// One body of a multi-body scene.
