@@ -35,6 +35,23 @@ bool hasPredictorInDisplacement(NewmarkScheme s) {  // alpha + beta = 1
          s == NewmarkScheme::AlphaHalf || s == NewmarkScheme::AlphaOneZero;
 }
 
+/// Block-diagonal stacking of scalar matrices (one per body) at the given vertex offsets (one
+/// matrix: itself).
+ScalarSparseMatrix stackScalar(const std::vector<ScalarSparseMatrix>& parts, const std::vector<Index>& offsets,
+                               Index size) {
+  if (parts.size() == 1) return parts.front();
+  std::vector<Eigen::Triplet<double>> t;
+  for (std::size_t i = 0; i < parts.size(); ++i) {
+    const Index off = offsets[i];
+    for (Eigen::Index r = 0; r < parts[i].outerSize(); ++r)
+      for (ScalarSparseMatrix::InnerIterator it(parts[i], r); it; ++it)
+        t.emplace_back(off + it.row(), off + it.col(), it.value());
+  }
+  ScalarSparseMatrix m(size, size);
+  m.setFromTriplets(t.begin(), t.end());
+  return m;
+}
+
 }  // namespace
 
 const std::vector<NewmarkScheme>& allNewmarkSchemes() {
@@ -141,6 +158,34 @@ NewmarkFamily<d>::NewmarkFamily(const std::vector<const mesh::Grid*>& grids, Con
 
 template <int d>
 void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, ContactModel<d>& model) {
+  checkInputs(grids, model);
+  typename ContactModel<d>::Parts parts = model.assembleParts();
+  const ContactSet& contact = parts.contact;
+  numVertices_ = parts.system.numVertices();
+  for (Index v : options_.trackedVertices)
+    if (v < 0 || v >= numVertices_)
+      throw Error("time stepping: tracked vertex " + std::to_string(v) + " is not a vertex of the mesh (0.." +
+                  std::to_string(numVertices_ - 1) + ")");
+  A_ = std::move(parts.system.stiffness);
+  f_ = std::move(parts.system.load);
+  dirichlet_ = std::move(parts.system.dirichlet);
+  basis_ = parts.basis;
+  assembleMasses(model, contact);
+  BlockSparseMatrix<d> S = stepMatrix(contact);
+  contact_ = std::make_unique<ContactSet>(contact);
+  S_ = S;
+  // From here on the matrices are only read: on grids of repeated cells their products (S base and
+  // A u^{n+1} in every step) read a block number per entry instead of a block (the same values and
+  // bits, docs/performance.md#shared-blocks)
+  for (BlockSparseMatrix<d>* m : {&A_, &M_, &Mr_, &S_}) m->shareRepeatedBlocks();
+  setupStepProblem(std::move(S));
+  typename TNNMG<d>::Options so = tnnmgOptions<d>(options_.solver);
+  so.recordHistory = false;
+  solver_ = grids.size() == 1 ? std::make_unique<TNNMG<d>>(*grids.front(), so) : std::make_unique<TNNMG<d>>(grids, so);
+}
+
+template <int d>
+void NewmarkFamily<d>::checkInputs(const std::vector<const mesh::Grid*>& grids, const ContactModel<d>& model) const {
   const NewmarkOptions& options = options_;
   const double tau = options.timeStep;
   if (!std::isfinite(tau) || tau <= 0)
@@ -171,21 +216,13 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
     throw Error("time stepping: the step solver is TNNMG, got " + std::string(obs::name(options.solver.kind)));
   if (!(options.inexactFraction >= 0 && options.inexactFraction < 1))
     throw Error("time stepping: the inexact fraction must lie in [0, 1), got " + num(options.inexactFraction));
+}
 
-  typename ContactModel<d>::Parts parts = model.assembleParts();
-  const ContactSet& contact = parts.contact;
-  numVertices_ = parts.system.numVertices();
-  for (Index v : options.trackedVertices)
-    if (v < 0 || v >= numVertices_)
-      throw Error("time stepping: tracked vertex " + std::to_string(v) + " is not a vertex of the mesh (0.." +
-                  std::to_string(numVertices_ - 1) + ")");
-
-  A_ = std::move(parts.system.stiffness);
-  f_ = std::move(parts.system.load);
-  dirichlet_ = std::move(parts.system.dirichlet);
-  basis_ = parts.basis;
-  const bool redistributed = usesRedistributedMass(scheme);
-  const bool needConsistent = options.mass == MassKind::Consistent || redistributed;
+template <int d>
+void NewmarkFamily<d>::assembleMasses(const ContactModel<d>& model, const ContactSet& contact) {
+  const auto& bodies = model.bodies();
+  const bool redistributed = usesRedistributedMass(options_.scheme);
+  const bool needConsistent = options_.mass == MassKind::Consistent || redistributed;
   // masses body by body, stacked like the stiffness (one body: the body's matrices as they are)
   std::vector<ScalarSparseMatrix> consistentPerBody;
   lumped_.resize(numVertices_);
@@ -193,78 +230,81 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
     lumped_.segment(b.offset, b.mesh->numVertices()) = assembleLumpedMass(*b.mesh, b.material);
     if (needConsistent) consistentPerBody.push_back(assembleConsistentMass(*b.mesh, b.material));
   }
-  auto stack = [&](const std::vector<ScalarSparseMatrix>& parts) {
-    if (parts.size() == 1) return parts.front();
-    std::vector<Eigen::Triplet<double>> t;
-    for (std::size_t i = 0; i < parts.size(); ++i) {
-      const Index off = bodies[i].offset;
-      for (Eigen::Index r = 0; r < parts[i].outerSize(); ++r)
-        for (ScalarSparseMatrix::InnerIterator it(parts[i], r); it; ++it)
-          t.emplace_back(off + it.row(), off + it.col(), it.value());
-    }
-    ScalarSparseMatrix m(numVertices_, numVertices_);
-    m.setFromTriplets(t.begin(), t.end());
-    return m;
-  };
+  std::vector<Index> offsets;
+  for (const auto& b : bodies) offsets.push_back(b.offset);
   ScalarSparseMatrix consistent;
-  if (needConsistent) consistent = stack(consistentPerBody);
-  M_ = options.mass == MassKind::Lumped ? expandLumpedMass<d>(lumped_, A_) : expandMass<d>(consistent, A_);
-  if (redistributed) {
-    // massless: the contact vertices, and for mortar pairs the master vertices coupled to them
-    std::vector<char> massless(static_cast<std::size_t>(numVertices_), 0);
-    for (Index v : contact.vertices()) massless[static_cast<std::size_t>(v)] = 1;
-    for (std::size_t k = 0; k < basis_.columns.size(); ++k)
-      if (basis_.values[k] != 0) massless[static_cast<std::size_t>(basis_.columns[k])] = 1;
-    // each body keeps its own mass, centre of gravity and second moments
-    std::vector<ScalarSparseMatrix> tilde;
-    auto stacked = std::make_unique<RedistributedMass>();
-    stacked->massless = massless;
-    for (std::size_t i = 0; i < bodies.size(); ++i) {
-      const Index off = bodies[i].offset, n = bodies[i].mesh->numVertices();
-      std::vector<char> local(massless.begin() + off, massless.begin() + off + n);
-      if (std::find(local.begin(), local.end(), 1) == local.end()) {
-        tilde.push_back(consistentPerBody[i]);  // no contact vertex: nothing to redistribute
-        continue;
-      }
-      RedistributedMass r = redistributeMass(consistentPerBody[i], bodies[i].mesh->vertices(), d, local,
-                                             options.redistribution);
-      tilde.push_back(std::move(r.matrix));
-      const Eigen::Index m = stacked->multipliers.size();
-      stacked->multipliers.conservativeResize(m + r.multipliers.size());
-      stacked->multipliers.tail(r.multipliers.size()) = r.multipliers;
-      stacked->iterations = std::max(stacked->iterations, r.iterations);
-      stacked->residual = std::max(stacked->residual, r.residual);
-      stacked->movedMass += r.movedMass;
-      stacked->boundedEntries += r.boundedEntries;
-      stacked->minimumFactor = std::min(stacked->minimumFactor, r.minimumFactor);
-    }
-    stacked->matrix = stack(tilde);
-    redistributed_ = std::move(stacked);
-    Mr_ = expandMass<d>(redistributed_->matrix, A_);
-    const ScalarSparseMatrix& Mt = redistributed_->matrix;
-    for (Eigen::Index i = 0; i < Mt.outerSize(); ++i) {
-      if (massless[static_cast<std::size_t>(i)]) continue;
-      if (!(Mt.coeff(i, i) > 0))
-        throw Error("time stepping: the redistributed mass matrix has the non-positive diagonal entry " +
-                    num(Mt.coeff(i, i)) + " at vertex " + std::to_string(i) +
-                    " (too much mass on the contact boundary: refine the mesh near it)");
-    }
-    // An indefinite M~ gives modes with x'M~x < 0 < x'Ax, which grow (weakly for large tau^2 A);
-    // checked once on the vertices that keep mass and are not fully Dirichlet-constrained (one scalar
-    // sparse LDL'). If it is indefinite, S = M~ + c tau^2 A is checked below.
-    std::vector<char> mask = massless;
-    for (Index v = 0; v < numVertices_; ++v) {
-      bool fixed = true;
-      for (int a = 0; a < d; ++a) fixed = fixed && dirichlet_.constrained[static_cast<std::size_t>(v) * d + a];
-      if (fixed) mask[static_cast<std::size_t>(v)] = 1;
-    }
-    if (std::find(mask.begin(), mask.end(), 0) != mask.end())
-      redistributedCheck_ = checkPositiveDefinite(Mt, mask);
-    else
-      redistributedCheck_.positiveDefinite = true;
-  }
+  if (needConsistent) consistent = stackScalar(consistentPerBody, offsets, numVertices_);
+  M_ = options_.mass == MassKind::Lumped ? expandLumpedMass<d>(lumped_, A_) : expandMass<d>(consistent, A_);
+  if (redistributed) redistributeMasses(model, consistentPerBody, contact);
+}
 
+template <int d>
+void NewmarkFamily<d>::redistributeMasses(const ContactModel<d>& model,
+                                          const std::vector<ScalarSparseMatrix>& consistentPerBody,
+                                          const ContactSet& contact) {
+  const auto& bodies = model.bodies();
+  // massless: the contact vertices, and for mortar pairs the master vertices coupled to them
+  std::vector<char> massless(static_cast<std::size_t>(numVertices_), 0);
+  for (Index v : contact.vertices()) massless[static_cast<std::size_t>(v)] = 1;
+  for (std::size_t k = 0; k < basis_.columns.size(); ++k)
+    if (basis_.values[k] != 0) massless[static_cast<std::size_t>(basis_.columns[k])] = 1;
+  // each body keeps its own mass, centre of gravity and second moments
+  std::vector<ScalarSparseMatrix> tilde;
+  std::vector<Index> offsets;
+  auto stacked = std::make_unique<RedistributedMass>();
+  stacked->massless = massless;
+  for (std::size_t i = 0; i < bodies.size(); ++i) {
+    const Index off = bodies[i].offset, n = bodies[i].mesh->numVertices();
+    offsets.push_back(off);
+    std::vector<char> local(massless.begin() + off, massless.begin() + off + n);
+    if (std::find(local.begin(), local.end(), 1) == local.end()) {
+      tilde.push_back(consistentPerBody[i]);  // no contact vertex: nothing to redistribute
+      continue;
+    }
+    RedistributedMass r = redistributeMass(consistentPerBody[i], bodies[i].mesh->vertices(), d, local,
+                                           options_.redistribution);
+    tilde.push_back(std::move(r.matrix));
+    const Eigen::Index m = stacked->multipliers.size();
+    stacked->multipliers.conservativeResize(m + r.multipliers.size());
+    stacked->multipliers.tail(r.multipliers.size()) = r.multipliers;
+    stacked->iterations = std::max(stacked->iterations, r.iterations);
+    stacked->residual = std::max(stacked->residual, r.residual);
+    stacked->movedMass += r.movedMass;
+    stacked->boundedEntries += r.boundedEntries;
+    stacked->minimumFactor = std::min(stacked->minimumFactor, r.minimumFactor);
+  }
+  stacked->matrix = stackScalar(tilde, offsets, numVertices_);
+  redistributed_ = std::move(stacked);
+  Mr_ = expandMass<d>(redistributed_->matrix, A_);
+  const ScalarSparseMatrix& Mt = redistributed_->matrix;
+  for (Eigen::Index i = 0; i < Mt.outerSize(); ++i) {
+    if (massless[static_cast<std::size_t>(i)]) continue;
+    if (!(Mt.coeff(i, i) > 0))
+      throw Error("time stepping: the redistributed mass matrix has the non-positive diagonal entry " +
+                  num(Mt.coeff(i, i)) + " at vertex " + std::to_string(i) +
+                  " (too much mass on the contact boundary: refine the mesh near it)");
+  }
+  // An indefinite M~ gives modes with x'M~x < 0 < x'Ax, which grow (weakly for large tau^2 A);
+  // checked once on the vertices that keep mass and are not fully Dirichlet-constrained (one scalar
+  // sparse LDL'). If it is indefinite, S = M~ + c tau^2 A is checked by stepMatrix.
+  std::vector<char> mask = massless;
+  for (Index v = 0; v < numVertices_; ++v) {
+    bool fixed = true;
+    for (int a = 0; a < d; ++a) fixed = fixed && dirichlet_.constrained[static_cast<std::size_t>(v) * d + a];
+    if (fixed) mask[static_cast<std::size_t>(v)] = 1;
+  }
+  if (std::find(mask.begin(), mask.end(), 0) != mask.end())
+    redistributedCheck_ = checkPositiveDefinite(Mt, mask);
+  else
+    redistributedCheck_.positiveDefinite = true;
+}
+
+template <int d>
+BlockSparseMatrix<d> NewmarkFamily<d>::stepMatrix(const ContactSet& contact) const {
   // system matrix S = M_s + c tau^2 A (same block pattern)
+  const NewmarkScheme scheme = options_.scheme;
+  const bool redistributed = usesRedistributedMass(scheme);
+  const double tau = options_.timeStep;
   const double c = scheme == NewmarkScheme::KhenousLabordeRenard ? 0.5 : 0.25;
   BlockSparseMatrix<d> S = A_;
   const BlockSparseMatrix<d>& Ms = redistributed ? Mr_ : M_;
@@ -293,12 +333,13 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
                   "cells across the body), or use a scheme without mass redistribution (e.g. improved-contact-stabilized)");
     }
   }
-  contact_ = std::make_unique<ContactSet>(contact);
-  S_ = S;
-  // From here on the matrices are only read: on grids of repeated cells their products (S base and
-  // A u^{n+1} in every step) read a block number per entry instead of a block (the same values and
-  // bits, docs/performance.md#shared-blocks)
-  for (BlockSparseMatrix<d>* m : {&A_, &M_, &Mr_, &S_}) m->shareRepeatedBlocks();
+  return S;
+}
+
+template <int d>
+void NewmarkFamily<d>::setupStepProblem(BlockSparseMatrix<d> S) {
+  const NewmarkScheme scheme = options_.scheme;
+  const ContactSet& contact = *contact_;
   // the step problem is posed for the increment u^{n+1} - base (base = u^n + tau v^n, see step()):
   // its Dirichlet values are zero
   DirichletValues zero = dirichlet_;
@@ -309,7 +350,7 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
   // lumped masses bound S from below and TNNMG can stop on an a posteriori bound of the error
   // (docs/theory.md#tnnmg-error-bound); not for M~ or the consistent M (not diagonal), nor in mortar
   // unknowns (T'ST)
-  if (options.mass == MassKind::Lumped && !redistributed && !problem_->transformed())
+  if (options_.mass == MassKind::Lumped && !usesRedistributedMass(scheme) && !problem_->transformed())
     problem_->setDiagonalLowerBound(std::vector<double>(lumped_.data(), lumped_.data() + lumped_.size()));
   constraints_ = problem_->constraints();
   for (auto& c : constraints_) {  // effective constraints for u (the problem's are for increments)
@@ -344,10 +385,6 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
             row.diagonal += coef * coef * cn.direction[a] * cn.direction[a] / lumped_[v];
     }
   }
-
-  typename TNNMG<d>::Options so = tnnmgOptions<d>(options.solver);
-  so.recordHistory = false;
-  solver_ = grids.size() == 1 ? std::make_unique<TNNMG<d>>(*grids.front(), so) : std::make_unique<TNNMG<d>>(grids, so);
 }
 
 template <int d>

@@ -329,6 +329,16 @@ private:
   struct Predictor;
   struct MortarRow;
   void init(const std::vector<const mesh::Grid*>& grids, ContactModel<d>& model);
+  /// The steps of init: the options and the grids against the model; the lumped and (where needed)
+  /// consistent masses, stacked like the stiffness, and M; the redistributed mass M~ with its checks;
+  /// the step matrix S = M_s + c tau^2 A (checked when M~ is indefinite); the step problem for the
+  /// increments with the effective constraints and the predictor rows of mortar pairs.
+  void checkInputs(const std::vector<const mesh::Grid*>& grids, const ContactModel<d>& model) const;
+  void assembleMasses(const ContactModel<d>& model, const ContactSet& contact);
+  void redistributeMasses(const ContactModel<d>& model, const std::vector<ScalarSparseMatrix>& consistentPerBody,
+                          const ContactSet& contact);
+  BlockSparseMatrix<d> stepMatrix(const ContactSet& contact) const;
+  void setupStepProblem(BlockSparseMatrix<d> S);
   void checkInitialized() const;
   /// x = (I - C) u (a copy of u without mortar pairs).
   Eigen::VectorXd relative(const Eigen::VectorXd& u) const;
