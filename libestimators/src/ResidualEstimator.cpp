@@ -289,6 +289,302 @@ private:
   std::string key_;
 };
 
+/// The cell terms of eta_1 and what the face loop needs of the cells: r2[c] = ||div sigma_h + f||_c^2,
+/// the constant stress of affine cells and whether a non-simplex cell is flat (PointValues::flat()).
+/// Evaluated on threads() threads into one slot per cell (bitwise the same for any thread count).
+template <int d>
+struct CellResiduals {
+  std::vector<double> r2;
+  std::vector<Eigen::Matrix<double, d, d>> cellStress;
+  std::vector<std::uint8_t> flatCell;
+};
+
+template <int d>
+CellResiduals<d> cellResiduals(const EstimatorInput& in, const ResidualEstimator::Options& options) {
+  using Vec = Eigen::Matrix<double, d, 1>;
+  using F = LocalField<d>;
+  const mesh::Mesh& m = in.mesh;
+  const Eigen::VectorXd& u = in.displacement;
+  const double lambda = in.material.lambda(), mu = in.material.mu();
+  CellResiduals<d> out;
+  std::vector<double>& r2 = out.r2;
+  r2.resize(static_cast<std::size_t>(m.numCells()));
+  std::vector<Eigen::Matrix<double, d, d>>& cellStress = out.cellStress;
+  cellStress.resize(static_cast<std::size_t>(m.numCells()));
+  std::vector<std::uint8_t>& flatCell = out.flatCell;
+  flatCell.assign(static_cast<std::size_t>(m.numCells()), 0);
+  // eta_1: element residuals r = div sigma_h + f, weighted with h_p^2 for each vertex p of e
+  // sigma_h of the affine cells (constant there), for the face loop: bitwise what an evaluation at
+  // any point of the cell gives
+  // whether a non-simplex cell is flat (PointValues::flat()): only those get face tables
+  struct CellScratch {
+    PointValues<d> pv;
+    FlatResidualTable<d> table;  // of the last flat cell of this thread
+  };
+  forEachIndex<CellScratch>(m.numCells(), [&](Index c, CellScratch& scratch) {
+    PointValues<d>& pv = scratch.pv;
+    const auto& rule = mesh::quadratureRule(m.cellType(c), options.elementDegree);
+    const auto verts = m.cellVertices(c);
+    double sum = 0;
+    // on an affine cell div sigma_h and the determinant are constant: without a body force the
+    // point itself is not needed after the first quadrature point
+    const bool affine = affineCellType(m.cellType(c));
+    if (!affine && !in.boundaryConditions.bodyForce) {  // a flat cell: by the table (a translate's)
+      if (!scratch.table.matches(m, c)) {
+        scratch.table.invalidate();
+        pv.reinit(m, c, rule.points[0], false, false);
+        if (pv.flat())
+          scratch.table.build(m, c, pv.jacobian(),
+                              mesh::quadratureRule(m.cellType(c), flatResidualDegree(m.cellType(c), options.elementDegree)),
+                              lambda, mu);
+      }
+      if (scratch.table.matches(m, c)) {
+        r2[static_cast<std::size_t>(c)] = scratch.table.integral(u, verts);
+        flatCell[static_cast<std::size_t>(c)] = 1;
+        return;
+      }
+    }
+    if (affine && !in.boundaryConditions.bodyForce) {
+      // the Hessians of affine shape functions vanish: div sigma_h = 0 and r = 0 (the sum below
+      // would add exact zeros); only the cell's constant stress is needed, for the face loop
+      pv.reinit(m, c, rule.points[0], false, false);
+      r2[static_cast<std::size_t>(c)] = 0;
+      cellStress[static_cast<std::size_t>(c)] = F::stress(pv, u, verts, lambda, mu);
+      return;
+    }
+    Vec div = Vec::Zero();
+    for (std::size_t q = 0; q < rule.size(); ++q) {
+      if (q == 0 || !affine || in.boundaryConditions.bodyForce) pv.reinit(m, c, rule.points[q], true, false);
+      if (q == 0 || !affine) div = F::divergence(pv, u, verts, lambda, mu);
+      Vec r = div;
+      if (in.boundaryConditions.bodyForce)
+        r += in.boundaryConditions.bodyForce(toPoint(pv.point())).template head<d>();
+      sum += pv.determinant() * rule.weights[q] * r.squaredNorm();
+    }
+    r2[static_cast<std::size_t>(c)] = sum;
+    if (affine) cellStress[static_cast<std::size_t>(c)] = F::stress(pv, u, verts, lambda, mu);
+    else flatCell[static_cast<std::size_t>(c)] = pv.flat() ? 1 : 0;
+  });
+  return out;
+}
+
+/// The kinds of the faces of the face table: interior, potential contact (numbered in face order:
+/// contactSlot), Neumann (also partly fixed) and fully fixed boundary faces; faceId the boundary id
+/// of a one-cell face.
+enum class FaceKind : std::uint8_t { Interior, Contact, Neumann, Fixed };
+struct FaceClasses {
+  std::vector<int> faceId;
+  std::vector<FaceKind> kind;
+  std::vector<Index> contactSlot;
+  Index numContact = 0;
+};
+
+FaceClasses classifyFaces(const mesh::Mesh& m, const mesh::FaceTable& faces, const BoundaryData& bd,
+                          const std::string& estimator, int d) {
+  FaceClasses out;
+  // boundary ids of the one-cell faces of the face table
+  std::vector<int>& faceId = out.faceId;
+  faceId.assign(static_cast<std::size_t>(faces.numFaces()), kNoBoundaryId);
+  for (Index f = 0; f < m.numBoundaryFaces(); ++f) {
+    const Index k = faces.find(m.boundaryFaceVertices(f));
+    if (k >= 0 && faces.numCells(k) == 1) faceId[k] = m.boundaryFaceId(f);
+  }
+
+  // faces: eta_2 (interior jumps), eta_3 (Neumann jumps), contact faces through the hook
+  std::vector<FaceKind>& kind = out.kind;
+  kind.resize(static_cast<std::size_t>(faces.numFaces()));
+  out.contactSlot.assign(static_cast<std::size_t>(faces.numFaces()), -1);
+  for (Index f = 0; f < faces.numFaces(); ++f) {
+    if (faces.numCells(f) > 2)
+      throw Error("estimator '" + estimator + "': face " + std::to_string(f) + " is shared by " +
+                  std::to_string(faces.numCells(f)) + " cells (non-manifold mesh)");
+    FaceKind& k = kind[static_cast<std::size_t>(f)];
+    if (faces.numCells(f) == 2) {
+      k = FaceKind::Interior;
+    } else if (bd.contact.count(faceId[f])) {
+      k = FaceKind::Contact;
+      out.contactSlot[static_cast<std::size_t>(f)] = out.numContact++;
+    } else {
+      const std::array<bool, 3> fixed = bd.fixedComponents(faceId[f]);
+      k = std::all_of(fixed.begin(), fixed.begin() + d, [](bool b) { return b; }) ? FaceKind::Fixed
+                                                                                  : FaceKind::Neumann;
+    }
+  }
+  return out;
+}
+
+/// The face terms: j2[f] = the squared jump (interior faces) or Neumann residual (boundary faces)
+/// integrated over face f, and the potential contact faces with sigma_h n at their quadrature
+/// points (for addContactFaces). Evaluated on threads() threads into one slot per face.
+template <int d>
+struct FaceResiduals {
+  std::vector<double> j2;
+  std::vector<ContactFace> contactFaces;
+};
+
+template <int d>
+FaceResiduals<d> faceResiduals(const EstimatorInput& in, const ResidualEstimator::Options& options,
+                               const mesh::FaceTable& faces, const FaceClasses& classes, const BoundaryData& bd,
+                               const CellResiduals<d>& cells) {
+  using Vec = Eigen::Matrix<double, d, 1>;
+  using Mat = Eigen::Matrix<double, d, d>;
+  using F = LocalField<d>;
+  const mesh::Mesh& m = in.mesh;
+  const Eigen::VectorXd& u = in.displacement;
+  const double lambda = in.material.lambda(), mu = in.material.mu();
+  const std::vector<int>& faceId = classes.faceId;
+  const std::vector<FaceKind>& kind = classes.kind;
+  const std::vector<Index>& contactSlot = classes.contactSlot;
+  const std::vector<Mat>& cellStress = cells.cellStress;
+  const std::vector<std::uint8_t>& flatCell = cells.flatCell;
+  FaceResiduals<d> out;
+  struct FaceScratch {
+    PointValues<d> pv, pv1;
+    std::vector<Index> fv;  // vertices and quadrature of the current face (buffers reused)
+    std::vector<CellFacePoint> pts;
+    std::vector<double> weights;  // of a face between two affine cells
+    std::vector<std::array<double, 4>> shapes;  // face shape values at the points of side 0
+    FaceTableCache<d> tables;
+  };
+  std::vector<double>& j2 = out.j2;
+  j2.assign(static_cast<std::size_t>(faces.numFaces()), 0.0);
+  std::vector<ContactFace>& contactFaces = out.contactFaces;
+  contactFaces.resize(static_cast<std::size_t>(classes.numContact));
+  // whether sigma_h of cell c has degree <= 1 in each coordinate of its face with `faceVertices`
+  // vertices: affine cells (constant), flat quadrilaterals and hexahedra (the gradients of Q1 are
+  // multilinear, of degree 1 in each coordinate), flat prisms (degree 1 in all) and the base of a
+  // flat pyramid (there grad q = (y, x, x y) for q = x y / (1 - z)); not the pyramid's triangles
+  // (rational) nor distorted cells
+  const auto polynomialJumpSide = [&](Index c, std::size_t faceVertices) {
+    const mesh::CellType t = m.cellType(c);
+    return affineCellType(t) ||
+           ((t != mesh::CellType::Pyramid || faceVertices == 4) && flatCell[static_cast<std::size_t>(c)]);
+  };
+  forEachIndex<FaceScratch>(faces.numFaces(), [&](Index f, FaceScratch& s) {
+    const FaceKind k = kind[static_cast<std::size_t>(f)];
+    if (k == FaceKind::Fixed) return;
+    std::vector<Index>& fv = s.fv;
+    std::vector<CellFacePoint>& pts = s.pts;
+    const auto side0 = faces.side(f, 0);
+    const Index c0 = side0.cell;
+    const auto verts0 = m.cellVertices(c0);
+    const bool affine0 = affineCellType(m.cellType(c0));
+    cellFaceVertices(m, c0, side0.localFace, fv);
+    double sum = 0;
+
+    if (k == FaceKind::Interior) {
+      const Index c1 = faces.side(f, 1).cell;
+      const auto verts1 = m.cellVertices(c1);
+      // on affine cells sigma_h is constant: the cell loop's value
+      const bool affine1 = affineCellType(m.cellType(c1));
+      Mat s0 = affine0 ? cellStress[static_cast<std::size_t>(c0)] : Mat::Zero();
+      Mat s1 = affine1 ? cellStress[static_cast<std::size_t>(c1)] : Mat::Zero();
+      // local numbers in c1 of the face vertices (once per face, not per point)
+      const auto& ref1 = mesh::referenceElement(m.cellType(c1));
+      std::array<int, 4> local1{};
+      for (std::size_t j = 0; j < fv.size(); ++j) {
+        const auto it = std::find(verts1.begin(), verts1.end(), fv[j]);
+        if (it == verts1.end())
+          throw Error("vertex " + std::to_string(fv[j]) + " is not a vertex of cell " +
+                      std::to_string(c1));
+        local1[j] = static_cast<int>(it - verts1.begin());
+      }
+      Point normal;
+      if (affine0 && affine1 && flatCellFaceQuadrature(m, c0, side0.localFace, options.faceDegree, s.weights, normal)) {
+        // a constant jump on a flat face: only the weights and the normal (the same sum)
+        const double jump = ((s0 - s1) * normal.template head<d>()).squaredNorm();
+        for (double w : s.weights) sum += w * jump;
+        j2[static_cast<std::size_t>(f)] = sum;
+        return;
+      }
+      // flat non-simplex sides by their tables (FaceTableCache), the others point by point; between
+      // sides whose sigma_h has degree <= 1 in each face coordinate the jump's square has degree 2
+      const int degree = polynomialJumpSide(c0, fv.size()) && polynomialJumpSide(c1, fv.size())
+                             ? std::min(options.faceDegree, 2)
+                             : options.faceDegree;
+      s.tables.beginFace();
+      // (a distorted cell gets no table: its key and lookup would only cost)
+      const FaceSideTable<d>* t0 = affine0 || !flatCell[static_cast<std::size_t>(c0)]
+                                       ? nullptr
+                                       : &s.tables.side0(m, c0, side0.localFace, degree, s.pv, pts);
+      if (t0 && !t0->flat) t0 = nullptr;
+      if (!t0) cellFaceQuadrature(m, c0, side0.localFace, degree, pts);
+      const std::size_t nq = t0 ? t0->weights.size() : pts.size();
+      if (t0 && !affine1) {  // side 1 is evaluated at side 0's points
+        s.shapes.assign(t0->shapes.begin(), t0->shapes.end());
+      } else if (!affine1) {
+        s.shapes.resize(nq);
+        for (std::size_t q = 0; q < nq; ++q) s.shapes[q] = pts[q].shape;
+      }
+      const FaceSideTable<d>* t1 =
+          affine1 || !flatCell[static_cast<std::size_t>(c1)]
+              ? nullptr
+              : &s.tables.side1(m, c1, std::span<const int>(local1.data(), fv.size()), degree, s.shapes, s.pv1);
+      if (t1 && !t1->flat) t1 = nullptr;
+      for (std::size_t q = 0; q < nq; ++q) {
+        if (t0) {
+          s0 = F::stressOf(t0->gradient(u, verts0, q), lambda, mu);
+        } else if (!affine0) {
+          s.pv.reinit(m, c0, pts[q].xi, false, false);
+          s0 = F::stress(s.pv, u, verts0, lambda, mu);
+        }
+        if (t1) {
+          s1 = F::stressOf(t1->gradient(u, verts1, q), lambda, mu);
+        } else if (!affine1) {
+          Point xi1 = Point::Zero();  // referencePointOnFace with the local numbers above
+          for (std::size_t j = 0; j < fv.size(); ++j) xi1 += s.shapes[q][j] * ref1.vertices[local1[j]];
+          s.pv1.reinit(m, c1, xi1, false, false);
+          s1 = F::stress(s.pv1, u, verts1, lambda, mu);
+        }
+        const Vec n = t0 ? t0->normals[q] : Vec(pts[q].normal.template head<d>());
+        const double w = t0 ? t0->weights[q] : pts[q].weight;
+        sum += w * ((s0 - s1) * n).squaredNorm();
+      }
+      j2[static_cast<std::size_t>(f)] = sum;
+      return;
+    }
+
+    // sigma_h of the boundary cell at a face point (an affine cell's: the cell loop's)
+    const auto stressAt = [&](PointValues<d>& pv, const CellFacePoint& q) -> Mat {
+      if (affine0) return cellStress[static_cast<std::size_t>(c0)];
+      pv.reinit(m, c0, q.xi, false, false);
+      return F::stress(pv, u, verts0, lambda, mu);
+    };
+    const int id = faceId[f];
+    const std::array<bool, 3> fixed = bd.fixedComponents(id);
+    if (k == FaceKind::Contact) {
+      ContactFace& cf = contactFaces[static_cast<std::size_t>(contactSlot[static_cast<std::size_t>(f)])];
+      cf.cell = c0;
+      cf.localFace = side0.localFace;
+      cf.boundaryId = id;
+      cf.vertices = fv;
+      cf.fixed = fixed;
+      cf.points.clear();
+      cellFaceQuadrature(m, c0, side0.localFace, options.faceDegree, pts);
+      for (const CellFacePoint& q : pts) {
+        const Vec sn = stressAt(s.pv, q) * q.normal.template head<d>();
+        cf.points.push_back({q.x, q.weight, q.normal, q.shape, toPoint(sn)});
+      }
+      return;
+    }
+    const auto nit = bd.neumann.find(id);
+    cellFaceQuadrature(m, c0, side0.localFace, options.faceDegree, pts);
+    for (const CellFacePoint& q : pts) {
+      const Vec n = q.normal.template head<d>();
+      Vec jump = -stressAt(s.pv, q) * n;
+      if (nit != bd.neumann.end())
+        for (const NeumannCondition* nc : nit->second)
+          jump += nc->traction ? Vec(nc->traction(q.x).template head<d>())
+                               : Vec(-nc->pressure(q.x) * n);
+      for (int c = 0; c < d; ++c)
+        if (fixed[c]) jump[c] = 0;
+      sum += q.weight * jump.squaredNorm();
+    }
+    j2[static_cast<std::size_t>(f)] = sum;
+  });
+  return out;
+}
+
 }  // namespace
 
 std::vector<int> contactBoundaryIds(const EstimatorInput& input) {
@@ -370,12 +666,7 @@ EstimatorResult ResidualEstimator::estimate(const EstimatorInput& input) const {
 
 template <int d>
 EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
-  using Vec = Eigen::Matrix<double, d, 1>;
-  using Mat = Eigen::Matrix<double, d, d>;
-  using F = LocalField<d>;
   const mesh::Mesh& m = in.mesh;
-  const Eigen::VectorXd& u = in.displacement;
-  const double lambda = in.material.lambda(), mu = in.material.mu();
   const std::vector<double> h = patchDiameters(m);
   const BoundaryData bd = boundaryData(in);
   ContributionTable table(contributionNames(), m.numCells(), m.numVertices());
@@ -386,241 +677,21 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
   // bitwise the same for any number of threads (tests/estimators/test_estimator_threads.cpp).
 
   // eta_1: element residuals r = div sigma_h + f, weighted with h_p^2 for each vertex p of e
-  std::vector<double> r2(static_cast<std::size_t>(m.numCells()));
-  // sigma_h of the affine cells (constant there), for the face loop: bitwise what an evaluation at
-  // any point of the cell gives
-  std::vector<Mat> cellStress(static_cast<std::size_t>(m.numCells()));
-  // whether a non-simplex cell is flat (PointValues::flat()): only those get face tables
-  std::vector<std::uint8_t> flatCell(static_cast<std::size_t>(m.numCells()), 0);
-  struct CellScratch {
-    PointValues<d> pv;
-    FlatResidualTable<d> table;  // of the last flat cell of this thread
-  };
-  forEachIndex<CellScratch>(m.numCells(), [&](Index c, CellScratch& scratch) {
-    PointValues<d>& pv = scratch.pv;
-    const auto& rule = mesh::quadratureRule(m.cellType(c), options_.elementDegree);
-    const auto verts = m.cellVertices(c);
-    double sum = 0;
-    // on an affine cell div sigma_h and the determinant are constant: without a body force the
-    // point itself is not needed after the first quadrature point
-    const bool affine = affineCellType(m.cellType(c));
-    if (!affine && !in.boundaryConditions.bodyForce) {  // a flat cell: by the table (a translate's)
-      if (!scratch.table.matches(m, c)) {
-        scratch.table.invalidate();
-        pv.reinit(m, c, rule.points[0], false, false);
-        if (pv.flat())
-          scratch.table.build(m, c, pv.jacobian(),
-                              mesh::quadratureRule(m.cellType(c), flatResidualDegree(m.cellType(c), options_.elementDegree)),
-                              lambda, mu);
-      }
-      if (scratch.table.matches(m, c)) {
-        r2[static_cast<std::size_t>(c)] = scratch.table.integral(u, verts);
-        flatCell[static_cast<std::size_t>(c)] = 1;
-        return;
-      }
-    }
-    if (affine && !in.boundaryConditions.bodyForce) {
-      // the Hessians of affine shape functions vanish: div sigma_h = 0 and r = 0 (the sum below
-      // would add exact zeros); only the cell's constant stress is needed, for the face loop
-      pv.reinit(m, c, rule.points[0], false, false);
-      r2[static_cast<std::size_t>(c)] = 0;
-      cellStress[static_cast<std::size_t>(c)] = F::stress(pv, u, verts, lambda, mu);
-      return;
-    }
-    Vec div = Vec::Zero();
-    for (std::size_t q = 0; q < rule.size(); ++q) {
-      if (q == 0 || !affine || in.boundaryConditions.bodyForce) pv.reinit(m, c, rule.points[q], true, false);
-      if (q == 0 || !affine) div = F::divergence(pv, u, verts, lambda, mu);
-      Vec r = div;
-      if (in.boundaryConditions.bodyForce)
-        r += in.boundaryConditions.bodyForce(toPoint(pv.point())).template head<d>();
-      sum += pv.determinant() * rule.weights[q] * r.squaredNorm();
-    }
-    r2[static_cast<std::size_t>(c)] = sum;
-    if (affine) cellStress[static_cast<std::size_t>(c)] = F::stress(pv, u, verts, lambda, mu);
-    else flatCell[static_cast<std::size_t>(c)] = pv.flat() ? 1 : 0;
-  });
+  const CellResiduals<d> cells = cellResiduals<d>(in, options_);
   for (Index c = 0; c < m.numCells(); ++c)
-    for (Index p : m.cellVertices(c)) table.add(kEta1, p, c, h[p] * h[p] * r2[static_cast<std::size_t>(c)]);
-
-  // boundary ids of the one-cell faces of the face table
-  const mesh::FaceTable faces(m, threads());
-  std::vector<int> faceId(faces.numFaces(), kNoBoundaryId);
-  for (Index f = 0; f < m.numBoundaryFaces(); ++f) {
-    const Index k = faces.find(m.boundaryFaceVertices(f));
-    if (k >= 0 && faces.numCells(k) == 1) faceId[k] = m.boundaryFaceId(f);
-  }
+    for (Index p : m.cellVertices(c)) table.add(kEta1, p, c, h[p] * h[p] * cells.r2[static_cast<std::size_t>(c)]);
 
   // faces: eta_2 (interior jumps), eta_3 (Neumann jumps), contact faces through the hook
-  enum class FaceKind : std::uint8_t { Interior, Contact, Neumann, Fixed };
-  std::vector<FaceKind> kind(static_cast<std::size_t>(faces.numFaces()));
-  std::vector<Index> contactSlot(static_cast<std::size_t>(faces.numFaces()), -1);
-  Index numContact = 0;
-  for (Index f = 0; f < faces.numFaces(); ++f) {
-    if (faces.numCells(f) > 2)
-      throw Error("estimator '" + name() + "': face " + std::to_string(f) + " is shared by " +
-                  std::to_string(faces.numCells(f)) + " cells (non-manifold mesh)");
-    FaceKind& k = kind[static_cast<std::size_t>(f)];
-    if (faces.numCells(f) == 2) {
-      k = FaceKind::Interior;
-    } else if (bd.contact.count(faceId[f])) {
-      k = FaceKind::Contact;
-      contactSlot[static_cast<std::size_t>(f)] = numContact++;
-    } else {
-      const std::array<bool, 3> fixed = bd.fixedComponents(faceId[f]);
-      k = std::all_of(fixed.begin(), fixed.begin() + d, [](bool b) { return b; }) ? FaceKind::Fixed
-                                                                                  : FaceKind::Neumann;
-    }
-  }
-  struct FaceScratch {
-    PointValues<d> pv, pv1;
-    std::vector<Index> fv;  // vertices and quadrature of the current face (buffers reused)
-    std::vector<CellFacePoint> pts;
-    std::vector<double> weights;  // of a face between two affine cells
-    std::vector<std::array<double, 4>> shapes;  // face shape values at the points of side 0
-    FaceTableCache<d> tables;
-  };
-  std::vector<double> j2(static_cast<std::size_t>(faces.numFaces()), 0.0);
-  std::vector<ContactFace> contactFaces(static_cast<std::size_t>(numContact));
-  // whether sigma_h of cell c has degree <= 1 in each coordinate of its face with `faceVertices`
-  // vertices: affine cells (constant), flat quadrilaterals and hexahedra (the gradients of Q1 are
-  // multilinear, of degree 1 in each coordinate), flat prisms (degree 1 in all) and the base of a
-  // flat pyramid (there grad q = (y, x, x y) for q = x y / (1 - z)); not the pyramid's triangles
-  // (rational) nor distorted cells
-  const auto polynomialJumpSide = [&](Index c, std::size_t faceVertices) {
-    const mesh::CellType t = m.cellType(c);
-    return affineCellType(t) ||
-           ((t != mesh::CellType::Pyramid || faceVertices == 4) && flatCell[static_cast<std::size_t>(c)]);
-  };
-  forEachIndex<FaceScratch>(faces.numFaces(), [&](Index f, FaceScratch& s) {
-    const FaceKind k = kind[static_cast<std::size_t>(f)];
-    if (k == FaceKind::Fixed) return;
-    std::vector<Index>& fv = s.fv;
-    std::vector<CellFacePoint>& pts = s.pts;
-    const auto side0 = faces.side(f, 0);
-    const Index c0 = side0.cell;
-    const auto verts0 = m.cellVertices(c0);
-    const bool affine0 = affineCellType(m.cellType(c0));
-    cellFaceVertices(m, c0, side0.localFace, fv);
-    double sum = 0;
-
-    if (k == FaceKind::Interior) {
-      const Index c1 = faces.side(f, 1).cell;
-      const auto verts1 = m.cellVertices(c1);
-      // on affine cells sigma_h is constant: the cell loop's value
-      const bool affine1 = affineCellType(m.cellType(c1));
-      Mat s0 = affine0 ? cellStress[static_cast<std::size_t>(c0)] : Mat::Zero();
-      Mat s1 = affine1 ? cellStress[static_cast<std::size_t>(c1)] : Mat::Zero();
-      // local numbers in c1 of the face vertices (once per face, not per point)
-      const auto& ref1 = mesh::referenceElement(m.cellType(c1));
-      std::array<int, 4> local1{};
-      for (std::size_t j = 0; j < fv.size(); ++j) {
-        const auto it = std::find(verts1.begin(), verts1.end(), fv[j]);
-        if (it == verts1.end())
-          throw Error("vertex " + std::to_string(fv[j]) + " is not a vertex of cell " +
-                      std::to_string(c1));
-        local1[j] = static_cast<int>(it - verts1.begin());
-      }
-      Point normal;
-      if (affine0 && affine1 && flatCellFaceQuadrature(m, c0, side0.localFace, options_.faceDegree, s.weights, normal)) {
-        // a constant jump on a flat face: only the weights and the normal (the same sum)
-        const double jump = ((s0 - s1) * normal.template head<d>()).squaredNorm();
-        for (double w : s.weights) sum += w * jump;
-        j2[static_cast<std::size_t>(f)] = sum;
-        return;
-      }
-      // flat non-simplex sides by their tables (FaceTableCache), the others point by point; between
-      // sides whose sigma_h has degree <= 1 in each face coordinate the jump's square has degree 2
-      const int degree = polynomialJumpSide(c0, fv.size()) && polynomialJumpSide(c1, fv.size())
-                             ? std::min(options_.faceDegree, 2)
-                             : options_.faceDegree;
-      s.tables.beginFace();
-      // (a distorted cell gets no table: its key and lookup would only cost)
-      const FaceSideTable<d>* t0 = affine0 || !flatCell[static_cast<std::size_t>(c0)]
-                                       ? nullptr
-                                       : &s.tables.side0(m, c0, side0.localFace, degree, s.pv, pts);
-      if (t0 && !t0->flat) t0 = nullptr;
-      if (!t0) cellFaceQuadrature(m, c0, side0.localFace, degree, pts);
-      const std::size_t nq = t0 ? t0->weights.size() : pts.size();
-      if (t0 && !affine1) {  // side 1 is evaluated at side 0's points
-        s.shapes.assign(t0->shapes.begin(), t0->shapes.end());
-      } else if (!affine1) {
-        s.shapes.resize(nq);
-        for (std::size_t q = 0; q < nq; ++q) s.shapes[q] = pts[q].shape;
-      }
-      const FaceSideTable<d>* t1 =
-          affine1 || !flatCell[static_cast<std::size_t>(c1)]
-              ? nullptr
-              : &s.tables.side1(m, c1, std::span<const int>(local1.data(), fv.size()), degree, s.shapes, s.pv1);
-      if (t1 && !t1->flat) t1 = nullptr;
-      for (std::size_t q = 0; q < nq; ++q) {
-        if (t0) {
-          s0 = F::stressOf(t0->gradient(u, verts0, q), lambda, mu);
-        } else if (!affine0) {
-          s.pv.reinit(m, c0, pts[q].xi, false, false);
-          s0 = F::stress(s.pv, u, verts0, lambda, mu);
-        }
-        if (t1) {
-          s1 = F::stressOf(t1->gradient(u, verts1, q), lambda, mu);
-        } else if (!affine1) {
-          Point xi1 = Point::Zero();  // referencePointOnFace with the local numbers above
-          for (std::size_t j = 0; j < fv.size(); ++j) xi1 += s.shapes[q][j] * ref1.vertices[local1[j]];
-          s.pv1.reinit(m, c1, xi1, false, false);
-          s1 = F::stress(s.pv1, u, verts1, lambda, mu);
-        }
-        const Vec n = t0 ? t0->normals[q] : Vec(pts[q].normal.template head<d>());
-        const double w = t0 ? t0->weights[q] : pts[q].weight;
-        sum += w * ((s0 - s1) * n).squaredNorm();
-      }
-      j2[static_cast<std::size_t>(f)] = sum;
-      return;
-    }
-
-    // sigma_h of the boundary cell at a face point (an affine cell's: the cell loop's)
-    const auto stressAt = [&](PointValues<d>& pv, const CellFacePoint& q) -> Mat {
-      if (affine0) return cellStress[static_cast<std::size_t>(c0)];
-      pv.reinit(m, c0, q.xi, false, false);
-      return F::stress(pv, u, verts0, lambda, mu);
-    };
-    const int id = faceId[f];
-    const std::array<bool, 3> fixed = bd.fixedComponents(id);
-    if (k == FaceKind::Contact) {
-      ContactFace& cf = contactFaces[static_cast<std::size_t>(contactSlot[static_cast<std::size_t>(f)])];
-      cf.cell = c0;
-      cf.localFace = side0.localFace;
-      cf.boundaryId = id;
-      cf.vertices = fv;
-      cf.fixed = fixed;
-      cf.points.clear();
-      cellFaceQuadrature(m, c0, side0.localFace, options_.faceDegree, pts);
-      for (const CellFacePoint& q : pts) {
-        const Vec sn = stressAt(s.pv, q) * q.normal.template head<d>();
-        cf.points.push_back({q.x, q.weight, q.normal, q.shape, toPoint(sn)});
-      }
-      return;
-    }
-    const auto nit = bd.neumann.find(id);
-    cellFaceQuadrature(m, c0, side0.localFace, options_.faceDegree, pts);
-    for (const CellFacePoint& q : pts) {
-      const Vec n = q.normal.template head<d>();
-      Vec jump = -stressAt(s.pv, q) * n;
-      if (nit != bd.neumann.end())
-        for (const NeumannCondition* nc : nit->second)
-          jump += nc->traction ? Vec(nc->traction(q.x).template head<d>())
-                               : Vec(-nc->pressure(q.x) * n);
-      for (int c = 0; c < d; ++c)
-        if (fixed[c]) jump[c] = 0;
-      sum += q.weight * jump.squaredNorm();
-    }
-    j2[static_cast<std::size_t>(f)] = sum;
-  });
+  const mesh::FaceTable faces(m, threads());
+  const FaceClasses classes = classifyFaces(m, faces, bd, name(), d);
+  const FaceResiduals<d> faceTerms = faceResiduals<d>(in, options_, faces, classes, bd, cells);
   std::vector<Index> fv;
   for (Index f = 0; f < faces.numFaces(); ++f) {
-    const FaceKind k = kind[static_cast<std::size_t>(f)];
+    const FaceKind k = classes.kind[static_cast<std::size_t>(f)];
     if (k == FaceKind::Fixed || k == FaceKind::Contact) continue;
     const auto side0 = faces.side(f, 0);
     cellFaceVertices(m, side0.cell, side0.localFace, fv);
-    const double jf = j2[static_cast<std::size_t>(f)];
+    const double jf = faceTerms.j2[static_cast<std::size_t>(f)];
     if (k == FaceKind::Interior) {
       const Index c1 = faces.side(f, 1).cell;
       for (Index p : fv) {
@@ -632,7 +703,7 @@ EstimatorResult ResidualEstimator::run(const EstimatorInput& in) const {
     }
   }
 
-  addContactFaces(in, contactFaces, h, table);
+  addContactFaces(in, faceTerms.contactFaces, h, table);
   finish(in, h, table);
   EstimatorResult result = table.result(name(), meshStamp(m, in.meshRevision));
   result.vertexFields["h"] = Eigen::Map<const Eigen::VectorXd>(h.data(), static_cast<Eigen::Index>(h.size()));
