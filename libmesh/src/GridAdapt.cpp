@@ -438,6 +438,41 @@ void Grid::refineRed(Index e) {
   numChildren_[e] = static_cast<std::uint8_t>(children.size());
 }
 
+/// The tables of refineRedOnThreads (see there): per red element (position i in `red`) its rule,
+/// where its point entries start, the source of each point, the points it creates, and the first
+/// numbers of its new vertices, children and connectivity.
+struct Grid::RedPlan {
+  explicit RedPlan(const std::vector<Index>& elements) : red(elements), nr(static_cast<Index>(elements.size())) {}
+  const std::vector<Index>& red;
+  Index nr = 0;
+  std::vector<Index> position;          ///< of each old element in red (-1: not red)
+  std::vector<std::uint8_t> variant;    ///< the red rule (tetrahedra: the shortest diagonal)
+  std::vector<std::size_t> pointStart;  ///< the element's entries of `source` (its points after the corners)
+  /// per point: a vertex (>= 0), or -1 - (creator's position * 32 + its local point)
+  std::vector<std::int64_t> source;
+  std::vector<std::uint32_t> created;  ///< bit p: the element creates point p
+  std::vector<Index> firstVertex, firstElement;
+  std::vector<std::size_t> firstConn;
+
+  static std::int64_t code(Index j, int point) { return -1 - (static_cast<std::int64_t>(j) * 32 + point); }
+  std::size_t slot(const Grid& g, Index j, int point) const {
+    return pointStart[j] + static_cast<std::size_t>(point - LocalPoints::of(g.type_[red[j]]).numCorners);
+  }
+  std::vector<std::uint32_t> used;  ///< bit p: the element's rule uses point p
+  bool uses(Index i, int point) const { return ((used[static_cast<std::size_t>(i)] >> point) & 1u) != 0; }
+  /// The vertex of a source entry: the vertex itself, or the creator's: the vertex the point had
+  /// before, or the one it creates.
+  Index vertexOf(const Grid& g, std::int64_t s) const {
+    if (s >= 0) return static_cast<Index>(s);
+    const std::int64_t c = -1 - s;
+    const auto j = static_cast<std::size_t>(c / 32);
+    const int point = static_cast<int>(c % 32);
+    const std::int64_t own = source[slot(g, static_cast<Index>(j), point)];
+    if (own >= 0) return static_cast<Index>(own);
+    return firstVertex[j] + std::popcount(created[j] & ((1u << point) - 1u));
+  }
+};
+
 // refineRed() creates the new vertices of an element in local point order, each the first time an
 // element needs it. On threads the same happens in three passes: (1) for each point of each red
 // element, the vertex it had before this refinement, or else the element that creates it: the
@@ -448,17 +483,30 @@ void Grid::refineRed(Index e) {
 // then go into the hash maps, on the threads too (FlatIndexMap::insertAbsentConcurrently): their
 // keys are new and distinct, so what the maps return for a key does not depend on the order.
 void Grid::refineRedOnThreads(const std::vector<Index>& red, const Context& ctx, int threads) {
-  const AdaptTables& tab = tables();
-  const auto nr = static_cast<Index>(red.size());
+  RedPlan plan(red);
   for (Index e : red) {
     if (level_[e] + 1 > 255) throw Error("Grid: more than 255 refinement levels");
     maxLevel_ = std::max(maxLevel_, level_[e] + 1);
   }
-  std::vector<Index> position(static_cast<std::size_t>(ctx.numOld), -1);  // in red
+  redSources(plan, ctx, threads);
+  numberRed(plan);
+  writeRed(plan, threads);
+  insertRedPoints(plan, threads);
+}
+
+/// refineRedOnThreads (1): the rule of each red element and the source of each of its points
+/// (the existing vertex, or the element that creates it), and the points each element creates.
+void Grid::redSources(RedPlan& plan, const Context& ctx, int threads) const {
+  const std::vector<Index>& red = plan.red;
+  const Index nr = plan.nr;
+  std::vector<Index>& position = plan.position;
+  position.assign(static_cast<std::size_t>(ctx.numOld), -1);
   for (Index i = 0; i < nr; ++i) position[red[i]] = i;
   // the rule of each element, and where its points' entries start (the points after the corners)
-  std::vector<std::uint8_t> variant(static_cast<std::size_t>(nr));
-  std::vector<std::size_t> pointStart(static_cast<std::size_t>(nr) + 1, 0);
+  std::vector<std::uint8_t>& variant = plan.variant;
+  variant.assign(static_cast<std::size_t>(nr), 0);
+  std::vector<std::size_t>& pointStart = plan.pointStart;
+  pointStart.assign(static_cast<std::size_t>(nr) + 1, 0);
   for (Index i = 0; i < nr; ++i) {
     const LocalPoints& lp = LocalPoints::of(type_[red[i]]);
     pointStart[i + 1] = pointStart[i] + static_cast<std::size_t>(lp.size - lp.numCorners);
@@ -471,19 +519,18 @@ void Grid::refineRedOnThreads(const std::vector<Index>& red, const Context& ctx,
     for (int k = 0; k < 4; ++k) x[k] = x_[vertices(e)[k]];
     variant[i] = static_cast<std::uint8_t>(shortestTetDiagonal(std::span<const Point>(x.data(), 4)));
   }
-  const auto uses = [&](Index i, int point) {
-    return ((tab.redUsed[static_cast<int>(type_[red[i]])][variant[i]] >> point) & 1u) != 0;
-  };
   // (1) per point: a vertex (>= 0), or -1 - (creator's position * 32 + its local point). An edge
   // point is decided at the edge's smaller vertex, a face point at the face's smallest vertex: of the
   // red elements around that vertex (ascending, so in `red` order) that use the point, the first
   // creates it. Here every entry is written once, at the corner of its edge or face (each corner
   // is handled by the first red element around it); below, each element rewrites its own entries.
-  std::vector<std::int64_t> source(pointStart[nr], 0);
-  const auto entry = [&](Index j, int point) -> std::int64_t& {
-    return source[pointStart[j] + static_cast<std::size_t>(point - LocalPoints::of(type_[red[j]]).numCorners)];
-  };
-  const auto code = [](Index j, int point) { return -1 - (static_cast<std::int64_t>(j) * 32 + point); };
+  plan.source.assign(pointStart[nr], 0);
+  plan.used.resize(static_cast<std::size_t>(nr));
+  for (Index i = 0; i < nr; ++i)
+    plan.used[static_cast<std::size_t>(i)] = tables().redUsed[static_cast<int>(type_[red[i]])][variant[i]];
+  const auto entry = [&](Index j, int point) -> std::int64_t& { return plan.source[plan.slot(*this, j, point)]; };
+  const auto code = [](Index j, int point) { return RedPlan::code(j, point); };
+  const auto uses = [&](Index i, int point) { return plan.uses(i, point); };
 #pragma omp parallel num_threads(threads)
   {
     struct Candidate {
@@ -543,7 +590,8 @@ void Grid::refineRedOnThreads(const std::vector<Index>& red, const Context& ctx,
   }
   // then each element: the points it creates, unless they exist already (looked up by the creator
   // only; the others find the vertex at the creator's entry in (3)), and its centroid
-  std::vector<std::uint32_t> created(static_cast<std::size_t>(nr), 0);  // bit p: the element creates point p
+  std::vector<std::uint32_t>& created = plan.created;
+  created.assign(static_cast<std::size_t>(nr), 0);  // bit p: the element creates point p
 #pragma omp parallel for schedule(dynamic, 1024) num_threads(threads)
   for (Index i = 0; i < nr; ++i) {
     const Index e = red[i];
@@ -575,30 +623,30 @@ void Grid::refineRedOnThreads(const std::vector<Index>& red, const Context& ctx,
     }
     created[static_cast<std::size_t>(i)] = mine;
   }
-  // (2) the numbers
-  std::vector<Index> firstVertex(static_cast<std::size_t>(nr) + 1), firstElement(static_cast<std::size_t>(nr) + 1);
-  std::vector<std::size_t> firstConn(static_cast<std::size_t>(nr) + 1);
+}
+
+/// refineRedOnThreads (2): the numbers of each element's new vertices (after those of the elements
+/// before it, in its local point order), children and connectivity; the arrays grown to them.
+void Grid::numberRed(RedPlan& plan) {
+  const std::vector<Index>& red = plan.red;
+  const Index nr = plan.nr;
+  std::vector<Index>& firstVertex = plan.firstVertex;
+  std::vector<Index>& firstElement = plan.firstElement;
+  std::vector<std::size_t>& firstConn = plan.firstConn;
+  firstVertex.resize(static_cast<std::size_t>(nr) + 1);
+  firstElement.resize(static_cast<std::size_t>(nr) + 1);
+  firstConn.resize(static_cast<std::size_t>(nr) + 1);
   firstVertex[0] = numVertices();
   firstElement[0] = numElements();
   firstConn[0] = conn_.size();
   for (Index i = 0; i < nr; ++i) {
-    const auto& children = tab.red[static_cast<int>(type_[red[i]])][variant[i]];
+    const auto& children = tables().red[static_cast<int>(type_[red[i]])][plan.variant[i]];
     std::size_t conn = 0;
     for (const CodedChild& c : children) conn += static_cast<std::size_t>(mesh::numVertices(c.type));
-    firstVertex[i + 1] = firstVertex[i] + std::popcount(created[i]);
+    firstVertex[i + 1] = firstVertex[i] + std::popcount(plan.created[i]);
     firstElement[i + 1] = firstElement[i] + static_cast<Index>(children.size());
     firstConn[i + 1] = firstConn[i] + conn;
   }
-  const auto vertexOf = [&](std::int64_t s) -> Index {
-    if (s >= 0) return static_cast<Index>(s);
-    const std::int64_t code = -1 - s;
-    const auto j = static_cast<std::size_t>(code / 32);
-    const int point = static_cast<int>(code % 32);
-    // the creator's own entry: the vertex the point had before, or the one it creates
-    const std::int64_t own = entry(static_cast<Index>(j), point);
-    if (own >= 0) return static_cast<Index>(own);
-    return firstVertex[j] + std::popcount(created[j] & ((1u << point) - 1u));
-  };
   const auto nv = static_cast<std::size_t>(firstVertex[nr]), ne = static_cast<std::size_t>(firstElement[nr]);
   reserve(firstElement[nr], firstConn[nr], firstVertex[nr]);  // room for the closures too (geometric growth)
   x_.resize(nv);
@@ -617,7 +665,12 @@ void Grid::refineRedOnThreads(const std::vector<Index>& red, const Context& ctx,
   inFather_.resize(ne);
   greenPattern_.resize(ne);
   marks_.resize(ne);
-  // (3) the vertices and the children, as refineRed() writes them
+}
+
+/// refineRedOnThreads (3): the new vertices and the children, as refineRed() writes them.
+void Grid::writeRed(const RedPlan& plan, int threads) {
+  const std::vector<Index>& red = plan.red;
+  const Index nr = plan.nr;
 #pragma omp parallel num_threads(threads)
   {
     std::vector<int> ids;
@@ -635,9 +688,9 @@ void Grid::refineRedOnThreads(const std::vector<Index>& red, const Context& ctx,
           g[p] = ev[p];
           continue;
         }
-        if (!uses(i, p)) continue;
-        g[p] = vertexOf(source[pointStart[i] + static_cast<std::size_t>(p - nvc)]);
-        if (!((created[i] >> p) & 1u)) continue;
+        if (!plan.uses(i, p)) continue;
+        g[p] = plan.vertexOf(*this, plan.source[plan.pointStart[i] + static_cast<std::size_t>(p - nvc)]);
+        if (!((plan.created[i] >> p) & 1u)) continue;
         Point x;
         bool boundary = false;
         if (p < nvc + lp.numEdges) {  // as edgeMidpoint()
@@ -655,9 +708,9 @@ void Grid::refineRedOnThreads(const std::vector<Index>& red, const Context& ctx,
         vertexPoint_[v] = static_cast<std::uint8_t>(p);
         boundaryVertex_[v] = boundary ? 1 : 0;
       }
-      const auto& children = tab.red[static_cast<int>(t)][variant[i]];
-      Index child = firstElement[i];
-      std::size_t conn = firstConn[i];
+      const auto& children = tables().red[static_cast<int>(t)][plan.variant[i]];
+      Index child = plan.firstElement[i];
+      std::size_t conn = plan.firstConn[i];
       for (const CodedChild& c : children) {
         const int n = mesh::numVertices(c.type);
         type_[child] = c.type;
@@ -678,16 +731,22 @@ void Grid::refineRedOnThreads(const std::vector<Index>& red, const Context& ctx,
         ++child;
       }
       refinement_[e] = Refinement::Red;
-      firstChild_[e] = firstElement[i];
+      firstChild_[e] = plan.firstElement[i];
       numChildren_[e] = static_cast<std::uint8_t>(children.size());
     }
   }
+}
+
+/// refineRedOnThreads, last: the new points in the hash maps.
+void Grid::insertRedPoints(const RedPlan& plan, int threads) {
+  const std::vector<Index>& red = plan.red;
+  const Index nr = plan.nr;
   // the new points in the hash maps: their keys are new and distinct (each point has one creator),
   // so the threads insert them at once; what the maps return for a key does not depend on the order
   std::size_t newEdges = 0, newFaces = 0, newCentroids = 0;
   for (Index i = 0; i < nr; ++i) {
     const LocalPoints& lp = LocalPoints::of(type_[red[i]]);
-    const std::uint32_t bits = created[static_cast<std::size_t>(i)];
+    const std::uint32_t bits = plan.created[static_cast<std::size_t>(i)];
     const std::uint32_t edgeBits = ((1u << lp.numEdges) - 1u) << lp.numCorners;
     const std::uint32_t faceBits = ((1u << lp.numFaces) - 1u) << (lp.numCorners + lp.numEdges);
     newEdges += static_cast<std::size_t>(std::popcount(bits & edgeBits));
@@ -699,13 +758,13 @@ void Grid::refineRedOnThreads(const std::vector<Index>& red, const Context& ctx,
   centroids_.reserve(centroids_.size() + newCentroids);
 #pragma omp parallel for schedule(static) num_threads(threads)
   for (Index i = 0; i < nr; ++i) {
-    std::uint32_t bits = created[static_cast<std::size_t>(i)];
+    std::uint32_t bits = plan.created[static_cast<std::size_t>(i)];
     if (bits == 0) continue;
     const Index e = red[i];
     const CellType t = type_[e];
     const LocalPoints& lp = LocalPoints::of(t);
     const auto ev = vertices(e);
-    Index v = firstVertex[i];
+    Index v = plan.firstVertex[i];
     while (bits) {
       const int p = std::countr_zero(bits);
       bits &= bits - 1;

@@ -406,6 +406,13 @@ private:
   /// refineRed() of every element of `red` (ascending, regular in ctx) on `threads` threads, with
   /// the numbers and values of refineRed() called in that order.
   void refineRedOnThreads(const std::vector<Index>& red, const Context& ctx, int threads);
+  /// Its passes (GridAdapt.cpp) on the tables of RedPlan: the sources of the new points, their
+  /// numbers, the vertices and children, the hash maps.
+  struct RedPlan;
+  void redSources(RedPlan& plan, const Context& ctx, int threads) const;
+  void numberRed(RedPlan& plan);
+  void writeRed(const RedPlan& plan, int threads);
+  void insertRedPoints(const RedPlan& plan, int threads);
   void closeGreen(Index e, unsigned pattern, std::vector<LocalChild>& scratch);
   void removeChildren(Index e);
   Index edgeMidpoint(Index e, int localEdge);
