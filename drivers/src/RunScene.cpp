@@ -46,6 +46,7 @@ std::string describeCells(const RunResult& r) {
 void reportBodies(const Scene& scene, const std::vector<mesh::Mesh>& meshes, const SceneSolution& solved,
                   RunResult& r) {
   const std::vector<const Scene*> bodies = scene.bodyScenes();
+  const bool perBody = OutputLayout(scene).perBody();
   for (std::size_t i = 0; i < meshes.size(); ++i) {
     BodyReport b;
     b.name = bodies[i]->name;
@@ -57,7 +58,7 @@ void reportBodies(const Scene& scene, const std::vector<mesh::Mesh>& meshes, con
     for (const Stress& st : e.cellStress) b.maxVonMises = std::max(b.maxVonMises, vonMises(st));
     r.maxDisplacement = std::max(r.maxDisplacement, b.maxDisplacement);
     r.maxVonMises = std::max(r.maxVonMises, b.maxVonMises);
-    if (OutputLayout(scene).perBody()) r.bodies.push_back(b);
+    if (perBody) r.bodies.push_back(b);
   }
 }
 
@@ -80,10 +81,6 @@ void writeStaticVtk(const Scene& scene, const std::filesystem::path& dir, const 
   writePvdCollection(pvd, parts);
   r.outputFiles.push_back(pvd);
 }
-
-}  // namespace
-
-namespace {
 
 /// singleLevelWarning for one body of a scene: the solver and contact are the scene's, the mesh's
 /// source the body's.

@@ -1,10 +1,12 @@
 #pragma once
 /// \file RunScene.hpp
-/// `obs run`: read and validate a scene, build the grid (coarse mesh + uniform refinements as a
-/// mesh::Grid), solve the linear-elastic or contact problem (SceneSolver.hpp) and write the outputs
-/// (<output>/<scene name>.vtu, <output>/summary.json, optional CSV row). A solver that stops at
-/// max_iterations without converging writes the outputs (summary.json says converged: false) and
-/// then throws obs::Error.
+/// `obs run`: read and validate a scene, build the grid of each of its bodies (Scene::bodyScenes:
+/// coarse mesh + uniform refinements as a mesh::Grid), then the runner of its kind: [adaptivity]
+/// (AdaptiveScene.hpp), [dynamics] (DynamicScene.hpp) or the static solve of the linear-elastic or
+/// contact problem (SceneSolver.hpp), and write the outputs in the scene's layout (one-body file:
+/// <output>/<scene name>.vtu; several bodies: one .vtu per body and the .pvd; summary.json and the
+/// runs.csv row). A solver that stops at max_iterations without converging writes the outputs
+/// (summary.json says converged: false) and then throws obs::Error.
 #include <filesystem>
 #include <string>
 
