@@ -12,6 +12,7 @@
 
 #include "obs/drivers/ObstacleFactory.hpp"
 #include "obs/drivers/SceneSetup.hpp"
+#include "RunSupport.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/ContactModel.hpp"
 #include "obs/obs/ContactProblem.hpp"
@@ -128,10 +129,9 @@ std::unique_ptr<ContactSolver<d>> sceneContactSolver(const Scene& scene, const s
 }
 
 /// The report of a one-body scene's [contact] (summary.json "contact": the obstacle coupling's
-/// counts, force, load, area and radii) and the point fields of its .vtu (gap, normal_displacement,
-/// contact_pressure, contact_state, constraint_direction) from the solution u of the problem.
+/// counts, force, load, area and radii) from the solution u of the problem.
 template <int d>
-void reportObstacleContact(const Scene& scene, const mesh::Mesh& mesh, const ContactProblem<d>& problem,
+void reportObstacleContact(const Scene& scene, const ContactProblem<d>& problem,
                            const Eigen::VectorXd& u, const ContactOutputs& out, SceneSolution& s) {
   const ContactSet& contactSet = problem.contactSet();
   ContactReport c;
@@ -171,32 +171,64 @@ void reportObstacleContact(const Scene& scene, const mesh::Mesh& mesh, const Con
   c.radius = out.contactRadius;
   c.maxViolation = problem.maxViolation(u);
   s.contact = c;
-
-  // point fields
-  const std::size_t n = static_cast<std::size_t>(mesh.numVertices());
-  Field gap{"gap", 1, std::vector<double>(n, 0.0), false};
-  Field normalDisplacement{"normal_displacement", 1, std::vector<double>(n, 0.0), false};
-  Field pressure{"contact_pressure", 1, std::vector<double>(n, 0.0), false};
-  Field state{"contact_state", 1, std::vector<double>(n, 0.0), true};
-  Field direction{"constraint_direction", 3, std::vector<double>(3 * n, 0.0), false};
-  for (Index k = 0; k < contactSet.size(); ++k) {
-    const auto v = static_cast<std::size_t>(contactSet.vertex(k));
-    const Point& nu = contactSet.direction(k);
-    for (int i = 0; i < 3; ++i) direction.values[3 * v + i] = nu[i];
-    normalDisplacement.values[v] =
-        nu.template head<d>().dot(u.template segment<d>(static_cast<Eigen::Index>(v) * d));
-    if (!problem.constraint(k).bounded()) continue;
-    gap.values[v] = contactSet.gap(k);
-    pressure.values[v] = out.pressure[k];
-    state.values[v] = out.inContact[k] ? 2 : 1;
-  }
-  s.contactFields.front() = {std::move(gap), std::move(normalDisplacement), std::move(pressure), std::move(state),
-                             std::move(direction)};
 }
 
 /// "body:boundary" (the boundary's name, or its id).
 std::string sideLabel(const std::string& body, const BoundaryRef& ref) {
   return body + ":" + (ref.name.empty() ? std::to_string(ref.id) : ref.name);
+}
+
+/// The contact point fields of every body (SolutionFields.hpp documents them): at the nodes of each
+/// coupling on its constrained body the constraint_direction and normal_displacement (mortar pairs:
+/// at the constrained nodes; obstacles: at every node of the contact set), and at the constrained
+/// nodes the gap g_p, contact_pressure, contact_state (1 potential, 2 actual) and contact_force -mu_p
+/// nu_p (mu_p = D_pp lambda_p for mortar, the nodal force for obstacles); a mortar pair's master
+/// forces on the master body.
+template <int d>
+void contactPointFields(const ContactModel<d>& model, const ContactProblem<d>& problem, const Eigen::VectorXd& x,
+                        const ContactOutputs& out, const std::vector<const mesh::Mesh*>& meshes,
+                        std::vector<std::vector<Field>>& fields) {
+  const ContactSet& cs = problem.contactSet();
+  fields.resize(meshes.size());
+  for (std::size_t i = 0; i < meshes.size(); ++i) {
+    const std::size_t n = static_cast<std::size_t>(meshes[i]->numVertices());
+    fields[i] = {Field{"gap", 1, std::vector<double>(n, 0.0), false},
+                          Field{"normal_displacement", 1, std::vector<double>(n, 0.0), false},
+                          Field{"contact_pressure", 1, std::vector<double>(n, 0.0), false},
+                          Field{"contact_state", 1, std::vector<double>(n, 0.0), true},
+                          Field{"constraint_direction", 3, std::vector<double>(3 * n, 0.0), false},
+                          Field{"contact_force", 3, std::vector<double>(3 * n, 0.0), false}};
+  }
+  for (const auto& c : model.couplings()) {
+    const int slaveBody = c.mortar ? c.slave : c.body;
+    const Index count = static_cast<Index>(c.nodes.size());
+    Eigen::VectorXd mu = Eigen::VectorXd::Zero(count);
+    const Index offS = model.bodies()[slaveBody].offset;
+    auto& fs = fields[slaveBody];
+    for (Index k = 0; k < count; ++k) {
+      const Index node = c.nodes[k];
+      const bool bounded = problem.constraint(node).bounded();
+      if (!bounded && c.mortar) continue;
+      const auto v = static_cast<std::size_t>(cs.vertex(node) - offS);
+      const Point& nu = cs.direction(node);
+      for (int a = 0; a < 3; ++a) fs[4].values[3 * v + a] = nu[a];
+      fs[1].values[v] = nu.template head<d>().dot(x.template segment<d>(static_cast<Eigen::Index>(cs.vertex(node)) * d));
+      if (!bounded) continue;
+      mu[k] = out.multiplier[node];
+      fs[0].values[v] = cs.gap(node);
+      fs[2].values[v] = out.pressure[node];
+      fs[3].values[v] = out.inContact[node] ? 2 : 1;
+      for (int a = 0; a < d; ++a) fs[5].values[3 * v + a] = -mu[k] * nu[a];
+    }
+    if (c.mortar) {
+      const Eigen::VectorXd fm = c.coupling->masterForces(mu);
+      const Index offM = model.bodies()[c.master].offset;
+      auto& fmField = fields[c.master];
+      for (Index v = 0; v < meshes[c.master]->numVertices(); ++v)
+        for (int a = 0; a < d; ++a)
+          fmField[5].values[3 * static_cast<std::size_t>(v) + a] += fm[static_cast<Eigen::Index>(offM + v) * d + a];
+    }
+  }
 }
 
 /// A contact scene, one body or several: the contact model of its bodies and couplings
@@ -267,58 +299,17 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
     recoverStresses(*meshes[i], bodies[i]->material, e);
     s.bodies.push_back(std::move(e));
   }
-  s.contactFields.resize(bodies.size());
-  if (!scene.multiBody()) {  // the layout of a one-body scene file: summary.json "contact"
-    reportObstacleContact<d>(scene, *meshes.front(), *problem, u, out, s);
+  // the contact point fields of every body, and the report per coupling (several bodies) or of
+  // the one-body file's [contact] (its layout: summary.json "contact", no contact_force field)
+  contactPointFields<d>(model, *problem, x, out, meshes, s.contactFields);
+  if (!OutputLayout(scene).perBody()) {
+    for (std::vector<Field>& f : s.contactFields) f.pop_back();  // contact_force
+    reportObstacleContact<d>(scene, *problem, u, out, s);
     return s;
   }
-
-  // per pair: forces on both sides, pressures, areas; point fields on both bodies
-  const ContactSet& cs = problem->contactSet();
-  for (std::size_t i = 0; i < bodies.size(); ++i) {
-    const std::size_t n = static_cast<std::size_t>(meshes[i]->numVertices());
-    s.contactFields[i] = {Field{"gap", 1, std::vector<double>(n, 0.0), false},
-                          Field{"normal_displacement", 1, std::vector<double>(n, 0.0), false},
-                          Field{"contact_pressure", 1, std::vector<double>(n, 0.0), false},
-                          Field{"contact_state", 1, std::vector<double>(n, 0.0), true},
-                          Field{"constraint_direction", 3, std::vector<double>(3 * n, 0.0), false},
-                          Field{"contact_force", 3, std::vector<double>(3 * n, 0.0), false}};
-  }
-  // the figures per pair from the model (one report for every runner), the fields per body here
   const std::vector<CouplingRecord> records = couplingRecords(model, *problem, x, out);
-  for (std::size_t j = 0; j < model.couplings().size(); ++j) {
-    const auto& c = model.couplings()[j];
-    const PairReport r = pairReport(records[j], couplings.sides[j].first, couplings.sides[j].second, d);
-    // point fields: the coupling's nodes (stacked vertex, direction, multiplier mu = D_pp lambda_p
-    // for mortar, the nodal force for obstacles) on the constrained body, master forces on the master
-    const int slaveBody = c.mortar ? c.slave : c.body;
-    const Index count = static_cast<Index>(c.nodes.size());
-    Eigen::VectorXd mu = Eigen::VectorXd::Zero(count);
-    const Index offS = model.bodies()[slaveBody].offset;
-    auto& fs = s.contactFields[slaveBody];
-    for (Index k = 0; k < count; ++k) {
-      const Index node = c.nodes[k];
-      if (!problem->constraint(node).bounded()) continue;
-      mu[k] = out.multiplier[node];
-      const auto v = static_cast<std::size_t>(cs.vertex(node) - offS);
-      const Point& nu = cs.direction(node);
-      for (int a = 0; a < 3; ++a) fs[4].values[3 * v + a] = nu[a];
-      fs[0].values[v] = cs.gap(node);
-      fs[1].values[v] = nu.template head<d>().dot(x.template segment<d>(static_cast<Eigen::Index>(cs.vertex(node)) * d));
-      fs[2].values[v] = out.pressure[node];
-      fs[3].values[v] = out.inContact[node] ? 2 : 1;
-      for (int a = 0; a < d; ++a) fs[5].values[3 * v + a] = -mu[k] * nu[a];
-    }
-    if (c.mortar) {
-      const Eigen::VectorXd fm = c.coupling->masterForces(mu);
-      const Index offM = model.bodies()[c.master].offset;
-      auto& fmField = s.contactFields[c.master];
-      for (Index v = 0; v < meshes[c.master]->numVertices(); ++v)
-        for (int a = 0; a < d; ++a)
-          fmField[5].values[3 * static_cast<std::size_t>(v) + a] += fm[static_cast<Eigen::Index>(offM + v) * d + a];
-    }
-    s.pairs.push_back(r);
-  }
+  for (std::size_t j = 0; j < model.couplings().size(); ++j)
+    s.pairs.push_back(pairReport(records[j], couplings.sides[j].first, couplings.sides[j].second, d));
   return s;
 }
 
