@@ -2,10 +2,14 @@
 /// \file AdaptiveScene.hpp
 /// `obs run` for a scene with [adaptivity] (AdaptivitySpec.hpp, docs/scenes.md): the adaptive loop
 /// solve -> estimate -> mark -> refine of libestimators (AdaptiveLoop.hpp; thesis Sec. 4.1, 4.2;
-/// docs/theory.md#adaptive-loop) on the grid of [mesh], with TNNMG or the primal-dual active set method from
-/// [solver] (contact scenes; scenes without [contact] are solved directly with CHOLMOD), the
-/// estimator, marking and stopping rules of [adaptivity] and an optional analytic reference
-/// (punch, wedge, Hertz: AnalyticContact.hpp, parameters taken from [contact] and [material]).
+/// docs/theory.md#adaptive-loop) on the grids of the scene's bodies (Scene::bodyScenes: [mesh] of a
+/// one-body file, or each [[body]]; the cells of all bodies marked together) and its couplings
+/// (sceneCouplings), with TNNMG or the primal-dual active set method from [solver] (contact scenes;
+/// without contact the bodies are solved directly with CHOLMOD), the estimator, marking and
+/// stopping rules of [adaptivity] and, for one body against an obstacle, an optional analytic
+/// reference (punch, wedge, Hertz: AnalyticContact.hpp, parameters taken from [contact] and
+/// [material]). Several bodies write step_NNN_<body>.vtu (parts of the .pvd) and summary.json
+/// "bodies" and "pairs" instead of the one-body files below (OutputLayout).
 ///
 /// Outputs in the output directory:
 ///   steps.csv      one row per step: step, cells, vertices, unknowns, potential/actual/semi/full
