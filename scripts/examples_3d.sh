@@ -4,7 +4,7 @@
 # refinement, on the starting grids of the thesis, and writes the tables of docs/examples.md
 # ("Examples 4-9") to docs/figures/ex4-9/tables.md plus the raw step tables
 # docs/figures/ex4-9/<example>_<grid>_<adaptive|uniform>.csv (steps.csv of each run).
-#   scripts/examples_3d.sh [path/to/obs]        # default: build/drivers/obs; ~80 s on 2 idle cores
+#   scripts/examples_3d.sh [path/to/obs]        # default: build/drivers/obs; about 20 s on 2 idle cores
 # Environment: OUT (scratch directory, default out/examples_3d), STEPS_SCALE=small (CI smoke run:
 # two adaptive and two uniform steps each).
 set -euo pipefail
