@@ -438,6 +438,12 @@ def thesis_figures(runs, dyn_steps):
     grid7 = dict(grid6, file=_step(runs, ex7, 4))
     figs["fig4_35_example7_contact"] = dict(cols=3, panels=[grid7] + _estimator_panels(
         runs, ex7, 4, (5, 6, 7, 8), z0, "z = 0"))
+    # Fig. 4.36: Example 8 (sine wave), the grid at the start and after three refinements, and
+    # eta_{8,p}^2 before the crests are found (k = 0, 1)
+    ex8 = "example8_hexahedron"
+    grid8 = [dict(grid6, file=_step(runs, ex8, k), title=f"grid and contact nodes, k = {k}, z = 0") for k in (0, 3)]
+    figs["fig4_36_example8_eta8"] = dict(cols=2, panels=grid8 + [
+        _estimator_panels(runs, ex8, k, (8,), z0, "z = 0", edges=True)[0] for k in (0, 1)])
     for key, run in (("fig5_15_geometry1", "dynamics_geometry1"), ("fig5_17_tibia", "dynamics_tibia")):
         if run not in dyn_steps:
             continue

@@ -5,6 +5,7 @@
 #   docs/figures/fig4_29_example5_pyramid.png Fig. 4.29: eta_{1,p}^2, eta_{2,p}^2, eta_{5,p}^2, Example 5, pyramids
 #   docs/figures/fig4_32_example6_contact.png Fig. 4.32: grid, eta_{5,p}^2, eta_{6,p}^2, eta_{8,p}^2, Example 6
 #   docs/figures/fig4_35_example7_contact.png Fig. 4.35: grid, eta_{5,p}^2 ... eta_{8,p}^2, Example 7, pyramids
+#   docs/figures/fig4_36_example8_eta8.png    Fig. 4.36: grid at k = 0, 3 and eta_{8,p}^2 at k = 0, 1, Example 8
 #   docs/figures/fig5_15_geometry1.png        Fig. 5.15: contact stress, normal displacement and velocity,
 #                                             Geometry 1, alpha(p), tau = 5e-4
 #   docs/figures/fig5_17_tibia.png            Fig. 5.17: the same for the cube on the tibial plateau, tau = 5e-3
@@ -44,6 +45,7 @@ adaptive example4_prism example4 prism 6
 adaptive example5_pyramid example5 pyramid 7
 adaptive example6_hexahedron example6 hexahedron 5
 adaptive example7_pyramid example7 pyramid 5
+adaptive example8_hexahedron example8 hexahedron 4
 
 # Geometry 1 with alpha(p) at the thesis' tau = 5e-4 to t = 0.25 (impact at t = 0.01, release near
 # t = 0.22), refine 3 (3,825 vertices; refine 4, nearer the thesis' five refinements, took 159 s:
