@@ -444,6 +444,11 @@ def thesis_figures(runs, dyn_steps):
     grid8 = [dict(grid6, file=_step(runs, ex8, k), title=f"grid and contact nodes, k = {k}, z = 0") for k in (0, 3)]
     figs["fig4_36_example8_eta8"] = dict(cols=2, panels=grid8 + [
         _estimator_panels(runs, ex8, k, (8,), z0, "z = 0", edges=True)[0] for k in (0, 1)])
+    # Fig. 4.37: Example 9 (smiley), the grid of the contact boundary at k = 2, 4, 6; left the
+    # starting grid of pyramids, right of hexahedra
+    figs["fig4_37_example9_grids"] = dict(cols=2, panels=[
+        dict(grid6, file=_step(runs, f"example9_{grid}", k), title=f"starting grid of {plural}, k = {k}, z = 0")
+        for k in (2, 4, 6) for grid, plural in (("pyramid", "pyramids"), ("hexahedron", "hexahedra"))])
     for key, run in (("fig5_15_geometry1", "dynamics_geometry1"), ("fig5_17_tibia", "dynamics_tibia")):
         if run not in dyn_steps:
             continue

@@ -6,6 +6,8 @@
 #   docs/figures/fig4_32_example6_contact.png Fig. 4.32: grid, eta_{5,p}^2, eta_{6,p}^2, eta_{8,p}^2, Example 6
 #   docs/figures/fig4_35_example7_contact.png Fig. 4.35: grid, eta_{5,p}^2 ... eta_{8,p}^2, Example 7, pyramids
 #   docs/figures/fig4_36_example8_eta8.png    Fig. 4.36: grid at k = 0, 3 and eta_{8,p}^2 at k = 0, 1, Example 8
+#   docs/figures/fig4_37_example9_grids.png   Fig. 4.37: the contact boundary's grid at k = 2, 4, 6, Example 9,
+#                                             pyramids and hexahedra (k = 6: 1.0 M vertices, 1.8 GB, 35 s)
 #   docs/figures/fig5_15_geometry1.png        Fig. 5.15: contact stress, normal displacement and velocity,
 #                                             Geometry 1, alpha(p), tau = 5e-4
 #   docs/figures/fig5_17_tibia.png            Fig. 5.17: the same for the cube on the tibial plateau, tau = 5e-3
@@ -46,6 +48,8 @@ adaptive example5_pyramid example5 pyramid 7
 adaptive example6_hexahedron example6 hexahedron 5
 adaptive example7_pyramid example7 pyramid 5
 adaptive example8_hexahedron example8 hexahedron 4
+adaptive example9_pyramid example9 pyramid 7
+adaptive example9_hexahedron example9 hexahedron 7
 
 # Geometry 1 with alpha(p) at the thesis' tau = 5e-4 to t = 0.25 (impact at t = 0.01, release near
 # t = 0.22), refine 3 (3,825 vertices; refine 4, nearer the thesis' five refinements, took 159 s:
