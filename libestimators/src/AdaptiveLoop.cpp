@@ -137,25 +137,12 @@ void AdaptiveLoop::setContact(const Obstacle& obstacle, int boundaryId) {
 }
 
 void AdaptiveLoop::addObstacleContact(int body, const Obstacle& obstacle, int boundaryId, std::string label) {
-  ContactModelSpec::Coupling c;
-  c.label = std::move(label);
-  c.body = body;
-  c.boundaryId = boundaryId;
-  c.obstacle = &obstacle;
-  addCoupling(std::move(c));
+  addCoupling(ContactModelSpec::Coupling::obstacleContact(body, obstacle, boundaryId, std::move(label)));
 }
 
 void AdaptiveLoop::addMortarContact(int slave, int slaveId, int master, int masterId, std::string label,
                                     const MortarOptions& options) {
-  ContactModelSpec::Coupling c;
-  c.label = std::move(label);
-  c.mortar = true;
-  c.body = slave;
-  c.boundaryId = slaveId;
-  c.master = master;
-  c.masterId = masterId;
-  c.options = options;
-  addCoupling(std::move(c));
+  addCoupling(ContactModelSpec::Coupling::mortarPair(slave, slaveId, master, masterId, std::move(label), options));
 }
 
 void AdaptiveLoop::addCoupling(ContactModelSpec::Coupling c) {

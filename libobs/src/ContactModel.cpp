@@ -52,17 +52,18 @@ int ContactModelSpec::addBody(std::string name, const Material& material, const 
   return static_cast<int>(bodies.size()) - 1;
 }
 
-void ContactModelSpec::addObstacleContact(int body, const Obstacle& obstacle, int boundaryId, std::string label) {
+ContactModelSpec::Coupling ContactModelSpec::Coupling::obstacleContact(int body, const Obstacle& obstacle,
+                                                                     int boundaryId, std::string label) {
   Coupling c;
   c.label = std::move(label);
   c.body = body;
   c.boundaryId = boundaryId;
   c.obstacle = &obstacle;
-  couplings.push_back(std::move(c));
+  return c;
 }
 
-void ContactModelSpec::addMortarPair(int slave, int slaveId, int master, int masterId, std::string label,
-                                     const MortarOptions& options) {
+ContactModelSpec::Coupling ContactModelSpec::Coupling::mortarPair(int slave, int slaveId, int master, int masterId,
+                                                                std::string label, const MortarOptions& options) {
   Coupling c;
   c.label = std::move(label);
   c.mortar = true;
@@ -71,7 +72,16 @@ void ContactModelSpec::addMortarPair(int slave, int slaveId, int master, int mas
   c.master = master;
   c.masterId = masterId;
   c.options = options;
-  couplings.push_back(std::move(c));
+  return c;
+}
+
+void ContactModelSpec::addObstacleContact(int body, const Obstacle& obstacle, int boundaryId, std::string label) {
+  couplings.push_back(Coupling::obstacleContact(body, obstacle, boundaryId, std::move(label)));
+}
+
+void ContactModelSpec::addMortarPair(int slave, int slaveId, int master, int masterId, std::string label,
+                                     const MortarOptions& options) {
+  couplings.push_back(Coupling::mortarPair(slave, slaveId, master, masterId, std::move(label), options));
 }
 
 template <int d>

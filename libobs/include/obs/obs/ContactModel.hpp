@@ -125,6 +125,12 @@ struct ContactModelSpec {
     std::function<ContactSet(const mesh::Mesh&)> contactSet;
     int master = -1, masterId = 0;  ///< mortar pairs: the master body and boundary
     MortarOptions options;          ///< mortar pairs
+
+    /// Body `body` against a rigid obstacle on its boundary `boundaryId`.
+    static Coupling obstacleContact(int body, const Obstacle& obstacle, int boundaryId, std::string label = {});
+    /// A dual-mortar pair between boundary `slaveId` of body `slave` and `masterId` of body `master`.
+    static Coupling mortarPair(int slave, int slaveId, int master, int masterId, std::string label,
+                               const MortarOptions& options = {});
   };
   std::vector<Body> bodies;
   std::vector<Coupling> couplings;
