@@ -29,6 +29,7 @@ import csv
 import math
 import os
 import re
+import shlex
 import subprocess
 import sys
 import time
@@ -80,18 +81,24 @@ def fmt(x, digits=3):
     return str(int(x))
 
 
-def table(rows, dim, extra=None):
+def has_radius(rows):
+    """Whether the run computed a contact radius error (the wedge and Hertz scenes; not the punch)."""
+    return any(not math.isnan(f(r, "radius_error")) for r in rows)
+
+
+def table(rows, extra=None):
     """The step table; extra: {column title: [value per step]} appended before P (the punch errors)."""
     extra = extra or {}
+    radius = has_radius(rows)
     head = ["step", "vertices", "actual contact", "eta", "eoc", "pressure error (4.4)", "nodal pressure error",
-            "centre error"] + (["radius error"] if dim == 3 else []) + list(extra) + ["P", "time [s]"]
+            "centre error"] + (["radius error"] if radius else []) + list(extra) + ["P", "time [s]"]
     out = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
     elapsed = 0.0
     for i, r in enumerate(rows):
         elapsed += f(r, "solver_s") + f(r, "estimator_s") + (f(r, "refinement_s") or 0) + f(r, "transfer_s")
         cells = [fmt(f(r, "step")), fmt(f(r, "vertices")), fmt(f(r, "actual_contact")), fmt(f(r, "eta")),
                  fmt(f(r, "eoc"), 2), fmt(f(r, "pressure_error")), fmt(f(r, "nodal_pressure_error")),
-                 fmt(f(r, "centre_error"))] + ([fmt(f(r, "radius_error"))] if dim == 3 else []) + \
+                 fmt(f(r, "centre_error"))] + ([fmt(f(r, "radius_error"))] if radius else []) + \
                 [fmt(v[i] if i < len(v) else float("nan")) for v in extra.values()] + \
                 [fmt(f(r, "load"), 6), f"{elapsed:.2f}"]
         out.append("| " + " | ".join(cells) + " |")
@@ -270,6 +277,10 @@ def main():
         args.ref_steps = args.steps_punch + 2
     py = python_with_matplotlib()
     figures = args.figures
+    # the source line of every subsection written (scripts/provenance.py; the ctest docs.provenance checks it)
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import provenance
+    source = provenance.stamp([" ".join(["python3 scripts/examples.py"] + [shlex.quote(a) for a in sys.argv[1:]])], ROOT)
     os.makedirs(figures, exist_ok=True)
     sections = {}
     started = time.time()
@@ -301,12 +312,12 @@ def main():
         extra, punch_text = {}, []
         if name.startswith("example1"):
             extra, punch_text = punch_errors(name, title, args.out, results, args.obs, args.ref_steps, figures, py)
-        text = [f"### {title}: {what}", ""]
+        text = [f"### {title}: {what}", "", source, ""]
         text.append(f"`obs run data/scenes/{name}.toml` (adaptive, contact-residual); the other runs add "
                     "`--set 'adaptivity.estimator=\"residual\"'` or `--set 'adaptivity.refinement=\"uniform\"'`.")
         text.append("")
         for tag, label, _ in RUNS:
-            text += [f"**{label}**", "", table(results[tag], dim, extra.get(tag)), ""]
+            text += [f"**{label}**", "", table(results[tag], extra.get(tag)), ""]
         key = "pressure_error"
         text.append("Actual contact vertices / vertices / cumulative time (solve + estimate + transfer + "
                     "refine) at the first step reaching a pressure error (4.4):")
@@ -324,7 +335,8 @@ def main():
         if py:
             text.append(" ".join(f"![{name} {k}](figures/{name}_{k}.png)" for k in
                                  ("estimator", "pressure_error", "pressure") +
-                                 (("radius_error", "centre_error") if dim == 3 else ())))
+                                 (("radius_error",) if has_radius(results["cr"]) else ()) +
+                                 (("centre_error",) if dim == 3 else ())))
             text.append("")
         sections[title] = "\n".join(text)
     print(f"all runs: {time.time() - started:.0f} s", file=sys.stderr)

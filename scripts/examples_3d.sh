@@ -91,7 +91,9 @@ for grid in ('pyramid', 'hexahedron'):
     print('| %s | %d | %d | %d | %d | %.3f |' % (grid, count['outline'], count['left eye'], count['right eye'],
                                                 count['mouth'], dmax))
 PY
-python3 - "$fig" "$fig/extra.md" > "$fig/tables.md" <<'PY'
+# the source line of every section of the tables (scripts/provenance.py; docs.provenance checks it)
+source_line=$(python3 "$here/scripts/provenance.py" stamp "scripts/examples_3d.sh${STEPS_SCALE:+ (STEPS_SCALE=$STEPS_SCALE)}")
+python3 - "$fig" "$fig/extra.md" "$source_line" > "$fig/tables.md" <<'PY'
 # Tables of docs/examples.md from the step tables: per run the steps (vertices, ratios of actual /
 # semi / full contact vertices to the potential ones, eta and eta_1..eta_8, eoc, solver and
 # estimator seconds) and a summary (eoc adaptive vs uniform: least-squares slope of -ln eta over
@@ -113,6 +115,9 @@ def seconds(rs): return sum(num(r[k]) for r in rs for k in ('solver_s', 'estimat
 def dominant(r):
     eta = {k: num(r['eta_%d' % k]) for k in range(1, 9)}
     return ' > '.join('eta_%d' % k for k in sorted(eta, key=eta.get, reverse=True)[:3])
+source = sys.argv[3]
+print(source)
+print()
 print('| example | grid | adaptive: steps, final N | eoc adaptive (fit / last) | uniform: steps, final N | eoc uniform (fit / last) | time adaptive / uniform [s] | dominant, first step | dominant, last adaptive step |')
 print('|---|---|---|---|---|---|---|---|---|')
 for run in runs:
@@ -128,6 +133,7 @@ for run in runs:
     for mode in ('adaptive', 'uniform'):
         rs = rows(os.path.join(fig, '%s_%s.csv' % (run, mode)))
         print('\n#### Example %s, %s, %s refinement\n' % (ex[7:], grid, mode))
+        print(source + '\n')
         print('| k | N | aC/C | sC/C | fC/C | eta | eta_1 | eta_2 | eta_3 | eta_4 | eta_5 | eta_6 | eta_7 | eta_8 | eoc | solve s | estimate s |')
         print('|---' * 17 + '|')
         for r in rs:

@@ -126,7 +126,11 @@ def main():
             return "not run"
         return x["E"] + (f"; E~ {x['E~']}" if x["E~"] else "")
 
-    out = ["<!-- geometry-b:begin (scripts/geometry_b.sh; do not edit by hand) -->", "",
+    # the source line of the block (scripts/provenance.py; the ctest docs.provenance checks it)
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import provenance
+    source = provenance.stamp(["scripts/geometry_b.sh"], os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    out = ["<!-- geometry-b:begin (scripts/geometry_b.sh; do not edit by hand) -->", "", source, "",
            "Energies in per cent of the initial value: the end value and, in brackets, the range over the run "
            "(module comment of `scripts/geometry_b.py` for every definition). E with the lumped mass M, E~ with the "
            "redistributed mass M~ (schemes that have one); 'v after' is the range of the relative normal velocity "
