@@ -298,15 +298,25 @@ def _pyplot():
 
 
 def draw(ax, vtu, field, selection, log=False, decades=6.0, edges=False, vmin=None, vmax=None,
-         cmap="jet", title=None, colorbar=True, categories=None, zoom=None):
-    """One panel: `field` on the faces of `selection`. Returns the range drawn (min, max of the
-    selected vertices' values). categories: {value: (label, colour)} for integer fields (faces
-    coloured by the largest value of their vertices); zoom: (x0, x1, y0, y1) of the picture plane."""
+         cmap="jet", title=None, colorbar=True, categories=None, zoom=None, mark=None):
+    """One panel: `field` on the faces of `selection` (field None: the grid's edges only). Returns
+    the range drawn (min, max of the values at the vertices of the faces drawn). categories:
+    {value: (label, colour)} for integer fields (faces coloured by the largest value of their
+    vertices); zoom: (x0, x1, y0, y1) of the picture plane, only the faces meeting it are drawn;
+    mark: a node_class value whose vertices are drawn as dots (2: the semi-contact vertices, the
+    edges of the contact zone)."""
     from matplotlib.collections import PolyCollection
     from matplotlib.colors import BoundaryNorm, ListedColormap, LogNorm, Normalize
     from matplotlib.tri import Triangulation
     plt = _pyplot()
     faces, xy, labels = select_faces(vtu, selection)
+    if zoom:
+        corners = np.where(faces[:, :, None] >= 0, xy[np.maximum(faces, 0)], np.nan)
+        fmin, fmax = np.nanmin(corners, axis=1), np.nanmax(corners, axis=1)
+        meets = (fmax[:, 0] >= zoom[0]) & (fmin[:, 0] <= zoom[1]) & (fmax[:, 1] >= zoom[2]) & (fmin[:, 1] <= zoom[3])
+        faces = faces[meets]
+        if faces.shape[0] == 0:
+            raise ValueError(f"selection '{selection}': no faces in the zoom window {zoom}")
     values = field_values(vtu, field) if field else None
     used = np.unique(faces[faces >= 0])
     polys = [xy[f[f >= 0]] for f in faces]
@@ -353,8 +363,12 @@ def draw(ax, vtu, field, selection, log=False, decades=6.0, edges=False, vmin=No
     if edges or values is None:
         # line width by the number of faces in view
         inside = [q for q in polys if np.all(q.max(axis=0) >= lo) and np.all(q.min(axis=0) <= hi)]
-        lw = 0.4 if len(inside) < 500 else 0.2 if len(inside) < 3000 else 0.08
+        lw = 0.4 if len(inside) < 500 else 0.2 if len(inside) < 3000 else 0.08 if len(inside) < 30000 else 0.04
         ax.add_collection(PolyCollection(inside, facecolors="none", edgecolors="k", linewidths=lw))
+    if mark is not None and "node_class" in vtu.point_data:
+        at = used[vtu.point_data["node_class"][used] == mark]
+        at = at[np.all((xy[at] >= lo) & (xy[at] <= hi), axis=1)]
+        ax.plot(xy[at, 0], xy[at, 1], "o", color="#d83b3b", markersize=3, zorder=5)
     ax.set_xlim(lo[0], hi[0])
     ax.set_ylim(lo[1], hi[1])
     ax.set_aspect("equal")
@@ -398,6 +412,20 @@ NODE_CLASSES = {1: ("no contact", "#3b6fd8"), 2: ("semi", "#f2f2f2"), 3: ("full"
 
 def _step(runs, run, k):
     return os.path.join(runs, run, f"step_{k:03d}.vtu")
+
+
+def _last_step(runs, run):
+    """The .vtu of the last step of an adaptive run written with adaptivity.vtk = "last" (or
+    "every"): step_NNN.vtu with the largest NNN; a name that does not exist if there is none."""
+    d = os.path.join(runs, run)
+    steps = sorted(f for f in os.listdir(d) if re.fullmatch(r"step_\d{3}\.vtu", f)) if os.path.isdir(d) else []
+    return os.path.join(d, steps[-1]) if steps else os.path.join(d, "step_last.vtu")
+
+
+def _k(path):
+    """The step number k of a step_NNN.vtu path (for the panel titles)."""
+    m = re.search(r"step_(\d{3})\.vtu$", path)
+    return int(m.group(1)) if m else -1
 
 
 def _eta(k):
@@ -449,6 +477,72 @@ def thesis_figures(runs, dyn_steps):
     figs["fig4_37_example9_grids"] = dict(cols=2, panels=[
         dict(grid6, file=_step(runs, f"example9_{grid}", k), title=f"starting grid of {plural}, k = {k}, z = 0")
         for k in (2, 4, 6) for grid, plural in (("pyramid", "pyramids"), ("hexahedron", "hexahedra"))])
+    # Figs. 4.27, 4.28, 4.30, 4.33: the last step of the runs above (Example 5 on hexahedra: its own
+    # run); -u_nu = u_z for the constraint direction nu = -e_3 of these scenes; the thesis' diagonal
+    # cut is the grid plane y = 0.5 here (faces are drawn, cells are not cut)
+    classes = dict(field="node_class", categories=NODE_CLASSES, edges=True)
+    f5 = _step(runs, ex5, 6)
+    figs["fig4_27_example5_pyramid"] = dict(cols=3, panels=[
+        dict(file=f5, field=None, selection=z0, zoom=(0.2, 0.8, 0.2, 0.8),
+             title="grid of the contact boundary z = 0, k = 6, zoom"),
+        dict(classes, file=f5, selection=z0, zoom=(0.2, 0.8, 0.2, 0.8), title="contact status, k = 6"),
+        dict(file=f5, field="displacement:z", selection=z0, title=r"$-u_\nu = u_z$ on z = 0, k = 6")])
+    f5h = _last_step(runs, "example5_hexahedron")
+    figs["fig4_28_example5_hexahedron"] = dict(cols=2, panels=[
+        dict(file=f5h, field="displacement:z", selection=z0, title=rf"$-u_\nu = u_z$ on z = 0, k = {_k(f5h)}"),
+        dict(file=f5h, field="displacement:z", selection=cut, edges=True,
+             title=rf"$u_z$ in the cut y = 0.5, k = {_k(f5h)}")])
+    f6 = _step(runs, ex6, 4)
+    figs["fig4_30_example6_hexahedron"] = dict(cols=3, panels=[
+        dict(file=f6, field=None, selection=z0, title="grid of the contact boundary z = 0, k = 4"),
+        dict(classes, file=f6, selection=z0, zoom=(0.25, 0.75, 0.25, 0.75),
+             title="zoom, with the contact status, k = 4"),
+        dict(file=f6, field=None, selection=cut, title="grid in the cut y = 0.5, k = 4")])
+    f7 = _step(runs, ex7, 4)
+    figs["fig4_33_example7_pyramid"] = dict(cols=3, panels=[
+        dict(file=f7, field=None, selection=z0, title="grid of the contact boundary z = 0, k = 4"),
+        dict(classes, file=f7, selection=z0, title="contact status, k = 4"),
+        dict(file=f7, field="displacement:z", selection=z0, title=r"$-u_\nu = u_z$ on z = 0, k = 4")])
+    # Figs. 4.2, 4.3, 4.7-4.9, 4.14, 4.15: the last step of the runs of scripts/grid_figures.sh
+    # (2D: the whole square is the plane z = 0; the dots are the semi-contact vertices, the edges of
+    # the contact zone)
+    def grid2d(run, zoom, what):
+        f = _last_step(runs, run)
+        return dict(file=f, field=None, selection=z0, zoom=zoom, mark=2, title=f"{what}, k = {_k(f)}")
+
+    def solution(run, field, what, selection=z0):
+        f = _last_step(runs, run)
+        return dict(file=f, field=field, selection=selection, title=f"{what}, k = {_k(f)}")
+    def window(x, width):  # a window of the given width and half its height on the boundary y = 0 at x
+        return (x - width / 2, x + width / 2, 0.0, width / 2)
+    edge, tip = 0.5625, 0.5  # the punch's right edge; the wedge's apex (contact radius about 0.0136)
+    wide = dict(cols=2, panel_size=(6.0, 3.6), dpi=150)
+    figs["fig4_2_example1a_grid"] = dict(wide, panels=[
+        grid2d("example1a_cr", (0.0, 1.0, 0.0, 0.5), "final grid, lower half"),
+        grid2d("example1a_cr", window(0.5, 0.2), "zoom: the contact area"),
+        grid2d("example1a_cr", window(edge, 0.02), "zoom: the right edge of the punch"),
+        grid2d("example1a_cr", window(edge, 0.002), "zoom: the right edge, 10 x closer")])
+    figs["fig4_3_example1b_grid"] = dict(wide, panels=[
+        grid2d("example1b_cr", window(0.5, 0.2), "zoom: the contact area"),
+        grid2d("example1b_cr", window(edge, 0.02), "zoom: the right edge of the punch"),
+        grid2d("example1b_cr", window(edge, 0.002), "zoom: the right edge, 10 x closer"),
+        solution("example1b_cr", "displacement:y", "$u_2$")])
+    figs["fig4_7_4_8_example2a_grid"] = dict(wide, panels=[
+        grid2d("example2a_cr", window(tip, 0.2), "zoom of the final grid"),
+        grid2d("example2a_cr", window(tip, 0.04), "zoom: the contact area"),
+        grid2d("example2a_cr", window(tip, 0.004), "zoom: the apex"),
+        grid2d("example2a_cr", window(tip + 0.0136, 0.004), "zoom: the right side of the contact area")])
+    figs["fig4_9_example2b_grid"] = dict(wide, panels=[
+        grid2d("example2b_cr", window(tip, 0.04), "zoom: the contact area"),
+        solution("example2b_cr", "displacement:y", "$u_2$")])
+    hz = (0.05, 0.95, 0.05, 0.95)
+    for key, ex, cut_too in (("fig4_14_example3a_grids", "example3a", False), ("fig4_15_example3b_grids", "example3b", True)):
+        panels = [solution(f"{ex}_cr", "displacement:z", "$u_3$ in the cut y = 0.5, contact-residual", cut)] if cut_too else []
+        for tag, est in (("cr", "contact-residual"), ("res", "residual")):
+            f = _last_step(runs, f"{ex}_{tag}")
+            panels.append(dict(classes, file=f, selection=z0, zoom=hz,
+                               title=f"contact boundary z = 0, {est} estimator, k = {_k(f)}"))
+        figs[key] = dict(cols=len(panels), panels=panels)
     for key, run in (("fig5_15_geometry1", "dynamics_geometry1"), ("fig5_17_tibia", "dynamics_tibia")):
         if run not in dyn_steps:
             continue
@@ -466,10 +560,11 @@ def thesis_figures(runs, dyn_steps):
     return figs
 
 
-def render_figure(fig, path, panel_size=(4.2, 3.6)):
+def render_figure(fig, path):
     """Draws the panels of `fig` into one PNG; returns a list of (title, (min, max), (class array,
     by_class))."""
     plt = _pyplot()
+    panel_size = fig.get("panel_size", (4.2, 3.6))
     panels = fig["panels"]
     cols = fig["cols"]
     rows = (len(panels) + cols - 1) // cols
@@ -493,7 +588,7 @@ def render_figure(fig, path, panel_size=(4.2, 3.6)):
     report = []
     for i, p in enumerate(panels):
         ax = axes[i // cols][i % cols]
-        kw = {k: p[k] for k in ("log", "edges", "categories", "zoom") if k in p}
+        kw = {k: p[k] for k in ("log", "edges", "categories", "zoom", "mark", "cmap") if k in p}
         if "dyn" in p:
             lo, hi = shared[p["dyn"]]
             if p["dyn"] == "normal_velocity":  # symmetric about zero: zero velocity is the middle colour
@@ -516,7 +611,7 @@ def render_figure(fig, path, panel_size=(4.2, 3.6)):
     for j in range(len(panels), rows * cols):
         axes[j // cols][j % cols].axis("off")
     f.tight_layout()
-    f.savefig(path, dpi=90)
+    f.savefig(path, dpi=fig.get("dpi", 90))
     plt.close(f)
     return report
 
@@ -587,8 +682,19 @@ def main(argv=None):
     figs = thesis_figures(args.runs, dyn)
     only = set(args.only.split(",")) if args.only else None
     os.makedirs(args.output, exist_ok=True)
+    unknown = (only or set()) - set(figs)
+    if unknown:
+        sys.stderr.write(f"render_surface.py: no figure named {', '.join(sorted(unknown))}\n")
+        return 2
     for name, fig in figs.items():
         if only and name not in only:
+            continue
+        missing = sorted({p["file"] for p in fig["panels"] if not os.path.exists(p["file"])})
+        if missing:
+            if only:
+                sys.stderr.write(f"render_surface.py: {name}: missing {', '.join(missing)}\n")
+                return 1
+            print(f"{name}: skipped (no run: {missing[0]})")
             continue
         path = os.path.join(args.output, name + ".png")
         report = render_figure(fig, path)
