@@ -119,8 +119,14 @@ def check_page(root, page, problems, stale, full_clone):
                 continue
             if full_clone and git(root, "cat-file", "-e", h.group(1) + "^{commit}") is None:
                 problems.append(f"{where}: {h.group(1)} is not a commit of this repository")
-            elif full_clone and stale:
-                scripts = sorted({p for c in cmds for p in REPO_PATH.findall(c) if (root / p).is_file()})
+            elif full_clone and stale is not None:
+                scripts = {p for c in cmds for p in REPO_PATH.findall(c) if (root / p).is_file()}
+                # and the scripts those name (scripts/chapter5.sh runs scripts/chapter5.py)
+                for p in list(scripts):
+                    for q in re.findall(r"scripts/[\w.-]+", (root / p).read_text(errors="replace")):
+                        if (root / q).is_file() and q != "scripts/provenance.py":
+                            scripts.add(q)
+                scripts = sorted(scripts)
                 if scripts:
                     log = git(root, "log", "--format=%h", f"{h.group(1)}..HEAD", "--", *scripts) or ""
                     n = len(log.split()) if log else 0
@@ -143,7 +149,7 @@ def check(root, stale_report):
     root = pathlib.Path(root).resolve()
     shallow = git(root, "rev-parse", "--is-shallow-repository")
     full_clone = shallow == "false"
-    problems, stale = [], []
+    problems, stale = [], ([] if stale_report else None)
     totals = {}
     for page in PAGES:
         for k, v in check_page(root, page, problems, stale, full_clone).items():
@@ -151,7 +157,7 @@ def check(root, stale_report):
     for p in problems:
         print(p)
     if stale_report:
-        print("\n".join(stale))
+        print("\n".join(stale) if stale else "no later changes of the generators")
     print(f"provenance: {totals['tables']} tables, {totals['images']} images, {totals['sources']} source "
           f"lines in {', '.join(PAGES)}; {len(problems)} problem(s)"
           + ("" if full_clone else "; commits not checked (not a full git clone)"))

@@ -2,9 +2,17 @@
 # Surface pictures of the thesis (Walloth 2012) from obs' .vtu output, drawn by scripts/render_surface.py:
 #   docs/figures/fig4_23_example4_eta5.png    Fig. 4.23: eta_{5,p}^2 on the contact boundary, Example 4, prisms
 #   docs/figures/fig4_24_example4_cut.png     Fig. 4.24: eta_{1,p}^2, eta_{2,p}^2, eta_{5,p}^2 in the cut y = 0.5
+#   docs/figures/fig4_27_example5_pyramid.png Fig. 4.27: grid, contact status and u_z on the contact boundary,
+#                                             Example 5, pyramids, k = 6
+#   docs/figures/fig4_28_example5_hexahedron.png Fig. 4.28: u_z on the contact boundary and in the cut y = 0.5,
+#                                             Example 5, hexahedra, k = 5
 #   docs/figures/fig4_29_example5_pyramid.png Fig. 4.29: eta_{1,p}^2, eta_{2,p}^2, eta_{5,p}^2, Example 5, pyramids
+#   docs/figures/fig4_30_example6_hexahedron.png Fig. 4.30: the grid of the contact boundary, a zoom with the
+#                                             contact status and the grid in the cut y = 0.5, Example 6, k = 4
 #   docs/figures/fig4_32_example6_contact.png Fig. 4.32: grid, eta_{5,p}^2, eta_{6,p}^2, eta_{8,p}^2, Example 6
 #   docs/figures/fig4_35_example7_contact.png Fig. 4.35: grid, eta_{5,p}^2 ... eta_{8,p}^2, Example 7, pyramids
+#   docs/figures/fig4_33_example7_pyramid.png Fig. 4.33: grid, contact status and u_z on the contact boundary,
+#                                             Example 7, pyramids, k = 4
 #   docs/figures/fig4_36_example8_eta8.png    Fig. 4.36: grid at k = 0, 3 and eta_{8,p}^2 at k = 0, 1, Example 8
 #   docs/figures/fig4_37_example9_grids.png   Fig. 4.37: the contact boundary's grid at k = 2, 4, 6, Example 9,
 #                                             pyramids and hexahedra (k = 6: 1.0 M vertices, 1.8 GB, 35 s)
@@ -46,6 +54,7 @@ adaptive() {  # adaptive NAME EXAMPLE GRID SOLVES: a .vtu per step k = 0 .. SOLV
 # Example 4, prisms: k = 2, 4, 5 (the thesis' k = 6 has 428,566 vertices here: 355 s, 2.15 GB peak)
 adaptive example4_prism example4 prism 6
 adaptive example5_pyramid example5 pyramid 7
+adaptive example5_hexahedron example5 hexahedron 6
 adaptive example6_hexahedron example6 hexahedron 5
 adaptive example7_pyramid example7 pyramid 5
 adaptive example8_hexahedron example8 hexahedron 4
