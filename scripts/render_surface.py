@@ -438,7 +438,10 @@ def _estimator_panels(runs, run, k, contributions, selection, where, **extra):
 
 
 def _dyn_file(runs, run, n):
-    with open(os.path.join(runs, run, "summary.json")) as f:
+    summary = os.path.join(runs, run, "summary.json")
+    if not os.path.exists(summary):
+        return os.path.join(runs, run, f"missing_{n:06d}.vtu")
+    with open(summary) as f:
         name = os.path.splitext(os.path.basename(json.load(f)["scene"]))[0]
     return os.path.join(runs, run, f"{name}_{n:06d}.vtu")
 
@@ -535,14 +538,39 @@ def thesis_figures(runs, dyn_steps):
     figs["fig4_9_example2b_grid"] = dict(wide, panels=[
         grid2d("example2b_cr", window(tip, 0.04), "zoom: the contact area"),
         solution("example2b_cr", "displacement:y", "$u_2$")])
-    hz = (0.05, 0.95, 0.05, 0.95)
+    hz = None  # the whole bottom (the contact zone's radius is about 0.06)
+    edge3 = (0.54, 0.6, 0.47, 0.53)  # around the free boundary's point (0.56, 0.5)
     for key, ex, cut_too in (("fig4_14_example3a_grids", "example3a", False), ("fig4_15_example3b_grids", "example3b", True)):
         panels = [solution(f"{ex}_cr", "displacement:z", "$u_3$ in the cut y = 0.5, contact-residual", cut)] if cut_too else []
-        for tag, est in (("cr", "contact-residual"), ("res", "residual")):
-            f = _last_step(runs, f"{ex}_{tag}")
-            panels.append(dict(classes, file=f, selection=z0, zoom=hz,
-                               title=f"contact boundary z = 0, {est} estimator, k = {_k(f)}"))
-        figs[key] = dict(cols=len(panels), panels=panels)
+        for zoom, where in ((hz, "z = 0"), (edge3, "z = 0, free boundary")):
+            for tag, est in (("cr", "contact-residual"), ("res", "residual")):
+                f = _last_step(runs, f"{ex}_{tag}")
+                panels.append(dict(classes, file=f, selection=z0, zoom=zoom,
+                                   title=f"{where}, {est}, k = {_k(f)}"))
+            if cut_too and zoom is hz:
+                panels.append(dict(panels[1], field=None, edges=True, selection=cut,
+                                   title=f"grid in the cut y = 0.5, contact-residual, k = {_k(panels[1]['file'])}"))
+        figs[key] = dict(cols=3 if cut_too else 2, panels=panels, dpi=150)
+    # Fig. 5.6: the contact stress of Geometry A at n = 37 for every scheme (scripts/dynamics_figures.sh),
+    # each panel on its own scale (the panel titles give the ranges)
+    schemes = ("classical", "contact-implicit", "contact-stabilized", "improved-contact-stabilized", "alpha-half",
+               "alpha-one-zero", "laursen-chawla", "khenous-laborde-renard", "hager-huebner-wohlmuth",
+               "hager-huebner-wohlmuth-nonpenetration")
+    ball = (-0.45, 0.45, -0.45, 0.45)
+    figs["fig5_6_geometry_a_stress"] = dict(cols=5, panel_size=(3.6, 3.2), panels=[
+        dict(file=_dyn_file(runs, f"ball_{sc}", 37), field="contact_pressure", selection="facing:-z", zoom=ball,
+             title=f"{sc}, n = 37") for sc in schemes])
+    # Fig. 5.16: the normal velocity on the bottom of Geometry 1 during detachment, alpha(p) against
+    # alpha = 0, one symmetric colour scale for all panels
+    detach = dyn_steps.get("detach")
+    if detach:
+        steps, tau = detach
+        figs["fig5_16_detachment"] = dict(cols=len(steps), shared_rows=True, panels=[
+            dict(file=_dyn_file(runs, f"g1_detach_{sc}", n), field="normal_velocity", selection="facing:-z",
+                 dyn="normal_velocity", previous=_dyn_file(runs, f"g1_detach_{sc}", n - 1),
+                 title=rf"{label}: $\nu_p \cdot v_p$, n = {n}, t = {n * tau:.3g}")
+            for sc, label in (("improved-contact-stabilized", r"$\alpha(p)$"), ("contact-stabilized", r"$\alpha = 0$"))
+            for n in steps])
     for key, run in (("fig5_15_geometry1", "dynamics_geometry1"), ("fig5_17_tibia", "dynamics_tibia")):
         if run not in dyn_steps:
             continue

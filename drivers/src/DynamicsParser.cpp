@@ -261,9 +261,10 @@ DynamicsSpec parseDynamics(const Scene& scene, const toml::value& table) {
   }
   if (s.has("redistribution_moments")) {
     const long long k = s.integer("redistribution_moments");
-    if (k != 1 && k != 2)
+    if (k < 0 || k > 2)
       s.fail("redistribution_moments", "= " + literalOf(s.at("redistribution_moments")) +
-                                           " must be 1 (mass and centre of gravity) or 2 (also the second moments)");
+                                           " must be 0 (none: the contact rows zeroed, nothing moved), 1 (mass and "
+                                           "centre of gravity) or 2 (also the second moments)");
     spec.redistributionMoments = static_cast<int>(k);
   }
   return spec;

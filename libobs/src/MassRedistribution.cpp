@@ -24,9 +24,27 @@ RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vecto
                 " flags do not match");
   if (dimension != 2 && dimension != 3)
     throw Error("mass redistribution: dimension " + std::to_string(dimension) + " (2 or 3 expected)");
-  if (options.moments != 1 && options.moments != 2)
+  if (options.moments < 0 || options.moments > 2)
     throw Error("mass redistribution: moments = " + std::to_string(options.moments) +
-                " (1: mass and centre of gravity, 2: also the second moments)");
+                " (0: none kept, 1: mass and centre of gravity, 2: also the second moments)");
+  if (options.moments == 0) {
+    // no moment kept: M with the rows and columns of the massless vertices zeroed and nothing moved
+    // to the other vertices (the control experiment of the thesis' Sec. 5.2.6)
+    RedistributedMass out;
+    out.massless = massless;
+    out.matrix = M;
+    bool keeps = false;
+    for (Eigen::Index i = 0; i < n; ++i)
+      for (ScalarSparseMatrix::InnerIterator it(out.matrix, i); it; ++it)
+        if (massless[i] || massless[it.col()]) {
+          out.movedMass += it.value();
+          it.valueRef() = 0;
+        } else {
+          keeps = true;
+        }
+    if (!keeps) throw Error("mass redistribution: no matrix entry couples two vertices that keep mass");
+    return out;
+  }
   // constraints: 1 (total mass), d first moments, d(d+1)/2 second moments (moments = 2)
   const bool second = options.moments == 2;
   const int m = 1 + dimension + (second ? dimension * (dimension + 1) / 2 : 0);

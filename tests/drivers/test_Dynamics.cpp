@@ -436,8 +436,8 @@ TEST(DynamicScenes, BadInputIsAnErrorWithFileLineAndKey) {
   expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\ninexact = nan\n")),
                  {"bad.toml:22:", "[dynamics] inexact", "must be finite"});
   EXPECT_EQ(errorOf(barScene("tau = 1e-3\nsteps = 3\nredistribution_moments = 3\n")),
-            "bad.toml:22: [dynamics] redistribution_moments = 3 must be 1 (mass and centre of gravity) or 2 (also the "
-            "second moments)");
+            "bad.toml:22: [dynamics] redistribution_moments = 3 must be 0 (none: the contact rows zeroed, nothing "
+            "moved), 1 (mass and centre of gravity) or 2 (also the second moments)");
   expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\nredistribution_moments = \"first\"\n")),
                  {"bad.toml:22:", "[dynamics] redistribution_moments", "must be an integer"});
   expectContains(errorOf(barScene("tau = 1e-3\nsteps = 3\n") + "\n[solver]\ntype = \"pdas\"\n"),

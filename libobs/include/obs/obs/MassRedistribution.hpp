@@ -74,8 +74,10 @@ struct MassRedistributionOptions {
   /// Which moments of M the redistributed matrix keeps: 2 (default) the total mass, the first and the
   /// second moments (mass, centre of gravity, inertia tensor: 1 + d + d(d+1)/2 constraints); 1 only the
   /// total mass and the first moments (1 + d constraints), the variant of the thesis' experiments
-  /// (Sec. 5.2.6: "the whole mass of the system and the center of gravity are conserved"). Other
-  /// values: obs::Error.
+  /// (Sec. 5.2.6: "the whole mass of the system and the center of gravity are conserved"); 0 none:
+  /// M~ is M with the rows and columns of the massless vertices zeroed and the removed mass is lost
+  /// (the thesis' control run of Fig. 5.3(b), which separates the effect of the zeroed rows from that
+  /// of the redistribution). Other values: obs::Error.
   int moments = 2;
 };
 

@@ -1,0 +1,82 @@
+#!/usr/bin/env bash
+# Dynamic figures of the thesis (Walloth 2012, Sec. 5.2.6 and 5.3) that need their own runs:
+#   docs/figures/fig5_6_geometry_a_stress.png  Fig. 5.6: the contact stress of Geometry A (the ball, tau = 5e-3,
+#                                               refine 2) at time step n = 37, all ten schemes
+#   docs/figures/fig5_7_impact_factor.png      Fig. 5.7: theta(p) against eta(p) = tau*(p)/tau, measured at every
+#                                               node that comes into contact inside a step (Geometry 1, refine 2,
+#                                               tau = 5e-4, the four predictor schemes; scripts/impact_factor.py)
+#   docs/figures/fig5_3b_control_<reading>.png Fig. 5.3(b) and its control run: the energy of Khenous-Laborde-Renard
+#                                               (Alg. 5.2.4) on Geometry B (the three readings of the placement) with
+#                                               the redistributed mass keeping the second moments (obs' default), only
+#                                               mass and centre of gravity (the thesis' M~), and the control: the
+#                                               contact rows of M zeroed without redistribution (scripts/energy_runs.py)
+#   docs/figures/fig5_16_detachment.png        Fig. 5.16: the normal velocity on the bottom of Geometry 1 during
+#                                               detachment, alpha(p) against alpha = 0 (refine 3, tau = 5e-4)
+# Runs go to out/dynamics_figures/<run>; docs/dynamics.md describes the figures.
+#   scripts/dynamics_figures.sh [BUILD_DIR=build] [WORK_DIR=out/dynamics_figures]
+#   REUSE=1 scripts/dynamics_figures.sh     # keep the run directories that have a summary.json
+# The run times are printed (docs/dynamics.md quotes them).
+set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
+build="${1:-$root/build}"
+work="${2:-$root/out/dynamics_figures}"
+obs="$build/drivers/obs"
+[ -x "$obs" ] || { echo "dynamics_figures.sh: $obs not found (build the obs_cli target first)" >&2; exit 1; }
+python=python3
+python3 -c "import numpy, matplotlib" 2>/dev/null || python=/usr/bin/python3
+scenes="$root/data/scenes"
+mkdir -p "$work"
+export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
+
+run() {  # run NAME SCENE ARGS...: one obs run into $work/NAME, quiet, with its wall time
+  local name="$1" scene="$2"; shift 2
+  local dir="$work/$name"
+  if [ "${REUSE:-0}" = 1 ] && [ -f "$dir/summary.json" ]; then echo "dynamics_figures.sh: reusing $dir" >&2; return 0; fi
+  rm -rf "$dir"
+  local t0; t0=$(date +%s.%N)
+  "$obs" run "$scene" -q -o "$dir" "$@"
+  printf 'dynamics_figures.sh: %-44s %6.1f s\n' "$name" "$(echo "$(date +%s.%N) - $t0" | bc)" >&2
+}
+
+# Fig. 5.6: Geometry A at refine 2 (4,321 vertices; the thesis: four refinements of its own coarse grid),
+# tau = 5e-3 (the scene's), 37 steps, the .vtu of step 37
+for scheme in classical contact-implicit contact-stabilized improved-contact-stabilized alpha-half alpha-one-zero \
+    laursen-chawla khenous-laborde-renard hager-huebner-wohlmuth hager-huebner-wohlmuth-nonpenetration; do
+  run "ball_$scheme" "$scenes/dynamics_ball.toml" --refine 2 --set "dynamics.scheme=\"$scheme\"" \
+    --set dynamics.steps=37 --set dynamics.output_stride=37
+done
+
+# Fig. 5.7: Geometry 1 at refine 2, tau = 5e-4 to t = 0.15 (first contact at t = 0.01, the contact
+# zone spreads until about t = 0.05 and forms again after the landing at t = 0.14), a .vtu every step
+impact_runs=()
+for scheme in improved-contact-stabilized contact-stabilized alpha-half alpha-one-zero; do
+  run "g1_impacts_$scheme" "$scenes/dynamics_block.toml" --refine 2 --set "dynamics.scheme=\"$scheme\"" \
+    --set dynamics.tau=5e-4 --set dynamics.steps=300 --set dynamics.output_stride=1
+  impact_runs+=("$work/g1_impacts_$scheme:$scheme")
+done
+"$python" "$root/scripts/impact_factor.py" "$root/docs/figures/fig5_7_impact_factor.png" "${impact_runs[@]}"
+
+# Fig. 5.16: Geometry 1 at refine 3, tau = 5e-4 (as Fig. 5.15 in scripts/surface_figures.sh), a .vtu
+# every step from n = 400 (the block leaves the plane at t = 0.22-0.23, n = 440-460)
+for scheme in improved-contact-stabilized contact-stabilized; do
+  run "g1_detach_$scheme" "$scenes/dynamics_block.toml" --refine 3 --set "dynamics.scheme=\"$scheme\"" \
+    --set dynamics.tau=5e-4 --set dynamics.steps=470 --set dynamics.output_stride=1
+done
+
+# Fig. 5.3(b): KLR on Geometry B, the scenes' size and steps, [dynamics] redistribution_moments = 2, 1, 0
+for reading in face edge corner; do
+  scene=dynamics_two_body; [ $reading = face ] || scene=dynamics_two_body_$reading
+  control_runs=()
+  for moments in 2 1 0; do
+    run "geomB_${reading}_klr_m$moments" "$scenes/$scene.toml" --set 'dynamics.scheme="khenous-laborde-renard"' \
+      --set dynamics.redistribution_moments=$moments --set dynamics.output_stride=100000000
+    label=$([ $moments = 2 ] && echo "M~ keeps mass, centre, second moments" || ([ $moments = 1 ] && echo "M~ keeps mass, centre (thesis)" || echo "control: contact rows zeroed, no redistribution"))
+    control_runs+=("$label=$work/geomB_${reading}_klr_m$moments")
+  done
+  echo "Fig. 5.3(b), Geometry B, $reading:"
+  "$python" "$root/scripts/energy_runs.py" "$root/docs/figures/fig5_3b_control_$reading.png" \
+    --title "KLR, Geometry B ($reading)" "${control_runs[@]}"
+done
+
+"$python" "$root/scripts/render_surface.py" figures --runs "$work" --output "$root/docs/figures" \
+  --only fig5_6_geometry_a_stress,fig5_16_detachment --dyn "detach:5e-4:${DETACH_STEPS:-420,435,445,455}"
