@@ -12,6 +12,10 @@
 #                                               contact rows of M zeroed without redistribution (scripts/energy_runs.py)
 #   docs/figures/fig5_16_detachment.png        Fig. 5.16: the normal velocity on the bottom of Geometry 1 during
 #                                               detachment, alpha(p) against alpha = 0 (refine 3, tau = 5e-4)
+#   docs/figures/fig5_9_t5e-6_others.png       FIG59=1 only: Fig. 5.9 at the thesis' tau = 5e-6 for the two schemes
+#                                               without a predictor in the velocity (alpha, beta = 0 and alpha = {1, 0};
+#                                               scripts/chapter5.sh FULL=1 runs the other three): Geometry 1, refine 3,
+#                                               50,000 steps each (about 30-45 minutes per scheme on one core)
 # Runs go to out/dynamics_figures/<run>; docs/dynamics.md describes the figures.
 #   scripts/dynamics_figures.sh [BUILD_DIR=build] [WORK_DIR=out/dynamics_figures]
 #   REUSE=1 scripts/dynamics_figures.sh     # keep the run directories that have a summary.json
@@ -77,6 +81,26 @@ for reading in face edge corner; do
   "$python" "$root/scripts/energy_runs.py" "$root/docs/figures/fig5_3b_control_$reading.png" \
     --title "KLR, Geometry B ($reading)" "${control_runs[@]}"
 done
+
+# Fig. 5.9 at tau = 5e-6 for contact-implicit and alpha-one-zero (FIG59=1; the two runs in parallel
+# with FIG59_JOBS=2): as scripts/chapter5.sh's Geometry 1 runs (refine 3, to t = 0.25)
+if [ "${FIG59:-0}" = 1 ]; then
+  fig59_runs=()
+  for scheme in contact-implicit alpha-one-zero; do
+    if [ "${FIG59_JOBS:-1}" = 2 ]; then
+      run "g1_t5e-6_$scheme" "$scenes/dynamics_block.toml" --refine 3 --set "dynamics.scheme=\"$scheme\"" \
+        --set dynamics.tau=5e-6 --set dynamics.steps=50000 --set dynamics.output_stride=100000000 &
+    else
+      run "g1_t5e-6_$scheme" "$scenes/dynamics_block.toml" --refine 3 --set "dynamics.scheme=\"$scheme\"" \
+        --set dynamics.tau=5e-6 --set dynamics.steps=50000 --set dynamics.output_stride=100000000
+    fi
+    fig59_runs+=("$scheme=$work/g1_t5e-6_$scheme")
+  done
+  wait
+  echo "Fig. 5.9, Geometry 1, tau = 5e-6:"
+  "$python" "$root/scripts/energy_runs.py" "$root/docs/figures/fig5_9_t5e-6_others.png" \
+    --title "Geometry 1, tau = 5e-6" "${fig59_runs[@]}"
+fi
 
 "$python" "$root/scripts/render_surface.py" figures --runs "$work" --output "$root/docs/figures" \
   --only fig5_6_geometry_a_stress,fig5_16_detachment --dyn "detach:5e-4:${DETACH_STEPS:-420,435,445,455}"
