@@ -5,9 +5,10 @@
 #   docs/figures/fig5_7_impact_factor.png      Fig. 5.7: theta(p) against eta(p) = tau*(p)/tau, measured at every
 #                                               node that comes into contact inside a step (Geometry 1, refine 2,
 #                                               tau = 5e-4, the four predictor schemes; scripts/impact_factor.py)
-#   docs/figures/fig5_3b_control_<reading>.png Fig. 5.3(b) and its control run: the energy of Khenous-Laborde-Renard
-#                                               (Alg. 5.2.4) on Geometry B (the three readings of the placement) with
-#                                               the redistributed mass keeping the second moments (obs' default), only
+#   docs/figures/fig5_3b_control_<reading>.png Fig. 5.3(b) and its control run: the energy of the contact-implicit
+#                                               scheme with redistributed mass (hager-huebner-wohlmuth-nonpenetration)
+#                                               on Geometry B (the three readings of the placement) with the
+#                                               redistributed mass keeping the second moments (obs' default), only
 #                                               mass and centre of gravity (the thesis' M~), and the control: the
 #                                               contact rows of M zeroed without redistribution (scripts/energy_runs.py)
 #   docs/figures/fig5_16_detachment.png        Fig. 5.16: the normal velocity on the bottom of Geometry 1 during
@@ -67,19 +68,22 @@ for scheme in improved-contact-stabilized contact-stabilized; do
     --set dynamics.tau=5e-4 --set dynamics.steps=470 --set dynamics.output_stride=1
 done
 
-# Fig. 5.3(b): KLR on Geometry B, the scenes' size and steps, [dynamics] redistribution_moments = 2, 1, 0
+# Fig. 5.3(b): the thesis' control run belongs to its "contact-implicit Newmark scheme with redistributed
+# mass" (hager-huebner-wohlmuth-nonpenetration) on Geometry B, the scenes' size and steps,
+# [dynamics] redistribution_moments = 2, 1, 0
 for reading in face edge corner; do
   scene=dynamics_two_body; [ $reading = face ] || scene=dynamics_two_body_$reading
   control_runs=()
   for moments in 2 1 0; do
-    run "geomB_${reading}_klr_m$moments" "$scenes/$scene.toml" --set 'dynamics.scheme="khenous-laborde-renard"' \
+    run "geomB_${reading}_hhwn_m$moments" "$scenes/$scene.toml" \
+      --set 'dynamics.scheme="hager-huebner-wohlmuth-nonpenetration"' \
       --set dynamics.redistribution_moments=$moments --set dynamics.output_stride=100000000
     label=$([ $moments = 2 ] && echo "M~ keeps mass, centre, second moments" || ([ $moments = 1 ] && echo "M~ keeps mass, centre (thesis)" || echo "control: contact rows zeroed, no redistribution"))
-    control_runs+=("$label=$work/geomB_${reading}_klr_m$moments")
+    control_runs+=("$label=$work/geomB_${reading}_hhwn_m$moments")
   done
   echo "Fig. 5.3(b), Geometry B, $reading:"
   "$python" "$root/scripts/energy_runs.py" "$root/docs/figures/fig5_3b_control_$reading.png" \
-    --title "KLR, Geometry B ($reading)" "${control_runs[@]}"
+    --title "contact-implicit with M~, Geometry B ($reading)" "${control_runs[@]}"
 done
 
 # Fig. 5.9 at tau = 5e-6 for contact-implicit and alpha-one-zero (FIG59=1; the two runs in parallel
