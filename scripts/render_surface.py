@@ -660,6 +660,9 @@ def main(argv=None):
     a.add_argument("--edges", action="store_true")
     a.add_argument("--title")
     a.add_argument("-o", "--output", required=True)
+    a = sub.add_parser("symmetry", help="how symmetric a grid is about a plane x_AXIS = VALUE")
+    a.add_argument("file")
+    a.add_argument("--plane", default="x=0.5", help="AXIS=VALUE (default x=0.5)")
     a = sub.add_parser("figures", help="the thesis figures from the runs of scripts/surface_figures.sh")
     a.add_argument("--runs", required=True)
     a.add_argument("--output", required=True)
@@ -693,6 +696,21 @@ def main(argv=None):
                     print(f"  {kind[:-5]:5s} {k:24s} {c} component(s)  [{lo:.6g}, {hi:.6g}]")
             if "selection" in out:
                 print(f"  selection {args.select}: {out['selection']}")
+        return 0
+    if args.cmd == "symmetry":
+        # vertices on each side of the plane, and the fraction whose mirror image is a vertex too
+        # (coordinates compared after rounding to 2^-24, far below the finest cell of any run here)
+        axis, value = args.plane.split("=")
+        a, value = "xyz".index(axis), float(value)
+        v = read_vtu(args.file)
+        mirrored = v.points.copy()
+        mirrored[:, a] = 2 * value - mirrored[:, a]
+        key = lambda q: set(map(tuple, np.round(q * 2.0 ** 24).astype(np.int64)))
+        own = key(v.points)
+        share = len(own & key(mirrored)) / len(own)
+        below, above = int((v.points[:, a] < value).sum()), int((v.points[:, a] > value).sum())
+        print(f"{args.file}: {v.num_points} vertices, {below} with {axis} < {value:g}, {above} with {axis} > "
+              f"{value:g}; {100 * share:.1f} % have their mirror image as a vertex")
         return 0
     if args.cmd == "plot":
         plt = _pyplot()
