@@ -15,6 +15,7 @@ nearest heading above it and the next heading of any level), a source line of on
 
   scripts/provenance.py stamp 'COMMAND' ['COMMAND' ...]   # prints the first form for the checkout
   scripts/provenance.py check [ROOT] [--stale]           # the ctest docs.provenance
+  scripts/provenance.py selftest                         # the check on small broken pages
 
 `check` fails (exit 1, one line per problem) if a table or image has no source line in its
 section, an image file is missing, a source line names no command or a repository path in a command
@@ -164,11 +165,48 @@ def check(root, stale_report):
     return 1 if problems else 0
 
 
+def selftest():
+    """check() on small pages in a temporary directory (not a git checkout): a page whose table and
+    image have source lines passes; each way of breaking it is reported. Returns 0 if all behave."""
+    import tempfile
+    good = ("# Page\n\n## A\n\nSource: `scripts/gen.sh --x` committed in abc1234 (2026-01-01).\n\n"
+            "| a | b |\n|---|---|\n| 1 | 2 |\n\n![f](figures/f.png)\n\n## B\n\n"
+            "Source: hand-written (definitions).\n\n| c |\n|---|\n| 3 |\n\n```\n| not a table |\n```\n")
+    broken = {
+        "table without a source line": good.replace("Source: hand-written (definitions).\n\n", ""),
+        "image without a command": good.replace("Source: `scripts/gen.sh --x` committed in abc1234 (2026-01-01).",
+                                                "Source: hand-written (no).") ,
+        "missing image": good.replace("figures/f.png", "figures/g.png"),
+        "command naming a missing script": good.replace("scripts/gen.sh", "scripts/gone.sh"),
+        "no commit": good.replace(" committed in abc1234", ""),
+        "uncommitted changes": good.replace("committed in abc1234", "at commit abc1234 with uncommitted changes"),
+    }
+    failures = 0
+    for name, page in [("good", good)] + list(broken.items()):
+        with tempfile.TemporaryDirectory() as d:
+            root = pathlib.Path(d)
+            (root / "docs" / "figures").mkdir(parents=True)
+            (root / "scripts").mkdir()
+            (root / "scripts" / "gen.sh").write_text("")
+            (root / "docs" / "figures" / "f.png").write_bytes(b"")
+            for pg in PAGES:
+                (root / pg).write_text(page if pg == PAGES[0] else "# Other\n")
+            problems = []
+            for pg in PAGES:
+                check_page(root, pg, problems, None, False)
+            ok = (not problems) if name == "good" else bool(problems)
+            print(("ok   " if ok else "FAIL ") + f"{name}: {len(problems)} problem(s)")
+            failures += not ok
+    return 1 if failures else 0
+
+
 def main(argv):
     root = pathlib.Path(__file__).resolve().parent.parent
     if len(argv) >= 1 and argv[0] == "stamp" and len(argv) > 1:
         print(stamp(argv[1:], root))
         return 0
+    if argv[:1] == ["selftest"]:
+        return selftest()
     if len(argv) >= 1 and argv[0] == "check":
         rest = [a for a in argv[1:] if a != "--stale"]
         return check(rest[0] if rest else root, "--stale" in argv)
