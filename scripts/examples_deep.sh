@@ -5,7 +5,7 @@
 # contact-residual estimator, mean marking with theta = 1.1, from the scenes' starting grids.
 # Writes the step tables docs/figures/ex4-9/deep/example<N>_<grid>.csv (steps.csv of each run),
 # docs/figures/fig4_25_example4_contact_ratios.png (scripts/plot_contact_ratios.py) and prints a
-# Markdown table per run (docs/examples.md#examples-4-5-deep quotes it) with the wall time and peak
+# Markdown table per run (docs/examples.md#examples-4-5-deep quotes them) with the wall time and peak
 # memory of each run (summary.json).
 #   scripts/examples_deep.sh [BUILD_DIR=build] [WORK_DIR=out/examples_deep]
 #   REUSE=1 scripts/examples_deep.sh     # keep the run directories that have a summary.json
