@@ -451,11 +451,11 @@ def thesis_figures(runs, dyn_steps):
     z0, cut = "plane:z=0", "plane:y=0.5"
     ex4, ex5, ex6, ex7 = "example4_prism", "example5_pyramid", "example6_hexahedron", "example7_pyramid"
     figs = {}
-    # Fig. 4.23: k = 2, 4, 5 (the thesis' k = 6 is too large here, scripts/surface_figures.sh) and a zoom
+    # Fig. 4.23: k = 2, 4, 6 (as the thesis) and a zoom at k = 6
     figs["fig4_23_example4_eta5"] = dict(cols=2, panels=[
-        _estimator_panels(runs, ex4, k, (5,), z0, "contact boundary z = 0", edges=True)[0] for k in (2, 4, 5)] + [
-        _estimator_panels(runs, ex4, 5, (5,), z0, "zoom at the strip edge x = 0.2", edges=True,
-                          zoom=(0.1, 0.3, 0.4, 0.6))[0]])
+        _estimator_panels(runs, ex4, k, (5,), z0, "contact boundary z = 0", edges=True)[0] for k in (2, 4, 6)] + [
+        _estimator_panels(runs, ex4, 6, (5,), z0, "zoom at the strip edge x = 0.2", edges=True,
+                          zoom=(0.15, 0.25, 0.45, 0.55))[0]])
     figs["fig4_24_example4_cut"] = dict(cols=3, panels=_estimator_panels(
         runs, ex4, 4, (1, 2, 5), cut, "cut y = 0.5", edges=True))
     figs["fig4_29_example5_pyramid"] = dict(cols=3, panels=(
