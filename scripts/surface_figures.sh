@@ -23,8 +23,8 @@
 # output_stride time steps); docs/examples.md and docs/dynamics.md describe the figures.
 #   scripts/surface_figures.sh [BUILD_DIR=build] [WORK_DIR=out/surface_figures]
 #   REUSE=1 scripts/surface_figures.sh     # keep the run directories that have a summary.json
-# About 2.5 minutes on the shared 2-core machine (139 s measured, 100 s of it the runs, before the Example 8
-# and 9 runs were added: they take 0.4 s, 24 s and 35 s more; the run times are printed).
+# About 2 minutes on the shared 2-core machine: the runs about 97 s (their times are printed), drawing
+# about 25 s.
 set -euo pipefail
 root="$(cd "$(dirname "$0")/.." && pwd)"
 build="${1:-$root/build}"
