@@ -74,6 +74,9 @@ tibia_tau=5e-3
 run dynamics_tibia "$scenes/dynamics_tibia.toml" --refine 2 --set dynamics.tau=$tibia_tau --set dynamics.steps=30 \
   --set dynamics.output_stride=1
 
-"$python" "$root/scripts/render_surface.py" figures --runs "$work" --output "$root/docs/figures" \
+figures=fig4_23_example4_eta5,fig4_24_example4_cut,fig4_27_example5_pyramid,fig4_28_example5_hexahedron
+figures+=,fig4_29_example5_pyramid,fig4_30_example6_hexahedron,fig4_32_example6_contact,fig4_33_example7_pyramid
+figures+=,fig4_35_example7_contact,fig4_36_example8_eta8,fig4_37_example9_grids,fig5_15_geometry1,fig5_17_tibia
+"$python" "$root/scripts/render_surface.py" figures --runs "$work" --output "$root/docs/figures" --only "$figures" \
   --dyn "dynamics_geometry1:$g1_tau:${G1_STEPS:-40,100,200,320,420}" \
   --dyn "dynamics_tibia:$tibia_tau:${TIBIA_STEPS:-2,4,9,20,23}"
