@@ -52,8 +52,8 @@ t0=$(date +%s.%N)
 "$python" "$root/scripts/render_surface.py" figures --runs "$work" --output "$root/docs/figures" \
   --only fig4_2_example1a_grid,fig4_3_example1b_grid,fig4_7_4_8_example2a_grid,fig4_9_example2b_grid,fig4_14_example3a_grids,fig4_15_example3b_grids
 printf 'grid_figures.sh: rendering %6.1f s\n' "$(echo "$(date +%s.%N) - $t0" | bc)" >&2
-# symmetry of the 2D grids about x = 0.5 (docs/examples.md: the triangle grids are not symmetric)
-for run in example1a_cr example1b_cr example2a_cr example2b_cr; do
+# symmetry of the grids about x = 0.5 (docs/examples.md: the triangle and tetrahedron grids are not symmetric)
+for run in example1a_cr example1b_cr example2a_cr example2b_cr example3a_cr example3b_cr; do
   last=$(ls "$work/$run"/step_*.vtu | tail -1)
   "$python" "$root/scripts/render_surface.py" symmetry "$last" --plane x=0.5
 done
