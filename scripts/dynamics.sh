@@ -56,9 +56,11 @@ for g in ball block bar; do
     --title "$(case $g in ball) echo 'Geometry A';; block) echo 'Geometry 1';; bar) echo 'bar';; esac)"
 done
 
-"$python" - "$work" "$root/docs/dynamics.md" "$figures" "$refines" "$taus" "$quick" <<'EOF'
+# the source line of every subsection (scripts/provenance.py; the ctest docs.provenance checks it)
+source_line=$("$python" "$root/scripts/provenance.py" stamp "$([ "$quick" = 1 ] && echo 'QUICK=1 ')scripts/dynamics.sh")
+"$python" - "$work" "$root/docs/dynamics.md" "$figures" "$refines" "$taus" "$quick" "$source_line" <<'EOF'
 import json, math, os, sys
-work, doc, figures, refines, taus, quick = sys.argv[1:7]
+work, doc, figures, refines, taus, quick, source = sys.argv[1:8]
 refines = refines.split(); taus = taus.split()
 
 def summary(d):
@@ -77,7 +79,7 @@ for g, title in (("ball", "Geometry A (ball of pyramids, v0 = 2, tau = 5e-3)"),
                  ("block", "Geometry 1 (rounded block of hexahedra, v0 = 1, tau = 1e-3)")):
     s = summary(g)
     d0 = s["dynamics"]
-    out += [f"### {title}", "",
+    out += [f"### {title}", "", source, "",
             f"{s['vertices']} vertices, {s['dofs']} unknowns, {d0['steps']} steps (t = {d0['end_time']:.3g}).", "",
             "| scheme | E_end/E_0 | min over t of E/E_0 | max penetration | max contact force | force TV | TNNMG its/step | ms/step |",
             "|---|---|---|---|---|---|---|---|"]
@@ -100,7 +102,7 @@ for g, title in (("ball", "Geometry A (ball of pyramids, v0 = 2, tau = 5e-3)"),
 
 s = summary("bar")
 exact = 0.5 + 20 / 30
-out += ["### The bar (docs/theory.md#bar-reference): detachment of the contact end", "",
+out += ["### The bar (docs/theory.md#bar-reference): detachment of the contact end", "", source, "",
         f"Column of 1 x 20 quadrilaterals, nu = 0, E = 900, rho = 1, L = 10, h0 = 5, v0 = 10, tau = {s['dynamics']['tau']:g};"
         f" exact contact interval [0.5, {exact:.4f}]. 'detachment' = first time level with an open gap after the"
         " first contact, 'release' = first time level whose normal velocity points away from the obstacle.", "",
@@ -117,7 +119,7 @@ for d in s["dynamics_comparison"]:
                f"{d['energy_ratio']:.4f} | {fmt(d['max_penetration'])} |")
 out += ["", "![bar normal velocity](figures/dyn_bar_velocity.png) ![bar energy](figures/dyn_bar_energy.png)", ""]
 
-out += ["### Energy loss against tau and h on Geometry A", "",
+out += ["### Energy loss against tau and h on Geometry A", "", source, "",
         "Geometry A to t = 0.5 (impact and rebound), 1 - E_end/E_0 and the whole run time (setup + steps). The thesis'"
         " Fig. 5.14 itself (Geometry 1, alpha(p) and alpha = 0) is in"
         " [Chapter 5 at the thesis' parameters](#chapter-5-of-the-thesis-at-its-parameters-one-body).", "",
