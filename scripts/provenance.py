@@ -19,7 +19,7 @@ nearest heading above it and the next heading of any level), a source line of on
 
 `check` fails (exit 1, one line per problem) if a table or image has no source line in its
 section, an image file is missing, a source line names no command or a repository path in a command
-(scripts/..., bench/..., data/...) that does not exist, a HASH is not a commit of the repository
+(scripts/..., bench/..., data/...) that does not exist, a HASH is not a commit in the history of HEAD
 (checked only in a full, non-shallow git clone), or a stamp says the tree had uncommitted changes.
 With --stale it also lists, per source line, the commits after HASH that changed the scripts its
 commands name: a figure older than its generator is visible there.
@@ -118,8 +118,8 @@ def check_page(root, page, problems, stale, full_clone):
             if not h:
                 problems.append(f"{where}: source line without 'at commit HASH' or 'committed in HASH'")
                 continue
-            if full_clone and git(root, "cat-file", "-e", h.group(1) + "^{commit}") is None:
-                problems.append(f"{where}: {h.group(1)} is not a commit of this repository")
+            if full_clone and git(root, "merge-base", "--is-ancestor", h.group(1), "HEAD") is None:
+                problems.append(f"{where}: {h.group(1)} is not a commit in the history of HEAD")
             elif full_clone and stale is not None:
                 scripts = {p for c in cmds for p in REPO_PATH.findall(c) if (root / p).is_file()}
                 # and the scripts those name (scripts/chapter5.sh runs scripts/chapter5.py)
