@@ -8,7 +8,7 @@ Plots E/E_0 (E with the lumped mass M, column `energy`) of every run in one pane
 with a redistributed mass (column `energy_redistributed` not empty), E~/E~_0 in a second. Prints a
 Markdown table row per run: E_end/E_0, max and min over t of E/E_0, and the same for E~; then a
 second table with the energy lost at impact, at detachment and after the contact episode and the
-largest increase of E/E_0 from one step to the next, by the definitions of scripts/chapter5.py
+largest increase of E/E_0 from one step to the next, computed by scripts/chapter5.py's analyse()
 (episode: the steps with active_solution > 0; peak: the largest total contact force).
 Only the standard library and matplotlib (the table is printed without matplotlib too).
 """
@@ -51,24 +51,22 @@ def main(argv):
     print("| run | first contact | peak force (t) | free at | lost at impact % | at detachment % | after % | "
           "largest step increase of E/E_0 |")
     print("|---|---|---|---|---|---|---|---|")
+    # the phases by scripts/chapter5.py's own analysis (one definition of impact and detachment)
+    sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+    import chapter5
+    pct = lambda x: "" if x is None else f"{100 * x:.2f}"
     for label, run in runs:
-        with open(os.path.join(run, "timeseries.csv"), newline="") as f:
-            rows = list(csv.DictReader(f))
-        E = [float(r["energy"]) for r in rows]
-        F = [math.sqrt(sum(float(r[f"contact_force_{a}"]) ** 2 for a in "xyz")) for r in rows]
-        inside = [k for k, r in enumerate(rows) if float(r["active_solution"]) > 0]
+        s = chapter5.read(os.path.join(run, "timeseries.csv"))
+        E = s["energy"]
         rise = max(b - a for a, b in zip(E, E[1:])) / E[0]
-        if not inside:
+        # v0 only scales the tracked-node figures of analyse(), which are not printed here
+        r = chapter5.analyse(s, v0=1.0)
+        if not r["contact"]:
             print(f"| {label} | no contact | | | | | | {rise:.2g} |")
             continue
-        peak = max(range(len(E)), key=lambda k: F[k])
-        free = inside[-1] + 1 if inside[-1] + 1 < len(E) else None
-        pct = lambda x: "" if x is None else f"{100 * x:.2f}"
-        t = [float(r["t"]) for r in rows]
-        print(f"| {label} | {t[inside[0]]:.4g} | {F[peak]:.4g} ({t[peak]:.4g}) | "
-              f"{'' if free is None else f'{t[free]:.4g}'} | {pct((E[0] - E[peak]) / E[0])} | "
-              f"{pct(None if free is None else (E[peak] - E[free]) / E[0])} | "
-              f"{pct(None if free is None else (E[free] - E[-1]) / E[0])} | {rise:.2g} |")
+        free = "" if r["t_free"] is None else f"{r['t_free']:.4g}"
+        print(f"| {label} | {r['t_first']:.4g} | {r['max_force']:.4g} ({r['t_peak']:.4g}) | {free} | "
+              f"{pct(r['loss_impact'])} | {pct(r['loss_detach'])} | {pct(r['loss_after'])} | {rise:.2g} |")
     try:
         import matplotlib
         matplotlib.use("Agg")
