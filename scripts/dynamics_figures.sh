@@ -21,33 +21,14 @@
 #   scripts/dynamics_figures.sh [BUILD_DIR=build] [WORK_DIR=out/dynamics_figures]
 #   REUSE=1 scripts/dynamics_figures.sh     # keep the run directories that have a summary.json
 # The run times are printed (docs/dynamics.md quotes them).
-set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
-build="${1:-$root/build}"
-work="${2:-$root/out/dynamics_figures}"
-obs="$build/drivers/obs"
-[ -x "$obs" ] || { echo "dynamics_figures.sh: $obs not found (build the obs_cli target first)" >&2; exit 1; }
-python=python3
-python3 -c "import numpy, matplotlib" 2>/dev/null || python=/usr/bin/python3
-scenes="$root/data/scenes"
-mkdir -p "$work"
-export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
-
-run() {  # run NAME SCENE ARGS...: one obs run into $work/NAME, quiet, with its wall time
-  local name="$1" scene="$2"; shift 2
-  local dir="$work/$name"
-  if [ "${REUSE:-0}" = 1 ] && [ -f "$dir/summary.json" ]; then echo "dynamics_figures.sh: reusing $dir" >&2; return 0; fi
-  rm -rf "$dir"
-  local t0; t0=$(date +%s.%N)
-  "$obs" run "$scene" -q -o "$dir" "$@"
-  printf 'dynamics_figures.sh: %-44s %6.1f s\n' "$name" "$(echo "$(date +%s.%N) - $t0" | bc)" >&2
-}
+default_work=out/dynamics_figures
+source "$(cd "$(dirname "$0")" && pwd)/obs-runs.sh"  # scripts/obs-runs.sh: root, build, work, obs, python, obs_run
 
 # Fig. 5.6: Geometry A at refine 2 (4,321 vertices; the thesis: four refinements of its own coarse grid),
 # tau = 5e-3 (the scene's), 37 steps, the .vtu of step 37
 for scheme in classical contact-implicit contact-stabilized improved-contact-stabilized alpha-half alpha-one-zero \
     laursen-chawla khenous-laborde-renard hager-huebner-wohlmuth hager-huebner-wohlmuth-nonpenetration; do
-  run "ball_$scheme" "$scenes/dynamics_ball.toml" --refine 2 --set "dynamics.scheme=\"$scheme\"" \
+  obs_run "ball_$scheme" "$scenes/dynamics_ball.toml" --refine 2 --set "dynamics.scheme=\"$scheme\"" \
     --set dynamics.steps=37 --set dynamics.output_stride=37
 done
 
@@ -55,7 +36,7 @@ done
 # zone spreads until about t = 0.05 and forms again after the landing at t = 0.14), a .vtu every step
 impact_runs=()
 for scheme in improved-contact-stabilized contact-stabilized alpha-half alpha-one-zero; do
-  run "g1_impacts_$scheme" "$scenes/dynamics_block.toml" --refine 2 --set "dynamics.scheme=\"$scheme\"" \
+  obs_run "g1_impacts_$scheme" "$scenes/dynamics_block.toml" --refine 2 --set "dynamics.scheme=\"$scheme\"" \
     --set dynamics.tau=5e-4 --set dynamics.steps=300 --set dynamics.output_stride=1
   impact_runs+=("$work/g1_impacts_$scheme:$scheme")
 done
@@ -64,7 +45,7 @@ done
 # Fig. 5.16: Geometry 1 at refine 3, tau = 5e-4 (as Fig. 5.15 in scripts/surface_figures.sh), a .vtu
 # every step from n = 400 (the block leaves the plane at t = 0.22-0.23, n = 440-460)
 for scheme in improved-contact-stabilized contact-stabilized; do
-  run "g1_detach_$scheme" "$scenes/dynamics_block.toml" --refine 3 --set "dynamics.scheme=\"$scheme\"" \
+  obs_run "g1_detach_$scheme" "$scenes/dynamics_block.toml" --refine 3 --set "dynamics.scheme=\"$scheme\"" \
     --set dynamics.tau=5e-4 --set dynamics.steps=470 --set dynamics.output_stride=1
 done
 
@@ -75,7 +56,7 @@ for reading in face edge corner; do
   scene=dynamics_two_body; [ $reading = face ] || scene=dynamics_two_body_$reading
   control_runs=()
   for moments in 2 1 0; do
-    run "geomB_${reading}_hhwn_m$moments" "$scenes/$scene.toml" \
+    obs_run "geomB_${reading}_hhwn_m$moments" "$scenes/$scene.toml" \
       --set 'dynamics.scheme="hager-huebner-wohlmuth-nonpenetration"' \
       --set dynamics.redistribution_moments=$moments --set dynamics.output_stride=100000000
     label=$([ $moments = 2 ] && echo "M~ keeps mass, centre, second moments" || ([ $moments = 1 ] && echo "M~ keeps mass, centre (thesis)" || echo "control: contact rows zeroed, no redistribution"))
@@ -92,10 +73,10 @@ if [ "${FIG59:-0}" = 1 ]; then
   fig59_runs=()
   for scheme in contact-implicit alpha-one-zero; do
     if [ "${FIG59_JOBS:-1}" = 2 ]; then
-      run "g1_t5e-6_$scheme" "$scenes/dynamics_block.toml" --refine 3 --set "dynamics.scheme=\"$scheme\"" \
+      obs_run "g1_t5e-6_$scheme" "$scenes/dynamics_block.toml" --refine 3 --set "dynamics.scheme=\"$scheme\"" \
         --set dynamics.tau=5e-6 --set dynamics.steps=50000 --set dynamics.output_stride=100000000 &
     else
-      run "g1_t5e-6_$scheme" "$scenes/dynamics_block.toml" --refine 3 --set "dynamics.scheme=\"$scheme\"" \
+      obs_run "g1_t5e-6_$scheme" "$scenes/dynamics_block.toml" --refine 3 --set "dynamics.scheme=\"$scheme\"" \
         --set dynamics.tau=5e-6 --set dynamics.steps=50000 --set dynamics.output_stride=100000000
     fi
     fig59_runs+=("$scheme=$work/g1_t5e-6_$scheme")

@@ -11,29 +11,16 @@
 #   REUSE=1 scripts/examples_deep.sh     # keep the run directories that have a summary.json
 # MAX_VERTICES (default 6000000): [adaptivity] max_vertices of every run, which stops a run after the
 # first solve above it (the machine has 24 GB; obs needs about 0.4 KB per unknown).
-set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
-build="${1:-$root/build}"
-work="${2:-$root/out/examples_deep}"
-obs="$build/drivers/obs"
-[ -x "$obs" ] || { echo "examples_deep.sh: $obs not found (build the obs_cli target first)" >&2; exit 1; }
-python=python3
-python3 -c "import matplotlib" 2>/dev/null || python=/usr/bin/python3
+default_work=out/examples_deep
+source "$(cd "$(dirname "$0")" && pwd)/obs-runs.sh"  # scripts/obs-runs.sh: root, build, work, obs, python, obs_run
 deep="$root/docs/figures/ex4-9/deep"
-mkdir -p "$work" "$deep"
-export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
+mkdir -p "$deep"
 
 run() {  # run NAME EXAMPLE GRID SOLVES
   local name="$1" ex="$2" grid="$3" solves="$4"
   local dir="$work/$name"
-  if ! { [ "${REUSE:-0}" = 1 ] && [ -f "$dir/summary.json" ]; }; then
-    rm -rf "$dir"
-    local t0; t0=$(date +%s.%N)
-    "$obs" run "$root/data/scenes/$ex.toml" -q -o "$dir" --set "mesh.type=\"$grid\"" \
-      --set "adaptivity.steps=$solves" --set "adaptivity.max_vertices=${MAX_VERTICES:-6000000}" \
-      --set 'adaptivity.vtk="none"'
-    printf '%.1f\n' "$(echo "$(date +%s.%N) - $t0" | bc)" > "$dir/wall_s"
-  fi
+  obs_run "$name" "$scenes/$ex.toml" --set "mesh.type=\"$grid\"" --set "adaptivity.steps=$solves" \
+    --set "adaptivity.max_vertices=${MAX_VERTICES:-6000000}" --set 'adaptivity.vtk="none"'
   cp "$dir/steps.csv" "$deep/$name.csv"
   "$python" - "$dir" "$name" <<'PY'
 import csv, json, os, sys

@@ -15,27 +15,13 @@
 #   scripts/grid_figures.sh [BUILD_DIR=build] [WORK_DIR=out/grid_figures]
 #   REUSE=1 scripts/grid_figures.sh     # keep the run directories that have a summary.json
 # The run and render times are printed (docs/examples.md quotes them).
-set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
-build="${1:-$root/build}"
-work="${2:-$root/out/grid_figures}"
-obs="$build/drivers/obs"
-[ -x "$obs" ] || { echo "grid_figures.sh: $obs not found (build the obs_cli target first)" >&2; exit 1; }
-python=python3
-python3 -c "import numpy, matplotlib" 2>/dev/null || python=/usr/bin/python3
-scenes="$root/data/scenes"
-mkdir -p "$work"
-export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
+default_work=out/grid_figures
+source "$(cd "$(dirname "$0")" && pwd)/obs-runs.sh"  # scripts/obs-runs.sh: root, build, work, obs, python, obs_run
 
 adaptive() {  # adaptive NAME EXAMPLE SOLVES [ARGS...]: one adaptive run into $work/NAME, the last step's .vtu
-  local name="$1" scene="$scenes/$2.toml" solves="$3"; shift 3
-  local dir="$work/$name"
-  if [ "${REUSE:-0}" = 1 ] && [ -f "$dir/summary.json" ]; then echo "grid_figures.sh: reusing $dir" >&2; return 0; fi
-  rm -rf "$dir"
-  local t0; t0=$(date +%s.%N)
-  "$obs" run "$scene" -q -o "$dir" --set "adaptivity.steps=$solves" --set adaptivity.max_vertices=100000000 \
+  local name="$1" example="$2" solves="$3"; shift 3
+  obs_run "$name" "$scenes/$example.toml" --set "adaptivity.steps=$solves" --set adaptivity.max_vertices=100000000 \
     --set 'adaptivity.vtk="last"' "$@"
-  printf 'grid_figures.sh: %-16s %6.1f s\n' "$name" "$(echo "$(date +%s.%N) - $t0" | bc)" >&2
 }
 residual=(--set 'adaptivity.estimator="residual"')
 

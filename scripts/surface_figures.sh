@@ -25,29 +25,11 @@
 #   REUSE=1 scripts/surface_figures.sh     # keep the run directories that have a summary.json
 # About 2 minutes on the shared 2-core machine: the runs about 97 s (their times are printed), drawing
 # about 25 s.
-set -euo pipefail
-root="$(cd "$(dirname "$0")/.." && pwd)"
-build="${1:-$root/build}"
-work="${2:-$root/out/surface_figures}"
-obs="$build/drivers/obs"
-[ -x "$obs" ] || { echo "surface_figures.sh: $obs not found (build the obs_cli target first)" >&2; exit 1; }
-python=python3
-python3 -c "import numpy, matplotlib" 2>/dev/null || python=/usr/bin/python3
-scenes="$root/data/scenes"
-mkdir -p "$work"
-export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
+default_work=out/surface_figures
+source "$(cd "$(dirname "$0")" && pwd)/obs-runs.sh"  # scripts/obs-runs.sh: root, build, work, obs, python, obs_run
 
-run() {  # run NAME SCENE ARGS...: one obs run into $work/NAME, quiet, with its wall time
-  local name="$1" scene="$2"; shift 2
-  local dir="$work/$name"
-  if [ "${REUSE:-0}" = 1 ] && [ -f "$dir/summary.json" ]; then echo "surface_figures.sh: reusing $dir" >&2; return 0; fi
-  rm -rf "$dir"
-  local t0; t0=$(date +%s.%N)
-  "$obs" run "$scene" -q -o "$dir" "$@"
-  printf 'surface_figures.sh: %-22s %6.1f s\n' "$name" "$(echo "$(date +%s.%N) - $t0" | bc)" >&2
-}
 adaptive() {  # adaptive NAME EXAMPLE GRID SOLVES: a .vtu per step k = 0 .. SOLVES-1, no vertex cap
-  run "$1" "$scenes/$2.toml" --set "mesh.type=\"$3\"" --set "adaptivity.steps=$4" \
+  obs_run "$1" "$scenes/$2.toml" --set "mesh.type=\"$3\"" --set "adaptivity.steps=$4" \
     --set adaptivity.max_vertices=100000000 --set 'adaptivity.vtk="every"'
 }
 
@@ -68,10 +50,10 @@ adaptive example9_hexahedron example9 hexahedron 7
 # tau = 5e-3 with one refinement more than the scene (17 x 17 bottom vertices), a .vtu every step to
 # t = 0.15 (contact in steps 2-25)
 g1_tau=5e-4
-run dynamics_geometry1 "$scenes/dynamics_block.toml" --refine "${G1_REFINE:-3}" --set dynamics.tau=$g1_tau \
+obs_run dynamics_geometry1 "$scenes/dynamics_block.toml" --refine "${G1_REFINE:-3}" --set dynamics.tau=$g1_tau \
   --set dynamics.steps=500 --set dynamics.output_stride=20
 tibia_tau=5e-3
-run dynamics_tibia "$scenes/dynamics_tibia.toml" --refine 2 --set dynamics.tau=$tibia_tau --set dynamics.steps=30 \
+obs_run dynamics_tibia "$scenes/dynamics_tibia.toml" --refine 2 --set dynamics.tau=$tibia_tau --set dynamics.steps=30 \
   --set dynamics.output_stride=1
 
 figures=fig4_23_example4_eta5,fig4_24_example4_cut,fig4_27_example5_pyramid,fig4_28_example5_hexahedron
