@@ -151,7 +151,7 @@ std::string obstacleTypeNames() {
 
 const std::vector<std::string>& contactKeys() {
   static const std::vector<std::string> keys = [] {
-    std::vector<std::string> k{"boundary", "obstacle"};
+    std::vector<std::string> k{"boundary", "obstacle", "friction"};
     for (const ObstacleType& t : obstacleTypes())
       for (const ObstacleParameter& p : t.parameters)
         if (std::find(k.begin(), k.end(), p.key) == k.end()) k.push_back(p.key);

@@ -351,6 +351,28 @@ ContactSpec::Vector contactVector(const TomlSection& s, const std::string& key) 
   return out;
 }
 
+/// friction = { law = "coulomb", mu = m } or { law = "tresca", bound = g } (m, g >= 0 and finite).
+FrictionSpec parseFriction(const Scene& scene, const TomlSection& s, const std::string& title) {
+  const toml::value& v = s.at("friction");
+  if (!v.is_table())
+    s.fail("friction", "must be a table { law = \"coulomb\", mu = ... } or { law = \"tresca\", bound = ... }, got " +
+                           typeNameOf(v));
+  const TomlSection t(scene.fileName, title + " friction", v, {"law", "mu", "bound"});
+  FrictionSpec f;
+  f.line = s.line("friction");
+  const std::string law = t.string("law");
+  const std::string key = law == "coulomb" ? "mu" : "bound";
+  if (law == "coulomb") f.law.type = FrictionLaw::Type::Coulomb;
+  else if (law == "tresca") f.law.type = FrictionLaw::Type::Tresca;
+  else t.fail("law", "= \"" + law + "\" is unknown (known: coulomb, tresca)");
+  const std::string other = law == "coulomb" ? "bound" : "mu";
+  if (t.has(other)) t.fail(other, "does not apply to law = \"" + law + "\" (it takes " + key + ")");
+  f.law.value = t.number(key);
+  if (!(f.law.value >= 0) || !std::isfinite(f.law.value))
+    t.fail(key, "= " + literalOf(t.at(key)) + " must be a finite number >= 0");
+  return f;
+}
+
 ContactSpec parseContact(const Scene& scene, const toml::value& table) {
   const TomlSection s(scene.fileName, "[contact]", table, contactKeys());
   ContactSpec spec;
@@ -369,7 +391,7 @@ ContactSpec parseContact(const Scene& scene, const toml::value& table) {
   std::string stray;
   int strayLine = 0;
   for (const std::string& key : contactKeys()) {
-    if (key == "boundary" || key == "obstacle" || !s.has(key)) continue;
+    if (key == "boundary" || key == "obstacle" || key == "friction" || !s.has(key)) continue;
     const bool own = std::any_of(type->parameters.begin(), type->parameters.end(),
                                  [&](const ObstacleParameter& p) { return key == p.key; });
     if (!own && (stray.empty() || s.line(key) < strayLine)) {
@@ -441,6 +463,7 @@ ContactSpec parseContact(const Scene& scene, const toml::value& table) {
         break;
     }
   }
+  if (s.has("friction")) spec.friction = parseFriction(scene, s, "[contact]");
   return spec;
 }
 
@@ -685,7 +708,7 @@ void parseMultiBody(Scene& scene, const toml::value& bodies, const toml::value* 
       body.contact = parseContact(body, rest);
       continue;
     }
-    const TomlSection s(scene.fileName, "[[contact]]", c, {"slave", "master", "min_coverage", "search_distance", "type"});
+    const TomlSection s(scene.fileName, "[[contact]]", c, {"slave", "master", "min_coverage", "search_distance", "type", "friction"});
     MortarPairSpec pair;
     pair.line = s.line();
     if (s.has("type") && s.string("type") != "mortar")
@@ -714,8 +737,29 @@ void parseMultiBody(Scene& scene, const toml::value& bodies, const toml::value* 
       if (!(pair.searchDistance > 0))
         s.fail("search_distance", "= " + literalOf(s.at("search_distance")) + " must be positive");
     }
+    if (s.has("friction")) pair.friction = parseFriction(scene, s, "[[contact]]");
     scene.pairs.push_back(std::move(pair));
   }
+}
+
+/// Friction is solved by the static runner with tnnmg or pgs: the line of the first friction = {...}
+/// of the scene (one-body [contact], a body's obstacle, a pair), and errors for what does not support it.
+void checkFriction(const Scene& scene) {
+  int line = 0;
+  const auto take = [&line](const std::optional<FrictionSpec>& f) {
+    if (f && (line == 0 || f->line < line)) line = f->line;
+  };
+  if (scene.contact) take(scene.contact->friction);
+  for (const Scene& b : scene.bodies)
+    if (b.contact) take(b.contact->friction);
+  for (const MortarPairSpec& p : scene.pairs) take(p.friction);
+  if (line == 0) return;
+  if (scene.dynamics || scene.adaptivity)
+    throw Error(scene.where(line) + "friction is solved in static runs only: a scene with " +
+                (scene.dynamics ? "[dynamics]" : "[adaptivity]") + " cannot have friction yet (docs/scenes.md#friction)");
+  if (scene.solverType() == "pdas")
+    throw Error(scene.where(scene.solver.line ? scene.solver.line : line) +
+                "[solver] type = \"pdas\" does not solve friction (use tnnmg or pgs; docs/scenes.md#friction)");
 }
 
 Scene parseSceneString(const std::string& text, const std::string& fileName,
@@ -805,6 +849,7 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
     if (scene.output.checkpoint && !scene.dynamics && !scene.adaptivity)
       throw Error(scene.where(scene.output.checkpoint->line) +
                   "[output] checkpoint applies to [dynamics] and [adaptivity] scenes only (static runs write none)");
+    checkFriction(scene);
     return scene;
   }
   parseBodySections(scene, t, "", 0);
@@ -823,6 +868,7 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
   if (scene.output.checkpoint && !scene.dynamics && !scene.adaptivity)
     throw Error(scene.where(scene.output.checkpoint->line) +
                 "[output] checkpoint applies to [dynamics] and [adaptivity] scenes only (static runs write none)");
+  checkFriction(scene);
   return scene;
 }
 

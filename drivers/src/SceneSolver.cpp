@@ -17,6 +17,7 @@
 #include "obs/obs/ContactModel.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
+#include "obs/obs/Friction.hpp"
 #include "obs/obs/LinearMultigrid.hpp"
 #include "obs/obs/SolverConfig.hpp"
 #include "obs/obs/TNNMG.hpp"
@@ -128,6 +129,19 @@ std::unique_ptr<ContactSolver<d>> sceneContactSolver(const Scene& scene, const s
   return makeContactSolver<d>(config, grids, iterationLines(type, progress));
 }
 
+/// The friction report of a coupling with friction law `law` (nullopt without friction).
+std::optional<FrictionReport> frictionReport(const FrictionLaw& law, const Eigen::Vector3d& tangential, Index stick,
+                                             Index slip) {
+  if (law.type == FrictionLaw::Type::None) return std::nullopt;
+  FrictionReport f;
+  f.law = law.type == FrictionLaw::Type::Coulomb ? "coulomb" : "tresca";
+  f.value = law.value;
+  for (int a = 0; a < 3; ++a) f.tangentialForce[static_cast<std::size_t>(a)] = tangential[a];
+  f.stickVertices = stick;
+  f.slipVertices = slip;
+  return f;
+}
+
 /// The report of a one-body scene's [contact] (summary.json "contact": the obstacle coupling's
 /// counts, force, load, area and radii) from the solution u of the problem.
 template <int d>
@@ -170,6 +184,8 @@ void reportObstacleContact(const Scene& scene, const ContactProblem<d>& problem,
   c.area = out.contactArea;
   c.radius = out.contactRadius;
   c.maxViolation = problem.maxViolation(u);
+  if (scene.contact->friction)
+    c.friction = frictionReport(scene.contact->friction->law, out.tangentialForce, out.stickNodes, out.slipNodes);
   s.contact = c;
 }
 
@@ -183,7 +199,8 @@ std::string sideLabel(const std::string& body, const BoundaryRef& ref) {
 /// at the constrained nodes; obstacles: at every node of the contact set), and at the constrained
 /// nodes the gap g_p, contact_pressure, contact_state (1 potential, 2 actual) and contact_force -mu_p
 /// nu_p (mu_p = D_pp lambda_p for mortar, the nodal force for obstacles); a mortar pair's master
-/// forces on the master body.
+/// forces on the master body. With friction also friction_force (-f_T, the tangential force on the
+/// constrained body), slip (|u_T - o_T|) and stick_slip (0 not in contact, 1 stick, 2 slip).
 template <int d>
 void contactPointFields(const ContactModel<d>& model, const ContactProblem<d>& problem, const Eigen::VectorXd& x,
                         const ContactOutputs& out, const std::vector<const mesh::Mesh*>& meshes,
@@ -198,6 +215,11 @@ void contactPointFields(const ContactModel<d>& model, const ContactProblem<d>& p
                           Field{"contact_state", 1, std::vector<double>(n, 0.0), true},
                           Field{"constraint_direction", 3, std::vector<double>(3 * n, 0.0), false},
                           Field{"contact_force", 3, std::vector<double>(3 * n, 0.0), false}};
+    if (problem.frictional()) {  // indices 6, 7, 8
+      fields[i].push_back(Field{"friction_force", 3, std::vector<double>(3 * n, 0.0), false});
+      fields[i].push_back(Field{"slip", 1, std::vector<double>(n, 0.0), false});
+      fields[i].push_back(Field{"stick_slip", 1, std::vector<double>(n, 0.0), true});
+    }
   }
   for (const auto& c : model.couplings()) {
     const int slaveBody = c.mortar ? c.slave : c.body;
@@ -219,6 +241,11 @@ void contactPointFields(const ContactModel<d>& model, const ContactProblem<d>& p
       fs[2].values[v] = out.pressure[node];
       fs[3].values[v] = out.inContact[node] ? 2 : 1;
       for (int a = 0; a < d; ++a) fs[5].values[3 * v + a] = -mu[k] * nu[a];
+      if (problem.frictional()) {
+        for (int a = 0; a < d; ++a) fs[6].values[3 * v + a] = -out.tangential[node][a];
+        fs[7].values[v] = out.slip[node];
+        fs[8].values[v] = out.state[node];
+      }
     }
     if (c.mortar) {
       const Eigen::VectorXd fm = c.coupling->masterForces(mu);
@@ -269,7 +296,23 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
   Eigen::VectorXd x;
   try {
     const auto solver = sceneContactSolver<d>(scene, grids, progress, tolerance);
-    result = solver->solve(*problem, x);
+    if (model.frictional()) {  // Tresca: one solve; Coulomb: the fixed point over Tresca solves
+      CoulombOptions options;
+      options.tolerance = std::max(1e-8, 10 * tolerance);
+      const CoulombResult fr = solveFriction(*problem, *solver, x, nodalFriction(model, problem->contactSet()), options);
+      result = fr.last;
+      s.solver.friction = FrictionIterationReport{fr.iterations, fr.converged, fr.contracting, fr.changes,
+                                                  fr.innerIterations};
+      if (progress && fr.iterations > 1) {
+        std::ostringstream line;
+        line << "friction: " << fr.iterations << " Tresca solves (" << fr.innerIterations
+             << " iterations), last relative change of the slip bounds " << std::setprecision(3) << fr.changes.back()
+             << (fr.converged ? "" : ", not converged") << (fr.contracting ? "" : " (the iteration did not contract)");
+        progress(line.str());
+      }
+    } else {
+      result = solver->solve(*problem, x);
+    }
     if (const auto* tnnmg = dynamic_cast<const TNNMG<d>*>(solver.get())) reportTnnmg(tnnmg->statistics(), s.solver);
   } catch (const Error& err) {
     solverFailed(scene, type, err);
@@ -279,7 +322,7 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
     throw Error(scene.where(scene.solver.line) + "[solver] " + type + " failed: NaN or Inf in the solution");
   s.solver.type = type;
   s.solver.iterations = result.iterations;
-  s.solver.converged = result.converged;
+  s.solver.converged = result.converged && (!s.solver.friction || s.solver.friction->converged);
   s.solver.seconds = s.solveSeconds;
   s.solver.tolerance = tolerance;
   s.solver.correction = result.correction;
@@ -303,13 +346,17 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
   // the one-body file's [contact] (its layout: summary.json "contact", no contact_force field)
   contactPointFields<d>(model, *problem, x, out, meshes, s.contactFields);
   if (!OutputLayout(scene).perBody()) {
-    for (std::vector<Field>& f : s.contactFields) f.pop_back();  // contact_force
+    for (std::vector<Field>& f : s.contactFields)  // no contact_force
+      f.erase(std::find_if(f.begin(), f.end(), [](const Field& x) { return x.name == "contact_force"; }));
     reportObstacleContact<d>(scene, *problem, u, out, s);
     return s;
   }
   const std::vector<CouplingRecord> records = couplingRecords(model, *problem, x, out);
-  for (std::size_t j = 0; j < model.couplings().size(); ++j)
+  for (std::size_t j = 0; j < model.couplings().size(); ++j) {
     s.pairs.push_back(pairReport(records[j], couplings.sides[j].first, couplings.sides[j].second, d));
+    s.pairs.back().friction = frictionReport(model.couplings()[j].friction, records[j].tangentialSlave,
+                                             records[j].stickVertices, records[j].slipVertices);
+  }
   return s;
 }
 
@@ -332,6 +379,7 @@ SceneCouplings sceneCouplings(const Scene& scene, const std::vector<const mesh::
     o.searchDistance = p.searchDistance;
     const std::string slave = sideLabel(p.slaveBody, p.slave), master = sideLabel(p.masterBody, p.master);
     out.spec.addMortarPair(p.slaveIndex, sid, p.masterIndex, mid, slave + " / " + master, o);
+    if (p.friction) out.spec.couplings.back().friction = p.friction->law;
     out.sides.emplace_back(slave, master);
   }
   // rigid obstacles of single bodies ([[contact]] with body = ..., or a one-body scene's [contact]),
@@ -347,6 +395,7 @@ SceneCouplings sceneCouplings(const Scene& scene, const std::vector<const mesh::
     out.spec.couplings.back().contactSet = [&body, &obstacle](const mesh::Mesh& mesh) {
       return makeContactSet(body, mesh, obstacle);
     };
+    if (body.contact->friction) out.spec.couplings.back().friction = body.contact->friction->law;
     out.sides.emplace_back(slave, master);
   }
   return out;

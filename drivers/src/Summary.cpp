@@ -8,6 +8,19 @@
 #include "obs/obs/Parallel.hpp"
 
 namespace obs::drivers {
+namespace {
+
+nlohmann::json frictionJson(const FrictionReport& f, int dimension) {
+  nlohmann::json force = nlohmann::json::array();
+  for (int i = 0; i < dimension; ++i) force.push_back(f.tangentialForce[static_cast<std::size_t>(i)]);
+  return {{"law", f.law},
+          {f.law == "coulomb" ? "mu" : "bound", f.value},
+          {"tangential_force", force},
+          {"stick_vertices", f.stickVertices},
+          {"slip_vertices", f.slipVertices}};
+}
+
+}  // namespace
 
 nlohmann::json summaryJson(const RunResult& r) {
   nlohmann::json perType = nlohmann::json::object();
@@ -37,6 +50,12 @@ nlohmann::json summaryJson(const RunResult& r) {
                      {"complementarity", r.solver.kkt->complementarity},
                      {"stationarity", r.solver.kkt->stationarity},
                      {"dirichlet", r.solver.kkt->dirichlet}};
+  if (const auto& f = r.solver.friction)
+    solver["friction"] = {{"iterations", f->iterations},
+                          {"converged", f->converged},
+                          {"contracting", f->contracting},
+                          {"changes", f->changes},
+                          {"inner_iterations", f->innerIterations}};
   nlohmann::json j = {
       {"obs_version", estimators::version()},
       {"threads", threads()},
@@ -78,6 +97,7 @@ nlohmann::json summaryJson(const RunResult& r) {
         {"radius_nodes", c.radiusNodes},
         {"max_violation", c.maxViolation},
     };
+    if (c.friction) j["contact"]["friction"] = frictionJson(*c.friction, r.dimension);
   }
   if (!r.bodies.empty()) {
     nlohmann::json bodies = nlohmann::json::array();
@@ -96,7 +116,7 @@ nlohmann::json summaryJson(const RunResult& r) {
       return a;
     };
     nlohmann::json pairs = nlohmann::json::array();
-    for (const PairReport& p : r.pairs)
+    for (const PairReport& p : r.pairs) {
       pairs.push_back({{"slave", p.slave},
                        {"master", p.master},
                        {"slave_vertices", p.slaveVertices},
@@ -112,6 +132,8 @@ nlohmann::json summaryJson(const RunResult& r) {
                        {"max_violation", p.maxViolation},
                        {"mortar",
                         {{"segments", p.segments}, {"uncovered_nodes", p.uncovered}, {"seconds", p.mortarSeconds}}}});
+      if (p.friction) pairs.back()["friction"] = frictionJson(*p.friction, r.dimension);
+    }
     j["pairs"] = pairs;
   }
   return j;

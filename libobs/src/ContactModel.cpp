@@ -1,6 +1,7 @@
 #include "obs/obs/ContactModel.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <functional>
 #include <limits>
 #include <numeric>
@@ -85,6 +86,23 @@ void ContactModelSpec::addMortarPair(int slave, int slaveId, int master, int mas
 }
 
 template <int d>
+void ContactModel<d>::setFriction(int coupling, const FrictionLaw& law) {
+  if (coupling < 0 || coupling >= static_cast<int>(couplings_.size()))
+    throw Error("contact model: friction for coupling " + std::to_string(coupling) + " (no such coupling)");
+  if (!(law.value >= 0) || !std::isfinite(law.value))
+    throw Error("contact model: coupling '" + couplings_[static_cast<std::size_t>(coupling)].label +
+                "': the friction " + (law.type == FrictionLaw::Type::Coulomb ? "coefficient" : "slip bound") +
+                " must be finite and >= 0");
+  couplings_[static_cast<std::size_t>(coupling)].friction = law;
+}
+
+template <int d>
+bool ContactModel<d>::frictional() const {
+  return std::any_of(couplings_.begin(), couplings_.end(),
+                     [](const Coupling& c) { return c.friction.type != FrictionLaw::Type::None && c.friction.value > 0; });
+}
+
+template <int d>
 ContactModel<d> makeContactModel(const ContactModelSpec& spec, const std::vector<const mesh::Mesh*>& meshes) {
   if (meshes.size() != spec.bodies.size())
     throw Error("contact model: " + std::to_string(meshes.size()) + " meshes for " +
@@ -95,6 +113,7 @@ ContactModel<d> makeContactModel(const ContactModelSpec& spec, const std::vector
   for (const ContactModelSpec::Coupling& c : spec.couplings) {
     if (c.mortar) {
       model.addMortarPair(c.body, c.boundaryId, c.master, c.masterId, c.label, c.options);
+      model.setFriction(static_cast<int>(model.couplings().size()) - 1, c.friction);
       continue;
     }
     if (c.body < 0 || c.body >= static_cast<int>(meshes.size()))
@@ -104,6 +123,7 @@ ContactModel<d> makeContactModel(const ContactModelSpec& spec, const std::vector
     ContactSet set = c.contactSet ? c.contactSet(*meshes[c.body]) : ContactSet(*meshes[c.body], c.boundaryId, *c.obstacle);
     std::string label = c.label.empty() ? set.boundaryLabel() : c.label;
     model.addObstacleContact(c.body, std::move(set), std::move(label));
+    model.setFriction(static_cast<int>(model.couplings().size()) - 1, c.friction);
   }
   return model;
 }
@@ -280,6 +300,9 @@ std::vector<CouplingRecord> couplingRecords(const ContactModel<d>& model, const 
       r.forceSlave -= mu[k] * cs.direction(node);
       r.load += mu[k];
       in[k] = out.inContact[node];
+      r.tangentialSlave -= out.tangential[node];
+      r.stickVertices += out.state[node] == 1;
+      r.slipVertices += out.state[node] == 2;
       if (in[k]) {
         ++r.actualVertices;
         pmin = std::min(pmin, out.pressure[node]);

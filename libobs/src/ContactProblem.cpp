@@ -630,7 +630,53 @@ void ContactProblem<d>::multiply(const Eigen::VectorXd& u, Eigen::VectorXd& Au) 
 
 template <int d>
 double ContactProblem<d>::energy(const Eigen::VectorXd& u) const {
-  return 0.5 * A_->energy(toRotated(u)) - b_.dot(u);
+  const double e = 0.5 * A_->energy(toRotated(u)) - b_.dot(u);
+  return frictional() ? e + frictionEnergy(u) : e;
+}
+
+template <int d>
+void ContactProblem<d>::setFriction(std::vector<double> slipBounds, Eigen::VectorXd origin) {
+  if (!slipBounds.empty() && slipBounds.size() != constraints_.size())
+    throw Error("contact problem: setFriction with " + std::to_string(slipBounds.size()) +
+                " slip bounds, the contact boundary " + contact_.boundaryLabel() + " has " +
+                std::to_string(constraints_.size()) + " nodes");
+  if (origin.size() != 0 && origin.size() != static_cast<Eigen::Index>(numDofs()))
+    throw Error("contact problem: setFriction with an origin of " + std::to_string(origin.size()) +
+                " entries, the problem has " + std::to_string(numDofs()) + " unknowns");
+  bool any = false;
+  for (std::size_t k = 0; k < slipBounds.size(); ++k) {
+    const double s = slipBounds[k];
+    if (!(s >= 0) || !std::isfinite(s))
+      throw Error("contact problem: slip bound " + num(s) + " at contact node " + std::to_string(k) +
+                  " (must be finite and >= 0)");
+    any = any || (s > 0 && constraints_[k].bounded());
+  }
+  if (origin.size() != 0 && !origin.allFinite())
+    throw Error("contact problem: setFriction: the origin contains NaN or Inf");
+  slip_ = any ? std::move(slipBounds) : std::vector<double>{};
+  origin_ = any ? std::move(origin) : Eigen::VectorXd{};
+}
+
+template <int d>
+typename ContactProblem<d>::Vec ContactProblem<d>::tangentialSlip(Index k, const Eigen::VectorXd& x) const {
+  const Constraint& c = constraints_[k];
+  if (!c.bounded()) return Vec::Zero();
+  const auto i = static_cast<Eigen::Index>(c.vertex) * d;
+  Vec t = x.template segment<d>(i);
+  if (origin_.size() > 0) t -= origin_.template segment<d>(i);
+  t = c.rotation.transpose() * t;
+  t[0] = 0;
+  for (int a = 1; a < d; ++a)
+    if (prescribedRotated_[static_cast<std::size_t>(i + a)]) t[a] = 0;
+  return t;
+}
+
+template <int d>
+double ContactProblem<d>::frictionEnergy(const Eigen::VectorXd& x) const {
+  double e = 0;
+  for (std::size_t k = 0; k < slip_.size(); ++k)
+    if (slip_[k] > 0) e += slip_[k] * tangentialSlip(static_cast<Index>(k), x).norm();
+  return e;
 }
 
 template <int d>
@@ -761,12 +807,31 @@ RotatedProblem<d> ContactProblem<d>::rotated() const {
     if (c.bounded()) r.upper[c.vertex] = c.gap;
   r.prescribed = prescribedRotated_;
   r.diagonalLowerBound = lowerBound_;
+  rotateFriction(r);
   return r;
 }
 
 template <int d>
+void ContactProblem<d>::rotateFriction(RotatedProblem<d>& r) const {
+  r.frictionVertices.clear();
+  r.slip.clear();
+  r.origin.resize(0);
+  for (std::size_t k = 0; k < slip_.size(); ++k) {
+    const Constraint& c = constraints_[k];
+    if (!(slip_[k] > 0) || !c.bounded()) continue;
+    bool tangential = false;  // a free tangential component (else the term is zero)
+    for (int a = 1; a < d; ++a)
+      tangential = tangential || !prescribedRotated_[static_cast<std::size_t>(c.vertex) * d + a];
+    if (!tangential) continue;
+    r.frictionVertices.push_back(c.vertex);
+    r.slip.push_back(slip_[k]);
+  }
+  if (r.frictional() && origin_.size() > 0) r.origin = toRotated(origin_);
+}
+
+template <int d>
 bool RotatedProblem<d>::hasErrorBound() const {
-  if (diagonalLowerBound.empty()) return false;
+  if (diagonalLowerBound.empty() || frictional()) return false;
   for (Index p = 0; p < numVertices(); ++p) {
     bool free = false;
     for (int a = 0; a < d; ++a) free = free || !prescribed[static_cast<std::size_t>(p) * d + a];
@@ -829,6 +894,10 @@ ContactOutputs computeContactOutputs(const ContactProblem<d>& problem, const Eig
   out.inContact.assign(n, 0);
   out.multiplier.assign(n, 0.0);
   out.pressure.assign(n, 0.0);
+  out.tangential.assign(n, Point::Zero());
+  out.slip.assign(n, 0.0);
+  out.state.assign(n, 0);
+  using Vec = Eigen::Matrix<double, d, 1>;
   const Eigen::VectorXd mu = problem.multipliers(u);
   for (Index k = 0; k < n; ++k) {
     const auto& c = problem.constraint(k);
@@ -841,6 +910,22 @@ ContactOutputs computeContactOutputs(const ContactProblem<d>& problem, const Eig
     out.multiplier[k] = mu[k] / c.scale;
     out.pressure[k] = out.multiplier[k] / cs.boundaryMass(k);
     out.force += out.multiplier[k] * nu;
+    if (!c.bounded()) continue;
+    // the tangential force in the rotated frame: (b - A u)_p without the normal and prescribed parts
+    const auto i = static_cast<Eigen::Index>(c.vertex) * d;
+    Vec q = c.rotation.transpose() * Vec(problem.rhs().template segment<d>(i) - Au.template segment<d>(i));
+    q[0] = 0;
+    for (int a = 1; a < d; ++a)
+      if (problem.prescribedRotated()[static_cast<std::size_t>(i + a)]) q[a] = 0;
+    const Vec fT = c.rotation * q;
+    out.tangential[k].template head<d>() = fT;
+    out.tangentialForce.template head<d>() += fT;
+    out.slip[k] = problem.tangentialSlip(k, u).norm();
+    if (out.inContact[k]) {
+      const bool stick = out.slip[k] <= relativeTolerance * U;
+      out.state[k] = stick ? 1 : 2;
+      ++(stick ? out.stickNodes : out.slipNodes);
+    }
   }
   for (const ContactSet::Face& f : cs.faces())
     if (std::all_of(f.nodes.begin(), f.nodes.end(), [&](Index k) { return out.inContact[k] != 0; }))

@@ -25,7 +25,9 @@ KktResiduals computeKktResiduals(const ContactProblem<d>& problem, const Eigen::
   k.displacementScale = U > 0 ? U : 1;
   k.forceScale = F > 0 ? F : 1;
 
-  for (const auto& c : problem.constraints()) {
+  const std::vector<double>& slip = problem.slipBounds();
+  for (std::size_t node = 0; node < problem.constraints().size(); ++node) {
+    const auto& c = problem.constraint(static_cast<Index>(node));
     if (!c.bounded()) continue;
     auto rp = r.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d);
     const double mu = c.direction.dot(rp);
@@ -33,7 +35,22 @@ KktResiduals computeKktResiduals(const ContactProblem<d>& problem, const Eigen::
     k.primalFeasibility = std::max(k.primalFeasibility, -slack / k.displacementScale);
     k.dualSign = std::max(k.dualSign, -mu / k.forceScale);
     k.complementarity = std::max(k.complementarity, std::abs(mu * slack) / (k.forceScale * k.displacementScale));
-    rp -= mu * c.direction;  // what is left must vanish (tangential part)
+    rp -= mu * c.direction;  // what is left must vanish (tangential part) ...
+    if (!slip.empty() && slip[node] > 0) {
+      // ... but for the friction force f (rotated frame): s t/|t| in slip, in stick the tangential
+      // residual q cut to the disk |f| <= s (what exceeds it remains)
+      using Vec = Eigen::Matrix<double, d, 1>;
+      const Vec t = problem.tangentialSlip(static_cast<Index>(node), u);
+      Vec q = c.rotation.transpose() * Vec(rp);
+      q[0] = 0;
+      for (int a = 1; a < d; ++a)
+        if (problem.prescribedRotated()[static_cast<std::size_t>(c.vertex) * d + a]) q[a] = 0;
+      Vec f;
+      const double s = slip[node];
+      if (t.norm() > 1e-12 * k.displacementScale) f = s * t / t.norm();
+      else f = q.norm() > s ? Vec(q * (s / q.norm())) : q;
+      rp -= c.rotation * f;
+    }
   }
   for (Eigen::Index i = 0; i < u.size(); ++i) {
     if (dir.constrained[static_cast<std::size_t>(i)])

@@ -14,6 +14,9 @@ namespace obs {
 template <int d>
 ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd& u) {
   if (!(options_.c > 0)) throw Error(name() + ": the complementarity constant c must be positive");
+  if (problem.frictional())
+    throw Error(name() + ": friction is not supported by the primal-dual active set solver (use tnnmg or "
+                "projected-gauss-seidel)");
   factorSeconds_ = 0;
   const RotatedProblem<d> rot = problem.rotated();
   const Index n = rot.numVertices();

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "obs/mesh/Error.hpp"
+#include "obs/obs/FrictionBlock.hpp"
 
 namespace obs {
 
@@ -52,6 +53,51 @@ void BlockLocalSolver<d>::setUpper(std::vector<double> upper) {
 }
 
 template <int d>
+void BlockLocalSolver<d>::setFriction(const BlockSparseMatrix<d>& A, const RotatedProblem<d>& problem) {
+  slot_.clear();
+  friction_.clear();
+  if (!problem.frictional()) return;
+  if (A.rows() != static_cast<Index>(upper_.size()))
+    throw Error("block Gauss-Seidel: friction data of another matrix");
+  slot_.assign(upper_.size(), -1);
+  friction_.resize(problem.frictionVertices.size());
+  for (std::size_t f = 0; f < friction_.size(); ++f) {
+    const Index p = problem.frictionVertices[f];
+    Friction& F = friction_[f];
+    F.D = A.blockAt(A.diagonal(p));
+    F.slip = problem.slip[f];
+    F.origin.setZero();
+    for (int a = 1; a < d; ++a)
+      if (!problem.prescribed[static_cast<std::size_t>(p) * d + a]) {
+        F.freeTangential |= 1u << (a - 1);
+        if (problem.origin.size() > 0) F.origin[a] = problem.origin[static_cast<Eigen::Index>(p) * d + a];
+      }
+    slot_[p] = static_cast<int>(f);
+  }
+}
+
+template <int d>
+typename BlockLocalSolver<d>::Vec BlockLocalSolver<d>::solveFriction(int f, const Vec& r, double upper) const {
+  const Friction& F = friction_[static_cast<std::size_t>(f)];
+  // in v - o the term is s |(v - o)_T|: shift the right-hand side (o has no normal component)
+  const Vec q = r - F.D * F.origin;
+  Vec v;
+  if (d == 2 || F.freeTangential == (1u << (d - 1)) - 1) {
+    v = solveFrictionBlock<d>(F.D, q, upper, F.slip);
+  } else {  // d = 3 with one prescribed tangential component o (an identity row): fixed, the rest 2 x 2
+    const int j = (F.freeTangential & 1u) ? 1 : 2, o = 3 - j;
+    v[o] = q[o] / F.D(o, o);
+    Eigen::Matrix2d D2;
+    D2 << F.D(0, 0), F.D(0, j), F.D(j, 0), F.D(j, j);
+    const Eigen::Vector2d q2(q[0] - F.D(0, o) * v[o], q[j] - F.D(j, o) * v[o]);
+    const Eigen::Vector2d x = solveFrictionBlock<2>(D2, q2, upper, F.slip);
+    v[0] = x[0];
+    v[j] = x[1];
+  }
+  return v + F.origin;
+}
+
+template <int d>
 void BlockGaussSeidelSweep<d>::sweep(const Eigen::VectorXd& b, Eigen::VectorXd& w, bool backward) const {
   using Vec = typename BlockLocalSolver<d>::Vec;
   A_.withBlocks([&](const auto blocks) {
@@ -95,10 +141,11 @@ ContactResult ProjectedGaussSeidel<d>::solve(const ContactProblem<d>& problem, E
   problem.projectToFeasible(u);
   Eigen::VectorXd w = problem.toRotated(u);
   rot.project(w);
-  const BlockGaussSeidelSweep<d> gs(rot.matrix(), rot.upper);
+  BlockGaussSeidelSweep<d> gs(rot.matrix(), rot.upper);
+  gs.setFriction(rot);
 
   Eigen::VectorXd Aw = rot.matrix() * w;
-  IterationMonitor monitor(name(), options_, 0.5 * w.dot(Aw) - rot.rhs.dot(w));
+  IterationMonitor monitor(name(), options_, 0.5 * w.dot(Aw) - rot.rhs.dot(w) + rot.frictionEnergy(w));
   bool converged = false;
   Eigen::VectorXd previous;
   for (int k = 0; k < options_.maxIterations && !converged; ++k) {
@@ -116,8 +163,9 @@ ContactResult ProjectedGaussSeidel<d>::solve(const ContactProblem<d>& problem, E
       if (!rot.prescribed[static_cast<std::size_t>(i)]) freeAw += w[i] * Aw[i];
     const double den = std::sqrt(std::max(0.0, freeAw));
     const double correction = den > 0 ? num / den : (num > 0 ? 1.0 : 0.0);
-    converged = monitor.record(0.5 * wAw - bw, correction, rot.countActive(w));
-    monitor.requireMonotone(0.5 * std::abs(wAw) + std::abs(bw));
+    const double friction = rot.frictionEnergy(w);  // 0 without friction
+    converged = monitor.record(0.5 * wAw - bw + friction, correction, rot.countActive(w));
+    monitor.requireMonotone(0.5 * std::abs(wAw) + std::abs(bw) + friction);
   }
   u = problem.fromRotated(w);
   ContactResult result = monitor.finish(converged, rot.countActive(w));

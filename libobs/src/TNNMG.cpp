@@ -71,11 +71,14 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
       if (c.bounded()) rotated_->upper[c.vertex] = c.gap;
     smoother_->setUpper(rotated_->upper);
     rotated_->diagonalLowerBound = problem.diagonalLowerBound();
+    problem.rotateFriction(*rotated_);
+    smoother_->setFriction(*rotated_);
   } else {
     operatorId_ = 0;
     smoother_.reset();
     rotated_ = std::make_unique<RotatedProblem<d>>(problem.rotated());
     smoother_ = std::make_unique<BlockGaussSeidelSweep<d>>(rotated_->matrix(), rotated_->upper);
+    smoother_->setFriction(*rotated_);
     correction_->setFineBasis(problem.basisTransformation());
     correction_->setOperator(rotated_->matrix(), problemRotations(problem), rotated_->prescribed);
     operatorId_ = problem.operatorId();
@@ -99,7 +102,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   Eigen::VectorXd w = problem.toRotated(u);
   rot.project(w);
   const BlockGaussSeidelSweep<d>& smoother = *smoother_;
-  const bool errorBound = rot.hasErrorBound();  // RotatedProblem::errorBound, fused below
+  const bool errorBound = rot.hasErrorBound();  // RotatedProblem::errorBound, fused below (not with friction)
   const std::vector<double>& lowerBound = rot.diagonalLowerBound;
 
   const auto n = static_cast<Eigen::Index>(problem.numDofs());
@@ -111,7 +114,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   bool zeroStart = w.isZero(0);  // a zero start (time steps from their predictor) needs no product
   if (zeroStart) Aw.setZero();
   else A.multiply(w, Aw);
-  IterationMonitor monitor(name(), options_, 0.5 * w.dot(Aw) - rot.rhs.dot(w));
+  IterationMonitor monitor(name(), options_, 0.5 * w.dot(Aw) - rot.rhs.dot(w) + rot.frictionEnergy(w));
   TruncatedLinearization<d> linearization;
   lap(t, statistics_.setupSeconds);
 
@@ -166,7 +169,9 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
       }
       return std::array<double, 2>{s0, s1};
     });
-    const LineSearchResult step = exactLineSearch(rot, w, c, cr, cAc);
+    const LineSearchResult step = rot.frictional() ? frictionLineSearch(rot, w, c, cr, cAc, linearization.slipping,
+                                                                        linearization.slipDirection)
+                                                   : exactLineSearch(rot, w, c, cr, cAc);
     takeStep(rot, step, c, w);
     if (step.alpha != 0)
       forRanges(N, [&](Index b, Index e) { Aw.segment(b, e - b) += step.alpha * Ac.segment(b, e - b); });
@@ -211,10 +216,11 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     const double relativeError = !errorBound ? std::numeric_limits<double>::quiet_NaN()
                                  : den > 0   ? bound / den
                                              : (bound > 0 ? std::numeric_limits<double>::infinity() : 0.0);
-    const bool small = monitor.record(0.5 * wAw - bw, correction, rot.countActive(w), changes, relativeError);
+    const double friction = rot.frictionEnergy(w);  // 0 without friction
+    const bool small = monitor.record(0.5 * wAw - bw + friction, correction, rot.countActive(w), changes, relativeError);
     // scale of the energy's terms, including the round-off of w'Aw (<= eps |w|'|A||w|): for stiff
     // operators with soft modes (mass + tau^2 stiffness, rigid motions) it dominates |w'Aw|
-    monitor.requireMonotone(0.5 * std::abs(wAw) + std::abs(bw) + 1e-4 * rowSumBound_ * ww);
+    monitor.requireMonotone(0.5 * std::abs(wAw) + std::abs(bw) + friction + 1e-4 * rowSumBound_ * ww);
     // the correction bounds the step, not the error: converged also needs the KKT residual of the
     // iterate below the bound (docs/theory.md#tnnmg-stopping); evaluated only when the correction (or
     // the error bound) passed

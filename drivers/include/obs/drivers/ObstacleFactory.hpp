@@ -57,7 +57,8 @@ const std::vector<ObstacleType>& obstacleTypes();
 const ObstacleType* findObstacleType(const std::string& name);
 /// "plane, strip, wedge, ..." for messages.
 std::string obstacleTypeNames();
-/// Every parameter key of any type, plus "boundary" and "obstacle" (the keys allowed in [contact]).
+/// Every parameter key of any type, plus "boundary", "obstacle" and "friction" (the keys allowed in
+/// [contact]).
 const std::vector<std::string>& contactKeys();
 
 /// Builds the obstacle of scene.contact for a mesh of dimension `dim`: checks that the type is made

@@ -24,6 +24,17 @@ struct TnnmgPhases {
   int operatorUpdates = 0;
 };
 
+/// The outer iteration of a scene with friction (docs/theory.md#friction-coulomb; Friction.hpp
+/// CoulombResult): Tresca solves, whether the bounds stopped changing and whether the changes
+/// decreased. One solve without a Coulomb coupling.
+struct FrictionIterationReport {
+  int iterations = 0;
+  bool converged = false;
+  bool contracting = true;
+  std::vector<double> changes;  ///< relative change of the slip bounds after each solve
+  long long innerIterations = 0;
+};
+
 /// How the discrete problem was solved.
 struct SolverReport {
   std::string type;         ///< "direct", "multigrid", "tnnmg", "pdas" or "pgs"
@@ -36,6 +47,15 @@ struct SolverReport {
   long long vcycles = -1;   ///< tnnmg, multigrid: V-cycles run (-1: not reported)
   std::optional<TnnmgPhases> phases;  ///< static tnnmg solves
   std::optional<KktResiduals> kkt;  ///< contact solvers: KKT residuals of the solution
+  std::optional<FrictionIterationReport> friction;  ///< scenes with friction
+};
+
+/// The friction of one contact (summary.json "friction" of "contact" or of a "pairs" entry).
+struct FrictionReport {
+  std::string law;   ///< "tresca" or "coulomb"
+  double value = 0;  ///< the slip bound (tresca) or mu (coulomb)
+  std::array<double, 3> tangentialForce{};  ///< sum of the tangential nodal forces f_T (ContactOutputs)
+  long long stickVertices = 0, slipVertices = 0;
 };
 
 /// Contact quantities of a solution (docs/theory.md#signorini, computeContactOutputs in ContactProblem.hpp).
@@ -51,6 +71,7 @@ struct ContactReport {
   double radius = 0;       ///< 3D: sqrt(area / pi) (disc of the same area); 2D: width / 2
   double radiusNodes = 0;  ///< max tangential distance of a contact vertex from the force centre
   double maxViolation = 0; ///< max_p (nu_p.u_p - g_p)^+
+  std::optional<FrictionReport> friction;  ///< [contact] friction = {...}
 };
 
 /// One coupling of a scene reported per coupling (summary.json "pairs"): the model's record
@@ -59,6 +80,7 @@ struct ContactReport {
 struct PairReport : CouplingRecord {
   std::string slave, master;  ///< "body:boundary" as written, or "obstacle <type>"
   double radius = 0;          ///< 3D: sqrt(area / pi); 2D: area / 2
+  std::optional<FrictionReport> friction;  ///< couplings with friction
 };
 
 /// One body of a multi-body scene.

@@ -16,6 +16,7 @@
 #include "obs/drivers/Expression.hpp"
 #include "obs/mesh/CellType.hpp"
 #include "obs/mesh/Mesh.hpp"
+#include "obs/obs/FrictionLaw.hpp"
 #include "obs/obs/Material.hpp"
 
 namespace obs::drivers {
@@ -100,6 +101,13 @@ struct NeumannSpec {
   int line = 0;  ///< line of [[neumann]]
 };
 
+/// friction = { law = "coulomb", mu = ... } or { law = "tresca", bound = ... } of a [contact] or a
+/// [[contact]] pair (docs/scenes.md#friction).
+struct FrictionSpec {
+  FrictionLaw law;
+  int line = 0;
+};
+
 /// [contact]: the potential contact boundary Gamma_C and the rigid obstacle (docs/theory.md#signorini). The
 /// obstacle's parameters are kept as written; ObstacleFactory.hpp lists them per obstacle type,
 /// checks them against the mesh dimension and builds the obs::Obstacle.
@@ -132,6 +140,7 @@ struct ContactSpec {
   int directionLine = 0;                  ///< 0: direction not given (the type's default)
   std::optional<Expression> gap;          ///< obstacle = "expression": g(x)
   int gapLine = 0;
+  std::optional<FrictionSpec> friction;   ///< friction = {...}; none: frictionless
   int line = 0;  ///< line of [contact]
 };
 
@@ -180,6 +189,7 @@ struct MortarPairSpec {
   int slaveIndex = -1, masterIndex = -1;  ///< indices into Scene::bodies
   double minCoverage = 0.5;  ///< slave nodes covered less are unconstrained (MortarCoupling.hpp)
   double searchDistance = -1;  ///< potential contact zone (MortarOptions::searchDistance); <= 0: default
+  std::optional<FrictionSpec> friction;  ///< friction = {...}; none: frictionless
   int line = 0;              ///< line of [[contact]]
 };
 

@@ -21,6 +21,7 @@
 #include "obs/obs/BoundaryConditions.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/ContactSet.hpp"
+#include "obs/obs/FrictionLaw.hpp"
 #include "obs/obs/Material.hpp"
 #include "obs/obs/MortarCoupling.hpp"
 #include "obs/obs/MultiBody.hpp"
@@ -48,6 +49,7 @@ public:
     std::unique_ptr<ContactSet> obstacleSet;  ///< obstacle couplings (on the body's mesh)
     std::unique_ptr<MortarCoupling> coupling; ///< mortar pairs (built by assemble())
     std::vector<Index> nodes;  ///< this coupling's nodes in the merged ContactSet (assemble())
+    FrictionLaw friction;      ///< setFriction (default: frictionless)
   };
 
   /// Adds a body; returns its index.
@@ -57,6 +59,12 @@ public:
   /// A dual-mortar pair between boundary `slaveId` of body `slave` and `masterId` of body `master`.
   void addMortarPair(int slave, int slaveId, int master, int masterId, std::string label,
                      const MortarOptions& options = {});
+
+  /// The friction law of coupling `coupling` (index in couplings()). Throws obs::Error for an
+  /// invalid index or a negative or non-finite value.
+  void setFriction(int coupling, const FrictionLaw& law);
+  /// True if some coupling has friction with a positive value.
+  bool frictional() const;
 
   /// The pieces of the problem before the ContactProblem is formed: the stacked system of the
   /// bodies (stiffness, load, Dirichlet data of the displacements u), the couplings' constraints
@@ -125,6 +133,7 @@ struct ContactModelSpec {
     std::function<ContactSet(const mesh::Mesh&)> contactSet;
     int master = -1, masterId = 0;  ///< mortar pairs: the master body and boundary
     MortarOptions options;          ///< mortar pairs
+    FrictionLaw friction;           ///< frictionless by default
 
     /// Body `body` against a rigid obstacle on its boundary `boundaryId`.
     static Coupling obstacleContact(int body, const Obstacle& obstacle, int boundaryId, std::string label = {});
@@ -161,6 +170,10 @@ struct CouplingRecord {
   Index actualVertices = 0;         ///< in actual contact
   Eigen::Vector3d forceSlave = Eigen::Vector3d::Zero();   ///< total force on the constrained body
   Eigen::Vector3d forceMaster = Eigen::Vector3d::Zero();  ///< on the master body (the obstacle's reaction)
+  /// The tangential (friction) force on the constrained body, -sum f_T (ContactOutputs::tangential),
+  /// and its contact nodes in stick and in slip (ContactOutputs::state).
+  Eigen::Vector3d tangentialSlave = Eigen::Vector3d::Zero();
+  Index stickVertices = 0, slipVertices = 0;
   double load = 0;                  ///< sum of the multipliers mu_p
   double pressureMin = 0, pressureMax = 0;  ///< over the actual contact nodes (0 without contact)
   double area = 0;                  ///< measure of the faces with all nodes in contact

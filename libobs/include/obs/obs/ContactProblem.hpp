@@ -33,6 +33,15 @@
 /// (basisSkip()), so their values are values of x as well. Every
 /// member function, and every solver, works with the problem unknowns x; toDisplacement() and
 /// fromDisplacement() convert. Without a transformation (one body against obstacles) x = u.
+///
+/// Tresca friction (docs/theory.md#friction). setFriction() adds to J the convex, nonsmooth term
+///   sum_k s_k |(x_p - o_p)_T|      (p the vertex of contact node k)
+/// with slip bounds s_k >= 0 (nodal forces) and an origin o (the displacement of the previous load
+/// increment or time step; zero by default). (.)_T are the tangential components of the rotated
+/// frame (local components 2..d) that are not prescribed. For a mortar pair x_p of a slave vertex is
+/// the relative displacement of the two surfaces, so the term acts on the relative slip. Coulomb
+/// friction is a fixed point over such problems (Friction.hpp). Without slip bounds (or with all of
+/// them zero) nothing changes: every solver runs its frictionless code.
 #include <Eigen/Core>
 
 #include <cstdint>
@@ -50,9 +59,12 @@
 
 namespace obs {
 
-/// min 1/2 w'Aw - b'w subject to w[p*d] <= upper[p] (upper = +inf: no bound): the rotated problem.
+/// min 1/2 w'Aw - b'w + sum_p slip_p |(w_p - o_p)_T| subject to w[p*d] <= upper[p] (upper = +inf: no
+/// bound): the rotated problem. (.)_T: the components 2..d of a vertex that are not prescribed; the
+/// friction term only with Tresca friction (ContactProblem::setFriction).
 template <int d>
 struct RotatedProblem {
+  using Vec = Eigen::Matrix<double, d, 1>;
   /// A~ = Q'AQ (block-wise), shared with the ContactProblem it came from (which keeps only this form)
   std::shared_ptr<const BlockSparseMatrix<d>> matrixPtr;
   Eigen::VectorXd rhs;           ///< b~ = Q'b
@@ -60,12 +72,40 @@ struct RotatedProblem {
   std::vector<char> prescribed;  ///< Dirichlet components in rotated numbering (identity rows of A~)
   /// ContactProblem::diagonalLowerBound() (empty: none); rotation-invariant, so it bounds A~ too
   std::vector<double> diagonalLowerBound;
+  /// Tresca friction: the vertices with a positive slip bound and a free tangential component,
+  /// slip[f] the bound of frictionVertices[f], and the origin o (rotated, size numDofs(); empty:
+  /// zero). frictionVertices empty: frictionless.
+  std::vector<Index> frictionVertices;
+  std::vector<double> slip;
+  Eigen::VectorXd origin;
 
   const BlockSparseMatrix<d>& matrix() const { return *matrixPtr; }
   Index numVertices() const { return matrix().rows(); }
   bool bounded(Index p) const { return upper[p] < std::numeric_limits<double>::infinity(); }
-  double energy(const Eigen::VectorXd& w) const { return 0.5 * matrix().energy(w) - rhs.dot(w); }
-  /// True if diagonalLowerBound is given and positive at every vertex with a free component.
+  bool frictional() const { return !frictionVertices.empty(); }
+  /// (w_p - o_p)_T of friction vertex number f (frictionVertices[f]): normal and prescribed
+  /// components zero.
+  Vec slipOf(std::size_t f, const Eigen::VectorXd& w) const {
+    const Index p = frictionVertices[f];
+    const auto i = static_cast<Eigen::Index>(p) * d;
+    Vec t = w.template segment<d>(i);
+    if (origin.size() > 0) t -= origin.template segment<d>(i);
+    t[0] = 0;
+    for (int a = 1; a < d; ++a)
+      if (prescribed[static_cast<std::size_t>(i + a)]) t[a] = 0;
+    return t;
+  }
+  /// sum_p slip_p |(w_p - o_p)_T| (0 without friction).
+  double frictionEnergy(const Eigen::VectorXd& w) const {
+    double e = 0;
+    for (std::size_t f = 0; f < frictionVertices.size(); ++f) e += slip[f] * slipOf(f, w).norm();
+    return e;
+  }
+  double energy(const Eigen::VectorXd& w) const {
+    return 0.5 * matrix().energy(w) - rhs.dot(w) + frictionEnergy(w);
+  }
+  /// True if diagonalLowerBound is given and positive at every vertex with a free component, and
+  /// there is no friction (the bound is derived for the bound-constrained quadratic problem).
   bool hasErrorBound() const;
   /// The a posteriori bound sqrt(2 sum_i componentGain(r_i, m_p, room_i)) >= ||w - w*||_A~ of an
   /// admissible w (docs/theory.md#tnnmg-error-bound), from Aw = A~ w: r = rhs - Aw over the free
@@ -194,6 +234,29 @@ public:
   const std::vector<double>& diagonalLowerBound() const { return lowerBound_; }
   /// The rotated problem (built on each call; it shares the matrix, and copies the vectors).
   RotatedProblem<d> rotated() const;
+  // --- Tresca friction (see the file comment) ---
+  /// Sets the slip bounds s_k (ContactSet numbering, finite, >= 0) and the origin o (problem
+  /// unknowns; empty: zero). Bounds at nodes without a finite gap are ignored (no tangential frame).
+  /// All bounds zero (or an empty vector) removes the friction term. Part of the data, not of the
+  /// operator: operatorId() is unchanged. Throws obs::Error on wrong sizes or invalid bounds.
+  void setFriction(std::vector<double> slipBounds, Eigen::VectorXd origin = {});
+  /// True if some node has a positive slip bound.
+  bool frictional() const { return !slip_.empty(); }
+  /// The slip bounds of setFriction (empty: frictionless).
+  const std::vector<double>& slipBounds() const { return slip_; }
+  /// The origin of setFriction (empty: zero).
+  const Eigen::VectorXd& slipOrigin() const { return origin_; }
+  /// The tangential slip (x_p - o_p)_T of contact node k in its rotated frame: the normal and the
+  /// prescribed components are zero (the zero vector at nodes without a finite gap).
+  Vec tangentialSlip(Index k, const Eigen::VectorXd& x) const;
+  /// The friction term sum_k s_k |(x_p - o_p)_T| (0 if not frictional()).
+  double frictionEnergy(const Eigen::VectorXd& x) const;
+
+  /// Per component in rotated numbering: prescribed (Dirichlet) or not (RotatedProblem::prescribed).
+  const std::vector<char>& prescribedRotated() const { return prescribedRotated_; }
+  /// Writes the friction fields (frictionVertices, slip, origin) of a rotated problem of this
+  /// problem's operator, as rotated() does (solvers that keep the rotated operator across solves).
+  void rotateFriction(RotatedProblem<d>& rotated) const;
   /// w = Q'u and u = Q w.
   Eigen::VectorXd toRotated(const Eigen::VectorXd& u) const;
   Eigen::VectorXd fromRotated(const Eigen::VectorXd& w) const;
@@ -220,6 +283,8 @@ private:
   Eigen::VectorXd dirichletLift_;  ///< A g (original A) on free rows, to eliminate the values in setLoad
   std::vector<char> rotated_;      ///< per contact node: a rotation was built at construction
   std::vector<double> lowerBound_;  ///< setDiagonalLowerBound (empty: none)
+  std::vector<double> slip_;        ///< setFriction: slip bounds per contact node (empty: none)
+  Eigen::VectorXd origin_;          ///< setFriction: origin o (empty: zero)
   std::uint64_t operatorId_ = 0;
 };
 
@@ -237,12 +302,25 @@ private:
 /// = measure of the contact faces all of whose nodes are in contact, and a contact radius estimate:
 /// sqrt(area / pi) in 3D (a disk), area / 2 in 2D (half the contact length, the b of
 /// docs/theory.md#analytic-references).
+/// Tangential quantities (docs/theory.md#friction-outputs), per contact node:
+///   tangential[k] f_T = (b - A u)_p minus its normal part, without prescribed components (the
+///                 friction force, in Cartesian axes; round-off of the force scale without friction);
+///   slip[k]       |(u_p - o_p)_T| (ContactProblem::tangentialSlip);
+///   state[k]      0 not in contact, 1 stick (slip <= relativeTolerance * U), 2 slip;
+/// totals: tangentialForce = sum f_T (the obstacle's friction force on the body is -tangentialForce),
+/// and the numbers of sticking and slipping contact nodes.
 struct ContactOutputs {
   std::vector<char> inContact;
   std::vector<double> multiplier;
   std::vector<double> pressure;
+  std::vector<Point> tangential;
+  std::vector<double> slip;
+  std::vector<char> state;
   Index contactNodes = 0;
+  Index stickNodes = 0;
+  Index slipNodes = 0;
   Eigen::Vector3d force = Eigen::Vector3d::Zero();
+  Eigen::Vector3d tangentialForce = Eigen::Vector3d::Zero();
   double contactArea = 0;
   double contactRadius = 0;
 };

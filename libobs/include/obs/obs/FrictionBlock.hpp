@@ -1,8 +1,8 @@
 #pragma once
 /// \file FrictionBlock.hpp
 /// The local problem of a contact vertex with Tresca friction, the block step of the nonsmooth
-/// Gauss-Seidel smoother once friction is added (work in progress, issue 42; not yet used by the
-/// solvers). In the rotated coordinates of a contact vertex (component 1 along the constraint
+/// Gauss-Seidel smoother with friction (BlockLocalSolver, docs/theory.md#friction-tnnmg). In the
+/// rotated coordinates of a contact vertex (component 1 along the constraint
 /// direction, components 2..d tangential; ContactProblem.hpp):
 ///
 ///   minimise f(v) = 1/2 v'Dv - r'v + s |v_T|   subject to   v_1 <= g,

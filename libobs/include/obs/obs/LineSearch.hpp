@@ -11,10 +11,21 @@
 ///    or c'Ac <= 0), so J(w + alpha c) <= J(w): the step never increases the energy.
 /// takeStep adds alpha c and, when alpha = alpha_max, puts the limiting component exactly on its
 /// bound (so that it is recognised as active by the next truncation).
+///
+/// With Tresca friction (docs/theory.md#friction-tnnmg) the energy along the line,
+///   phi(alpha) = J(w + alpha c) - J(w) = alpha^2/2 c'Ac - alpha c'(b - Aw) + sum_p s_p (|t_p + alpha c_p| - |t_p|)
+/// (t_p = (w_p - o_p)_T, c_p = (c_p)_T; sticking vertices have c_p = 0 after the truncation), is
+/// convex but no longer quadratic: frictionLineSearch finds its minimiser on [0, alpha_max] by
+/// bisection on the nondecreasing phi'. Where phi' jumps over zero at a kink t_p + alpha c_p = 0
+/// (a vertex that stops slipping), the step is that kink, and takeStep sets t_p exactly to zero
+/// (so that the next truncation sees the vertex stick).
 #include <Eigen/Core>
 
 #include <algorithm>
+#include <cmath>
+#include <cstddef>
 #include <limits>
+#include <vector>
 
 #include "obs/obs/ContactProblem.hpp"
 
@@ -33,12 +44,12 @@ struct LineSearchResult {
   double alpha = 0;
   double alphaMax = std::numeric_limits<double>::infinity();
   Index limiting = -1;  ///< vertex whose bound gives alpha_max, or -1
+  std::ptrdiff_t stops = -1;  ///< friction vertex (RotatedProblem numbering) whose slip the step ends, or -1
 };
 
-/// cr = c'r, cAc = c'Ac for r = b - A w.
+/// alpha_max and its limiting vertex (see the file comment).
 template <int d>
-LineSearchResult exactLineSearch(const RotatedProblem<d>& problem, const Eigen::VectorXd& w, const Eigen::VectorXd& c,
-                                 double cr, double cAc) {
+LineSearchResult largestFeasibleStep(const RotatedProblem<d>& problem, const Eigen::VectorXd& w, const Eigen::VectorXd& c) {
   LineSearchResult s;
   for (Index p = 0; p < problem.numVertices(); ++p) {
     const auto i = static_cast<Eigen::Index>(p) * d;
@@ -51,7 +62,83 @@ LineSearchResult exactLineSearch(const RotatedProblem<d>& problem, const Eigen::
     }
   }
   s.alphaMax = std::max(s.alphaMax, 0.0);
+  return s;
+}
+
+/// cr = c'r, cAc = c'Ac for r = b - A w.
+template <int d>
+LineSearchResult exactLineSearch(const RotatedProblem<d>& problem, const Eigen::VectorXd& w, const Eigen::VectorXd& c,
+                                 double cr, double cAc) {
+  LineSearchResult s = largestFeasibleStep(problem, w, c);
   if (cr > 0 && cAc > 0) s.alpha = std::min(s.alphaMax, cr / cAc);
+  return s;
+}
+
+/// The line search with friction: cr = c'r for the truncated defect r of TruncatedLinearization
+/// (which contains the friction gradient of the slipping vertices), cAc = c'Ac; `slipping` and
+/// `direction` as TruncatedLinearization::slipping / slipDirection. Without slipping vertices the
+/// energy along the line is quadratic: exactLineSearch.
+template <int d>
+LineSearchResult frictionLineSearch(const RotatedProblem<d>& problem, const Eigen::VectorXd& w, const Eigen::VectorXd& c,
+                                    double cr, double cAc, const std::vector<std::size_t>& slipping,
+                                    const std::vector<Eigen::Matrix<double, d, 1>>& direction) {
+  using Vec = Eigen::Matrix<double, d, 1>;
+  if (slipping.empty()) return exactLineSearch(problem, w, c, cr, cAc);
+  LineSearchResult s = largestFeasibleStep(problem, w, c);
+  if (!(cr > 0) || !(cAc > 0)) return s;  // phi'(0) = -cr >= 0, or no curvature: no descent
+  // the slipping terms: bound, t_p, c_p and c_p.e_p (phi'(0) = -cr already contains -s_p c_p.e_p)
+  struct Term {
+    std::size_t f;
+    double slip;
+    Vec t, c;
+    double ce;
+  };
+  std::vector<Term> terms;
+  for (std::size_t k = 0; k < slipping.size(); ++k) {
+    const std::size_t f = slipping[k];
+    const auto i = static_cast<Eigen::Index>(problem.frictionVertices[f]) * d;
+    Vec cp = c.template segment<d>(i);
+    cp[0] = 0;
+    for (int a = 1; a < d; ++a)
+      if (problem.prescribed[static_cast<std::size_t>(i + a)]) cp[a] = 0;
+    if (cp.isZero(0)) continue;
+    terms.push_back({f, problem.slip[f], problem.slipOf(f, w), cp, cp.dot(direction[k])});
+  }
+  if (terms.empty()) return exactLineSearch(problem, w, c, cr, cAc);
+  const auto slope = [&](double alpha) {  // phi'(alpha), the left derivative at a kink
+    double g = alpha * cAc - cr;
+    for (const Term& term : terms) {
+      const Vec x = term.t + alpha * term.c;
+      const double n = x.norm();
+      g += term.slip * ((n > 0 ? x.dot(term.c) / n : -term.c.norm()) - term.ce);
+    }
+    return g;
+  };
+  double lo = 0, hi = s.alphaMax;
+  if (std::isfinite(hi)) {
+    if (slope(hi) <= 0) {
+      s.alpha = hi;
+      return s;
+    }
+  } else {  // phi' grows like alpha c'Ac: double a start until it is positive
+    hi = cr / cAc;
+    for (int k = 0; k < 200 && slope(hi) <= 0; ++k) hi *= 2;
+  }
+  for (int k = 0; k < 200 && hi - lo > 1e-15 * hi; ++k) {
+    const double mid = 0.5 * (lo + hi);
+    if (mid <= lo || mid >= hi) break;
+    (slope(mid) <= 0 ? lo : hi) = mid;
+  }
+  s.alpha = lo;
+  // a kink in [lo, hi]: phi' jumps over zero there, so it is the minimiser; the vertex stops
+  for (const Term& term : terms) {
+    const double a = -term.t.dot(term.c) / term.c.squaredNorm();
+    if (a >= lo && a <= hi && (term.t + a * term.c).norm() <= 1e-12 * term.t.norm()) {
+      s.alpha = a;
+      s.stops = static_cast<std::ptrdiff_t>(term.f);
+      break;
+    }
+  }
   return s;
 }
 
@@ -61,6 +148,12 @@ void takeStep(const RotatedProblem<d>& problem, const LineSearchResult& s, const
   if (s.alpha == 0) return;
   forRanges(static_cast<Index>(w.size()), [&](Index b, Index e) { w.segment(b, e - b) += s.alpha * c.segment(b, e - b); });
   if (s.limiting >= 0 && s.alpha == s.alphaMax) w[static_cast<Eigen::Index>(s.limiting) * d] = problem.upper[s.limiting];
+  if (s.stops >= 0) {  // exactly onto the kink: t_p = 0
+    const auto f = static_cast<std::size_t>(s.stops);
+    const auto i = static_cast<Eigen::Index>(problem.frictionVertices[f]) * d;
+    for (int a = 1; a < d; ++a)
+      if (!problem.prescribed[static_cast<std::size_t>(i + a)]) w[i + a] = problem.origin.size() > 0 ? problem.origin[i + a] : 0.0;
+  }
   // round-off must not leave the admissible set
   for (Index p = 0; p < problem.numVertices(); ++p)
     if (problem.bounded(p)) {

@@ -10,6 +10,9 @@
 ///      A_pp[2:d, 2:d] v[2:d] = r[2:d] - A_pp[2:d, 1] upper_p.
 ///    (A strictly convex function of v restricted to v_1 = upper is minimised there, and because the
 ///    unconstrained minimiser violates the bound, the constrained minimiser lies on it.)
+///    With Tresca friction (RotatedProblem::frictionVertices, setFriction) a friction vertex solves
+///      minimise 1/2 v'A_pp v - r'v + s_p |(v - o_p)_T|  s.t. v_1 <= upper_p
+///    exactly by solveFrictionBlock (FrictionBlock.hpp) on its free components; the others as above.
 ///  - BlockGaussSeidelSweep<d>: one sweep over the vertices in order (forward or backward) with the
 ///    local solver. Each local step minimises exactly, so the energy never increases.
 /// ProjectedGaussSeidel<d> iterates sweeps from the projected start as a ContactSolver.
@@ -18,6 +21,7 @@
 #include <vector>
 
 #include "obs/obs/BlockSparseMatrix.hpp"
+#include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/ContactSolver.hpp"
 
 namespace obs {
@@ -38,9 +42,13 @@ public:
   /// Replaces the bounds (same matrix; the inverses are kept, the trailing ones are computed for every
   /// vertex). Throws obs::Error for a wrong number of entries.
   void setUpper(std::vector<double> upper);
+  /// The friction vertices, bounds and origin of `problem` (whose matrix must be A of the
+  /// constructor); replaces those of an earlier call. Without friction: the frictionless solver.
+  void setFriction(const BlockSparseMatrix<d>& A, const RotatedProblem<d>& problem);
 
-  /// argmin of 1/2 v'A_pp v - r'v subject to v_1 <= upper_p.
+  /// argmin of 1/2 v'A_pp v - r'v (+ s_p |(v - o_p)_T| at a friction vertex) subject to v_1 <= upper_p.
   Vec solve(Index p, const Vec& r) const {
+    if (!slot_.empty() && slot_[p] >= 0) return solveFriction(slot_[p], r, upper_[p]);
     Vec v = inverse_[p] * r;
     if (v[0] > upper_[p]) {
       v[0] = upper_[p];
@@ -51,6 +59,18 @@ public:
   double upper(Index p) const { return upper_[p]; }
 
 private:
+  /// The data of a friction vertex: its diagonal block, bound, origin (normal and prescribed
+  /// components zero) and free tangential components (bit a-1: component a).
+  struct Friction {
+    Mat D;
+    Vec origin;
+    double slip = 0;
+    unsigned freeTangential = 0;
+  };
+  Vec solveFriction(int f, const Vec& r, double upper) const;
+
+  std::vector<int> slot_;           ///< per vertex: index into friction_, -1 (empty: no friction)
+  std::vector<Friction> friction_;
   std::vector<Mat> inverse_;
   std::vector<Tail> tail_;                              ///< (A_pp[2:d,2:d])^{-1}
   std::vector<Eigen::Matrix<double, d - 1, 1>> coupling_;  ///< A_pp[2:d, 1]
@@ -67,6 +87,8 @@ public:
       : A_(A), local_(A, std::move(upper)) {}
   /// New bounds for the same matrix (TNNMG reuses the sweep across solves of one operator).
   void setUpper(std::vector<double> upper) { local_.setUpper(std::move(upper)); }
+  /// The friction data of `problem` (built on the same matrix), see BlockLocalSolver::setFriction.
+  void setFriction(const RotatedProblem<d>& problem) { local_.setFriction(A_, problem); }
   void sweep(const Eigen::VectorXd& b, Eigen::VectorXd& w, bool backward = false) const;
   /// A forward sweep on w = 0 (w of the right size, overwritten): the same result as w.setZero();
   /// sweep(b, w), reading only the blocks left of the diagonal (columns are sorted; the others

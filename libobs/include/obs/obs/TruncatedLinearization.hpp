@@ -7,6 +7,14 @@
 ///   - active bounds: w_{p,1} >= upper_p (the smoother puts active components exactly on the bound).
 /// The truncated defect problem is A_T c = r_T with r_T = b - A w zeroed at truncated components and
 /// A_T = A with truncated rows and columns replaced by the identity (its solution is zero there).
+///
+/// Tresca friction (docs/theory.md#friction-tnnmg): the term s_p |t_p|, t_p = (w_p - o_p)_T, is not
+/// differentiable where t_p = 0 (stick; the smoother sets t_p exactly to zero there) and smooth in
+/// slip. Sticking vertices truncate their free tangential components as well; at slipping vertices
+/// the defect is the negative gradient of the whole energy, r_T = b - A w - s_p t_p / |t_p| on the
+/// tangential components. The linear correction keeps A: the curvature s_p (I - e e')/|t_p| of the
+/// term (zero in 2D, where the tangential space is one-dimensional) is left to the line search,
+/// which minimises the exact energy along the correction (LineSearch.hpp).
 #include <Eigen/Core>
 
 #include <vector>
@@ -17,8 +25,12 @@ namespace obs {
 
 template <int d>
 struct TruncatedLinearization {
+  using Vec = Eigen::Matrix<double, d, 1>;
   std::vector<char> mask;  ///< per component, 1 = truncated
   Index active = 0;        ///< number of active bounds
+  Index sticking = 0;      ///< friction vertices with t_p = 0
+  std::vector<std::size_t> slipping;  ///< friction vertices (RotatedProblem numbering f) with t_p != 0
+  std::vector<Vec> slipDirection;     ///< t_p / |t_p| of each
 
   /// Mask at w: prescribed components and active bounds of the rotated problem.
   void truncate(const RotatedProblem<d>& problem, const Eigen::VectorXd& w) {
@@ -30,6 +42,21 @@ struct TruncatedLinearization {
         mask[static_cast<std::size_t>(p) * d] = 1;
         ++active;
       }
+    sticking = 0;
+    slipping.clear();
+    slipDirection.clear();
+    for (std::size_t f = 0; f < problem.frictionVertices.size(); ++f) {
+      const Vec t = problem.slipOf(f, w);
+      const double norm = t.norm();
+      if (norm > 0) {
+        slipping.push_back(f);
+        slipDirection.push_back(t / norm);
+        continue;
+      }
+      ++sticking;
+      const auto i = static_cast<std::size_t>(problem.frictionVertices[f]) * d;
+      for (int a = 1; a < d; ++a) mask[i + a] = 1;  // prescribed ones are truncated already
+    }
   }
   /// r = b - A w (given Aw) with truncated components set to zero.
   void truncatedResidual(const RotatedProblem<d>& problem, const Eigen::VectorXd& Aw, Eigen::VectorXd& r) const {
@@ -37,6 +64,11 @@ struct TruncatedLinearization {
     forRanges(static_cast<Index>(Aw.size()), [&](Index b, Index e) {
       for (Index i = b; i < e; ++i) r[i] = mask[static_cast<std::size_t>(i)] ? 0.0 : problem.rhs[i] - Aw[i];
     });
+    for (std::size_t k = 0; k < slipping.size(); ++k) {  // the gradient of the friction term in slip
+      const std::size_t f = slipping[k];
+      const auto i = static_cast<Eigen::Index>(problem.frictionVertices[f]) * d;
+      for (int a = 1; a < d; ++a) r[i + a] -= problem.slip[f] * slipDirection[k][a];
+    }
   }
 };
 

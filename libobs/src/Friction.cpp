@@ -1,0 +1,136 @@
+#include "obs/obs/Friction.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <string>
+
+#include "obs/mesh/Error.hpp"
+
+namespace obs {
+
+std::vector<double> trescaSlipBounds(const ContactSet& contact, double bound) {
+  if (!(bound >= 0) || !std::isfinite(bound))
+    throw Error("Tresca friction: the slip bound must be finite and >= 0, got " + std::to_string(bound));
+  std::vector<double> s(static_cast<std::size_t>(contact.size()));
+  for (Index k = 0; k < contact.size(); ++k) s[static_cast<std::size_t>(k)] = bound * contact.boundaryMass(k);
+  return s;
+}
+
+bool NodalFriction::coulomb() const {
+  return std::any_of(mu.begin(), mu.end(), [](double m) { return m > 0; });
+}
+
+template <int d>
+NodalFriction nodalFriction(const ContactModel<d>& model, const ContactSet& contact) {
+  NodalFriction f;
+  if (!model.frictional()) return f;
+  const auto n = static_cast<std::size_t>(contact.size());
+  f.bound.assign(n, 0.0);
+  f.mu.assign(n, 0.0);
+  for (const auto& c : model.couplings())
+    for (const Index k : c.nodes) {
+      const auto i = static_cast<std::size_t>(k);
+      if (i >= n) throw Error("friction: coupling '" + c.label + "' has a node outside the contact set");
+      if (c.friction.type == FrictionLaw::Type::Tresca) f.bound[i] = c.friction.value * contact.boundaryMass(k);
+      if (c.friction.type == FrictionLaw::Type::Coulomb) f.mu[i] = c.friction.value;
+    }
+  return f;
+}
+
+namespace {
+
+/// bound_k + mu_k (lambda_k)^+, the Coulomb part only at the nodes whose gap is closed (relative to
+/// the displacement scale).
+template <int d>
+std::vector<double> slipBounds(const ContactProblem<d>& problem, const Eigen::VectorXd& u, const NodalFriction& f) {
+  std::vector<double> s = f.bound;
+  if (!f.coulomb()) return s;
+  const Eigen::VectorXd lambda = problem.multipliers(u);
+  double U = u.lpNorm<Eigen::Infinity>();
+  for (const auto& c : problem.constraints())
+    if (c.bounded()) U = std::max(U, std::abs(c.gap));
+  if (!(U > 0)) U = 1;
+  for (std::size_t k = 0; k < s.size(); ++k) {
+    const auto& c = problem.constraint(static_cast<Index>(k));
+    if (!c.bounded() || !(f.mu[k] > 0)) continue;
+    const double slack = c.gap - c.direction.dot(u.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d));
+    if (slack <= 1e-10 * U) s[k] += f.mu[k] * std::max(0.0, lambda[static_cast<Eigen::Index>(k)]);
+  }
+  return s;
+}
+
+}  // namespace
+
+template <int d>
+CoulombResult solveFriction(ContactProblem<d>& problem, ContactSolver<d>& solver, Eigen::VectorXd& u,
+                            const NodalFriction& friction, const CoulombOptions& options, const Eigen::VectorXd& origin) {
+  const std::size_t n = problem.constraints().size();
+  const bool empty = friction.bound.empty() && friction.mu.empty();
+  if (!empty && (friction.bound.size() != n || friction.mu.size() != n))
+    throw Error("friction: " + std::to_string(friction.bound.size()) + " slip bounds and " +
+                std::to_string(friction.mu.size()) + " coefficients for " + std::to_string(n) + " contact nodes");
+  for (std::size_t k = 0; k < friction.mu.size(); ++k)
+    if (!(friction.mu[k] >= 0) || !std::isfinite(friction.mu[k]))
+      throw Error("Coulomb friction: the friction coefficient must be finite and >= 0, got " +
+                  std::to_string(friction.mu[k]) + " at contact node " + std::to_string(k));
+  if (options.maxIterations < 1 || !(options.tolerance > 0))
+    throw Error("Coulomb friction: invalid options (maxIterations >= 1, tolerance > 0)");
+  const auto start = std::chrono::steady_clock::now();
+  CoulombResult result;
+  problem.projectToFeasible(u);
+  std::vector<double> s = empty ? std::vector<double>{} : slipBounds(problem, u, friction);
+  const bool fixedPoint = friction.coulomb();
+  for (int i = 0; i < options.maxIterations; ++i) {
+    problem.setFriction(s, origin);
+    result.last = solver.solve(problem, u);
+    ++result.iterations;
+    result.innerIterations += result.last.iterations;
+    if (!fixedPoint) {  // Tresca or frictionless: the bounds do not depend on u
+      result.converged = result.last.converged;
+      result.changes.push_back(0);
+      break;
+    }
+    std::vector<double> next = slipBounds(problem, u, friction);
+    double change = 0, scale = 0;
+    for (std::size_t k = 0; k < s.size(); ++k) {
+      change = std::max(change, std::abs(next[k] - s[k]));
+      scale = std::max(scale, next[k]);
+    }
+    const double relative = scale > 0 ? change / scale : (change > 0 ? 1.0 : 0.0);
+    if (result.changes.size() >= 2 && relative >= result.changes.back()) result.contracting = false;
+    result.changes.push_back(relative);
+    if (relative <= options.tolerance) {
+      result.converged = result.last.converged;
+      break;
+    }
+    s = std::move(next);
+  }
+  result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  return result;
+}
+
+template <int d>
+CoulombResult solveCoulomb(ContactProblem<d>& problem, ContactSolver<d>& solver, Eigen::VectorXd& u,
+                           const CoulombOptions& options, const Eigen::VectorXd& origin) {
+  if (!(options.mu >= 0) || !std::isfinite(options.mu))
+    throw Error("Coulomb friction: the friction coefficient must be finite and >= 0, got " + std::to_string(options.mu));
+  const std::size_t n = problem.constraints().size();
+  NodalFriction f;
+  f.bound.assign(n, 0.0);
+  f.mu.assign(n, options.mu);
+  return solveFriction(problem, solver, u, f, options, origin);
+}
+
+template NodalFriction nodalFriction<2>(const ContactModel<2>&, const ContactSet&);
+template NodalFriction nodalFriction<3>(const ContactModel<3>&, const ContactSet&);
+template CoulombResult solveFriction<2>(ContactProblem<2>&, ContactSolver<2>&, Eigen::VectorXd&, const NodalFriction&,
+                                        const CoulombOptions&, const Eigen::VectorXd&);
+template CoulombResult solveFriction<3>(ContactProblem<3>&, ContactSolver<3>&, Eigen::VectorXd&, const NodalFriction&,
+                                        const CoulombOptions&, const Eigen::VectorXd&);
+template CoulombResult solveCoulomb<2>(ContactProblem<2>&, ContactSolver<2>&, Eigen::VectorXd&, const CoulombOptions&,
+                                       const Eigen::VectorXd&);
+template CoulombResult solveCoulomb<3>(ContactProblem<3>&, ContactSolver<3>&, Eigen::VectorXd&, const CoulombOptions&,
+                                       const Eigen::VectorXd&);
+
+}  // namespace obs

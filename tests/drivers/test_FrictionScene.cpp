@@ -1,0 +1,151 @@
+// Friction through runScene (`obs run`, docs/scenes.md#friction): the uniform-slip scene gives the
+// exact ratio mu of tangential to normal force; the cylinder scene sticks in the middle and slips at
+// the ends; mu = 0 is the frictionless run; the outputs (summary.json, .vtu); bad input.
+#include <gtest/gtest.h>
+
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "obs/drivers/RunScene.hpp"
+#include "obs/drivers/SceneParser.hpp"
+#include "obs/drivers/SceneSetup.hpp"
+#include "obs/mesh/Error.hpp"
+
+#include "DriverTestSupport.hpp"
+
+using obs::test::readVtu;
+using obs::test::summaryOf;
+namespace fs = std::filesystem;
+using namespace obs::drivers;
+
+namespace {
+
+const fs::path kTmp = fs::path(OBS_TEST_TMP_DIR) / "friction_scene";
+const fs::path kScenes = fs::path(OBS_DATA_DIR) / "scenes";
+
+fs::path writeScene(const std::string& name, const std::string& text) {
+  fs::create_directories(kTmp);
+  const fs::path p = kTmp / (name + ".toml");
+  std::ofstream(p) << text;
+  return p;
+}
+
+RunResult runIn(const fs::path& scene, const fs::path& out) {
+  fs::remove_all(out);
+  RunOptions o;
+  o.outputDirectory = out;
+  return runScene(scene, o);
+}
+
+std::string errorOf(const std::string& name, const std::string& text) {
+  try {
+    const Scene scene = parseScene(writeScene(name, text));
+    validateScene(scene, buildMesh(scene));
+  } catch (const obs::Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+/// The punch of docs/theory.md#analytic-references with `friction` (a TOML value, or empty: none) and
+/// an optional extra section.
+std::string punch(const std::string& friction, const std::string& extra = "") {
+  return R"([mesh]
+generator = "box"
+type = "quadrilateral"
+cells = [4, 4]
+refine = 2
+
+[material]
+E = 3e5
+nu = 0.25
+
+[[dirichlet]]
+boundary = "top"
+value = [0.002, -0.01]
+
+[contact]
+boundary = "bottom"
+obstacle = "strip"
+point = [0.5, 0]
+half_width = 0.0625
+direction = [0, -1]
+)" + (friction.empty() ? std::string() : "friction = " + friction + "\n") + extra;
+}
+
+void expectErrorWith(const std::string& message, std::initializer_list<const char*> parts) {
+  ASSERT_FALSE(message.empty()) << "no error";
+  EXPECT_EQ(message.find('\n'), std::string::npos) << message;
+  for (const char* p : parts) EXPECT_NE(message.find(p), std::string::npos) << message;
+}
+
+}  // namespace
+
+TEST(FrictionScene, UniformSlipGivesTheRatioMu) {
+  const fs::path out = kTmp / "slip";
+  const RunResult r = runIn(kScenes / "friction_slip.toml", out);
+  ASSERT_TRUE(r.contact && r.contact->friction);
+  const FrictionReport& f = *r.contact->friction;
+  EXPECT_EQ(f.law, "coulomb");
+  // the exact state: tangential force = mu x normal force, every contact vertex slipping
+  EXPECT_NEAR(f.tangentialForce[0] / r.contact->load, 0.3, 1e-9);
+  EXPECT_GT(f.tangentialForce[0], 0);  // the body slides in +x and drags the plane along
+  EXPECT_EQ(f.slipVertices, r.contact->actualVertices);
+  EXPECT_EQ(f.stickVertices, 0);
+  ASSERT_TRUE(r.solver.friction);
+  EXPECT_TRUE(r.solver.friction->converged);
+  EXPECT_TRUE(r.solver.friction->contracting);
+  EXPECT_GT(r.solver.friction->iterations, 1);
+  const nlohmann::json j = summaryOf(out);
+  EXPECT_EQ(j["contact"]["friction"]["law"], "coulomb");
+  EXPECT_EQ(j["contact"]["friction"]["slip_vertices"], r.contact->actualVertices);
+  EXPECT_TRUE(j["solver"]["friction"]["converged"].get<bool>());
+  const auto vtu = readVtu(out / "friction_slip.vtu");
+  for (const char* name : {"friction_force", "slip", "stick_slip"})
+    EXPECT_FALSE(vtu.array(name).empty()) << name;
+}
+
+TEST(FrictionScene, CylinderSticksInTheMiddleAndSlipsAtTheEnds) {
+  const RunResult r = runIn(kScenes / "friction_cylinder.toml", kTmp / "cylinder");
+  ASSERT_TRUE(r.contact && r.contact->friction);
+  const FrictionReport& f = *r.contact->friction;
+  EXPECT_GT(f.stickVertices, 0);
+  EXPECT_GT(f.slipVertices, 0);
+  EXPECT_EQ(f.stickVertices + f.slipVertices, r.contact->actualVertices);
+  // partial slip: the tangential force stays below mu times the normal force
+  EXPECT_LT(std::abs(f.tangentialForce[0]), 0.3 * r.contact->load);
+  EXPECT_GT(std::abs(f.tangentialForce[0]), 0.01 * r.contact->load);
+  EXPECT_TRUE(r.solver.converged);
+}
+
+TEST(FrictionScene, ZeroCoefficientIsTheFrictionlessRun) {
+  const RunResult a = runIn(writeScene("frictionless", punch("")), kTmp / "frictionless");
+  const RunResult b = runIn(writeScene("mu0", punch("{ law = \"coulomb\", mu = 0 }")), kTmp / "mu0");
+  const RunResult c = runIn(writeScene("bound0", punch("{ law = \"tresca\", bound = 0 }")), kTmp / "bound0");
+  for (const RunResult* r : {&b, &c}) {
+    EXPECT_EQ(r->solver.iterations, a.solver.iterations);
+    EXPECT_EQ(r->maxDisplacement, a.maxDisplacement);
+    EXPECT_EQ(r->contact->load, a.contact->load);
+  }
+  EXPECT_FALSE(a.contact->friction);
+  // Tresca with a positive bound changes the solution
+  const RunResult d = runIn(writeScene("tresca", punch("{ law = \"tresca\", bound = 20 }")), kTmp / "tresca");
+  ASSERT_TRUE(d.contact->friction);
+  EXPECT_GT(std::abs(d.contact->friction->tangentialForce[0]), 1e-3 * d.contact->load);
+  EXPECT_NE(d.contact->load, a.contact->load);  // against a rigid obstacle friction changes the normal forces too
+  EXPECT_EQ(d.solver.friction->iterations, 1);  // Tresca: one solve
+}
+
+TEST(FrictionScene, BadInputIsAOneLineError) {
+  expectErrorWith(errorOf("law", punch("{ law = \"stiction\", mu = 0.3 }")), {"friction law", "stiction", "coulomb, tresca"});
+  expectErrorWith(errorOf("negative", punch("{ law = \"coulomb\", mu = -0.1 }")), {"friction mu", ">= 0"});
+  expectErrorWith(errorOf("other", punch("{ law = \"coulomb\", bound = 3 }")), {"friction bound", "does not apply"});
+  expectErrorWith(errorOf("missing", punch("{ law = \"tresca\" }")), {"friction", "bound"});
+  expectErrorWith(errorOf("table", punch("0.3")), {"friction", "must be a table"});
+  expectErrorWith(errorOf("pdas", punch("{ law = \"coulomb\", mu = 0.3 }", "[solver]\ntype = \"pdas\"\n")),
+                  {"pdas", "does not solve friction"});
+}

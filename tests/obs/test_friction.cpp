@@ -1,0 +1,271 @@
+// Tresca and Coulomb friction (docs/theory.md#friction): exact reproduction of affine states in
+// uniform slip and in stick, agreement of TNNMG with projected Gauss-Seidel on curved contact with
+// tangential loads (2D and 3D), the frictionless limit, the Coulomb fixed point and bad input.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <memory>
+
+#include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/Error.hpp"
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/Friction.hpp"
+#include "obs/obs/KktResiduals.hpp"
+#include "obs/obs/Obstacle.hpp"
+#include "obs/obs/PrimalDualActiveSet.hpp"
+#include "obs/obs/ProjectedGaussSeidel.hpp"
+#include "obs/obs/TNNMG.hpp"
+
+using namespace obs;
+using mesh::CellType;
+
+namespace {
+
+const Material kMaterial{3e5, 0.25};
+
+bool verbose() { return std::getenv("OBS_TEST_VERBOSE") != nullptr; }
+
+Point P(double x, double y, double z = 0) { return Point(x, y, z); }
+
+mesh::Grid uniformGrid(CellType type, int coarseCells, int levels) {
+  mesh::Grid grid(mesh::boxMesh(type, coarseCells));
+  for (int l = 0; l < levels; ++l) grid.refineUniformly();
+  return grid;
+}
+
+template <class F>
+void expectErrorMentioning(F f, const std::string& word) {
+  try {
+    f();
+    ADD_FAILURE() << "no obs::Error thrown (expected one mentioning '" << word << "')";
+  } catch (const obs::Error& e) {
+    EXPECT_NE(std::string(e.what()).find(word), std::string::npos) << e.what();
+  }
+}
+
+template <int d>
+typename TNNMG<d>::Options tight() {
+  typename TNNMG<d>::Options o;
+  o.tolerance = 1e-12;
+  o.kktTolerance = 1e-10;
+  o.maxIterations = 200;
+  return o;
+}
+
+/// The affine state of a block on the rigid plane x_d = 0 (docs/theory.md#friction-verification):
+/// u = (s0 + gamma x_d) e_1 - eps x_d e_d, compression eps and shear gamma. Its contact pressure is
+/// p = (lambda + 2 G) eps and its shear traction G gamma: with s0 > 0 it slides if G gamma = mu p,
+/// with s0 = 0 it sticks if G gamma <= bound.
+struct AffineState {
+  double s0, gamma, eps;
+  Point operator()(const Point& x, int d) const {
+    Point u = Point::Zero();
+    u[0] = s0 + gamma * x[d - 1];
+    u[d - 1] = -eps * x[d - 1];
+    return u;
+  }
+};
+
+/// Every face but the bottom prescribed to the affine state; the bottom on the plane x_d = 0.
+template <int d>
+ContactProblem<d> affineProblem(const mesh::Mesh& m, const AffineState& a) {
+  BoundaryConditions bc;
+  const std::vector<int> faces = d == 2 ? std::vector<int>{mesh::kTop, mesh::kLeft, mesh::kRight}
+                                        : std::vector<int>{mesh::kTop, mesh::kLeft, mesh::kRight, mesh::kFront, mesh::kBack};
+  for (int f : faces) bc.dirichlet.push_back({f, {true, true, true}, [a](const Point& x) { return a(x, d); }});
+  const Point normal = d == 2 ? P(0, -1) : P(0, 0, -1);
+  const ContactSet cs(m, mesh::kBottom, PlaneObstacle(Point::Zero(), normal));
+  return ContactProblem<d>(m, kMaterial, bc, cs);
+}
+
+template <int d>
+double maxError(const mesh::Mesh& m, const Eigen::VectorXd& u, const AffineState& a) {
+  double e = 0;
+  for (Index v = 0; v < m.numVertices(); ++v)
+    e = std::max(e, (u.template segment<d>(v * d) - a(m.vertex(v), d).template head<d>()).cwiseAbs().maxCoeff());
+  return e;
+}
+
+template <int d>
+void expectAffineSlip(CellType type, int levels) {
+  SCOPED_TRACE(std::string("d = ") + std::to_string(d) + ", cells " + std::to_string(static_cast<int>(type)));
+  const mesh::Grid grid = uniformGrid(type, 2, levels);
+  const mesh::Mesh& m = grid.leafView().mesh;
+  const double mu = 0.3, eps = 1e-3, G = kMaterial.mu(), p = (kMaterial.lambda() + 2 * G) * eps;
+  const AffineState slide{2e-3, mu * p / G, eps};
+  // Tresca with the bound mu p: the state itself
+  ContactProblem<d> problem = affineProblem<d>(m, slide);
+  problem.setFriction(trescaSlipBounds(problem.contactSet(), mu * p));
+  TNNMG<d> tnnmg(grid, tight<d>());
+  Eigen::VectorXd u;
+  const ContactResult r = tnnmg.solve(problem, u);
+  EXPECT_TRUE(r.converged);
+  const double scale = slide.s0 + slide.gamma + eps;
+  EXPECT_LT(maxError<d>(m, u, slide), 1e-10 * scale);
+  const ContactOutputs out = computeContactOutputs(problem, u, 1e-8);
+  Index free = 0;
+  for (Index k = 0; k < problem.contactSet().size(); ++k) {
+    if (!problem.constraint(k).bounded()) continue;  // corners on the prescribed faces
+    ++free;
+    // the friction force mu times the normal force, node by node
+    EXPECT_NEAR(out.tangential[k].norm(), mu * out.multiplier[k], 1e-10 * mu * out.multiplier[k]);
+    EXPECT_EQ(out.state[k], 2);
+  }
+  EXPECT_GT(free, 0);
+  EXPECT_EQ(out.slipNodes, free);
+  EXPECT_LT(r.kkt.max(), 1e-10);
+  // Coulomb from zero: the same state, as a fixed point
+  ContactProblem<d> coulomb = affineProblem<d>(m, slide);
+  TNNMG<d> solver(grid, tight<d>());
+  Eigen::VectorXd v;
+  const CoulombResult c = solveCoulomb(coulomb, solver, v, {mu, 50, 1e-10});
+  EXPECT_TRUE(c.converged);
+  EXPECT_LT(maxError<d>(m, v, slide), 1e-8 * scale);
+  if (verbose())
+    std::cout << "  affine slip: TNNMG " << r.iterations << " it; Coulomb " << c.iterations << " fixed-point steps, "
+              << c.innerIterations << " TNNMG it, changes";
+  if (verbose())
+    for (double x : c.changes) std::cout << " " << x;
+  if (verbose()) std::cout << "\n";
+}
+
+TEST(Friction, UniformSlipIsReproducedExactly2D) {
+  expectAffineSlip<2>(CellType::Quadrilateral, 3);
+  expectAffineSlip<2>(CellType::Triangle, 3);
+}
+
+TEST(Friction, UniformSlipIsReproducedExactly3D) { expectAffineSlip<3>(CellType::Hexahedron, 2); }
+
+template <int d>
+void expectAffineStick(CellType type, int levels) {
+  const mesh::Grid grid = uniformGrid(type, 2, levels);
+  const mesh::Mesh& m = grid.leafView().mesh;
+  const double eps = 1e-3, G = kMaterial.mu(), p = (kMaterial.lambda() + 2 * G) * eps;
+  const AffineState stick{0, 0.2 * p / G, eps};  // shear traction 0.2 p
+  ContactProblem<d> problem = affineProblem<d>(m, stick);
+  problem.setFriction(trescaSlipBounds(problem.contactSet(), 0.3 * p));
+  TNNMG<d> tnnmg(grid, tight<d>());
+  Eigen::VectorXd u;
+  const ContactResult r = tnnmg.solve(problem, u);
+  EXPECT_TRUE(r.converged);
+  EXPECT_LT(maxError<d>(m, u, stick), 1e-10 * (stick.gamma + eps));
+  const ContactOutputs out = computeContactOutputs(problem, u, 1e-8);
+  for (Index k = 0; k < problem.contactSet().size(); ++k)
+    if (problem.constraint(k).bounded()) {
+      EXPECT_EQ(out.state[k], 1);
+      EXPECT_NEAR(out.tangential[k].norm(), 0.2 * out.multiplier[k], 1e-9 * out.multiplier[k]);
+    }
+  EXPECT_EQ(out.slipNodes, 0);
+  EXPECT_LT(r.kkt.max(), 1e-10);
+}
+
+TEST(Friction, UniformStickIsReproducedExactly) {
+  expectAffineStick<2>(CellType::Quadrilateral, 3);
+  expectAffineStick<3>(CellType::Tetrahedron, 2);
+}
+
+/// A block pressed onto a curved obstacle and sheared at the top: partial slip.
+template <int d>
+ContactProblem<d> shearedHertz(const mesh::Mesh& m, double shear) {
+  BoundaryConditions bc;
+  const Point top = d == 2 ? P(shear, -0.04) : P(shear, 0.5 * shear, -0.03);
+  bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [top](const Point&) { return top; }});
+  std::unique_ptr<Obstacle> obstacle;
+  if constexpr (d == 2) obstacle = std::make_unique<DiskObstacle>(P(0.5, -0.5), 0.5);
+  else obstacle = std::make_unique<BallObstacle>(P(0.5, 0.5, -0.75), 0.75);
+  return ContactProblem<d>(m, kMaterial, bc, ContactSet(m, mesh::kBottom, *obstacle));
+}
+
+template <int d>
+void expectTnnmgAgreesWithGaussSeidel(CellType type, int levels, double shear, double bound) {
+  const mesh::Grid grid = uniformGrid(type, 2, levels);
+  const mesh::Mesh& m = grid.leafView().mesh;
+  ContactProblem<d> problem = shearedHertz<d>(m, shear);
+  // frictionless first: the reference iteration count and the scale of the bound
+  TNNMG<d> tnnmg(grid, tight<d>());
+  Eigen::VectorXd u0;
+  const ContactResult frictionless = tnnmg.solve(problem, u0);
+  const ContactOutputs out0 = computeContactOutputs(problem, u0, 1e-8);
+  double pmax = 0;
+  for (double s : out0.pressure) pmax = std::max(pmax, s);
+  problem.setFriction(trescaSlipBounds(problem.contactSet(), bound * pmax));
+  Eigen::VectorXd u;
+  const ContactResult r = tnnmg.solve(problem, u);
+  typename ProjectedGaussSeidel<d>::Options po;
+  po.tolerance = 1e-13;
+  po.maxIterations = 200000;
+  po.stagnationIterations = 100000;
+  ProjectedGaussSeidel<d> pgs(po);
+  Eigen::VectorXd v;
+  const ContactResult g = pgs.solve(problem, v);
+  EXPECT_TRUE(r.converged);
+  EXPECT_LT(r.kkt.max(), 1e-10);
+  EXPECT_LT(g.kkt.max(), 1e-7);
+  EXPECT_LT((u - v).norm(), 1e-6 * u.norm());
+  EXPECT_LE(r.energy, g.energy + 1e-12 * std::abs(g.energy));
+  const ContactOutputs out = computeContactOutputs(problem, u, 1e-8);
+  EXPECT_GT(out.stickNodes, 0);
+  EXPECT_GT(out.slipNodes, 0);
+  // Tresca: |f_T| <= s_k everywhere, = s_k where slipping
+  const std::vector<double>& s = problem.slipBounds();
+  for (Index k = 0; k < problem.contactSet().size(); ++k) {
+    EXPECT_LE(out.tangential[k].norm(), s[k] * (1 + 1e-8) + 1e-10 * s[0]);
+    if (out.state[k] == 2) EXPECT_NEAR(out.tangential[k].norm(), s[k], 1e-8 * s[k]);
+  }
+  if (verbose())
+    std::cout << "  " << problem.numDofs() << " dofs: TNNMG " << frictionless.iterations << " it frictionless, "
+              << r.iterations << " it with friction (stick " << out.stickNodes << ", slip " << out.slipNodes
+              << "), PGS " << g.iterations << " it\n";
+}
+
+TEST(Friction, TnnmgAgreesWithGaussSeidel2D) {
+  expectTnnmgAgreesWithGaussSeidel<2>(CellType::Quadrilateral, 4, 0.003, 0.2);
+  expectTnnmgAgreesWithGaussSeidel<2>(CellType::Triangle, 4, 0.003, 0.2);
+}
+
+TEST(Friction, TnnmgAgreesWithGaussSeidel3D) { expectTnnmgAgreesWithGaussSeidel<3>(CellType::Hexahedron, 2, 0.006, 0.05); }
+
+TEST(Friction, ZeroBoundsAreTheFrictionlessSolveBitForBit) {
+  const mesh::Grid grid = uniformGrid(CellType::Quadrilateral, 2, 3);
+  const mesh::Mesh& m = grid.leafView().mesh;
+  ContactProblem<2> problem = shearedHertz<2>(m, 0.004);
+  TNNMG<2> a(grid, tight<2>()), b(grid, tight<2>());
+  Eigen::VectorXd u, v;
+  const ContactResult ra = a.solve(problem, u);
+  problem.setFriction(std::vector<double>(problem.contactSet().size(), 0.0), Eigen::VectorXd::Ones(problem.numDofs()));
+  EXPECT_FALSE(problem.frictional());
+  const ContactResult rb = b.solve(problem, v);
+  EXPECT_EQ(ra.iterations, rb.iterations);
+  EXPECT_EQ(ra.energy, rb.energy);
+  EXPECT_TRUE(u == v);
+  // mu = 0 Coulomb: one frictionless solve
+  Eigen::VectorXd w;
+  TNNMG<2> c(grid, tight<2>());
+  const CoulombResult rc = solveCoulomb(problem, c, w, {0.0});
+  EXPECT_EQ(rc.iterations, 1);
+  EXPECT_TRUE(u == w);
+}
+
+TEST(Friction, BadInputIsRefused) {
+  const mesh::Grid grid = uniformGrid(CellType::Quadrilateral, 2, 1);
+  const mesh::Mesh& m = grid.leafView().mesh;
+  ContactProblem<2> problem = shearedHertz<2>(m, 0.004);
+  const auto n = static_cast<std::size_t>(problem.contactSet().size());
+  expectErrorMentioning([&] { problem.setFriction(std::vector<double>(n + 1, 1.0)); }, "slip bounds");
+  expectErrorMentioning([&] { problem.setFriction(std::vector<double>(n, -1.0)); }, "slip bound");
+  expectErrorMentioning([&] { problem.setFriction(std::vector<double>(n, std::nan(""))); }, "slip bound");
+  expectErrorMentioning([&] { problem.setFriction(std::vector<double>(n, 1.0), Eigen::VectorXd::Zero(3)); }, "origin");
+  expectErrorMentioning([&] { trescaSlipBounds(problem.contactSet(), -1); }, "slip bound");
+  problem.setFriction(std::vector<double>(n, 1.0));
+  PrimalDualActiveSet<2> pdas;
+  Eigen::VectorXd u;
+  expectErrorMentioning([&] { pdas.solve(problem, u); }, "friction");
+  TNNMG<2> tnnmg(grid);
+  expectErrorMentioning([&] { solveCoulomb(problem, tnnmg, u, {-0.1}); }, "coefficient");
+  expectErrorMentioning([&] { solveCoulomb(problem, tnnmg, u, {0.1, 0}); }, "options");
+}
+
+}  // namespace
