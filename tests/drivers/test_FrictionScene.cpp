@@ -1,6 +1,6 @@
 // Friction through runScene (`obs run`, docs/scenes.md#friction): the uniform-slip scene gives the
-// exact ratio mu of tangential to normal force; the cylinder scene sticks in the middle and slips at
-// the ends; mu = 0 is the frictionless run; the outputs (summary.json, .vtu); bad input.
+// exact ratio mu of tangential to normal force; the cylinder scene and the two-body (mortar) scene
+// stick in the middle and slip at the ends; mu = 0 is the frictionless run; the outputs (summary.json, .vtu); bad input.
 #include <gtest/gtest.h>
 
 #include <nlohmann/json.hpp>
@@ -119,6 +119,20 @@ TEST(FrictionScene, CylinderSticksInTheMiddleAndSlipsAtTheEnds) {
   // partial slip: the tangential force stays below mu times the normal force
   EXPECT_LT(std::abs(f.tangentialForce[0]), 0.3 * r.contact->load);
   EXPECT_GT(std::abs(f.tangentialForce[0]), 0.01 * r.contact->load);
+  EXPECT_TRUE(r.solver.converged);
+}
+
+TEST(FrictionScene, MortarPairSticksAndSlips) {
+  const RunResult r = runIn(kScenes / "twobody_friction.toml", kTmp / "twobody");
+  ASSERT_EQ(r.pairs.size(), 1u);
+  const PairReport& p = r.pairs[0];
+  ASSERT_TRUE(p.friction);
+  EXPECT_GT(p.friction->stickVertices, 0);
+  EXPECT_GT(p.friction->slipVertices, 0);
+  EXPECT_EQ(p.friction->stickVertices + p.friction->slipVertices, p.actualVertices);
+  // the cylinder is moved in +x: the friction on it points to -x, below mu times the normal force
+  EXPECT_LT(p.friction->tangentialForce[0], 0);
+  EXPECT_LT(std::abs(p.friction->tangentialForce[0]), 0.3 * p.load);
   EXPECT_TRUE(r.solver.converged);
 }
 
