@@ -175,6 +175,7 @@ RunResult runScene(const Scene& scene, const RunOptions& options) {
   r.solver = solved.solver;
   r.contact = solved.contact;
   r.pairs = solved.pairs;
+  r.increments = solved.increments;
   reportBodies(scene, meshes, solved, r);
   {
     std::ostringstream os;
@@ -200,6 +201,21 @@ RunResult runScene(const Scene& scene, const RunOptions& options) {
   std::filesystem::create_directories(dir, ec);
   if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
   if (scene.output.vtk) writeStaticVtk(scene, dir, meshes, solved, r);
+  if (!r.increments.empty()) {  // [loading]: one row per increment
+    const std::filesystem::path csv = dir / "increments.csv";
+    std::ofstream f(csv);
+    f << std::setprecision(12)
+      << "step,t,iterations,converged,force_x,force_y,force_z,tangential_x,tangential_y,tangential_z,contact_vertices,"
+         "stick_vertices,slip_vertices\n";
+    for (const IncrementReport& i : r.increments) {
+      f << i.step << ',' << i.t << ',' << i.iterations << ',' << (i.converged ? 1 : 0);
+      for (double v : i.force) f << ',' << v;
+      for (double v : i.tangentialForce) f << ',' << v;
+      f << ',' << i.contactVertices << ',' << i.stickVertices << ',' << i.slipVertices << '\n';
+    }
+    if (!f) throw Error(csv.string() + ": cannot write");
+    r.outputFiles.push_back(csv);
+  }
   finishRun(scene, options, dir, r, t, start);
   if (!r.solver.converged) {
     std::ostringstream os;

@@ -21,7 +21,7 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kSections =
-    "mesh, material, dirichlet, neumann, body_force, contact, solver, output, adaptivity, dynamics, body";
+    "mesh, material, dirichlet, neumann, body_force, contact, solver, output, adaptivity, dynamics, loading, body";
 constexpr int kMaxRefine = 12;
 constexpr long long kMaxBoxCells = 100'000'000;
 
@@ -742,6 +742,24 @@ void parseMultiBody(Scene& scene, const toml::value& bodies, const toml::value* 
   }
 }
 
+/// [loading] steps = N (1 <= N <= 10000), for static contact scenes only.
+void parseLoading(Scene& scene, const toml::value* table) {
+  if (!table) return;
+  const TomlSection s(scene.fileName, "[loading]", *table, {"steps"});
+  LoadingSpec spec;
+  spec.line = s.line();
+  const long long n = s.integer("steps");
+  if (n < 1 || n > 10000) s.fail("steps", "= " + std::to_string(n) + " must lie in [1, 10000]");
+  spec.steps = static_cast<int>(n);
+  if (scene.dynamics || scene.adaptivity)
+    throw Error(scene.where(spec.line) + "[loading] applies to static runs only (not with " +
+                (scene.dynamics ? "[dynamics]" : "[adaptivity]") + ")");
+  if (!scene.hasContact())
+    throw Error(scene.where(spec.line) + "[loading] needs contact ([contact] or [[contact]]): a linear problem "
+                "does not depend on the loading path");
+  scene.loading = spec;
+}
+
 /// Friction is solved by the static runner with tnnmg or pgs: the line of the first friction = {...}
 /// of the scene (one-body [contact], a body's obstacle, a pair), and errors for what does not support it.
 void checkFriction(const Scene& scene) {
@@ -799,7 +817,7 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
     const bool known = key == "mesh" || key == "material" || key == "dirichlet" ||
                        key == "neumann" || key == "body_force" || key == "contact" ||
                        key == "solver" || key == "output" || key == "adaptivity" ||
-                       key == "dynamics" || key == "body";
+                       key == "dynamics" || key == "loading" || key == "body";
     if (!known && (!unknown || value.location().line() < unknown->location().line())) {
       unknown = &value;
       unknownKey = key;
@@ -849,6 +867,7 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
     if (scene.output.checkpoint && !scene.dynamics && !scene.adaptivity)
       throw Error(scene.where(scene.output.checkpoint->line) +
                   "[output] checkpoint applies to [dynamics] and [adaptivity] scenes only (static runs write none)");
+    parseLoading(scene, find("loading"));
     checkFriction(scene);
     return scene;
   }
@@ -868,6 +887,7 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
   if (scene.output.checkpoint && !scene.dynamics && !scene.adaptivity)
     throw Error(scene.where(scene.output.checkpoint->line) +
                 "[output] checkpoint applies to [dynamics] and [adaptivity] scenes only (static runs write none)");
+  parseLoading(scene, find("loading"));
   checkFriction(scene);
   return scene;
 }

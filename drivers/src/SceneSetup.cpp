@@ -80,10 +80,10 @@ void checkLength(const Scene& scene, const VectorValue& v, int dim, const std::s
 /// A vector field from three expressions; throws (naming `what`) on non-finite values.
 class ExpressionVectorField {
 public:
-  ExpressionVectorField(std::array<Expression, 3> e, std::string what, int dim)
-      : e_(std::move(e)), what_(std::move(what)), dim_(dim) {}
+  ExpressionVectorField(std::array<Expression, 3> e, std::string what, int dim, double t = 0)
+      : e_(std::move(e)), what_(std::move(what)), dim_(dim), t_(t) {}
   Eigen::Vector3d operator()(const Point& x) const {
-    const Eigen::Vector3d v(e_[0](x), e_[1](x), e_[2](x));
+    const Eigen::Vector3d v(e_[0](x, t_), e_[1](x, t_), e_[2](x, t_));
     if (!v.allFinite()) throw Error(what_ + " is not finite at " + formatPoint(x, dim_));
     return v;
   }
@@ -92,6 +92,7 @@ private:
   std::array<Expression, 3> e_;
   std::string what_;
   int dim_;
+  double t_;  ///< the value of t in the expressions (the load parameter of [loading]; 0 otherwise)
 };
 
 std::array<Expression, 3> padded(const VectorValue& v) {
@@ -100,7 +101,7 @@ std::array<Expression, 3> padded(const VectorValue& v) {
   return e;
 }
 
-std::vector<DirichletCondition> dirichletConditions(const Scene& scene, const mesh::Mesh& mesh) {
+std::vector<DirichletCondition> dirichletConditions(const Scene& scene, const mesh::Mesh& mesh, double t = 0) {
   const int dim = mesh.dimension();
   std::vector<DirichletCondition> out;
   for (const DirichletSpec& spec : scene.dirichlet) {
@@ -128,7 +129,7 @@ std::vector<DirichletCondition> dirichletConditions(const Scene& scene, const me
       for (int c = 0; c < 3; ++c)
         if (!dc.fixed[c]) e[c] = Expression();
       dc.value =
-          ExpressionVectorField(e, scene.where(spec.value.line) + "[[dirichlet]] value", dim);
+          ExpressionVectorField(e, scene.where(spec.value.line) + "[[dirichlet]] value", dim, t);
     }
     out.push_back(std::move(dc));
   }
@@ -425,21 +426,21 @@ void validateScene(const Scene& scene, const mesh::Mesh& mesh) {
   }
 }
 
-BoundaryConditions makeBoundaryConditions(const Scene& scene, const mesh::Mesh& mesh) {
+BoundaryConditions makeBoundaryConditions(const Scene& scene, const mesh::Mesh& mesh, double t) {
   const int dim = mesh.dimension();
   BoundaryConditions bc;
-  bc.dirichlet = dirichletConditions(scene, mesh);
+  bc.dirichlet = dirichletConditions(scene, mesh, t);
   for (const NeumannSpec& spec : scene.neumann) {
     NeumannCondition nc;
     nc.boundaryId = resolveBoundary(scene, mesh, spec.boundary, "[[neumann]]");
     if (spec.traction) {
       nc.traction = ExpressionVectorField(
-          padded(*spec.traction), scene.where(spec.traction->line) + "[[neumann]] traction", dim);
+          padded(*spec.traction), scene.where(spec.traction->line) + "[[neumann]] traction", dim, t);
     } else if (spec.pressure) {
       nc.pressure = [p = *spec.pressure,
                      what = scene.where(spec.pressureLine) + "[[neumann]] pressure",
-                     dim](const Point& x) {
-        const double v = p(x);
+                     dim, t](const Point& x) {
+        const double v = p(x, t);
         if (!std::isfinite(v)) throw Error(what + " is not finite at " + formatPoint(x, dim));
         return v;
       };
@@ -448,7 +449,7 @@ BoundaryConditions makeBoundaryConditions(const Scene& scene, const mesh::Mesh& 
   }
   if (scene.bodyForce)
     bc.bodyForce = ExpressionVectorField(
-        padded(*scene.bodyForce), scene.where(scene.bodyForce->line) + "[body_force] value", dim);
+        padded(*scene.bodyForce), scene.where(scene.bodyForce->line) + "[body_force] value", dim, t);
   return bc;
 }
 

@@ -131,7 +131,7 @@ std::unique_ptr<ContactSolver<d>> sceneContactSolver(const Scene& scene, const s
 
 /// The friction report of a coupling with friction law `law` (nullopt without friction).
 std::optional<FrictionReport> frictionReport(const FrictionLaw& law, const Eigen::Vector3d& tangential, Index stick,
-                                             Index slip) {
+                                             Index slip, double stickArea, int dim) {
   if (law.type == FrictionLaw::Type::None) return std::nullopt;
   FrictionReport f;
   f.law = law.type == FrictionLaw::Type::Coulomb ? "coulomb" : "tresca";
@@ -139,6 +139,8 @@ std::optional<FrictionReport> frictionReport(const FrictionLaw& law, const Eigen
   for (int a = 0; a < 3; ++a) f.tangentialForce[static_cast<std::size_t>(a)] = tangential[a];
   f.stickVertices = stick;
   f.slipVertices = slip;
+  f.stickArea = stickArea;
+  f.stickRadius = dim == 3 ? std::sqrt(stickArea / std::numbers::pi) : stickArea / 2;
   return f;
 }
 
@@ -185,7 +187,8 @@ void reportObstacleContact(const Scene& scene, const ContactProblem<d>& problem,
   c.radius = out.contactRadius;
   c.maxViolation = problem.maxViolation(u);
   if (scene.contact->friction)
-    c.friction = frictionReport(scene.contact->friction->law, out.tangentialForce, out.stickNodes, out.slipNodes);
+    c.friction = frictionReport(scene.contact->friction->law, out.tangentialForce, out.stickNodes, out.slipNodes,
+                                out.stickArea, d);
   s.contact = c;
 }
 
@@ -268,18 +271,38 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
                                 const IterationProgress& progress, const AssembledCallback& assembled) {
   SceneSolution s;
   const std::string type = scene.solverType();
-  auto t0 = Clock::now();
-  const SceneCouplings couplings = sceneCouplings(scene, meshes, bcs);
-  ContactModel<d> model = makeContactModel<d>(couplings.spec, meshes);
+  // [loading] steps = N: the boundary conditions at t = i/N, one problem per increment (the Dirichlet
+  // values enter the load through the stiffness, so each increment assembles its own)
+  const int steps = scene.loading ? scene.loading->steps : 1;
+  const std::vector<const Scene*> bodies = scene.bodyScenes();
+  std::vector<BoundaryConditions> stepBcs;  // of the current increment (the couplings point to them)
+  std::optional<SceneCouplings> couplingsOf;
+  std::optional<ContactModel<d>> modelOf;
   std::optional<ContactProblem<d>> problem;
-  try {
-    problem.emplace(model.assemble());
-  } catch (const Error& e) {
-    if (scene.pairs.empty()) throw;
-    throw Error(scene.where(scene.pairs.front().line) + "[[contact]] " + e.what());
-  }
-  s.assemblySeconds = since(t0);
-  s.dofs = static_cast<long long>(model.numVertices()) * d;
+  const auto build = [&](int step) {
+    const auto t0 = Clock::now();
+    const std::vector<BoundaryConditions>* b = &bcs;
+    if (scene.loading) {
+      stepBcs.clear();
+      for (std::size_t i = 0; i < bodies.size(); ++i)
+        stepBcs.push_back(makeBoundaryConditions(*bodies[i], *meshes[i], static_cast<double>(step) / steps));
+      b = &stepBcs;
+    }
+    problem.reset();
+    modelOf.reset();
+    couplingsOf.reset();
+    couplingsOf.emplace(sceneCouplings(scene, meshes, *b));
+    modelOf.emplace(makeContactModel<d>(couplingsOf->spec, meshes));
+    try {
+      problem.emplace(modelOf->assemble());
+    } catch (const Error& e) {
+      if (scene.pairs.empty()) throw;
+      throw Error(scene.where(scene.pairs.front().line) + "[[contact]] " + e.what());
+    }
+    s.assemblySeconds += since(t0);
+  };
+  build(1);
+  s.dofs = static_cast<long long>(modelOf->numVertices()) * d;
   s.freeDofs = s.dofs - problem->dirichlet().count();
   if (assembled) {
     ElasticitySolution e;
@@ -290,34 +313,76 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
     assembled(e);
   }
 
-  t0 = Clock::now();
+  // the solve time: the solver's construction and its solves, without the assembly of later increments
+  const auto t0 = Clock::now();
+  const double firstAssembly = s.assemblySeconds;
   double tolerance = 0;
   ContactResult result;
   Eigen::VectorXd x;
+  FrictionIterationReport frictionTotal;
   try {
     const auto solver = sceneContactSolver<d>(scene, grids, progress, tolerance);
-    if (model.frictional()) {  // Tresca: one solve; Coulomb: the fixed point over Tresca solves
-      CoulombOptions options;
-      options.tolerance = std::max(1e-8, 10 * tolerance);
-      const CoulombResult fr = solveFriction(*problem, *solver, x, nodalFriction(model, problem->contactSet()), options);
-      result = fr.last;
-      s.solver.friction = FrictionIterationReport{fr.iterations, fr.converged, fr.contracting, fr.changes,
-                                                  fr.innerIterations};
-      if (progress && fr.iterations > 1) {
-        std::ostringstream line;
-        line << "friction: " << fr.iterations << " Tresca solves (" << fr.innerIterations
-             << " iterations), last relative change of the slip bounds " << std::setprecision(3) << fr.changes.back()
-             << (fr.converged ? "" : ", not converged") << (fr.contracting ? "" : " (the iteration did not contract)");
-        progress(line.str());
+    for (int step = 1; step <= steps; ++step) {
+      if (step > 1) build(step);
+      const ContactModel<d>& model = *modelOf;
+      long long stepIterations = 0;
+      if (model.frictional()) {  // Tresca: one solve; Coulomb: the fixed point over Tresca solves
+        CoulombOptions options;
+        options.tolerance = std::max(1e-8, 10 * tolerance);
+        // the slip of an increment is measured from the previous one (x: its solution, the warm start)
+        const Eigen::VectorXd origin = step > 1 ? x : Eigen::VectorXd();
+        const CoulombResult fr =
+            solveFriction(*problem, *solver, x, nodalFriction(model, problem->contactSet()), options, origin);
+        result = fr.last;
+        stepIterations = fr.innerIterations;
+        frictionTotal.iterations += fr.iterations;
+        frictionTotal.converged = (step == 1 || frictionTotal.converged) && fr.converged;
+        frictionTotal.contracting = frictionTotal.contracting && fr.contracting;
+        frictionTotal.innerIterations += fr.innerIterations;
+        frictionTotal.changes = fr.changes;  // of the last increment
+        s.solver.friction = frictionTotal;
+        if (progress && fr.iterations > 1) {
+          std::ostringstream line;
+          line << "friction: " << fr.iterations << " Tresca solves (" << fr.innerIterations
+               << " iterations), last relative change of the slip bounds " << std::setprecision(3) << fr.changes.back()
+               << (fr.converged ? "" : ", not converged") << (fr.contracting ? "" : " (the iteration did not contract)");
+          progress(line.str());
+        }
+      } else {
+        result = solver->solve(*problem, x);
+        stepIterations = result.iterations;
       }
-    } else {
-      result = solver->solve(*problem, x);
+      if (scene.loading) {
+        const ContactOutputs o = computeContactOutputs(*problem, x, kContactTolerance);
+        IncrementReport inc;
+        inc.step = step;
+        inc.t = static_cast<double>(step) / steps;
+        inc.iterations = stepIterations;
+        inc.converged = result.converged;
+        for (int a = 0; a < 3; ++a) {
+          inc.force[static_cast<std::size_t>(a)] = o.force[a];
+          inc.tangentialForce[static_cast<std::size_t>(a)] = o.tangentialForce[a];
+        }
+        inc.contactVertices = o.contactNodes;
+        inc.stickVertices = o.stickNodes;
+        inc.slipVertices = o.slipNodes;
+        s.increments.push_back(inc);
+        if (progress) {
+          std::ostringstream line;
+          line << "increment " << step << " of " << steps << " (t = " << inc.t << "): " << o.contactNodes
+               << " contact vertices (" << o.stickNodes << " stick, " << o.slipNodes << " slip), " << stepIterations
+               << " iterations";
+          progress(line.str());
+        }
+      }
     }
     if (const auto* tnnmg = dynamic_cast<const TNNMG<d>*>(solver.get())) reportTnnmg(tnnmg->statistics(), s.solver);
   } catch (const Error& err) {
     solverFailed(scene, type, err);
   }
-  s.solveSeconds = since(t0);
+  s.solveSeconds = since(t0) - (s.assemblySeconds - firstAssembly);
+  const SceneCouplings& couplings = *couplingsOf;
+  const ContactModel<d>& model = *modelOf;
   if (!x.allFinite())
     throw Error(scene.where(scene.solver.line) + "[solver] " + type + " failed: NaN or Inf in the solution");
   s.solver.type = type;
@@ -332,7 +397,6 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
   // displacements per body
   const Eigen::VectorXd u = problem->toDisplacement(x);
   const ContactOutputs out = computeContactOutputs(*problem, x, kContactTolerance);
-  const std::vector<const Scene*> bodies = scene.bodyScenes();
   for (std::size_t i = 0; i < bodies.size(); ++i) {
     const auto& b = model.bodies()[i];
     ElasticitySolution e;
@@ -355,7 +419,7 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
   for (std::size_t j = 0; j < model.couplings().size(); ++j) {
     s.pairs.push_back(pairReport(records[j], couplings.sides[j].first, couplings.sides[j].second, d));
     s.pairs.back().friction = frictionReport(model.couplings()[j].friction, records[j].tangentialSlave,
-                                             records[j].stickVertices, records[j].slipVertices);
+                                             records[j].stickVertices, records[j].slipVertices, records[j].stickArea, d);
   }
   return s;
 }

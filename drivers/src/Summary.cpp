@@ -17,7 +17,9 @@ nlohmann::json frictionJson(const FrictionReport& f, int dimension) {
           {f.law == "coulomb" ? "mu" : "bound", f.value},
           {"tangential_force", force},
           {"stick_vertices", f.stickVertices},
-          {"slip_vertices", f.slipVertices}};
+          {"slip_vertices", f.slipVertices},
+          {dimension == 3 ? "stick_area" : "stick_width", f.stickArea},
+          {"stick_radius", f.stickRadius}};
 }
 
 }  // namespace
@@ -98,6 +100,26 @@ nlohmann::json summaryJson(const RunResult& r) {
         {"max_violation", c.maxViolation},
     };
     if (c.friction) j["contact"]["friction"] = frictionJson(*c.friction, r.dimension);
+  }
+  if (!r.increments.empty()) {
+    nlohmann::json inc = nlohmann::json::array();
+    for (const IncrementReport& i : r.increments) {
+      nlohmann::json force = nlohmann::json::array(), tangential = nlohmann::json::array();
+      for (int a = 0; a < r.dimension; ++a) {
+        force.push_back(i.force[static_cast<std::size_t>(a)]);
+        tangential.push_back(i.tangentialForce[static_cast<std::size_t>(a)]);
+      }
+      inc.push_back({{"step", i.step},
+                     {"t", i.t},
+                     {"iterations", i.iterations},
+                     {"converged", i.converged},
+                     {"force", force},
+                     {"tangential_force", tangential},
+                     {"contact_vertices", i.contactVertices},
+                     {"stick_vertices", i.stickVertices},
+                     {"slip_vertices", i.slipVertices}});
+    }
+    j["increments"] = inc;
   }
   if (!r.bodies.empty()) {
     nlohmann::json bodies = nlohmann::json::array();

@@ -327,9 +327,13 @@ std::vector<CouplingRecord> couplingRecords(const ContactModel<d>& model, const 
     std::optional<ContactSet> mortarSet;  // (built on demand: MortarCoupling returns it by value)
     if (c.mortar) mortarSet.emplace(c.coupling->contactSet());
     const std::vector<ContactSet::Face>& faces = c.mortar ? mortarSet->faces() : c.obstacleSet->faces();
-    for (const ContactSet::Face& f : faces)
+    for (const ContactSet::Face& f : faces) {
       if (std::all_of(f.nodes.begin(), f.nodes.end(), [&](Index n) { return in[static_cast<std::size_t>(n)] != 0; }))
         r.area += f.measure;
+      if (std::all_of(f.nodes.begin(), f.nodes.end(),
+                      [&](Index n) { return out.state[static_cast<std::size_t>(c.nodes[static_cast<std::size_t>(n)])] == 1; }))
+        r.stickArea += f.measure;
+    }
     records.push_back(std::move(r));
   }
   return records;

@@ -927,9 +927,12 @@ ContactOutputs computeContactOutputs(const ContactProblem<d>& problem, const Eig
       ++(stick ? out.stickNodes : out.slipNodes);
     }
   }
-  for (const ContactSet::Face& f : cs.faces())
+  for (const ContactSet::Face& f : cs.faces()) {
     if (std::all_of(f.nodes.begin(), f.nodes.end(), [&](Index k) { return out.inContact[k] != 0; }))
       out.contactArea += f.measure;
+    if (std::all_of(f.nodes.begin(), f.nodes.end(), [&](Index k) { return out.state[k] == 1; }))
+      out.stickArea += f.measure;
+  }
   out.contactRadius = d == 3 ? std::sqrt(out.contactArea / std::numbers::pi) : out.contactArea / 2;
   return out;
 }

@@ -50,12 +50,26 @@ struct SolverReport {
   std::optional<FrictionIterationReport> friction;  ///< scenes with friction
 };
 
+/// One load increment of [loading] steps = N (summary.json "increments", increments.csv): the load
+/// parameter, the solver's work and the contact state after it, summed over every coupling.
+struct IncrementReport {
+  int step = 0;
+  double t = 0;                  ///< i / N
+  long long iterations = 0;      ///< solver iterations of this increment (over its Tresca solves)
+  bool converged = true;
+  std::array<double, 3> force{};            ///< sum of the normal forces mu_p nu_p (ContactOutputs::force)
+  std::array<double, 3> tangentialForce{};  ///< sum of the tangential forces f_T
+  long long contactVertices = 0, stickVertices = 0, slipVertices = 0;
+};
+
 /// The friction of one contact (summary.json "friction" of "contact" or of a "pairs" entry).
 struct FrictionReport {
   std::string law;   ///< "tresca" or "coulomb"
   double value = 0;  ///< the slip bound (tresca) or mu (coulomb)
   std::array<double, 3> tangentialForce{};  ///< sum of the tangential nodal forces f_T (ContactOutputs)
   long long stickVertices = 0, slipVertices = 0;
+  double stickArea = 0;    ///< measure of the faces all of whose vertices stick (2D: a width)
+  double stickRadius = 0;  ///< 3D: sqrt(stickArea / pi); 2D: stickArea / 2 (as the contact radius)
 };
 
 /// Contact quantities of a solution (docs/theory.md#signorini, computeContactOutputs in ContactProblem.hpp).
@@ -115,6 +129,7 @@ struct RunResult {
   std::optional<ContactReport> contact;  ///< scenes with [contact] only
   std::vector<BodyReport> bodies;  ///< multi-body scenes: per body
   std::vector<PairReport> pairs;   ///< multi-body scenes: per [[contact]] pair
+  std::vector<IncrementReport> increments;  ///< [loading] scenes: per load increment
   /// Mass matrices assembled (one per time stepper of a [dynamics] scene; 0 for static scenes,
   /// which never build one — docs/architecture.md#build-what-is-needed).
   int massAssemblies = 0;

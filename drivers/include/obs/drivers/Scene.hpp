@@ -101,6 +101,12 @@ struct NeumannSpec {
   int line = 0;  ///< line of [[neumann]]
 };
 
+/// [loading]: quasi-static load increments (docs/scenes.md#loading).
+struct LoadingSpec {
+  int steps = 1;  ///< N >= 1
+  int line = 0;   ///< line of [loading]
+};
+
 /// friction = { law = "coulomb", mu = ... } or { law = "tresca", bound = ... } of a [contact] or a
 /// [[contact]] pair (docs/scenes.md#friction).
 struct FrictionSpec {
@@ -215,6 +221,10 @@ struct Scene {
   OutputSpec output;
   std::optional<AdaptivitySpec> adaptivity;  ///< [adaptivity]: run the adaptive loop
   std::optional<DynamicsSpec> dynamics;  ///< [dynamics]: time-dependent contact (DynamicScene.hpp)
+  /// [loading] steps = N: a static contact scene solved in N load increments, t = i/N in the
+  /// boundary conditions' expressions, the friction slip of each measured from the one before
+  /// (docs/scenes.md#loading). Unset: one solve at t = 0.
+  std::optional<LoadingSpec> loading;
 
   /// [[body]] entries of a multi-body scene (empty in one-body scenes, whose body is described by
   /// the top-level sections above). Each is a Scene holding that body's mesh, material,

@@ -63,8 +63,9 @@ void checkDirichletContact(const Scene& scene, const mesh::Mesh& mesh, const Con
 /// defaults for the others. Which kinds a run accepts is the runner's check.
 SolverConfig solverConfig(const Scene& scene);
 
-/// The boundary conditions of a validated scene at time t = 0. The fields evaluate the scene's
-/// expressions and throw obs::Error (naming the key) if a value is not finite.
-BoundaryConditions makeBoundaryConditions(const Scene& scene, const mesh::Mesh& mesh);
+/// The boundary conditions of a validated scene with the expressions' t set to `t` (0: the static
+/// and dynamic runs; the load parameter i/N of increment i of [loading] steps = N). The fields
+/// evaluate the scene's expressions and throw obs::Error (naming the key) if a value is not finite.
+BoundaryConditions makeBoundaryConditions(const Scene& scene, const mesh::Mesh& mesh, double t = 0);
 
 }  // namespace obs::drivers

@@ -51,6 +51,7 @@ struct SceneSolution {
   SolverReport solver;
   std::optional<ContactReport> contact;
   std::vector<PairReport> pairs;
+  std::vector<IncrementReport> increments;  ///< [loading]: per load increment
   long long dofs = 0, freeDofs = 0;
   double assemblySeconds = 0, solveSeconds = 0;
 };

@@ -174,6 +174,7 @@ struct CouplingRecord {
   /// and its contact nodes in stick and in slip (ContactOutputs::state).
   Eigen::Vector3d tangentialSlave = Eigen::Vector3d::Zero();
   Index stickVertices = 0, slipVertices = 0;
+  double stickArea = 0;  ///< measure of the faces all of whose nodes stick
   double load = 0;                  ///< sum of the multipliers mu_p
   double pressureMin = 0, pressureMax = 0;  ///< over the actual contact nodes (0 without contact)
   double area = 0;                  ///< measure of the faces with all nodes in contact

@@ -308,7 +308,8 @@ private:
 ///   slip[k]       |(u_p - o_p)_T| (ContactProblem::tangentialSlip);
 ///   state[k]      0 not in contact, 1 stick (slip <= relativeTolerance * U), 2 slip;
 /// totals: tangentialForce = sum f_T (the obstacle's friction force on the body is -tangentialForce),
-/// and the numbers of sticking and slipping contact nodes.
+/// the numbers of sticking and slipping contact nodes, and the stick area: the measure of the faces
+/// all of whose nodes stick (as contactArea for the contact nodes).
 struct ContactOutputs {
   std::vector<char> inContact;
   std::vector<double> multiplier;
@@ -323,6 +324,7 @@ struct ContactOutputs {
   Eigen::Vector3d tangentialForce = Eigen::Vector3d::Zero();
   double contactArea = 0;
   double contactRadius = 0;
+  double stickArea = 0;
 };
 
 template <int d>
