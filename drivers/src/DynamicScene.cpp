@@ -209,7 +209,11 @@ void restoreSchemeRun(const CheckpointRecord& cp, SchemeRun& run, const fs::path
   run.vtuTimes.assign(times.data(), times.data() + times.size());
 }
 
-std::string csvHeaderLine(std::size_t tracked) {
+/// The friction columns of the time series (scenes with friction only).
+constexpr const char* kFrictionColumns =
+    ",friction_dissipation,friction_force_x,friction_force_y,friction_force_z,stick_nodes,slip_nodes,friction_solves";
+
+std::string csvHeaderLine(std::size_t tracked, bool friction) {
   std::string h =
       "t,step,energy,energy_redistributed,kinetic_energy,elastic_energy,momentum_x,momentum_y,"
       "momentum_z,momentum_redistributed_x,momentum_redistributed_y,momentum_redistributed_z,"
@@ -220,10 +224,11 @@ std::string csvHeaderLine(std::size_t tracked) {
     const std::string p = ",tracked" + std::to_string(k) + "_";
     h += p + "normal_displacement" + p + "normal_velocity" + p + "gap";
   }
+  if (friction) h += kFrictionColumns;
   return h;
 }
 
-std::string csvLine(const StepRecord& r) {
+std::string csvLine(const StepRecord& r, bool friction) {
   std::ostringstream os;
   os << std::setprecision(17) << r.time << "," << r.step << "," << r.energy << ",";
   if (r.hasRedistributed) os << r.energyRedistributed;
@@ -247,6 +252,11 @@ std::string csvLine(const StepRecord& r) {
   if (!std::isnan(r.solverErrorBound)) os << r.solverErrorBound;
   for (const TrackedVertex& t : r.tracked)
     os << "," << t.normalDisplacement << "," << t.normalVelocity << "," << t.gap;
+  if (friction) {
+    os << "," << r.frictionDissipation;
+    for (int i = 0; i < 3; ++i) os << "," << r.frictionForce[i];
+    os << "," << r.stickNodes << "," << r.slipNodes << "," << r.frictionSolves;
+  }
   return os.str();
 }
 
@@ -365,14 +375,14 @@ std::unique_ptr<TimeStepper<d>> makeSchemeStepper(const Context& c, const std::s
 /// them and cuts it back to them.
 class TimeSeriesFile {
 public:
-  explicit TimeSeriesFile(fs::path path) : path_(std::move(path)) {}
+  TimeSeriesFile(fs::path path, bool friction) : path_(std::move(path)), friction_(friction) {}
 
   /// A new file with the header and the initial state's row.
   void start(std::size_t tracked, const StepRecord& first) {
     out_.open(path_, std::ios::binary);
     if (!out_) throw Error(path_.string() + ": cannot write the time series");
-    emit(csvHeaderLine(tracked));
-    emit(csvLine(first));
+    emit(csvHeaderLine(tracked, friction_));
+    emit(csvLine(first, friction_));
   }
 
   /// Continues the file of an interrupted run at the checkpoint's length (`step`: the checkpoint's
@@ -388,7 +398,7 @@ public:
                   " bytes the interrupted run wrote up to step " + std::to_string(step) +
                   " (restart into the output directory of the interrupted run)");
     // the rows appended below must have the columns of the rows already there
-    const std::string header = csvHeaderLine(tracked) + "\n";
+    const std::string header = csvHeaderLine(tracked, friction_) + "\n";
     if (text.compare(0, header.size(), header) != 0)
       throw Error(path_.string() +
                   " has other columns than this version of obs writes (written by another version; "
@@ -422,6 +432,7 @@ public:
 
 private:
   fs::path path_;
+  bool friction_ = false;  ///< the friction columns (kFrictionColumns)
   std::ofstream out_;
   long long bytes_ = 0;
   std::uint64_t hash_ = kFnvOffset;
@@ -519,7 +530,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
   run.times.assign(c.tracked.size(), TrackedTimes{});
 
   run.timeseries = c.dir / timeseriesName;
-  TimeSeriesFile csv(run.timeseries);
+  TimeSeriesFile csv(run.timeseries, scene.frictional());
   int startStep = 0;
   if (c.restart) {
     const CheckpointRecord& cp = *c.restart;
@@ -569,7 +580,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
          << fmt(k * dyn.timeStep) << ") failed: " << e.what();
       throw Error(os.str());
     }
-    csv.emit(csvLine(r));
+    csv.emit(csvLine(r, scene.frictional()));
     accumulateStep(r, previous, run);
     trackContactTimes(r, run.times);
     if (writeVtk && (k % dyn.outputStride == 0 || k == c.steps)) writeStateVtu<d>(c, *stepper, newmark, r, run);
@@ -661,6 +672,10 @@ nlohmann::json schemeJson(const Context& c, const SchemeRun& run) {
       {"timeseries", run.timeseries.string()},
       {"tracked", tracked},
   };
+  if (c.scene.frictional())
+    j["friction"] = {{"dissipated_energy", run.last.frictionDissipation},
+                     {"final_stick_nodes", run.last.stickNodes},
+                     {"final_slip_nodes", run.last.slipNodes}};
   if (run.hasRedistributed) {
     j["initial_energy_redistributed"] = run.initialEnergyRedistributed;
     j["final_energy_redistributed"] = run.finalEnergyRedistributed;

@@ -22,4 +22,13 @@ std::vector<const Scene*> Scene::bodyScenes() const {
   return out;
 }
 
+bool Scene::frictional() const {
+  if (contact && contact->friction) return true;
+  for (const Scene& b : bodies)
+    if (b.contact && b.contact->friction) return true;
+  for (const MortarPairSpec& p : pairs)
+    if (p.friction) return true;
+  return false;
+}
+
 }  // namespace obs::drivers

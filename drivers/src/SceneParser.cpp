@@ -760,7 +760,7 @@ void parseLoading(Scene& scene, const toml::value* table) {
   scene.loading = spec;
 }
 
-/// Friction is solved by the static runner with tnnmg or pgs: the line of the first friction = {...}
+/// Friction is solved by the static runner with tnnmg or pgs, and by time stepping: the line of the first friction = {...}
 /// of the scene (one-body [contact], a body's obstacle, a pair), and errors for what does not support it.
 void checkFriction(const Scene& scene) {
   int line = 0;
@@ -772,9 +772,9 @@ void checkFriction(const Scene& scene) {
     if (b.contact) take(b.contact->friction);
   for (const MortarPairSpec& p : scene.pairs) take(p.friction);
   if (line == 0) return;
-  if (scene.dynamics || scene.adaptivity)
-    throw Error(scene.where(line) + "friction is solved in static runs only: a scene with " +
-                (scene.dynamics ? "[dynamics]" : "[adaptivity]") + " cannot have friction yet (docs/scenes.md#friction)");
+  if (scene.adaptivity)
+    throw Error(scene.where(line) + "friction is solved in static and dynamic runs: a scene with [adaptivity] "
+                "cannot have friction yet (docs/scenes.md#friction)");
   if (scene.solverType() == "pdas")
     throw Error(scene.where(scene.solver.line ? scene.solver.line : line) +
                 "[solver] type = \"pdas\" does not solve friction (use tnnmg or pgs; docs/scenes.md#friction)");

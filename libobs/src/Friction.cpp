@@ -79,11 +79,21 @@ CoulombResult solveFriction(ContactProblem<d>& problem, ContactSolver<d>& solver
   const auto start = std::chrono::steady_clock::now();
   CoulombResult result;
   problem.projectToFeasible(u);
-  std::vector<double> s = empty ? std::vector<double>{} : slipBounds(problem, u, friction);
   const bool fixedPoint = friction.coulomb();
+  if (!options.initialBounds.empty()) {
+    if (options.initialBounds.size() != n)
+      throw Error("friction: " + std::to_string(options.initialBounds.size()) + " initial slip bounds for " +
+                  std::to_string(n) + " contact nodes");
+    for (double b : options.initialBounds)
+      if (!(b >= 0) || !std::isfinite(b)) throw Error("friction: an initial slip bound is negative or not finite");
+  }
+  std::vector<double> s = empty ? std::vector<double>{}
+                          : (fixedPoint && !options.initialBounds.empty()) ? options.initialBounds
+                                                                            : slipBounds(problem, u, friction);
   for (int i = 0; i < options.maxIterations; ++i) {
     problem.setFriction(s, origin);
     result.last = solver.solve(problem, u);
+    result.bounds = s;
     ++result.iterations;
     result.innerIterations += result.last.iterations;
     if (!fixedPoint) {  // Tresca or frictionless: the bounds do not depend on u

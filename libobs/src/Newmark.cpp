@@ -173,6 +173,7 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
   assembleMasses(model, contact);
   BlockSparseMatrix<d> S = stepMatrix(contact);
   contact_ = std::make_unique<ContactSet>(contact);
+  friction_ = nodalFriction(model, contact);
   S_ = S;
   // From here on the matrices are only read: on grids of repeated cells their products (S base and
   // A u^{n+1} in every step) read a block number per entry instead of a block (the same values and
@@ -520,6 +521,7 @@ void NewmarkFamily<d>::initialize(const Eigen::VectorXd& u0, const Eigen::Vector
     }
   }
   state_ = DynamicState{0, 0.0, u0, v0, Eigen::VectorXd()};
+  frictionDissipation_ = 0;
   previousMultiplier_ = Eigen::VectorXd::Zero(n);
   multiplier_ = Eigen::VectorXd::Zero(n);
   previousVelocity_.resize(0);
@@ -711,7 +713,30 @@ StepRecord NewmarkFamily<d>::step() {
   // initial iterate (NewmarkStart): zero, or the previous step's increment (projected by the solver)
   const bool fromPrevious = options_.start == NewmarkStart::PreviousIncrement && previousIncrement_.size() == n;
   Eigen::VectorXd increment = fromPrevious ? previousIncrement_ : Eigen::VectorXd::Zero(n);  // problem unknowns
-  const ContactResult result = solver_->solve(*problem_, increment);
+  // friction (docs/theory.md#friction-dynamics): on the slip of the step, u^{n+1} - u^n, i.e. in the
+  // increment w = u^{n+1} - base from the origin u^n - base; the bounds in the units of the step's
+  // multipliers (c' tau^2 times forces): Coulomb's mu lambda as it is, Tresca's bound scaled
+  ContactResult result;
+  int frictionSolves = 0;
+  Eigen::VectorXd slipOrigin;
+  if (friction_.bound.empty()) {
+    result = solver_->solve(*problem_, increment);
+  } else {
+    NodalFriction f = friction_;
+    for (double& b : f.bound) b *= multiplierFactor_ * tau * tau;
+    slipOrigin = basis_.rows > 0 ? problem_->fromDisplacement(u - base) : Eigen::VectorXd(u - base);
+    CoulombOptions co;
+    co.tolerance = std::max(1e-8, 10 * tolerance);
+    const CoulombResult fr = solveFriction(*problem_, *solver_, increment, f, co, slipOrigin);
+    result = fr.last;
+    result.iterations = static_cast<int>(fr.innerIterations);
+    frictionSolves = fr.iterations;
+    if (!fr.converged && result.converged)
+      throw Error("time stepping: step " + std::to_string(state_.step + 1) + " (t = " + num(state_.time + tau) +
+                  "): the Coulomb fixed point did not converge in " + std::to_string(fr.iterations) +
+                  " Tresca solves (last relative change of the slip bounds " + num(fr.changes.back()) +
+                  (fr.contracting ? "" : "; the iteration did not contract: mu may be too large") + ")");
+  }
   const Eigen::VectorXd unew = base + (basis_.rows > 0 ? problem_->toDisplacement(increment) : increment);
   if (!result.converged)
     throw Error("time stepping: step " + std::to_string(state_.step + 1) + " (t = " + num(state_.time + tau) +
@@ -787,6 +812,19 @@ StepRecord NewmarkFamily<d>::step() {
     previousVelocity_ = v;  // v^n (v refers to state_.v, replaced below)
   }
 
+  // friction: the friction force of the step and the energy it dissipates, |F_T| |(u^{n+1} - u^n)_T|
+  Eigen::Vector3d frictionForce = Eigen::Vector3d::Zero();
+  Index stickNodes = 0, slipNodes = 0;
+  if (problem_->frictional()) {
+    const ContactOutputs out = computeContactOutputs(*problem_, increment);
+    const double factor = multiplierFactor_ * tau * tau;
+    for (Index k = 0; k < contact_->size(); ++k) {
+      frictionDissipation_ += out.tangential[k].norm() / factor * out.slip[k];
+      frictionForce += out.tangential[k] / factor;
+    }
+    stickNodes = out.stickNodes;
+    slipNodes = out.slipNodes;
+  }
   if (options_.start == NewmarkStart::PreviousIncrement) previousIncrement_ = increment;
   state_.u = unew;
   A_.multiply(state_.u, Au_);
@@ -808,6 +846,10 @@ StepRecord NewmarkFamily<d>::step() {
   r.solverKkt = result.kkt.max();
   r.solverErrorBound = result.errorBound;
   r.timeError = timeError;
+  r.frictionForce = frictionForce;
+  r.stickNodes = stickNodes;
+  r.slipNodes = slipNodes;
+  r.frictionSolves = frictionSolves;
   r.stepSeconds = seconds(start);
   last_ = r;
   return r;
@@ -828,6 +870,7 @@ NewmarkSchemeState NewmarkFamily<d>::schemeState() const {
   s.previousVelocity = previousVelocity_;
   s.nextSolverTolerance = nextTolerance_;
   s.previousIncrement = previousIncrement_;
+  s.frictionDissipation = frictionDissipation_;
   return s;
 }
 
@@ -861,6 +904,9 @@ void NewmarkFamily<d>::setSchemeState(const NewmarkSchemeState& s) {
   previousVelocity_ = s.previousVelocity;
   nextTolerance_ = s.nextSolverTolerance;
   previousIncrement_ = options_.start == NewmarkStart::PreviousIncrement ? s.previousIncrement : Eigen::VectorXd();
+  if (!(s.frictionDissipation >= 0) || !std::isfinite(s.frictionDissipation))
+    throw Error("time stepping: state with the friction dissipation " + num(s.frictionDissipation));
+  frictionDissipation_ = s.frictionDissipation;
   A_.multiply(state_.u, Au_);
   initialized_ = true;
   last_ = makeRecord();
@@ -883,6 +929,7 @@ StepRecord NewmarkFamily<d>::makeRecord() const {
   StepRecord r;
   r.step = state_.step;
   r.time = state_.time;
+  r.frictionDissipation = frictionDissipation_;
   const Eigen::VectorXd Mv = applyMass(v, false);
   r.kineticEnergy = 0.5 * v.dot(Mv);
   r.elasticEnergy = 0.5 * u.dot(Au_);  // = A_.energy(u): Au_ is A u of the state

@@ -32,6 +32,8 @@ void storeNewmarkState(CheckpointRecord& r, const NewmarkSchemeState& s) {
   if (s.previousIncrement.size() > 0)  // warm start from the previous increment only
     r.set("scheme/previous_increment", s.previousIncrement,
           "warm start previous-increment: the last step's increment u^n - base^{n-1} in the problem unknowns");
+  if (s.frictionDissipation > 0)  // friction only
+    r.set("scheme/friction_dissipation", s.frictionDissipation, "energy dissipated by friction up to t^n");
 }
 
 NewmarkSchemeState loadNewmarkState(const CheckpointRecord& r) {
@@ -55,6 +57,7 @@ NewmarkSchemeState loadNewmarkState(const CheckpointRecord& r) {
     s.nextSolverTolerance = r.real("scheme/next_solver_tolerance");
   }
   if (r.has("scheme/previous_increment")) s.previousIncrement = r.vector("scheme/previous_increment");
+  if (r.has("scheme/friction_dissipation")) s.frictionDissipation = r.real("scheme/friction_dissipation");
   return s;
 }
 

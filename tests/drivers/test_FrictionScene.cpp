@@ -215,3 +215,25 @@ steps = 2
 )";
   expectErrorWith(errorOf("linear", linear), {"[loading] needs contact"});
 }
+
+TEST(FrictionScene, SlidingBlockStopsWhereFrictionSaysSo) {
+  const fs::path out = kTmp / "sliding";
+  runIn(kScenes / "dynamics_sliding_block.toml", out);
+  const auto ts = readCsv(out / "timeseries.csv");
+  ASSERT_GT(ts.rows, 100u);
+  const auto& t = ts.columns.at("t");
+  const auto& px = ts.columns.at("momentum_x");
+  const auto& dissipated = ts.columns.at("friction_dissipation");
+  EXPECT_TRUE(ts.columns.count("stick_nodes") && ts.columns.count("slip_nodes"));
+  const double mass = 0.25, muG = 0.2 * 10;
+  for (std::size_t k = 0; k < ts.rows; ++k) {
+    // v = v0 - mu g t until the stop at 0.5 (the block settling onto the floor disturbs it by < 1 %)
+    if (t[k] < 0.45) EXPECT_NEAR(px[k] / mass, 1 - muG * t[k], 0.01) << "t = " << t[k];
+    if (t[k] > 0.6) EXPECT_LT(std::abs(px[k] / mass), 0.02) << "t = " << t[k];
+  }
+  // the kinetic energy of the slide, 1/2 m v0^2 = 0.125, went into friction (and a little into the
+  // settling)
+  EXPECT_NEAR(dissipated[ts.rows - 1], 0.125, 0.005);
+  const nlohmann::json j = summaryOf(out);
+  EXPECT_NEAR(j["dynamics"]["friction"]["dissipated_energy"].get<double>(), dissipated[ts.rows - 1], 1e-12);
+}

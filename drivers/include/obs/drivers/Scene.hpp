@@ -246,6 +246,8 @@ struct Scene {
   std::vector<const Scene*> bodyScenes() const;
   /// The scene has contact: a one-body [contact], or (multi-body files always) [[contact]] couplings.
   bool hasContact() const { return contact.has_value() || multiBody(); }
+  /// Some contact of the scene has friction = {...} (its [contact], a body's obstacle or a pair).
+  bool frictional() const;
 
   /// The solver type to use: solver.type, or "tnnmg" with [contact] and "direct" without.
   std::string solverType() const;

@@ -49,6 +49,9 @@ struct CoulombOptions {
   double mu = 0;           ///< solveCoulomb: the friction coefficient (>= 0; 0: one frictionless solve)
   int maxIterations = 50;  ///< fixed-point iterations (each one solve of a Tresca problem)
   double tolerance = 1e-8; ///< on the relative change of the slip bounds (see the file comment)
+  /// s^0 (ContactSet numbering; empty: from the start u as in the file comment), e.g. the bounds of
+  /// the previous time step (CoulombResult::bounds).
+  std::vector<double> initialBounds;
 };
 
 struct CoulombResult {
@@ -57,6 +60,7 @@ struct CoulombResult {
   std::vector<double> changes;    ///< relative change of the slip bounds after each solve
   bool contracting = true;        ///< every change from the third on below the one before
   long long innerIterations = 0;  ///< solver iterations over all solves
+  std::vector<double> bounds;     ///< the slip bounds of the last solve
   double seconds = 0;
   ContactResult last;             ///< the last Tresca solve
 };

@@ -1,7 +1,8 @@
 #pragma once
 /// \file Newmark.hpp
-/// Time stepping for dynamic frictionless contact of linear-elastic bodies with rigid obstacles and
-/// with each other (dual mortar, ContactModel.hpp): the Newmark family of the reference thesis (Sec. 5.2, 5.3; docs/theory.md#newmark), behind the TimeStepper
+/// Time stepping for dynamic contact of linear-elastic bodies with rigid obstacles and with each
+/// other (dual mortar, ContactModel.hpp), frictionless or with the couplings' friction (Coulomb or
+/// Tresca on the slip of each step, docs/theory.md#friction-dynamics): the Newmark family of the reference thesis (Sec. 5.2, 5.3; docs/theory.md#newmark), behind the TimeStepper
 /// interface. Equation of motion M u'' + A u = f + contact forces, f the constant load of the
 /// BoundaryConditions (body force, Neumann), Dirichlet values constant in time, time step tau.
 /// Every step solves one variational inequality
@@ -75,6 +76,7 @@
 #include "obs/obs/ContactModel.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/ContactSet.hpp"
+#include "obs/obs/Friction.hpp"
 #include "obs/obs/MassMatrix.hpp"
 #include "obs/obs/MassRedistribution.hpp"
 #include "obs/obs/Material.hpp"
@@ -213,6 +215,15 @@ struct StepRecord {
   /// (docs/theory.md#dynamic-inexact-solves); computed only with NewmarkOptions::inexactFraction > 0
   /// and from the second step on, NaN otherwise.
   double timeError = std::numeric_limits<double>::quiet_NaN();
+  /// Friction (couplings with a FrictionLaw; docs/theory.md#friction-dynamics): the energy dissipated
+  /// by friction from t = 0 to this step, sum over steps and contact nodes of |F_T| |(u^{n+1} - u^n)_T|
+  /// (F_T the physical friction force); the total friction force on the obstacles / the master sides
+  /// (as contactForce); the contact nodes in stick and in slip; the Tresca solves of the step's
+  /// Coulomb fixed point. All 0 without friction.
+  double frictionDissipation = 0;
+  Eigen::Vector3d frictionForce = Eigen::Vector3d::Zero();
+  Index stickNodes = 0, slipNodes = 0;
+  int frictionSolves = 0;
 };
 
 /// Everything a NewmarkFamily carries from one step to the next, for checkpoint/restart
@@ -234,13 +245,15 @@ struct NewmarkSchemeState {
   /// NewmarkStart::PreviousIncrement: the increment of the last step in the problem unknowns (relative
   /// for mortar pairs; empty before the first step and for the other start).
   Eigen::VectorXd previousIncrement;
+  /// Friction: the dissipated energy up to this state (StepRecord::frictionDissipation; 0 without).
+  double frictionDissipation = 0;
 };
 
 /// Stores a Newmark stepper's state (NewmarkFamily::schemeState) under "scheme/" of a checkpoint
 /// record (Checkpoint.hpp): name, step, time, displacement, velocity, acceleration, multiplier,
 /// previous_multiplier and the counters of the last step; with inexact solves also
 /// previous_velocity and next_solver_tolerance, with the previous-increment warm start
-/// previous_increment (loaded when present).
+/// previous_increment, with friction friction_dissipation (loaded when present).
 void storeNewmarkState(CheckpointRecord& record, const NewmarkSchemeState& state);
 /// The state stored by storeNewmarkState (obs::Error naming a missing entry).
 NewmarkSchemeState loadNewmarkState(const CheckpointRecord& record);
@@ -368,6 +381,8 @@ private:
   std::vector<typename ContactProblem<d>::Constraint> constraints_;  ///< effective, non-penetration
   std::vector<double> gaps_;                     ///< physical gaps of the ContactSet
   std::unique_ptr<TNNMG<d>> solver_;
+  NodalFriction friction_;          ///< of the model's couplings (empty: frictionless)
+  double frictionDissipation_ = 0;  ///< StepRecord::frictionDissipation of the current state
   mesh::CsrMatrix basis_;          ///< C of the mortar pairs (rows() == 0: none)
   std::vector<MortarRow> rows_;    ///< mortar: the constraint rows B of the predictor, per contact node
   DynamicState state_;
