@@ -217,6 +217,17 @@ RunResult runScene(const Scene& scene, const RunOptions& options) {
     r.outputFiles.push_back(csv);
   }
   finishRun(scene, options, dir, r, t, start);
+  if (r.solver.friction && !r.solver.friction->converged) {  // the Coulomb fixed point, not the solver
+    const FrictionIterationReport& f = *r.solver.friction;
+    std::ostringstream os;
+    os << scene.fileName << ": the Coulomb fixed point (friction) did not converge in " << f.iterations
+       << " Tresca solves (last relative change of the slip bounds " << std::setprecision(3)
+       << (f.changes.empty() ? 0.0 : f.changes.back()) << ", "
+       << (f.contracting ? "the changes decreased" : "the changes stopped decreasing: mu may be too large for the "
+                                                     "iteration to contract")
+       << "; docs/theory.md#friction-coulomb; outputs written to " << dir.string() << ")";
+    throw Error(os.str());
+  }
   if (!r.solver.converged) {
     std::ostringstream os;
     os << scene.where(scene.solver.line) << "[solver] " << r.solver.type << " did not converge in "

@@ -328,7 +328,7 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
       long long stepIterations = 0;
       if (model.frictional()) {  // Tresca: one solve; Coulomb: the fixed point over Tresca solves
         CoulombOptions options;
-        options.tolerance = std::max(1e-8, 10 * tolerance);
+        options.tolerance = std::max(options.tolerance, 10 * tolerance);
         // the slip of an increment is measured from the previous one (x: its solution, the warm start)
         const Eigen::VectorXd origin = step > 1 ? x : Eigen::VectorXd();
         const CoulombResult fr =

@@ -726,7 +726,7 @@ StepRecord NewmarkFamily<d>::step() {
     for (double& b : f.bound) b *= multiplierFactor_ * tau * tau;
     slipOrigin = basis_.rows > 0 ? problem_->fromDisplacement(u - base) : Eigen::VectorXd(u - base);
     CoulombOptions co;
-    co.tolerance = std::max(1e-8, 10 * tolerance);
+    co.tolerance = std::max(co.tolerance, 10 * tolerance);
     const CoulombResult fr = solveFriction(*problem_, *solver_, increment, f, co, slipOrigin);
     result = fr.last;
     result.iterations = static_cast<int>(fr.innerIterations);
