@@ -8,12 +8,18 @@
 // solves to the relative correction 1e-10. Writes a markdown table; progress goes to stderr.
 //
 //   build/bench/friction friction.md [--dim 2|3] [--levels 3-8]
+//
+// With --mu-sweep 0.1,0.3,...: on the one mesh of --levels (a single level), the Coulomb fixed point
+// for each mu from a zero start (relative change 1e-8, at most 50 Tresca solves): solves, whether it
+// converged and contracted, the last change, total TNNMG iterations, the stick / slip counts and the
+// ratio of tangential to mu times normal force.
 #include <chrono>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Grid.hpp"
@@ -91,6 +97,53 @@ Row measure(int level) {
   return r;
 }
 
+struct SweepRow {
+  double mu = 0;
+  int solves = 0;
+  bool converged = false, contracting = true;
+  double lastChange = 0, seconds = 0, ratio = 0;
+  long long iterations = 0;
+  Index contact = 0, stick = 0, slip = 0;
+};
+
+template <int d>
+SweepRow sweep(int level, double mu) {
+  mesh::Grid grid(mesh::boxMesh(d == 2 ? mesh::CellType::Quadrilateral : mesh::CellType::Hexahedron, 2));
+  for (int l = 0; l < level; ++l) grid.refineUniformly();
+  const mesh::Mesh& m = grid.leafView().mesh;
+  const Material material{3e5, 0.3};
+  BoundaryConditions bc;
+  const Point top = d == 2 ? Point(0.004, -0.02, 0) : Point(0.006, 0.003, -0.03);
+  bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [top](const Point&) { return top; }});
+  std::unique_ptr<Obstacle> obstacle;
+  if constexpr (d == 2) obstacle = std::make_unique<DiskObstacle>(Point(0.5, -0.5, 0), 0.5);
+  else obstacle = std::make_unique<BallObstacle>(Point(0.5, 0.5, -0.75), 0.75);
+  ContactProblem<d> problem(m, material, bc, ContactSet(m, mesh::kBottom, *obstacle));
+  typename TNNMG<d>::Options o;
+  o.tolerance = 1e-10;
+  o.maxIterations = 500;
+  TNNMG<d> tnnmg(grid, o);
+  Eigen::VectorXd u;
+  SweepRow r;
+  r.mu = mu;
+  const auto t0 = Clock::now();
+  const CoulombResult c = solveCoulomb(problem, tnnmg, u, {mu, 50, 1e-8});
+  r.seconds = since(t0);
+  r.solves = c.iterations;
+  r.converged = c.converged;
+  r.contracting = c.contracting;
+  r.lastChange = c.changes.back();
+  r.iterations = c.innerIterations;
+  const ContactOutputs out = computeContactOutputs(problem, u);
+  r.contact = out.contactNodes;
+  r.stick = out.stickNodes;
+  r.slip = out.slipNodes;
+  double normal = 0;
+  for (double x : out.multiplier) normal += x;
+  r.ratio = mu > 0 && normal > 0 ? out.tangentialForce.norm() / (mu * normal) : 0;
+  return r;
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -99,9 +152,14 @@ int main(int argc, char** argv) {
     return 2;
   }
   int dim = 2, first = 3, last = 8;
+  std::vector<double> mus;
   for (int i = 2; i + 1 < argc; i += 2) {
     const std::string key = argv[i], value = argv[i + 1];
     if (key == "--dim") dim = std::stoi(value);
+    else if (key == "--mu-sweep") {
+      std::stringstream list(value);
+      for (std::string x; std::getline(list, x, ',');) mus.push_back(std::stod(x));
+    }
     else if (key == "--levels") {
       const auto dash = value.find('-');
       first = std::stoi(value.substr(0, dash));
@@ -114,6 +172,22 @@ int main(int argc, char** argv) {
   if ((dim != 2 && dim != 3) || first < 0 || last < first) {
     std::cerr << "friction: invalid --dim or --levels\n";
     return 2;
+  }
+  if (!mus.empty()) {
+    std::ostringstream table;
+    table << "| mu | Tresca solves | converged | contracting | last change | TNNMG iterations | s | contact | stick | "
+             "slip | Q / (mu P) |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+    for (double mu : mus) {
+      const SweepRow r = dim == 2 ? sweep<2>(first, mu) : sweep<3>(first, mu);
+      table << std::setprecision(3) << "| " << r.mu << " | " << r.solves << " | " << (r.converged ? "yes" : "no")
+            << " | " << (r.contracting ? "yes" : "no") << " | " << r.lastChange << " | " << r.iterations << " | "
+            << r.seconds << " | " << r.contact << " | " << r.stick << " | " << r.slip << " | " << r.ratio << " |\n";
+      std::cerr << "mu " << mu << ": " << r.solves << " solves\n";
+    }
+    std::ofstream out(argv[1]);
+    out << "Coulomb fixed point against mu, " << dim << "D, level " << first << " (bench/friction.cpp)\n\n"
+        << table.str();
+    return 0;
   }
   std::ostringstream table;
   table << "| level | unknowns | frictionless: it | s | Tresca: it | s | it ratio | Coulomb: solves | it per solve | s | "
