@@ -7,17 +7,27 @@
 // iterations per solve, total time), and the stick / slip counts of the Coulomb solution. All
 // solves to the relative correction 1e-10. Writes a markdown table; progress goes to stderr.
 //
-//   build/bench/friction friction.md [--dim 2|3] [--levels 3-8]
+//   build/bench/friction friction.md [--dim 2|3] [--levels 3-8] [--baseline] [--mu-sweep LIST]
+//
+// With --baseline (2D): per level the Tresca problem above solved from zero by TNNMG and by the
+// primal-dual active set method with CHOLMOD (semismooth Newton), each in a child process of its own:
+// iterations, seconds (solver construction and solve), peak memory of the child (ru_maxrss, which
+// includes the problem's assembly, the same in both), and the difference of the two solutions.
 //
 // With --mu-sweep 0.1,0.3,...: on the one mesh of --levels (a single level), the Coulomb fixed point
 // for each mu from a zero start (relative change 1e-8, at most 50 Tresca solves): solves, whether it
 // converged and contracted, the last change, total TNNMG iterations, the stick / slip counts and the
 // ratio of tangential to mu times normal force.
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <chrono>
 #include <fstream>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -26,6 +36,7 @@
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/Friction.hpp"
 #include "obs/obs/Obstacle.hpp"
+#include "obs/obs/PrimalDualActiveSet.hpp"
 #include "obs/obs/TNNMG.hpp"
 
 using namespace obs;
@@ -97,6 +108,100 @@ Row measure(int level) {
   return r;
 }
 
+struct BaselineRow {
+  long long dofs = 0;
+  int iterations[2] = {0, 0};
+  double seconds[2] = {0, 0}, peakMB[2] = {0, 0};
+  bool converged[2] = {false, false};
+  double difference = 0;  ///< ||u_tnnmg - u_pdas|| / ||u_tnnmg||
+};
+
+/// The 2D Tresca problem of measure() on `level`, solved by TNNMG (solver 0) or PDAS (1) in a child
+/// process; writes iterations, seconds, peak MB, converged and the solution to the pipe.
+void baselineChild(int level, int solver, int fd) {
+  mesh::Grid grid(mesh::boxMesh(mesh::CellType::Quadrilateral, 2));
+  for (int l = 0; l < level; ++l) grid.refineUniformly();
+  const mesh::Mesh& m = grid.leafView().mesh;
+  BoundaryConditions bc;
+  bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Point(0.004, -0.02, 0); }});
+  const DiskObstacle disk(Point(0.5, -0.5, 0), 0.5);
+  ContactProblem<2> problem(m, Material{3e5, 0.3}, bc, ContactSet(m, mesh::kBottom, disk));
+  // the slip bound of measure(): 0.3 x the mean contact pressure of the frictionless solution
+  typename TNNMG<2>::Options o;
+  o.tolerance = 1e-10;
+  o.maxIterations = 500;
+  {
+    TNNMG<2> tnnmg(grid, o);
+    Eigen::VectorXd u;
+    tnnmg.solve(problem, u);
+    const ContactOutputs out = computeContactOutputs(problem, u);
+    problem.setFriction(trescaSlipBounds(problem.contactSet(), 0.3 * out.force.norm() / out.contactArea));
+  }
+  Eigen::VectorXd u;
+  ContactResult r;
+  const auto t0 = Clock::now();
+  if (solver == 0) {
+    TNNMG<2> tnnmg(grid, o);
+    r = tnnmg.solve(problem, u);
+  } else {
+    PrimalDualActiveSet<2> pdas;
+    r = pdas.solve(problem, u);
+  }
+  const double seconds = since(t0);
+  struct rusage usage {};
+  getrusage(RUSAGE_SELF, &usage);
+  const double head[4] = {double(r.iterations), seconds, usage.ru_maxrss / 1024.0, r.converged ? 1.0 : 0.0};
+  const long long n = u.size();
+  if (write(fd, head, sizeof head) != sizeof head || write(fd, &n, sizeof n) != sizeof n ||
+      write(fd, u.data(), sizeof(double) * static_cast<std::size_t>(n)) != static_cast<ssize_t>(sizeof(double) * n))
+    _exit(3);
+  _exit(0);
+}
+
+/// Reads exactly `size` bytes from fd (false on a short read).
+bool readAll(int fd, void* data, std::size_t size) {
+  auto* p = static_cast<char*>(data);
+  while (size > 0) {
+    const ssize_t k = read(fd, p, size);
+    if (k <= 0) return false;
+    p += k;
+    size -= static_cast<std::size_t>(k);
+  }
+  return true;
+}
+
+BaselineRow baseline(int level) {
+  BaselineRow row;
+  Eigen::VectorXd solutions[2];
+  for (int solver = 0; solver < 2; ++solver) {
+    int fds[2];
+    if (pipe(fds) != 0) throw std::runtime_error("pipe failed");
+    const pid_t pid = fork();
+    if (pid == 0) {
+      close(fds[0]);
+      baselineChild(level, solver, fds[1]);
+    }
+    close(fds[1]);
+    double head[4];
+    long long n = 0;
+    if (!readAll(fds[0], head, sizeof head) || !readAll(fds[0], &n, sizeof n))
+      throw std::runtime_error("the child of level " + std::to_string(level) + " failed");
+    solutions[solver].resize(n);
+    if (!readAll(fds[0], solutions[solver].data(), sizeof(double) * static_cast<std::size_t>(n)))
+      throw std::runtime_error("the child of level " + std::to_string(level) + " failed");
+    close(fds[0]);
+    int status = 0;
+    waitpid(pid, &status, 0);
+    row.iterations[solver] = static_cast<int>(head[0]);
+    row.seconds[solver] = head[1];
+    row.peakMB[solver] = head[2];
+    row.converged[solver] = head[3] != 0;
+    row.dofs = n;
+  }
+  row.difference = (solutions[0] - solutions[1]).norm() / solutions[0].norm();
+  return row;
+}
+
 struct SweepRow {
   double mu = 0;
   int solves = 0;
@@ -153,6 +258,14 @@ int main(int argc, char** argv) {
   }
   int dim = 2, first = 3, last = 8;
   std::vector<double> mus;
+  bool withBaseline = false;
+  for (int i = 2; i < argc; ++i)
+    if (std::string(argv[i]) == "--baseline") {
+      withBaseline = true;
+      for (int j = i; j + 1 < argc; ++j) argv[j] = argv[j + 1];
+      --argc;
+      break;
+    }
   for (int i = 2; i + 1 < argc; i += 2) {
     const std::string key = argv[i], value = argv[i + 1];
     if (key == "--dim") dim = std::stoi(value);
@@ -172,6 +285,23 @@ int main(int argc, char** argv) {
   if ((dim != 2 && dim != 3) || first < 0 || last < first) {
     std::cerr << "friction: invalid --dim or --levels\n";
     return 2;
+  }
+  if (withBaseline) {
+    std::ostringstream table;
+    table << "| level | unknowns | TNNMG it | s | MB | PDAS it | s | MB | PDAS / TNNMG time | \\|u_TNNMG - u_PDAS\\| / \\|u\\| |\n"
+             "|---|---|---|---|---|---|---|---|---|---|\n";
+    for (int level = first; level <= last; ++level) {
+      const BaselineRow r = baseline(level);
+      table << std::setprecision(3) << "| " << level << " | " << r.dofs << " | " << r.iterations[0]
+            << (r.converged[0] ? "" : " (not converged)") << " | " << r.seconds[0] << " | " << r.peakMB[0] << " | "
+            << r.iterations[1] << (r.converged[1] ? "" : " (not converged)") << " | " << r.seconds[1] << " | "
+            << r.peakMB[1] << " | " << r.seconds[1] / r.seconds[0] << " | " << r.difference << " |\n";
+      std::cerr << "level " << level << ": TNNMG " << r.seconds[0] << " s, PDAS " << r.seconds[1] << " s\n";
+    }
+    std::ofstream out(argv[1]);
+    out << "Tresca friction, 2D: TNNMG against the primal-dual active set method with CHOLMOD (bench/friction.cpp)\n\n"
+        << table.str();
+    return 0;
   }
   if (!mus.empty()) {
     std::ostringstream table;

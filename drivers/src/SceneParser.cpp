@@ -760,8 +760,9 @@ void parseLoading(Scene& scene, const toml::value* table) {
   scene.loading = spec;
 }
 
-/// Friction is solved by the static runner with tnnmg or pgs, and by time stepping: the line of the first friction = {...}
-/// of the scene (one-body [contact], a body's obstacle, a pair), and errors for what does not support it.
+/// Friction is solved by the static runner (tnnmg, pgs; pdas in 2D) and by time stepping: the line of
+/// the first friction = {...} of the scene (one-body [contact], a body's obstacle, a pair), and an
+/// error for the adaptive loop, which does not support it.
 void checkFriction(const Scene& scene) {
   int line = 0;
   const auto take = [&line](const std::optional<FrictionSpec>& f) {
@@ -775,9 +776,6 @@ void checkFriction(const Scene& scene) {
   if (scene.adaptivity)
     throw Error(scene.where(line) + "friction is solved in static and dynamic runs: a scene with [adaptivity] "
                 "cannot have friction yet (docs/scenes.md#friction)");
-  if (scene.solverType() == "pdas")
-    throw Error(scene.where(scene.solver.line ? scene.solver.line : line) +
-                "[solver] type = \"pdas\" does not solve friction (use tnnmg or pgs; docs/scenes.md#friction)");
 }
 
 Scene parseSceneString(const std::string& text, const std::string& fileName,

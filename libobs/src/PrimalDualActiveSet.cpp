@@ -14,9 +14,10 @@ namespace obs {
 template <int d>
 ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd& u) {
   if (!(options_.c > 0)) throw Error(name() + ": the complementarity constant c must be positive");
-  if (problem.frictional())
-    throw Error(name() + ": friction is not supported by the primal-dual active set solver (use tnnmg or "
-                "projected-gauss-seidel)");
+  if (d == 3 && problem.frictional())
+    throw Error(name() + ": friction in 3D is not supported (the slip direction needs the semismooth Newton "
+                "linearisation of Hueeber, Stadler and Wohlmuth, which is not built); use tnnmg or "
+                "projected-gauss-seidel");
   factorSeconds_ = 0;
   const RotatedProblem<d> rot = problem.rotated();
   const Index n = rot.numVertices();
@@ -36,8 +37,32 @@ ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Ei
   std::vector<double> mu(bounded.size());
   for (std::size_t i = 0; i < bounded.size(); ++i) mu[i] = residual[bounded[i] * d];
 
+  // Tresca friction (see the file comment): per friction vertex its free tangential components, the
+  // tangential multiplier lambda_T (the residual force) and c_T; the stick set and, in slip, the
+  // direction e of xi = lambda_T + c_T t
+  using Vec = Eigen::Matrix<double, d, 1>;
+  const std::size_t nf = rot.frictionVertices.size();
+  std::vector<Vec> lambdaT(nf, Vec::Zero()), direction(nf, Vec::Zero());
+  std::vector<double> cT(nf, 0.0);
+  std::vector<unsigned> freeT(nf, 0);
+  for (std::size_t f = 0; f < nf; ++f) {
+    const Index p = rot.frictionVertices[f];
+    double diag = 0;
+    for (int a = 1; a < d; ++a)
+      if (!rot.prescribed[static_cast<std::size_t>(p) * d + a]) {
+        freeT[f] |= 1u << a;
+        diag = std::max(diag, rot.matrix()(p, p)(a, a));
+      }
+    cT[f] = options_.c * diag;
+    for (int a = 1; a < d; ++a)
+      if (freeT[f] & (1u << a)) lambdaT[f][a] = residual[p * d + a];
+  }
+  const auto originOf = [&](Index p, int a) {
+    return rot.origin.size() > 0 ? rot.origin[p * d + a] : 0.0;
+  };
+
   IterationMonitor monitor(name(), options_, rot.energy(w));
-  std::vector<char> active(bounded.size()), previous;
+  std::vector<char> active(bounded.size() + nf), previous;
   std::set<std::vector<char>> seen;
   bool setRepeated = false;
   // The active set only changes values (Dirichlet rows/columns), never the pattern: the ordering and
@@ -48,6 +73,7 @@ ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Ei
   // touching blocks) is otherwise left floating, and the first Newton matrix singular, whenever the
   // rounding of its zero gaps happens to fall on the inactive side.
   const double tie = 1e-12 * std::max(rot.rhs.template lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());
+  int cReductions = 0;
   for (int k = 0;; ++k) {
     Index activeCount = 0;
     for (std::size_t i = 0; i < bounded.size(); ++i) {
@@ -56,13 +82,34 @@ ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Ei
       active[i] = indicator > 0 || (k == 0 && std::abs(indicator) <= tie);
       activeCount += active[i];
     }
+    // stick where |lambda_T + c_T t| <= s, else slip with the direction of that vector
+    for (std::size_t f = 0; f < nf; ++f) {
+      const Index p = rot.frictionVertices[f];
+      Vec xi = Vec::Zero();
+      for (int a = 1; a < d; ++a)
+        if (freeT[f] & (1u << a)) xi[a] = lambdaT[f][a] + cT[f] * (w[p * d + a] - originOf(p, a));
+      const double norm = xi.norm();
+      const bool stick = norm <= rot.slip[f];
+      if (!stick) direction[f] = xi / norm;
+      // the state of the vertex: 1 stick, 2 / 3 slip in the positive / negative tangential direction
+      active[bounded.size() + f] = stick ? 1 : (direction[f].sum() > 0 ? 2 : 3);
+    }
     if (k > 0 && active == previous) {
       setRepeated = true;
       break;
     }
-    if (k > 0 && seen.count(active))
-      throw Error(name() + ", iteration " + std::to_string(k) + ": the active set (" + std::to_string(activeCount) +
-                  " nodes) repeats an earlier one: the iteration cycles (try a smaller c or another solver)");
+    if (k > 0 && seen.count(active)) {
+      // with friction, a cycle is broken by a smaller c (at most three times; see the header)
+      if (nf > 0 && cReductions < 3) {
+        ++cReductions;
+        for (double& c : cp) c *= 0.1;
+        for (double& c : cT) c *= 0.1;
+        seen.clear();
+      } else {
+        throw Error(name() + ", iteration " + std::to_string(k) + ": the active set (" + std::to_string(activeCount) +
+                    " nodes) repeats an earlier one: the iteration cycles (try a smaller c or another solver)");
+      }
+    }
     if (k >= options_.maxIterations) break;
     seen.insert(active);
     previous = active;
@@ -78,6 +125,20 @@ ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Ei
         fixed.constrained[static_cast<std::size_t>(bounded[i]) * d] = 1;
         fixed.values[bounded[i] * d] = rot.upper[bounded[i]];
       }
+    // friction: stick fixes the free tangential components at the origin, slip applies the force
+    // -s e (the residual b - A w is lambda_T = s e there)
+    for (std::size_t f = 0; f < nf; ++f) {
+      const Index p = rot.frictionVertices[f];
+      for (int a = 1; a < d; ++a) {
+        if (!(freeT[f] & (1u << a))) continue;
+        if (active[bounded.size() + f] == 1) {
+          fixed.constrained[static_cast<std::size_t>(p) * d + a] = 1;
+          fixed.values[p * d + a] = originOf(p, a);
+        } else {
+          bk[p * d + a] -= rot.slip[f] * direction[f][a];
+        }
+      }
+    }
     applyDirichlet(Ak, bk, fixed);
     if (cholmod)
       cholmod->refactorize(Ak);
@@ -87,16 +148,23 @@ ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Ei
     Eigen::VectorXd next = cholmod->solve(bk);
     for (std::size_t i = 0; i < bounded.size(); ++i)
       if (active[i]) next[bounded[i] * d] = rot.upper[bounded[i]];  // exactly on the bound
+    for (std::size_t f = 0; f < nf; ++f)  // sticking exactly at the origin
+      if (active[bounded.size() + f] == 1)
+        for (int a = 1; a < d; ++a)
+          if (freeT[f] & (1u << a)) next[rot.frictionVertices[f] * d + a] = originOf(rot.frictionVertices[f], a);
 
     const Eigen::VectorXd Anext = rot.matrix() * next;
     residual = rot.rhs - Anext;
     for (std::size_t i = 0; i < bounded.size(); ++i) mu[i] = active[i] ? residual[bounded[i] * d] : 0.0;
+    for (std::size_t f = 0; f < nf; ++f)
+      for (int a = 1; a < d; ++a)
+        if (freeT[f] & (1u << a)) lambdaT[f][a] = residual[rot.frictionVertices[f] * d + a];
     const Eigen::VectorXd delta = next - w;
     const double num = std::sqrt(std::max(0.0, rot.matrix().energy(delta)));
     const double den = std::sqrt(std::max(0.0, next.dot(Anext)));
     const double correction = den > 0 ? num / den : (num > 0 ? 1.0 : 0.0);
     w = std::move(next);
-    monitor.record(0.5 * w.dot(Anext) - rot.rhs.dot(w), correction, activeCount);
+    monitor.record(0.5 * w.dot(Anext) - rot.rhs.dot(w) + rot.frictionEnergy(w), correction, activeCount);
     monitor.progressed();  // progress of this method = a new active set (cycling is caught above)
   }
   u = problem.fromRotated(w);

@@ -165,8 +165,17 @@ TEST(FrictionScene, BadInputIsAOneLineError) {
   expectErrorWith(errorOf("other", punch("{ law = \"coulomb\", bound = 3 }")), {"friction bound", "does not apply"});
   expectErrorWith(errorOf("missing", punch("{ law = \"tresca\" }")), {"friction", "bound"});
   expectErrorWith(errorOf("table", punch("0.3")), {"friction", "must be a table"});
-  expectErrorWith(errorOf("pdas", punch("{ law = \"coulomb\", mu = 0.3 }", "[solver]\ntype = \"pdas\"\n")),
-                  {"pdas", "does not solve friction"});
+}
+
+TEST(FrictionScene, PdasSolvesTheSameCoulombProblemIn2D) {
+  const RunResult a = runIn(writeScene("tnnmg_mu", punch("{ law = \"coulomb\", mu = 0.3 }")), kTmp / "tnnmg_mu");
+  const RunResult b = runIn(writeScene("pdas_mu", punch("{ law = \"coulomb\", mu = 0.3 }", "[solver]\ntype = \"pdas\"\n")),
+                            kTmp / "pdas_mu");
+  EXPECT_TRUE(b.solver.converged);
+  EXPECT_NEAR(b.contact->load, a.contact->load, 1e-6 * a.contact->load);
+  EXPECT_NEAR(b.contact->friction->tangentialForce[0], a.contact->friction->tangentialForce[0],
+              1e-6 * a.contact->load);
+  EXPECT_EQ(b.contact->friction->stickVertices, a.contact->friction->stickVertices);
 }
 
 TEST(FrictionScene, CattaneoMindlinPathInIncrements) {

@@ -1,6 +1,7 @@
 // Tresca and Coulomb friction (docs/theory.md#friction): exact reproduction of affine states in
-// uniform slip and in stick, agreement of TNNMG with projected Gauss-Seidel on curved contact with
-// tangential loads (2D and 3D), the frictionless limit, the Coulomb fixed point and bad input.
+// uniform slip and in stick, agreement of TNNMG with projected Gauss-Seidel and with the primal-dual
+// active set method on curved contact with tangential loads (2D and 3D), the frictionless limit, the
+// Coulomb fixed point and bad input.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -228,6 +229,63 @@ TEST(Friction, TnnmgAgreesWithGaussSeidel2D) {
 
 TEST(Friction, TnnmgAgreesWithGaussSeidel3D) { expectTnnmgAgreesWithGaussSeidel<3>(CellType::Hexahedron, 2, 0.006, 0.05); }
 
+/// The primal-dual active set method with friction (semismooth Newton, 2D) against TNNMG: two
+/// independent solvers of the same Tresca and Coulomb problems.
+template <int d>
+void expectPdasAgreesWithTnnmg(CellType type, int levels, double shear, double bound) {
+  const mesh::Grid grid = uniformGrid(type, 2, levels);
+  const mesh::Mesh& m = grid.leafView().mesh;
+  ContactProblem<d> problem = shearedHertz<d>(m, shear);
+  TNNMG<d> tnnmg(grid, tight<d>());
+  Eigen::VectorXd u0;
+  tnnmg.solve(problem, u0);
+  const ContactOutputs out0 = computeContactOutputs(problem, u0, 1e-8);
+  double pmax = 0;
+  for (double s : out0.pressure) pmax = std::max(pmax, s);
+  problem.setFriction(trescaSlipBounds(problem.contactSet(), bound * pmax));
+  Eigen::VectorXd u, v;
+  const ContactResult a = tnnmg.solve(problem, u);
+  typename PrimalDualActiveSet<d>::Options po;
+  po.kktTolerance = 1e-10;
+  PrimalDualActiveSet<d> pdas(po);
+  const ContactResult b = pdas.solve(problem, v);
+  EXPECT_TRUE(a.converged);
+  EXPECT_TRUE(b.converged);
+  EXPECT_LT((u - v).norm(), 1e-8 * u.norm());
+  const ContactOutputs oa = computeContactOutputs(problem, u, 1e-8), ob = computeContactOutputs(problem, v, 1e-8);
+  EXPECT_EQ(oa.state, ob.state);
+  EXPECT_GT(ob.stickNodes, 0);
+  EXPECT_GT(ob.slipNodes, 0);
+  // Coulomb with either solver inside the fixed point
+  ContactProblem<d> pa = shearedHertz<d>(m, shear), pb = shearedHertz<d>(m, shear);
+  Eigen::VectorXd x, y;
+  TNNMG<d> t2(grid, tight<d>());
+  const CoulombResult ca = solveCoulomb(pa, t2, x, {0.3, 50, 1e-10});
+  const CoulombResult cb = solveCoulomb(pb, pdas, y, {0.3, 50, 1e-10});
+  EXPECT_TRUE(ca.converged);
+  EXPECT_TRUE(cb.converged);
+  EXPECT_LT((x - y).norm(), 1e-7 * x.norm());
+  if (verbose())
+    std::cout << "  " << problem.numDofs() << " dofs: Tresca TNNMG " << a.iterations << " it, PDAS " << b.iterations
+              << " it (stick " << ob.stickNodes << ", slip " << ob.slipNodes << "); Coulomb " << ca.iterations << " / "
+              << cb.iterations << " solves\n";
+}
+
+TEST(Friction, PrimalDualActiveSetAgreesWithTnnmg2D) {
+  expectPdasAgreesWithTnnmg<2>(CellType::Quadrilateral, 4, 0.003, 0.2);
+  expectPdasAgreesWithTnnmg<2>(CellType::Triangle, 4, 0.003, 0.2);
+}
+
+TEST(Friction, PrimalDualActiveSetRefusesFrictionIn3D) {
+  const mesh::Grid grid = uniformGrid(CellType::Hexahedron, 2, 1);
+  const mesh::Mesh& m = grid.leafView().mesh;
+  ContactProblem<3> problem = shearedHertz<3>(m, 0.006);
+  problem.setFriction(std::vector<double>(static_cast<std::size_t>(problem.contactSet().size()), 1.0));
+  PrimalDualActiveSet<3> pdas;
+  Eigen::VectorXd u;
+  expectErrorMentioning([&] { pdas.solve(problem, u); }, "friction in 3D");
+}
+
 TEST(Friction, ZeroBoundsAreTheFrictionlessSolveBitForBit) {
   const mesh::Grid grid = uniformGrid(CellType::Quadrilateral, 2, 3);
   const mesh::Mesh& m = grid.leafView().mesh;
@@ -260,9 +318,7 @@ TEST(Friction, BadInputIsRefused) {
   expectErrorMentioning([&] { problem.setFriction(std::vector<double>(n, 1.0), Eigen::VectorXd::Zero(3)); }, "origin");
   expectErrorMentioning([&] { trescaSlipBounds(problem.contactSet(), -1); }, "slip bound");
   problem.setFriction(std::vector<double>(n, 1.0));
-  PrimalDualActiveSet<2> pdas;
   Eigen::VectorXd u;
-  expectErrorMentioning([&] { pdas.solve(problem, u); }, "friction");
   TNNMG<2> tnnmg(grid);
   expectErrorMentioning([&] { solveCoulomb(problem, tnnmg, u, {-0.1}); }, "coefficient");
   expectErrorMentioning([&] { solveCoulomb(problem, tnnmg, u, {0.1, 0}); }, "options");

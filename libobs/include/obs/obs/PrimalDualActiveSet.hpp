@@ -16,6 +16,21 @@
 /// recorded but the stopping rule is step 2 (then converged also requires KKT residuals <=
 /// kktTolerance). If an active set repeats one that is not the previous one, the iteration cycles:
 /// obs::Error. Each iteration factorises anew (the matrix changes with the active set).
+///
+/// Tresca friction (RotatedProblem::frictionVertices; docs/theory.md#friction-baseline), after
+/// Hueeber, Stadler, Wohlmuth (2008): with the tangential multiplier lambda_T = (b - A w)_T, the slip
+/// t = (w - o)_T and c_T = c * max_a A_pp(a, a) over the free tangential components a,
+///   stick set  S_k = { |lambda_T + c_T t| <= s }:  t = 0 in the Newton step (fixed like a Dirichlet value);
+///   slip:      lambda_T = s e, e = (lambda_T + c_T t)/|lambda_T + c_T t|, the force -s e on the right-hand side.
+/// In 2D e = +-1 and this is the semismooth Newton method for Tresca friction: the state of a
+/// friction vertex is stick, slip forward or slip backward, and the iteration stops when the normal
+/// and these states repeat. In 3D e needs Newton's linearisation (the modified semismooth Newton
+/// method of Hueeber, Stadler, Wohlmuth), which is not built: friction in 3D throws obs::Error.
+/// Coulomb friction: solveFriction (Friction.hpp) around it. With friction a larger c makes cycling
+/// more likely (on the partial-slip problems of tests/obs/test_friction.cpp c = 1 cycles in one of the
+/// Tresca problems of a Coulomb fixed point, c = 0.1 and 0.01 do not), so with friction a repeated
+/// earlier set divides every c_p and c_T by 10 and the iteration goes on, at most three times; a
+/// fourth cycle is the obs::Error above.
 #include "obs/obs/ContactSolver.hpp"
 
 namespace obs {
