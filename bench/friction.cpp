@@ -97,7 +97,10 @@ Row measure(int level) {
     TNNMG<d> tnnmg(grid, o);
     Eigen::VectorXd u;
     const auto t0 = Clock::now();
-    const CoulombResult c = solveCoulomb(problem, tnnmg, u, {0.3, 50, 1e-8});
+    CoulombOptions co;
+    co.mu = 0.3;
+    co.tolerance = 1e-8;
+    const CoulombResult c = solveCoulomb(problem, tnnmg, u, co);
     r.coulombSeconds = since(t0);
     r.solves = c.iterations;
     r.coulombIterations = c.innerIterations;
@@ -241,7 +244,10 @@ SweepRow sweep(int level, double mu) {
   SweepRow r;
   r.mu = mu;
   const auto t0 = Clock::now();
-  const CoulombResult c = solveCoulomb(problem, tnnmg, u, {mu, 50, 1e-8});
+  CoulombOptions co;
+  co.mu = mu;
+  co.tolerance = 1e-8;
+  const CoulombResult c = solveCoulomb(problem, tnnmg, u, co);
   r.seconds = since(t0);
   r.solves = c.iterations;
   r.converged = c.converged;

@@ -270,6 +270,9 @@ std::string csvLine(const StepRecord& r, bool friction) {
 struct StateContact {
   Eigen::VectorXd x, w;
   std::optional<Eigen::VectorXd> nodal, forces;
+  /// with friction, after a step: NewmarkFamily::frictionForces() and frictionStates()
+  std::optional<Eigen::VectorXd> friction;
+  std::vector<char> frictionStates;
 };
 
 /// The .vtu fields of a state on body b of Context::bodies (its segment of the stacked vectors): displacement, stress, von_mises, boundary_id,
@@ -279,6 +282,8 @@ struct StateContact {
 /// static scenes (slave nodes: the dual-mortar pressure lambda_p); given the vertex forces F,
 /// contact_force -F (the nodal contact force on the body, both sides of a pair, as in static
 /// runs with several bodies). Vertices without a constraint (a master side) have 0 in the contact fields.
+/// Scenes with friction add friction_force (-F_T, the friction force on the body at a constrained node)
+/// and stick_slip (0 not in contact, 1 stick, 2 slip) of the last step (zero in the initial state).
 std::vector<Field> stateFields(const Context& c, std::size_t b, const Eigen::VectorXd& u, const Eigen::VectorXd& v,
                                const StateContact& sc, std::vector<Field>* cells) {
   const mesh::Mesh& mesh = *c.bodies[b].mesh;
@@ -301,6 +306,8 @@ std::vector<Field> stateFields(const Context& c, std::size_t b, const Eigen::Vec
   Field sp{"contact_pressure", 1, std::vector<double>(n, 0.0), false};
   Field state{"contact_state", 1, std::vector<double>(n, 0.0), true};
   Field force{"contact_force", 3, std::vector<double>(3 * n, 0.0), false};
+  Field friction{"friction_force", 3, std::vector<double>(3 * n, 0.0), false};
+  Field stickSlip{"stick_slip", 1, std::vector<double>(n, 0.0), true};
   double scale = 1e-300;
   for (Eigen::Index i = 0; i < u.size(); ++i) scale = std::max(scale, std::abs(u[i]));
   for (Index k = 0; k < c.contact.size(); ++k) {
@@ -320,6 +327,10 @@ std::vector<Field> stateFields(const Context& c, std::size_t b, const Eigen::Vec
     sp.values[p] = nu_f / c.contact.boundaryMass(k);
     gap.values[p] = g - nu_u;
     state.values[p] = g - nu_u <= 1e-8 * std::max({scale, std::abs(g), 1e-300}) ? 2 : 1;
+    if (sc.friction) {
+      for (int a = 0; a < dim; ++a) friction.values[3 * p + a] = -(*sc.friction)[P * dim + a];
+      if (static_cast<std::size_t>(k) < sc.frictionStates.size()) stickSlip.values[p] = sc.frictionStates[static_cast<std::size_t>(k)];
+    }
   }
   if (sc.forces)
     for (mesh::Index p = 0; p < n; ++p)
@@ -331,6 +342,10 @@ std::vector<Field> stateFields(const Context& c, std::size_t b, const Eigen::Vec
   if (sc.nodal) pf.push_back(std::move(sp));
   pf.push_back(std::move(state));
   if (sc.forces) pf.push_back(std::move(force));
+  if (c.scene.frictional()) {  // every file of the run has them (zero before the first step)
+    pf.push_back(std::move(friction));
+    pf.push_back(std::move(stickSlip));
+  }
   return pf;
 }
 
@@ -450,6 +465,10 @@ void writeStateVtu(const Context& c, const TimeStepper<d>& stepper, const Newmar
     sc.w = newmark->problem().fromDisplacement(state.v);
     sc.nodal = newmark->nodalContactForces();
     if (c.layout.perBody()) sc.forces = newmark->contactForces();  // the contact_force field
+    if (newmark->frictionForces().size() > 0) {
+      sc.friction = newmark->frictionForces();
+      sc.frictionStates = newmark->frictionStates();
+    }
   } else {
     sc.x = state.u;
     sc.w = state.v;

@@ -818,10 +818,14 @@ StepRecord NewmarkFamily<d>::step() {
   if (problem_->frictional()) {
     const ContactOutputs out = computeContactOutputs(*problem_, increment);
     const double factor = multiplierFactor_ * tau * tau;
+    frictionForces_.setZero(n);
     for (Index k = 0; k < contact_->size(); ++k) {
       frictionDissipation_ += out.tangential[k].norm() / factor * out.slip[k];
       frictionForce += out.tangential[k] / factor;
+      frictionForces_.template segment<d>(static_cast<Eigen::Index>(contact_->vertex(k)) * d) +=
+          out.tangential[k].template head<d>() / factor;
     }
+    frictionStates_ = out.state;
     stickNodes = out.stickNodes;
     slipNodes = out.slipNodes;
   }

@@ -238,8 +238,12 @@ TEST(FrictionScene, SlidingBlockStopsWhereFrictionSaysSo) {
   const double mass = 0.25, muG = 0.2 * 10;
   for (std::size_t k = 0; k < ts.rows; ++k) {
     // v = v0 - mu g t until the stop at 0.5 (the block settling onto the floor disturbs it by < 1 %)
-    if (t[k] < 0.45) EXPECT_NEAR(px[k] / mass, 1 - muG * t[k], 0.01) << "t = " << t[k];
-    if (t[k] > 0.6) EXPECT_LT(std::abs(px[k] / mass), 0.02) << "t = " << t[k];
+    if (t[k] < 0.45) {
+      EXPECT_NEAR(px[k] / mass, 1 - muG * t[k], 0.01) << "t = " << t[k];
+    }
+    if (t[k] > 0.6) {
+      EXPECT_LT(std::abs(px[k] / mass), 0.02) << "t = " << t[k];
+    }
   }
   // the kinetic energy of the slide, 1/2 m v0^2 = 0.125, went into friction (and a little into the
   // settling)

@@ -47,6 +47,15 @@ void expectErrorMentioning(F f, const std::string& word) {
   }
 }
 
+/// Coulomb options: coefficient, iteration cap, tolerance.
+CoulombOptions coulomb(double mu, int maxIterations = 50, double tolerance = 1e-10) {
+  CoulombOptions o;
+  o.mu = mu;
+  o.maxIterations = maxIterations;
+  o.tolerance = tolerance;
+  return o;
+}
+
 template <int d>
 typename TNNMG<d>::Options tight() {
   typename TNNMG<d>::Options o;
@@ -119,10 +128,10 @@ void expectAffineSlip(CellType type, int levels) {
   EXPECT_EQ(out.slipNodes, free);
   EXPECT_LT(r.kkt.max(), 1e-10);
   // Coulomb from zero: the same state, as a fixed point
-  ContactProblem<d> coulomb = affineProblem<d>(m, slide);
+  ContactProblem<d> coulombProblem = affineProblem<d>(m, slide);
   TNNMG<d> solver(grid, tight<d>());
   Eigen::VectorXd v;
-  const CoulombResult c = solveCoulomb(coulomb, solver, v, {mu, 50, 1e-10});
+  const CoulombResult c = solveCoulomb(coulombProblem, solver, v, coulomb(mu));
   EXPECT_TRUE(c.converged);
   EXPECT_LT(maxError<d>(m, v, slide), 1e-8 * scale);
   if (verbose())
@@ -214,7 +223,9 @@ void expectTnnmgAgreesWithGaussSeidel(CellType type, int levels, double shear, d
   const std::vector<double>& s = problem.slipBounds();
   for (Index k = 0; k < problem.contactSet().size(); ++k) {
     EXPECT_LE(out.tangential[k].norm(), s[k] * (1 + 1e-8) + 1e-10 * s[0]);
-    if (out.state[k] == 2) EXPECT_NEAR(out.tangential[k].norm(), s[k], 1e-8 * s[k]);
+    if (out.state[k] == 2) {
+      EXPECT_NEAR(out.tangential[k].norm(), s[k], 1e-8 * s[k]);
+    }
   }
   if (verbose())
     std::cout << "  " << problem.numDofs() << " dofs: TNNMG " << frictionless.iterations << " it frictionless, "
@@ -260,8 +271,8 @@ void expectPdasAgreesWithTnnmg(CellType type, int levels, double shear, double b
   ContactProblem<d> pa = shearedHertz<d>(m, shear), pb = shearedHertz<d>(m, shear);
   Eigen::VectorXd x, y;
   TNNMG<d> t2(grid, tight<d>());
-  const CoulombResult ca = solveCoulomb(pa, t2, x, {0.3, 50, 1e-10});
-  const CoulombResult cb = solveCoulomb(pb, pdas, y, {0.3, 50, 1e-10});
+  const CoulombResult ca = solveCoulomb(pa, t2, x, coulomb(0.3));
+  const CoulombResult cb = solveCoulomb(pb, pdas, y, coulomb(0.3));
   EXPECT_TRUE(ca.converged);
   EXPECT_TRUE(cb.converged);
   EXPECT_LT((x - y).norm(), 1e-7 * x.norm());
@@ -302,7 +313,7 @@ TEST(Friction, ZeroBoundsAreTheFrictionlessSolveBitForBit) {
   // mu = 0 Coulomb: one frictionless solve
   Eigen::VectorXd w;
   TNNMG<2> c(grid, tight<2>());
-  const CoulombResult rc = solveCoulomb(problem, c, w, {0.0});
+  const CoulombResult rc = solveCoulomb(problem, c, w, coulomb(0.0));
   EXPECT_EQ(rc.iterations, 1);
   EXPECT_TRUE(u == w);
 }
@@ -320,8 +331,8 @@ TEST(Friction, BadInputIsRefused) {
   problem.setFriction(std::vector<double>(n, 1.0));
   Eigen::VectorXd u;
   TNNMG<2> tnnmg(grid);
-  expectErrorMentioning([&] { solveCoulomb(problem, tnnmg, u, {-0.1}); }, "coefficient");
-  expectErrorMentioning([&] { solveCoulomb(problem, tnnmg, u, {0.1, 0}); }, "options");
+  expectErrorMentioning([&] { solveCoulomb(problem, tnnmg, u, coulomb(-0.1)); }, "coefficient");
+  expectErrorMentioning([&] { solveCoulomb(problem, tnnmg, u, coulomb(0.1, 0)); }, "options");
 }
 
 }  // namespace

@@ -332,6 +332,12 @@ public:
   /// pressure lambda_p, the contact_pressure of the static scenes (computeContactOutputs). Without
   /// mortar pairs the vector equals contactForces() bitwise.
   Eigen::VectorXd nodalContactForces() const;
+  /// Friction (docs/theory.md#friction-dynamics): the friction forces F_T of the last step at the
+  /// constrained nodes (physical forces of the body on the obstacle / the slave side on the master,
+  /// stacked vertex-major; zero elsewhere, empty without friction or before the first step), and
+  /// per contact node (ContactSet numbering) 0 not in contact, 1 stick, 2 slip.
+  const Eigen::VectorXd& frictionForces() const { return frictionForces_; }
+  const std::vector<char>& frictionStates() const { return frictionStates_; }
   /// The state between steps (checkpoints; throws obs::Error before initialize()).
   NewmarkSchemeState schemeState() const;
   /// Continues from a state taken by schemeState() of a stepper built on the same problem (restart).
@@ -383,6 +389,8 @@ private:
   std::unique_ptr<TNNMG<d>> solver_;
   NodalFriction friction_;          ///< of the model's couplings (empty: frictionless)
   double frictionDissipation_ = 0;  ///< StepRecord::frictionDissipation of the current state
+  Eigen::VectorXd frictionForces_;  ///< frictionForces()
+  std::vector<char> frictionStates_;  ///< frictionStates()
   mesh::CsrMatrix basis_;          ///< C of the mortar pairs (rows() == 0: none)
   std::vector<MortarRow> rows_;    ///< mortar: the constraint rows B of the predictor, per contact node
   DynamicState state_;
