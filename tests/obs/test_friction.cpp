@@ -12,6 +12,7 @@
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Grid.hpp"
+#include "obs/obs/ContactModel.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/Friction.hpp"
 #include "obs/obs/KktResiduals.hpp"
@@ -295,6 +296,99 @@ TEST(Friction, PrimalDualActiveSetRefusesFrictionIn3D) {
   PrimalDualActiveSet<3> pdas;
   Eigen::VectorXd u;
   expectErrorMentioning([&] { pdas.solve(problem, u); }, "friction in 3D");
+}
+
+/// The frictional patch test on non-matching meshes (docs/verification.md#friction): two blocks, the
+/// lower of one cell type, the upper of another, touching at x_d = 1; every face but the interface is
+/// moved by the affine field u = (s + gamma (x_d - 1)) e_1 - eps (x_d - 1) e_d, with s = 0 below and
+/// s = s0 above, so the upper block slides by s0 on the lower one under the uniform pressure
+/// p = (lambda + 2G) eps and shear G gamma = mu p. The dual-mortar pair must reproduce the fields
+/// exactly, and every constrained slave node carry the friction force mu times its normal force.
+template <int d>
+void expectFrictionalMortarPatch(CellType lowerType, int nLower, CellType upperType, int nUpper) {
+  SCOPED_TRACE(std::string(mesh::name(lowerType)) + " / " + std::string(mesh::name(upperType)));
+  mesh::Mesh lower = mesh::boxMesh(lowerType, nLower);
+  mesh::Mesh upper = mesh::boxMesh(upperType, nUpper);
+  for (Index v = 0; v < upper.numVertices(); ++v) upper.vertex(v)[d - 1] += 1;
+  const double mu = 0.3, eps = 1e-3, G = kMaterial.mu(), p = (kMaterial.lambda() + 2 * G) * eps;
+  const double gamma = mu * p / G, s0 = 2e-3;
+  const auto field = [=](double s) {
+    return [=](const Point& x) {
+      Point u = Point::Zero();
+      u[0] = s + gamma * (x[d - 1] - 1);
+      u[d - 1] = -eps * (x[d - 1] - 1);
+      return u;
+    };
+  };
+  const std::vector<int> sides = d == 2 ? std::vector<int>{mesh::kLeft, mesh::kRight}
+                                        : std::vector<int>{mesh::kLeft, mesh::kRight, mesh::kFront, mesh::kBack};
+  // the slave (upper) sides carry the exact traction sigma n instead of Dirichlet data (uniform
+  // stress: sigma_11 = sigma_22 = -lambda eps, sigma_dd = -(lambda + 2G) eps, sigma_1d = G gamma), so
+  // that the slave nodes on the rim of the interface are ordinary contact nodes (Dirichlet data there
+  // would be left out of the mortar transformation, ContactProblem::basisSkip)
+  const double lam = kMaterial.lambda();
+  const auto traction = [=](int side) {
+    Eigen::Vector3d n = Eigen::Vector3d::Zero();
+    if (side == mesh::kLeft) n[0] = -1;
+    if (side == mesh::kRight) n[0] = 1;
+    if (side == mesh::kFront) n[1] = -1;
+    if (side == mesh::kBack) n[1] = 1;
+    Eigen::Matrix3d sigma = Eigen::Matrix3d::Zero();
+    for (int a = 0; a < d - 1; ++a) sigma(a, a) = -lam * eps;
+    sigma(d - 1, d - 1) = -(lam + 2 * G) * eps;
+    sigma(0, d - 1) = sigma(d - 1, 0) = G * gamma;
+    const Eigen::Vector3d t = sigma * n;
+    return [t](const Point&) { return t; };
+  };
+  BoundaryConditions bl, bu;
+  for (int f : sides) {
+    bl.dirichlet.push_back({f, {true, true, true}, field(0)});
+    NeumannCondition nc;
+    nc.boundaryId = f;
+    nc.traction = traction(f);
+    bu.neumann.push_back(nc);
+  }
+  bl.dirichlet.push_back({mesh::kBottom, {true, true, true}, field(0)});
+  bu.dirichlet.push_back({mesh::kTop, {true, true, true}, field(s0)});
+  ContactModel<d> model;
+  model.addBody("lower", lower, kMaterial, bl);
+  model.addBody("upper", upper, kMaterial, bu);
+  model.addMortarPair(1, mesh::kBottom, 0, mesh::kTop, "bottom / top");
+  model.setFriction(0, {FrictionLaw::Type::Coulomb, mu});
+  ContactProblem<d> problem = model.assemble();
+  const mesh::Grid gl(lower), gu(upper);
+  TNNMG<d> tnnmg(std::vector<const mesh::Grid*>{&gl, &gu}, tight<d>());
+  Eigen::VectorXd x;
+  const CoulombResult c = solveFriction(problem, tnnmg, x, nodalFriction(model, problem.contactSet()), coulomb(0));
+  EXPECT_TRUE(c.converged);
+  if (verbose())
+    std::cout << "  mortar patch: " << c.iterations << " Tresca solves, last " << c.last.iterations << " it, kkt "
+              << c.last.kkt.max() << "\n";
+  const Eigen::VectorXd u = problem.toDisplacement(x);
+  double error = 0;
+  for (Index v = 0; v < lower.numVertices(); ++v)
+    error = std::max(error, (u.template segment<d>(v * d) - field(0)(lower.vertex(v)).template head<d>()).cwiseAbs().maxCoeff());
+  const Index off = lower.numVertices();
+  for (Index v = 0; v < upper.numVertices(); ++v)
+    error = std::max(error, (u.template segment<d>((off + v) * d) - field(s0)(upper.vertex(v)).template head<d>())
+                                .cwiseAbs()
+                                .maxCoeff());
+  EXPECT_LT(error, 1e-8 * (s0 + gamma + eps));
+  const ContactOutputs out = computeContactOutputs(problem, x, 1e-8);
+  Index constrained = 0;
+  for (Index k = 0; k < problem.contactSet().size(); ++k) {
+    if (!problem.constraint(k).bounded()) continue;
+    ++constrained;
+    EXPECT_EQ(out.state[k], 2);
+    EXPECT_NEAR(out.tangential[k].norm(), mu * out.multiplier[k], 1e-8 * mu * out.multiplier[k]);
+    EXPECT_NEAR(out.slip[k], s0, 1e-8 * s0);
+  }
+  EXPECT_GT(constrained, 0);
+}
+
+TEST(Friction, UniformSlipOnNonMatchingMeshes) {
+  expectFrictionalMortarPatch<2>(CellType::Triangle, 3, CellType::Quadrilateral, 4);
+  expectFrictionalMortarPatch<3>(CellType::Tetrahedron, 3, CellType::Hexahedron, 4);
 }
 
 TEST(Friction, ZeroBoundsAreTheFrictionlessSolveBitForBit) {

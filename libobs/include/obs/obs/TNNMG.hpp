@@ -22,6 +22,12 @@
 /// History records energy, correction, active-set size and the number of components whose
 /// truncation changed.
 ///
+/// Tresca friction (ContactProblem::setFriction; docs/theory.md#friction-tnnmg) runs through the same
+/// steps: the smoother solves the friction block exactly, the truncation adds the tangential
+/// components of sticking vertices, the defect carries the friction gradient of slipping ones, the
+/// line search minimises the exact nonquadratic energy (frictionLineSearch), and the monitored energy
+/// includes the friction term. The error-bound stopping test is off with friction.
+///
 /// The solver is built for one grid, or for the grids of several bodies (their hierarchies block-
 /// stacked, MultigridHierarchy): the problem must be assembled on the leaf views, stacked in the same
 /// order (the vertex count is checked; obs::Error otherwise). After a grid is adapted, build a new
