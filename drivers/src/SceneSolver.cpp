@@ -281,6 +281,9 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
   std::optional<ContactProblem<d>> problem;
   const auto build = [&](int step) {
     const auto t0 = Clock::now();
+    problem.reset();  // (the old couplings point into stepBcs: gone before it changes)
+    modelOf.reset();
+    couplingsOf.reset();
     const std::vector<BoundaryConditions>* b = &bcs;
     if (scene.loading) {
       stepBcs.clear();
@@ -288,9 +291,6 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
         stepBcs.push_back(makeBoundaryConditions(*bodies[i], *meshes[i], static_cast<double>(step) / steps));
       b = &stepBcs;
     }
-    problem.reset();
-    modelOf.reset();
-    couplingsOf.reset();
     couplingsOf.emplace(sceneCouplings(scene, meshes, *b));
     modelOf.emplace(makeContactModel<d>(couplingsOf->spec, meshes));
     try {
