@@ -27,6 +27,7 @@
 #include <fstream>
 #include <iomanip>
 #include <iostream>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <string>
@@ -48,6 +49,42 @@ namespace {
 
 double since(Clock::time_point t0) { return std::chrono::duration<double>(Clock::now() - t0).count(); }
 
+/// The benchmark problem of the file comment on `level` uniform refinements: the grid, its leaf mesh
+/// and the frictionless contact problem on it (friction is set by the callers).
+template <int d>
+struct Setup {
+  mesh::Grid grid;
+  mesh::Mesh leaf;
+  std::unique_ptr<Obstacle> obstacle;
+  std::optional<ContactProblem<d>> problem;
+
+  explicit Setup(int level)
+      : grid(mesh::boxMesh(d == 2 ? mesh::CellType::Quadrilateral : mesh::CellType::Hexahedron, 2)) {
+    for (int l = 0; l < level; ++l) grid.refineUniformly();
+    leaf = grid.leafView().mesh;
+    BoundaryConditions bc;
+    const Point top = d == 2 ? Point(0.004, -0.02, 0) : Point(0.006, 0.003, -0.03);
+    bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [top](const Point&) { return top; }});
+    if constexpr (d == 2) obstacle = std::make_unique<DiskObstacle>(Point(0.5, -0.5, 0), 0.5);
+    else obstacle = std::make_unique<BallObstacle>(Point(0.5, 0.5, -0.75), 0.75);
+    problem.emplace(leaf, Material{3e5, 0.3}, bc, ContactSet(leaf, mesh::kBottom, *obstacle));
+  }
+};
+
+/// TNNMG to the relative correction 1e-10, at most 500 iterations.
+template <int d>
+typename TNNMG<d>::Options tnnmgOptions() {
+  typename TNNMG<d>::Options o;
+  o.tolerance = 1e-10;
+  o.maxIterations = 500;
+  return o;
+}
+
+/// The Tresca slip bound of the benchmark: 0.3 x the mean contact pressure of a frictionless solution.
+double trescaBound(const ContactOutputs& frictionless) {
+  return frictionless.contactArea > 0 ? 0.3 * frictionless.force.norm() / frictionless.contactArea : 0;
+}
+
 struct Row {
   long long dofs = 0;
   int plain = 0, tresca = 0, solves = 0;
@@ -59,20 +96,10 @@ struct Row {
 
 template <int d>
 Row measure(int level) {
-  mesh::Grid grid(mesh::boxMesh(d == 2 ? mesh::CellType::Quadrilateral : mesh::CellType::Hexahedron, 2));
-  for (int l = 0; l < level; ++l) grid.refineUniformly();
-  const mesh::Mesh& m = grid.leafView().mesh;
-  const Material material{3e5, 0.3};
-  BoundaryConditions bc;
-  const Point top = d == 2 ? Point(0.004, -0.02, 0) : Point(0.006, 0.003, -0.03);
-  bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [top](const Point&) { return top; }});
-  std::unique_ptr<Obstacle> obstacle;
-  if constexpr (d == 2) obstacle = std::make_unique<DiskObstacle>(Point(0.5, -0.5, 0), 0.5);
-  else obstacle = std::make_unique<BallObstacle>(Point(0.5, 0.5, -0.75), 0.75);
-  ContactProblem<d> problem(m, material, bc, ContactSet(m, mesh::kBottom, *obstacle));
-  typename TNNMG<d>::Options o;
-  o.tolerance = 1e-10;
-  o.maxIterations = 500;
+  Setup<d> setup(level);
+  const mesh::Grid& grid = setup.grid;
+  ContactProblem<d>& problem = *setup.problem;
+  const typename TNNMG<d>::Options o = tnnmgOptions<d>();
   Row r;
   r.dofs = problem.numDofs();
   {
@@ -83,9 +110,7 @@ Row measure(int level) {
     r.plainSeconds = since(t0);
     r.plain = c.iterations;
     r.converged = r.converged && c.converged;
-    const ContactOutputs out = computeContactOutputs(problem, u);
-    const double meanPressure = out.contactArea > 0 ? (out.force.norm() / out.contactArea) : 0;
-    problem.setFriction(trescaSlipBounds(problem.contactSet(), 0.3 * meanPressure));
+    problem.setFriction(trescaSlipBounds(problem.contactSet(), trescaBound(computeContactOutputs(problem, u))));
     Eigen::VectorXd v;
     t0 = Clock::now();
     const ContactResult t = tnnmg.solve(problem, v);
@@ -124,23 +149,15 @@ struct BaselineRow {
 /// The 2D Tresca problem of measure() on `level`, solved by TNNMG (solver 0) or PDAS (1) in a child
 /// process; writes iterations, seconds, peak MB, converged and the solution to the pipe.
 void baselineChild(int level, int solver, int fd) {
-  mesh::Grid grid(mesh::boxMesh(mesh::CellType::Quadrilateral, 2));
-  for (int l = 0; l < level; ++l) grid.refineUniformly();
-  const mesh::Mesh& m = grid.leafView().mesh;
-  BoundaryConditions bc;
-  bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Point(0.004, -0.02, 0); }});
-  const DiskObstacle disk(Point(0.5, -0.5, 0), 0.5);
-  ContactProblem<2> problem(m, Material{3e5, 0.3}, bc, ContactSet(m, mesh::kBottom, disk));
-  // the slip bound of measure(): 0.3 x the mean contact pressure of the frictionless solution
-  typename TNNMG<2>::Options o;
-  o.tolerance = 1e-10;
-  o.maxIterations = 500;
-  {
+  Setup<2> setup(level);
+  const mesh::Grid& grid = setup.grid;
+  ContactProblem<2>& problem = *setup.problem;
+  const TNNMG<2>::Options o = tnnmgOptions<2>();
+  {  // the slip bound of measure()
     TNNMG<2> tnnmg(grid, o);
     Eigen::VectorXd u;
     tnnmg.solve(problem, u);
-    const ContactOutputs out = computeContactOutputs(problem, u);
-    problem.setFriction(trescaSlipBounds(problem.contactSet(), 0.3 * out.force.norm() / out.contactArea));
+    problem.setFriction(trescaSlipBounds(problem.contactSet(), trescaBound(computeContactOutputs(problem, u))));
   }
   Eigen::VectorXd u;
   ContactResult r;
@@ -225,21 +242,9 @@ struct SweepRow {
 
 template <int d>
 SweepRow sweep(int level, double mu) {
-  mesh::Grid grid(mesh::boxMesh(d == 2 ? mesh::CellType::Quadrilateral : mesh::CellType::Hexahedron, 2));
-  for (int l = 0; l < level; ++l) grid.refineUniformly();
-  const mesh::Mesh& m = grid.leafView().mesh;
-  const Material material{3e5, 0.3};
-  BoundaryConditions bc;
-  const Point top = d == 2 ? Point(0.004, -0.02, 0) : Point(0.006, 0.003, -0.03);
-  bc.dirichlet.push_back({mesh::kTop, {true, true, true}, [top](const Point&) { return top; }});
-  std::unique_ptr<Obstacle> obstacle;
-  if constexpr (d == 2) obstacle = std::make_unique<DiskObstacle>(Point(0.5, -0.5, 0), 0.5);
-  else obstacle = std::make_unique<BallObstacle>(Point(0.5, 0.5, -0.75), 0.75);
-  ContactProblem<d> problem(m, material, bc, ContactSet(m, mesh::kBottom, *obstacle));
-  typename TNNMG<d>::Options o;
-  o.tolerance = 1e-10;
-  o.maxIterations = 500;
-  TNNMG<d> tnnmg(grid, o);
+  Setup<d> setup(level);
+  ContactProblem<d>& problem = *setup.problem;
+  TNNMG<d> tnnmg(setup.grid, tnnmgOptions<d>());
   Eigen::VectorXd u;
   SweepRow r;
   r.mu = mu;
