@@ -653,6 +653,27 @@ void ContactProblem<d>::setFriction(std::vector<double> slipBounds, Eigen::Vecto
   }
   if (origin.size() != 0 && !origin.allFinite())
     throw Error("contact problem: setFriction: the origin contains NaN or Inf");
+  // A prescribed component of a mortar slave vertex is left out of the transformation (basisSkip()):
+  // it is an absolute displacement, and the friction term sees only the free, relative components.
+  // That is the relative slip only if the master moves no more in that component, i.e. if every
+  // master vertex of the slave's row of C has it prescribed too (a symmetry plane through both
+  // bodies). Otherwise the master could slide along it unopposed: refuse.
+  if (any && !skip_.empty())
+    for (std::size_t k = 0; k < slipBounds.size(); ++k) {
+      if (!(slipBounds[k] > 0) || !constraints_[k].bounded()) continue;
+      const Index p = constraints_[k].vertex;
+      for (int a = 0; a < d; ++a) {
+        if (!(skip_[static_cast<std::size_t>(p)] & (1u << a))) continue;
+        for (Index j = basis_.rowStart[p]; j < basis_.rowStart[p + 1]; ++j)
+          if (!dirichlet_.constrained[static_cast<std::size_t>(basis_.columns[j]) * d + a])
+            throw Error("contact problem: friction at mortar slave vertex " + std::to_string(p) + " (contact node " +
+                        std::to_string(k) + " of " + contact_.boundaryLabel() + "): its " + "xyz"[a] +
+                        " component is prescribed, but master vertex " + std::to_string(basis_.columns[j]) +
+                        " moves freely in " + "xyz"[a] + ", so the relative slip in " + "xyz"[a] +
+                        " would escape friction; prescribe it on both surfaces (a symmetry plane) or move the "
+                        "Dirichlet data off the slave side of the contact interface");
+      }
+    }
   slip_ = any ? std::move(slipBounds) : std::vector<double>{};
   origin_ = any ? std::move(origin) : Eigen::VectorXd{};
 }

@@ -386,6 +386,29 @@ void expectFrictionalMortarPatch(CellType lowerType, int nLower, CellType upperT
   EXPECT_GT(constrained, 0);
 }
 
+/// A roller on the slave side of a mortar interface whose master side is free: the prescribed
+/// component is left out of the mortar transformation, so friction could not see the relative slip
+/// along it. The problem refuses the friction term there instead of solving something else.
+TEST(Friction, SlaveRollerAgainstAFreeMasterIsRefused) {
+  mesh::Mesh lower = mesh::boxMesh(CellType::Quadrilateral, 3);
+  mesh::Mesh upper = mesh::boxMesh(CellType::Triangle, 4);
+  for (Index v = 0; v < upper.numVertices(); ++v) upper.vertex(v)[1] += 1;
+  BoundaryConditions bl, bu;
+  bl.dirichlet.push_back({mesh::kBottom, {true, true, true}, [](const Point&) { return Point::Zero(); }});
+  bu.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Point(0.0, -1e-3, 0.0); }});
+  for (int side : {mesh::kLeft, mesh::kRight})  // rollers on the slave's sides, reaching the interface
+    bu.dirichlet.push_back({side, {true, false, false}, [](const Point&) { return Point::Zero(); }});
+  ContactModel<2> model;
+  model.addBody("lower", lower, kMaterial, bl);
+  model.addBody("upper", upper, kMaterial, bu);
+  model.addMortarPair(1, mesh::kBottom, 0, mesh::kTop, "bottom / top");
+  ContactProblem<2> problem = model.assemble();
+  const auto n = static_cast<std::size_t>(problem.contactSet().size());
+  expectErrorMentioning([&] { problem.setFriction(std::vector<double>(n, 1.0)); }, "would escape friction");
+  problem.setFriction(std::vector<double>(n, 0.0));  // no friction: nothing to refuse
+  EXPECT_FALSE(problem.frictional());
+}
+
 TEST(Friction, UniformSlipOnNonMatchingMeshes) {
   expectFrictionalMortarPatch<2>(CellType::Triangle, 3, CellType::Quadrilateral, 4);
   expectFrictionalMortarPatch<3>(CellType::Tetrahedron, 3, CellType::Hexahedron, 4);
