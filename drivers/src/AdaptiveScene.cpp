@@ -169,7 +169,7 @@ void writeStepsCsv(const fs::path& path, const std::vector<est::AdaptiveStep>& s
   if (!out) throw Error(path.string() + ": cannot write the steps table");
 }
 
-nlohmann::json stepJson(const est::AdaptiveStep& s, double nodalError, double nodalErrorFixedLoad) {
+nlohmann::json stepJson(const est::AdaptiveStep& s, double nodalError, double nodalErrorFixedLoad, bool friction) {
   nlohmann::json j;
   j["step"] = s.step;
   j["cells"] = s.cells;
@@ -190,6 +190,16 @@ nlohmann::json stepJson(const est::AdaptiveStep& s, double nodalError, double no
   j["converged"] = s.converged;
   j["kkt"] = jnum(s.kkt);
   j["load"] = s.load;
+  if (friction) {  // summed over the couplings (per pair in "pairs" of static runs)
+    Eigen::Vector3d force = Eigen::Vector3d::Zero();
+    Index stick = 0, slip = 0;
+    for (const auto& c : s.couplings) {
+      force += c.tangentialSlave;
+      stick += c.stickVertices;
+      slip += c.slipVertices;
+    }
+    j["friction"] = {{"tangential_force", {force[0], force[1], force[2]}}, {"stick_vertices", stick}, {"slip_vertices", slip}};
+  }
   j["times"] = {{"assembly_s", s.assemblySeconds}, {"solver_s", s.solverSeconds},
                 {"estimator_s", s.estimatorSeconds}, {"refinement_s", s.refinementSeconds},
                 {"transfer_s", s.transferSeconds}};
@@ -264,6 +274,18 @@ void snapshotStep(const Scene& scene, const est::AdaptiveStepView& v, const std:
         sp.values[static_cast<std::size_t>(v.contactSet->vertex(k))] = v.outputs->pressure[k];
   snap.points.push_back(std::move(sp));
   snap.points.push_back(std::move(cls));
+  if (scene.frictional()) {  // as in static runs: the friction force on the body and the stick/slip state
+    Field force{"friction_force", 3, std::vector<double>(3 * nv, 0.0), false};
+    Field state{"stick_slip", 1, std::vector<double>(nv, 0.0), true};
+    if (v.contactSet && v.outputs && v.outputs->tangential.size() == static_cast<std::size_t>(v.contactSet->size()))
+      for (Index k = 0; k < v.contactSet->size(); ++k) {
+        const auto p = static_cast<std::size_t>(v.contactSet->vertex(k));
+        for (int a = 0; a < 3; ++a) force.values[3 * p + a] = -v.outputs->tangential[static_cast<std::size_t>(k)][a];
+        state.values[p] = v.outputs->state[static_cast<std::size_t>(k)];
+      }
+    snap.points.push_back(std::move(force));
+    snap.points.push_back(std::move(state));
+  }
   auto taken = [&](const std::vector<Field>& fs, const std::string& n) {
     return std::any_of(fs.begin(), fs.end(), [&](const Field& f) { return f.name == n; });
   };
@@ -552,14 +574,19 @@ void finishAdaptiveRun(const Scene& scene, const RunOptions& options, const fs::
   a["steps"] = nlohmann::json::array();
   for (const auto& s : steps)
     a["steps"].push_back(
-        stepJson(s, nodalErrors.at(nodalErrors.load, s.step), nodalErrors.at(nodalErrors.fixedLoad, s.step)));
+        stepJson(s, nodalErrors.at(nodalErrors.load, s.step), nodalErrors.at(nodalErrors.fixedLoad, s.step),
+                 scene.frictional()));
   finishRun(scene, options, dir, r, t, start, {{"adaptivity", a}});
   if (!final.converged) {
     std::ostringstream os;
     os << scene.where(scene.solver.line) << "[solver] " << final.solver << " did not converge in step "
        << final.step << " (" << final.solverIterations
        << " iterations), so the adaptive loop stopped there without estimating on it; raise [solver] "
-          "max_iterations or tolerance (outputs written to "
+          "max_iterations or tolerance"
+       << (scene.frictional() ? "; with Coulomb friction the fixed point over Tresca solves may be what failed "
+                                "(docs/theory.md#friction-coulomb)"
+                              : "")
+       << " (outputs written to "
        << dir.string() << ")";
     throw Error(os.str());
   }

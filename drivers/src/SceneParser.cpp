@@ -760,24 +760,6 @@ void parseLoading(Scene& scene, const toml::value* table) {
   scene.loading = spec;
 }
 
-/// Friction is solved by the static runner (tnnmg, pgs; pdas in 2D) and by time stepping: the line of
-/// the first friction = {...} of the scene (one-body [contact], a body's obstacle, a pair), and an
-/// error for the adaptive loop, which does not support it.
-void checkFriction(const Scene& scene) {
-  int line = 0;
-  const auto take = [&line](const std::optional<FrictionSpec>& f) {
-    if (f && (line == 0 || f->line < line)) line = f->line;
-  };
-  if (scene.contact) take(scene.contact->friction);
-  for (const Scene& b : scene.bodies)
-    if (b.contact) take(b.contact->friction);
-  for (const MortarPairSpec& p : scene.pairs) take(p.friction);
-  if (line == 0) return;
-  if (scene.adaptivity)
-    throw Error(scene.where(line) + "friction is solved in static and dynamic runs: a scene with [adaptivity] "
-                "cannot have friction yet (docs/scenes.md#friction)");
-}
-
 Scene parseSceneString(const std::string& text, const std::string& fileName,
                        const std::filesystem::path& directory,
                        const std::vector<std::string>& overrides) {
@@ -866,7 +848,6 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
       throw Error(scene.where(scene.output.checkpoint->line) +
                   "[output] checkpoint applies to [dynamics] and [adaptivity] scenes only (static runs write none)");
     parseLoading(scene, find("loading"));
-    checkFriction(scene);
     return scene;
   }
   parseBodySections(scene, t, "", 0);
@@ -886,7 +867,6 @@ Scene parseSceneString(const std::string& text, const std::string& fileName,
     throw Error(scene.where(scene.output.checkpoint->line) +
                 "[output] checkpoint applies to [dynamics] and [adaptivity] scenes only (static runs write none)");
   parseLoading(scene, find("loading"));
-  checkFriction(scene);
   return scene;
 }
 

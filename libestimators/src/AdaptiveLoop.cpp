@@ -16,6 +16,7 @@
 #include "obs/obs/CholmodSolver.hpp"
 #include "obs/obs/ContactSet.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
+#include "obs/obs/Friction.hpp"
 #include "obs/obs/MultiBody.hpp"
 #include "obs/obs/Parallel.hpp"
 #include "obs/obs/SurfaceObstacle.hpp"
@@ -379,6 +380,7 @@ struct BodyState {
   std::vector<std::unique_ptr<Obstacle>> ownObstacles;  ///< mortar gaps, minimum
   const Obstacle* gap = nullptr;        ///< the exact gap for the estimator
   Eigen::VectorXd traction;             ///< master sides: mortar traction by vertex (empty: none)
+  bool friction = false;                ///< the model has friction (ContactData::friction)
   std::vector<int> masterIds;
   ContactNodeClasses classes;
   std::optional<EstimatorResult> estimate;
@@ -399,16 +401,26 @@ void bodyContactData(const ContactModel<d>& model, const ContactProblem<d>& prob
     BodyState& b = body[i];
     const mesh::Mesh& m = views[i].mesh;
     const Index n = m.numVertices();
+    b.friction = model.frictional();
     std::vector<std::size_t> constrained;
     for (std::size_t j = 0; j < couplings.size(); ++j) {
       const auto& c = couplings[j];
       if (c.mortar && c.master == static_cast<int>(i)) {
         b.estimatorIds.push_back(c.masterId);
         b.masterIds.push_back(c.masterId);
-        Eigen::VectorXd mu = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(c.nodes.size()));
-        for (std::size_t k = 0; k < c.nodes.size(); ++k)
-          if (problem.constraint(c.nodes[k]).bounded()) mu[static_cast<Eigen::Index>(k)] = out.multiplier[c.nodes[k]];
-        const Eigen::VectorXd force = c.coupling->masterForces(mu);
+        Eigen::VectorXd force;
+        if (model.frictional()) {  // the slave's nodal forces mu_p n_p + f_T,p, friction included
+          std::vector<Point> f(c.nodes.size(), Point::Zero());
+          for (std::size_t k = 0; k < c.nodes.size(); ++k)
+            if (problem.constraint(c.nodes[k]).bounded())
+              f[k] = out.multiplier[c.nodes[k]] * cs.direction(c.nodes[k]) + out.tangential[c.nodes[k]];
+          force = c.coupling->masterForces(f);
+        } else {
+          Eigen::VectorXd mu = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(c.nodes.size()));
+          for (std::size_t k = 0; k < c.nodes.size(); ++k)
+            if (problem.constraint(c.nodes[k]).bounded()) mu[static_cast<Eigen::Index>(k)] = out.multiplier[c.nodes[k]];
+          force = c.coupling->masterForces(mu);
+        }
         const std::vector<double> mass = boundaryLumpedMass(m, c.masterId);
         if (b.traction.size() == 0) b.traction = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(n) * d);
         for (Index q = 0; q < n; ++q)
@@ -488,6 +500,9 @@ void bodyContactData(const ContactModel<d>& model, const ContactProblem<d>& prob
       o.inContact.push_back(out.inContact[s]);
       o.multiplier.push_back(out.multiplier[s]);
       o.pressure.push_back(out.pressure[s]);
+      o.tangential.push_back(out.tangential[s]);
+      o.slip.push_back(out.slip[s]);
+      o.state.push_back(out.state[s]);
       o.contactNodes += out.inContact[s] ? 1 : 0;
       o.force += out.multiplier[s] * cs.direction(node);
     }
@@ -546,6 +561,7 @@ void estimateStep(Estimator& estimator, const std::vector<AdaptiveBody>& bodies,
     if (b.set || b.traction.size() > 0) {
       data = ContactData{b.set, b.outputs ? &*b.outputs : nullptr, b.gap, b.traction.size() > 0 ? &b.traction : nullptr,
                          b.masterIds};
+      data.friction = b.friction;
       in.contact = &data;
     }
     b.estimate = estimator.estimate(in);
@@ -671,7 +687,18 @@ void AdaptiveLoop::solveStep(const std::vector<mesh::GridView>& views, const std
   SolverConfig config = options_.solver;
   if (config.kind == ContactSolverKind::TNNMG) config.tolerance = inexactTolerance(steps, rec, d);
   rec.solverTolerance = config.tolerance;
-  const ContactResult result = makeContactSolver<d>(config, grids, {}, false)->solve(*problem, x);
+  const auto solver = makeContactSolver<d>(config, grids, {}, false);
+  ContactResult result;
+  if (model->frictional()) {  // Tresca: one solve; Coulomb: the fixed point over Tresca solves
+    CoulombOptions options;
+    options.tolerance = std::max(options.tolerance, 10 * config.tolerance);
+    const CoulombResult fr = solveFriction(*problem, *solver, x, nodalFriction(*model, problem->contactSet()), options);
+    result = fr.last;
+    result.iterations = static_cast<int>(fr.innerIterations);
+    result.converged = fr.converged && fr.last.converged;
+  } else {
+    result = solver->solve(*problem, x);
+  }
   rec.solverSeconds = since(t);
   rec.solver = result.solver;
   rec.solverIterations = result.iterations;

@@ -136,6 +136,58 @@ void masterTractionSquares(int d, const ContactFace& face, const Eigen::VectorXd
   }
 }
 
+/// The friction traction on the body per mesh vertex (d entries each; empty without friction):
+/// -f_T,k / m_k at the vertex of contact node k in actual contact with a friction force (stick or
+/// slip, ContactOutputs::state; f_T = ContactOutputs::tangential, m_k = ContactSet::boundaryMass),
+/// zero off actual contact. A vertex in actual contact (`actual`) without a friction force (its
+/// tangential displacement prescribed, e.g. where a Dirichlet side meets the contact boundary) has
+/// a nodal residual that mixes the Dirichlet reaction in: it gets the mean traction of the
+/// friction nodes it shares a contact face with (docs/theory.md#friction-estimators).
+Eigen::VectorXd frictionTraction(const EstimatorInput& in, const std::vector<ContactFace>& faces,
+                                 const ContactNodeClasses& classes) {
+  const ContactData* c = in.contact;
+  if (!c || !c->friction || !c->set || !c->outputs) return {};
+  const ContactSet& set = *c->set;
+  const ContactOutputs& out = *c->outputs;
+  if (out.tangential.size() != static_cast<std::size_t>(set.size()) || out.state.size() != out.tangential.size())
+    throw Error("estimator 'contact-residual': the contact outputs have " + std::to_string(out.tangential.size()) +
+                " tangential forces, the contact set " + set.boundaryLabel() + " has " + std::to_string(set.size()) +
+                " nodes (friction needs ContactOutputs::tangential and state)");
+  const int d = in.mesh.dimension();
+  const auto nv = static_cast<std::size_t>(in.mesh.numVertices());
+  Eigen::VectorXd t = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(nv) * d);
+  std::vector<char> known(nv, 0);
+  for (Index k = 0; k < set.size(); ++k) {
+    const auto s = static_cast<std::size_t>(k);
+    const Point& fk = out.tangential[s];
+    if (!fk.allFinite())
+      throw Error("estimator 'contact-residual': the friction force of contact node " + std::to_string(k) +
+                  " (vertex " + std::to_string(set.vertex(k)) + ") is not finite");
+    const double m = set.boundaryMass(k);
+    if (out.state[s] == 0 || !(m > 0)) continue;
+    t.segment(static_cast<Eigen::Index>(set.vertex(k)) * d, d) = -fk.head(d) / m;
+    known[static_cast<std::size_t>(set.vertex(k))] = 1;
+  }
+  const auto actual = [&](Index v) {
+    const NodeClass k = classes.ofVertex[static_cast<std::size_t>(v)];
+    return k == NodeClass::Semi || k == NodeClass::Full;
+  };
+  Eigen::VectorXd sum = Eigen::VectorXd::Zero(t.size());
+  std::vector<int> count(nv, 0);
+  for (const ContactFace& face : faces)
+    for (Index v : face.vertices) {
+      if (known[static_cast<std::size_t>(v)] || !actual(v)) continue;
+      for (Index w : face.vertices)
+        if (known[static_cast<std::size_t>(w)]) {
+          sum.segment(static_cast<Eigen::Index>(v) * d, d) += t.segment(static_cast<Eigen::Index>(w) * d, d);
+          ++count[static_cast<std::size_t>(v)];
+        }
+    }
+  for (std::size_t v = 0; v < nv; ++v)
+    if (count[v] > 0) t.segment(static_cast<Eigen::Index>(v) * d, d) = sum.segment(static_cast<Eigen::Index>(v) * d, d) / count[v];
+  return t;
+}
+
 }  // namespace
 
 ContactNodeClasses classifyContactNodes(const mesh::Mesh& mesh, const std::vector<int>& contactIds,
@@ -229,6 +281,11 @@ void ContactResidualEstimator::addContactFaces(const EstimatorInput& input,
     return traction && std::find(masterIds.begin(), masterIds.end(), f.boundaryId) != masterIds.end();
   };
 
+  // with friction, the friction traction on the body, -f_T,p / m_p per contact node (f_T the
+  // tangential force on the obstacle, ContactOutputs::tangential): eta_4 then measures the
+  // tangential stress against it (docs/theory.md#friction-estimators)
+  const Eigen::VectorXd friction = frictionTraction(input, faces, classes);
+
   // eta_4 over N^C, eta_5 over N^C \ N^fC; on master faces the tangential and normal parts of
   // t_h - sigma_h n at every vertex (docs/theory.md#two-body-estimator)
   std::vector<int> faceCount(static_cast<std::size_t>(nv), 0);
@@ -242,7 +299,7 @@ void ContactResidualEstimator::addContactFaces(const EstimatorInput& input,
       }
       continue;
     }
-    boundaryStressSquares(input, face, tangential, normal);
+    boundaryStressSquares(input, face, tangential, normal, friction.size() > 0 ? &friction : nullptr);
     for (Index p : face.vertices) {
       ++faceCount[p];
       table.add(kEta4, p, face.cell, h[p] * tangential);

@@ -605,7 +605,7 @@ std::vector<std::string> ResidualEstimator::contributionNames() const {
 }
 
 void ResidualEstimator::boundaryStressSquares(const EstimatorInput& input, const ContactFace& face,
-                                              double& tangential, double& normal) {
+                                              double& tangential, double& normal, const Eigen::VectorXd* traction) {
   const int d = input.mesh.dimension();
   const ContactSet* set = input.contact ? input.contact->set : nullptr;
   // nodal directions if every face vertex is a contact node of the set
@@ -622,6 +622,9 @@ void ResidualEstimator::boundaryStressSquares(const EstimatorInput& input, const
   normal = 0;
   for (const ContactFacePoint& q : face.points) {
     Eigen::Vector3d w = -q.traction;  // traction-free: J = 0 - sigma n
+    if (traction)
+      for (std::size_t j = 0; j < face.vertices.size(); ++j)
+        w.head(d) += q.shape[j] * traction->segment(static_cast<Eigen::Index>(face.vertices[j]) * d, d);
     for (int c = 0; c < 3; ++c)
       if (c >= d || face.fixed[c]) w[c] = 0;
     Point nu = q.normal;

@@ -550,4 +550,17 @@ Eigen::VectorXd MortarCoupling::masterForces(const Eigen::VectorXd& multipliers)
   return f;
 }
 
+Eigen::VectorXd MortarCoupling::masterForces(const std::vector<Point>& forces) const {
+  if (forces.size() != nodes_.size())
+    throw Error("mortar coupling " + label_ + ": " + std::to_string(forces.size()) + " nodal forces for " +
+                std::to_string(nodes_.size()) + " slave nodes");
+  Eigen::VectorXd f = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(numStacked_) * dim_);
+  for (std::size_t k = 0; k < nodes_.size(); ++k) {
+    const Point lambda = forces[k] / D_[k];
+    for (const Entry& en : M_[k])
+      for (int a = 0; a < dim_; ++a) f[static_cast<Eigen::Index>(en.vertex) * dim_ + a] += en.value * lambda[a];
+  }
+  return f;
+}
+
 }  // namespace obs

@@ -205,6 +205,63 @@ TEST(FrictionScene, CattaneoMindlinPathInIncrements) {
   EXPECT_NEAR(p.friction->stickRadius / p.radius, std::sqrt(1 - q), 0.08);
 }
 
+std::string fileText(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+/// The adaptive loop with friction (docs/theory.md#friction-estimators). On the uniform-slip scene the
+/// discrete solution is the exact affine field, whose stress is constant and whose shear on the
+/// contact boundary is the friction traction: the contact estimator, which measures the tangential
+/// stress against the friction traction, is round-off there, while the standard residual estimator
+/// counts the shear as error.
+TEST(FrictionScene, AdaptiveLoopMeasuresTheStressAgainstTheFrictionTraction) {
+  const std::string slip = fileText(kScenes / "friction_slip.toml");
+  const auto adaptive = [](const std::string& estimator) {
+    return "\n[adaptivity]\nrefinement = \"adaptive\"\nestimator = \"" + estimator +
+           "\"\nmarking = \"maximum\"\ntheta = 0.5\nsteps = 2\n";
+  };
+  const fs::path outC = kTmp / "adaptive_contact", outR = kTmp / "adaptive_residual";
+  const RunResult c = runIn(writeScene("adaptive_contact", slip + adaptive("contact-residual")), outC, 2);
+  const RunResult r = runIn(writeScene("adaptive_residual", slip + adaptive("residual")), outR, 2);
+  EXPECT_TRUE(c.solver.converged);
+  const nlohmann::json jc = summaryOf(outC)["adaptivity"]["steps"], jr = summaryOf(outR)["adaptivity"]["steps"];
+  ASSERT_EQ(jc.size(), 2u);
+  ASSERT_EQ(jr.size(), 2u);
+  for (std::size_t k = 0; k < 2; ++k) {
+    const double etaC = jc[k]["eta"].get<double>(), etaR = jr[k]["eta"].get<double>();
+    EXPECT_GT(etaR, 0);
+    // round-off of the affine field and the fixed point's tolerance (1e-6 of the slip bounds)
+    EXPECT_LT(etaC, 1e-5 * etaR) << "step " << k;
+    // every contact vertex slips, and the friction force is mu times the normal force; the two
+    // bottom corners are in contact (node classes) but prescribed, so without a friction unknown
+    const nlohmann::json& f = jc[k]["friction"];
+    EXPECT_EQ(f["stick_vertices"].get<long long>(), 0);
+    EXPECT_EQ(f["slip_vertices"].get<long long>() + 2, jc[k]["actual_contact"].get<long long>());
+    EXPECT_NEAR(f["tangential_force"][0].get<double>(), -0.3 * jc[k]["load"].get<double>(),
+                1e-5 * jc[k]["load"].get<double>());
+  }
+  // partial slip: the contact estimator refines, and the last step's .vtu has the friction fields
+  const std::string cylinder = fileText(kScenes / "friction_cylinder.toml");
+  const fs::path outY = kTmp / "adaptive_cylinder";
+  const RunResult y = runIn(writeScene("adaptive_cylinder", cylinder + adaptive("contact-residual")), outY, 2);
+  EXPECT_TRUE(y.solver.converged);
+  const nlohmann::json jy = summaryOf(outY)["adaptivity"]["steps"];
+  ASSERT_EQ(jy.size(), 2u);
+  EXPECT_GT(jy[1]["vertices"].get<long long>(), jy[0]["vertices"].get<long long>());
+  EXPECT_GT(jy[1]["friction"]["stick_vertices"].get<long long>(), 0);
+  EXPECT_GT(jy[1]["friction"]["slip_vertices"].get<long long>(), 0);
+  bool found = false;
+  for (const auto& e : fs::directory_iterator(outY))
+    if (e.path().extension() == ".vtu") {
+      const auto vtu = readVtu(e.path());
+      EXPECT_FALSE(vtu.array("friction_force").empty()) << e.path();
+      EXPECT_FALSE(vtu.array("stick_slip").empty()) << e.path();
+      found = true;
+    }
+  EXPECT_TRUE(found);
+}
+
 TEST(FrictionScene, LoadingErrors) {
   expectErrorWith(errorOf("steps0", punch("", "[loading]\nsteps = 0\n")), {"[loading] steps", "[1, 10000]"});
   expectErrorWith(errorOf("stepskey", punch("", "[loading]\nincrements = 3\n")), {"[loading]", "increments"});

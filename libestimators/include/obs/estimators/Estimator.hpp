@@ -78,6 +78,10 @@ struct ContactData {
   const Obstacle* obstacle = nullptr;       ///< the exact gap g (eta_7, eta_8)
   const Eigen::VectorXd* masterTraction = nullptr;  ///< master side of mortar pairs (see above)
   std::vector<int> masterBoundaryIds{};             ///< the faces masterTraction acts on
+  /// True if the contact has friction: outputs->tangential are then friction forces, and
+  /// `contact-residual` measures the tangential boundary stress against their traction instead of
+  /// against zero (docs/theory.md#friction-estimators).
+  bool friction = false;
 };
 
 /// What an estimator needs: the problem (mesh, material, boundary conditions) and the discrete

@@ -114,11 +114,13 @@ protected:
   virtual void decorate(const EstimatorInput& input, EstimatorResult& result) const;
 
   /// The squared norms over the face of the tangential and normal parts of the boundary stress
-  /// w = -sigma_h n (Dirichlet-fixed components dropped), split with nu = the normalised
+  /// w = t_h - sigma_h n (Dirichlet-fixed components dropped), split with nu = the normalised
   /// interpolation of the nodal directions nu_p of contact->set if every face vertex is a node of
   /// the set, else the outward normal n:  normal = ||w.nu||_F^2, tangential = ||w - (w.nu) nu||_F^2.
+  /// t_h = sum_p phi_p t_p interpolates a given traction per mesh vertex (`traction`, d entries per
+  /// vertex, e.g. the friction traction); without it t_h = 0 (a traction-free boundary).
   static void boundaryStressSquares(const EstimatorInput& input, const ContactFace& face,
-                                    double& tangential, double& normal);
+                                    double& tangential, double& normal, const Eigen::VectorXd* traction = nullptr);
 
 private:
   template <int d>

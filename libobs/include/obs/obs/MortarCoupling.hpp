@@ -114,6 +114,9 @@ public:
   /// stacked (numStackedVertices * d entries). The slave body receives -mu_p n_p at its node p, so
   /// the totals are equal and opposite (sum_q M_pq = D_pp).
   Eigen::VectorXd masterForces(const Eigen::VectorXd& multipliers) const;
+  /// The same for a force vector per slave node (F_p = mu_p n_p plus, with friction, the tangential
+  /// force ContactOutputs::tangential): f_q = sum_p (M_pq / D_pp) F_p.
+  Eigen::VectorXd masterForces(const std::vector<Point>& forces) const;
 
 private:
   int dim_ = 0;
