@@ -23,7 +23,22 @@ void DirectCorrection<d>::setOperator(const BlockSparseMatrix<d>& A, std::vector
   }
   solver_.reset();
   updates_ = 0;
+  termVertices_.clear();
+  termBlocks_.clear();
+  pending_ = false;
   factorize();
+}
+
+template <int d>
+bool DirectCorrection<d>::setDiagonalTerm(std::vector<Index> vertices, std::vector<Eigen::Matrix<double, d, d>> blocks) {
+  if (!A_) throw Error("direct correction: setDiagonalTerm() before setOperator()");
+  if (vertices.size() != blocks.size()) throw Error("direct correction: diagonal term with vertices and blocks of different sizes");
+  for (Index p : vertices)
+    if (p < 0 || p >= A_->rows()) throw Error("direct correction: diagonal term at a vertex out of range");
+  pendingVertices_ = std::move(vertices);
+  pendingBlocks_ = std::move(blocks);
+  pending_ = true;
+  return true;
 }
 
 template <int d>
@@ -32,7 +47,14 @@ Index DirectCorrection<d>::truncate(const std::vector<char>& mask) {
   if (mask.size() != mask_.size()) throw Error("direct correction: truncation mask of wrong size");
   Index changes = 0;
   for (std::size_t i = 0; i < mask.size(); ++i) changes += (mask[i] != 0) != (mask_[i] != 0);
-  if (changes > 0) {
+  bool term = false;
+  if (pending_) {
+    pending_ = false;
+    term = pendingVertices_ != termVertices_ || pendingBlocks_ != termBlocks_;
+    termVertices_.swap(pendingVertices_);
+    termBlocks_.swap(pendingBlocks_);
+  }
+  if (changes > 0 || term) {
     for (std::size_t i = 0; i < mask.size(); ++i) mask_[i] = mask[i] != 0;
     factorize();
   }
@@ -42,6 +64,8 @@ Index DirectCorrection<d>::truncate(const std::vector<char>& mask) {
 template <int d>
 void DirectCorrection<d>::factorize() {
   truncated_ = *A_;
+  for (std::size_t i = 0; i < termVertices_.size(); ++i)
+    truncated_.blockAt(truncated_.diagonal(termVertices_[i])) += termBlocks_[i];
   for (Index p = 0; p < truncated_.rows(); ++p)
     for (Index k = truncated_.rowBegin(p); k < truncated_.rowEnd(p); ++k) {
       const Index q = truncated_.column(k);

@@ -95,7 +95,11 @@ void LinearMultigrid<d>::setOperator(const BlockSparseMatrix<d>& A, std::vector<
     work_[l].setZero(n);
   }
   carrySweepPartition(hierarchy_, A);
-  if (L > 0) setSmootherMatrix(L, A, &hierarchy_.truncationBits(), "the fine operator");
+  if (L > 0) {
+    setSmootherMatrix(L, A, &hierarchy_.truncationBits(), "the fine operator");
+    if (options_.smoother == LinearSmoother::GaussSeidel)
+      smoothers_[L].setDiagonalTerm(&hierarchy_.fineDiagonalSlot(), &hierarchy_.fineDiagonalBlocks());
+  }
   coarseSolver_.reset();
   updateCoarse();
   setLocalSmoothing();
@@ -160,9 +164,16 @@ void LinearMultigrid<d>::updateCoarse() {
 }
 
 template <int d>
+bool LinearMultigrid<d>::setDiagonalTerm(std::vector<Index> vertices, std::vector<Eigen::Matrix<double, d, d>> blocks) {
+  if (options_.smoother != LinearSmoother::GaussSeidel) return false;
+  hierarchy_.setFineDiagonal(std::move(vertices), std::move(blocks));
+  return true;
+}
+
+template <int d>
 Index LinearMultigrid<d>::truncate(const std::vector<char>& mask) {
   const Index changes = hierarchy_.truncate(mask);
-  if (changes > 0) {
+  if (!hierarchy_.changedVertices().empty()) {  // the mask or the diagonal term changed
     const int L = hierarchy_.maxLevel();
     if (L > 0) updateSmoother(L, hierarchy_.changedVertices());
     updateCoarse();
@@ -176,6 +187,7 @@ void LinearMultigrid<d>::defect(int level, const Eigen::VectorXd& r, const Eigen
   // On the finest level x is zero at truncated components, so A x = A_T x off the truncated rows;
   // the truncated rows of the defect are removed by the restriction (E_p = Q_p T_p).
   levelOperator(level).multiply(x, out);
+  if (level == hierarchy_.maxLevel()) hierarchy_.addFineDiagonal(x, out);  // A + K
   const auto n = static_cast<Index>(out.size());
   forRanges(n, [&](Index b, Index e) { out.segment(b, e - b) = r.segment(b, e - b) - out.segment(b, e - b); });
 }
@@ -326,6 +338,7 @@ void LinearMultigrid<d>::conjugateGradients(const Eigen::VectorXd& r, Eigen::Vec
   double rz = res.dot(z);
   for (int k = 0; k < options_.krylovSteps && rz > 0; ++k) {
     A.multiply(p, q);
+    hierarchy_.addFineDiagonal(p, q);
     truncateFine(q);
     const double pq = p.dot(q);
     if (!(pq > 0)) break;

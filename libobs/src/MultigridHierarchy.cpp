@@ -120,7 +120,8 @@ BlockSparseMatrix<d> galerkinPattern(const BlockSparseMatrix<d>& F, const mesh::
 }
 
 /// Recomputes the rows `rows` (sorted) of C = P' B P with B_pq = E_p F_pq E_q' (E_p = I where
-/// slot[p] < 0; no transforms if slot is null), into the precomputed pattern of C.
+/// slot[p] < 0; no transforms if slot is null), into the precomputed pattern of C. With addSlot,
+/// F_pp + K_p replaces F_pp where addSlot[p] >= 0 (K_p = addBlocks[addSlot[p]]).
 ///
 /// The rows are taken in chunks of kGalerkinChunk. For each chunk the rows of B P needed by its
 /// coarse rows are formed once, (B P)_pJ = sum_q B_pq P_qJ (the blocks of fine row p in their
@@ -136,7 +137,9 @@ template <int d>
 void galerkinRows(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P, const mesh::CsrMatrix& Pt,
                   const std::vector<Index>* slot, const std::vector<Eigen::Matrix<double, d, d>>* E,
                   std::span<const Index> rows, BlockSparseMatrix<d>& C,
-                  Eigen::Matrix<double, d, d>* target = nullptr, Index targetBase = 0) {
+                  Eigen::Matrix<double, d, d>* target = nullptr, Index targetBase = 0,
+                  const std::vector<Index>* addSlot = nullptr,
+                  const std::vector<Eigen::Matrix<double, d, d>>* addBlocks = nullptr) {
   using Mat = Eigen::Matrix<double, d, d>;
   constexpr Index kGalerkinChunk = 256;
   const auto n = static_cast<Index>(rows.size());
@@ -181,6 +184,7 @@ void galerkinRows(const BlockSparseMatrix<d>& F, const mesh::CsrMatrix& P, const
             const Index q = F.column(k);
             const Index sq = slot ? (*slot)[q] : -1;
             Mat B = F.blockAt(k);
+            if (q == p && addSlot && (*addSlot)[p] >= 0) B += (*addBlocks)[(*addSlot)[p]];  // F + K
             if (sp >= 0) B = (*E)[sp] * B;
             if (sq >= 0) B = B * (*E)[sq].transpose();
             for (Index b = P.rowStart[q]; b < P.rowStart[q + 1]; ++b) {
@@ -496,6 +500,12 @@ void MultigridHierarchy<d>::setFineOperator(const BlockSparseMatrix<d>& A, std::
   bits_.assign(n, 0);
   if (!mask.empty()) setBits(mask);
   changed_.clear();
+  diagonalSlot_.assign(n, -1);
+  diagonalVertices_.clear();
+  diagonalBlocks_.clear();
+  pendingVertices_.clear();
+  pendingBlocks_.clear();
+  pending_ = false;
   updates_ = 0;
   updateTransforms();
 
@@ -513,11 +523,65 @@ template <int d>
 Index MultigridHierarchy<d>::truncate(const std::vector<char>& mask) {
   if (!fine_) throw Error("multigrid hierarchy: truncate() before setFineOperator()");
   const Index changes = setBits(mask);
-  if (changes > 0) {
+  if (pending_) {  // the diagonal term: the vertices whose block appears, disappears or changes
+    pending_ = false;
+    std::vector<char> seen(bits_.size(), 0);
+    for (Index p : changed_) seen[static_cast<std::size_t>(p)] = 1;
+    const auto touch = [&](Index p) {
+      if (!seen[static_cast<std::size_t>(p)]) {
+        seen[static_cast<std::size_t>(p)] = 1;
+        changed_.push_back(p);
+      }
+    };
+    std::vector<Index> slot(bits_.size(), -1);
+    for (std::size_t i = 0; i < pendingVertices_.size(); ++i) {
+      const Index p = pendingVertices_[i];
+      slot[static_cast<std::size_t>(p)] = static_cast<Index>(i);
+      const Index old = diagonalSlot_[static_cast<std::size_t>(p)];
+      if (old < 0 || diagonalBlocks_[static_cast<std::size_t>(old)] != pendingBlocks_[i]) touch(p);
+    }
+    for (Index p : diagonalVertices_)
+      if (slot[static_cast<std::size_t>(p)] < 0) touch(p);
+    diagonalSlot_.swap(slot);
+    diagonalVertices_.swap(pendingVertices_);
+    diagonalBlocks_.swap(pendingBlocks_);
+    pendingVertices_.clear();
+    pendingBlocks_.clear();
+  }
+  if (!changed_.empty()) {
     updateTransforms();
     computeCoarse(true);
   }
   return changes;
+}
+
+template <int d>
+void MultigridHierarchy<d>::setFineDiagonal(std::vector<Index> vertices, std::vector<Mat> blocks) {
+  if (!fine_) throw Error("multigrid hierarchy: setFineDiagonal() before setFineOperator()");
+  if (vertices.size() != blocks.size())
+    throw Error("multigrid hierarchy: setFineDiagonal with " + std::to_string(vertices.size()) + " vertices and " +
+                std::to_string(blocks.size()) + " blocks");
+  std::vector<char> seen(bits_.size(), 0);
+  for (std::size_t i = 0; i < vertices.size(); ++i) {
+    const Index p = vertices[i];
+    if (p < 0 || p >= static_cast<Index>(bits_.size()))
+      throw Error("multigrid hierarchy: setFineDiagonal: vertex " + std::to_string(p) + " out of range");
+    if (seen[static_cast<std::size_t>(p)]++)
+      throw Error("multigrid hierarchy: setFineDiagonal: vertex " + std::to_string(p) + " given twice");
+    if (!blocks[i].allFinite())
+      throw Error("multigrid hierarchy: setFineDiagonal: the block of vertex " + std::to_string(p) + " is not finite");
+  }
+  pendingVertices_ = std::move(vertices);
+  pendingBlocks_ = std::move(blocks);
+  pending_ = true;
+}
+
+template <int d>
+void MultigridHierarchy<d>::addFineDiagonal(const Eigen::VectorXd& x, Eigen::VectorXd& out) const {
+  for (std::size_t i = 0; i < diagonalVertices_.size(); ++i) {
+    const auto at = static_cast<Eigen::Index>(diagonalVertices_[i]) * d;
+    out.template segment<d>(at) += diagonalBlocks_[i] * x.template segment<d>(at);
+  }
 }
 
 template <int d>
@@ -578,6 +642,7 @@ void MultigridHierarchy<d>::computeCoarse(bool local) {
       for (Index k = C.rowBegin(p); k < C.rowEnd(p); ++k) {
         const Index q = C.column(k);
         auto& B = C.blockAt(k);
+        if (p == q && diagonalSlot_[p] >= 0) B += diagonalBlocks_[diagonalSlot_[p]];
         for (int c = 0; c < d; ++c) {
           if (bits_[p] & (1u << c)) B.row(c).setZero();
           if (bits_[q] & (1u << c)) B.col(c).setZero();
@@ -622,7 +687,8 @@ void MultigridHierarchy<d>::computeCoarse(bool local) {
     }
     if (partial) {
       std::sort(rows.begin(), rows.end());
-      galerkinRows(F, P, transposed_[l], slot, E, rows, C);
+      galerkinRows<d>(F, P, transposed_[l], slot, E, rows, C, nullptr, 0, top ? &diagonalSlot_ : nullptr,
+                   &diagonalBlocks_);
       // the vertices whose dead bits changed (within `touched` but for round-off at the threshold)
       // change the next product as well
       const DeadUpdate u = markDeadComponents(C, rows, dead_[l]);
@@ -643,8 +709,8 @@ void MultigridHierarchy<d>::computeCoarse(bool local) {
       // every block anew, range of rows by range of rows, the repeated blocks shared as they come
       // (BlockSparseMatrix::fillByRowRanges): one block per entry is not stored on the way
       C.fillByRowRanges([&](Index first, Index last, Mat* out) {
-        galerkinRows(F, P, transposed_[l], slot, E, std::span<const Index>(all).subspan(first, last - first), C, out,
-                     C.rowBegin(first));
+        galerkinRows<d>(F, P, transposed_[l], slot, E, std::span<const Index>(all).subspan(first, last - first), C, out,
+                     C.rowBegin(first), top ? &diagonalSlot_ : nullptr, &diagonalBlocks_);
       });
       markDeadComponents(C, all, dead_[l]);
       C.shareRepeatedBlocks();

@@ -75,6 +75,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     smoother_->setFriction(*rotated_);
   } else {
     operatorId_ = 0;
+    diagonalTerm_ = false;  // setOperator below clears the correction's term
     smoother_.reset();
     rotated_ = std::make_unique<RotatedProblem<d>>(problem.rotated());
     smoother_ = std::make_unique<BlockGaussSeidelSweep<d>>(rotated_->matrix(), rotated_->upper);
@@ -116,6 +117,8 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   else A.multiply(w, Aw);
   IterationMonitor monitor(name(), options_, 0.5 * w.dot(Aw) - rot.rhs.dot(w) + rot.frictionEnergy(w));
   TruncatedLinearization<d> linearization;
+  std::vector<Index> curvatureVertices;
+  std::vector<typename TruncatedLinearization<d>::Mat> curvatureBlocks;
   lap(t, statistics_.setupSeconds);
 
   bool converged = false;
@@ -139,8 +142,16 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     }
     zeroStart = false;  // also without pre-smoothing: w changes below
     lap(t, statistics_.smoothingSeconds);
-    // 2. truncation (operators updated only if the mask changed)
+    // 2. truncation (operators updated only if the mask changed); with friction in 3D the
+    // curvature of the friction term joins the correction's operator (updated with the mask)
     linearization.truncate(rot, w);
+    if (d == 3 && options_.frictionCurvature && rot.frictional()) {
+      linearization.curvature(rot, curvatureVertices, curvatureBlocks);
+      diagonalTerm_ = correction_->setDiagonalTerm(curvatureVertices, curvatureBlocks);
+    } else if (diagonalTerm_) {  // a term of an earlier frictional solve
+      correction_->setDiagonalTerm({}, {});
+      diagonalTerm_ = false;
+    }
     const Index changes = correction_->truncate(linearization.mask);
     statistics_.truncationChanges += changes;
     lap(t, statistics_.updateSeconds);

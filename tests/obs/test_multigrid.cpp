@@ -217,6 +217,134 @@ TEST(MultigridHierarchy, LocalUpdatesEqualAFullRecomputation) {
   }
 }
 
+TEST(MultigridHierarchy, FineDiagonalTermIsTheOperatorWithTheBlocksAdded) {
+  // a diagonal term K (the friction curvature of TNNMG) must give the Galerkin operators of the
+  // fine operator A + K, bitwise, both when set first (full product) and when changed afterwards
+  // (local update), together with a truncation and rotations; removing it gives those of A again
+  constexpr int d = 3;
+  const mesh::Grid grid = refinedGrid(CellType::Hexahedron, 2, 3);
+  const mesh::Mesh m = grid.leafView().mesh;
+  const auto s = linearSystem<d>(m);
+  std::vector<VertexRotation<d>> rotations;
+  std::vector<Index> bottom;
+  for (Index v = 0; v < m.numVertices(); ++v)
+    if (m.vertex(v)[2] == 0.0) {
+      bottom.push_back(v);
+      rotations.push_back({v, householderRotation(Point(0.1, 0.2, -1).normalized())});
+    }
+  const std::vector<char> mask = s.g.constrained;
+  const auto term = [&](double scale, std::size_t count) {
+    std::pair<std::vector<Index>, std::vector<Eigen::Matrix3d>> k;
+    for (std::size_t i = 0; i < count && i < bottom.size(); ++i) {
+      const Eigen::Vector3d e = Eigen::Vector3d(0, std::cos(0.3 * i), std::sin(0.3 * i));
+      Eigen::Matrix3d K = Eigen::Matrix3d::Zero();
+      K(1, 1) = K(2, 2) = 1;
+      k.first.push_back(bottom[i]);
+      k.second.push_back(scale * (1 + i) * (K - e * e.transpose()));
+    }
+    return k;
+  };
+  const auto withTerm = [&](const std::pair<std::vector<Index>, std::vector<Eigen::Matrix3d>>& k) {
+    BlockSparseMatrix<d> B = s.A;
+    for (std::size_t i = 0; i < k.first.size(); ++i) B.blockAt(B.diagonal(k.first[i])) += k.second[i];
+    return B;
+  };
+  const auto expectSame = [&](const MultigridHierarchy<d>& h, const BlockSparseMatrix<d>& B, const char* what) {
+    MultigridHierarchy<d> fresh(grid);
+    fresh.setFineOperator(B, rotations, mask);
+    for (int l = 0; l < h.maxLevel(); ++l) {
+      const Eigen::MatrixXd a = dense(h.coarseOperator(l)), b = dense(fresh.coarseOperator(l));
+      EXPECT_EQ((a - b).cwiseAbs().maxCoeff(), 0.0) << what << ", level " << l;
+    }
+  };
+  MultigridHierarchy<d> h(grid);
+  h.setFineOperator(s.A, rotations, mask);
+  const auto k1 = term(1e3, bottom.size());
+  h.setFineDiagonal(k1.first, k1.second);
+  const int updates = h.coarseUpdates();
+  EXPECT_EQ(h.truncate(mask), 0);  // no truncation change, but the term: one update
+  EXPECT_EQ(h.coarseUpdates(), updates + 1);
+  EXPECT_EQ(h.changedVertices().size(), bottom.size());
+  const BlockSparseMatrix<d> B1 = withTerm(k1);
+  expectSame(h, B1, "first term");
+  // a term changed at three vertices: a local update
+  auto k2 = k1;
+  for (int i = 0; i < 3; ++i) k2.second[static_cast<std::size_t>(i)] *= 2;
+  h.setFineDiagonal(k2.first, k2.second);
+  h.truncate(mask);
+  EXPECT_FALSE(h.fullUpdate(h.maxLevel() - 1));
+  const BlockSparseMatrix<d> B2 = withTerm(k2);
+  expectSame(h, B2, "changed term");
+  // the same term again: nothing to update
+  h.setFineDiagonal(k2.first, k2.second);
+  h.truncate(mask);
+  EXPECT_TRUE(h.changedVertices().empty());
+  // K x on the fine level
+  const Eigen::VectorXd x = Eigen::VectorXd::LinSpaced(s.A.rows() * d, -1, 1);
+  Eigen::VectorXd y = s.A * x;
+  h.addFineDiagonal(x, y);
+  EXPECT_LT((y - B2 * x).cwiseAbs().maxCoeff(), 1e-12 * (B2 * x).cwiseAbs().maxCoeff());
+  // removed
+  h.setFineDiagonal({}, {});
+  h.truncate(mask);
+  expectSame(h, s.A, "no term");
+  EXPECT_THROW(h.setFineDiagonal({bottom[0], bottom[0]}, {Eigen::Matrix3d::Zero(), Eigen::Matrix3d::Zero()}), obs::Error);
+  EXPECT_THROW(h.setFineDiagonal({-1}, {Eigen::Matrix3d::Zero()}), obs::Error);
+  EXPECT_THROW(h.setFineDiagonal({bottom[0]}, {}), obs::Error);
+}
+
+TEST(LinearMultigrid, DiagonalTermConvergesToTheDirectSolutionOfTheSumOperator) {
+  // V-cycles on (A + K)_T c = r with a strong diagonal term on the bottom layer (10 x the largest
+  // diagonal entry of A, rank two per vertex, as the friction curvature): they converge, at a
+  // multigrid rate, to what the direct correction gives for the same term
+  constexpr int d = 3;
+  const mesh::Grid grid = refinedGrid(CellType::Hexahedron, 2, 3);
+  const mesh::Mesh m = grid.leafView().mesh;
+  const auto s = linearSystem<d>(m);
+  double top = 0;
+  for (Index p = 0; p < s.A.rows(); ++p) top = std::max(top, s.A.blockAt(s.A.diagonal(p)).diagonal().maxCoeff());
+  std::vector<Index> vertices;
+  std::vector<Eigen::Matrix3d> blocks;
+  for (Index v = 0; v < m.numVertices(); ++v)
+    if (std::abs(m.vertex(v)[2] - 0.5) < 1e-12) {  // an interior layer (the bottom is clamped)
+      const Eigen::Vector3d e(std::cos(v), std::sin(v), 0);
+      vertices.push_back(v);
+      blocks.push_back(10 * top * (Eigen::Matrix3d::Identity() - e * e.transpose()));
+    }
+  ASSERT_GT(vertices.size(), 10u);
+  const std::vector<char> mask = s.g.constrained;
+  Eigen::VectorXd r = s.b;
+  for (std::size_t i = 0; i < mask.size(); ++i)
+    if (mask[i]) r[static_cast<Eigen::Index>(i)] = 0;
+  DirectCorrection<d> direct;
+  direct.setOperator(s.A, {}, mask);
+  EXPECT_TRUE(direct.setDiagonalTerm(vertices, blocks));
+  direct.truncate(mask);
+  Eigen::VectorXd exact;
+  direct.apply(r, exact);
+  LinearMultigridOptions o;
+  o.cycles = 12;
+  LinearMultigrid<d> mg(grid, o);
+  mg.setOperator(s.A, {}, mask);
+  EXPECT_TRUE(mg.setDiagonalTerm(vertices, blocks));
+  mg.truncate(mask);
+  Eigen::VectorXd c;
+  mg.apply(r, c);
+  EXPECT_LT((c - exact).cwiseAbs().maxCoeff(), 1e-8 * exact.cwiseAbs().maxCoeff());
+  // without the term the solution differs: the term is not ignored
+  DirectCorrection<d> plain;
+  plain.setOperator(s.A, {}, mask);
+  Eigen::VectorXd without;
+  plain.apply(r, without);
+  EXPECT_GT((without - exact).cwiseAbs().maxCoeff(), 1e-3 * exact.cwiseAbs().maxCoeff());
+  // the vertex-patch smoother ignores the term and says so
+  LinearMultigridOptions patch;
+  patch.smoother = LinearSmoother::VertexPatch;
+  LinearMultigrid<d> vp(grid, patch);
+  vp.setOperator(s.A, {}, mask);
+  EXPECT_FALSE(vp.setDiagonalTerm(vertices, blocks));
+}
+
 TEST(MultigridHierarchy, CoarseOperatorsShareTheirBlocksAndLocalUpdatesKeepThemShared) {
   // docs/performance.md#galerkin-products: on a uniformly refined box the coarse operators repeat
   // their blocks and are stored shared; a local update writes its rows into the shared storage

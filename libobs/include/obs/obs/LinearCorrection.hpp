@@ -31,8 +31,17 @@ public:
   /// ignore it; multigrid prolongates into the transformed space with (I - C) P.
   virtual void setFineBasis(const mesh::CsrMatrix& /*C*/) {}
   /// Truncation mask, one entry per component (non-zero = truncated). Returns the number of
-  /// components whose truncation changed (the operators are updated only then).
+  /// components whose truncation changed (the operators are updated only then, or when the
+  /// diagonal term below changed).
   virtual Index truncate(const std::vector<char>& mask) = 0;
+  /// A symmetric positive semidefinite d x d block K_p per listed vertex, added to the operator's
+  /// diagonal (in the frame of the operator): the correction then approximates (A + K)_T^{-1}. It
+  /// replaces the previous term and takes effect at the next truncate(). TNNMG passes the
+  /// curvature of the friction term at slipping vertices (docs/theory.md#friction-tnnmg). Returns
+  /// false if this correction ignores the term (the default; it then keeps A).
+  virtual bool setDiagonalTerm(std::vector<Index> /*vertices*/, std::vector<Eigen::Matrix<double, d, d>> /*blocks*/) {
+    return false;
+  }
   /// c ~= A_T^{-1} r (c resized; zero at truncated components).
   virtual void apply(const Eigen::VectorXd& r, Eigen::VectorXd& c) = 0;
   /// Number of operator updates (factorisations / coarse recomputations) since setOperator.
@@ -51,6 +60,7 @@ public:
   void setOperator(const BlockSparseMatrix<d>& A, std::vector<VertexRotation<d>> rotations,
                    const std::vector<char>& mask) override;
   Index truncate(const std::vector<char>& mask) override;
+  bool setDiagonalTerm(std::vector<Index> vertices, std::vector<Eigen::Matrix<double, d, d>> blocks) override;
   void apply(const Eigen::VectorXd& r, Eigen::VectorXd& c) override;
   int operatorUpdates() const override { return updates_; }
 
@@ -59,6 +69,11 @@ private:
   const BlockSparseMatrix<d>* A_ = nullptr;
   BlockSparseMatrix<d> truncated_;
   std::vector<char> mask_;
+  std::vector<Index> termVertices_;  ///< the diagonal term in force (setDiagonalTerm)
+  std::vector<Eigen::Matrix<double, d, d>> termBlocks_;
+  std::vector<Index> pendingVertices_;  ///< set, effective at the next truncate()
+  std::vector<Eigen::Matrix<double, d, d>> pendingBlocks_;
+  bool pending_ = false;
   std::unique_ptr<CholmodSolver> solver_;
   int updates_ = 0;
 };

@@ -108,6 +108,10 @@ public:
                    const std::vector<char>& mask = {}) override;
   void setFineBasis(const mesh::CsrMatrix& C) override { hierarchy_.setFineBasis(C); }
   Index truncate(const std::vector<char>& mask) override;
+  /// The diagonal term enters the finest level (smoother, defects, conjugate gradients) and the
+  /// Galerkin products (MultigridHierarchy::setFineDiagonal). The vertex-patch smoother ignores it
+  /// (returns false).
+  bool setDiagonalTerm(std::vector<Index> vertices, std::vector<Eigen::Matrix<double, d, d>> blocks) override;
   void apply(const Eigen::VectorXd& r, Eigen::VectorXd& c) override;
   int operatorUpdates() const override { return hierarchy_.coarseUpdates(); }
   long long cycles() const override { return vcycles_; }

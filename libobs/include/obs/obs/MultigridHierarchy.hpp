@@ -101,9 +101,24 @@ public:
   const BlockSparseMatrix<d>& fineOperator() const { return *fine_; }
 
   /// Sets the fine truncation mask (one entry per fine component, non-zero = truncated). Returns
-  /// the number of components whose truncation changed; if non-zero, the coarse operators are
-  /// recomputed. changedVertices() lists the fine vertices whose bits changed.
+  /// the number of components whose truncation changed; if that, or the fine diagonal term below,
+  /// changed, the coarse operators are recomputed. changedVertices() lists the fine vertices whose
+  /// bits or diagonal term changed.
   Index truncate(const std::vector<char>& mask);
+  /// A symmetric positive semidefinite term K added to diagonal blocks of the fine operator, in
+  /// its (rotated) frame: the operator of the hierarchy becomes A~ + K, on the finest level (see
+  /// fineDiagonal()) and in every Galerkin product, B_pp = E_p (A~_pp + K_p) E_p'. The
+  /// curvature of the friction term in the TNNMG correction (docs/theory.md#friction-tnnmg).
+  /// The blocks replace the previous ones and take effect at the next truncate(), which recomputes
+  /// the coarse operators locally where they changed (one update for both). Throws obs::Error for
+  /// a vertex out of range, a repeated vertex, sizes that differ or non-finite entries.
+  void setFineDiagonal(std::vector<Index> vertices, std::vector<Mat> blocks);
+  /// The diagonal term in force: slot per fine vertex (-1: none) into the blocks, and its vertices.
+  const std::vector<Index>& fineDiagonalSlot() const { return diagonalSlot_; }
+  const std::vector<Mat>& fineDiagonalBlocks() const { return diagonalBlocks_; }
+  const std::vector<Index>& fineDiagonalVertices() const { return diagonalVertices_; }
+  /// out += K x on the rows of the diagonal term (x, out: fine vectors).
+  void addFineDiagonal(const Eigen::VectorXd& x, Eigen::VectorXd& out) const;
   /// Truncation bits per fine vertex (bit c: component c truncated).
   const std::vector<std::uint8_t>& truncationBits() const { return bits_; }
   const std::vector<Index>& changedVertices() const { return changed_; }
@@ -149,6 +164,10 @@ private:
   std::vector<std::uint8_t> bits_;
   std::vector<std::vector<std::uint8_t>> dead_;  ///< per coarse level: components without fine support
   std::vector<Index> changed_;
+  // the fine diagonal term K (setFineDiagonal) in force, and the one set for the next truncate()
+  std::vector<Index> diagonalSlot_, diagonalVertices_, pendingVertices_;
+  std::vector<Mat> diagonalBlocks_, pendingBlocks_;
+  bool pending_ = false;
   std::vector<std::vector<Index>> updatedRows_;
   std::vector<char> fullUpdate_;
   mutable Eigen::VectorXd restrictBuffer_;  ///< the transformed fine defect of a threaded restrict()

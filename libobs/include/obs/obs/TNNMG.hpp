@@ -9,7 +9,7 @@
 ///      and active bounds, defect r = b - A w^{k+1/2} zeroed there;
 ///   3. linear correction c ~= A_T^{-1} r (LinearCorrection: one V-cycle of LinearMultigrid on the
 ///      grid hierarchy with truncated transfers, P~ = T Q' P on the finest level; coarse operators
-///      recomputed only when the mask changed);
+///      recomputed only when the mask, or with friction in 3D the curvature term, changed);
 ///   4. defect projection: c_{p,1} <- min(c_{p,1}, g_p - w_{p,1}) (projectCorrection);
 ///   5. exact line search alpha = min(alpha_max, c'r / c'Ac) (exactLineSearch, alpha_max >= 1);
 ///      w^{k+1} = w^{k+1/2} + alpha c; optional nu2 post-smoothing sweeps.
@@ -25,7 +25,7 @@
 /// Tresca friction (ContactProblem::setFriction; docs/theory.md#friction-tnnmg) runs through the same
 /// steps: the smoother solves the friction block exactly, the truncation adds the tangential
 /// components of sticking vertices, the defect carries the friction gradient of slipping ones, the
-/// line search minimises the exact nonquadratic energy (frictionLineSearch), and the monitored energy
+/// correction sees the curvature of the friction term at slipping ones (3D), the line search minimises the exact nonquadratic energy (frictionLineSearch), and the monitored energy
 /// includes the friction term. The error-bound stopping test is off with friction.
 ///
 /// The solver is built for one grid, or for the grids of several bodies (their hierarchies block-
@@ -60,6 +60,11 @@ public:
     int preSmoothing = 3;   ///< nu1 nonsmooth Gauss-Seidel sweeps before the correction
     int postSmoothing = 0;  ///< nu2 nonsmooth sweeps after the line search (backward)
     LinearMultigridOptions multigrid;  ///< the V-cycle of the linear correction
+    /// Tresca friction in 3D: the linear correction sees the curvature s_p (P_T - e e')/|t_p| of the
+    /// friction term at slipping vertices (LinearCorrection::setDiagonalTerm;
+    /// docs/theory.md#friction-tnnmg). false: A alone (the line search still minimises the exact
+    /// energy). No effect without friction or in 2D, where the curvature is zero.
+    bool frictionCurvature = true;
   };
   /// Where the time of the last solve went, and how often the linear operators were updated.
   struct Statistics {
@@ -96,6 +101,7 @@ private:
   std::unique_ptr<RotatedProblem<d>> rotated_;  ///< operator of the last solve (see "Operator reuse")
   std::unique_ptr<BlockGaussSeidelSweep<d>> smoother_;  ///< nonsmooth sweep on rotated_->matrix()
   std::uint64_t operatorId_ = 0;                ///< its ContactProblem::operatorId(), 0: none
+  bool diagonalTerm_ = false;  ///< the correction holds a friction curvature term (to be cleared)
   double rowSumBound_ = 0;  ///< max_p sum_q ||A~_pq||_F >= ||A~||_2 (round-off scale of w'A~w)
   Statistics statistics_;
 };

@@ -40,6 +40,13 @@ public:
   void setMatrix(const BlockSparseMatrix<d>& A, const std::vector<std::uint8_t>* bits = nullptr,
                  std::string what = "matrix");
   bool hasMatrix() const { return A_ != nullptr; }
+  /// Smooths A + K instead of A, K_p = blocks[slot[p]] added to the diagonal block of vertex p
+  /// where slot[p] >= 0 (both kept by pointer; nullptr: none). Only the W_p change, so the
+  /// vertices whose K_p changes must be passed to updateVertices().
+  void setDiagonalTerm(const std::vector<Index>* slot, const std::vector<Mat>* blocks) {
+    addSlot_ = slot;
+    addBlocks_ = blocks;
+  }
   /// Recomputes W_p for vertices whose truncation bits (or diagonal blocks) changed.
   void updateVertices(std::span<const Index> vertices) {
     for (Index p : vertices) update(p);
@@ -67,6 +74,7 @@ private:
   void update(Index p) {
     const std::uint8_t bits = bits_ ? (*bits_)[p] : 0;
     Mat D = A_->blockAt(diagonal_[p]);
+    if (addSlot_ && (*addSlot_)[p] >= 0) D += (*addBlocks_)[(*addSlot_)[p]];
     if (bits) {
       for (int c = 0; c < d; ++c)
         if (bits & (1u << c)) {
@@ -116,6 +124,8 @@ private:
   std::vector<char> subset_;  ///< empty: every vertex
   SweepOrder subsetOrder_;
   const std::vector<std::uint8_t>* bits_ = nullptr;
+  const std::vector<Index>* addSlot_ = nullptr;
+  const std::vector<Mat>* addBlocks_ = nullptr;
   std::string what_;
   std::vector<Mat> inverse_;
   std::vector<Index> diagonal_;
