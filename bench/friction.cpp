@@ -10,7 +10,10 @@
 // a frictionless solve in its own TNNMG as above. Writes a markdown table; progress goes to stderr.
 //
 //   build/bench/friction friction.md [--dim 2|3] [--levels 3-8] [--baseline] [--mu-sweep LIST]
+//                                    [--cycles N] [--history]
 //
+// --cycles N: N V-cycles per TNNMG correction (default 1). --history: the relative correction of
+// every iteration of the frictionless and the Tresca solves on stderr.
 // With --baseline (2D): per level the Tresca problem above solved from zero by TNNMG and by the
 // primal-dual active set method with CHOLMOD (semismooth Newton), each in a child process of its own:
 // iterations, seconds (solver construction and solve), peak memory of the child (ru_maxrss, which
@@ -73,13 +76,26 @@ struct Setup {
   }
 };
 
+/// --cycles N: V-cycles per TNNMG correction (default 1); --history: the relative correction of
+/// every iteration of the frictionless and the Tresca solve of measure() on stderr.
+int gCycles = 1;
+bool gHistory = false;
+
 /// TNNMG to the relative correction 1e-10, at most 500 iterations.
 template <int d>
 typename TNNMG<d>::Options tnnmgOptions() {
   typename TNNMG<d>::Options o;
   o.tolerance = 1e-10;
   o.maxIterations = 500;
+  o.multigrid.cycles = gCycles;
   return o;
+}
+
+void printHistory(const char* what, int level, const ContactResult& r) {
+  if (!gHistory) return;
+  std::cerr << "level " << level << ", " << what << ":";
+  for (const IterationRecord& h : r.history) std::cerr << " " << std::setprecision(3) << h.correction;
+  std::cerr << "\n";
 }
 
 /// The Tresca slip bounds of the benchmark: 0.3 x the nodal normal forces of a frictionless solution
@@ -126,6 +142,8 @@ Row measure(int level) {
     r.trescaSeconds = since(t0);
     r.tresca = t.iterations;
     r.converged = r.converged && t.converged;
+    printHistory("frictionless", level, c);
+    printHistory("Tresca", level, t);
   }
   if (d == 3) {  // the same two solves with the curvature of the friction term left out
     typename TNNMG<d>::Options flat = o;
@@ -297,22 +315,23 @@ SweepRow sweep(int level, double mu) {
 
 int main(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]).starts_with("-")) {
-    std::cerr << "usage: friction OUT.md [--dim 2|3] [--levels A-B]\n";
+    std::cerr << "usage: friction OUT.md [--dim 2|3] [--levels A-B] [--baseline] [--mu-sweep LIST] [--cycles N] [--history]\n";
     return 2;
   }
   int dim = 2, first = 3, last = 8;
   std::vector<double> mus;
   bool withBaseline = false;
-  for (int i = 2; i < argc; ++i)
-    if (std::string(argv[i]) == "--baseline") {
-      withBaseline = true;
+  for (int i = 2; i < argc; ++i)  // the flags without a value
+    if (std::string(argv[i]) == "--baseline" || std::string(argv[i]) == "--history") {
+      (std::string(argv[i]) == "--baseline" ? withBaseline : gHistory) = true;
       for (int j = i; j + 1 < argc; ++j) argv[j] = argv[j + 1];
       --argc;
-      break;
+      --i;
     }
   for (int i = 2; i + 1 < argc; i += 2) {
     const std::string key = argv[i], value = argv[i + 1];
     if (key == "--dim") dim = std::stoi(value);
+    else if (key == "--cycles") gCycles = std::stoi(value);
     else if (key == "--mu-sweep") {
       std::stringstream list(value);
       for (std::string x; std::getline(list, x, ',');) mus.push_back(std::stod(x));

@@ -672,6 +672,10 @@ TEST(Gmsh, ExampleMeshContents) {
       // the graded half-cylinders of data/scenes/twobody_gmsh_cylinders.toml (Gmsh 4.8.4)
       {"half_cylinder_upper.msh", 2, 1533, {0, 2922, 0, 0, 0, 0, 0}, 142, {{1, "arc"}, {2, "flat"}}},
       {"half_cylinder_lower.msh", 2, 1533, {0, 2922, 0, 0, 0, 0, 0}, 142, {{1, "arc"}, {2, "flat"}}},
+      // the graded half ball and block of data/scenes/cattaneo_mindlin_3d.toml (Gmsh 4.8.4); read
+      // whole, both bodies: they touch at the origin
+      {"cattaneo_mindlin_3d.msh", 3, 2324, {0, 0, 0, 10535, 0, 0, 0}, 1948,
+       {{3, "surface"}, {4, "top"}, {5, "block_top"}, {6, "bottom"}}},
   };
   for (const ExampleMesh& e : examples) {
     SCOPED_TRACE(e.file);
