@@ -10,10 +10,12 @@
 // a frictionless solve in its own TNNMG as above. Writes a markdown table; progress goes to stderr.
 //
 //   build/bench/friction friction.md [--dim 2|3] [--levels 3-8] [--baseline] [--mu-sweep LIST]
-//                                    [--cycles N] [--history]
+//                                    [--cycles N] [--history] [--direct]
 //
 // --cycles N: N V-cycles per TNNMG correction (default 1). --history: the relative correction of
-// every iteration of the frictionless and the Tresca solves on stderr.
+// every iteration of the frictionless and the Tresca solves on stderr. --direct: those solves with
+// the exact correction (DirectCorrection, a CHOLMOD factorisation per truncation change) instead of
+// multigrid, on small levels.
 // With --baseline (2D): per level the Tresca problem above solved from zero by TNNMG and by the
 // primal-dual active set method with CHOLMOD (semismooth Newton), each in a child process of its own:
 // iterations, seconds (solver construction and solve), peak memory of the child (ru_maxrss, which
@@ -80,6 +82,14 @@ struct Setup {
 /// every iteration of the frictionless and the Tresca solve of measure() on stderr.
 int gCycles = 1;
 bool gHistory = false;
+bool gDirect = false;  ///< --direct: the exact correction (DirectCorrection, CHOLMOD) in measure()
+
+/// A TNNMG on `grid`, with the multigrid correction or (--direct) the exact one.
+template <int d>
+std::unique_ptr<TNNMG<d>> makeTnnmg(const mesh::Grid& grid, const typename TNNMG<d>::Options& o) {
+  if (gDirect) return std::make_unique<TNNMG<d>>(grid, o, std::make_unique<DirectCorrection<d>>());
+  return std::make_unique<TNNMG<d>>(grid, o);
+}
 
 /// TNNMG to the relative correction 1e-10, at most 500 iterations.
 template <int d>
@@ -128,7 +138,8 @@ Row measure(int level) {
   Row r;
   r.dofs = problem.numDofs();
   {
-    TNNMG<d> tnnmg(grid, o);
+    const auto solver = makeTnnmg<d>(grid, o);
+    TNNMG<d>& tnnmg = *solver;
     Eigen::VectorXd u;
     auto t0 = Clock::now();
     const ContactResult c = tnnmg.solve(problem, u);
@@ -148,7 +159,8 @@ Row measure(int level) {
   if (d == 3) {  // the same two solves with the curvature of the friction term left out
     typename TNNMG<d>::Options flat = o;
     flat.frictionCurvature = false;
-    TNNMG<d> tnnmg(grid, flat);
+    const auto solver = makeTnnmg<d>(grid, flat);
+    TNNMG<d>& tnnmg = *solver;
     const std::vector<double> bounds = problem.slipBounds();
     problem.setFriction({});
     Eigen::VectorXd u, v;
@@ -315,15 +327,15 @@ SweepRow sweep(int level, double mu) {
 
 int main(int argc, char** argv) {
   if (argc < 2 || std::string(argv[1]).starts_with("-")) {
-    std::cerr << "usage: friction OUT.md [--dim 2|3] [--levels A-B] [--baseline] [--mu-sweep LIST] [--cycles N] [--history]\n";
+    std::cerr << "usage: friction OUT.md [--dim 2|3] [--levels A-B] [--baseline] [--mu-sweep LIST] [--cycles N] [--history] [--direct]\n";
     return 2;
   }
   int dim = 2, first = 3, last = 8;
   std::vector<double> mus;
   bool withBaseline = false;
   for (int i = 2; i < argc; ++i)  // the flags without a value
-    if (std::string(argv[i]) == "--baseline" || std::string(argv[i]) == "--history") {
-      (std::string(argv[i]) == "--baseline" ? withBaseline : gHistory) = true;
+    if (std::string(argv[i]) == "--baseline" || std::string(argv[i]) == "--history" || std::string(argv[i]) == "--direct") {
+      (std::string(argv[i]) == "--baseline" ? withBaseline : std::string(argv[i]) == "--history" ? gHistory : gDirect) = true;
       for (int j = i; j + 1 < argc; ++j) argv[j] = argv[j + 1];
       --argc;
       --i;
