@@ -16,7 +16,7 @@
 // every iteration of the frictionless and the Tresca solves on stderr. --direct: those solves with
 // the exact correction (DirectCorrection, a CHOLMOD factorisation per truncation change) instead of
 // multigrid, on small levels.
-// With --baseline (2D): per level the Tresca problem above solved from zero by TNNMG and by the
+// With --baseline: per level the Tresca problem above solved from zero by TNNMG and by the
 // primal-dual active set method with CHOLMOD (semismooth Newton), each in a child process of its own:
 // iterations, seconds (solver construction and solve), peak memory of the child (ru_maxrss, which
 // includes the problem's assembly, the same in both), and the difference of the two solutions. A
@@ -200,15 +200,16 @@ struct BaselineRow {
   double difference = 0;  ///< ||u_tnnmg - u_pdas|| / ||u_tnnmg||
 };
 
-/// The 2D Tresca problem of measure() on `level`, solved by TNNMG (solver 0) or PDAS (1) in a child
+/// The Tresca problem of measure() on `level`, solved by TNNMG (solver 0) or PDAS (1) in a child
 /// process; writes iterations, seconds, peak MB, converged and the solution to the pipe.
+template <int d>
 void baselineChild(int level, int solver, int fd) {
-  Setup<2> setup(level);
+  Setup<d> setup(level);
   const mesh::Grid& grid = setup.grid;
-  ContactProblem<2>& problem = *setup.problem;
-  const TNNMG<2>::Options o = tnnmgOptions<2>();
+  ContactProblem<d>& problem = *setup.problem;
+  const typename TNNMG<d>::Options o = tnnmgOptions<d>();
   {  // the slip bound of measure()
-    TNNMG<2> tnnmg(grid, o);
+    TNNMG<d> tnnmg(grid, o);
     Eigen::VectorXd u;
     tnnmg.solve(problem, u);
     problem.setFriction(trescaBounds(computeContactOutputs(problem, u)));
@@ -218,10 +219,10 @@ void baselineChild(int level, int solver, int fd) {
   const auto t0 = Clock::now();
   try {
     if (solver == 0) {
-      TNNMG<2> tnnmg(grid, o);
+      TNNMG<d> tnnmg(grid, o);
       r = tnnmg.solve(problem, u);
     } else {
-      PrimalDualActiveSet<2> pdas;
+      PrimalDualActiveSet<d> pdas;
       r = pdas.solve(problem, u);
     }
   } catch (const Error& e) {  // a failed solve (e.g. a cycling active set) is a row, not an abort
@@ -253,7 +254,7 @@ bool readAll(int fd, void* data, std::size_t size) {
   return true;
 }
 
-BaselineRow baseline(int level) {
+BaselineRow baseline(int level, int dim) {
   BaselineRow row;
   Eigen::VectorXd solutions[2];
   for (int solver = 0; solver < 2; ++solver) {
@@ -262,7 +263,8 @@ BaselineRow baseline(int level) {
     const pid_t pid = fork();
     if (pid == 0) {
       close(fds[0]);
-      baselineChild(level, solver, fds[1]);
+      if (dim == 2) baselineChild<2>(level, solver, fds[1]);
+      else baselineChild<3>(level, solver, fds[1]);
     }
     close(fds[1]);
     double head[4];
@@ -366,7 +368,7 @@ int main(int argc, char** argv) {
     table << "| level | unknowns | TNNMG it | s | MB | PDAS it | s | MB | PDAS / TNNMG time | \\|u_TNNMG - u_PDAS\\| / \\|u\\| |\n"
              "|---|---|---|---|---|---|---|---|---|---|\n";
     for (int level = first; level <= last; ++level) {
-      const BaselineRow r = baseline(level);
+      const BaselineRow r = baseline(level, dim);
       const auto its = [&](int k) {
         return r.iterations[k] < 0 ? std::string("failed after") : std::to_string(r.iterations[k]) + (r.converged[k] ? "" : " (not converged)");
       };
@@ -378,7 +380,7 @@ int main(int argc, char** argv) {
       std::cerr << "level " << level << ": TNNMG " << r.seconds[0] << " s, PDAS " << r.seconds[1] << " s\n";
     }
     std::ofstream out(argv[1]);
-    out << "Tresca friction, 2D: TNNMG against the primal-dual active set method with CHOLMOD (bench/friction.cpp)\n\n"
+    out << "Tresca friction, " << dim << "D: TNNMG against the primal-dual active set method with CHOLMOD (bench/friction.cpp)\n\n"
         << table.str();
     return 0;
   }

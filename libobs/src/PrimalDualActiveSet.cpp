@@ -1,5 +1,6 @@
 #include "obs/obs/PrimalDualActiveSet.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <optional>
@@ -14,10 +15,6 @@ namespace obs {
 template <int d>
 ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd& u) {
   if (!(options_.c > 0)) throw Error(name() + ": the complementarity constant c must be positive");
-  if (d == 3 && problem.frictional())
-    throw Error(name() + ": friction in 3D is not supported (the slip direction needs the semismooth Newton "
-                "linearisation of Hueeber, Stadler and Wohlmuth, which is not built); use tnnmg or "
-                "projected-gauss-seidel");
   factorSeconds_ = 0;
   const RotatedProblem<d> rot = problem.rotated();
   const Index n = rot.numVertices();
@@ -43,7 +40,7 @@ ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Ei
   using Vec = Eigen::Matrix<double, d, 1>;
   const std::size_t nf = rot.frictionVertices.size();
   std::vector<Vec> lambdaT(nf, Vec::Zero()), direction(nf, Vec::Zero());
-  std::vector<double> cT(nf, 0.0);
+  std::vector<double> cT(nf, 0.0), spring(nf, 0.0);  // spring: s c_T / |xi| of a slipping vertex (3D)
   std::vector<unsigned> freeT(nf, 0);
   for (std::size_t f = 0; f < nf; ++f) {
     const Index p = rot.frictionVertices[f];
@@ -74,6 +71,10 @@ ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Ei
   // rounding of its zero gaps happens to fall on the inactive side.
   const double tie = 1e-12 * std::max(rot.rhs.template lpNorm<Eigen::Infinity>(), std::numeric_limits<double>::min());
   int cReductions = 0;
+  double lastCorrection = std::numeric_limits<double>::infinity();
+  const auto slipping = [](const std::vector<char>& states, std::size_t first) {
+    return std::any_of(states.begin() + static_cast<std::ptrdiff_t>(first), states.end(), [](char s) { return s >= 2; });
+  };
   for (int k = 0;; ++k) {
     Index activeCount = 0;
     for (std::size_t i = 0; i < bounded.size(); ++i) {
@@ -90,15 +91,27 @@ ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Ei
         if (freeT[f] & (1u << a)) xi[a] = lambdaT[f][a] + cT[f] * (w[p * d + a] - originOf(p, a));
       const double norm = xi.norm();
       const bool stick = norm <= rot.slip[f];
-      if (!stick) direction[f] = xi / norm;
+      if (!stick) {
+        direction[f] = xi / norm;
+        spring[f] = rot.slip[f] * cT[f] / norm;
+      }
       // the state of the vertex: 1 stick, 2 / 3 slip in the positive / negative tangential direction
-      active[bounded.size() + f] = stick ? 1 : (direction[f].sum() > 0 ? 2 : 3);
+      // (in 3D 2: the direction is a continuous unknown, converged by the Newton steps below)
+      active[bounded.size() + f] = stick ? 1 : (d == 3 || direction[f].sum() > 0 ? 2 : 3);
     }
-    if (k > 0 && active == previous) {
+    // in 3D with slipping vertices the same states are not enough: their directions must have
+    // converged too, which the relative correction of the last step measures
+    bool directions = d == 2 || !slipping(active, bounded.size());
+    if (!directions && k > 0 && active == previous && lastCorrection <= options_.tolerance) {
+      // the directions have settled to the tolerance; stop when the KKT conditions hold as well
+      const Eigen::VectorXd x = problem.fromRotated(w);
+      directions = computeKktResiduals(problem, x).max() <= options_.kktTolerance;
+    }
+    if (k > 0 && active == previous && directions) {
       setRepeated = true;
       break;
     }
-    if (k > 0 && seen.count(active)) {
+    if (k > 0 && active != previous && seen.count(active)) {
       // with friction, a cycle is broken by a smaller c (at most three times; see the header)
       if (nf > 0 && cReductions < 3) {
         ++cReductions;
@@ -126,12 +139,23 @@ ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Ei
         fixed.values[bounded[i] * d] = rot.upper[bounded[i]];
       }
     // friction: stick fixes the free tangential components at the origin, slip applies the force
-    // -s e (the residual b - A w is lambda_T = s e there)
+    // -s e (the residual b - A w is lambda_T = s e there); in 3D the direction is linearised in the
+    // slip: lambda_T = s e + K (t^{k+1} - t^k), K = (s c_T / |xi|) (I - e e') on the free tangential
+    // components, a symmetric positive semidefinite block added to A_pp (see the header)
     for (std::size_t f = 0; f < nf; ++f) {
       const Index p = rot.frictionVertices[f];
+      const bool slips = active[bounded.size() + f] != 1;
+      Eigen::Matrix<double, d, d> K = Eigen::Matrix<double, d, d>::Zero();
+      if (d == 3 && slips) {
+        for (int a = 1; a < d; ++a)
+          if (freeT[f] & (1u << a)) K(a, a) = 1;
+        K = spring[f] * (K - direction[f] * direction[f].transpose());
+        Ak.blockAt(Ak.diagonal(p)) += K;
+        bk.template segment<d>(static_cast<Eigen::Index>(p) * d) += K * w.template segment<d>(static_cast<Eigen::Index>(p) * d);
+      }
       for (int a = 1; a < d; ++a) {
         if (!(freeT[f] & (1u << a))) continue;
-        if (active[bounded.size() + f] == 1) {
+        if (!slips) {
           fixed.constrained[static_cast<std::size_t>(p) * d + a] = 1;
           fixed.values[p * d + a] = originOf(p, a);
         } else {
@@ -164,6 +188,7 @@ ContactResult PrimalDualActiveSet<d>::solve(const ContactProblem<d>& problem, Ei
     const double den = std::sqrt(std::max(0.0, next.dot(Anext)));
     const double correction = den > 0 ? num / den : (num > 0 ? 1.0 : 0.0);
     w = std::move(next);
+    lastCorrection = correction;
     monitor.record(0.5 * w.dot(Anext) - rot.rhs.dot(w) + rot.frictionEnergy(w), correction, activeCount);
     monitor.progressed();  // progress of this method = a new active set (cycling is caught above)
   }

@@ -24,8 +24,13 @@
 ///   slip:      lambda_T = s e, e = (lambda_T + c_T t)/|lambda_T + c_T t|, the force -s e on the right-hand side.
 /// In 2D e = +-1 and this is the semismooth Newton method for Tresca friction: the state of a
 /// friction vertex is stick, slip forward or slip backward, and the iteration stops when the normal
-/// and these states repeat. In 3D e needs Newton's linearisation (the modified semismooth Newton
-/// method of Hueeber, Stadler, Wohlmuth), which is not built: friction in 3D throws obs::Error.
+/// and these states repeat. In 3D e is a direction in the tangent plane, and the step linearises it
+/// in the slip t: lambda_T = s e + K (t^{k+1} - t^k) with K = (s c_T / |xi|) (I - e e') (the
+/// derivative of s xi/|xi| with respect to t, the dependence of xi on lambda_T left out), so the
+/// Newton matrix stays symmetric (A + K, CHOLMOD). At a solution |xi| = s + c_T |t|, so K tends to
+/// the curvature s (I - e e')/|t| of the friction term for large c. In 3D the iteration stops when the
+/// states repeat and the relative correction of the step is below `tolerance` (the directions have
+/// converged).
 /// Coulomb friction: solveFriction (Friction.hpp) around it. With friction a larger c makes cycling
 /// more likely (on the partial-slip problems of tests/obs/test_friction.cpp c = 1 cycles in one of the
 /// Tresca problems of a Coulomb fixed point, c = 0.1 and 0.01 do not), so with friction a repeated
