@@ -22,7 +22,8 @@
 // Exit codes: 0 success, 1 error (invalid scene, solver or I/O failure), 2 command-line misuse,
 // 3 a [dynamics] or [adaptivity] run stopped early (SIGINT/SIGTERM or --stop-after-step) with a
 // checkpoint to continue it with --restart (docs/checkpoint.md); scheme comparisons stop without one.
-// Every error is one line "obs: error: ..." on stderr.
+// Every error is one line "obs: error: ..." on stderr. Launched by mpirun with more than one rank,
+// obs stops with exit code 1 on every rank (distributed runs are not built; rank 0 says so).
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -32,6 +33,7 @@
 #include <new>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "obs/drivers/MeshCommand.hpp"
@@ -49,6 +51,22 @@ namespace {
 constexpr int kExitError = 1;
 constexpr int kExitUsage = 2;
 constexpr int kExitInterrupted = 3;
+
+/// The rank count and this process's rank when launched by an MPI launcher (mpirun / mpiexec of
+/// Open MPI or MPICH-derived ones, which set these variables), else {1, 0}. obs does not link MPI:
+/// it only has to recognise the launch.
+std::pair<long, long> launcherRanks() {
+  const auto number = [](const char* name) -> long {
+    const char* v = std::getenv(name);
+    if (!v || !*v) return -1;
+    char* end = nullptr;
+    const long n = std::strtol(v, &end, 10);
+    return *end == '\0' ? n : -1;
+  };
+  for (const auto& [size, rank] : {std::pair{"OMPI_COMM_WORLD_SIZE", "OMPI_COMM_WORLD_RANK"}, std::pair{"PMI_SIZE", "PMI_RANK"}})
+    if (const long n = number(size); n >= 1) return {n, std::max(0L, number(rank))};
+  return {1, 0};
+}
 
 void printError(std::string message) {
   for (char& c : message)
@@ -332,6 +350,18 @@ int main(int argc, char** argv) {
     if (message.empty()) message = e.get_name();
     printError(message + " (run 'obs --help' for usage)");
     return kExitUsage;
+  }
+
+  // Distributed runs are not built: under `mpirun -np N` (N > 1) every rank would solve the whole
+  // scene and write the same files. Every rank stops at once with the same exit code (no rank waits
+  // for another, so nothing hangs); rank 0 says why. `-np 1` runs the ordinary program.
+  if (const auto [ranks, rank] = launcherRanks(); ranks > 1) {
+    if (rank == 0)
+      printError("launched as " + std::to_string(ranks) +
+                 " MPI ranks: distributed runs are not available yet, and each rank would solve the whole scene "
+                 "and write the same files; run obs without mpirun (or with -np 1) and use --threads N for the "
+                 "cores of one machine (docs/performance.md#threads)");
+    return kExitError;
   }
 
   try {

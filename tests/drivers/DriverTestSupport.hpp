@@ -109,10 +109,13 @@ struct ObsOutput {
 /// Runs `obs <args>` with workDir as the current directory; stdout and stderr go to
 /// workDir/<tag>.out and .err and are returned. OBS_THREADS is removed from its environment: it runs
 /// on one thread unless args say --threads, as the in-process runs the tests compare it with.
-inline ObsOutput runObs(const std::filesystem::path& workDir, const std::string& args, const std::string& tag) {
+/// `environment`: NAME=VALUE pairs for the program's environment (space-separated, given to env).
+inline ObsOutput runObs(const std::filesystem::path& workDir, const std::string& args, const std::string& tag,
+                        const std::string& environment = "") {
   std::filesystem::create_directories(workDir);
   const auto out = workDir / (tag + ".out"), err = workDir / (tag + ".err");
-  const std::string cmd = "cd '" + workDir.string() + "' && env -u OBS_THREADS '" + std::string(OBS_BINARY) + "' " + args + " >'" +
+  const std::string cmd = "cd '" + workDir.string() + "' && env -u OBS_THREADS " + environment + " '" +
+                          std::string(OBS_BINARY) + "' " + args + " >'" +
                           out.string() + "' 2>'" + err.string() + "'";
   const int status = std::system(cmd.c_str());
   ObsOutput o;

@@ -22,7 +22,9 @@ const fs::path kTmp = fs::path(OBS_TEST_TMP_DIR) / "cli";
 using Output = obs::test::ObsOutput;
 
 /// Runs `obs <args>` in kTmp, capturing stdout and stderr.
-Output runObs(const std::string& args, const std::string& tag) { return obs::test::runObs(kTmp, args, tag); }
+Output runObs(const std::string& args, const std::string& tag, const std::string& environment = "") {
+  return obs::test::runObs(kTmp, args, tag, environment);
+}
 
 int countLines(const std::string& s) {
   return static_cast<int>(std::count(s.begin(), s.end(), '\n'));
@@ -90,6 +92,29 @@ TEST_F(Cli, InvalidSceneIsOneErrorLineAndExit1) {
   EXPECT_EQ(m.err, "obs: error: missing.toml: cannot open the scene file\n");
 }
 
+// Under an MPI launcher with more than one rank (the variables Open MPI's and MPICH's mpirun set),
+// obs stops at once on every rank with exit code 1 and writes nothing: rank 0 says why in one line,
+// the others are silent. One rank is the ordinary run.
+TEST_F(Cli, SeveralMpiRanksAreRefusedOnEveryRank) {
+  const std::string scene = (fs::path(OBS_DATA_DIR) / "scenes" / "cantilever.toml").string();
+  const std::string run = "run '" + scene + "' --output out_mpi";
+  fs::remove_all(kTmp / "out_mpi");
+  const Output r0 = runObs(run, "mpi_rank0", "OMPI_COMM_WORLD_SIZE=2 OMPI_COMM_WORLD_RANK=0");
+  EXPECT_EQ(r0.code, 1);
+  EXPECT_EQ(std::count(r0.err.begin(), r0.err.end(), '\n'), 1) << r0.err;
+  EXPECT_EQ(r0.err.rfind("obs: error: launched as 2 MPI ranks: distributed runs are not available yet", 0), 0u) << r0.err;
+  const Output r1 = runObs(run, "mpi_rank1", "OMPI_COMM_WORLD_SIZE=2 OMPI_COMM_WORLD_RANK=1");
+  EXPECT_EQ(r1.code, 1);
+  EXPECT_TRUE(r1.err.empty()) << r1.err;
+  const Output p3 = runObs(run, "pmi_rank2", "PMI_SIZE=3 PMI_RANK=2");
+  EXPECT_EQ(p3.code, 1);
+  EXPECT_TRUE(p3.err.empty()) << p3.err;
+  EXPECT_FALSE(fs::exists(kTmp / "out_mpi"));
+  const Output one = runObs(run, "mpi_one", "OMPI_COMM_WORLD_SIZE=1 OMPI_COMM_WORLD_RANK=0");
+  EXPECT_EQ(one.code, 0) << one.err;
+  EXPECT_TRUE(fs::exists(kTmp / "out_mpi" / "summary.json"));
+}
+
 TEST_F(Cli, RunPrintsProgressAndQuietDoesNot) {
   const std::string scene = (fs::path(OBS_DATA_DIR) / "scenes" / "cantilever.toml").string();
   const Output o = runObs("run '" + scene + "' --output out_cli", "run");
@@ -130,8 +155,8 @@ TEST_F(Cli, CheckOfAnInvalidMultiBodySceneWritesOnlyTheError) {
   const std::string from = "physical = \"lower\"";
   text.replace(text.find(from), from.size(), "physical = \"top\"");
   const std::string meshes = "\"../meshes/";
-  for (std::size_t at; (at = text.find(meshes)) != std::string::npos;)
-    text.replace(at, meshes.size(), "\"" + (fs::path(OBS_DATA_DIR) / "meshes").string() + "/");
+  const std::string absolute = std::string(1, '"').append((fs::path(OBS_DATA_DIR) / "meshes").string()).append("/");
+  for (std::size_t at; (at = text.find(meshes)) != std::string::npos;) text.replace(at, meshes.size(), absolute);
   fs::create_directories(kTmp);
   std::ofstream(kTmp / "gmsh_top.toml") << text;
   const Output o = runObs("check gmsh_top.toml", "check_gmsh_top");
