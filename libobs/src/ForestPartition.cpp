@@ -1,0 +1,147 @@
+#include "obs/obs/ForestPartition.hpp"
+
+#include <algorithm>
+#include <string>
+
+#include "obs/mesh/Error.hpp"
+#include "obs/obs/Parallel.hpp"
+
+namespace obs {
+
+double ForestPartition::imbalance() const {
+  Index total = 0, most = 0;
+  for (Index n : partLeaves) {
+    total += n;
+    most = std::max(most, n);
+  }
+  return total > 0 ? static_cast<double>(most) * static_cast<double>(parts) / static_cast<double>(total) : 1.0;
+}
+
+ForestPartition partitionForest(const mesh::Grid& grid, int parts, const ForestPartitionOptions& options) {
+  if (parts < 1) throw Error("forest partition: " + std::to_string(parts) + " parts (at least 1)");
+  if (options.cellsPerPart < 1) throw Error("forest partition: cellsPerPart must be at least 1");
+  if (options.level > grid.maxLevel())
+    throw Error("forest partition: partition level " + std::to_string(options.level) + ", the grid has levels 0.." +
+                std::to_string(grid.maxLevel()));
+  ForestPartition p;
+  p.parts = parts;
+  mesh::GridView view;
+  if (options.level >= 0) {
+    p.level = options.level;
+    view = grid.levelView(p.level);
+  } else {  // the coarsest level with enough cells
+    for (int l = 0; l <= grid.maxLevel(); ++l) {
+      view = grid.levelView(l);
+      p.level = l;
+      if (static_cast<Index>(view.elements.size()) >= static_cast<Index>(options.cellsPerPart) * parts) break;
+    }
+  }
+  p.cells = view.elements;
+  const auto nc = static_cast<Index>(p.cells.size());
+  if (nc < parts)
+    throw Error("forest partition: " + std::to_string(nc) + " partition cells on level " + std::to_string(p.level) +
+                " for " + std::to_string(parts) + " parts (refine the coarse mesh, or choose a finer partition level)");
+
+  // each element's partition cell: itself, or its father's (fathers precede their children)
+  const Index ne = grid.numElements();
+  p.elementCell.assign(static_cast<std::size_t>(ne), -1);
+  for (Index i = 0; i < nc; ++i) p.elementCell[p.cells[i]] = i;
+  for (Index e = 0; e < ne; ++e) {
+    if (grid.isRemoved(e) || p.elementCell[e] >= 0) continue;
+    const Index f = grid.father(e);
+    if (f >= e) throw Error("forest partition: element " + std::to_string(e) + " precedes its father");
+    if (f >= 0) p.elementCell[e] = p.elementCell[f];
+  }
+  p.cellLeaves.assign(static_cast<std::size_t>(nc), 0);
+  for (Index e = 0; e < ne; ++e)
+    if (grid.isLeaf(e)) {
+      if (p.elementCell[e] < 0) throw Error("forest partition: leaf " + std::to_string(e) + " below no partition cell");
+      ++p.cellLeaves[p.elementCell[e]];
+    }
+
+  // the face graph of the partition cells, split by METIS in leaves
+  p.cellPart.assign(static_cast<std::size_t>(nc), 0);
+  if (parts > 1) {
+    const mesh::GridView::Neighbours nb = view.faceNeighbours();
+    std::vector<Index> rowStart(static_cast<std::size_t>(nc) + 1, 0), columns;
+    for (Index c = 0; c < nc; ++c) {
+      for (Index k = nb.offsets[c]; k < nb.offsets[c + 1]; ++k)
+        if (nb.cells[k] >= 0) columns.push_back(nb.cells[k]);
+      rowStart[c + 1] = static_cast<Index>(columns.size());
+    }
+    const std::vector<int> part = partitionPattern(rowStart, columns, parts, p.cellLeaves);
+    if (part.size() != static_cast<std::size_t>(nc)) throw Error("forest partition: METIS failed");
+    p.cellPart = part;
+  }
+  p.partLeaves.assign(static_cast<std::size_t>(parts), 0);
+  for (Index c = 0; c < nc; ++c) p.partLeaves[p.cellPart[c]] += p.cellLeaves[c];
+  return p;
+}
+
+namespace {
+
+/// The owning part of every cell of the view (checks that the view belongs to the partition).
+std::vector<int> cellOwners(const mesh::Grid& grid, const mesh::GridView& view, const ForestPartition& partition) {
+  if (partition.elementCell.size() != static_cast<std::size_t>(grid.numElements()))
+    throw Error("forest partition: computed for a grid of " + std::to_string(partition.elementCell.size()) +
+                " elements, this grid has " + std::to_string(grid.numElements()) + " (partition it again after adapting)");
+  if (view.level >= 0 && view.level < partition.level)
+    throw Error("forest partition: level " + std::to_string(view.level) + " is below the partition level " +
+                std::to_string(partition.level) + ", replicated on every part");
+  std::vector<int> owner(view.elements.size());
+  for (std::size_t c = 0; c < owner.size(); ++c) {
+    owner[c] = partition.partOf(view.elements[c]);
+    if (owner[c] < 0) throw Error("forest partition: view cell " + std::to_string(c) + " has no owner");
+  }
+  return owner;
+}
+
+}  // namespace
+
+ViewNumbering numberView(const mesh::Grid& grid, const mesh::GridView& view, const ForestPartition& partition) {
+  const std::vector<int> cell = cellOwners(grid, view, partition);
+  const mesh::Mesh& m = view.mesh;
+  ViewNumbering n;
+  n.owner.assign(static_cast<std::size_t>(m.numVertices()), partition.parts);
+  for (Index c = 0; c < m.numCells(); ++c)
+    for (Index v : m.cellVertices(c)) n.owner[v] = std::min(n.owner[v], cell[c]);
+  n.offsets.assign(static_cast<std::size_t>(partition.parts) + 1, 0);
+  for (int o : n.owner) {
+    if (o >= partition.parts) throw Error("forest partition: a view vertex in no cell");
+    ++n.offsets[o + 1];
+  }
+  for (int k = 0; k < partition.parts; ++k) n.offsets[k + 1] += n.offsets[k];
+  std::vector<Index> next(n.offsets.begin(), n.offsets.end() - 1);
+  n.global.resize(n.owner.size());
+  for (std::size_t v = 0; v < n.owner.size(); ++v) n.global[v] = next[n.owner[v]]++;
+  return n;
+}
+
+PartView partView(const mesh::Grid& grid, const mesh::GridView& view, const ForestPartition& partition,
+                  const ViewNumbering& numbering, int part) {
+  if (part < 0 || part >= partition.parts)
+    throw Error("forest partition: part " + std::to_string(part) + " of " + std::to_string(partition.parts));
+  const std::vector<int> cell = cellOwners(grid, view, partition);
+  const mesh::Mesh& m = view.mesh;
+  if (numbering.owner.size() != static_cast<std::size_t>(m.numVertices()))
+    throw Error("forest partition: a vertex numbering of another view");
+  PartView pv;
+  std::vector<char> touched(static_cast<std::size_t>(m.numVertices()), 0), held(touched.size(), 0);
+  for (Index c = 0; c < m.numCells(); ++c)
+    if (cell[c] == part) {
+      pv.owned.push_back(c);
+      for (Index v : m.cellVertices(c)) touched[v] = held[v] = 1;
+    }
+  for (Index c = 0; c < m.numCells(); ++c) {
+    if (cell[c] == part) continue;
+    const auto vs = m.cellVertices(c);
+    if (std::none_of(vs.begin(), vs.end(), [&](Index v) { return touched[v] != 0; })) continue;
+    pv.ghosts.push_back(c);
+    for (Index v : vs) held[v] = 1;
+  }
+  for (Index v = 0; v < m.numVertices(); ++v)
+    if (held[v]) (numbering.owner[v] == part ? pv.ownedVertices : pv.ghostVertices).push_back(v);
+  return pv;
+}
+
+}  // namespace obs
