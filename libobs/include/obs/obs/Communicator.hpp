@@ -1,0 +1,56 @@
+#pragma once
+/// \file Communicator.hpp
+/// The processes of a distributed run (docs/architecture.md#communicator): a thin wrapper over MPI's
+/// world communicator, and the one-process communicator when obs is built without MPI
+/// (`OBS_WITH_MPI=OFF`) or MPI is not initialised. Nothing distributed uses it yet; it is the layer
+/// that the distributed grid and solvers will call, so that none of them calls MPI itself.
+///
+/// Errors never hang a run: collective() runs a piece of work on every rank, and if it throws
+/// obs::Error on any rank, every rank throws the same obs::Error (the message of the lowest failing
+/// rank, naming it), instead of the other ranks waiting for it in their next collective call.
+#include <functional>
+#include <string>
+
+namespace obs {
+
+class Communicator {
+public:
+  /// The world communicator: all processes of an MPI launch, if obs is built with MPI and MPI is
+  /// initialised (MpiSession), else this process alone.
+  static Communicator world();
+  /// True if obs was built with MPI (OBS_WITH_MPI and MPI found).
+  static bool built();
+
+  int rank() const { return rank_; }
+  int size() const { return size_; }
+  double sum(double x) const;
+  long long sum(long long x) const;
+  double max(double x) const;
+  /// The string of rank `root` on every rank.
+  std::string broadcast(const std::string& text, int root = 0) const;
+  void barrier() const;
+  /// Runs `work` on this rank; a collective call (every rank must make it). If `work` throws an
+  /// exception (std::exception) on any rank, every rank throws obs::Error("rank r: message") with the
+  /// lowest failing rank r and its message (one rank: the message alone).
+  void collective(const std::function<void()>& work) const;
+
+private:
+  Communicator(int rank, int size) : rank_(rank), size_(size) {}
+  int rank_ = 0, size_ = 1;
+};
+
+/// Initialises MPI for the lifetime of the object if obs is built with MPI and it is not initialised
+/// yet (MPI_Init_thread, MPI_THREAD_FUNNELED: OpenMP threads inside a rank, MPI calls from the main
+/// thread), and finalises it on destruction. Without MPI it does nothing.
+class MpiSession {
+public:
+  MpiSession(int& argc, char**& argv);
+  ~MpiSession();
+  MpiSession(const MpiSession&) = delete;
+  MpiSession& operator=(const MpiSession&) = delete;
+
+private:
+  bool owner_ = false;
+};
+
+}  // namespace obs

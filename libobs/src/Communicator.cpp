@@ -1,0 +1,147 @@
+#include "obs/obs/Communicator.hpp"
+
+#include <algorithm>
+#include <climits>
+#include <exception>
+#include <vector>
+
+#include "obs/mesh/Error.hpp"
+
+#ifdef OBS_HAVE_MPI
+#include <mpi.h>
+#endif
+
+namespace obs {
+
+namespace {
+
+#ifdef OBS_HAVE_MPI
+bool mpiRunning() {
+  int initialised = 0, finalised = 0;
+  MPI_Initialized(&initialised);
+  MPI_Finalized(&finalised);
+  return initialised && !finalised;
+}
+#endif
+
+}  // namespace
+
+bool Communicator::built() {
+#ifdef OBS_HAVE_MPI
+  return true;
+#else
+  return false;
+#endif
+}
+
+Communicator Communicator::world() {
+#ifdef OBS_HAVE_MPI
+  if (mpiRunning()) {
+    int rank = 0, size = 1;
+    MPI_Comm_rank(MPI_COMM_WORLD, &rank);
+    MPI_Comm_size(MPI_COMM_WORLD, &size);
+    return Communicator(rank, size);
+  }
+#endif
+  return Communicator(0, 1);
+}
+
+double Communicator::sum(double x) const {
+#ifdef OBS_HAVE_MPI
+  if (size_ > 1) {
+    double y = 0;
+    MPI_Allreduce(&x, &y, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
+    return y;
+  }
+#endif
+  return x;
+}
+
+long long Communicator::sum(long long x) const {
+#ifdef OBS_HAVE_MPI
+  if (size_ > 1) {
+    long long y = 0;
+    MPI_Allreduce(&x, &y, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
+    return y;
+  }
+#endif
+  return x;
+}
+
+double Communicator::max(double x) const {
+#ifdef OBS_HAVE_MPI
+  if (size_ > 1) {
+    double y = 0;
+    MPI_Allreduce(&x, &y, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+    return y;
+  }
+#endif
+  return x;
+}
+
+std::string Communicator::broadcast(const std::string& text, int root) const {
+  if (root < 0 || root >= size_)
+    throw Error("communicator: broadcast from rank " + std::to_string(root) + " of " + std::to_string(size_));
+#ifdef OBS_HAVE_MPI
+  if (size_ > 1) {
+    long long n = rank_ == root ? static_cast<long long>(text.size()) : 0;
+    MPI_Bcast(&n, 1, MPI_LONG_LONG, root, MPI_COMM_WORLD);
+    if (n > INT_MAX) throw Error("communicator: a broadcast of " + std::to_string(n) + " characters");
+    std::string out = rank_ == root ? text : std::string(static_cast<std::size_t>(n), '\0');
+    if (n > 0) MPI_Bcast(out.data(), static_cast<int>(n), MPI_CHAR, root, MPI_COMM_WORLD);
+    return out;
+  }
+#endif
+  return text;
+}
+
+void Communicator::barrier() const {
+#ifdef OBS_HAVE_MPI
+  if (size_ > 1) MPI_Barrier(MPI_COMM_WORLD);
+#endif
+}
+
+void Communicator::collective(const std::function<void()>& work) const {
+  std::string message;
+  bool failed = false;
+  try {
+    work();
+  } catch (const std::exception& e) {  // obs::Error, and anything else that would leave the others waiting
+    failed = true;
+    message = e.what();
+  }
+  if (size_ == 1) {
+    if (failed) throw Error(message);
+    return;
+  }
+  // the lowest failing rank (size_ if none) and its message, on every rank
+  const double lowest = -max(-static_cast<double>(failed ? rank_ : size_));
+  if (lowest >= size_) return;
+  const int root = static_cast<int>(lowest);
+  throw Error("rank " + std::to_string(root) + ": " + broadcast(message, root));
+}
+
+MpiSession::MpiSession(int& argc, char**& argv) {
+#ifdef OBS_HAVE_MPI
+  int initialised = 0;
+  MPI_Initialized(&initialised);
+  if (!initialised) {
+    int provided = 0;
+    MPI_Init_thread(&argc, &argv, MPI_THREAD_FUNNELED, &provided);
+    owner_ = true;
+  }
+#else
+  (void)argc;
+  (void)argv;
+#endif
+}
+
+MpiSession::~MpiSession() {
+#ifdef OBS_HAVE_MPI
+  int finalised = 0;
+  MPI_Finalized(&finalised);
+  if (owner_ && !finalised) MPI_Finalize();
+#endif
+}
+
+}  // namespace obs
