@@ -101,6 +101,35 @@ void Communicator::barrier() const {
 #endif
 }
 
+std::vector<std::vector<double>> Communicator::exchange(const std::vector<std::vector<double>>& send) const {
+  if (send.size() != static_cast<std::size_t>(size_))
+    throw Error("communicator: exchange with " + std::to_string(send.size()) + " buffers for " + std::to_string(size_) +
+                " ranks");
+#ifdef OBS_HAVE_MPI
+  if (size_ > 1) {
+    std::vector<int> sendCounts(static_cast<std::size_t>(size_)), recvCounts(sendCounts.size());
+    std::vector<int> sendOffsets(sendCounts.size() + 1, 0), recvOffsets(sendCounts.size() + 1, 0);
+    for (int r = 0; r < size_; ++r) {
+      if (send[r].size() > static_cast<std::size_t>(INT_MAX)) throw Error("communicator: an exchange buffer too large");
+      sendCounts[r] = static_cast<int>(send[r].size());
+    }
+    MPI_Alltoall(sendCounts.data(), 1, MPI_INT, recvCounts.data(), 1, MPI_INT, MPI_COMM_WORLD);
+    for (int r = 0; r < size_; ++r) {
+      sendOffsets[r + 1] = sendOffsets[r] + sendCounts[r];
+      recvOffsets[r + 1] = recvOffsets[r] + recvCounts[r];
+    }
+    std::vector<double> out(static_cast<std::size_t>(sendOffsets.back())), in(static_cast<std::size_t>(recvOffsets.back()));
+    for (int r = 0; r < size_; ++r) std::copy(send[r].begin(), send[r].end(), out.begin() + sendOffsets[r]);
+    MPI_Alltoallv(out.data(), sendCounts.data(), sendOffsets.data(), MPI_DOUBLE, in.data(), recvCounts.data(),
+                  recvOffsets.data(), MPI_DOUBLE, MPI_COMM_WORLD);
+    std::vector<std::vector<double>> received(static_cast<std::size_t>(size_));
+    for (int r = 0; r < size_; ++r) received[r].assign(in.begin() + recvOffsets[r], in.begin() + recvOffsets[r + 1]);
+    return received;
+  }
+#endif
+  return send;
+}
+
 void Communicator::collective(const std::function<void()>& work) const {
   std::string message;
   bool failed = false;

@@ -10,6 +10,7 @@
 /// rank, naming it), instead of the other ranks waiting for it in their next collective call.
 #include <functional>
 #include <string>
+#include <vector>
 
 namespace obs {
 
@@ -29,6 +30,9 @@ public:
   /// The string of rank `root` on every rank.
   std::string broadcast(const std::string& text, int root = 0) const;
   void barrier() const;
+  /// All-to-all: send[r] goes to rank r (send has size() entries); returns what each rank sent to
+  /// this one (received[r] from rank r). A collective call.
+  std::vector<std::vector<double>> exchange(const std::vector<std::vector<double>>& send) const;
   /// Runs `work` on this rank; a collective call (every rank must make it). If `work` throws an
   /// exception (std::exception) on any rank, every rank throws obs::Error("rank r: message") with the
   /// lowest failing rank r and its message (one rank: the message alone).

@@ -1,0 +1,54 @@
+#pragma once
+/// \file HaloExchange.hpp
+/// The vertices one part holds of a partitioned view (ForestPartition.hpp), numbered locally, and
+/// the exchange that gives its ghost vertices the values of their owners (docs/architecture.md#halo).
+/// Local numbering: the part's owned vertices first, in ascending view order (so local index =
+/// global index - numbering.offsets[part]), then its ghost vertices in ascending view order.
+/// With `localMesh` (the part's owned and ghost cells on these vertices) a part assembles complete
+/// rows for its owned vertices: every cell around an owned vertex is owned or a ghost.
+#include <Eigen/Core>
+
+#include <vector>
+
+#include "obs/mesh/Grid.hpp"
+#include "obs/mesh/Mesh.hpp"
+#include "obs/obs/Communicator.hpp"
+#include "obs/obs/ForestPartition.hpp"
+
+namespace obs {
+
+class HaloExchange {
+public:
+  /// For part `comm.rank()` of a view partitioned into `comm.size()` parts (numbering and the
+  /// rank's PartView of that view). A collective call: every rank builds its own. Throws
+  /// obs::Error if the sizes do not match.
+  HaloExchange(const ViewNumbering& numbering, const PartView& part, const Communicator& comm);
+
+  /// local -> view vertex (owned first, then ghosts)
+  const std::vector<Index>& viewVertices() const { return vertices_; }
+  Index numOwned() const { return owned_; }
+  Index numLocal() const { return static_cast<Index>(vertices_.size()); }
+  /// The local index of a view vertex, -1 if this part does not hold it.
+  Index local(Index viewVertex) const;
+
+  /// Overwrites the ghost entries of x (local numbering, `components` values per vertex) with the
+  /// owners' values. A collective call.
+  void update(Eigen::VectorXd& x, int components = 1) const;
+  /// Values this part sends and receives per update with one component (counters for scaling figures).
+  Index sentValues() const;
+  Index receivedValues() const { return numLocal() - numOwned(); }
+
+private:
+  Communicator comm_;
+  std::vector<Index> vertices_;
+  Index owned_ = 0;
+  std::vector<Index> localOf_;                 ///< view vertex -> local, -1
+  std::vector<std::vector<Index>> sendOwned_;  ///< per rank: local owned vertices it needs from us
+  std::vector<std::vector<Index>> recvGhost_;  ///< per rank: our local ghost vertices it fills, in its order
+};
+
+/// The part's local mesh: its owned cells, then its ghost cells, on the local vertices of `halo`
+/// (coordinates from the view). Boundary faces are not copied.
+mesh::Mesh localMesh(const mesh::GridView& view, const PartView& part, const HaloExchange& halo);
+
+}  // namespace obs

@@ -1,0 +1,86 @@
+#include "obs/obs/HaloExchange.hpp"
+
+#include <string>
+
+#include "obs/mesh/Error.hpp"
+
+namespace obs {
+
+HaloExchange::HaloExchange(const ViewNumbering& numbering, const PartView& part, const Communicator& comm)
+    : comm_(comm) {
+  const int me = comm.rank(), ranks = comm.size();
+  if (numbering.offsets.size() != static_cast<std::size_t>(ranks) + 1)
+    throw Error("halo exchange: a numbering of " + std::to_string(numbering.offsets.size() - 1) + " parts for " +
+                std::to_string(ranks) + " ranks");
+  vertices_ = part.ownedVertices;
+  owned_ = static_cast<Index>(vertices_.size());
+  if (owned_ != numbering.offsets[me + 1] - numbering.offsets[me])
+    throw Error("halo exchange: the part view of another part or numbering");
+  vertices_.insert(vertices_.end(), part.ghostVertices.begin(), part.ghostVertices.end());
+  localOf_.assign(numbering.owner.size(), -1);
+  for (Index i = 0; i < numLocal(); ++i) localOf_[vertices_[i]] = i;
+  // each ghost vertex's global index to its owner; the owners learn what to send
+  std::vector<std::vector<double>> request(static_cast<std::size_t>(ranks));
+  recvGhost_.assign(static_cast<std::size_t>(ranks), {});
+  for (Index i = owned_; i < numLocal(); ++i) {
+    const Index v = vertices_[i];
+    const int o = numbering.owner[v];
+    request[o].push_back(static_cast<double>(numbering.global[v]));  // exact below 2^53
+    recvGhost_[o].push_back(i);
+  }
+  const std::vector<std::vector<double>> asked = comm.exchange(request);
+  sendOwned_.assign(static_cast<std::size_t>(ranks), {});
+  for (int r = 0; r < ranks; ++r)
+    for (double g : asked[r]) {
+      const auto i = static_cast<Index>(g) - numbering.offsets[me];
+      if (i < 0 || i >= owned_) throw Error("halo exchange: rank " + std::to_string(r) + " asked for a vertex this rank does not own");
+      sendOwned_[r].push_back(i);
+    }
+}
+
+Index HaloExchange::local(Index viewVertex) const {
+  return viewVertex >= 0 && viewVertex < static_cast<Index>(localOf_.size()) ? localOf_[viewVertex] : -1;
+}
+
+Index HaloExchange::sentValues() const {
+  Index n = 0;
+  for (const auto& s : sendOwned_) n += static_cast<Index>(s.size());
+  return n;
+}
+
+void HaloExchange::update(Eigen::VectorXd& x, int components) const {
+  if (components < 1 || x.size() != static_cast<Eigen::Index>(numLocal()) * components)
+    throw Error("halo exchange: a vector of " + std::to_string(x.size()) + " values for " + std::to_string(numLocal()) +
+                " vertices of " + std::to_string(components) + " components");
+  std::vector<std::vector<double>> send(sendOwned_.size());
+  for (std::size_t r = 0; r < send.size(); ++r)
+    for (Index i : sendOwned_[r])
+      for (int c = 0; c < components; ++c) send[r].push_back(x[static_cast<Eigen::Index>(i) * components + c]);
+  const std::vector<std::vector<double>> got = comm_.exchange(send);
+  for (std::size_t r = 0; r < got.size(); ++r) {
+    if (got[r].size() != recvGhost_[r].size() * static_cast<std::size_t>(components))
+      throw Error("halo exchange: rank " + std::to_string(r) + " sent " + std::to_string(got[r].size()) + " values");
+    for (std::size_t k = 0; k < recvGhost_[r].size(); ++k)
+      for (int c = 0; c < components; ++c)
+        x[static_cast<Eigen::Index>(recvGhost_[r][k]) * components + c] = got[r][k * components + c];
+  }
+}
+
+mesh::Mesh localMesh(const mesh::GridView& view, const PartView& part, const HaloExchange& halo) {
+  mesh::Mesh m(view.mesh.dimension());
+  for (Index v : halo.viewVertices()) m.addVertex(view.mesh.vertex(v));
+  std::vector<Index> local;
+  for (const std::vector<Index>* cells : {&part.owned, &part.ghosts})
+    for (Index c : *cells) {
+      local.clear();
+      for (Index v : view.mesh.cellVertices(c)) {
+        const Index l = halo.local(v);
+        if (l < 0) throw Error("local mesh: a vertex of cell " + std::to_string(c) + " is not held");
+        local.push_back(l);
+      }
+      m.addCell(view.mesh.cellType(c), local);
+    }
+  return m;
+}
+
+}  // namespace obs
