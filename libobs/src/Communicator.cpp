@@ -130,6 +130,34 @@ std::vector<std::vector<double>> Communicator::exchange(const std::vector<std::v
   return send;
 }
 
+void Communicator::exchange(const std::vector<int>& to, const std::vector<std::vector<double>>& send,
+                            const std::vector<int>& from, std::vector<std::vector<double>>& recv) const {
+  if (to.size() != send.size() || from.size() != recv.size())
+    throw Error("communicator: a neighbour exchange with lists of different lengths");
+  for (const std::vector<int>* ranks : {&to, &from})
+    for (int r : *ranks)
+      if (r < 0 || r >= size_ || r == rank_)
+        throw Error("communicator: a neighbour exchange with rank " + std::to_string(r) + " (this is rank " +
+                    std::to_string(rank_) + " of " + std::to_string(size_) + ")");
+#ifdef OBS_HAVE_MPI
+  if (size_ > 1) {
+    std::vector<MPI_Request> requests;
+    requests.reserve(to.size() + from.size());
+    for (std::size_t k = 0; k < from.size(); ++k) {
+      if (recv[k].size() > static_cast<std::size_t>(INT_MAX)) throw Error("communicator: a message too large");
+      requests.emplace_back();
+      MPI_Irecv(recv[k].data(), static_cast<int>(recv[k].size()), MPI_DOUBLE, from[k], 0, MPI_COMM_WORLD, &requests.back());
+    }
+    for (std::size_t k = 0; k < to.size(); ++k) {
+      if (send[k].size() > static_cast<std::size_t>(INT_MAX)) throw Error("communicator: a message too large");
+      requests.emplace_back();
+      MPI_Isend(send[k].data(), static_cast<int>(send[k].size()), MPI_DOUBLE, to[k], 0, MPI_COMM_WORLD, &requests.back());
+    }
+    MPI_Waitall(static_cast<int>(requests.size()), requests.data(), MPI_STATUSES_IGNORE);
+  }
+#endif
+}
+
 void Communicator::collective(const std::function<void()>& work) const {
   std::string message;
   bool failed = false;

@@ -36,6 +36,10 @@ HaloExchange::HaloExchange(const ViewNumbering& numbering, const PartView& part,
       if (i < 0 || i >= owned_) throw Error("halo exchange: rank " + std::to_string(r) + " asked for a vertex this rank does not own");
       sendOwned_[r].push_back(i);
     }
+  for (int r = 0; r < ranks; ++r) {
+    if (r != me && !sendOwned_[r].empty()) sendRanks_.push_back(r);
+    if (r != me && !recvGhost_[r].empty()) recvRanks_.push_back(r);
+  }
 }
 
 Index HaloExchange::local(Index viewVertex) const {
@@ -52,17 +56,17 @@ void HaloExchange::update(Eigen::VectorXd& x, int components) const {
   if (components < 1 || x.size() != static_cast<Eigen::Index>(numLocal()) * components)
     throw Error("halo exchange: a vector of " + std::to_string(x.size()) + " values for " + std::to_string(numLocal()) +
                 " vertices of " + std::to_string(components) + " components");
-  std::vector<std::vector<double>> send(sendOwned_.size());
-  for (std::size_t r = 0; r < send.size(); ++r)
-    for (Index i : sendOwned_[r])
-      for (int c = 0; c < components; ++c) send[r].push_back(x[static_cast<Eigen::Index>(i) * components + c]);
-  const std::vector<std::vector<double>> got = comm_.exchange(send);
-  for (std::size_t r = 0; r < got.size(); ++r) {
-    if (got[r].size() != recvGhost_[r].size() * static_cast<std::size_t>(components))
-      throw Error("halo exchange: rank " + std::to_string(r) + " sent " + std::to_string(got[r].size()) + " values");
-    for (std::size_t k = 0; k < recvGhost_[r].size(); ++k)
-      for (int c = 0; c < components; ++c)
-        x[static_cast<Eigen::Index>(recvGhost_[r][k]) * components + c] = got[r][k * components + c];
+  std::vector<std::vector<double>> send(sendRanks_.size()), got(recvRanks_.size());
+  for (std::size_t k = 0; k < sendRanks_.size(); ++k)
+    for (Index i : sendOwned_[sendRanks_[k]])
+      for (int c = 0; c < components; ++c) send[k].push_back(x[static_cast<Eigen::Index>(i) * components + c]);
+  for (std::size_t k = 0; k < recvRanks_.size(); ++k)
+    got[k].resize(recvGhost_[recvRanks_[k]].size() * static_cast<std::size_t>(components));
+  comm_.exchange(sendRanks_, send, recvRanks_, got);
+  for (std::size_t k = 0; k < recvRanks_.size(); ++k) {
+    const std::vector<Index>& ghosts = recvGhost_[recvRanks_[k]];
+    for (std::size_t j = 0; j < ghosts.size(); ++j)
+      for (int c = 0; c < components; ++c) x[static_cast<Eigen::Index>(ghosts[j]) * components + c] = got[k][j * components + c];
   }
 }
 

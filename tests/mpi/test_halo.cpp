@@ -67,6 +67,10 @@ void expectDistributedProduct(CellType type, int cells, int levels) {
   EXPECT_EQ(comm.sum(static_cast<long long>(halo.numOwned())), static_cast<long long>(n));
   EXPECT_EQ(static_cast<long long>(halo.receivedValues()), static_cast<long long>(part.ghostVertices.size()));
   EXPECT_EQ(comm.sum(static_cast<long long>(halo.sentValues())), comm.sum(static_cast<long long>(halo.receivedValues())));
+  // messages only between neighbouring parts: every message sent is received
+  EXPECT_LE(halo.sendNeighbours(), comm.size() - 1);
+  EXPECT_EQ(comm.sum(static_cast<long long>(halo.sendNeighbours())), comm.sum(static_cast<long long>(halo.receiveNeighbours())));
+  if (comm.size() > 1) EXPECT_GE(halo.receiveNeighbours(), 1);
 }
 
 TEST(HaloExchange, DistributedProductEqualsTheSerialOne2D) { expectDistributedProduct<2>(CellType::Triangle, 4, 3); }

@@ -33,6 +33,11 @@ public:
   /// All-to-all: send[r] goes to rank r (send has size() entries); returns what each rank sent to
   /// this one (received[r] from rank r). A collective call.
   std::vector<std::vector<double>> exchange(const std::vector<std::vector<double>>& send) const;
+  /// Point to point between neighbours: send[k] goes to rank to[k], and recv[k] (sized by the
+  /// caller) is filled from rank from[k]. Every message must be matched by a receive of the same
+  /// size on the other rank (as HaloExchange arranges). Self-messages are not allowed.
+  void exchange(const std::vector<int>& to, const std::vector<std::vector<double>>& send, const std::vector<int>& from,
+                std::vector<std::vector<double>>& recv) const;
   /// Runs `work` on this rank; a collective call (every rank must make it). If `work` throws an
   /// exception (std::exception) on any rank, every rank throws obs::Error("rank r: message") with the
   /// lowest failing rank r and its message (one rank: the message alone).

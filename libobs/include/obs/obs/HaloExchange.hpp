@@ -1,7 +1,8 @@
 #pragma once
 /// \file HaloExchange.hpp
 /// The vertices one part holds of a partitioned view (ForestPartition.hpp), numbered locally, and
-/// the exchange that gives its ghost vertices the values of their owners (docs/architecture.md#halo).
+/// the exchange that gives its ghost vertices the values of their owners (docs/architecture.md#halo):
+/// set up by one all-to-all of the ghosts' global indices, then one message per neighbouring part.
 /// Local numbering: the part's owned vertices first, in ascending view order (so local index =
 /// global index - numbering.offsets[part]), then its ghost vertices in ascending view order.
 /// With `localMesh` (the part's owned and ghost cells on these vertices) a part assembles complete
@@ -32,8 +33,11 @@ public:
   Index local(Index viewVertex) const;
 
   /// Overwrites the ghost entries of x (local numbering, `components` values per vertex) with the
-  /// owners' values. A collective call.
+  /// owners' values: one message to and from each neighbouring part only. Every rank must call it.
   void update(Eigen::VectorXd& x, int components = 1) const;
+  /// The parts this part exchanges with (messages per update: sends + receives).
+  int sendNeighbours() const { return static_cast<int>(sendRanks_.size()); }
+  int receiveNeighbours() const { return static_cast<int>(recvRanks_.size()); }
   /// Values this part sends and receives per update with one component (counters for scaling figures).
   Index sentValues() const;
   Index receivedValues() const { return numLocal() - numOwned(); }
@@ -45,6 +49,7 @@ private:
   std::vector<Index> localOf_;                 ///< view vertex -> local, -1
   std::vector<std::vector<Index>> sendOwned_;  ///< per rank: local owned vertices it needs from us
   std::vector<std::vector<Index>> recvGhost_;  ///< per rank: our local ghost vertices it fills, in its order
+  std::vector<int> sendRanks_, recvRanks_;     ///< the ranks with a non-empty list above
 };
 
 /// The part's local mesh: its owned cells, then its ghost cells, on the local vertices of `halo`
