@@ -12,7 +12,7 @@ table gives the error of c in units of the face size h at the contact zone (2D: 
 over the faces in contact; 3D: the edge of the equilateral triangle whose area is the contact area
 per contact vertex).
 
-    python3 scripts/cattaneo_mindlin.py [--dim 2|3] [--obs build/drivers/obs] [--refine 4,5,6,7] [--out DIR]
+    /usr/bin/python3 scripts/cattaneo_mindlin.py [--dim 2|3] [--obs build/drivers/obs] [--refine 4,5,6,7] [--out DIR]
                                         [--curved-slave] [--scale F] [--no-run]
 
 --curved-slave runs a copy of the scene with slave and master swapped, the curved body as the slave
@@ -48,7 +48,11 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 def traction_errors(out, name, dim, load, q_force, mu):
     """(p error, q error, x of the stick zone's centre) of the block's last .vtu in `out` (see the
     file comment)."""
-    import numpy as np
+    try:
+        import numpy as np
+    except ImportError:
+        sys.exit("cattaneo_mindlin.py: the traction profiles need numpy (run it with /usr/bin/python3 on Debian, "
+                 "or apt-get install python3-numpy)")
     sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
     from render_surface import read_vtu
     v = read_vtu(os.path.join(out, f"{name}_block.vtu"))

@@ -46,35 +46,35 @@ Communicator Communicator::world() {
   return Communicator(0, 1);
 }
 
+#ifdef OBS_HAVE_MPI
+namespace {
+/// MPI_Allreduce of one value over MPI_COMM_WORLD.
+template <class T>
+T allReduce(T x, MPI_Datatype type, MPI_Op op) {
+  T y{};
+  MPI_Allreduce(&x, &y, 1, type, op, MPI_COMM_WORLD);
+  return y;
+}
+}  // namespace
+#endif
+
 double Communicator::sum(double x) const {
 #ifdef OBS_HAVE_MPI
-  if (size_ > 1) {
-    double y = 0;
-    MPI_Allreduce(&x, &y, 1, MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
-    return y;
-  }
+  if (size_ > 1) return allReduce(x, MPI_DOUBLE, MPI_SUM);
 #endif
   return x;
 }
 
 long long Communicator::sum(long long x) const {
 #ifdef OBS_HAVE_MPI
-  if (size_ > 1) {
-    long long y = 0;
-    MPI_Allreduce(&x, &y, 1, MPI_LONG_LONG, MPI_SUM, MPI_COMM_WORLD);
-    return y;
-  }
+  if (size_ > 1) return allReduce(x, MPI_LONG_LONG, MPI_SUM);
 #endif
   return x;
 }
 
 double Communicator::max(double x) const {
 #ifdef OBS_HAVE_MPI
-  if (size_ > 1) {
-    double y = 0;
-    MPI_Allreduce(&x, &y, 1, MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
-    return y;
-  }
+  if (size_ > 1) return allReduce(x, MPI_DOUBLE, MPI_MAX);
 #endif
   return x;
 }
