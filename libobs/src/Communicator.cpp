@@ -101,33 +101,71 @@ void Communicator::barrier() const {
 #endif
 }
 
-std::vector<std::vector<double>> Communicator::exchange(const std::vector<std::vector<double>>& send) const {
-  if (send.size() != static_cast<std::size_t>(size_))
-    throw Error("communicator: exchange with " + std::to_string(send.size()) + " buffers for " + std::to_string(size_) +
+namespace {
+
+#ifdef OBS_HAVE_MPI
+template <class T>
+MPI_Datatype mpiType();
+template <>
+MPI_Datatype mpiType<double>() {
+  return MPI_DOUBLE;
+}
+template <>
+MPI_Datatype mpiType<std::uint64_t>() {
+  return MPI_UINT64_T;
+}
+#endif
+
+/// Communicator::exchange for one value type: MPI_Alltoall of the counts, MPI_Alltoallv of the values.
+template <class T>
+std::vector<std::vector<T>> allToAll(const std::vector<std::vector<T>>& send, int size) {
+  if (send.size() != static_cast<std::size_t>(size))
+    throw Error("communicator: exchange with " + std::to_string(send.size()) + " buffers for " + std::to_string(size) +
                 " ranks");
 #ifdef OBS_HAVE_MPI
-  if (size_ > 1) {
-    std::vector<int> sendCounts(static_cast<std::size_t>(size_)), recvCounts(sendCounts.size());
+  if (size > 1) {
+    std::vector<int> sendCounts(static_cast<std::size_t>(size)), recvCounts(sendCounts.size());
     std::vector<int> sendOffsets(sendCounts.size() + 1, 0), recvOffsets(sendCounts.size() + 1, 0);
-    for (int r = 0; r < size_; ++r) {
+    for (int r = 0; r < size; ++r) {
       if (send[r].size() > static_cast<std::size_t>(INT_MAX)) throw Error("communicator: an exchange buffer too large");
       sendCounts[r] = static_cast<int>(send[r].size());
     }
     MPI_Alltoall(sendCounts.data(), 1, MPI_INT, recvCounts.data(), 1, MPI_INT, MPI_COMM_WORLD);
-    for (int r = 0; r < size_; ++r) {
-      sendOffsets[r + 1] = sendOffsets[r] + sendCounts[r];
-      recvOffsets[r + 1] = recvOffsets[r] + recvCounts[r];
+    for (int r = 0; r < size; ++r) {
+      const long long s = static_cast<long long>(sendOffsets[r]) + sendCounts[r];
+      const long long t = static_cast<long long>(recvOffsets[r]) + recvCounts[r];
+      if (s > INT_MAX || t > INT_MAX) throw Error("communicator: an exchange too large");
+      sendOffsets[r + 1] = static_cast<int>(s);
+      recvOffsets[r + 1] = static_cast<int>(t);
     }
-    std::vector<double> out(static_cast<std::size_t>(sendOffsets.back())), in(static_cast<std::size_t>(recvOffsets.back()));
-    for (int r = 0; r < size_; ++r) std::copy(send[r].begin(), send[r].end(), out.begin() + sendOffsets[r]);
-    MPI_Alltoallv(out.data(), sendCounts.data(), sendOffsets.data(), MPI_DOUBLE, in.data(), recvCounts.data(),
-                  recvOffsets.data(), MPI_DOUBLE, MPI_COMM_WORLD);
-    std::vector<std::vector<double>> received(static_cast<std::size_t>(size_));
-    for (int r = 0; r < size_; ++r) received[r].assign(in.begin() + recvOffsets[r], in.begin() + recvOffsets[r + 1]);
+    std::vector<T> out(static_cast<std::size_t>(sendOffsets.back())), in(static_cast<std::size_t>(recvOffsets.back()));
+    for (int r = 0; r < size; ++r) std::copy(send[r].begin(), send[r].end(), out.begin() + sendOffsets[r]);
+    MPI_Alltoallv(out.data(), sendCounts.data(), sendOffsets.data(), mpiType<T>(), in.data(), recvCounts.data(),
+                  recvOffsets.data(), mpiType<T>(), MPI_COMM_WORLD);
+    std::vector<std::vector<T>> received(static_cast<std::size_t>(size));
+    for (int r = 0; r < size; ++r) received[r].assign(in.begin() + recvOffsets[r], in.begin() + recvOffsets[r + 1]);
     return received;
   }
 #endif
   return send;
+}
+
+}  // namespace
+
+std::vector<std::vector<double>> Communicator::exchange(const std::vector<std::vector<double>>& send) const {
+  return allToAll(send, size_);
+}
+
+std::vector<std::vector<std::uint64_t>> Communicator::exchange(const std::vector<std::vector<std::uint64_t>>& send) const {
+  return allToAll(send, size_);
+}
+
+std::vector<long long> Communicator::allGather(long long x) const {
+  std::vector<long long> all(static_cast<std::size_t>(size_), x);
+#ifdef OBS_HAVE_MPI
+  if (size_ > 1) MPI_Allgather(&x, 1, MPI_LONG_LONG, all.data(), 1, MPI_LONG_LONG, MPI_COMM_WORLD);
+#endif
+  return all;
 }
 
 void Communicator::exchange(const std::vector<int>& to, const std::vector<std::vector<double>>& send,

@@ -1,9 +1,11 @@
 #include "obs/obs/ForestPartition.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <string>
 
 #include "obs/mesh/Error.hpp"
+#include "obs/mesh/RedRefinement.hpp"
 #include "obs/obs/Parallel.hpp"
 
 namespace obs {
@@ -42,25 +44,10 @@ ForestPartition partitionForest(const mesh::Grid& grid, int parts, const ForestP
     throw Error("forest partition: " + std::to_string(nc) + " partition cells on level " + std::to_string(p.level) +
                 " for " + std::to_string(parts) + " parts (refine the coarse mesh, or choose a finer partition level)");
 
-  // each element's partition cell: itself, or its father's (fathers precede their children)
-  const Index ne = grid.numElements();
-  p.elementCell.assign(static_cast<std::size_t>(ne), -1);
-  for (Index i = 0; i < nc; ++i) p.elementCell[p.cells[i]] = i;
-  for (Index e = 0; e < ne; ++e) {
-    if (grid.isRemoved(e) || p.elementCell[e] >= 0) continue;
-    const Index f = grid.father(e);
-    if (f >= e) throw Error("forest partition: element " + std::to_string(e) + " precedes its father");
-    if (f >= 0) p.elementCell[e] = p.elementCell[f];
-  }
-  p.cellLeaves.assign(static_cast<std::size_t>(nc), 0);
-  for (Index e = 0; e < ne; ++e)
-    if (grid.isLeaf(e)) {
-      if (p.elementCell[e] < 0) throw Error("forest partition: leaf " + std::to_string(e) + " below no partition cell");
-      ++p.cellLeaves[p.elementCell[e]];
-    }
+  p.cellPart.assign(static_cast<std::size_t>(nc), 0);
+  p.follow(grid);
 
   // the face graph of the partition cells, split by METIS in leaves
-  p.cellPart.assign(static_cast<std::size_t>(nc), 0);
   if (parts > 1) {
     const mesh::GridView::Neighbours nb = view.faceNeighbours();
     std::vector<Index> rowStart(static_cast<std::size_t>(nc) + 1, 0), columns;
@@ -69,13 +56,57 @@ ForestPartition partitionForest(const mesh::Grid& grid, int parts, const ForestP
         if (nb.cells[k] >= 0) columns.push_back(nb.cells[k]);
       rowStart[c + 1] = static_cast<Index>(columns.size());
     }
-    const std::vector<int> part = partitionPattern(rowStart, columns, parts, p.cellLeaves);
+    // weights: the leaves below each cell, each counted as the leaves its future uniform
+    // refinements will give it (children^k: the weights METIS gets from the refined grid), scaled
+    // down by the fewest children^k where their sum would not fit METIS' integers
+    std::vector<Index> weights = p.cellLeaves;
+    if (options.refinementsBelow > 0) {
+      const std::vector<mesh::Index> leaves = grid.leafElements();
+      const auto children = [&](Index e) { return static_cast<double>(mesh::redRefinementRule(grid.type(e)).children.size()); };
+      double fewest = 1e300, total = 0;
+      for (Index e : leaves) {
+        fewest = std::min(fewest, children(e));
+        total += std::pow(children(e), options.refinementsBelow);
+      }
+      const double unit = total > 1e9 ? std::pow(fewest, options.refinementsBelow) : 1.0;
+      if (total / unit > 1e9)
+        throw Error("forest partition: " + std::to_string(options.refinementsBelow) +
+                    " refinements below the partition level are too many to weigh the cells (choose a finer partition level)");
+      std::vector<double> w(weights.size(), 0.0);
+      for (Index e : leaves) w[p.elementCell[e]] += std::round(std::pow(children(e), options.refinementsBelow) / unit);
+      for (std::size_t c = 0; c < w.size(); ++c) weights[c] = static_cast<Index>(w[c]);
+    }
+    const std::vector<int> part = partitionPattern(rowStart, columns, parts, weights);
     if (part.size() != static_cast<std::size_t>(nc)) throw Error("forest partition: METIS failed");
     p.cellPart = part;
   }
-  p.partLeaves.assign(static_cast<std::size_t>(parts), 0);
-  for (Index c = 0; c < nc; ++c) p.partLeaves[p.cellPart[c]] += p.cellLeaves[c];
+  p.follow(grid);
   return p;
+}
+
+void ForestPartition::follow(const mesh::Grid& grid) {
+  // each element's partition cell: itself, or its father's (fathers precede their children)
+  const Index ne = grid.numElements(), nc = static_cast<Index>(cells.size());
+  elementCell.assign(static_cast<std::size_t>(ne), -1);
+  for (Index i = 0; i < nc; ++i) {
+    if (cells[i] >= ne || grid.isRemoved(cells[i]) || grid.level(cells[i]) > level)
+      throw Error("forest partition: the grid does not have the partition cells of this partition");
+    elementCell[cells[i]] = i;
+  }
+  for (Index e = 0; e < ne; ++e) {
+    if (grid.isRemoved(e) || elementCell[e] >= 0) continue;
+    const Index f = grid.father(e);
+    if (f >= e) throw Error("forest partition: element " + std::to_string(e) + " precedes its father");
+    if (f >= 0) elementCell[e] = elementCell[f];
+  }
+  cellLeaves.assign(static_cast<std::size_t>(nc), 0);
+  for (Index e = 0; e < ne; ++e)
+    if (grid.isLeaf(e)) {
+      if (elementCell[e] < 0) throw Error("forest partition: leaf " + std::to_string(e) + " below no partition cell");
+      ++cellLeaves[elementCell[e]];
+    }
+  partLeaves.assign(static_cast<std::size_t>(parts), 0);
+  for (Index c = 0; c < nc; ++c) partLeaves[cellPart[c]] += cellLeaves[c];
 }
 
 namespace {

@@ -8,6 +8,7 @@
 /// Errors never hang a run: collective() runs a piece of work on every rank, and if it throws
 /// obs::Error on any rank, every rank throws the same obs::Error (the message of the lowest failing
 /// rank, naming it), instead of the other ranks waiting for it in their next collective call.
+#include <cstdint>
 #include <functional>
 #include <string>
 #include <vector>
@@ -33,6 +34,10 @@ public:
   /// All-to-all: send[r] goes to rank r (send has size() entries); returns what each rank sent to
   /// this one (received[r] from rank r). A collective call.
   std::vector<std::vector<double>> exchange(const std::vector<std::vector<double>>& send) const;
+  /// The same for 64-bit keys (e.g. DistributedGrid's vertex keys).
+  std::vector<std::vector<std::uint64_t>> exchange(const std::vector<std::vector<std::uint64_t>>& send) const;
+  /// Every rank's x, in rank order (a collective call).
+  std::vector<long long> allGather(long long x) const;
   /// Point to point between neighbours: send[k] goes to rank to[k], and recv[k] (sized by the
   /// caller) is filled from rank from[k]. Every message must be matched by a receive of the same
   /// size on the other rank (as HaloExchange arranges). Self-messages are not allowed.

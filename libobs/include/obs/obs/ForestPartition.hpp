@@ -31,6 +31,10 @@ struct ForestPartitionOptions {
   /// cells (or the finest level if none has).
   int level = -1;
   int cellsPerPart = 8;
+  /// Balance the parts as if every leaf were refined uniformly (red) this many more times: each
+  /// leaf weighs its red children count to this power (a distributed grid partitions before it
+  /// refines, DistributedGrid.hpp). 0: the leaves as they are.
+  int refinementsBelow = 0;
 };
 
 struct ForestPartition {
@@ -44,6 +48,11 @@ struct ForestPartition {
   std::vector<Index> elementCell;
   std::vector<Index> partLeaves;  ///< leaves owned by each part
 
+  /// Recomputes elementCell, cellLeaves and partLeaves for the grid's current state: the partition
+  /// cells and their parts stay (the grid was refined below the partition level, or it is a rank's
+  /// part of a distributed grid, whose leaves are only those it holds). Throws obs::Error if the
+  /// grid does not have the partition cells.
+  void follow(const mesh::Grid& grid);
   /// The part owning grid element e, -1 if e is replicated.
   int partOf(Index e) const { return elementCell[e] < 0 ? -1 : cellPart[elementCell[e]]; }
   /// max part leaves / mean part leaves (1: perfect balance).

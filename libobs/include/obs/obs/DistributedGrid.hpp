@@ -1,0 +1,85 @@
+#pragma once
+/// \file DistributedGrid.hpp
+/// A hierarchical grid distributed over the ranks of a run (docs/architecture.md#distributed-grid):
+/// no rank refines, or holds, the whole fine grid.
+///
+/// Construction (collective). Every rank starts from the same coarse grid and refines it uniformly,
+/// all of it, up to the partition level L_p (the coarsest level with cellsPerPart x ranks cells, as
+/// partitionForest chooses it, or the level asked for): these levels are replicated. Then every rank
+/// computes the same ForestPartition of the level-L_p cells (METIS, weighted by the leaves the
+/// remaining refinements will give them) and refines, in each remaining round, only the leaves
+/// below its *near* partition cells: its own and those that share a vertex with one of its own.
+/// The grid's closure grades the refinement outside that region (green closures, rule 1 of
+/// Grid.hpp), but every near cell is refined red in every round, so its subtree is the same as in
+/// the grid refined uniformly everywhere. A rank's owned cells and their one-layer ghosts lie in
+/// its near cells: on the leaf view and every level view >= L_p they are exactly the cells the
+/// serial partition (partView) gives this part.
+///
+/// Vertices across ranks. A vertex has a *key*, the same on every rank that holds it: the grid
+/// vertex index for vertices of the replicated levels (created in the same order everywhere), and
+/// for later ones a hash of the keys of the corners of the entity it is the centre of (an edge
+/// midpoint: its two end points; a face or cell centre: its corners). A vertex is owned by the
+/// smallest part among the cells containing it (as in numberView); in a rank's local grid, which is
+/// conforming and covers the domain, these are the cells of the partition cells whose closure
+/// contains the vertex, so every rank computes the same owner for every vertex it holds. Global
+/// indices: each part numbers its owned vertices in ascending local view order from its offset
+/// (the prefix sums of the parts' counts); a ghost vertex gets its index from its owner, asked by
+/// key (one all-to-all).
+///
+/// Input: uniformly refined grids (scenes' `refine = k`) from any coarse mesh the serial grid
+/// accepts; the replicated grid must have no green leaves. Boundary projections set on the grid
+/// apply in every rank's refinement.
+#include <cstdint>
+#include <vector>
+
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/Communicator.hpp"
+#include "obs/obs/ForestPartition.hpp"
+#include "obs/obs/HaloExchange.hpp"
+
+namespace obs {
+
+/// A view (leaf view or a level view >= the partition level) of a distributed grid on one rank.
+struct DistributedView {
+  mesh::GridView view;      ///< of the rank's local grid (it also has cells outside its part and ghosts)
+  /// owner: of every view vertex; global: of the vertices this rank holds (owned and ghost), -1 for
+  /// the others; offsets: the first global index of each part (ranks + 1 entries).
+  ViewNumbering numbering;
+  PartView part;            ///< this rank's owned and ghost cells and vertices (view indices)
+  HaloExchange halo;        ///< local numbering (owned first) and the ghost exchange
+  mesh::Mesh local;         ///< the owned cells, then the ghost cells, on the local vertices
+  Index globalVertices() const { return numbering.offsets.back(); }
+};
+
+class DistributedGrid {
+public:
+  /// Collective (see the file comment): `coarse` the same on every rank, refined `refinements`
+  /// times in all. Throws obs::Error (on every rank) for negative refinements, a coarse grid with
+  /// green leaves, or fewer partition cells than ranks after all refinements.
+  DistributedGrid(mesh::Grid coarse, int refinements, const Communicator& comm,
+                  const ForestPartitionOptions& options = {});
+
+  /// This rank's grid: the replicated levels, its near subtrees and the graded closure around them.
+  const mesh::Grid& grid() const { return grid_; }
+  const ForestPartition& partition() const { return partition_; }
+  const Communicator& communicator() const { return comm_; }
+  /// The finest level (the same on every rank).
+  int maxLevel() const { return grid_.maxLevel(); }
+  /// Per vertex of grid(): its key (see the file comment).
+  const std::vector<std::uint64_t>& vertexKeys() const { return keys_; }
+  /// Leaves of the uniformly refined grid (the sum over the parts; what one process would hold).
+  long long globalLeaves() const { return globalLeaves_; }
+
+  /// The leaf view (level -1) or level view `level` (partition level <= level <= maxLevel()),
+  /// numbered and with its halo. Collective. Throws obs::Error for a level out of range.
+  DistributedView view(int level = -1) const;
+
+private:
+  mesh::Grid grid_;
+  ForestPartition partition_;
+  Communicator comm_;
+  std::vector<std::uint64_t> keys_;
+  long long globalLeaves_ = 0;
+};
+
+}  // namespace obs

@@ -1,0 +1,153 @@
+// The distributed grid under mpirun (tests/CMakeLists.txt: 1, 2 and 3 ranks): every rank refines
+// only its near subtrees (DistributedGrid.hpp), and what it then holds of the leaf view and of the
+// level views below it must be what the serial partition of the uniformly refined grid gives its
+// part: the same owned and ghost cells and vertices (compared by position), the ghosts' global
+// indices those of their owners (their positions arrive through the halo exchange), every vertex
+// owned once, and the owned rows of the stiffness product those of the serial product
+// (docs/architecture.md#distributed-grid).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <string>
+
+#include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/Communicator.hpp"
+#include "obs/obs/DistributedGrid.hpp"
+#include "obs/obs/ElasticityAssembly.hpp"
+#include "obs/obs/Material.hpp"
+
+namespace {
+
+using obs::Index;
+using obs::mesh::CellType;
+using Position = std::array<long long, 3>;
+
+/// A position on the 2^-30 lattice: the box meshes' vertices are dyadic, so rounding is exact
+/// whatever the last bits of the arithmetic that made them.
+Position quantise(const obs::mesh::Point& x) {
+  return {std::llround(std::ldexp(x[0], 30)), std::llround(std::ldexp(x[1], 30)), std::llround(std::ldexp(x[2], 30))};
+}
+
+std::vector<Position> positions(const obs::mesh::Mesh& m, const std::vector<Index>& vertices) {
+  std::vector<Position> p;
+  for (Index v : vertices) p.push_back(quantise(m.vertex(v)));
+  std::sort(p.begin(), p.end());
+  return p;
+}
+
+/// The cells' centroids (sums of corner positions: exact on the lattice), sorted.
+std::vector<Position> cellPositions(const obs::mesh::Mesh& m, const std::vector<Index>& cells) {
+  std::vector<Position> p;
+  for (Index c : cells) {
+    Position s{0, 0, 0};
+    for (Index v : m.cellVertices(c)) {
+      const Position q = quantise(m.vertex(v));
+      for (int k = 0; k < 3; ++k) s[k] += q[k];
+    }
+    p.push_back(s);
+  }
+  std::sort(p.begin(), p.end());
+  return p;
+}
+
+double field(const obs::mesh::Point& x, int component) {
+  return std::sin(3.1 * x[0] + 1.7 * x[1] - 0.9 * x[2] + 1.3 * component) + 0.1 * component;
+}
+
+template <int d>
+void expectSerialPartView(CellType type, int cells, int refinements) {
+  SCOPED_TRACE(std::string(obs::mesh::name(type)));
+  const obs::Communicator comm = obs::Communicator::world();
+  const obs::mesh::Grid coarse(obs::mesh::boxMesh(type, cells));
+  const obs::DistributedGrid dist(coarse, refinements, comm);
+  obs::mesh::Grid serial = coarse;
+  for (int l = 0; l < refinements; ++l) serial.refineUniformly();
+  ASSERT_EQ(dist.maxLevel(), serial.maxLevel());
+  obs::ForestPartitionOptions options;
+  options.level = dist.partition().level;
+  const obs::ForestPartition sp = obs::partitionForest(serial, comm.size(), options);
+  EXPECT_EQ(dist.partition().cellPart, sp.cellPart);
+  EXPECT_EQ(dist.globalLeaves(), static_cast<long long>(serial.numLeafElements()));
+  // no rank holds the whole fine level: red leaves of the finest level (the graded closure around
+  // its near cells is coarser or green)
+  Index fine = 0;
+  for (Index e : dist.grid().leafElements()) fine += dist.grid().level(e) == dist.maxLevel() && !dist.grid().isGreen(e) ? 1 : 0;
+  if (comm.size() > 1) {
+    EXPECT_LT(fine, serial.numLeafElements());
+  }
+
+  for (int level = -1; level <= dist.maxLevel(); ++level) {
+    if (level >= 0 && level < dist.partition().level) {
+      EXPECT_THROW(dist.view(level), obs::Error);
+      continue;
+    }
+    SCOPED_TRACE("level " + std::to_string(level));
+    const obs::DistributedView dv = dist.view(level);
+    const obs::mesh::GridView sv = level < 0 ? serial.leafView() : serial.levelView(level);
+    const obs::ViewNumbering sn = obs::numberView(serial, sv, sp);
+    const obs::PartView spv = obs::partView(serial, sv, sp, sn, comm.rank());
+    const obs::mesh::Mesh& m = dv.view.mesh;
+    EXPECT_EQ(cellPositions(m, dv.part.owned), cellPositions(sv.mesh, spv.owned));
+    EXPECT_EQ(cellPositions(m, dv.part.ghosts), cellPositions(sv.mesh, spv.ghosts));
+    EXPECT_EQ(positions(m, dv.part.ownedVertices), positions(sv.mesh, spv.ownedVertices));
+    EXPECT_EQ(positions(m, dv.part.ghostVertices), positions(sv.mesh, spv.ghostVertices));
+    EXPECT_EQ(dv.globalVertices(), sv.mesh.numVertices());
+    EXPECT_EQ(comm.sum(static_cast<long long>(dv.halo.numOwned())), static_cast<long long>(sv.mesh.numVertices()));
+
+    // the ghosts' positions from their owners: the global indices asked by key are the right ones
+    const Index nl = dv.halo.numLocal();
+    Eigen::VectorXd x = Eigen::VectorXd::Constant(static_cast<Eigen::Index>(nl) * d, -1e300);
+    for (Index i = 0; i < dv.halo.numOwned(); ++i)
+      for (int c = 0; c < d; ++c) x[i * d + c] = dv.local.vertex(i)[c];
+    dv.halo.update(x, d);
+    for (Index i = dv.halo.numOwned(); i < nl; ++i)
+      for (int c = 0; c < d; ++c) ASSERT_NEAR(x[i * d + c], dv.local.vertex(i)[c], 1e-14) << "ghost " << i;
+
+    // the owned rows of the distributed product are the serial ones
+    for (Index i = 0; i < nl; ++i)
+      for (int c = 0; c < d; ++c) x[i * d + c] = field(dv.local.vertex(i), c);
+    const obs::Material material{1.0, 0.3};
+    const Eigen::VectorXd y = obs::assembleStiffness<d>(dv.local, material) * x;
+    const Index ns = sv.mesh.numVertices();
+    Eigen::VectorXd xs(static_cast<Eigen::Index>(ns) * d);
+    std::map<Position, Index> serialVertex;
+    for (Index v = 0; v < ns; ++v) {
+      serialVertex[quantise(sv.mesh.vertex(v))] = v;
+      for (int c = 0; c < d; ++c) xs[v * d + c] = field(sv.mesh.vertex(v), c);
+    }
+    const Eigen::VectorXd ys = obs::assembleStiffness<d>(sv.mesh, material) * xs;
+    const double scale = ys.cwiseAbs().maxCoeff();
+    for (Index i = 0; i < dv.halo.numOwned(); ++i) {
+      const Index v = serialVertex.at(quantise(dv.local.vertex(i)));
+      for (int c = 0; c < d; ++c) ASSERT_NEAR(y[i * d + c], ys[v * d + c], 1e-12 * scale) << "vertex " << i;
+    }
+  }
+}
+
+TEST(DistributedGrid, HoldsTheSerialPartViewTriangles) { expectSerialPartView<2>(CellType::Triangle, 8, 3); }
+TEST(DistributedGrid, HoldsTheSerialPartViewQuadrilaterals) { expectSerialPartView<2>(CellType::Quadrilateral, 8, 3); }
+TEST(DistributedGrid, HoldsTheSerialPartViewTetrahedra) { expectSerialPartView<3>(CellType::Tetrahedron, 2, 2); }
+TEST(DistributedGrid, HoldsTheSerialPartViewHexahedra) { expectSerialPartView<3>(CellType::Hexahedron, 8, 1); }
+
+TEST(DistributedGrid, ErrorsReachEveryRank) {
+  const obs::Communicator comm = obs::Communicator::world();
+  const obs::mesh::Grid coarse(obs::mesh::boxMesh(CellType::Triangle, 2));
+  EXPECT_THROW(obs::DistributedGrid(coarse, -1, comm), obs::Error);
+  obs::ForestPartitionOptions options;
+  options.level = 5;  // beyond the refinements
+  EXPECT_THROW(obs::DistributedGrid(coarse, 2, comm, options), obs::Error);
+  const obs::DistributedGrid dist(coarse, 2, comm);
+  EXPECT_THROW(dist.view(dist.maxLevel() + 1), obs::Error);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  obs::MpiSession mpi(argc, argv);
+  ::testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
