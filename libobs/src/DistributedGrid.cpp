@@ -70,7 +70,8 @@ DistributedGrid::DistributedGrid(mesh::Grid coarse, int refinements, const Commu
       for (; grid_.maxLevel() < options.level; --left) grid_.refineUniformly();
     } else {
       const auto wanted = static_cast<long long>(options.cellsPerPart) * parts;
-      for (; left > 0 && grid_.numLeafElements() < wanted; --left) grid_.refineUniformly();
+      // at least level 1 (level 0 stays replicated: the coarse problem of multigrid)
+      for (; left > 0 && (grid_.maxLevel() == 0 || grid_.numLeafElements() < wanted); --left) grid_.refineUniformly();
     }
     replicated = grid_.numVertices();
     ForestPartitionOptions po = options;

@@ -70,6 +70,26 @@ void HaloExchange::update(Eigen::VectorXd& x, int components) const {
   }
 }
 
+void HaloExchange::accumulate(Eigen::VectorXd& x, int components) const {
+  if (components < 1 || x.size() != static_cast<Eigen::Index>(numLocal()) * components)
+    throw Error("halo exchange: a vector of " + std::to_string(x.size()) + " values for " + std::to_string(numLocal()) +
+                " vertices of " + std::to_string(components) + " components");
+  // the messages of update() in the other direction: ghosts to their owners
+  std::vector<std::vector<double>> send(recvRanks_.size()), got(sendRanks_.size());
+  for (std::size_t k = 0; k < recvRanks_.size(); ++k)
+    for (Index i : recvGhost_[recvRanks_[k]])
+      for (int c = 0; c < components; ++c) send[k].push_back(x[static_cast<Eigen::Index>(i) * components + c]);
+  for (std::size_t k = 0; k < sendRanks_.size(); ++k)
+    got[k].resize(sendOwned_[sendRanks_[k]].size() * static_cast<std::size_t>(components));
+  comm_.exchange(recvRanks_, send, sendRanks_, got);
+  for (std::size_t k = 0; k < sendRanks_.size(); ++k) {
+    const std::vector<Index>& owned = sendOwned_[sendRanks_[k]];
+    for (std::size_t j = 0; j < owned.size(); ++j)
+      for (int c = 0; c < components; ++c) x[static_cast<Eigen::Index>(owned[j]) * components + c] += got[k][j * components + c];
+  }
+  x.tail(static_cast<Eigen::Index>(numLocal() - numOwned()) * components).setZero();
+}
+
 mesh::Mesh localMesh(const mesh::GridView& view, const PartView& part, const HaloExchange& halo) {
   mesh::Mesh m(view.mesh.dimension());
   for (Index v : halo.viewVertices()) m.addVertex(view.mesh.vertex(v));

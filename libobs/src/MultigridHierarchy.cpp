@@ -9,6 +9,7 @@
 #include <string>
 
 #include "obs/mesh/Error.hpp"
+#include "obs/obs/DistributedGrid.hpp"
 
 namespace obs {
 namespace {
@@ -34,6 +35,19 @@ mesh::CsrMatrix transpose(const mesh::CsrMatrix& P) {
       T.columns[pos] = r;
       T.values[pos] = P.values[k];
     }
+  return T;
+}
+
+/// The transpose of the first `rows` rows of P (the owned fine rows of a distributed level).
+mesh::CsrMatrix transposeRows(const mesh::CsrMatrix& P, Index rows) {
+  mesh::CsrMatrix head;
+  head.rows = rows;
+  head.cols = P.cols;
+  head.rowStart.assign(P.rowStart.begin(), P.rowStart.begin() + rows + 1);
+  head.columns.assign(P.columns.begin(), P.columns.begin() + P.rowStart[rows]);
+  head.values.assign(P.values.begin(), P.values.begin() + P.rowStart[rows]);
+  mesh::CsrMatrix T = transpose(head);
+  T.cols = P.rows;
   return T;
 }
 
@@ -426,12 +440,215 @@ MultigridHierarchy<d>::MultigridHierarchy(const std::vector<const mesh::Grid*>& 
 }
 
 template <int d>
+Index MultigridHierarchy<d>::Level::local(Index g) const {
+  if (owned > 0 && g >= global[0] && g < global[0] + owned) return g - global[0];
+  const auto it = ghostLocal.find(g);
+  return it == ghostLocal.end() ? -1 : it->second;
+}
+
+template <int d>
+MultigridHierarchy<d>::MultigridHierarchy(const DistributedGrid& dg) : comm_(dg.communicator()) {
+  const mesh::Grid& grid = dg.grid();
+  if (grid.dimension() != d)
+    throw Error("multigrid hierarchy: the grid has dimension " + std::to_string(grid.dimension()) + ", the solver " +
+                std::to_string(d));
+  const int L = grid.maxLevel(), Lp = dg.partition().level;
+  if (Lp < 1)
+    throw Error("multigrid hierarchy: the partition level of a distributed grid must be at least 1 (level 0, solved "
+                "directly, is replicated on every rank)");
+  std::vector<mesh::GridView> views(static_cast<std::size_t>(L) + 1);
+  levels_.resize(static_cast<std::size_t>(L) + 1);
+  for (int l = 0; l <= L; ++l) {
+    Level& lv = levels_[l];
+    if (l < Lp) {
+      views[l] = grid.levelView(l);
+      const auto n = static_cast<Index>(views[l].vertices.size());
+      lv.owned = n;
+      lv.viewVertex.resize(n);
+      for (Index i = 0; i < n; ++i) lv.viewVertex[i] = i;
+    } else {
+      DistributedView dv = dg.view(l == L ? -1 : l);
+      views[l] = std::move(dv.view);
+      lv.owned = dv.halo.numOwned();
+      lv.viewVertex = dv.halo.viewVertices();
+      for (Index v : lv.viewVertex) {
+        lv.global.push_back(dv.numbering.global[v]);
+        lv.owner.push_back(dv.numbering.owner[v]);
+      }
+      for (Index i = lv.owned; i < static_cast<Index>(lv.global.size()); ++i) lv.ghostLocal.emplace(lv.global[i], i);
+      lv.halo = std::make_shared<const HaloExchange>(std::move(dv.halo));
+    }
+    vertices_.push_back(static_cast<Index>(lv.viewVertex.size()));
+  }
+  // prolongations in the levels' numberings: the rows of the held fine vertices, whose coarse
+  // parents are held (a fine cell next to an owned one lies in a coarse cell next to an owned one)
+  newBasis_.assign(static_cast<std::size_t>(L) + 1, {});
+  for (int l = 0; l < L; ++l) {
+    const mesh::CsrMatrix T = mesh::transferMatrix(grid, views[l], views[l + 1]);
+    std::vector<Index> coarseLocal(static_cast<std::size_t>(T.cols), -1);
+    for (Index i = 0; i < vertices_[l]; ++i) coarseLocal[levels_[l].viewVertex[i]] = i;
+    mesh::CsrMatrix P;
+    P.rows = vertices_[l + 1];
+    P.cols = vertices_[l];
+    for (Index v : levels_[l + 1].viewVertex) {
+      for (Index k = T.rowStart[v]; k < T.rowStart[v + 1]; ++k) {
+        const Index c = coarseLocal[T.columns[k]];
+        if (c < 0) throw Error("multigrid hierarchy: a coarse parent of a held vertex of level " + std::to_string(l + 1) + " is not held");
+        P.columns.push_back(c);
+        P.values.push_back(T.values[k]);
+      }
+      P.rowStart.push_back(static_cast<Index>(P.columns.size()));
+    }
+    const mesh::CsrMatrix full = transpose(P);
+    if (l > 0) {  // new basis functions (MultigridHierarchy::newBasis), from the held rows
+      const mesh::CsrMatrix& Pc = prolongations_[l - 1];
+      const mesh::CsrMatrix Ptc = transpose(Pc);
+      auto& mark = newBasis_[l];
+      mark.assign(static_cast<std::size_t>(Pc.rows), 1);
+      for (Index p = 0; p < Pc.rows; ++p) {
+        const Index k = Pc.rowStart[p];
+        if (Pc.rowStart[p + 1] - k != 1 || Pc.values[k] != 1.0) continue;
+        if (Ptc.rowStart[Pc.columns[k] + 1] - Ptc.rowStart[Pc.columns[k]] == 1) mark[p] = 0;
+      }
+    }
+    transposed_.push_back(distributedLevel(l + 1) ? transposeRows(P, levels_[l + 1].owned) : full);
+    prolongations_.push_back(std::move(P));
+  }
+}
+
+template <int d>
+const std::vector<Index>& MultigridHierarchy<d>::viewVertices(int l) const {
+  static const std::vector<Index> none;
+  return distributed() ? levels_[l].viewVertex : none;
+}
+
+template <int d>
+void MultigridHierarchy<d>::joinPattern(int l) {
+  const Communicator& comm = *comm_;
+  BlockSparseMatrix<d>& C = coarse_[l];
+  const int ranks = comm.size();
+  std::vector<std::vector<double>> send(static_cast<std::size_t>(ranks));
+  std::vector<std::vector<Index>> extra(static_cast<std::size_t>(C.rows()));
+  if (distributedLevel(l)) {  // ghost rows' columns to their owners, in global indices
+    const Level& lv = levels_[l];
+    for (Index I = lv.owned; I < C.rows(); ++I) {
+      std::vector<double>& out = send[lv.owner[I]];
+      out.push_back(static_cast<double>(lv.global[I]));
+      out.push_back(static_cast<double>(C.rowEnd(I) - C.rowBegin(I)));
+      for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) out.push_back(static_cast<double>(lv.global[C.column(k)]));
+    }
+    const std::vector<std::vector<double>> got = comm.exchange(send);
+    bool held = true;
+    for (const auto& in : got)
+      for (std::size_t a = 0; a < in.size();) {
+        const Index I = lv.local(static_cast<Index>(in[a]));
+        const auto n = static_cast<std::size_t>(in[a + 1]);
+        for (std::size_t k = 0; k < n; ++k) {
+          const Index J = lv.local(static_cast<Index>(in[a + 2 + k]));
+          held = held && I >= 0 && I < lv.owned && J >= 0;
+          if (held) extra[I].push_back(J);
+        }
+        a += 2 + n;
+      }
+    comm.collective([&] {
+      if (!held) throw Error("multigrid hierarchy: a coarse entry of level " + std::to_string(l) + " is not held by its row's owner");
+    });
+  } else {  // a replicated level: every rank's pattern to every rank
+    std::vector<double> mine;
+    for (Index I = 0; I < C.rows(); ++I) {
+      mine.push_back(static_cast<double>(C.rowEnd(I) - C.rowBegin(I)));
+      for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) mine.push_back(static_cast<double>(C.column(k)));
+    }
+    std::fill(send.begin(), send.end(), mine);
+    const std::vector<std::vector<double>> got = comm.exchange(send);
+    for (const auto& in : got) {
+      std::size_t a = 0;
+      for (Index I = 0; I < C.rows(); ++I) {
+        const auto n = static_cast<std::size_t>(in[a]);
+        for (std::size_t k = 0; k < n; ++k) extra[I].push_back(static_cast<Index>(in[a + 1 + k]));
+        a += 1 + n;
+      }
+    }
+  }
+  std::vector<Index> rowStart{0}, columns;
+  for (Index I = 0; I < C.rows(); ++I) {
+    std::vector<Index>& row = extra[I];
+    for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) row.push_back(C.column(k));
+    std::sort(row.begin(), row.end());
+    row.erase(std::unique(row.begin(), row.end()), row.end());
+    columns.insert(columns.end(), row.begin(), row.end());
+    rowStart.push_back(static_cast<Index>(columns.size()));
+  }
+  C = BlockSparseMatrix<d>(std::move(rowStart), columns);
+}
+
+template <int d>
+void MultigridHierarchy<d>::sumShares(int l) {
+  const Communicator& comm = *comm_;
+  BlockSparseMatrix<d>& C = coarse_[l];
+  C.unshareBlocks();
+  std::vector<Index> all(static_cast<std::size_t>(C.rows()));
+  for (Index I = 0; I < C.rows(); ++I) all[I] = I;
+  if (!distributedLevel(l)) {  // replicated: the same pattern on every rank, the blocks summed
+    std::vector<double> values(static_cast<std::size_t>(C.nonZeroBlocks()) * d * d);
+    for (Index k = 0; k < C.nonZeroBlocks(); ++k) std::copy_n(C.blockAt(k).data(), d * d, values.begin() + k * d * d);
+    comm.sum(values);
+    for (Index k = 0; k < C.nonZeroBlocks(); ++k) std::copy_n(values.begin() + k * d * d, d * d, C.blockAt(k).data());
+    markDeadComponents(C, all, dead_[l]);
+    return;
+  }
+  // the ghost rows' shares added to their owners' rows (patterns joined by joinPattern)
+  const Level& lv = levels_[l];
+  std::vector<std::vector<double>> send(static_cast<std::size_t>(comm.size()));
+  for (Index I = lv.owned; I < C.rows(); ++I) {
+    std::vector<double>& out = send[lv.owner[I]];
+    out.push_back(static_cast<double>(lv.global[I]));
+    out.push_back(static_cast<double>(C.rowEnd(I) - C.rowBegin(I)));
+    for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) {
+      out.push_back(static_cast<double>(lv.global[C.column(k)]));
+      out.insert(out.end(), C.blockAt(k).data(), C.blockAt(k).data() + d * d);
+    }
+  }
+  const std::vector<std::vector<double>> got = comm.exchange(send);
+  for (const auto& in : got)
+    for (std::size_t a = 0; a < in.size();) {
+      const Index I = lv.local(static_cast<Index>(in[a]));
+      const auto n = static_cast<std::size_t>(in[a + 1]);
+      a += 2;
+      for (std::size_t k = 0; k < n; ++k, a += 1 + d * d) {
+        const Index pos = C.find(I, lv.local(static_cast<Index>(in[a])));
+        C.blockAt(pos) += Eigen::Map<const Mat>(in.data() + a + 1);
+      }
+    }
+  // dead components from the owned rows: the largest live diagonal entry over all ranks
+  double scale = 0;
+  for (Index I = 0; I < lv.owned; ++I) scale = std::max(scale, C.blockAt(C.diagonal(I)).diagonal().maxCoeff());
+  scale = comm.max(scale);
+  const double patch = scale > 0 ? scale : 1.0;
+  Eigen::VectorXd bits = Eigen::VectorXd::Zero(C.rows());
+  for (Index I = 0; I < lv.owned; ++I) {
+    Mat& D = C.blockAt(C.diagonal(I));
+    unsigned b = 0;
+    for (int c = 0; c < d; ++c)
+      if (D(c, c) <= 1e-12 * scale) {
+        b |= 1u << c;
+        D(c, c) = patch;
+      }
+    bits[I] = b;
+  }
+  lv.halo->update(bits);
+  for (Index I = 0; I < C.rows(); ++I) dead_[l][I] = static_cast<std::uint8_t>(bits[I]);
+}
+
+template <int d>
 void MultigridHierarchy<d>::setFineBasis(const mesh::CsrMatrix& C) {
   const int L = maxLevel();
   const Index n = numVertices(L);
   if (C.rows != 0 && (C.rows != n || C.cols != n))
     throw Error("multigrid hierarchy: fine basis transformation of size " + std::to_string(C.rows) + " x " +
                 std::to_string(C.cols) + " for " + std::to_string(n) + " fine vertices");
+  if (distributed() && C.rows != 0 && !C.columns.empty())
+    throw Error("multigrid hierarchy: a fine basis transformation (two-body contact) is not distributed yet");
   if (L == 0) return;  // no prolongation into the fine level
   if (plainTop_.rows == 0 && (C.rows == 0 || C.columns.empty())) return;  // nothing set, nothing to set
   if (plainTop_.rows > 0) prolongations_[L - 1] = plainTop_;  // undo an earlier transformation
@@ -513,8 +730,10 @@ void MultigridHierarchy<d>::setFineOperator(const BlockSparseMatrix<d>& A, std::
   coarse_.assign(std::max(L, 1), BlockSparseMatrix<d>());
   dead_.assign(L, {});
   for (int l = 0; l < L; ++l) dead_[l].assign(numVertices(l), 0);
-  for (int l = L - 1; l >= 0; --l)
+  for (int l = L - 1; l >= 0; --l) {
     coarse_[l] = galerkinPattern(l == L - 1 ? A : coarse_[l + 1], prolongations_[l], transposed_[l]);
+    if (distributedLevel(l) || distributedLevel(l + 1)) joinPattern(l);
+  }
   galerkinSeconds_ += since(t0);
   computeCoarse(false);
 }
@@ -666,7 +885,7 @@ void MultigridHierarchy<d>::computeCoarse(bool local) {
     if (!top) deadTransforms<d>(dead_[l + 1], deadSlot, deadE);
     const std::vector<Index>* slot = top ? &transformSlot_ : &deadSlot;
     const std::vector<Mat>* E = top ? &transform_ : &deadE;
-    bool partial = local;
+    bool partial = local && !distributed();  // a distributed hierarchy recomputes whole levels
     if (partial) {
       mark.assign(C.rows(), 0);
       touched.clear();
@@ -712,7 +931,8 @@ void MultigridHierarchy<d>::computeCoarse(bool local) {
         galerkinRows<d>(F, P, transposed_[l], slot, E, std::span<const Index>(all).subspan(first, last - first), C, out,
                      C.rowBegin(first), top ? &diagonalSlot_ : nullptr, &diagonalBlocks_);
       });
-      markDeadComponents(C, all, dead_[l]);
+      if (distributedLevel(l) || distributedLevel(l + 1)) sumShares(l);  // the ranks' shares summed
+      else markDeadComponents(C, all, dead_[l]);
       C.shareRepeatedBlocks();
       rowsRecomputed_ += C.rows();
       local = false;  // all entries of this level may have changed
@@ -734,12 +954,23 @@ void MultigridHierarchy<d>::restrict(int l, const Eigen::VectorXd& fine, Eigen::
   };
   coarse.setZero(static_cast<Eigen::Index>(P.cols) * d);
   const int nt = P.rows >= kParallelMinRows ? threads() : 1;
+  // distributed: this rank's share from its owned fine rows, summed over the ranks
+  const auto sum = [&] {
+    if (distributedLevel(l)) levels_[l].halo->accumulate(coarse, d);
+    else if (distributedLevel(l + 1)) {
+      std::vector<double> v(coarse.data(), coarse.data() + coarse.size());
+      comm_->sum(v);
+      std::copy(v.begin(), v.end(), coarse.data());
+    }
+  };
   if (nt == 1) {  // scatter P' r row by fine row
-    for (Index p = 0; p < P.rows; ++p) {
+    const Index rows = ownedVertices(l + 1);
+    for (Index p = 0; p < rows; ++p) {
       const Vec r = transformed(p);
       for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k)
         coarse.template segment<d>(static_cast<Eigen::Index>(P.columns[k]) * d) += P.values[k] * r;
     }
+    sum();
     return;
   }
   // on threads: the transformed defect, then each coarse row gathers through P' (its fine columns
@@ -759,6 +990,7 @@ void MultigridHierarchy<d>::restrict(int l, const Eigen::VectorXd& fine, Eigen::
       coarse.template segment<d>(static_cast<Eigen::Index>(c) * d) = s;
     }
   }
+  sum();
 }
 
 template <int d>

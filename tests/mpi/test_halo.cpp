@@ -70,7 +70,9 @@ void expectDistributedProduct(CellType type, int cells, int levels) {
   // messages only between neighbouring parts: every message sent is received
   EXPECT_LE(halo.sendNeighbours(), comm.size() - 1);
   EXPECT_EQ(comm.sum(static_cast<long long>(halo.sendNeighbours())), comm.sum(static_cast<long long>(halo.receiveNeighbours())));
-  if (comm.size() > 1) EXPECT_GE(halo.receiveNeighbours(), 1);
+  if (comm.size() > 1) {
+    EXPECT_GE(halo.receiveNeighbours(), 1);
+  }
 }
 
 TEST(HaloExchange, DistributedProductEqualsTheSerialOne2D) { expectDistributedProduct<2>(CellType::Triangle, 4, 3); }

@@ -4,8 +4,9 @@
 /// no rank refines, or holds, the whole fine grid.
 ///
 /// Construction (collective). Every rank starts from the same coarse grid and refines it uniformly,
-/// all of it, up to the partition level L_p (the coarsest level with cellsPerPart x ranks cells, as
-/// partitionForest chooses it, or the level asked for): these levels are replicated. Then every rank
+/// all of it, up to the partition level L_p (the coarsest level from 1 on with cellsPerPart x ranks
+/// cells, or the level asked for): these levels are replicated. Level 0 is always among them: it
+/// is the coarse problem of multigrid, solved directly on every rank (MultigridHierarchy). Then every rank
 /// computes the same ForestPartition of the level-L_p cells (METIS, weighted by the leaves the
 /// remaining refinements will give them) and refines, in each remaining round, only the leaves
 /// below its *near* partition cells: its own and those that share a vertex with one of its own.

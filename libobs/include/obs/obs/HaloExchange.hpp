@@ -35,6 +35,10 @@ public:
   /// Overwrites the ghost entries of x (local numbering, `components` values per vertex) with the
   /// owners' values: one message to and from each neighbouring part only. Every rank must call it.
   void update(Eigen::VectorXd& x, int components = 1) const;
+  /// The reverse of update(): adds the ghost entries of x to their owners' entries (sums of
+  /// contributions assembled on several parts, e.g. a restriction from owned fine rows) and sets
+  /// the ghost entries to zero. Every rank must call it.
+  void accumulate(Eigen::VectorXd& x, int components = 1) const;
   /// The parts this part exchanges with (messages per update: sends + receives).
   int sendNeighbours() const { return static_cast<int>(sendRanks_.size()); }
   int receiveNeighbours() const { return static_cast<int>(recvRanks_.size()); }

@@ -39,19 +39,41 @@
 /// space is (I - C) P_{L-1} (Krause 2009): setFineBasis(C) before setFineOperator(); the coarse
 /// spaces stay the nodal ones of each body.
 ///
+/// Distributed hierarchy (MultigridHierarchy(const DistributedGrid&); docs/architecture.md#distributed-multigrid):
+/// the levels below the partition level L_p are replicated (every rank holds the whole level view),
+/// the levels L_p .. L are the rank's parts (DistributedView: owned vertices first, then one layer
+/// of ghosts). A rank's prolongation rows are those of its held fine vertices; their coarse parents
+/// are held. The restriction and the Galerkin products run over the rank's *owned* fine rows only,
+/// so each rank computes its share P' R_r B P of every product (R_r: its owned rows), and the
+/// shares are summed: the ghost rows of a distributed level are added to their owners (its owned
+/// rows are then complete; its ghost rows hold the rank's share only and are not used), a
+/// replicated level is summed over all ranks (every rank then holds it whole). The dead components
+/// of a distributed level are found on the owned rows (the largest live diagonal entry a maximum
+/// over the ranks) and given to the ghosts. Vectors of a distributed level are in its local
+/// numbering: restrict() returns complete owned entries (ghosts zero); prolongateAdd() needs the
+/// coarse ghost entries current and gives complete fine entries, ghosts included. Coarse operators
+/// are always recomputed whole (no local updates) and a fine basis transformation is refused.
+///
 /// If L = 0 (a grid without refinement) level 0 is the fine level and coarseOperator(0) is the
 /// explicit truncated fine matrix A~_T (for the direct coarse solver).
 #include <Eigen/Core>
 
 #include <cstdint>
+#include <memory>
+#include <optional>
+#include <unordered_map>
 #include <vector>
 
 #include "obs/mesh/Grid.hpp"
 #include "obs/mesh/Prolongation.hpp"
 #include "obs/obs/BlockSparseMatrix.hpp"
+#include "obs/obs/Communicator.hpp"
 #include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/HaloExchange.hpp"
 
 namespace obs {
+
+class DistributedGrid;
 
 /// A local rotation of the fine level: the unknowns of `vertex` are w = Q' u, Q = rotation.
 template <int d>
@@ -75,6 +97,21 @@ public:
   /// The block-stacked hierarchy of several grids (see the file comment); throws obs::Error if the
   /// list is empty, holds a null grid or grids of another dimension than d.
   explicit MultigridHierarchy(const std::vector<const mesh::Grid*>& grids);
+
+  /// The distributed hierarchy of this rank (see the file comment). Collective. Throws obs::Error
+  /// if the grid dimension is not d or the partition level is 0 (the coarsest level must be
+  /// replicated: it is solved directly on every rank).
+  explicit MultigridHierarchy(const DistributedGrid& grid);
+  /// Whether the hierarchy is distributed (built from a DistributedGrid, on any number of ranks).
+  bool distributed() const { return !levels_.empty(); }
+  /// Vertices of level l owned by this rank: the first ownedVertices(l) of the level's numbering
+  /// (all of them in a serial hierarchy and on a replicated level).
+  Index ownedVertices(int l) const { return distributed() ? levels_[l].owned : vertices_[l]; }
+  /// The halo of a distributed level; nullptr on a replicated level and in a serial hierarchy.
+  const HaloExchange* halo(int l) const { return distributed() ? levels_[l].halo.get() : nullptr; }
+  /// Level l's local vertex -> vertex of its view of the rank's grid (empty in a serial hierarchy,
+  /// where the numbering is the view's).
+  const std::vector<Index>& viewVertices(int l) const;
 
   /// Sets (or with rows == 0 removes) the fine basis transformation C: the last prolongation becomes
   /// (I - C) P_{L-1}. Takes effect at the next setFineOperator(). Throws obs::Error on a wrong size.
@@ -147,6 +184,23 @@ public:
   std::size_t memoryBytes() const;
 
 private:
+  /// A level of a distributed hierarchy: owned count, halo (null: replicated), local -> global
+  /// index and owner, global -> local of the ghosts, local -> view vertex.
+  struct Level {
+    Index owned = 0;
+    std::shared_ptr<const HaloExchange> halo;
+    std::vector<Index> global;
+    std::vector<int> owner;
+    std::unordered_map<Index, Index> ghostLocal;
+    std::vector<Index> viewVertex;
+    Index local(Index g) const;  ///< local index of a global one held here, -1 if not held
+  };
+  bool distributedLevel(int l) const { return distributed() && levels_[l].halo != nullptr; }
+  /// The coarse pattern of level l made whole: a distributed level's ghost rows' columns joined to
+  /// their owners' rows; a replicated level below a distributed one joined over all ranks.
+  void joinPattern(int l);
+  /// The shares of coarse level l summed (as joinPattern), the dead components found.
+  void sumShares(int l);
   Index setBits(const std::vector<char>& mask);
   void updateTransforms();
   void computeCoarse(bool local);
@@ -171,6 +225,8 @@ private:
   std::vector<std::vector<Index>> updatedRows_;
   std::vector<char> fullUpdate_;
   mutable Eigen::VectorXd restrictBuffer_;  ///< the transformed fine defect of a threaded restrict()
+  std::vector<Level> levels_;               ///< distributed: per level (empty: serial)
+  std::optional<Communicator> comm_;        ///< distributed: the ranks
   long long rowsRecomputed_ = 0;
   int updates_ = 0;
   double galerkinSeconds_ = 0;
