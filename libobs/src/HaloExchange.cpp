@@ -1,5 +1,6 @@
 #include "obs/obs/HaloExchange.hpp"
 
+#include <algorithm>
 #include <string>
 
 #include "obs/mesh/Error.hpp"
@@ -44,6 +45,22 @@ HaloExchange::HaloExchange(const ViewNumbering& numbering, const PartView& part,
 
 Index HaloExchange::local(Index viewVertex) const {
   return viewVertex >= 0 && viewVertex < static_cast<Index>(localOf_.size()) ? localOf_[viewVertex] : -1;
+}
+
+std::vector<Index> HaloExchange::sharedOwned() const {
+  std::vector<Index> out;
+  for (const auto& list : sendOwned_) out.insert(out.end(), list.begin(), list.end());
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+std::vector<int> HaloExchange::neighbours() const {
+  std::vector<int> n = sendRanks_;
+  n.insert(n.end(), recvRanks_.begin(), recvRanks_.end());
+  std::sort(n.begin(), n.end());
+  n.erase(std::unique(n.begin(), n.end()), n.end());
+  return n;
 }
 
 Index HaloExchange::sentValues() const {

@@ -24,6 +24,25 @@ LinearMultigrid<d>::LinearMultigrid(const std::vector<const mesh::Grid*>& grids,
 }
 
 template <int d>
+LinearMultigrid<d>::LinearMultigrid(const DistributedGrid& grid, const Options& options)
+    : options_(options), hierarchy_(grid) {
+  if (options.preSmoothing < 0 || options.postSmoothing < 0 || options.cycles < 1 || options.cycleIndex < 1 || options.maxIterations < 0 ||
+      !(options.tolerance >= 0) || options.krylovSteps < 0)
+    throw Error("linear multigrid: invalid options (smoothing steps >= 0, cycles >= 1, maxIterations >= 0, "
+                "tolerance >= 0, krylovSteps >= 0 required)");
+  if (options.smoother != LinearSmoother::GaussSeidel || options.krylovSteps > 0)
+    throw Error("linear multigrid: a distributed hierarchy runs the Gauss-Seidel smoother and plain cycles only "
+                "(the vertex-patch smoother and krylovSteps are not distributed yet)");
+}
+
+template <int d>
+double LinearMultigrid<d>::fineDot(const Eigen::VectorXd& x, const Eigen::VectorXd& y) const {
+  if (!hierarchy_.distributed()) return x.dot(y);
+  const auto n = static_cast<Eigen::Index>(hierarchy_.ownedVertices(hierarchy_.maxLevel())) * d;
+  return hierarchy_.communicator()->sum(x.head(n).dot(y.head(n)));
+}
+
+template <int d>
 bool carrySweepPartition(const MultigridHierarchy<d>& h, const BlockSparseMatrix<d>& A) {
   const int L = h.maxLevel();
   const int parts = threads();
@@ -102,6 +121,18 @@ void LinearMultigrid<d>::setOperator(const BlockSparseMatrix<d>& A, std::vector<
   }
   coarseSolver_.reset();
   updateCoarse();
+  schedules_.clear();
+  if (hierarchy_.distributed()) {  // the sweeps of the distributed levels (patterns fixed from here on)
+    schedules_.resize(static_cast<std::size_t>(L) + 1);
+    for (int l = 1; l <= L; ++l)
+      if (const HaloExchange* halo = hierarchy_.halo(l)) {
+        const BlockSparseMatrix<d>& Al = levelOperator(l);
+        schedules_[l] = DistributedSweep(Al.rowStarts(), Al.columns(), Al.sweepOrder(), *halo);
+      }
+    localRows_.assign(static_cast<std::size_t>(L) + 1, {});
+    local_.assign(static_cast<std::size_t>(L) + 1, 0);  // no local smoothing
+    return;
+  }
   setLocalSmoothing();
 }
 
@@ -281,12 +312,22 @@ void LinearMultigrid<d>::updateSmoother(int l, std::span<const Index> vertices) 
 
 template <int d>
 void LinearMultigrid<d>::smoothFromZero(int l, const Eigen::VectorXd& r, Eigen::VectorXd& x) const {
+  if (!schedules_.empty() && hierarchy_.halo(l)) {
+    x.setZero();
+    smooth(l, r, x, false);
+    return;
+  }
   if (options_.smoother == LinearSmoother::VertexPatch) patchSmoothers_[l].sweepFromZero(r, x);
   else smoothers_[l].sweepFromZero(r, x);
 }
 
 template <int d>
 void LinearMultigrid<d>::smooth(int l, const Eigen::VectorXd& r, Eigen::VectorXd& x, bool backward) const {
+  if (!schedules_.empty() && hierarchy_.halo(l)) {  // DistributedSweep: interiors, interfaces by colour
+    const TruncatedGaussSeidel<d>& smoother = smoothers_[l];
+    schedules_[l].run([&](const SweepOrder& order, bool back) { smoother.sweep(r, x, order, back); }, x, d, backward);
+    return;
+  }
   if (options_.smoother == LinearSmoother::VertexPatch) patchSmoothers_[l].sweep(r, x, backward);
   else smoothers_[l].sweep(r, x, backward);
 }
@@ -393,7 +434,7 @@ LinearSolverResult LinearMultigrid<d>::solve(const Eigen::VectorXd& b, Eigen::Ve
   LinearSolverResult result;
   Eigen::VectorXd Ax = A * x, r = b - Ax, c(n), Ac(n);
   truncateVector(r);
-  const double r0 = r.norm();
+  const double r0 = std::sqrt(fineDot(r, r));
   double first = 0;
   for (int k = 0; k < options_.maxIterations; ++k) {
     if (options_.krylovSteps > 0) conjugateGradients(r, c);
@@ -403,7 +444,7 @@ LinearSolverResult LinearMultigrid<d>::solve(const Eigen::VectorXd& b, Eigen::Ve
     Ax += Ac;
     r -= Ac;  // recursive residual, truncated rows stay zero (c is zero there, Ac is not)
     truncateVector(r);
-    const double num = std::sqrt(std::max(0.0, c.dot(Ac))), den = std::sqrt(std::max(0.0, x.dot(Ax)));
+    const double num = std::sqrt(std::max(0.0, fineDot(c, Ac))), den = std::sqrt(std::max(0.0, fineDot(x, Ax)));
     const double correction = den > 0 ? num / den : (num > 0 ? 1.0 : 0.0);
     if (!std::isfinite(correction)) throw Error("linear multigrid: NaN or Inf in iteration " + std::to_string(k + 1));
     result.history.push_back(correction);
@@ -417,7 +458,7 @@ LinearSolverResult LinearMultigrid<d>::solve(const Eigen::VectorXd& b, Eigen::Ve
   }
   if (result.iterations >= 2 && first > 0 && result.correction > 0)
     result.convergenceRate = std::pow(result.correction / first, 1.0 / (result.iterations - 1));
-  result.residualReduction = r0 > 0 ? r.norm() / r0 : 0.0;
+  result.residualReduction = r0 > 0 ? std::sqrt(fineDot(r, r)) / r0 : 0.0;
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
 }

@@ -638,6 +638,13 @@ void MultigridHierarchy<d>::sumShares(int l) {
   }
   lv.halo->update(bits);
   for (Index I = 0; I < C.rows(); ++I) dead_[l][I] = static_cast<std::uint8_t>(bits[I]);
+  // the ghost rows held this rank's share only: identity rows, so that every diagonal block is
+  // regular for the smoothers (which sweep the owned rows only)
+  for (Index I = lv.owned; I < C.rows(); ++I)
+    for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) {
+      if (C.column(k) == I) C.blockAt(k).setIdentity();
+      else C.blockAt(k).setZero();
+    }
 }
 
 template <int d>

@@ -99,6 +99,12 @@ typename BlockLocalSolver<d>::Vec BlockLocalSolver<d>::solveFriction(int f, cons
 
 template <int d>
 void BlockGaussSeidelSweep<d>::sweep(const Eigen::VectorXd& b, Eigen::VectorXd& w, bool backward) const {
+  sweep(b, w, A_.sweepOrder(), backward);
+}
+
+template <int d>
+void BlockGaussSeidelSweep<d>::sweep(const Eigen::VectorXd& b, Eigen::VectorXd& w, const SweepOrder& order,
+                                     bool backward) const {
   using Vec = typename BlockLocalSolver<d>::Vec;
   A_.withBlocks([&](const auto blocks) {
     const auto row = [&](Index p) {
@@ -110,7 +116,6 @@ void BlockGaussSeidelSweep<d>::sweep(const Eigen::VectorXd& b, Eigen::VectorXd& 
       }
       w.template segment<d>(static_cast<Eigen::Index>(p) * d) = local_.solve(p, r);
     };
-    const SweepOrder& order = A_.sweepOrder();
     if (backward) order.backward(A_.rows(), row);
     else order.forward(A_.rows(), row);
   });

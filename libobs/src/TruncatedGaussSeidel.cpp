@@ -68,6 +68,12 @@ void TruncatedGaussSeidel<d>::updateAll() {
 
 template <int d>
 void TruncatedGaussSeidel<d>::sweep(const Eigen::VectorXd& r, Eigen::VectorXd& x, bool backward) const {
+  sweep(r, x, order(), backward);
+}
+
+template <int d>
+void TruncatedGaussSeidel<d>::sweep(const Eigen::VectorXd& r, Eigen::VectorXd& x, const SweepOrder& sweepOrder,
+                                    bool backward) const {
   const BlockSparseMatrix<d>& A = *A_;
   A.withBlocks([&](const auto blocks) {
     const auto row = [&](Index p) {
@@ -78,7 +84,6 @@ void TruncatedGaussSeidel<d>::sweep(const Eigen::VectorXd& r, Eigen::VectorXd& x
         if (k != dp) s.noalias() -= blocks[k] * x.template segment<d>(static_cast<Eigen::Index>(A.column(k)) * d);
       x.template segment<d>(static_cast<Eigen::Index>(p) * d).noalias() = inverse_[p] * s;
     };
-    const SweepOrder& sweepOrder = order();
     if (backward) sweepOrder.backward(A.rows(), row);
     else sweepOrder.forward(A.rows(), row);
   });

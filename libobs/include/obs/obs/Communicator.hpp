@@ -2,8 +2,8 @@
 /// \file Communicator.hpp
 /// The processes of a distributed run (docs/architecture.md#communicator): a thin wrapper over MPI's
 /// world communicator, and the one-process communicator when obs is built without MPI
-/// (`OBS_WITH_MPI=OFF`) or MPI is not initialised. Nothing distributed uses it yet; it is the layer
-/// that the distributed grid and solvers will call, so that none of them calls MPI itself.
+/// (`OBS_WITH_MPI=OFF`) or MPI is not initialised. It is the layer the
+/// distributed grid, halo exchange and multigrid call, so that none of them calls MPI itself.
 ///
 /// Errors never hang a run: collective() runs a piece of work on every rank, and if it throws
 /// obs::Error on any rank, every rank throws the same obs::Error (the message of the lowest failing

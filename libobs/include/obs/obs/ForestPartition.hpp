@@ -1,8 +1,8 @@
 #pragma once
 /// \file ForestPartition.hpp
 /// How a hierarchical grid is split over the ranks of a distributed run (docs/architecture.md#forest-partition).
-/// The groundwork of distributed runs: nothing runs distributed yet, and these functions compute, in
-/// one process, what each rank would hold.
+/// These functions compute, in one process, what each rank holds; DistributedGrid.hpp builds it on
+/// the ranks.
 ///
 /// The coarse levels 0 .. L_p (the *partition level*) are replicated on every rank. The cells of the
 /// level view L_p (its elements plus the leaves of coarser levels) are the *partition cells*; each

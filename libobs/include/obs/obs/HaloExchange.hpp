@@ -29,6 +29,7 @@ public:
   const std::vector<Index>& viewVertices() const { return vertices_; }
   Index numOwned() const { return owned_; }
   Index numLocal() const { return static_cast<Index>(vertices_.size()); }
+  const Communicator& communicator() const { return comm_; }
   /// The local index of a view vertex, -1 if this part does not hold it.
   Index local(Index viewVertex) const;
 
@@ -39,6 +40,10 @@ public:
   /// contributions assembled on several parts, e.g. a restriction from owned fine rows) and sets
   /// the ghost entries to zero. Every rank must call it.
   void accumulate(Eigen::VectorXd& x, int components = 1) const;
+  /// The owned vertices (local indices, ascending) that are ghosts of other parts.
+  std::vector<Index> sharedOwned() const;
+  /// The parts this part exchanges with, ascending (those it sends to or receives from).
+  std::vector<int> neighbours() const;
   /// The parts this part exchanges with (messages per update: sends + receives).
   int sendNeighbours() const { return static_cast<int>(sendRanks_.size()); }
   int receiveNeighbours() const { return static_cast<int>(recvRanks_.size()); }

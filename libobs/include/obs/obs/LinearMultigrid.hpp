@@ -33,6 +33,7 @@
 #include <vector>
 
 #include "obs/mesh/Grid.hpp"
+#include "obs/obs/DistributedSweep.hpp"
 #include "obs/obs/LinearCorrection.hpp"
 #include "obs/obs/MultigridHierarchy.hpp"
 #include "obs/obs/TruncatedGaussSeidel.hpp"
@@ -102,6 +103,14 @@ public:
   explicit LinearMultigrid(const mesh::Grid& grid, const Options& options = {});
   /// The block-stacked hierarchy of several bodies' grids (MultigridHierarchy).
   explicit LinearMultigrid(const std::vector<const mesh::Grid*>& grids, const Options& options = {});
+  /// The distributed hierarchy of a DistributedGrid (collective; docs/architecture.md#distributed-multigrid):
+  /// vectors in the fine level's local numbering (owned vertices, then ghosts). The smoothers sweep
+  /// the owned vertices in the order of DistributedSweep on the distributed levels; the coarse
+  /// level is replicated and solved on every rank. apply() and vcycle() read the owned entries of
+  /// the right-hand side and return a correction whose ghost entries are current; solve() needs
+  /// the ghosts of x current. Throws obs::Error for the vertex-patch smoother or krylovSteps > 0
+  /// (not distributed yet). Local smoothing does not apply (uniform hierarchies).
+  explicit LinearMultigrid(const DistributedGrid& grid, const Options& options = {});
   ~LinearMultigrid() override;
 
   void setOperator(const BlockSparseMatrix<d>& A, std::vector<VertexRotation<d>> rotations = {},
@@ -176,6 +185,9 @@ private:
   void smooth(int l, const Eigen::VectorXd& r, Eigen::VectorXd& x, bool backward) const;
 
   std::vector<TruncatedGaussSeidel<d>> smoothers_;
+  std::vector<DistributedSweep> schedules_;  ///< per distributed level (empty: serial)
+  /// x'y over the fine level's owned entries, summed over the ranks (x'y in a serial hierarchy).
+  double fineDot(const Eigen::VectorXd& x, const Eigen::VectorXd& y) const;
   std::vector<VertexPatchSmoother<d>> patchSmoothers_;
   long long vcycles_ = 0;
   std::vector<LevelSeconds> levelSeconds_;

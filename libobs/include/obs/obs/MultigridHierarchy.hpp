@@ -46,7 +46,7 @@
 /// are held. The restriction and the Galerkin products run over the rank's *owned* fine rows only,
 /// so each rank computes its share P' R_r B P of every product (R_r: its owned rows), and the
 /// shares are summed: the ghost rows of a distributed level are added to their owners (its owned
-/// rows are then complete; its ghost rows hold the rank's share only and are not used), a
+/// rows are then complete; its ghost rows are set to identity rows and not used), a
 /// replicated level is summed over all ranks (every rank then holds it whole). The dead components
 /// of a distributed level are found on the owned rows (the largest live diagonal entry a maximum
 /// over the ranks) and given to the ghosts. Vectors of a distributed level are in its local
@@ -109,6 +109,8 @@ public:
   Index ownedVertices(int l) const { return distributed() ? levels_[l].owned : vertices_[l]; }
   /// The halo of a distributed level; nullptr on a replicated level and in a serial hierarchy.
   const HaloExchange* halo(int l) const { return distributed() ? levels_[l].halo.get() : nullptr; }
+  /// The ranks of a distributed hierarchy (nullptr: serial).
+  const Communicator* communicator() const { return comm_ ? &*comm_ : nullptr; }
   /// Level l's local vertex -> vertex of its view of the rank's grid (empty in a serial hierarchy,
   /// where the numbering is the view's).
   const std::vector<Index>& viewVertices(int l) const;

@@ -90,6 +90,9 @@ public:
   /// The friction data of `problem` (built on the same matrix), see BlockLocalSolver::setFriction.
   void setFriction(const RotatedProblem<d>& problem) { local_.setFriction(A_, problem); }
   void sweep(const Eigen::VectorXd& b, Eigen::VectorXd& w, bool backward = false) const;
+  /// The same in a given order of the matrix's vertices (a SweepOrder of its pattern or a subset:
+  /// DistributedSweep's interior or interface).
+  void sweep(const Eigen::VectorXd& b, Eigen::VectorXd& w, const SweepOrder& order, bool backward) const;
   /// A forward sweep on w = 0 (w of the right size, overwritten): the same result as w.setZero();
   /// sweep(b, w), reading only the blocks left of the diagonal (columns are sorted; the others
   /// multiply zeros).

@@ -64,6 +64,9 @@ public:
   /// nu sweeps on A_T x = r in place (forward, or backward if `backward`), in the matrix's sweep
   /// order (Parallel.hpp: the natural order on one thread).
   void sweep(const Eigen::VectorXd& r, Eigen::VectorXd& x, bool backward = false) const;
+  /// One sweep in a given order of the matrix's vertices (a SweepOrder of its pattern or a subset:
+  /// DistributedSweep's interior or interface); the subset of setSubset() does not apply.
+  void sweep(const Eigen::VectorXd& r, Eigen::VectorXd& x, const SweepOrder& order, bool backward) const;
   /// The first forward sweep from x = 0, in place on x of the right size (it overwrites every entry):
   /// the same result as x.setZero(); sweep(r, x), but rows swept before all their neighbours read
   /// only the blocks left of the diagonal (columns are sorted; the others multiply zeros), which
