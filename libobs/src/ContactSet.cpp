@@ -44,10 +44,10 @@ Eigen::Matrix3d householderRotation(const Point& nu) {
   return Q;
 }
 
-ContactSet::ContactSet(const mesh::Mesh& mesh, int boundaryId, const Obstacle& obstacle)
+ContactSet::ContactSet(const mesh::Mesh& mesh, int boundaryId, const Obstacle& obstacle, bool allowEmpty)
     : dim_(mesh.dimension()), boundaryId_(boundaryId), label_(labelOf(mesh, boundaryId)),
       obstacleName_(obstacle.name()) {
-  build(mesh, obstacle);
+  build(mesh, obstacle, allowEmpty);
 }
 
 ContactSet::ContactSet(const mesh::Mesh& mesh, const std::string& boundaryName, const Obstacle& obstacle)
@@ -89,7 +89,7 @@ double ContactSet::measure() const {
   return s;
 }
 
-void ContactSet::build(const mesh::Mesh& mesh, const Obstacle& obstacle) {
+void ContactSet::build(const mesh::Mesh& mesh, const Obstacle& obstacle, bool allowEmpty) {
   const std::string where = "contact boundary " + label_;
   if (obstacle.dimension() != 0 && obstacle.dimension() != dim_)
     throw Error(where + ": obstacle '" + obstacleName_ + "' is made for dimension " +
@@ -103,7 +103,7 @@ void ContactSet::build(const mesh::Mesh& mesh, const Obstacle& obstacle) {
     contactFaces.push_back(f);
     for (Index v : mesh.boundaryFaceVertices(f)) nodeOf_[v] = 0;
   }
-  if (contactFaces.empty())
+  if (contactFaces.empty() && !allowEmpty)
     throw Error(where + ": no boundary face has this id (empty potential contact boundary)");
   for (Index v = 0; v < mesh.numVertices(); ++v)
     if (nodeOf_[v] == 0) {

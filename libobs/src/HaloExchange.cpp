@@ -108,19 +108,28 @@ void HaloExchange::accumulate(Eigen::VectorXd& x, int components) const {
 }
 
 mesh::Mesh localMesh(const mesh::GridView& view, const PartView& part, const HaloExchange& halo) {
-  mesh::Mesh m(view.mesh.dimension());
-  for (Index v : halo.viewVertices()) m.addVertex(view.mesh.vertex(v));
+  const mesh::Mesh& vm = view.mesh;
+  mesh::Mesh m(vm.dimension());
+  for (Index v : halo.viewVertices()) m.addVertex(vm.vertex(v));
   std::vector<Index> local;
   for (const std::vector<Index>* cells : {&part.owned, &part.ghosts})
     for (Index c : *cells) {
       local.clear();
-      for (Index v : view.mesh.cellVertices(c)) {
+      for (Index v : vm.cellVertices(c)) {
         const Index l = halo.local(v);
         if (l < 0) throw Error("local mesh: a vertex of cell " + std::to_string(c) + " is not held");
         local.push_back(l);
       }
-      m.addCell(view.mesh.cellType(c), local);
+      m.addCell(vm.cellType(c), local);
     }
+  // the boundary faces on held vertices (with their ids and names): every face around an owned
+  // vertex, and enough to mark the held vertices on each boundary as the whole view does
+  for (Index f = 0; f < vm.numBoundaryFaces(); ++f) {
+    local.clear();
+    for (Index v : vm.boundaryFaceVertices(f)) local.push_back(halo.local(v));
+    if (std::all_of(local.begin(), local.end(), [](Index l) { return l >= 0; })) m.addBoundaryFace(local, vm.boundaryFaceId(f));
+  }
+  for (const auto& [id, name] : vm.boundaryNames()) m.setBoundaryName(id, name);
   return m;
 }
 

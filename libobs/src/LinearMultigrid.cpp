@@ -204,7 +204,7 @@ bool LinearMultigrid<d>::setDiagonalTerm(std::vector<Index> vertices, std::vecto
 template <int d>
 Index LinearMultigrid<d>::truncate(const std::vector<char>& mask) {
   const Index changes = hierarchy_.truncate(mask);
-  if (!hierarchy_.changedVertices().empty()) {  // the mask or the diagonal term changed
+  if (hierarchy_.changedAnywhere()) {  // the mask or the diagonal term changed (on any rank)
     const int L = hierarchy_.maxLevel();
     if (L > 0) updateSmoother(L, hierarchy_.changedVertices());
     updateCoarse();

@@ -774,7 +774,9 @@ Index MultigridHierarchy<d>::truncate(const std::vector<char>& mask) {
     pendingVertices_.clear();
     pendingBlocks_.clear();
   }
-  if (!changed_.empty()) {
+  // distributed: the coarse levels are recomputed on every rank if the mask changed on any
+  changedAnywhere_ = distributed() ? comm_->max(changed_.empty() ? 0.0 : 1.0) > 0 : !changed_.empty();
+  if (changedAnywhere_) {
     updateTransforms();
     computeCoarse(true);
   }

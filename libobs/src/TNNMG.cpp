@@ -45,6 +45,18 @@ TNNMG<d>::TNNMG(const std::vector<const mesh::Grid*>& grids, const Options& opti
 }
 
 template <int d>
+TNNMG<d>::TNNMG(const DistributedGrid& grid, const Options& options) : options_(options) {
+  checkOptions(options);
+  auto mg = std::make_unique<LinearMultigrid<d>>(grid, options.multigrid);
+  const MultigridHierarchy<d>& h = mg->hierarchy();
+  fineVertices_ = h.numVertices(h.maxLevel());
+  halo_ = h.halo(h.maxLevel());
+  comm_ = h.communicator();
+  owned_ = h.ownedVertices(h.maxLevel());
+  correction_ = std::move(mg);
+}
+
+template <int d>
 TNNMG<d>::TNNMG(const mesh::Grid& grid, const Options& options, std::unique_ptr<LinearCorrection<d>> correction)
     : options_(options), correction_(std::move(correction)) {
   checkOptions(options);
@@ -59,6 +71,9 @@ template <int d>
 ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd& u) {
   statistics_ = Statistics();
   auto t = Clock::now();
+  const bool distributed = comm_ != nullptr;
+  if (distributed && (problem.frictional() || problem.transformed()))
+    throw Error("TNNMG: friction and two-body contact are not distributed yet");
   if (problem.numVertices() != fineVertices_)
     throw Error("TNNMG: the problem has " + std::to_string(problem.numVertices()) +
                 " vertices, the leaf view of the solver's grid " + std::to_string(fineVertices_) +
@@ -80,11 +95,15 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     rotated_ = std::make_unique<RotatedProblem<d>>(problem.rotated());
     smoother_ = std::make_unique<BlockGaussSeidelSweep<d>>(rotated_->matrix(), rotated_->upper);
     smoother_->setFriction(*rotated_);
+    if (distributed) {
+      const BlockSparseMatrix<d>& R = rotated_->matrix();
+      fineSweep_ = DistributedSweep(R.rowStarts(), R.columns(), R.sweepOrder(), *halo_);
+    }
     correction_->setFineBasis(problem.basisTransformation());
     correction_->setOperator(rotated_->matrix(), problemRotations(problem), rotated_->prescribed);
     operatorId_ = problem.operatorId();
     const BlockSparseMatrix<d>& A = rotated_->matrix();
-    const Index n = A.rows();
+    const Index n = distributed ? owned_ : A.rows();
     const int nt = n >= kParallelMinRows ? threads() : 1;
     double bound = 0;  // a maximum: the same on any number of threads
 #pragma omp parallel for schedule(static) num_threads(nt) reduction(max : bound) if (nt > 1)
@@ -93,7 +112,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
       for (Index k = A.rowBegin(p); k < A.rowEnd(p); ++k) s += A.blockAt(k).norm();
       bound = std::max(bound, s);
     }
-    rowSumBound_ = bound;
+    rowSumBound_ = distributed ? comm_->max(bound) : bound;
   }
   const int baseUpdates = correction_->operatorUpdates();
   const long long baseCycles = correction_->cycles();
@@ -107,6 +126,29 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   const std::vector<double>& lowerBound = rot.diagonalLowerBound;
 
   const auto n = static_cast<Eigen::Index>(problem.numDofs());
+  // distributed: sums over the owned entries (the first owned_ vertices), added over the ranks;
+  // the sweeps in DistributedSweep's order (the ghosts of w stay current)
+  const Index ownedDofs = distributed ? owned_ * d : static_cast<Index>(n);
+  const auto total = [&](auto sums) {
+    if (distributed) {
+      std::vector<double> v(sums.begin(), sums.end());
+      comm_->sum(v);
+      std::copy(v.begin(), v.end(), sums.begin());
+    }
+    return sums;
+  };
+  const auto activeCount = [&](const Eigen::VectorXd& x) {
+    if (!distributed) return rot.countActive(x);
+    long long a = 0;
+    for (Index p = 0; p < owned_; ++p) a += rot.bounded(p) && x[p * d] >= rot.upper[p];
+    return static_cast<Index>(comm_->sum(a));
+  };
+  const auto sweep = [&](bool backward) {
+    if (distributed)
+      fineSweep_.run([&](const SweepOrder& order, bool back) { smoother_->sweep(rot.rhs, w, order, back); }, w, d, backward);
+    else
+      smoother_->sweep(rot.rhs, w, backward);
+  };
   // without post-smoothing A (w^{k+1} - w^k) comes from the fused product (step0, Astep0 below),
   // with it from a product of delta = w^{k+1} - w^k: only one pair of vectors is needed
   const bool fused = options_.postSmoothing == 0;
@@ -115,7 +157,10 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   bool zeroStart = w.isZero(0);  // a zero start (time steps from their predictor) needs no product
   if (zeroStart) Aw.setZero();
   else A.multiply(w, Aw);
-  IterationMonitor monitor(name(), options_, 0.5 * w.dot(Aw) - rot.rhs.dot(w) + rot.frictionEnergy(w));
+  const auto [w0Aw0, bw0] = total(chunkedSums<2>(ownedDofs, [&](Index b, Index e) {
+    return std::array<double, 2>{w.segment(b, e - b).dot(Aw.segment(b, e - b)), rot.rhs.segment(b, e - b).dot(w.segment(b, e - b))};
+  }));
+  IterationMonitor monitor(name(), options_, 0.5 * w0Aw0 - bw0 + rot.frictionEnergy(w));
   TruncatedLinearization<d> linearization;
   std::vector<Index> curvatureVertices;
   std::vector<typename TruncatedLinearization<d>::Mat> curvatureBlocks;
@@ -136,8 +181,8 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     copy(w, previous);
     // 1. nonsmooth pre-smoothing
     for (int s = 0; s < options_.preSmoothing; ++s) {
-      if (zeroStart) smoother.sweepFromZero(rot.rhs, w);  // the first sweep on w = 0: half the blocks
-      else smoother.sweep(rot.rhs, w);
+      if (zeroStart && !distributed) smoother.sweepFromZero(rot.rhs, w);  // the first sweep on w = 0: half the blocks
+      else sweep(false);
       zeroStart = false;
     }
     zeroStart = false;  // also without pre-smoothing: w changes below
@@ -172,23 +217,29 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     // 4. projection onto the admissible set, 5. exact line search
     projectCorrection(rot, w, c);
     A.multiply(c, Ac);
-    const auto [cr, cAc] = chunkedSums<2>(N, [&](Index b, Index e) {
+    const auto [cr, cAc] = total(chunkedSums<2>(ownedDofs, [&](Index b, Index e) {
       double s0 = 0, s1 = 0;
       for (Index i = b; i < e; ++i) {
         s0 += c[i] * r[i];
         s1 += c[i] * Ac[i];
       }
       return std::array<double, 2>{s0, s1};
-    });
-    const LineSearchResult step = rot.frictional() ? frictionLineSearch(rot, w, c, cr, cAc, linearization.slipping,
-                                                                        linearization.slipDirection)
-                                                   : exactLineSearch(rot, w, c, cr, cAc);
+    }));
+    LineSearchResult step = rot.frictional() ? frictionLineSearch(rot, w, c, cr, cAc, linearization.slipping,
+                                                                  linearization.slipDirection)
+                                             : exactLineSearch(rot, w, c, cr, cAc);
+    if (distributed) {  // the largest feasible step over all ranks (ghost copies give their owners' values)
+      const double alphaMax = -comm_->max(-step.alphaMax);
+      if (step.alphaMax != alphaMax) step.limiting = -1;
+      step.alphaMax = alphaMax;
+      step.alpha = cr > 0 && cAc > 0 ? std::min(alphaMax, cr / cAc) : 0.0;
+    }
     takeStep(rot, step, c, w);
     if (step.alpha != 0)
       forRanges(N, [&](Index b, Index e) { Aw.segment(b, e - b) += step.alpha * Ac.segment(b, e - b); });
     lap(t, statistics_.otherSeconds);
     if (options_.postSmoothing > 0) {
-      for (int s = 0; s < options_.postSmoothing; ++s) smoother.sweep(rot.rhs, w, true);
+      for (int s = 0; s < options_.postSmoothing; ++s) sweep(true);
       lap(t, statistics_.smoothingSeconds);
       A.multiply(w, Aw);
     }
@@ -201,7 +252,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     // ||w||_A over the free components only: the prescribed ones are identity rows of A~
     // (applyDirichlet), whose unit diagonal would make the relative test depend on the unit of E
     // and, with a diagonal lower bound, the sum of RotatedProblem::errorBound (docs/theory.md#tnnmg-error-bound)
-    const auto [wAw, bw, freeAw, deltaAdelta, ww, gain] = chunkedSums<6>(N, [&](Index b, Index e) {
+    const auto [wAw, bw, freeAw, deltaAdelta, ww, gain] = total(chunkedSums<6>(ownedDofs, [&](Index b, Index e) {
       std::array<double, 6> s{};
       for (Index i = b; i < e; ++i) {
         const double wi = w[i], Awi = Aw[i];
@@ -219,7 +270,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
         }
       }
       return s;
-    });
+    }));
     const double num = std::sqrt(std::max(0.0, deltaAdelta)), den = std::sqrt(std::max(0.0, freeAw));
     const double correction = den > 0 ? num / den : (num > 0 ? 1.0 : 0.0);
     // ||w - w*||_A <= sqrt(2 gain) for the admissible w (NaN: no bound declared)
@@ -228,7 +279,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
                                  : den > 0   ? bound / den
                                              : (bound > 0 ? std::numeric_limits<double>::infinity() : 0.0);
     const double friction = rot.frictionEnergy(w);  // 0 without friction
-    const bool small = monitor.record(0.5 * wAw - bw + friction, correction, rot.countActive(w), changes, relativeError);
+    const bool small = monitor.record(0.5 * wAw - bw + friction, correction, activeCount(w), changes, relativeError);
     // scale of the energy's terms, including the round-off of w'Aw (<= eps |w|'|A||w|): for stiff
     // operators with soft modes (mass + tau^2 stiffness, rigid motions) it dominates |w'Aw|
     monitor.requireMonotone(0.5 * std::abs(wAw) + std::abs(bw) + friction + 1e-4 * rowSumBound_ * ww);
@@ -237,7 +288,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     // the error bound) passed
     if (small) {
       u = problem.fromRotated(w);
-      kkt = computeKktResiduals(problem, u);
+      kkt = computeKktResiduals(problem, u, distributed ? owned_ : -1, comm_);
       haveKkt = true;
       converged = kkt.max() <= kktBound;
       if (!converged) ++kktRejections;
@@ -246,10 +297,10 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   }
   statistics_.operatorUpdates = correction_->operatorUpdates() - baseUpdates;
   statistics_.vcycles = correction_->cycles() - baseCycles;
-  ContactResult result = monitor.finish(converged, rot.countActive(w));
+  ContactResult result = monitor.finish(converged, activeCount(w));
   if (!converged || !haveKkt) {  // the last iterate's residual (not yet computed for it)
     u = problem.fromRotated(w);
-    kkt = computeKktResiduals(problem, u);
+    kkt = computeKktResiduals(problem, u, distributed ? owned_ : -1, comm_);
   }
   result.kkt = kkt;
   result.kktRejections = kktRejections;

@@ -34,7 +34,9 @@ public:
   /// Potential contact boundary = the boundary faces with id `boundaryId`. Throws obs::Error if no
   /// face has this id, if the obstacle is made for another dimension than the mesh, or if the
   /// obstacle returns a NaN or -infinity gap or a zero / non-finite direction at a contact vertex.
-  ContactSet(const mesh::Mesh& mesh, int boundaryId, const Obstacle& obstacle);
+  /// Throws obs::Error if no boundary face has the id, unless `allowEmpty` (a rank's local mesh of a
+  /// distributed grid may have none; the caller checks the set over all ranks).
+  ContactSet(const mesh::Mesh& mesh, int boundaryId, const Obstacle& obstacle, bool allowEmpty = false);
   /// The same for a named boundary; throws obs::Error if the mesh has no boundary of that name.
   ContactSet(const mesh::Mesh& mesh, const std::string& boundaryName, const Obstacle& obstacle);
 
@@ -83,7 +85,7 @@ public:
   double measure() const;
 
 private:
-  void build(const mesh::Mesh& mesh, const Obstacle& obstacle);
+  void build(const mesh::Mesh& mesh, const Obstacle& obstacle, bool allowEmpty);
 
   int dim_ = 0;
   int boundaryId_ = 0;

@@ -62,7 +62,10 @@ private:
 };
 
 /// The part's local mesh: its owned cells, then its ghost cells, on the local vertices of `halo`
-/// (coordinates from the view). Boundary faces are not copied.
+/// (coordinates from the view), and the view's boundary faces whose vertices are all held (ids and
+/// names kept). On a DistributedGrid's view these include faces of cells outside the part: in a
+/// rank's conforming local grid every held vertex on a boundary lies on one of its faces, so the
+/// Dirichlet and contact vertices of the local mesh are those of the whole mesh.
 mesh::Mesh localMesh(const mesh::GridView& view, const PartView& part, const HaloExchange& halo);
 
 }  // namespace obs

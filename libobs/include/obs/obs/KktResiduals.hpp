@@ -21,6 +21,7 @@
 #include <algorithm>
 #include <limits>
 
+#include "obs/obs/Communicator.hpp"
 #include "obs/obs/ContactProblem.hpp"
 
 namespace obs {
@@ -47,7 +48,11 @@ inline KktResiduals notComputedKktResiduals() {
   return KktResiduals{nan, nan, nan, nan, nan, nan, nan};
 }
 
+/// Distributed (comm non-null): the problem and u on a rank's local vertices, the first
+/// `ownedVertices` of them owned (their rows complete); the scales and residuals are maxima over
+/// the owned entries of all ranks. ownedVertices < 0: all vertices, one process.
 template <int d>
-KktResiduals computeKktResiduals(const ContactProblem<d>& problem, const Eigen::VectorXd& u);
+KktResiduals computeKktResiduals(const ContactProblem<d>& problem, const Eigen::VectorXd& u, Index ownedVertices = -1,
+                                 const Communicator* comm = nullptr);
 
 }  // namespace obs

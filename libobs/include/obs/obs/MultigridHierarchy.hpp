@@ -161,6 +161,9 @@ public:
   /// Truncation bits per fine vertex (bit c: component c truncated).
   const std::vector<std::uint8_t>& truncationBits() const { return bits_; }
   const std::vector<Index>& changedVertices() const { return changed_; }
+  /// Whether the last truncate() changed bits or the diagonal term anywhere (on any rank of a
+  /// distributed hierarchy, where the coarse operators were then recomputed on every rank).
+  bool changedAnywhere() const { return changedAnywhere_; }
   /// Components of level l < L without untruncated fine support (bit c: component c), see above.
   const std::vector<std::uint8_t>& deadBits(int l) const { return dead_[l]; }
   Index truncatedComponents() const;
@@ -228,6 +231,7 @@ private:
   std::vector<char> fullUpdate_;
   mutable Eigen::VectorXd restrictBuffer_;  ///< the transformed fine defect of a threaded restrict()
   std::vector<Level> levels_;               ///< distributed: per level (empty: serial)
+  bool changedAnywhere_ = false;
   std::optional<Communicator> comm_;        ///< distributed: the ranks
   long long rowsRecomputed_ = 0;
   int updates_ = 0;

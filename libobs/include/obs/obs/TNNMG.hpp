@@ -47,6 +47,7 @@
 
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/ContactSolver.hpp"
+#include "obs/obs/DistributedSweep.hpp"
 #include "obs/obs/LinearCorrection.hpp"
 #include "obs/obs/LinearMultigrid.hpp"
 #include "obs/obs/ProjectedGaussSeidel.hpp"
@@ -82,6 +83,13 @@ public:
   explicit TNNMG(const mesh::Grid& grid, const Options& options = {});
   /// TNNMG on the block-stacked hierarchy of several bodies' grids.
   explicit TNNMG(const std::vector<const mesh::Grid*>& grids, const Options& options = {});
+  /// Distributed TNNMG on a DistributedGrid (collective; docs/architecture.md#distributed-tnnmg): the
+  /// problem assembled on the rank's local mesh of the leaf view (DistributedView::local: owned
+  /// vertices first, their rows complete), u in that numbering with its ghosts current on entry
+  /// (and on return). Sweeps in DistributedSweep's order, the distributed V-cycle, sums and the
+  /// step bound reduced over the ranks: every rank takes the same steps and stops together.
+  /// Friction and two-body contact are refused (obs::Error) until they are distributed.
+  explicit TNNMG(const DistributedGrid& grid, const Options& options = {});
   /// TNNMG with another linear correction (e.g. DirectCorrection).
   TNNMG(const mesh::Grid& grid, const Options& options, std::unique_ptr<LinearCorrection<d>> correction);
 
@@ -103,6 +111,11 @@ private:
   std::uint64_t operatorId_ = 0;                ///< its ContactProblem::operatorId(), 0: none
   bool diagonalTerm_ = false;  ///< the correction holds a friction curvature term (to be cleared)
   double rowSumBound_ = 0;  ///< max_p sum_q ||A~_pq||_F >= ||A~||_2 (round-off scale of w'A~w)
+  // distributed (null/-1: serial): the fine level's halo, the ranks, owned vertices, the sweep
+  const HaloExchange* halo_ = nullptr;
+  const Communicator* comm_ = nullptr;
+  Index owned_ = -1;
+  DistributedSweep fineSweep_;
   Statistics statistics_;
 };
 

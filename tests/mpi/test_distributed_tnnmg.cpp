@@ -1,0 +1,107 @@
+// Distributed TNNMG under mpirun (tests/CMakeLists.txt: 1, 2 and 3 ranks): a Signorini problem
+// assembled on each rank's local mesh of a DistributedGrid and solved by TNNMG(const DistributedGrid&)
+// must give the serial TNNMG's solution on the uniformly refined grid (vertices matched by
+// position), its active set and contact load, in the serial iteration count +-1 (the sweep order
+// differs); every rank returns the same result (docs/architecture.md#distributed-tnnmg).
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cmath>
+#include <iostream>
+#include <map>
+#include <optional>
+#include <string>
+
+#include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/Communicator.hpp"
+#include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/ContactSet.hpp"
+#include "obs/obs/DistributedGrid.hpp"
+#include "obs/obs/Material.hpp"
+#include "obs/obs/Obstacle.hpp"
+#include "obs/obs/TNNMG.hpp"
+
+namespace {
+
+using obs::Index;
+using obs::mesh::CellType;
+using obs::mesh::Point;
+using Position = std::array<long long, 3>;
+
+Position quantise(const Point& x) {  // the box meshes' vertices are dyadic
+  return {std::llround(std::ldexp(x[0], 30)), std::llround(std::ldexp(x[1], 30)), std::llround(std::ldexp(x[2], 30))};
+}
+
+/// The unit box pressed from its top (all components prescribed) onto a ball or disk below. A
+/// rank's local mesh may have no contact face (allowEmpty).
+template <int d>
+obs::ContactProblem<d> pressedOntoBall(const obs::mesh::Mesh& m) {
+  obs::BoundaryConditions bc;
+  const Point top = d == 2 ? Point(0.002, -0.02, 0) : Point(0.002, 0.001, -0.02);
+  bc.dirichlet.push_back({obs::mesh::kTop, {true, true, true}, [top](const Point&) { return top; }});
+  const double r = 0.75;
+  const Point centre = d == 2 ? Point(0.5, -r, 0) : Point(0.5, 0.5, -r);
+  const obs::ContactSet contact = d == 2 ? obs::ContactSet(m, obs::mesh::kBottom, obs::DiskObstacle(centre, r), true)
+                                         : obs::ContactSet(m, obs::mesh::kBottom, obs::BallObstacle(centre, r), true);
+  return obs::ContactProblem<d>(m, obs::Material{1.0, 0.3}, bc, contact);
+}
+
+template <int d>
+void expectSerialTnnmg(CellType type, int cells, int refinements) {
+  SCOPED_TRACE(std::string(obs::mesh::name(type)));
+  const obs::Communicator comm = obs::Communicator::world();
+  const obs::mesh::Grid coarse(obs::mesh::boxMesh(type, cells));
+  const obs::DistributedGrid dg(coarse, refinements, comm);
+  obs::mesh::Grid serial = coarse;
+  for (int l = 0; l < refinements; ++l) serial.refineUniformly();
+  typename obs::TNNMG<d>::Options options;
+  options.tolerance = 1e-10;
+
+  const obs::mesh::Mesh fs = serial.leafView().mesh;
+  const obs::ContactProblem<d> ps = pressedOntoBall<d>(fs);
+  obs::TNNMG<d> serialSolver(serial, options);
+  Eigen::VectorXd us = Eigen::VectorXd::Zero(ps.numDofs());
+  const obs::ContactResult rs = serialSolver.solve(ps, us);
+
+  const obs::DistributedView leaf = dg.view();
+  std::optional<obs::ContactProblem<d>> built;
+  comm.collective([&] { built.emplace(pressedOntoBall<d>(leaf.local)); });  // an error on one rank reaches all
+  const obs::ContactProblem<d>& pd = *built;
+  obs::TNNMG<d> solver(dg, options);
+  Eigen::VectorXd ud = Eigen::VectorXd::Zero(pd.numDofs());
+  const obs::ContactResult rd = solver.solve(pd, ud);
+  if (comm.rank() == 0)
+    std::cout << obs::mesh::name(type) << " on " << comm.size() << " ranks: " << rd.iterations << " iterations (serial "
+              << rs.iterations << "), active " << rd.activeSetSize << " (serial " << rs.activeSetSize << ")\n";
+  ASSERT_TRUE(rs.converged);
+  ASSERT_TRUE(rd.converged);
+  EXPECT_LE(std::abs(rd.iterations - rs.iterations), 1);
+  EXPECT_EQ(rd.activeSetSize, rs.activeSetSize);
+  EXPECT_GT(rs.activeSetSize, 0);
+  // every rank stops at the same iteration with the same figures
+  EXPECT_EQ(comm.max(static_cast<double>(rd.iterations)), static_cast<double>(rd.iterations));
+  EXPECT_EQ(comm.max(rd.energy), rd.energy);
+
+  std::map<Position, Index> serialIndex;
+  for (Index v = 0; v < fs.numVertices(); ++v) serialIndex[quantise(fs.vertex(v))] = v;
+  const double scale = us.cwiseAbs().maxCoeff();
+  for (Index i = 0; i < leaf.local.numVertices(); ++i) {  // ghosts included: they are current
+    const Index v = serialIndex.at(quantise(leaf.local.vertex(i)));
+    for (int c = 0; c < d; ++c) ASSERT_NEAR(ud[i * d + c], us[v * d + c], 1e-7 * scale) << "vertex " << i;
+  }
+}
+
+TEST(DistributedTnnmg, SolvesTheSerialSignoriniProblemTriangles) { expectSerialTnnmg<2>(CellType::Triangle, 4, 4); }
+TEST(DistributedTnnmg, SolvesTheSerialSignoriniProblemQuadrilaterals) { expectSerialTnnmg<2>(CellType::Quadrilateral, 4, 4); }
+TEST(DistributedTnnmg, SolvesTheSerialSignoriniProblemHexahedra) { expectSerialTnnmg<3>(CellType::Hexahedron, 2, 3); }
+TEST(DistributedTnnmg, SolvesTheSerialSignoriniProblemTetrahedra) { expectSerialTnnmg<3>(CellType::Tetrahedron, 2, 2); }
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  obs::MpiSession mpi(argc, argv);
+  ::testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
