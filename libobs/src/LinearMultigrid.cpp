@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <string>
 
 #include "obs/mesh/Error.hpp"
@@ -300,14 +301,24 @@ bool LinearMultigrid<d>::smootherReady(int l) const {
 template <int d>
 void LinearMultigrid<d>::setSmootherMatrix(int l, const BlockSparseMatrix<d>& A, const std::vector<std::uint8_t>* bits,
                                            std::string what) {
-  if (options_.smoother == LinearSmoother::VertexPatch) patchSmoothers_[l].setMatrix(A, bits, std::move(what));
-  else smoothers_[l].setMatrix(A, bits, std::move(what));
+  everywhere([&] {  // a block that is not positive definite on one rank stops every rank
+    if (options_.smoother == LinearSmoother::VertexPatch) patchSmoothers_[l].setMatrix(A, bits, std::move(what));
+    else smoothers_[l].setMatrix(A, bits, std::move(what));
+  });
 }
 
 template <int d>
 void LinearMultigrid<d>::updateSmoother(int l, std::span<const Index> vertices) {
-  if (options_.smoother == LinearSmoother::VertexPatch) patchSmoothers_[l].updateVertices(vertices);
-  else smoothers_[l].updateVertices(vertices);
+  everywhere([&] {
+    if (options_.smoother == LinearSmoother::VertexPatch) patchSmoothers_[l].updateVertices(vertices);
+    else smoothers_[l].updateVertices(vertices);
+  });
+}
+
+template <int d>
+void LinearMultigrid<d>::everywhere(const std::function<void()>& work) const {
+  if (const Communicator* comm = hierarchy_.communicator()) comm->collective(work);
+  else work();
 }
 
 template <int d>

@@ -4,6 +4,7 @@
 #include <array>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <string>
 
@@ -72,13 +73,23 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   statistics_ = Statistics();
   auto t = Clock::now();
   const bool distributed = comm_ != nullptr;
-  if (distributed && (problem.frictional() || problem.transformed()))
-    throw Error("TNNMG: friction and two-body contact are not distributed yet");
-  if (problem.numVertices() != fineVertices_)
-    throw Error("TNNMG: the problem has " + std::to_string(problem.numVertices()) +
-                " vertices, the leaf view of the solver's grid " + std::to_string(fineVertices_) +
-                " (the problem must be assembled on grid.leafView().mesh of the current grid)");
-  if (rotated_ && operatorId_ == problem.operatorId()) {
+  // distributed: the work that may fail on one rank runs through Communicator::collective, so that
+  // an error reaches every rank instead of leaving the others waiting in the next exchange
+  const auto everywhere = [&](const std::function<void()>& work) {
+    if (distributed) comm_->collective(work);
+    else work();
+  };
+  everywhere([&] {
+    if (distributed && (problem.frictional() || problem.transformed()))
+      throw Error("TNNMG: friction and two-body contact are not distributed yet");
+    if (problem.numVertices() != fineVertices_)
+      throw Error("TNNMG: the problem has " + std::to_string(problem.numVertices()) +
+                  " vertices, the leaf view of the solver's grid " + std::to_string(fineVertices_) +
+                  " (the problem must be assembled on grid.leafView().mesh of the current grid)");
+  });
+  bool reuse = rotated_ && operatorId_ == problem.operatorId();
+  if (distributed) reuse = comm_->max(reuse ? 0.0 : 1.0) == 0;  // rebuilt on every rank if on one
+  if (reuse) {
     // same operator: only the right-hand side and the bounds change (see "Operator reuse")
     rotated_->rhs = problem.toRotated(problem.rhs());
     std::fill(rotated_->upper.begin(), rotated_->upper.end(), std::numeric_limits<double>::infinity());
@@ -92,9 +103,11 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     operatorId_ = 0;
     diagonalTerm_ = false;  // setOperator below clears the correction's term
     smoother_.reset();
-    rotated_ = std::make_unique<RotatedProblem<d>>(problem.rotated());
-    smoother_ = std::make_unique<BlockGaussSeidelSweep<d>>(rotated_->matrix(), rotated_->upper);
-    smoother_->setFriction(*rotated_);
+    everywhere([&] {
+      rotated_ = std::make_unique<RotatedProblem<d>>(problem.rotated());
+      smoother_ = std::make_unique<BlockGaussSeidelSweep<d>>(rotated_->matrix(), rotated_->upper);
+      smoother_->setFriction(*rotated_);
+    });
     if (distributed) {
       const BlockSparseMatrix<d>& R = rotated_->matrix();
       fineSweep_ = DistributedSweep(R.rowStarts(), R.columns(), R.sweepOrder(), *halo_);

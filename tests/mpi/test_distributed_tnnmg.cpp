@@ -21,6 +21,7 @@
 #include "obs/obs/DistributedGrid.hpp"
 #include "obs/obs/Material.hpp"
 #include "obs/obs/Obstacle.hpp"
+#include "obs/obs/Parallel.hpp"
 #include "obs/obs/TNNMG.hpp"
 
 namespace {
@@ -97,6 +98,65 @@ TEST(DistributedTnnmg, SolvesTheSerialSignoriniProblemTriangles) { expectSerialT
 TEST(DistributedTnnmg, SolvesTheSerialSignoriniProblemQuadrilaterals) { expectSerialTnnmg<2>(CellType::Quadrilateral, 4, 4); }
 TEST(DistributedTnnmg, SolvesTheSerialSignoriniProblemHexahedra) { expectSerialTnnmg<3>(CellType::Hexahedron, 2, 3); }
 TEST(DistributedTnnmg, SolvesTheSerialSignoriniProblemTetrahedra) { expectSerialTnnmg<3>(CellType::Tetrahedron, 2, 2); }
+
+/// An error on one rank only (its problem assembled on another mesh) reaches every rank as the
+/// same obs::Error naming that rank: no rank waits for the failed one.
+TEST(DistributedTnnmg, AnErrorOnOneRankReachesEveryRank) {
+  const obs::Communicator comm = obs::Communicator::world();
+  const obs::DistributedGrid dg(obs::mesh::Grid(obs::mesh::boxMesh(CellType::Quadrilateral, 4)), 2, comm);
+  const obs::DistributedView leaf = dg.view();
+  const int failing = comm.size() - 1;
+  const obs::mesh::Mesh wrong = obs::mesh::boxMesh(CellType::Quadrilateral, 3);
+  std::optional<obs::ContactProblem<2>> built;
+  comm.collective([&] { built.emplace(pressedOntoBall<2>(comm.rank() == failing ? wrong : leaf.local)); });
+  obs::TNNMG<2> solver(dg);
+  Eigen::VectorXd u;
+  try {
+    solver.solve(*built, u);
+    ADD_FAILURE() << "no error";
+  } catch (const obs::Error& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("vertices"), std::string::npos) << message;
+    if (comm.size() > 1) {
+      EXPECT_NE(message.find("rank " + std::to_string(failing)), std::string::npos) << message;
+    }
+  }
+  // and the ranks go on together: a correct solve afterwards
+  std::optional<obs::ContactProblem<2>> good;
+  comm.collective([&] { good.emplace(pressedOntoBall<2>(leaf.local)); });
+  EXPECT_TRUE(solver.solve(*good, u).converged);
+}
+
+/// Threads inside the ranks (hybrid): with two threads per rank the sweeps of each rank's interior
+/// and interface run in the threads' orders (SweepOrder subsets; thousands of rows per rank). A
+/// second solve on the same rank and thread count repeats the first bit for bit; one thread per
+/// rank gives the same solution in the same iteration count +-1.
+TEST(DistributedTnnmg, ThreadsInsideTheRanksAndBitwiseRepeats) {
+  const obs::Communicator comm = obs::Communicator::world();
+  const obs::DistributedGrid dg(obs::mesh::Grid(obs::mesh::boxMesh(CellType::Quadrilateral, 4)), 5, comm);
+  const obs::DistributedView leaf = dg.view();
+  std::optional<obs::ContactProblem<2>> built;
+  comm.collective([&] { built.emplace(pressedOntoBall<2>(leaf.local)); });
+  const obs::ContactProblem<2>& problem = *built;
+  const auto solve = [&](int threads, Eigen::VectorXd& u) {
+    obs::setThreads(threads);
+    obs::TNNMG<2> solver(dg);
+    u = Eigen::VectorXd::Zero(problem.numDofs());
+    const obs::ContactResult r = solver.solve(problem, u);
+    obs::setThreads(1);
+    return r;
+  };
+  Eigen::VectorXd u1, u2, u3;
+  const obs::ContactResult r1 = solve(2, u1), r2 = solve(2, u2), r3 = solve(1, u3);
+  ASSERT_TRUE(r1.converged);
+  ASSERT_TRUE(r3.converged);
+  EXPECT_EQ(r1.iterations, r2.iterations);
+  for (Eigen::Index i = 0; i < u1.size(); ++i) ASSERT_EQ(u1[i], u2[i]) << "entry " << i;  // bitwise
+  EXPECT_LE(std::abs(r1.iterations - r3.iterations), 1);
+  const double scale = u3.cwiseAbs().maxCoeff();
+  for (Eigen::Index i = 0; i < u1.size(); ++i) ASSERT_NEAR(u1[i], u3[i], 1e-7 * scale) << "entry " << i;
+  EXPECT_GT(leaf.halo.numOwned(), obs::kParallelMinRows);  // the threaded orders are used
+}
 
 }  // namespace
 

@@ -27,6 +27,7 @@
 ///    the Dirichlet values of an applyDirichlet system).
 #include <Eigen/Core>
 
+#include <functional>
 #include <memory>
 #include <span>
 #include <string>
@@ -186,6 +187,9 @@ private:
 
   std::vector<TruncatedGaussSeidel<d>> smoothers_;
   std::vector<DistributedSweep> schedules_;  ///< per distributed level (empty: serial)
+  /// work() on this rank; distributed, through Communicator::collective (an error on one rank
+  /// reaches every rank).
+  void everywhere(const std::function<void()>& work) const;
   /// x'y over the fine level's owned entries, summed over the ranks (x'y in a serial hierarchy).
   double fineDot(const Eigen::VectorXd& x, const Eigen::VectorXd& y) const;
   std::vector<VertexPatchSmoother<d>> patchSmoothers_;
