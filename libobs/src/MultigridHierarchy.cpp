@@ -483,37 +483,41 @@ MultigridHierarchy<d>::MultigridHierarchy(const DistributedGrid& dg) : comm_(dg.
   // prolongations in the levels' numberings: the rows of the held fine vertices, whose coarse
   // parents are held (a fine cell next to an owned one lies in a coarse cell next to an owned one)
   newBasis_.assign(static_cast<std::size_t>(L) + 1, {});
-  for (int l = 0; l < L; ++l) {
-    const mesh::CsrMatrix T = mesh::transferMatrix(grid, views[l], views[l + 1]);
-    std::vector<Index> coarseLocal(static_cast<std::size_t>(T.cols), -1);
-    for (Index i = 0; i < vertices_[l]; ++i) coarseLocal[levels_[l].viewVertex[i]] = i;
-    mesh::CsrMatrix P;
-    P.rows = vertices_[l + 1];
-    P.cols = vertices_[l];
-    for (Index v : levels_[l + 1].viewVertex) {
-      for (Index k = T.rowStart[v]; k < T.rowStart[v + 1]; ++k) {
-        const Index c = coarseLocal[T.columns[k]];
-        if (c < 0) throw Error("multigrid hierarchy: a coarse parent of a held vertex of level " + std::to_string(l + 1) + " is not held");
-        P.columns.push_back(c);
-        P.values.push_back(T.values[k]);
+  comm_->collective([&] {  // local work: a failure on one rank reaches all
+    for (int l = 0; l < L; ++l) {
+      const mesh::CsrMatrix T = mesh::transferMatrix(grid, views[l], views[l + 1]);
+      std::vector<Index> coarseLocal(static_cast<std::size_t>(T.cols), -1);
+      for (Index i = 0; i < vertices_[l]; ++i) coarseLocal[levels_[l].viewVertex[i]] = i;
+      mesh::CsrMatrix P;
+      P.rows = vertices_[l + 1];
+      P.cols = vertices_[l];
+      for (Index v : levels_[l + 1].viewVertex) {
+        for (Index k = T.rowStart[v]; k < T.rowStart[v + 1]; ++k) {
+          const Index c = coarseLocal[T.columns[k]];
+          if (c < 0)
+            throw Error("multigrid hierarchy: a coarse parent of a held vertex of level " + std::to_string(l + 1) +
+                        " is not held");
+          P.columns.push_back(c);
+          P.values.push_back(T.values[k]);
+        }
+        P.rowStart.push_back(static_cast<Index>(P.columns.size()));
       }
-      P.rowStart.push_back(static_cast<Index>(P.columns.size()));
-    }
-    const mesh::CsrMatrix full = transpose(P);
-    if (l > 0) {  // new basis functions (MultigridHierarchy::newBasis), from the held rows
-      const mesh::CsrMatrix& Pc = prolongations_[l - 1];
-      const mesh::CsrMatrix Ptc = transpose(Pc);
-      auto& mark = newBasis_[l];
-      mark.assign(static_cast<std::size_t>(Pc.rows), 1);
-      for (Index p = 0; p < Pc.rows; ++p) {
-        const Index k = Pc.rowStart[p];
-        if (Pc.rowStart[p + 1] - k != 1 || Pc.values[k] != 1.0) continue;
-        if (Ptc.rowStart[Pc.columns[k] + 1] - Ptc.rowStart[Pc.columns[k]] == 1) mark[p] = 0;
+      const mesh::CsrMatrix full = transpose(P);
+      if (l > 0) {  // new basis functions (MultigridHierarchy::newBasis), from the held rows
+        const mesh::CsrMatrix& Pc = prolongations_[l - 1];
+        const mesh::CsrMatrix Ptc = transpose(Pc);
+        auto& mark = newBasis_[l];
+        mark.assign(static_cast<std::size_t>(Pc.rows), 1);
+        for (Index p = 0; p < Pc.rows; ++p) {
+          const Index k = Pc.rowStart[p];
+          if (Pc.rowStart[p + 1] - k != 1 || Pc.values[k] != 1.0) continue;
+          if (Ptc.rowStart[Pc.columns[k] + 1] - Ptc.rowStart[Pc.columns[k]] == 1) mark[p] = 0;
+        }
       }
+      transposed_.push_back(distributedLevel(l + 1) ? transposeRows(P, levels_[l + 1].owned) : full);
+      prolongations_.push_back(std::move(P));
     }
-    transposed_.push_back(distributedLevel(l + 1) ? transposeRows(P, levels_[l + 1].owned) : full);
-    prolongations_.push_back(std::move(P));
-  }
+  });
 }
 
 template <int d>
@@ -551,7 +555,9 @@ void MultigridHierarchy<d>::joinPattern(int l) {
         a += 2 + n;
       }
     comm.collective([&] {
-      if (!held) throw Error("multigrid hierarchy: a coarse entry of level " + std::to_string(l) + " is not held by its row's owner");
+      if (!held)
+        throw Error("multigrid hierarchy: a coarse entry of level " + std::to_string(l) +
+                    " is not held by its row's owner");
     });
   } else {  // a replicated level: every rank's pattern to every rank
     std::vector<double> mine;
