@@ -23,7 +23,8 @@
 // 3 a [dynamics] or [adaptivity] run stopped early (SIGINT/SIGTERM or --stop-after-step) with a
 // checkpoint to continue it with --restart (docs/checkpoint.md); scheme comparisons stop without one.
 // Every error is one line "obs: error: ..." on stderr. Launched by mpirun with more than one rank,
-// obs stops with exit code 1 on every rank (distributed runs are not built; rank 0 says so).
+// `obs run` runs distributed (static one-body contact scenes; rank 0 prints progress and errors,
+// every rank exits with the same code); other commands stop with exit code 1 on every rank.
 #include <CLI/CLI.hpp>
 
 #include <algorithm>
@@ -43,6 +44,7 @@
 #include "obs/drivers/SweepCommand.hpp"
 #include "obs/estimators/EstimatorRegistry.hpp"
 #include "obs/estimators/Version.hpp"
+#include "obs/obs/Communicator.hpp"
 #include "obs/obs/Parallel.hpp"
 #include "obs/mesh/Error.hpp"
 
@@ -352,17 +354,33 @@ int main(int argc, char** argv) {
     return kExitUsage;
   }
 
-  // Distributed runs are not built: under `mpirun -np N` (N > 1) every rank would solve the whole
-  // scene and write the same files. Every rank stops at once with the same exit code (no rank waits
-  // for another, so nothing hangs); rank 0 says why. `-np 1` runs the ordinary program.
+  // Under `mpirun -np N` (N > 1) `obs run` runs distributed (obs built with MPI: the launch's
+  // ranks share the scene, DistributedScene.cpp). Everything else would run N times into the same
+  // files: every rank stops at once with the same exit code (no rank waits for another, so nothing
+  // hangs) and rank 0 says why. `-np 1` runs the ordinary program.
+  std::optional<obs::MpiSession> mpi;
+  bool rank0 = true;
   if (const auto [ranks, rank] = launcherRanks(); ranks > 1) {
-    if (rank == 0)
-      printError("launched as " + std::to_string(ranks) +
-                 " MPI ranks: distributed runs are not available yet, and each rank would solve the whole scene "
-                 "and write the same files; run obs without mpirun (or with -np 1) and use --threads N for the "
-                 "cores of one machine (docs/performance.md#threads)");
-    return kExitError;
+    if (!run->parsed() || !obs::Communicator::built()) {
+      if (rank == 0)
+        printError("launched as " + std::to_string(ranks) + " MPI ranks: " +
+                   (obs::Communicator::built() ? std::string("only `obs run` runs distributed")
+                                               : std::string("this obs is built without MPI (OBS_WITH_MPI)")) +
+                   ", and each rank would do the same work and write the same files; run it without mpirun (or with "
+                   "-np 1) and use --threads N for the cores of one machine (docs/performance.md#threads)");
+      return kExitError;
+    }
+    mpi.emplace(argc, argv);
+    rank0 = obs::Communicator::world().rank() == 0;
+    if (!rank0) {
+      quiet = true;
+      verbose = false;
+    }  // progress from rank 0 only
   }
+  // errors: one line from rank 0 (distributed errors reach every rank as the same obs::Error)
+  const auto printError = [&](const std::string& message) {
+    if (rank0) ::printError(message);
+  };
 
   try {
     // --threads, else $OBS_THREADS, else 1 (obs run and obs mesh)

@@ -16,6 +16,7 @@
 #include "obs/drivers/VtkWriter.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/LinearElasticity.hpp"
+#include "DistributedScene.hpp"
 #include "RunSupport.hpp"
 
 namespace obs::drivers {
@@ -125,6 +126,8 @@ RunResult runScene(const Scene& scene, const RunOptions& options) {
   if (!scene.dynamics && !scene.adaptivity && (options.restart || options.stopAfterStep))
     throw Error(scene.fileName + ": " + (options.restart ? "--restart" : "--stop-after-step") +
                 " applies to [dynamics] and [adaptivity] scenes only (static runs write no checkpoints)");
+  // under mpirun -np N > 1 (obs built with MPI): the distributed runner (DistributedScene.hpp)
+  if (const Communicator comm = Communicator::world(); comm.size() > 1) return runDistributedScene(scene, options, comm);
   if (scene.adaptivity) return runAdaptiveScene(scene, options);
   const auto start = Clock::now();
   auto progress = [&](const std::string& line) {

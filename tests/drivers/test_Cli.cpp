@@ -10,6 +10,14 @@
 #include <sstream>
 #include <string>
 
+#include <nlohmann/json.hpp>
+#include <vtkCellData.h>
+#include <vtkDataArray.h>
+#include <vtkNew.h>
+#include <vtkPointData.h>
+#include <vtkUnstructuredGrid.h>
+#include <vtkXMLPUnstructuredGridReader.h>
+
 #include "DriverTestSupport.hpp"
 
 using obs::test::slurp;
@@ -93,27 +101,78 @@ TEST_F(Cli, InvalidSceneIsOneErrorLineAndExit1) {
 }
 
 // Under an MPI launcher with more than one rank (the variables Open MPI's and MPICH's mpirun set),
-// obs stops at once on every rank with exit code 1 and writes nothing: rank 0 says why in one line,
-// the others are silent. One rank is the ordinary run.
-TEST_F(Cli, SeveralMpiRanksAreRefusedOnEveryRank) {
+// every command but `obs run` stops at once on every rank with exit code 1 and writes nothing:
+// rank 0 says why in one line, the others are silent. One rank is the ordinary run. (`obs run`
+// itself runs distributed under a real launcher: MpirunRunsStaticContactScenesDistributed.)
+TEST_F(Cli, SeveralMpiRanksAreRefusedOnEveryRankButForRun) {
   const std::string scene = (fs::path(OBS_DATA_DIR) / "scenes" / "cantilever.toml").string();
-  const std::string run = "run '" + scene + "' --output out_mpi";
-  fs::remove_all(kTmp / "out_mpi");
-  const Output r0 = runObs(run, "mpi_rank0", "OMPI_COMM_WORLD_SIZE=2 OMPI_COMM_WORLD_RANK=0");
+  const std::string check = "check '" + scene + "'";
+  const Output r0 = runObs(check, "mpi_rank0", "OMPI_COMM_WORLD_SIZE=2 OMPI_COMM_WORLD_RANK=0");
   EXPECT_EQ(r0.code, 1);
   EXPECT_EQ(std::count(r0.err.begin(), r0.err.end(), '\n'), 1) << r0.err;
-  EXPECT_EQ(r0.err.rfind("obs: error: launched as 2 MPI ranks: distributed runs are not available yet", 0), 0u) << r0.err;
-  const Output r1 = runObs(run, "mpi_rank1", "OMPI_COMM_WORLD_SIZE=2 OMPI_COMM_WORLD_RANK=1");
+  EXPECT_EQ(r0.err.rfind("obs: error: launched as 2 MPI ranks: ", 0), 0u) << r0.err;
+  EXPECT_TRUE(r0.out.empty()) << r0.out;
+  const Output r1 = runObs(check, "mpi_rank1", "OMPI_COMM_WORLD_SIZE=2 OMPI_COMM_WORLD_RANK=1");
   EXPECT_EQ(r1.code, 1);
   EXPECT_TRUE(r1.err.empty()) << r1.err;
-  const Output p3 = runObs(run, "pmi_rank2", "PMI_SIZE=3 PMI_RANK=2");
+  const Output p3 = runObs(check, "pmi_rank2", "PMI_SIZE=3 PMI_RANK=2");
   EXPECT_EQ(p3.code, 1);
   EXPECT_TRUE(p3.err.empty()) << p3.err;
-  EXPECT_FALSE(fs::exists(kTmp / "out_mpi"));
+  const std::string run = "run '" + scene + "' --output out_mpi";
+  fs::remove_all(kTmp / "out_mpi");
   const Output one = runObs(run, "mpi_one", "OMPI_COMM_WORLD_SIZE=1 OMPI_COMM_WORLD_RANK=0");
   EXPECT_EQ(one.code, 0) << one.err;
   EXPECT_TRUE(fs::exists(kTmp / "out_mpi" / "summary.json"));
 }
+
+#ifdef OBS_MPIEXEC
+// `mpirun -np 2 obs run` on step-42 (refine 2): the distributed runner's summary has the serial
+// run's iterations, contact vertices, area and load (the load to 1e-10), and its .pvtu joins two
+// pieces that VTK reads back as the whole mesh. A scene that is not distributed yet stops every
+// rank with exit code 1 and one error line.
+TEST_F(Cli, MpirunRunsStaticContactScenesDistributed) {
+  const std::string mpirun = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=PASSIVE " +
+                             std::string(OBS_MPIEXEC) + " --oversubscribe -np 2";
+  const std::string scene = (fs::path(OBS_DATA_DIR) / "scenes" / "step42.toml").string();
+  fs::remove_all(kTmp / "out_mpi2");
+  fs::remove_all(kTmp / "out_serial2");
+  const Output d = runObs("run '" + scene + "' --refine 2 --output out_mpi2", "mpirun2", mpirun);
+  ASSERT_EQ(d.code, 0) << d.err;
+  EXPECT_EQ(countLines(d.out), 4) << d.out;  // progress from rank 0 only
+  EXPECT_NE(d.out.find("on 2 ranks"), std::string::npos) << d.out;
+  const Output s = runObs("run '" + scene + "' --refine 2 --output out_serial2", "serial2");
+  ASSERT_EQ(s.code, 0) << s.err;
+  const auto json = [](const fs::path& p) { return nlohmann::json::parse(slurp(p)); };
+  const nlohmann::json jd = json(kTmp / "out_mpi2" / "summary.json"), js = json(kTmp / "out_serial2" / "summary.json");
+  EXPECT_EQ(jd["ranks"], 2);
+  for (const char* key : {"dofs", "free_dofs", "vertices", "cells"}) EXPECT_EQ(jd[key], js[key]) << key;
+  EXPECT_EQ(jd["solver"]["iterations"], js["solver"]["iterations"]);
+  for (const char* key : {"actual_vertices", "potential_vertices", "boundary_vertices"})
+    EXPECT_EQ(jd["contact"][key], js["contact"][key]) << key;
+  const double load = js["contact"]["load_P"];
+  EXPECT_NEAR(jd["contact"]["load_P"].get<double>(), load, 1e-10 * load);
+  EXPECT_NEAR(jd["contact"]["area"].get<double>(), js["contact"]["area"].get<double>(), 1e-12);
+  EXPECT_NEAR(jd["max_displacement"].get<double>(), js["max_displacement"].get<double>(),
+              1e-9 * js["max_displacement"].get<double>());
+  // the pieces, joined by the .pvtu
+  vtkNew<vtkXMLPUnstructuredGridReader> reader;
+  reader->SetFileName((kTmp / "out_mpi2" / "step42.pvtu").string().c_str());
+  reader->Update();
+  vtkUnstructuredGrid* grid = reader->GetOutput();
+  EXPECT_EQ(grid->GetNumberOfCells(), js["cells"].get<long long>());
+  ASSERT_NE(grid->GetPointData()->GetArray("displacement"), nullptr);
+  ASSERT_NE(grid->GetCellData()->GetArray("rank"), nullptr);
+  EXPECT_EQ(grid->GetCellData()->GetArray("rank")->GetRange()[1], 1.0);
+
+  const std::string cantilever = (fs::path(OBS_DATA_DIR) / "scenes" / "cantilever.toml").string();
+  const Output e = runObs("run '" + cantilever + "' --output out_mpi_refused", "mpirun_refused", mpirun);
+  EXPECT_EQ(e.code, 1);
+  std::size_t errors = 0;  // obs' own lines (mpirun adds its report of the exit code)
+  for (std::size_t at = e.err.find("obs: error:"); at != std::string::npos; at = e.err.find("obs: error:", at + 1)) ++errors;
+  EXPECT_EQ(errors, 1u) << e.err;
+  EXPECT_NE(e.err.find("no [contact]"), std::string::npos) << e.err;
+}
+#endif
 
 TEST_F(Cli, RunPrintsProgressAndQuietDoesNot) {
   const std::string scene = (fs::path(OBS_DATA_DIR) / "scenes" / "cantilever.toml").string();

@@ -1,0 +1,333 @@
+#include "DistributedScene.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <limits>
+#include <numbers>
+#include <optional>
+#include <sstream>
+#include <string>
+
+#include "RunSupport.hpp"
+#include "obs/drivers/ObstacleFactory.hpp"
+#include "obs/drivers/SceneSetup.hpp"
+#include "obs/drivers/SolutionFields.hpp"
+#include "obs/drivers/VtkWriter.hpp"
+#include "obs/mesh/Error.hpp"
+#include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/DistributedGrid.hpp"
+#include "obs/obs/LinearElasticity.hpp"
+#include "obs/obs/SolverConfig.hpp"
+#include "obs/obs/TNNMG.hpp"
+
+namespace obs::drivers {
+namespace {
+
+/// What of the scene is not distributed yet ("" if it can run).
+std::string notDistributed(const Scene& scene) {
+  if (scene.dynamics) return "[dynamics]";
+  if (scene.adaptivity) return "[adaptivity]";
+  if (scene.multiBody()) return "several [[body]] entries";
+  if (!scene.contact) return "no [contact] (linear elasticity)";
+  if (scene.contact->friction) return "friction";
+  if (scene.loading) return "[loading]";
+  if (scene.solverType() != "tnnmg") return "[solver] type = \"" + scene.solverType() + "\"";
+  return "";
+}
+
+/// The owned cells of a rank's local mesh (its first `cells` cells) on the vertices they use:
+/// piece vertex -> local vertex in `vertex`.
+struct OwnedPiece {
+  mesh::Mesh mesh;
+  std::vector<Index> vertex;
+};
+
+OwnedPiece ownedPiece(const mesh::Mesh& local, Index cells) {
+  OwnedPiece p{mesh::Mesh(local.dimension()), {}};
+  std::vector<Index> pieceOf(static_cast<std::size_t>(local.numVertices()), -1);
+  std::vector<Index> corners;
+  for (Index c = 0; c < cells; ++c) {
+    corners.clear();
+    for (Index v : local.cellVertices(c)) {
+      if (pieceOf[v] < 0) {
+        pieceOf[v] = p.mesh.addVertex(local.vertex(v));
+        p.vertex.push_back(v);
+      }
+      corners.push_back(pieceOf[v]);
+    }
+    p.mesh.addCell(local.cellType(c), corners);
+  }
+  return p;
+}
+
+/// A field of the local mesh's vertices restricted to a piece's vertices.
+Field pieceField(const Field& f, const std::vector<Index>& vertex) {
+  Field out{f.name, f.components, {}, f.integer};
+  out.values.reserve(vertex.size() * static_cast<std::size_t>(f.components));
+  for (Index v : vertex)
+    for (int k = 0; k < f.components; ++k) out.values.push_back(f.values[static_cast<std::size_t>(v) * f.components + k]);
+  return out;
+}
+
+/// The .pvtu joining the ranks' pieces (ParaView's parallel unstructured grid).
+void writePvtu(const std::filesystem::path& path, const std::vector<std::string>& pieces,
+               const std::vector<Field>& pointFields, const std::vector<Field>& cellFields) {
+  std::ofstream out(path);
+  const auto array = [&](const Field& f) {
+    out << "      <PDataArray type=\"" << (f.integer ? "Int32" : "Float64") << "\" Name=\"" << f.name
+        << "\" NumberOfComponents=\"" << f.components << "\"/>\n";
+  };
+  out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
+         "header_type=\"UInt64\">\n  <PUnstructuredGrid GhostLevel=\"0\">\n    <PPointData>\n";
+  for (const Field& f : pointFields) array(f);
+  out << "    </PPointData>\n    <PCellData>\n";
+  for (const Field& f : cellFields) array(f);
+  out << "    </PCellData>\n    <PPoints>\n      <PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n    </PPoints>\n";
+  for (const std::string& p : pieces) out << "    <Piece Source=\"" << p << "\"/>\n";
+  out << "  </PUnstructuredGrid>\n</VTKFile>\n";
+  if (!out) throw Error(path.string() + ": cannot write");
+}
+
+template <int d>
+void solveDistributed(const Scene& scene, const RunOptions& options, const Communicator& comm, const DistributedGrid& dg,
+                      const DistributedView& leaf, const std::filesystem::path& dir, RunResult& r) {
+  const auto progress = [&](const std::string& line) {
+    if (options.progress) options.progress(line);
+  };
+  const Index owned = leaf.halo.numOwned();
+  // the problem on the rank's local mesh (its owned rows complete)
+  auto t = Clock::now();
+  std::optional<ContactSet> set;
+  std::optional<ContactProblem<d>> problem;
+  comm.collective([&] {
+    const BoundaryConditions bc = makeBoundaryConditions(scene, leaf.local, 0);
+    const std::unique_ptr<Obstacle> obstacle = makeObstacle(scene, d);
+    set.emplace(leaf.local, contactBoundaryId(scene, leaf.local), *obstacle, true);
+    problem.emplace(leaf.local, scene.material, bc, *set);
+  });
+  long long boundaryOwned = 0, freeOwned = 0;
+  for (Index k = 0; k < set->size(); ++k) boundaryOwned += set->vertex(k) < owned ? 1 : 0;
+  for (Index i = 0; i < owned * d; ++i) freeOwned += problem->dirichlet().constrained[static_cast<std::size_t>(i)] ? 0 : 1;
+  boundaryOwned = comm.sum(boundaryOwned);
+  if (boundaryOwned == 0)
+    throw Error(scene.where(scene.contact->line) + "[contact]: the contact boundary has no faces");
+  r.assemblySeconds = comm.max(secondsSince(t));
+  r.dofs = static_cast<long long>(d) * leaf.globalVertices();
+  r.freeDofs = comm.sum(freeOwned);
+  progress("assembled: " + std::to_string(r.dofs) + " dofs (" + std::to_string(r.freeDofs) + " free) on " +
+           std::to_string(comm.size()) + " ranks");
+
+  // distributed TNNMG
+  const SolverConfig config = solverConfig(scene);
+  typename TNNMG<d>::Options o = tnnmgOptions<d>(config);
+  o.tolerance = config.tolerance;
+  o.maxIterations = config.iterationCap();
+  t = Clock::now();
+  TNNMG<d> solver(dg, o);
+  Eigen::VectorXd u;
+  const ContactResult result = solver.solve(*problem, u);
+  r.solveSeconds = comm.max(secondsSince(t));
+  r.solver.type = "tnnmg";
+  r.solver.iterations = result.iterations;
+  r.solver.converged = result.converged;
+  r.solver.seconds = r.solveSeconds;
+  r.solver.tolerance = config.tolerance;
+  r.solver.correction = result.correction;
+  r.solver.convergenceRate = result.convergenceRate;
+  // the phases of rank 0's solve (every rank runs the same phases; each waits for the others in them)
+  const auto& st = solver.statistics();
+  r.solver.vcycles = st.vcycles;
+  r.solver.phases = TnnmgPhases{st.setupSeconds,      st.smoothingSeconds, st.updateSeconds,
+                                st.correctionSeconds, st.otherSeconds,     st.operatorUpdates};
+  r.solver.kkt = result.kkt;
+
+  // the contact report from the owned contact vertices, reduced; in contact as computeContactOutputs
+  // decides it, with the global scales of the KKT residuals
+  const ContactOutputs out = computeContactOutputs(*problem, u);
+  const double U = result.kkt.displacementScale, F = result.kkt.forceScale;
+  std::vector<char> inContact(static_cast<std::size_t>(set->size()), 0);
+  ContactReport c;
+  c.obstacle = scene.contact->obstacle;
+  c.boundary = scene.contact->boundary.name.empty() ? std::to_string(scene.contact->boundary.id)
+                                                    : scene.contact->boundary.name;
+  c.boundaryVertices = boundaryOwned;
+  std::vector<double> sums(3 + 3 + 3 + 1, 0.0);  // force, weighted centre, normal sum, weight
+  long long potential = 0, actual = 0;
+  for (Index k = 0; k < set->size(); ++k) {
+    const Index p = set->vertex(k);
+    const double g = set->gap(k);
+    if (!std::isfinite(g)) continue;
+    const Point nu = set->direction(k);
+    const double un = nu.head<d>().dot(u.template segment<d>(static_cast<Eigen::Index>(p) * d));
+    inContact[k] = g - un <= 1e-8 * U && out.multiplier[k] > 1e-8 * F ? 1 : 0;
+    if (p >= owned) continue;
+    ++potential;
+    c.load += out.multiplier[k];
+    c.maxViolation = std::max(c.maxViolation, un - g);
+    for (int a = 0; a < 3; ++a) sums[a] += out.multiplier[k] * nu[a];
+    if (!inContact[k]) continue;
+    ++actual;
+    const double w = std::max(out.multiplier[k], 0.0);
+    for (int a = 0; a < 3; ++a) {
+      sums[3 + a] += w * set->position(k)[a];
+      sums[6 + a] += nu[a];
+    }
+    sums[9] += w;
+  }
+  comm.sum(sums);
+  c.potentialVertices = comm.sum(potential);
+  c.actualVertices = comm.sum(actual);
+  c.load = comm.sum(c.load);
+  c.maxViolation = std::max(0.0, comm.max(c.maxViolation));
+  for (int a = 0; a < 3; ++a) c.force[static_cast<std::size_t>(a)] = sums[a];
+  if (c.actualVertices > 0 && sums[9] > 0) {
+    const Point centre(sums[3] / sums[9], sums[4] / sums[9], sums[5] / sums[9]);
+    Point normal(sums[6], sums[7], sums[8]);
+    if (normal.norm() > 0) normal.normalize();
+    double radius = 0;
+    for (Index k = 0; k < set->size(); ++k)
+      if (set->vertex(k) < owned && inContact[k]) {
+        const Point x = set->position(k) - centre;
+        radius = std::max(radius, (x - x.dot(normal) * normal).norm());
+      }
+    c.radiusNodes = comm.max(radius);
+  }
+  // the contact area: the faces all of whose nodes are in contact, each counted by the owner of its
+  // vertex of smallest global index (all cells around that vertex are held, so the face is exact)
+  double area = 0;
+  for (const ContactSet::Face& f : set->faces()) {
+    Index first = -1, firstGlobal = std::numeric_limits<Index>::max();
+    bool all = true;
+    for (Index k : f.nodes) {
+      all = all && inContact[k];
+      const Index g = leaf.numbering.global[leaf.halo.viewVertices()[set->vertex(k)]];
+      if (g < firstGlobal) {
+        firstGlobal = g;
+        first = set->vertex(k);
+      }
+    }
+    if (all && first >= 0 && first < owned) area += f.measure;
+  }
+  c.area = comm.sum(area);
+  c.radius = d == 3 ? std::sqrt(c.area / std::numbers::pi) : c.area / 2;
+  r.contact = c;
+
+  // displacement and stresses of the owned vertices and cells
+  ElasticitySolution e;
+  e.dimension = d;
+  e.displacement = u;
+  recoverStresses(leaf.local, scene.material, e);
+  double maxU = 0, maxMises = 0;
+  for (Index v = 0; v < owned; ++v) maxU = std::max(maxU, u.template segment<d>(static_cast<Eigen::Index>(v) * d).norm());
+  const auto ownedCells = static_cast<Index>(leaf.part.owned.size());
+  for (Index cell = 0; cell < ownedCells; ++cell) maxMises = std::max(maxMises, vonMises(e.cellStress[cell]));
+  r.maxDisplacement = comm.max(maxU);
+  r.maxVonMises = comm.max(maxMises);
+  {
+    std::ostringstream os;
+    os << "solved in " << std::setprecision(3) << r.solveSeconds << " s (tnnmg, " << r.solver.iterations
+       << " iterations" << (r.solver.converged ? "" : ", NOT converged") << ", " << comm.size()
+       << " ranks): max |u| = " << std::setprecision(6) << r.maxDisplacement << ", max von Mises = " << r.maxVonMises
+       << "; contact: " << c.actualVertices << " of " << c.potentialVertices << " vertices, P = " << c.load;
+    progress(os.str());
+  }
+
+  // the solution: each rank its owned cells, rank 0 the .pvtu
+  if (!scene.output.vtk) return;
+  const std::string stem = OutputLayout(scene).staticVtu(0);
+  const std::string base = std::filesystem::path(stem).stem().string();
+  const std::string piece = base + "_" + std::to_string(comm.rank()) + ".vtu";
+  std::vector<Field> pf = pointFields(leaf.local, e), cf = cellFields(leaf.local, e);
+  comm.collective([&] {
+    const OwnedPiece p = ownedPiece(leaf.local, ownedCells);
+    std::vector<Field> points, cells;
+    for (const Field& f : pf) points.push_back(pieceField(f, p.vertex));
+    for (const Field& f : cf) {
+      Field g{f.name, f.components, {}, f.integer};
+      g.values.assign(f.values.begin(), f.values.begin() + static_cast<std::ptrdiff_t>(ownedCells) * f.components);
+      cells.push_back(std::move(g));
+    }
+    cells.push_back(Field{"rank", 1, std::vector<double>(static_cast<std::size_t>(ownedCells), comm.rank()), true});
+    writeVtu(dir / piece, p.mesh, points, cells);
+    if (comm.rank() == 0) {
+      std::vector<std::string> pieces;
+      for (int q = 0; q < comm.size(); ++q) pieces.push_back(base + "_" + std::to_string(q) + ".vtu");
+      writePvtu(dir / (base + ".pvtu"), pieces, points, cells);
+    }
+  });
+  if (comm.rank() == 0) {
+    for (int q = 0; q < comm.size(); ++q) r.outputFiles.push_back(dir / (base + "_" + std::to_string(q) + ".vtu"));
+    r.outputFiles.push_back(dir / (base + ".pvtu"));
+  }
+}
+
+}  // namespace
+
+RunResult runDistributedScene(const Scene& scene, const RunOptions& options, const Communicator& comm) {
+  const auto start = Clock::now();
+  if (const std::string what = notDistributed(scene); !what.empty())
+    throw Error(scene.fileName + ": distributed runs (" + std::to_string(comm.size()) +
+                " MPI ranks) solve static one-body contact scenes with TNNMG so far; this scene has " + what +
+                " (run it without mpirun, and use --threads N for the cores of one machine)");
+  const auto progress = [&](const std::string& line) {
+    if (options.progress) options.progress(line);
+  };
+  RunResult r;
+  r.scene = scene.fileName;
+  auto t = Clock::now();
+  // the coarse grid (with the scene's boundary projections) and its distributed refinement
+  mesh::Grid coarse = buildGrid(scene, 0);
+  validateScene(scene, coarse.leafView().mesh);
+  const int refine = options.refine.value_or(scene.mesh.refine);
+  if (refine < 1)
+    throw Error(scene.fileName + ": a distributed run needs refine >= 1 (the coarse mesh is solved on every rank)");
+  const DistributedGrid dg(std::move(coarse), refine, comm);
+  const DistributedView leaf = dg.view();
+  r.meshSeconds = comm.max(secondsSince(t));
+  r.dimension = leaf.local.dimension();
+  r.refine = refine;
+  r.vertices = leaf.globalVertices();
+  r.cells = dg.globalLeaves();
+  {
+    std::vector<double> perType(r.cellsPerType.size(), 0.0);
+    for (Index cell = 0; cell < static_cast<Index>(leaf.part.owned.size()); ++cell)
+      perType[static_cast<std::size_t>(leaf.local.cellType(cell))] += 1;
+    comm.sum(perType);
+    for (std::size_t k = 0; k < perType.size(); ++k) r.cellsPerType[k] = static_cast<long long>(perType[k]);
+  }
+  progress("mesh built: " + std::to_string(r.cells) + " cells / " + std::to_string(r.vertices) + " vertices (" +
+           std::to_string(r.dimension) + "D) on " + std::to_string(comm.size()) + " ranks, partition level " +
+           std::to_string(dg.partition().level) + " (" + std::to_string(r.meshSeconds) + " s)");
+
+  const std::filesystem::path dir = options.outputDirectory.value_or(scene.output.directory);
+  comm.collective([&] {
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
+  });
+  if (r.dimension == 2) solveDistributed<2>(scene, options, comm, dg, leaf, dir, r);
+  else solveDistributed<3>(scene, options, comm, dg, leaf, dir, r);
+
+  // summary.json from rank 0: the figures above are reduced over the ranks; the memory per rank
+  const double memory = peakMemoryMB();
+  nlohmann::json extra;
+  extra["ranks"] = comm.size();
+  extra["peak_memory_mb_largest_rank"] = comm.max(memory);
+  extra["peak_memory_mb_all_ranks"] = comm.sum(memory);
+  extra["partition_level"] = dg.partition().level;
+  comm.collective([&] {
+    if (comm.rank() == 0) finishRun(scene, options, dir, r, Clock::now(), start, extra);
+  });
+  if (!r.solver.converged) {
+    std::ostringstream os;
+    os << scene.where(scene.solver.line) << "[solver] tnnmg did not converge in " << r.solver.iterations
+       << " iterations (correction " << std::setprecision(3) << r.solver.correction << ", tolerance "
+       << r.solver.tolerance << "); raise [solver] max_iterations or tolerance (outputs written to " << dir.string()
+       << ")";
+    throw Error(os.str());
+  }
+  return r;
+}
+
+}  // namespace obs::drivers

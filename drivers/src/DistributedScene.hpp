@@ -1,0 +1,19 @@
+#pragma once
+/// \file DistributedScene.hpp
+/// `mpirun -np N obs run scene.toml` with N > 1 (docs/architecture.md#distributed-runner): a static
+/// one-body contact scene solved by distributed TNNMG on a DistributedGrid. Every rank calls it;
+/// rank 0 reports progress and writes summary.json (figures reduced over the ranks), every rank
+/// writes its piece of the solution (.vtu of its owned cells) and rank 0 the .pvtu that joins them.
+/// Errors reach every rank as the same obs::Error (Communicator::collective), so every rank exits
+/// with the same code and nothing hangs. Other scene kinds are refused with an error naming what
+/// is not distributed yet.
+#include "obs/drivers/RunOptions.hpp"
+#include "obs/drivers/RunResult.hpp"
+#include "obs/drivers/Scene.hpp"
+#include "obs/obs/Communicator.hpp"
+
+namespace obs::drivers {
+
+RunResult runDistributedScene(const Scene& scene, const RunOptions& options, const Communicator& comm);
+
+}  // namespace obs::drivers
