@@ -194,7 +194,13 @@ void solveDistributed(const Scene& scene, const RunOptions& options, const Commu
     c.radiusNodes = comm.max(radius);
   }
   // the contact area: the faces all of whose nodes are in contact, each counted by the owner of its
-  // vertex of smallest global index (all cells around that vertex are held, so the face is exact)
+  // vertex of smallest global index (all cells around that vertex are held, so the face is exact);
+  // the ghosts' contact states from their owners (a ghost's own row, hence its force, is incomplete)
+  Eigen::VectorXd state = Eigen::VectorXd::Zero(leaf.halo.numLocal());
+  for (Index k = 0; k < set->size(); ++k)
+    if (set->vertex(k) < owned) state[set->vertex(k)] = inContact[k];
+  leaf.halo.update(state);
+  for (Index k = 0; k < set->size(); ++k) inContact[k] = state[set->vertex(k)] != 0 ? 1 : 0;
   double area = 0;
   for (const ContactSet::Face& f : set->faces()) {
     Index first = -1, firstGlobal = std::numeric_limits<Index>::max();
