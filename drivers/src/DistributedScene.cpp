@@ -283,12 +283,15 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
   r.scene = scene.fileName;
   auto t = Clock::now();
   // the coarse grid (with the scene's boundary projections) and its distributed refinement
-  mesh::Grid coarse = buildGrid(scene, 0);
-  validateScene(scene, coarse.leafView().mesh);
+  std::optional<mesh::Grid> coarse;
+  comm.collective([&] {  // e.g. a mesh file one rank cannot read: every rank stops
+    coarse.emplace(buildGrid(scene, 0));
+    validateScene(scene, coarse->leafView().mesh);
+  });
   const int refine = options.refine.value_or(scene.mesh.refine);
   if (refine < 1)
     throw Error(scene.fileName + ": a distributed run needs refine >= 1 (the coarse mesh is solved on every rank)");
-  const DistributedGrid dg(std::move(coarse), refine, comm);
+  const DistributedGrid dg(std::move(*coarse), refine, comm);
   const DistributedView leaf = dg.view();
   r.meshSeconds = comm.max(secondsSince(t));
   r.dimension = leaf.local.dimension();
