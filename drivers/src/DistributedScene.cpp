@@ -91,7 +91,8 @@ void writePvtu(const std::filesystem::path& path, const std::vector<std::string>
 
 template <int d>
 void solveDistributed(const Scene& scene, const RunOptions& options, const Communicator& comm, const DistributedGrid& dg,
-                      const DistributedView& leaf, const std::filesystem::path& dir, RunResult& r) {
+                      const DistributedView& leaf, const BoundaryConditions& bc, int contactId,
+                      const std::filesystem::path& dir, RunResult& r) {
   const auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
   };
@@ -101,9 +102,8 @@ void solveDistributed(const Scene& scene, const RunOptions& options, const Commu
   std::optional<ContactSet> set;
   std::optional<ContactProblem<d>> problem;
   comm.collective([&] {
-    const BoundaryConditions bc = makeBoundaryConditions(scene, leaf.local, 0);
     const std::unique_ptr<Obstacle> obstacle = makeObstacle(scene, d);
-    set.emplace(leaf.local, contactBoundaryId(scene, leaf.local), *obstacle, true);
+    set.emplace(leaf.local, contactId, *obstacle, true);
     problem.emplace(leaf.local, scene.material, bc, *set);
   });
   long long boundaryOwned = 0, freeOwned = 0;
@@ -283,10 +283,17 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
   r.scene = scene.fileName;
   auto t = Clock::now();
   // the coarse grid (with the scene's boundary projections) and its distributed refinement
+  // the boundary conditions and the contact boundary are resolved on the coarse mesh (the same on
+  // every rank; a rank's local mesh may have no face of a boundary)
   std::optional<mesh::Grid> coarse;
+  BoundaryConditions bc;
+  int contactId = -1;
   comm.collective([&] {  // e.g. a mesh file one rank cannot read: every rank stops
     coarse.emplace(buildGrid(scene, 0));
-    validateScene(scene, coarse->leafView().mesh);
+    const mesh::Mesh coarseMesh = coarse->leafView().mesh;
+    validateScene(scene, coarseMesh);
+    bc = makeBoundaryConditions(scene, coarseMesh, 0);
+    contactId = contactBoundaryId(scene, coarseMesh);
   });
   const int refine = options.refine.value_or(scene.mesh.refine);
   if (refine < 1)
@@ -315,8 +322,8 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
     std::filesystem::create_directories(dir, ec);
     if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
   });
-  if (r.dimension == 2) solveDistributed<2>(scene, options, comm, dg, leaf, dir, r);
-  else solveDistributed<3>(scene, options, comm, dg, leaf, dir, r);
+  if (r.dimension == 2) solveDistributed<2>(scene, options, comm, dg, leaf, bc, contactId, dir, r);
+  else solveDistributed<3>(scene, options, comm, dg, leaf, bc, contactId, dir, r);
 
   // summary.json from rank 0: the figures above are reduced over the ranks; the memory per rank
   const double memory = peakMemoryMB();

@@ -128,7 +128,7 @@ TEST_F(Cli, SeveralMpiRanksAreRefusedOnEveryRankButForRun) {
 #ifdef OBS_MPIEXEC
 // `mpirun -np 2 obs run` on step-42 (refine 2): the distributed runner's summary has the serial
 // run's iterations, contact vertices, area and load (the load to 1e-10), and its .pvtu joins two
-// pieces that VTK reads back as the whole mesh. A scene that is not distributed yet stops every
+// pieces that VTK reads back as the whole mesh. The punch on 3 ranks likewise. A scene that is not distributed yet stops every
 // rank with exit code 1 and one error line.
 TEST_F(Cli, MpirunRunsStaticContactScenesDistributed) {
   const std::string mpirun = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=PASSIVE " +
@@ -163,6 +163,20 @@ TEST_F(Cli, MpirunRunsStaticContactScenesDistributed) {
   ASSERT_NE(grid->GetPointData()->GetArray("displacement"), nullptr);
   ASSERT_NE(grid->GetCellData()->GetArray("rank"), nullptr);
   EXPECT_EQ(grid->GetCellData()->GetArray("rank")->GetRange()[1], 1.0);
+
+  // 2D on 3 ranks, one of which holds no face of the contact boundary
+  const std::string punch = (fs::path(OBS_DATA_DIR) / "scenes" / "punch.toml").string();
+  const std::string mpirun3 = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=PASSIVE " +
+                              std::string(OBS_MPIEXEC) + " --oversubscribe -np 3";
+  fs::remove_all(kTmp / "out_punch3");
+  fs::remove_all(kTmp / "out_punch1");
+  ASSERT_EQ(runObs("run '" + punch + "' --output out_punch3 -q", "punch3", mpirun3).code, 0);
+  ASSERT_EQ(runObs("run '" + punch + "' --output out_punch1 -q", "punch1").code, 0);
+  const nlohmann::json p3 = json(kTmp / "out_punch3" / "summary.json"), p1 = json(kTmp / "out_punch1" / "summary.json");
+  EXPECT_EQ(p3["solver"]["iterations"], p1["solver"]["iterations"]);
+  EXPECT_EQ(p3["contact"]["actual_vertices"], p1["contact"]["actual_vertices"]);
+  const double punchLoad = p1["contact"]["load_P"];
+  EXPECT_NEAR(p3["contact"]["load_P"].get<double>(), punchLoad, 1e-10 * punchLoad);
 
   const std::string cantilever = (fs::path(OBS_DATA_DIR) / "scenes" / "cantilever.toml").string();
   const Output e = runObs("run '" + cantilever + "' --output out_mpi_refused", "mpirun_refused", mpirun);
