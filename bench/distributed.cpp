@@ -3,7 +3,7 @@
 // (0.5, 0.5, 1.59) pressed into the top) on a DistributedGrid and solved by distributed TNNMG, on
 // as many ranks as the launch has (docs/performance.md#distributed).
 //
-//   mpirun -np P build/bench/distributed OUT.tsv --refine K [--cells-per-part C]
+//   mpirun -np P build/bench/distributed OUT.tsv --refine K [--cells-per-part C] [--cells NX,NY,NZ]
 //
 // Rank 0 appends one row to OUT.tsv (written with a header if new): ranks, refinement, unknowns,
 // partition level, the wall seconds of building the grid, assembling and solving (maxima over the
@@ -13,6 +13,7 @@
 // runs 1 and 2 ranks side by side and writes the table of docs/performance.md#distributed.
 #include <sys/resource.h>
 
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -20,6 +21,7 @@
 #include <iomanip>
 #include <iostream>
 #include <optional>
+#include <sstream>
 #include <string>
 
 #include "obs/mesh/BoxMesh.hpp"
@@ -47,13 +49,15 @@ double peakMemoryMB() {
   return static_cast<double>(u.ru_maxrss) / 1024.0;  // ru_maxrss in KB on Linux
 }
 
-obs::ContactProblem<3> step42(const obs::mesh::Mesh& m) {
+/// step-42 on the box [0, X] x [0, Y] x [0, Z]: the ball (radius 0.6) 0.59 above the centre of the
+/// top face (X = Y = Z = 1: the unit cube of step-42 itself).
+obs::ContactProblem<3> step42(const obs::mesh::Mesh& m, const Point& size) {
   obs::BoundaryConditions bc;
   const auto zero = [](const Point&) { return Point::Zero().eval(); };
   bc.dirichlet.push_back({obs::mesh::kBottom, {true, true, true}, zero});
   for (int side : {obs::mesh::kLeft, obs::mesh::kRight, obs::mesh::kFront, obs::mesh::kBack})
     bc.dirichlet.push_back({side, {true, true, false}, zero});
-  const obs::BallObstacle ball(Point(0.5, 0.5, 1.59), 0.6, Point::UnitZ());
+  const obs::BallObstacle ball(Point(0.5 * size[0], 0.5 * size[1], size[2] + 0.59), 0.6, Point::UnitZ());
   const obs::ContactSet contact(m, obs::mesh::kTop, ball, true);
   return obs::ContactProblem<3>(m, obs::Material{2e5, 0.3}, bc, contact);
 }
@@ -70,18 +74,28 @@ int main(int argc, char** argv) {
   const std::filesystem::path out = argv[1];
   int refine = 3;
   obs::ForestPartitionOptions partition;
+  std::array<int, 3> cells{4, 4, 4};
   for (int i = 2; i + 1 < argc; ++i) {
+    if (std::string(argv[i]) == "--cells") {
+      char comma = 0;
+      std::istringstream in(argv[i + 1]);
+      in >> cells[0] >> comma >> cells[1] >> comma >> cells[2];
+    }
     if (std::string(argv[i]) == "--refine") refine = std::stoi(argv[i + 1]);
     if (std::string(argv[i]) == "--cells-per-part") partition.cellsPerPart = std::stoi(argv[i + 1]);
   }
   try {
     auto t = Clock::now();
-    const obs::DistributedGrid dg(obs::mesh::Grid(obs::mesh::boxMesh(obs::mesh::CellType::Hexahedron, 4)), refine, comm, partition);
+    // coarse cells of size 1/4: --cells 8,4,4 is a box twice as long (weak scaling)
+    const Point size(cells[0] / 4.0, cells[1] / 4.0, cells[2] / 4.0);
+    const obs::DistributedGrid dg(
+        obs::mesh::Grid(obs::mesh::boxMesh(obs::mesh::CellType::Hexahedron, cells, Point::Zero(), size)), refine, comm,
+        partition);
     const obs::DistributedView leaf = dg.view();
     const double build = comm.max(since(t));
     t = Clock::now();
     std::optional<obs::ContactProblem<3>> problem;
-    comm.collective([&] { problem.emplace(step42(leaf.local)); });
+    comm.collective([&] { problem.emplace(step42(leaf.local, size)); });
     const double assembly = comm.max(since(t));
     t = Clock::now();
     obs::TNNMG<3> solver(dg);
@@ -102,6 +116,7 @@ int main(int argc, char** argv) {
     const long long ghosts = largest(leaf.halo.numLocal() - leaf.halo.numOwned());
     const long long messages = largest(leaf.halo.sendNeighbours() + leaf.halo.receiveNeighbours());
     const long long values = largest(static_cast<long long>(leaf.halo.sentValues()) + leaf.halo.receivedValues());
+    const long long ownedMax = largest(leaf.halo.numOwned()), ownedMin = -largest(-leaf.halo.numOwned());
     const obs::DistributedSweep sweep(problem->rotatedMatrix().rowStarts(), problem->rotatedMatrix().columns(),
                                       problem->rotatedMatrix().sweepOrder(), leaf.halo);
     if (comm.rank() == 0) {
@@ -109,12 +124,14 @@ int main(int argc, char** argv) {
       std::ofstream f(out, std::ios::app);
       if (fresh)
         f << "ranks\trefine\tunknowns\tpartition_level\tbuild_s\tassembly_s\tsolve_s\titerations\tconverged\tactive\tload\t"
-             "memory_max_mb\tmemory_sum_mb\tleaves_max\tleaves_global\tghosts_max\tcolours\tmessages_max\tvalues_max\n";
+             "memory_max_mb\tmemory_sum_mb\tleaves_max\tleaves_global\tghosts_max\tcolours\tmessages_max\tvalues_max\t"
+             "owned_max\towned_min\tcells\n";
       f << comm.size() << '\t' << refine << '\t' << 3LL * leaf.globalVertices() << '\t' << dg.partition().level << '\t'
         << build << '\t' << assembly << '\t' << solve << '\t' << result.iterations << '\t' << (result.converged ? 1 : 0)
         << '\t' << result.activeSetSize << '\t' << std::setprecision(9) << load << std::setprecision(6) << '\t'
         << memoryMax << '\t' << memorySum << '\t' << leaves << '\t' << dg.globalLeaves() << '\t' << ghosts << '\t'
-        << sweep.colours() << '\t' << messages << '\t' << values << '\n';
+        << sweep.colours() << '\t' << messages << '\t' << values << '\t' << ownedMax << '\t' << ownedMin << '\t'
+        << cells[0] << ',' << cells[1] << ',' << cells[2] << '\n';
       if (!f) throw obs::Error(out.string() + ": cannot write");
       std::cout << comm.size() << " ranks, refine " << refine << ": " << 3LL * leaf.globalVertices() << " unknowns, solve "
                 << solve << " s, " << result.iterations << " iterations, load " << std::setprecision(9) << load
