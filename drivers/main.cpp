@@ -372,10 +372,10 @@ int main(int argc, char** argv) {
     }
     mpi.emplace(argc, argv);
     rank0 = obs::Communicator::world().rank() == 0;
-    if (!rank0) {
+    if (!rank0) {  // progress from rank 0 only
       quiet = true;
       verbose = false;
-    }  // progress from rank 0 only
+    }
   }
   // errors: one line from rank 0 (distributed errors reach every rank as the same obs::Error)
   const auto printError = [&](const std::string& message) {

@@ -260,11 +260,13 @@ void solveDistributed(const Scene& scene, const RunOptions& options, const Commu
       std::vector<std::string> pieces;
       for (int q = 0; q < comm.size(); ++q) pieces.push_back(base + "_" + std::to_string(q) + ".vtu");
       writePvtu(dir / (base + ".pvtu"), pieces, points, cells);
+      writePvdCollection(dir / (base + ".pvd"), {PvdEntry{0, 0, base + ".pvtu"}});
     }
   });
   if (comm.rank() == 0) {
     for (int q = 0; q < comm.size(); ++q) r.outputFiles.push_back(dir / (base + "_" + std::to_string(q) + ".vtu"));
     r.outputFiles.push_back(dir / (base + ".pvtu"));
+    r.outputFiles.push_back(dir / (base + ".pvd"));
   }
 }
 

@@ -163,6 +163,7 @@ TEST_F(Cli, MpirunRunsStaticContactScenesDistributed) {
   ASSERT_NE(grid->GetPointData()->GetArray("displacement"), nullptr);
   ASSERT_NE(grid->GetCellData()->GetArray("rank"), nullptr);
   EXPECT_EQ(grid->GetCellData()->GetArray("rank")->GetRange()[1], 1.0);
+  EXPECT_NE(slurp(kTmp / "out_mpi2" / "step42.pvd").find("file=\"step42.pvtu\""), std::string::npos);
 
   // 2D on 3 ranks, one of which holds no face of the contact boundary
   const std::string punch = (fs::path(OBS_DATA_DIR) / "scenes" / "punch.toml").string();
