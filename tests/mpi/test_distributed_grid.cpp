@@ -20,17 +20,14 @@
 #include "obs/obs/ElasticityAssembly.hpp"
 #include "obs/obs/Material.hpp"
 
+#include "Positions.hpp"
+
 namespace {
 
 using obs::Index;
 using obs::mesh::CellType;
-using Position = std::array<long long, 3>;
-
-/// A position on the 2^-30 lattice: the box meshes' vertices are dyadic, so rounding is exact
-/// whatever the last bits of the arithmetic that made them.
-Position quantise(const obs::mesh::Point& x) {
-  return {std::llround(std::ldexp(x[0], 30)), std::llround(std::ldexp(x[1], 30)), std::llround(std::ldexp(x[2], 30))};
-}
+using obs::test::Position;
+using obs::test::quantise;
 
 std::vector<Position> positions(const obs::mesh::Mesh& m, const std::vector<Index>& vertices) {
   std::vector<Position> p;

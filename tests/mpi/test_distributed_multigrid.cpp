@@ -21,16 +21,15 @@
 #include "obs/obs/Material.hpp"
 #include "obs/obs/MultigridHierarchy.hpp"
 
+#include "Positions.hpp"
+
 namespace {
 
 using obs::Index;
 using obs::mesh::CellType;
 using obs::mesh::Point;
-using Position = std::array<long long, 3>;
-
-Position quantise(const Point& x) {  // the box meshes' vertices are dyadic
-  return {std::llround(std::ldexp(x[0], 30)), std::llround(std::ldexp(x[1], 30)), std::llround(std::ldexp(x[2], 30))};
-}
+using obs::test::Position;
+using obs::test::quantise;
 
 double field(const Point& x, int component) {
   return std::sin(3.1 * x[0] + 1.7 * x[1] - 0.9 * x[2] + 1.3 * component) + 0.1 * component;

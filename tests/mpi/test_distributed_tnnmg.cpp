@@ -24,16 +24,15 @@
 #include "obs/obs/Parallel.hpp"
 #include "obs/obs/TNNMG.hpp"
 
+#include "Positions.hpp"
+
 namespace {
 
 using obs::Index;
 using obs::mesh::CellType;
 using obs::mesh::Point;
-using Position = std::array<long long, 3>;
-
-Position quantise(const Point& x) {  // the box meshes' vertices are dyadic
-  return {std::llround(std::ldexp(x[0], 30)), std::llround(std::ldexp(x[1], 30)), std::llround(std::ldexp(x[2], 30))};
-}
+using obs::test::Position;
+using obs::test::quantise;
 
 /// The unit box pressed from its top (all components prescribed) onto a ball or disk below. A
 /// rank's local mesh may have no contact face (allowEmpty).
