@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <limits>
 #include <numbers>
 #include <optional>
@@ -17,22 +18,29 @@
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/DistributedGrid.hpp"
+#include "obs/obs/ElasticityAssembly.hpp"
 #include "obs/obs/LinearElasticity.hpp"
+#include "obs/obs/LinearMultigrid.hpp"
 #include "obs/obs/SolverConfig.hpp"
 #include "obs/obs/TNNMG.hpp"
 
 namespace obs::drivers {
 namespace {
 
+using Progress = std::function<void(const std::string&)>;
+
 /// What of the scene is not distributed yet ("" if it can run).
 std::string notDistributed(const Scene& scene) {
   if (scene.dynamics) return "[dynamics]";
   if (scene.adaptivity) return "[adaptivity]";
   if (scene.multiBody()) return "several [[body]] entries";
-  if (!scene.contact) return "no [contact] (linear elasticity)";
-  if (scene.contact->friction) return "friction";
   if (scene.loading) return "[loading]";
-  if (scene.solverType() != "tnnmg") return "[solver] type = \"" + scene.solverType() + "\"";
+  if (scene.contact) {
+    if (scene.contact->friction) return "friction";
+    if (scene.solverType() != "tnnmg") return "[solver] type = \"" + scene.solverType() + "\"";
+  } else if (!scene.solver.type.empty() && scene.solver.type != "multigrid") {
+    return "[solver] type = \"" + scene.solver.type + "\" (scenes without contact are solved by multigrid on ranks)";
+  }
   return "";
 }
 
@@ -89,13 +97,12 @@ void writePvtu(const std::filesystem::path& path, const std::vector<std::string>
   if (!out) throw Error(path.string() + ": cannot write");
 }
 
+/// The scene's obstacle problem solved by distributed TNNMG: the displacement on the rank's local
+/// mesh (ghost entries current), the assembly, solver and contact reports in r.
 template <int d>
-void solveDistributed(const Scene& scene, const RunOptions& options, const Communicator& comm, const DistributedGrid& dg,
-                      const DistributedView& leaf, const BoundaryConditions& bc, int contactId,
-                      const std::filesystem::path& dir, RunResult& r) {
-  const auto progress = [&](const std::string& line) {
-    if (options.progress) options.progress(line);
-  };
+Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const DistributedGrid& dg,
+                             const DistributedView& leaf, const BoundaryConditions& bc, int contactId,
+                             const Progress& progress, RunResult& r) {
   const Index owned = leaf.halo.numOwned();
   // the problem on the rank's local mesh (its owned rows complete)
   auto t = Clock::now();
@@ -218,7 +225,76 @@ void solveDistributed(const Scene& scene, const RunOptions& options, const Commu
   c.area = comm.sum(area);
   c.radius = d == 3 ? std::sqrt(c.area / std::numbers::pi) : c.area / 2;
   r.contact = c;
+  return u;
+}
 
+/// A scene without contact solved by the distributed multigrid's V-cycles (Gauss-Seidel smoothing,
+/// the coarse level on every rank) to the [solver] tolerance: the displacement on the rank's local
+/// mesh (ghost entries current), the assembly and solver reports in r.
+template <int d>
+Eigen::VectorXd solveLinear(const Scene& scene, const Communicator& comm, const DistributedGrid& dg,
+                            const DistributedView& leaf, const BoundaryConditions& bc, const Progress& progress,
+                            RunResult& r) {
+  const Index owned = leaf.halo.numOwned();
+  auto t = Clock::now();
+  BlockSparseMatrix<d> A;
+  Eigen::VectorXd b;
+  DirichletValues g;
+  comm.collective([&] {
+    A = assembleStiffness<d>(leaf.local, scene.material);
+    b = assembleLoad<d>(leaf.local, bc);
+    g = collectDirichlet(leaf.local, bc.dirichlet);
+    applyDirichlet(A, b, g);
+  });
+  long long freeOwned = 0;
+  for (Index i = 0; i < owned * d; ++i) freeOwned += g.constrained[static_cast<std::size_t>(i)] ? 0 : 1;
+  r.assemblySeconds = comm.max(secondsSince(t));
+  r.dofs = static_cast<long long>(d) * leaf.globalVertices();
+  r.freeDofs = comm.sum(freeOwned);
+  progress("assembled: " + std::to_string(r.dofs) + " dofs (" + std::to_string(r.freeDofs) + " free) on " +
+           std::to_string(comm.size()) + " ranks");
+
+  const SolverConfig config = solverConfig(scene);
+  LinearMultigridOptions o = config.multigrid;
+  o.tolerance = config.tolerance;
+  o.maxIterations = config.maxIterations.value_or(o.maxIterations);
+  t = Clock::now();
+  // the start: the prescribed values on the owned vertices, the ghosts' from their owners (a ghost
+  // may lie on a Dirichlet face this rank does not hold)
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(b.size());
+  for (Index i = 0; i < owned * d; ++i)
+    if (g.constrained[static_cast<std::size_t>(i)]) u[i] = g.values[i];
+  leaf.halo.update(u, d);
+  LinearSolverResult result;
+  std::optional<LinearMultigrid<d>> mg;
+  comm.collective([&] { mg.emplace(dg, o); });
+  mg->setOperator(A, {}, g.constrained);
+  result = mg->solve(b, u);
+  r.solveSeconds = comm.max(secondsSince(t));
+  r.solver.type = "multigrid";
+  r.solver.iterations = result.iterations;
+  r.solver.converged = result.converged;
+  r.solver.seconds = r.solveSeconds;
+  r.solver.tolerance = o.tolerance;
+  r.solver.correction = result.correction;
+  r.solver.convergenceRate = result.convergenceRate;
+  r.solver.vcycles = mg->vcycles();
+  return u;
+}
+
+/// The scene solved on the ranks (solveContact or solveLinear); the largest displacement and von
+/// Mises stress reduced over the owned vertices and cells; each rank's piece of the solution and
+/// rank 0's .pvtu and .pvd.
+template <int d>
+void solveDistributed(const Scene& scene, const RunOptions& options, const Communicator& comm, const DistributedGrid& dg,
+                      const DistributedView& leaf, const BoundaryConditions& bc, int contactId,
+                      const std::filesystem::path& dir, RunResult& r) {
+  const Progress progress = [&](const std::string& line) {
+    if (options.progress) options.progress(line);
+  };
+  const Index owned = leaf.halo.numOwned();
+  const Eigen::VectorXd u = scene.contact ? solveContact<d>(scene, comm, dg, leaf, bc, contactId, progress, r)
+                                          : solveLinear<d>(scene, comm, dg, leaf, bc, progress, r);
   // displacement and stresses of the owned vertices and cells
   ElasticitySolution e;
   e.dimension = d;
@@ -232,10 +308,12 @@ void solveDistributed(const Scene& scene, const RunOptions& options, const Commu
   r.maxVonMises = comm.max(maxMises);
   {
     std::ostringstream os;
-    os << "solved in " << std::setprecision(3) << r.solveSeconds << " s (tnnmg, " << r.solver.iterations
-       << " iterations" << (r.solver.converged ? "" : ", NOT converged") << ", " << comm.size()
-       << " ranks): max |u| = " << std::setprecision(6) << r.maxDisplacement << ", max von Mises = " << r.maxVonMises
-       << "; contact: " << c.actualVertices << " of " << c.potentialVertices << " vertices, P = " << c.load;
+    os << "solved in " << std::setprecision(3) << r.solveSeconds << " s (" << r.solver.type << ", "
+       << r.solver.iterations << " iterations" << (r.solver.converged ? "" : ", NOT converged") << ", " << comm.size()
+       << " ranks): max |u| = " << std::setprecision(6) << r.maxDisplacement << ", max von Mises = " << r.maxVonMises;
+    if (r.contact)
+      os << "; contact: " << r.contact->actualVertices << " of " << r.contact->potentialVertices
+         << " vertices, P = " << r.contact->load;
     progress(os.str());
   }
 
@@ -295,11 +373,11 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
     const mesh::Mesh coarseMesh = coarse->leafView().mesh;
     validateScene(scene, coarseMesh);
     bc = makeBoundaryConditions(scene, coarseMesh, 0);
-    contactId = contactBoundaryId(scene, coarseMesh);
+    if (scene.contact) contactId = contactBoundaryId(scene, coarseMesh);
   });
   const int refine = options.refine.value_or(scene.mesh.refine);
   if (refine < 1)
-    throw Error(scene.fileName + ": a distributed run needs refine >= 1 (the coarse mesh is solved on every rank)");
+    throw Error(scene.fileName + ": a distributed run needs refine >= 1 (the coarse mesh is solved on every rank; --refine 1 or [mesh] refine)");
   const DistributedGrid dg(std::move(*coarse), refine, comm);
   const DistributedView leaf = dg.view();
   r.meshSeconds = comm.max(secondsSince(t));
@@ -339,7 +417,7 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
   });
   if (!r.solver.converged) {
     std::ostringstream os;
-    os << scene.where(scene.solver.line) << "[solver] tnnmg did not converge in " << r.solver.iterations
+    os << scene.where(scene.solver.line) << "[solver] " << r.solver.type << " did not converge in " << r.solver.iterations
        << " iterations (correction " << std::setprecision(3) << r.solver.correction << ", tolerance "
        << r.solver.tolerance << "); raise [solver] max_iterations or tolerance (outputs written to " << dir.string()
        << ")";

@@ -79,23 +79,20 @@ DistributedGrid::DistributedGrid(mesh::Grid coarse, int refinements, const Commu
     po.refinementsBelow = left;
     partition_ = partitionForest(grid_, parts, po);
 
-    // near partition cells: those sharing a vertex with one of this part's
+    // the remaining rounds: this part's leaves and the leaves sharing a vertex with one of them
+    // refined red (the ghost layer of the next level lies in their children)
     const int me = comm.rank();
-    const mesh::GridView top = grid_.levelView(partition_.level);
-    std::vector<char> touched(static_cast<std::size_t>(top.mesh.numVertices()), 0);
-    const auto nc = static_cast<Index>(partition_.cells.size());
-    for (Index c = 0; c < nc; ++c)
-      if (partition_.cellPart[c] == me)
-        for (Index v : top.mesh.cellVertices(c)) touched[v] = 1;
-    std::vector<char> near(static_cast<std::size_t>(nc), 0);
-    for (Index c = 0; c < nc; ++c) {
-      const auto vs = top.mesh.cellVertices(c);
-      near[c] = std::any_of(vs.begin(), vs.end(), [&](Index v) { return touched[v] != 0; }) ? 1 : 0;
-    }
-    // the remaining rounds: every leaf below a near cell refined red
+    std::vector<char> touched;
     for (; left > 0; --left) {
-      for (Index e : grid_.leafElements())
-        if (near[partition_.elementCell[e]]) grid_.mark(e);
+      const std::vector<Index> leaves = grid_.leafElements();
+      touched.assign(static_cast<std::size_t>(grid_.numVertices()), 0);
+      for (Index e : leaves)
+        if (partition_.partOf(e) == me)
+          for (Index v : grid_.vertices(e)) touched[v] = 1;
+      for (Index e : leaves) {
+        const auto vs = grid_.vertices(e);
+        if (std::any_of(vs.begin(), vs.end(), [&](Index v) { return touched[v] != 0; })) grid_.mark(e);
+      }
       grid_.adapt();
       partition_.follow(grid_);
     }

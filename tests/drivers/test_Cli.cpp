@@ -4,6 +4,7 @@
 
 #include <sys/wait.h>
 #include <algorithm>
+#include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
@@ -103,7 +104,7 @@ TEST_F(Cli, InvalidSceneIsOneErrorLineAndExit1) {
 // Under an MPI launcher with more than one rank (the variables Open MPI's and MPICH's mpirun set),
 // every command but `obs run` stops at once on every rank with exit code 1 and writes nothing:
 // rank 0 says why in one line, the others are silent. One rank is the ordinary run. (`obs run`
-// itself runs distributed under a real launcher: MpirunRunsStaticContactScenesDistributed.)
+// itself runs distributed under a real launcher: MpirunRunsStaticScenesDistributed.)
 TEST_F(Cli, SeveralMpiRanksAreRefusedOnEveryRankButForRun) {
   const std::string scene = (fs::path(OBS_DATA_DIR) / "scenes" / "cantilever.toml").string();
   const std::string check = "check '" + scene + "'";
@@ -128,9 +129,10 @@ TEST_F(Cli, SeveralMpiRanksAreRefusedOnEveryRankButForRun) {
 #ifdef OBS_MPIEXEC
 // `mpirun -np 2 obs run` on step-42 (refine 2): the distributed runner's summary has the serial
 // run's iterations, contact vertices, area and load (the load to 1e-10), and its .pvtu joins two
-// pieces that VTK reads back as the whole mesh. The punch on 3 ranks likewise. A scene that is not distributed yet stops every
-// rank with exit code 1 and one error line.
-TEST_F(Cli, MpirunRunsStaticContactScenesDistributed) {
+// pieces that VTK reads back as the whole mesh. The punch on 3 ranks likewise, and the compressed
+// block (linear elasticity, distributed multigrid) to its exact solution. A scene that is not
+// distributed yet stops every rank with exit code 1 and one error line.
+TEST_F(Cli, MpirunRunsStaticScenesDistributed) {
   const std::string mpirun = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=PASSIVE " +
                              std::string(OBS_MPIEXEC) + " --oversubscribe -np 2";
   const std::string scene = (fs::path(OBS_DATA_DIR) / "scenes" / "step42.toml").string();
@@ -179,13 +181,37 @@ TEST_F(Cli, MpirunRunsStaticContactScenesDistributed) {
   const double punchLoad = p1["contact"]["load_P"];
   EXPECT_NEAR(p3["contact"]["load_P"].get<double>(), punchLoad, 1e-10 * punchLoad);
 
-  const std::string cantilever = (fs::path(OBS_DATA_DIR) / "scenes" / "cantilever.toml").string();
-  const Output e = runObs("run '" + cantilever + "' --output out_mpi_refused", "mpirun_refused", mpirun);
+  // linear elasticity on 3 ranks (distributed multigrid): the compressed block's exact solution,
+  // uniaxial compression that Q1 reproduces (max |u| = sqrt(0.01^2 + 2 * 0.003^2), von Mises = p = 10)
+  const std::string block = (fs::path(OBS_DATA_DIR) / "scenes" / "block_compression.toml").string();
+  fs::remove_all(kTmp / "out_block3");
+  const Output b3 = runObs("run '" + block + "' --refine 1 --output out_block3", "block3", mpirun3);
+  ASSERT_EQ(b3.code, 0) << b3.err;
+  EXPECT_NE(b3.out.find("(multigrid, "), std::string::npos) << b3.out;
+  const nlohmann::json jb = json(kTmp / "out_block3" / "summary.json");
+  EXPECT_EQ(jb["ranks"], 3);
+  EXPECT_EQ(jb["dofs"], 3 * 17 * 17 * 17);
+  EXPECT_EQ(jb["solver"]["type"], "multigrid");
+  EXPECT_TRUE(jb["solver"]["converged"].get<bool>());
+  const double exact = std::sqrt(0.01 * 0.01 + 2 * 0.003 * 0.003);
+  EXPECT_NEAR(jb["max_displacement"].get<double>(), exact, 1e-9 * exact);
+  EXPECT_NEAR(jb["max_von_mises"].get<double>(), 10.0, 1e-8 * 10.0);
+  // a [solver] type without a distributed implementation, and a single-level grid, are refused
+  const Output direct = runObs("run '" + block + "' --refine 1 --set 'solver.type=\"direct\"' --output out_block_direct",
+                               "block_direct", mpirun);
+  EXPECT_EQ(direct.code, 1);
+  EXPECT_NE(direct.err.find("[solver] type = \"direct\""), std::string::npos) << direct.err;
+  const Output level = runObs("run '" + block + "' --output out_block_level", "block_level", mpirun);
+  EXPECT_EQ(level.code, 1);
+  EXPECT_NE(level.err.find("needs refine >= 1"), std::string::npos) << level.err;
+
+  const std::string twoBody = (fs::path(OBS_DATA_DIR) / "scenes" / "twobody_patch.toml").string();
+  const Output e = runObs("run '" + twoBody + "' --output out_mpi_refused", "mpirun_refused", mpirun);
   EXPECT_EQ(e.code, 1);
   std::size_t errors = 0;  // obs' own lines (mpirun adds its report of the exit code)
   for (std::size_t at = e.err.find("obs: error:"); at != std::string::npos; at = e.err.find("obs: error:", at + 1)) ++errors;
   EXPECT_EQ(errors, 1u) << e.err;
-  EXPECT_NE(e.err.find("no [contact]"), std::string::npos) << e.err;
+  EXPECT_NE(e.err.find("several [[body]] entries"), std::string::npos) << e.err;
 }
 #endif
 

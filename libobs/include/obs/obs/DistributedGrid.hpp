@@ -8,13 +8,14 @@
 /// cells, or the level asked for): these levels are replicated. Level 0 is always among them: it
 /// is the coarse problem of multigrid, solved directly on every rank (MultigridHierarchy). Then every rank
 /// computes the same ForestPartition of the level-L_p cells (METIS, weighted by the leaves the
-/// remaining refinements will give them) and refines, in each remaining round, only the leaves
-/// below its *near* partition cells: its own and those that share a vertex with one of its own.
-/// The grid's closure grades the refinement outside that region (green closures, rule 1 of
-/// Grid.hpp), but every near cell is refined red in every round, so its subtree is the same as in
-/// the grid refined uniformly everywhere. A rank's owned cells and their one-layer ghosts lie in
-/// its near cells: on the leaf view and every level view >= L_p they are exactly the cells the
-/// serial partition (partView) gives this part.
+/// remaining refinements will give them) and refines red, in each remaining round, only its own
+/// leaves and the leaves that share a vertex with one of them. The grid's closure grades the
+/// refinement outside that region (green closures, rule 1 of Grid.hpp). Every cell of level l that
+/// shares a vertex with an owned cell of level l is then a red child of a cell refined in round l
+/// (its parent shares a point, hence a corner, with the owned cell's parent), so a rank's owned
+/// cells and their one-layer ghosts on the leaf view and on every level view >= L_p are exactly the
+/// cells the serial partition (partView) gives this part, and the fine region a rank holds is its
+/// own plus about two fine layers.
 ///
 /// Vertices across ranks. A vertex has a *key*, the same on every rank that holds it: the grid
 /// vertex index for vertices of the replicated levels (created in the same order everywhere), and
@@ -60,7 +61,8 @@ public:
   DistributedGrid(mesh::Grid coarse, int refinements, const Communicator& comm,
                   const ForestPartitionOptions& options = {});
 
-  /// This rank's grid: the replicated levels, its near subtrees and the graded closure around them.
+  /// This rank's grid: the replicated levels, its own subtrees with two fine layers around them, and
+  /// the graded closure beyond.
   const mesh::Grid& grid() const { return grid_; }
   const ForestPartition& partition() const { return partition_; }
   const Communicator& communicator() const { return comm_; }
