@@ -9,7 +9,10 @@
 // partition level, the wall seconds of building the grid, assembling and solving (maxima over the
 // ranks), TNNMG iterations, active set, contact load, peak memory per rank (largest and sum, MB),
 // the leaves the largest rank holds against the whole grid's, ghost vertices, rank colours, and the
-// halo messages and values of one fine-level update (largest rank). scripts/distributed_bench.sh
+// halo messages and values of one fine-level update (largest rank), V-cycles and operator updates,
+// and the communication of the solve, setup included (Communicator::counts(), largest rank):
+// neighbour exchanges, messages and bytes sent, reductions and the values reduced, other
+// collectives. scripts/distributed_bench.sh
 // runs 1 and 2 ranks side by side and writes the table of docs/performance.md#distributed.
 #include <sys/resource.h>
 
@@ -98,9 +101,11 @@ int main(int argc, char** argv) {
     comm.collective([&] { problem.emplace(step42(leaf.local, size)); });
     const double assembly = comm.max(since(t));
     t = Clock::now();
+    obs::Communicator::resetCounts();  // the communication of the solve (setup included)
     obs::TNNMG<3> solver(dg);
     Eigen::VectorXd u = Eigen::VectorXd::Zero(problem->numDofs());
     const obs::ContactResult result = solver.solve(*problem, u);
+    const obs::CommunicationCounts traffic = obs::Communicator::counts();
     const double solve = comm.max(since(t));
     // the contact load: the owned vertices' nodal contact forces, summed over the ranks
     const Eigen::VectorXd mu = problem->multipliers(u);
@@ -117,6 +122,9 @@ int main(int argc, char** argv) {
     const long long messages = largest(leaf.halo.sendNeighbours() + leaf.halo.receiveNeighbours());
     const long long values = largest(static_cast<long long>(leaf.halo.sentValues()) + leaf.halo.receivedValues());
     const long long ownedMax = largest(leaf.halo.numOwned()), ownedMin = -largest(-leaf.halo.numOwned());
+    const long long exchanges = largest(traffic.neighbourExchanges), sent = largest(traffic.messagesSent);
+    const long long bytes = largest(traffic.bytesSent), reductions = largest(traffic.reductions);
+    const long long reduced = largest(traffic.reducedValues), collectives = largest(traffic.otherCollectives);
     const obs::DistributedSweep sweep(problem->rotatedMatrix().rowStarts(), problem->rotatedMatrix().columns(),
                                       problem->rotatedMatrix().sweepOrder(), leaf.halo);
     if (comm.rank() == 0) {
@@ -125,13 +133,16 @@ int main(int argc, char** argv) {
       if (fresh)
         f << "ranks\trefine\tunknowns\tpartition_level\tbuild_s\tassembly_s\tsolve_s\titerations\tconverged\tactive\tload\t"
              "memory_max_mb\tmemory_sum_mb\tleaves_max\tleaves_global\tghosts_max\tcolours\tmessages_max\tvalues_max\t"
-             "owned_max\towned_min\tcells\n";
+             "owned_max\towned_min\tcells\tvcycles\toperator_updates\texchanges\tmessages_sent_max\tbytes_sent_max\t"
+             "reductions\treduced_values_max\tother_collectives\n";
       f << comm.size() << '\t' << refine << '\t' << 3LL * leaf.globalVertices() << '\t' << dg.partition().level << '\t'
         << build << '\t' << assembly << '\t' << solve << '\t' << result.iterations << '\t' << (result.converged ? 1 : 0)
         << '\t' << result.activeSetSize << '\t' << std::setprecision(9) << load << std::setprecision(6) << '\t'
         << memoryMax << '\t' << memorySum << '\t' << leaves << '\t' << dg.globalLeaves() << '\t' << ghosts << '\t'
         << sweep.colours() << '\t' << messages << '\t' << values << '\t' << ownedMax << '\t' << ownedMin << '\t'
-        << cells[0] << ',' << cells[1] << ',' << cells[2] << '\n';
+        << cells[0] << ',' << cells[1] << ',' << cells[2] << '\t' << solver.statistics().vcycles << '\t'
+        << solver.statistics().operatorUpdates << '\t' << exchanges << '\t' << sent << '\t' << bytes << '\t'
+        << reductions << '\t' << reduced << '\t' << collectives << '\n';
       if (!f) throw obs::Error(out.string() + ": cannot write");
       std::cout << comm.size() << " ranks, refine " << refine << ": " << 3LL * leaf.globalVertices() << " unknowns, solve "
                 << solve << " s, " << result.iterations << " iterations, load " << std::setprecision(9) << load

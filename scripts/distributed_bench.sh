@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Distributed TNNMG on step-42 (bench/distributed), 1 and 2 ranks side by side (RANKS="1 2 4 8" for
 # more; oversubscribed beyond the cores, so compare counts, not times), for the given refinements
-# (default 3 4): writes the rows to OUT.tsv and prints the Markdown table of
-# docs/performance.md#distributed (ratios to 1 rank from the same script run).
+# (default 3 4): writes the rows to OUT.tsv and prints the Markdown tables of
+# docs/performance.md#distributed (ratios to 1 rank from the same script run; the communication per
+# TNNMG iteration of the largest rank). scripts/cluster_model.py reads OUT.tsv.
 #   scripts/distributed_bench.sh OUT.tsv [REFINE...]
 set -euo pipefail
 out=${1:?usage: scripts/distributed_bench.sh OUT.tsv [REFINE...]}
@@ -32,4 +33,11 @@ for r in rows:
     print(f"| {r['refine']} | {int(r['unknowns']):,} | {r['ranks']} | {float(r['solve_s']):.2f} | {r['iterations']} | "
           f"{float(r['load']):.3f} | {float(r['memory_max_mb']):.0f} | {int(float(r['leaves_max'])):,} of {int(r['leaves_global']):,} | "
           f"{int(float(r['ghosts_max'])):,} | {int(float(r['messages_max']))} / {int(float(r['values_max'])):,} | {speed:.2f} | {mem:.2f} |")
+print()
+print('| refine | ranks | colours | neighbour exchanges per iteration | messages sent per iteration | KB sent per iteration | reductions per iteration | values reduced per iteration |')
+print('|---|---|---|---|---|---|---|---|')
+for r in rows:
+    it = int(r['iterations'])
+    print(f"| {r['refine']} | {r['ranks']} | {r['colours']} | {int(r['exchanges']) / it:.1f} | {int(r['messages_sent_max']) / it:.1f} | "
+          f"{int(r['bytes_sent_max']) / it / 1024:.0f} | {int(r['reductions']) / it:.1f} | {int(r['reduced_values_max']) / it:,.0f} |")
 PY

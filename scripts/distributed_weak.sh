@@ -1,18 +1,21 @@
 #!/usr/bin/env bash
 # Weak scaling counts of distributed TNNMG (bench/distributed): step-42's problem on a box that
-# grows with the ranks, 1 rank on 4x4x4 coarse cells, 2 on 8x4x4, 4 on 8x8x4, 8 on 8x8x8 (refine K,
-# default 3: about 108,000 unknowns per rank). More ranks than cores are oversubscribed, so the
-# table reports counts, not times (docs/performance.md#distributed-weak).
-#   scripts/distributed_weak.sh OUT.tsv [REFINE]
+# grows with the ranks, 1 rank on 4x4x4 coarse cells, 2 on 8x4x4, 4 on 8x8x4, 8 on 8x8x8, and so on
+# doubling x, y, z in turn up to 64 ranks on 16x16x16 (refine K, default 3: about 108,000 unknowns
+# per rank; RANKS, default "1 2 4 8", picks the runs). More ranks than cores are oversubscribed, so
+# the tables report counts, not times (docs/performance.md#distributed-weak): the first the grid,
+# the halo and the memory, the second the communication per TNNMG iteration (largest rank).
+#   [RANKS="1 2 4 8 16 32 64"] scripts/distributed_weak.sh OUT.tsv [REFINE]
 set -euo pipefail
-out=${1:?usage: scripts/distributed_weak.sh OUT.tsv [REFINE]}
+out=${1:?usage: [RANKS=...] scripts/distributed_weak.sh OUT.tsv [REFINE]}
 refine=${2:-3}
 bench=${BENCH:-build/bench/distributed}
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=PASSIVE
+declare -A box=([1]=4,4,4 [2]=8,4,4 [4]=8,8,4 [8]=8,8,8 [16]=16,8,8 [32]=16,16,8 [64]=16,16,16)
 rm -f "$out"
-for run in "1 4,4,4" "2 8,4,4" "4 8,8,4" "8 8,8,8"; do
-  read -r np cells <<<"$run"
-  mpirun --oversubscribe -np "$np" "$bench" "$out" --refine "$refine" --cells "$cells"
+for np in ${RANKS:-1 2 4 8}; do
+  [[ -n "${box[$np]:-}" ]] || { echo "distributed_weak.sh: no box for $np ranks (1, 2, 4, ..., 64)" >&2; exit 2; }
+  mpirun --oversubscribe -np "$np" "$bench" "$out" --refine "$refine" --cells "${box[$np]}"
 done
 /usr/bin/python3 - "$out" <<'PY'
 import csv, sys
@@ -25,4 +28,11 @@ for r in rows:
     print(f"| {ranks} | {r['cells'].replace(',', ' x ')} | {int(r['unknowns']):,} | {int(r['owned_min']):,}-{int(r['owned_max']):,} | "
           f"{r['iterations']} | {int(r['ghosts_max']):,} | {r['colours']} | {int(r['messages_max'])} / {int(r['values_max']):,} | "
           f"{int(r['leaves_max']) / per:.2f} | {float(r['memory_max_mb']):.0f} |")
+print()
+print('| ranks | iterations | V-cycles | neighbour exchanges per iteration | messages sent per iteration | KB sent per iteration | reductions per iteration | values reduced per iteration |')
+print('|---|---|---|---|---|---|---|---|')
+for r in rows:
+    it = int(r['iterations'])
+    print(f"| {r['ranks']} | {it} | {r['vcycles']} | {int(r['exchanges']) / it:.1f} | {int(r['messages_sent_max']) / it:.1f} | "
+          f"{int(r['bytes_sent_max']) / it / 1024:.0f} | {int(r['reductions']) / it:.1f} | {int(r['reduced_values_max']) / it:,.0f} |")
 PY

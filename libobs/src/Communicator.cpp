@@ -34,6 +34,20 @@ bool Communicator::built() {
 #endif
 }
 
+namespace {
+CommunicationCounts& counters() {
+  static CommunicationCounts c;
+  return c;
+}
+[[maybe_unused]] void countReduction(std::size_t values) {
+  ++counters().reductions;
+  counters().reducedValues += static_cast<long long>(values);
+}
+}  // namespace
+
+const CommunicationCounts& Communicator::counts() { return counters(); }
+void Communicator::resetCounts() { counters() = CommunicationCounts{}; }
+
 Communicator Communicator::world() {
 #ifdef OBS_HAVE_MPI
   if (mpiRunning()) {
@@ -51,6 +65,7 @@ namespace {
 /// MPI_Allreduce of one value over MPI_COMM_WORLD.
 template <class T>
 T allReduce(T x, MPI_Datatype type, MPI_Op op) {
+  countReduction(1);
   T y{};
   MPI_Allreduce(&x, &y, 1, type, op, MPI_COMM_WORLD);
   return y;
@@ -83,6 +98,7 @@ void Communicator::sum(std::vector<double>& x) const {
 #ifdef OBS_HAVE_MPI
   if (size_ > 1) {
     if (x.size() > static_cast<std::size_t>(INT_MAX)) throw Error("communicator: a sum of too many values");
+    countReduction(x.size());
     MPI_Allreduce(MPI_IN_PLACE, x.data(), static_cast<int>(x.size()), MPI_DOUBLE, MPI_SUM, MPI_COMM_WORLD);
   }
 #else
@@ -95,6 +111,7 @@ std::string Communicator::broadcast(const std::string& text, int root) const {
     throw Error("communicator: broadcast from rank " + std::to_string(root) + " of " + std::to_string(size_));
 #ifdef OBS_HAVE_MPI
   if (size_ > 1) {
+    ++counters().otherCollectives;
     long long n = rank_ == root ? static_cast<long long>(text.size()) : 0;
     MPI_Bcast(&n, 1, MPI_LONG_LONG, root, MPI_COMM_WORLD);
     if (n > INT_MAX) throw Error("communicator: a broadcast of " + std::to_string(n) + " characters");
@@ -108,7 +125,10 @@ std::string Communicator::broadcast(const std::string& text, int root) const {
 
 void Communicator::barrier() const {
 #ifdef OBS_HAVE_MPI
-  if (size_ > 1) MPI_Barrier(MPI_COMM_WORLD);
+  if (size_ > 1) {
+    ++counters().otherCollectives;
+    MPI_Barrier(MPI_COMM_WORLD);
+  }
 #endif
 }
 
@@ -135,6 +155,7 @@ std::vector<std::vector<T>> allToAll(const std::vector<std::vector<T>>& send, in
                 " ranks");
 #ifdef OBS_HAVE_MPI
   if (size > 1) {
+    ++counters().otherCollectives;
     std::vector<int> sendCounts(static_cast<std::size_t>(size)), recvCounts(sendCounts.size());
     std::vector<int> sendOffsets(sendCounts.size() + 1, 0), recvOffsets(sendCounts.size() + 1, 0);
     for (int r = 0; r < size; ++r) {
@@ -174,6 +195,7 @@ std::vector<std::vector<std::uint64_t>> Communicator::exchange(const std::vector
 std::vector<long long> Communicator::allGather(long long x) const {
   std::vector<long long> all(static_cast<std::size_t>(size_), x);
 #ifdef OBS_HAVE_MPI
+  if (size_ > 1) ++counters().otherCollectives;
   if (size_ > 1) MPI_Allgather(&x, 1, MPI_LONG_LONG, all.data(), 1, MPI_LONG_LONG, MPI_COMM_WORLD);
 #endif
   return all;
@@ -190,6 +212,10 @@ void Communicator::exchange(const std::vector<int>& to, const std::vector<std::v
                     std::to_string(rank_) + " of " + std::to_string(size_) + ")");
 #ifdef OBS_HAVE_MPI
   if (size_ > 1) {
+    CommunicationCounts& c = counters();
+    if (!to.empty() || !from.empty()) ++c.neighbourExchanges;
+    c.messagesSent += static_cast<long long>(to.size());
+    for (const std::vector<double>& m : send) c.bytesSent += static_cast<long long>(m.size() * sizeof(double));
     std::vector<MPI_Request> requests;
     requests.reserve(to.size() + from.size());
     for (std::size_t k = 0; k < from.size(); ++k) {

@@ -47,6 +47,8 @@ DistributedSweep::DistributedSweep(std::span<const Index> rowStart, std::span<co
     colours_ = std::max(colours_, c + 1);
   }
   colour_ = colour[comm.rank()];
+  ofColour_.assign(static_cast<std::size_t>(colours_), std::vector<char>(static_cast<std::size_t>(ranks), 0));
+  for (int r = 0; r < ranks; ++r) ofColour_[static_cast<std::size_t>(colour[r])][static_cast<std::size_t>(r)] = 1;
 }
 
 }  // namespace obs

@@ -69,19 +69,32 @@ Index HaloExchange::sentValues() const {
   return n;
 }
 
-void HaloExchange::update(Eigen::VectorXd& x, int components) const {
+void HaloExchange::update(Eigen::VectorXd& x, int components) const { exchangeGhosts(x, components, nullptr); }
+
+void HaloExchange::update(Eigen::VectorXd& x, int components, const std::vector<char>& from) const {
+  if (from.size() != static_cast<std::size_t>(comm_.size()))
+    throw Error("halo exchange: " + std::to_string(from.size()) + " marks for " + std::to_string(comm_.size()) + " parts");
+  exchangeGhosts(x, components, &from);
+}
+
+void HaloExchange::exchangeGhosts(Eigen::VectorXd& x, int components, const std::vector<char>* from) const {
   if (components < 1 || x.size() != static_cast<Eigen::Index>(numLocal()) * components)
     throw Error("halo exchange: a vector of " + std::to_string(x.size()) + " values for " + std::to_string(numLocal()) +
                 " vertices of " + std::to_string(components) + " components");
-  std::vector<std::vector<double>> send(sendRanks_.size()), got(recvRanks_.size());
-  for (std::size_t k = 0; k < sendRanks_.size(); ++k)
-    for (Index i : sendOwned_[sendRanks_[k]])
+  const bool sending = !from || (*from)[static_cast<std::size_t>(comm_.rank())];
+  std::vector<int> to, sources;
+  if (sending) to = sendRanks_;
+  for (int q : recvRanks_)
+    if (!from || (*from)[static_cast<std::size_t>(q)]) sources.push_back(q);
+  std::vector<std::vector<double>> send(to.size()), got(sources.size());
+  for (std::size_t k = 0; k < to.size(); ++k)
+    for (Index i : sendOwned_[to[k]])
       for (int c = 0; c < components; ++c) send[k].push_back(x[static_cast<Eigen::Index>(i) * components + c]);
-  for (std::size_t k = 0; k < recvRanks_.size(); ++k)
-    got[k].resize(recvGhost_[recvRanks_[k]].size() * static_cast<std::size_t>(components));
-  comm_.exchange(sendRanks_, send, recvRanks_, got);
-  for (std::size_t k = 0; k < recvRanks_.size(); ++k) {
-    const std::vector<Index>& ghosts = recvGhost_[recvRanks_[k]];
+  for (std::size_t k = 0; k < sources.size(); ++k)
+    got[k].resize(recvGhost_[sources[k]].size() * static_cast<std::size_t>(components));
+  comm_.exchange(to, send, sources, got);
+  for (std::size_t k = 0; k < sources.size(); ++k) {
+    const std::vector<Index>& ghosts = recvGhost_[sources[k]];
     for (std::size_t j = 0; j < ghosts.size(); ++j)
       for (int c = 0; c < components; ++c) x[static_cast<Eigen::Index>(ghosts[j]) * components + c] = got[k][j * components + c];
   }

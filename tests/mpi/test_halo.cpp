@@ -7,8 +7,10 @@
 
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/Error.hpp"
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/Communicator.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
@@ -73,6 +75,33 @@ void expectDistributedProduct(CellType type, int cells, int levels) {
   if (comm.size() > 1) {
     EXPECT_GE(halo.receiveNeighbours(), 1);
   }
+}
+
+// update(x, d, from): the ghosts owned by marked ranks take their owners' values, the others keep
+// theirs; the counters see one round with a message per marked neighbour; marks of the wrong
+// length are refused on every rank.
+TEST(HaloExchange, UpdateFromMarkedOwnersOnly) {
+  const obs::Communicator comm = obs::Communicator::world();
+  obs::mesh::Grid grid(obs::mesh::boxMesh(CellType::Quadrilateral, 4));
+  grid.refineUniformly();
+  const obs::ForestPartition p = obs::partitionForest(grid, comm.size());
+  const obs::mesh::GridView view = grid.leafView();
+  const obs::ViewNumbering numbering = obs::numberView(grid, view, p);
+  const obs::PartView part = obs::partView(grid, view, p, numbering, comm.rank());
+  const obs::HaloExchange halo(numbering, part, comm);
+  std::vector<char> odd(static_cast<std::size_t>(comm.size()), 0);
+  for (int r = 1; r < comm.size(); r += 2) odd[static_cast<std::size_t>(r)] = 1;
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(halo.numLocal(), -1.0);
+  for (Index i = 0; i < halo.numOwned(); ++i) x[i] = numbering.global[halo.viewVertices()[i]];
+  obs::Communicator::resetCounts();
+  halo.update(x, 1, odd);
+  long long expectedMessages = odd[static_cast<std::size_t>(comm.rank())] ? halo.sendNeighbours() : 0;
+  for (Index i = halo.numOwned(); i < halo.numLocal(); ++i) {
+    const Index v = halo.viewVertices()[i];
+    EXPECT_EQ(x[i], odd[static_cast<std::size_t>(numbering.owner[v])] ? numbering.global[v] : -1.0) << "ghost " << i;
+  }
+  EXPECT_EQ(obs::Communicator::counts().messagesSent, comm.size() > 1 ? expectedMessages : 0);
+  EXPECT_THROW(halo.update(x, 1, std::vector<char>(static_cast<std::size_t>(comm.size()) + 1, 1)), obs::Error);
 }
 
 TEST(HaloExchange, DistributedProductEqualsTheSerialOne2D) { expectDistributedProduct<2>(CellType::Triangle, 4, 3); }

@@ -15,6 +15,18 @@
 
 namespace obs {
 
+/// What this process has communicated through Communicator since it started (or resetCounts()):
+/// the counters of the scaling tables and the cluster model (docs/performance.md#distributed-model).
+/// Only calls on more than one rank count (a one-process run communicates nothing).
+struct CommunicationCounts {
+  long long neighbourExchanges = 0;  ///< point-to-point rounds with a message, exchange(to, send, from, recv)
+  long long messagesSent = 0;        ///< the messages this rank sent in them
+  long long bytesSent = 0;           ///< and their bytes
+  long long reductions = 0;          ///< all-reduce calls: sum, max (collective() makes one)
+  long long reducedValues = 0;       ///< the values reduced in them
+  long long otherCollectives = 0;    ///< all-to-all exchanges, all-gathers, broadcasts, barriers
+};
+
 class Communicator {
 public:
   /// The world communicator: all processes of an MPI launch, if obs is built with MPI and MPI is
@@ -22,6 +34,9 @@ public:
   static Communicator world();
   /// True if obs was built with MPI (OBS_WITH_MPI and MPI found).
   static bool built();
+  /// This process's counters (MPI calls are made from one thread: MPI_THREAD_FUNNELED).
+  static const CommunicationCounts& counts();
+  static void resetCounts();
 
   int rank() const { return rank_; }
   int size() const { return size_; }

@@ -44,14 +44,16 @@ public:
   int colours() const { return colours_; }
 
   /// One sweep: sweep(order, backward) sweeps the vertices of `order` (SweepOrder::forward or
-  /// backward) in x; the ghosts of x (d components per vertex) are updated after each colour.
+  /// backward) in x, whose ghosts (d components per vertex) must be current on entry. After each
+  /// colour the ranks of that colour send their shared values, the only ones the colour changed
+  /// (the interior holds no shared vertex), so the ghosts are current again at the end.
   template <class Sweep>
   void run(Sweep&& sweep, Eigen::VectorXd& x, int components, bool backward) const {
     if (!backward) sweep(interior_, false);
     for (int k = 0; k < colours_; ++k) {
       const int c = backward ? colours_ - 1 - k : k;
       if (c == colour_) sweep(interface_, backward);
-      halo_->update(x, components);
+      halo_->update(x, components, ofColour_[static_cast<std::size_t>(c)]);
     }
     if (backward) sweep(interior_, true);
   }
@@ -61,6 +63,7 @@ private:
   SweepOrder interior_, interface_;
   Index interfaceCount_ = 0;
   int colour_ = 0, colours_ = 1;
+  std::vector<std::vector<char>> ofColour_;  ///< per colour: which ranks have it
 };
 
 }  // namespace obs

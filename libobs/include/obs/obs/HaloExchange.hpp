@@ -36,6 +36,11 @@ public:
   /// Overwrites the ghost entries of x (local numbering, `components` values per vertex) with the
   /// owners' values: one message to and from each neighbouring part only. Every rank must call it.
   void update(Eigen::VectorXd& x, int components = 1) const;
+  /// update() from the parts `from` marks only (one entry per rank, the same on every rank): a
+  /// marked part sends its shared values, and every part receives from its marked neighbours only.
+  /// For values that only the marked parts changed since the ghosts were last current (as after
+  /// one colour of DistributedSweep); the other ghosts keep their values. Every rank must call it.
+  void update(Eigen::VectorXd& x, int components, const std::vector<char>& from) const;
   /// The reverse of update(): adds the ghost entries of x to their owners' entries (sums of
   /// contributions assembled on several parts, e.g. a restriction from owned fine rows) and sets
   /// the ghost entries to zero. Every rank must call it.
@@ -52,6 +57,8 @@ public:
   Index receivedValues() const { return numLocal() - numOwned(); }
 
 private:
+  void exchangeGhosts(Eigen::VectorXd& x, int components, const std::vector<char>* from) const;
+
   Communicator comm_;
   std::vector<Index> vertices_;
   Index owned_ = 0;
