@@ -1,16 +1,20 @@
 #!/usr/bin/env bash
 # The static one-body scenes of data/scenes that run on ranks, with `obs run` serially and under
-# `mpirun -np 2` and `-np 3`: the contact scenes (hertz, punch, step42, wedge; TNNMG) and the scenes
-# without contact (cantilever, block_compression at refine 2 and 1, mixed_bar; direct serially,
-# distributed multigrid on ranks). Prints dofs, solver and iterations, contact vertices, load, largest
-# displacement and von Mises stress of each run side by side (docs/architecture.md#distributed-runner).
+# `mpirun -np 2` and `-np 3`: the contact scenes (hertz, punch, step42, wedge; TNNMG), those with
+# Coulomb friction (friction_cylinder, friction_peer, friction_slip: the fixed point over TNNMG's
+# Tresca solves) and the scenes without contact (cantilever, block_compression at refine 2 and 1,
+# mixed_bar; direct serially, distributed multigrid on ranks). Prints dofs, solver and iterations
+# (with friction: Tresca solves / TNNMG iterations), contact vertices, load, stick / slip vertices,
+# friction force, largest displacement and von Mises stress of each run side by side
+# (docs/architecture.md#distributed-runner).
 # Runs in OUT (default out/distributed_scenes).
 #   scripts/distributed_scenes.sh [OUT]
 set -euo pipefail
 out=${1:-out/distributed_scenes}
 obs=${OBS:-$PWD/build/drivers/obs}
 # scene and its extra options (the scenes without refinement get some: ranks need refine >= 1)
-scenes=("hertz" "punch" "step42" "wedge" "cantilever --refine 2" "block_compression --refine 1" "mixed_bar")
+scenes=("hertz" "punch" "step42" "wedge" "friction_cylinder" "friction_peer" "friction_slip" "cantilever --refine 2"
+        "block_compression --refine 1" "mixed_bar")
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=PASSIVE
 mkdir -p "$out"
 names=()
@@ -27,13 +31,17 @@ done
 /usr/bin/python3 - "$out" "${names[@]}" <<'PY'
 import json, sys
 out, scenes = sys.argv[1], sys.argv[2:]
-print('| scene | ranks | dofs | solver | iterations | contact vertices | load | max displacement | max von Mises |')
-print('|---|---|---|---|---|---|---|---|---|')
+print('| scene | ranks | dofs | solver | iterations | contact vertices | load | stick / slip | friction force | max displacement | max von Mises |')
+print('|---|---|---|---|---|---|---|---|---|---|---|')
 for s in scenes:
     for n in ('1', '2', '3'):
         j = json.load(open(f'{out}/{s}.{n}/summary.json'))
         c = j.get('contact')
         contact = f"{c['actual_vertices']} | {c['load_P']:.10g}" if c else '- | -'
-        print(f"| {s} | {n} | {j['dofs']:,} | {j['solver']['type']} | {j['solver']['iterations']} | {contact} | "
+        f = c.get('friction') if c else None
+        friction = f"{f['stick_vertices']} / {f['slip_vertices']} | {f['tangential_force'][0]:.8g}" if f else '- | -'
+        fi = j['solver'].get('friction')
+        iterations = f"{fi['iterations']} / {fi['inner_iterations']}" if fi else str(j['solver']['iterations'])
+        print(f"| {s} | {n} | {j['dofs']:,} | {j['solver']['type']} | {iterations} | {contact} | {friction} | "
               f"{j['max_displacement']:.10g} | {j['max_von_mises']:.6g} |")
 PY

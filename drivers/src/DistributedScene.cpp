@@ -18,6 +18,7 @@
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/DistributedGrid.hpp"
+#include "obs/obs/Friction.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
 #include "obs/obs/LinearElasticity.hpp"
 #include "obs/obs/LinearMultigrid.hpp"
@@ -36,7 +37,6 @@ std::string notDistributed(const Scene& scene) {
   if (scene.multiBody()) return "several [[body]] entries";
   if (scene.loading) return "[loading]";
   if (scene.contact) {
-    if (scene.contact->friction) return "friction";
     if (scene.solverType() != "tnnmg") return "[solver] type = \"" + scene.solverType() + "\"";
   } else if (!scene.solver.type.empty() && scene.solver.type != "multigrid") {
     return "[solver] type = \"" + scene.solver.type + "\" (scenes without contact are solved by multigrid on ranks)";
@@ -132,12 +132,36 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
   o.maxIterations = config.iterationCap();
   t = Clock::now();
   TNNMG<d> solver(dg, o);
-  Eigen::VectorXd u;
-  const ContactResult result = solver.solve(*problem, u);
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(problem->numDofs());
+  ContactResult result;
+  if (scene.contact->friction) {  // Tresca: one solve; Coulomb: the fixed point over Tresca solves
+    const FrictionLaw& law = scene.contact->friction->law;
+    NodalFriction f;
+    f.bound.assign(static_cast<std::size_t>(set->size()), 0.0);
+    f.mu.assign(f.bound.size(), 0.0);
+    for (Index k = 0; k < set->size(); ++k) {
+      if (law.type == FrictionLaw::Type::Tresca) f.bound[static_cast<std::size_t>(k)] = law.value * set->boundaryMass(k);
+      if (law.type == FrictionLaw::Type::Coulomb) f.mu[static_cast<std::size_t>(k)] = law.value;
+    }
+    CoulombOptions co;
+    co.tolerance = std::max(co.tolerance, 10 * config.tolerance);
+    const CoulombResult fr = solveFriction(*problem, solver, u, f, co, {}, &leaf.halo);
+    result = fr.last;
+    r.solver.friction = FrictionIterationReport{fr.iterations, fr.converged, fr.contracting, fr.changes, fr.innerIterations};
+    if (fr.iterations > 1) {
+      std::ostringstream line;
+      line << "friction: " << fr.iterations << " Tresca solves (" << fr.innerIterations
+           << " iterations), last relative change of the slip bounds " << std::setprecision(3) << fr.changes.back()
+           << (fr.converged ? "" : ", not converged") << (fr.contracting ? "" : " (the iteration did not contract)");
+      progress(line.str());
+    }
+  } else {
+    result = solver.solve(*problem, u);
+  }
   r.solveSeconds = comm.max(secondsSince(t));
   r.solver.type = "tnnmg";
   r.solver.iterations = result.iterations;
-  r.solver.converged = result.converged;
+  r.solver.converged = result.converged && (!r.solver.friction || r.solver.friction->converged);
   r.solver.seconds = r.solveSeconds;
   r.solver.tolerance = config.tolerance;
   r.solver.correction = result.correction;
@@ -200,30 +224,59 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
       }
     c.radiusNodes = comm.max(radius);
   }
-  // the contact area: the faces all of whose nodes are in contact, each counted by the owner of its
-  // vertex of smallest global index (all cells around that vertex are held, so the face is exact);
-  // the ghosts' contact states from their owners (a ghost's own row, hence its force, is incomplete)
+  // stick (1) or slip (2) of the contact nodes, as computeContactOutputs decides it with the global
+  // displacement scale; the friction force of the owned nodes
+  std::vector<char> stickSlip(static_cast<std::size_t>(set->size()), 0);
+  long long stick = 0, slip = 0;
+  std::vector<double> tangential(3, 0.0);
+  for (Index k = 0; k < set->size(); ++k) {
+    if (inContact[k]) stickSlip[k] = out.slip[k] <= 1e-8 * U ? 1 : 2;
+    if (set->vertex(k) >= owned) continue;
+    for (int a = 0; a < 3; ++a) tangential[static_cast<std::size_t>(a)] += out.tangential[k][a];
+    stick += stickSlip[k] == 1;
+    slip += stickSlip[k] == 2;
+  }
+  // the contact and stick areas: the faces all of whose nodes are in contact (stick), each counted
+  // by the owner of its vertex of smallest global index (all cells around that vertex are held, so
+  // the face is exact); the ghosts' states from their owners (a ghost's own row, hence its force,
+  // is incomplete)
   Eigen::VectorXd state = Eigen::VectorXd::Zero(leaf.halo.numLocal());
   for (Index k = 0; k < set->size(); ++k)
-    if (set->vertex(k) < owned) state[set->vertex(k)] = inContact[k];
+    if (set->vertex(k) < owned) state[set->vertex(k)] = stickSlip[k];
   leaf.halo.update(state);
-  for (Index k = 0; k < set->size(); ++k) inContact[k] = state[set->vertex(k)] != 0 ? 1 : 0;
-  double area = 0;
+  for (Index k = 0; k < set->size(); ++k) stickSlip[k] = static_cast<char>(state[set->vertex(k)]);
+  double areas[2] = {0, 0};
   for (const ContactSet::Face& f : set->faces()) {
     Index first = -1, firstGlobal = std::numeric_limits<Index>::max();
-    bool all = true;
+    bool contact = true, sticking = true;
     for (Index k : f.nodes) {
-      all = all && inContact[k];
+      contact = contact && stickSlip[k] != 0;
+      sticking = sticking && stickSlip[k] == 1;
       const Index g = leaf.numbering.global[leaf.halo.viewVertices()[set->vertex(k)]];
       if (g < firstGlobal) {
         firstGlobal = g;
         first = set->vertex(k);
       }
     }
-    if (all && first >= 0 && first < owned) area += f.measure;
+    if (first < 0 || first >= owned) continue;
+    if (contact) areas[0] += f.measure;
+    if (sticking) areas[1] += f.measure;
   }
-  c.area = comm.sum(area);
+  c.area = comm.sum(areas[0]);
   c.radius = d == 3 ? std::sqrt(c.area / std::numbers::pi) : c.area / 2;
+  if (scene.contact->friction) {
+    const FrictionLaw& law = scene.contact->friction->law;
+    comm.sum(tangential);
+    FrictionReport fr;
+    fr.law = law.type == FrictionLaw::Type::Coulomb ? "coulomb" : "tresca";
+    fr.value = law.value;
+    for (int a = 0; a < 3; ++a) fr.tangentialForce[static_cast<std::size_t>(a)] = tangential[static_cast<std::size_t>(a)];
+    fr.stickVertices = comm.sum(stick);
+    fr.slipVertices = comm.sum(slip);
+    fr.stickArea = comm.sum(areas[1]);
+    fr.stickRadius = d == 3 ? std::sqrt(fr.stickArea / std::numbers::pi) : fr.stickArea / 2;
+    c.friction = fr;
+  }
   r.contact = c;
   return u;
 }

@@ -1,7 +1,8 @@
 #pragma once
 /// \file DistributedScene.hpp
 /// `mpirun -np N obs run scene.toml` with N > 1 (docs/architecture.md#distributed-runner): a static
-/// one-body scene on a DistributedGrid, solved by distributed TNNMG (contact against an obstacle) or
+/// one-body scene on a DistributedGrid, solved by distributed TNNMG (contact against an obstacle, with
+/// friction inside solveFriction's fixed point) or
 /// distributed multigrid (linear elasticity). Every rank calls it;
 /// rank 0 reports progress and writes summary.json (figures reduced over the ranks), every rank
 /// writes its piece of the solution (.vtu of its owned cells) and rank 0 the .pvtu that joins them.

@@ -80,8 +80,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     else work();
   };
   everywhere([&] {
-    if (distributed && (problem.frictional() || problem.transformed()))
-      throw Error("TNNMG: friction and two-body contact are not distributed yet");
+    if (distributed && problem.transformed()) throw Error("TNNMG: two-body contact is not distributed yet");
     if (problem.numVertices() != fineVertices_)
       throw Error("TNNMG: the problem has " + std::to_string(problem.numVertices()) +
                   " vertices, the leaf view of the solver's grid " + std::to_string(fineVertices_) +
@@ -135,7 +134,10 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   Eigen::VectorXd w = problem.toRotated(u);
   rot.project(w);
   const BlockGaussSeidelSweep<d>& smoother = *smoother_;
-  const bool errorBound = rot.hasErrorBound();  // RotatedProblem::errorBound, fused below (not with friction)
+  // RotatedProblem::errorBound, fused below (not with friction); distributed: only if it holds on
+  // every rank (a rank without friction vertices would otherwise stop on its own)
+  bool errorBound = rot.hasErrorBound();
+  if (distributed) errorBound = comm_->max(errorBound ? 0.0 : 1.0) == 0;
   const std::vector<double>& lowerBound = rot.diagonalLowerBound;
 
   const auto n = static_cast<Eigen::Index>(problem.numDofs());
@@ -149,6 +151,17 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
       std::copy(v.begin(), v.end(), sums.begin());
     }
     return sums;
+  };
+  // distributed: friction anywhere (a rank may hold no friction vertex) takes every rank down the
+  // same path
+  const bool frictional = distributed ? comm_->max(rot.frictional() ? 1.0 : 0.0) > 0 : rot.frictional();
+  // the friction energy sum_p s_p |t_p| over the owned friction vertices, added over the ranks
+  const auto frictionEnergy = [&](const Eigen::VectorXd& x) {
+    if (!distributed) return rot.frictionEnergy(x);
+    double e = 0;
+    for (std::size_t f = 0; f < rot.frictionVertices.size(); ++f)
+      if (rot.frictionVertices[f] < owned_) e += rot.slip[f] * rot.slipOf(f, x).norm();
+    return comm_->sum(e);
   };
   const auto activeCount = [&](const Eigen::VectorXd& x) {
     if (!distributed) return rot.countActive(x);
@@ -173,7 +186,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   const auto [w0Aw0, bw0] = total(chunkedSums<2>(ownedDofs, [&](Index b, Index e) {
     return std::array<double, 2>{w.segment(b, e - b).dot(Aw.segment(b, e - b)), rot.rhs.segment(b, e - b).dot(w.segment(b, e - b))};
   }));
-  IterationMonitor monitor(name(), options_, 0.5 * w0Aw0 - bw0 + rot.frictionEnergy(w));
+  IterationMonitor monitor(name(), options_, 0.5 * w0Aw0 - bw0 + frictionEnergy(w));
   TruncatedLinearization<d> linearization;
   std::vector<Index> curvatureVertices;
   std::vector<typename TruncatedLinearization<d>::Mat> curvatureBlocks;
@@ -203,7 +216,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     // 2. truncation (operators updated only if the mask changed); with friction in 3D the
     // curvature of the friction term joins the correction's operator (updated with the mask)
     linearization.truncate(rot, w);
-    if (d == 3 && options_.frictionCurvature && rot.frictional()) {
+    if (d == 3 && options_.frictionCurvature && frictional) {
       linearization.curvature(rot, curvatureVertices, curvatureBlocks);
       diagonalTerm_ = correction_->setDiagonalTerm(curvatureVertices, curvatureBlocks);
     } else if (diagonalTerm_) {  // a term of an earlier frictional solve
@@ -238,10 +251,13 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
       }
       return std::array<double, 2>{s0, s1};
     }));
-    LineSearchResult step = rot.frictional() ? frictionLineSearch(rot, w, c, cr, cAc, linearization.slipping,
-                                                                  linearization.slipDirection)
-                                             : exactLineSearch(rot, w, c, cr, cAc);
-    if (distributed) {  // the largest feasible step over all ranks (ghost copies give their owners' values)
+    // distributed: the friction line search reduces its own sums; without friction, the largest
+    // feasible step over all ranks (ghost copies give their owners' values)
+    LineSearchResult step = frictional
+                                ? frictionLineSearch(rot, w, c, cr, cAc, linearization.slipping,
+                                                     linearization.slipDirection, distributed ? owned_ : -1, comm_)
+                                : exactLineSearch(rot, w, c, cr, cAc);
+    if (distributed && !frictional) {
       const double alphaMax = -comm_->max(-step.alphaMax);
       if (step.alphaMax != alphaMax) step.limiting = -1;
       step.alphaMax = alphaMax;
@@ -291,7 +307,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     const double relativeError = !errorBound ? std::numeric_limits<double>::quiet_NaN()
                                  : den > 0   ? bound / den
                                              : (bound > 0 ? std::numeric_limits<double>::infinity() : 0.0);
-    const double friction = rot.frictionEnergy(w);  // 0 without friction
+    const double friction = frictionEnergy(w);  // 0 without friction
     const bool small = monitor.record(0.5 * wAw - bw + friction, correction, activeCount(w), changes, relativeError);
     // scale of the energy's terms, including the round-off of w'Aw (<= eps |w|'|A||w|): for stiff
     // operators with soft modes (mass + tau^2 stiffness, rigid motions) it dominates |w'Aw|

@@ -129,8 +129,9 @@ TEST_F(Cli, SeveralMpiRanksAreRefusedOnEveryRankButForRun) {
 #ifdef OBS_MPIEXEC
 // `mpirun -np 2 obs run` on step-42 (refine 2): the distributed runner's summary has the serial
 // run's iterations, contact vertices, area and load (the load to 1e-10), and its .pvtu joins two
-// pieces that VTK reads back as the whole mesh. The punch on 3 ranks likewise, and the compressed
-// block (linear elasticity, distributed multigrid) to its exact solution. A scene that is not
+// pieces that VTK reads back as the whole mesh. The punch on 3 ranks likewise, the friction_peer
+// scene (Coulomb friction) on 2, and the compressed block (linear elasticity, distributed
+// multigrid) to its exact solution. A scene that is not
 // distributed yet stops every rank with exit code 1 and one error line.
 TEST_F(Cli, MpirunRunsStaticScenesDistributed) {
   const std::string mpirun = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=PASSIVE " +
@@ -180,6 +181,29 @@ TEST_F(Cli, MpirunRunsStaticScenesDistributed) {
   EXPECT_EQ(p3["contact"]["actual_vertices"], p1["contact"]["actual_vertices"]);
   const double punchLoad = p1["contact"]["load_P"];
   EXPECT_NEAR(p3["contact"]["load_P"].get<double>(), punchLoad, 1e-10 * punchLoad);
+
+  // Coulomb friction on 2 ranks (the fixed point over distributed Tresca solves): the serial
+  // number of Tresca solves, stick and slip vertices, friction force and stick width
+  const std::string peer = (fs::path(OBS_DATA_DIR) / "scenes" / "friction_peer.toml").string();
+  fs::remove_all(kTmp / "out_peer2");
+  fs::remove_all(kTmp / "out_peer1");
+  const Output f2 = runObs("run '" + peer + "' --output out_peer2", "peer2", mpirun);
+  ASSERT_EQ(f2.code, 0) << f2.err;
+  EXPECT_NE(f2.out.find("Tresca solves"), std::string::npos) << f2.out;
+  ASSERT_EQ(runObs("run '" + peer + "' --output out_peer1 -q", "peer1").code, 0);
+  const nlohmann::json q2 = json(kTmp / "out_peer2" / "summary.json"), q1 = json(kTmp / "out_peer1" / "summary.json");
+  EXPECT_EQ(q2["solver"]["friction"]["iterations"], q1["solver"]["friction"]["iterations"]);
+  EXPECT_TRUE(q2["solver"]["friction"]["converged"].get<bool>());
+  const nlohmann::json& fr2 = q2["contact"]["friction"];
+  const nlohmann::json& fr1 = q1["contact"]["friction"];
+  for (const char* key : {"stick_vertices", "slip_vertices"}) EXPECT_EQ(fr2[key], fr1[key]) << key;
+  EXPECT_GT(fr1["stick_vertices"].get<int>(), 0);
+  EXPECT_GT(fr1["slip_vertices"].get<int>(), 0);
+  const double ft = fr1["tangential_force"][0];
+  EXPECT_NEAR(fr2["tangential_force"][0].get<double>(), ft, 1e-8 * std::abs(ft));
+  EXPECT_NEAR(fr2["stick_width"].get<double>(), fr1["stick_width"].get<double>(), 1e-12);
+  const double peerLoad = q1["contact"]["load_P"];
+  EXPECT_NEAR(q2["contact"]["load_P"].get<double>(), peerLoad, 1e-9 * peerLoad);
 
   // linear elasticity on 3 ranks (distributed multigrid): the compressed block's exact solution,
   // uniaxial compression that Q1 reproduces (max |u| = sqrt(0.01^2 + 2 * 0.003^2), von Mises = p = 10)

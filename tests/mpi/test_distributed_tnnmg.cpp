@@ -2,7 +2,8 @@
 // assembled on each rank's local mesh of a DistributedGrid and solved by TNNMG(const DistributedGrid&)
 // must give the serial TNNMG's solution on the uniformly refined grid (vertices matched by
 // position), its active set and contact load, in the serial iteration count +-1 (the sweep order
-// differs); every rank returns the same result (docs/architecture.md#distributed-tnnmg).
+// differs); every rank returns the same result. With Tresca and Coulomb friction (solveFriction
+// with the halo) the same stick and slip vertices and Tresca solves (docs/architecture.md#distributed-tnnmg).
 #include <gtest/gtest.h>
 
 #include <array>
@@ -11,6 +12,7 @@
 #include <map>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Grid.hpp"
@@ -19,6 +21,7 @@
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/ContactSet.hpp"
 #include "obs/obs/DistributedGrid.hpp"
+#include "obs/obs/Friction.hpp"
 #include "obs/obs/Material.hpp"
 #include "obs/obs/Obstacle.hpp"
 #include "obs/obs/Parallel.hpp"
@@ -97,6 +100,86 @@ TEST(DistributedTnnmg, SolvesTheSerialSignoriniProblemTriangles) { expectSerialT
 TEST(DistributedTnnmg, SolvesTheSerialSignoriniProblemQuadrilaterals) { expectSerialTnnmg<2>(CellType::Quadrilateral, 4, 4); }
 TEST(DistributedTnnmg, SolvesTheSerialSignoriniProblemHexahedra) { expectSerialTnnmg<3>(CellType::Hexahedron, 2, 3); }
 TEST(DistributedTnnmg, SolvesTheSerialSignoriniProblemTetrahedra) { expectSerialTnnmg<3>(CellType::Tetrahedron, 2, 2); }
+
+/// Friction on the ranks: the pressed box slides (the top moves sideways) against the ball or disk
+/// with Tresca (slip bound `bound` per unit area) or Coulomb (coefficient `mu`) friction, solved by
+/// solveFriction with the distributed TNNMG. The fixed point takes the serial number of Tresca
+/// solves, each solve the serial TNNMG iterations +-1, and the displacement is the serial one (to
+/// 1e-7 of its largest entry for Tresca; for Coulomb to 1e-6, the bounds' relative change at the
+/// stop being 1e-8); the stick and slip vertices are the serial ones.
+template <int d>
+void expectSerialFriction(CellType type, int cells, int refinements, double bound, double mu) {
+  SCOPED_TRACE(std::string(obs::mesh::name(type)) + (mu > 0 ? ", Coulomb" : ", Tresca"));
+  const obs::Communicator comm = obs::Communicator::world();
+  const obs::mesh::Grid coarse(obs::mesh::boxMesh(type, cells));
+  const obs::DistributedGrid dg(coarse, refinements, comm);
+  obs::mesh::Grid serial = coarse;
+  for (int l = 0; l < refinements; ++l) serial.refineUniformly();
+  typename obs::TNNMG<d>::Options options;
+  options.tolerance = 1e-10;
+  obs::CoulombOptions fixedPoint;
+  fixedPoint.tolerance = 1e-8;
+  const auto friction = [&](const obs::ContactProblem<d>& p) {
+    obs::NodalFriction f;
+    f.bound = obs::trescaSlipBounds(p.contactSet(), bound);
+    f.mu.assign(f.bound.size(), mu);
+    return f;
+  };
+  const auto counts = [](const obs::ContactOutputs& o, Index owned, const std::vector<Index>& vertexOf) {
+    std::array<long long, 2> c{};
+    for (std::size_t k = 0; k < o.state.size(); ++k)
+      if (vertexOf[k] < owned && o.state[k] > 0) ++c[static_cast<std::size_t>(o.state[k] - 1)];
+    return c;
+  };
+
+  const obs::mesh::Mesh fs = serial.leafView().mesh;
+  obs::ContactProblem<d> ps = pressedOntoBall<d>(fs);
+  obs::TNNMG<d> serialSolver(serial, options);
+  Eigen::VectorXd us = Eigen::VectorXd::Zero(ps.numDofs());
+  const obs::CoulombResult rs = obs::solveFriction(ps, serialSolver, us, friction(ps), fixedPoint);
+  std::vector<Index> serialVertex;
+  for (const auto& c : ps.constraints()) serialVertex.push_back(c.vertex);
+  const auto cs = counts(obs::computeContactOutputs(ps, us), ps.numVertices(), serialVertex);
+
+  const obs::DistributedView leaf = dg.view();
+  std::optional<obs::ContactProblem<d>> built;
+  comm.collective([&] { built.emplace(pressedOntoBall<d>(leaf.local)); });
+  obs::ContactProblem<d>& pd = *built;
+  obs::TNNMG<d> solver(dg, options);
+  Eigen::VectorXd ud = Eigen::VectorXd::Zero(pd.numDofs());
+  const obs::CoulombResult rd = obs::solveFriction(pd, solver, ud, friction(pd), fixedPoint, {}, &leaf.halo);
+  std::vector<Index> localVertex;
+  for (const auto& c : pd.constraints()) localVertex.push_back(c.vertex);
+  auto cd = counts(obs::computeContactOutputs(pd, ud), leaf.halo.numOwned(), localVertex);
+  for (long long& c : cd) c = comm.sum(c);
+  if (comm.rank() == 0)
+    std::cout << obs::mesh::name(type) << (mu > 0 ? " Coulomb" : " Tresca") << " on " << comm.size() << " ranks: "
+              << rd.iterations << " Tresca solves, " << rd.innerIterations << " iterations (serial " << rs.iterations
+              << ", " << rs.innerIterations << "); stick " << cd[0] << ", slip " << cd[1] << " (serial " << cs[0]
+              << ", " << cs[1] << ")\n";
+  ASSERT_TRUE(rs.converged);
+  ASSERT_TRUE(rd.converged);
+  EXPECT_EQ(rd.iterations, rs.iterations);
+  EXPECT_LE(std::abs(rd.innerIterations - rs.innerIterations), rs.iterations);
+  EXPECT_EQ(cd, cs);
+  EXPECT_GT(cs[0], 0);  // both stick and slip
+  EXPECT_GT(cs[1], 0);
+  EXPECT_EQ(comm.max(static_cast<double>(rd.innerIterations)), static_cast<double>(rd.innerIterations));
+  std::map<Position, Index> serialIndex;
+  for (Index v = 0; v < fs.numVertices(); ++v) serialIndex[quantise(fs.vertex(v))] = v;
+  const double scale = us.cwiseAbs().maxCoeff();
+  const double tolerance = mu > 0 ? 1e-6 : 1e-7;
+  for (Index i = 0; i < leaf.local.numVertices(); ++i) {
+    const Index v = serialIndex.at(quantise(leaf.local.vertex(i)));
+    for (int c = 0; c < d; ++c) ASSERT_NEAR(ud[i * d + c], us[v * d + c], tolerance * scale) << "vertex " << i;
+  }
+}
+
+TEST(DistributedTnnmg, SolvesTheSerialTrescaProblemTriangles) { expectSerialFriction<2>(CellType::Triangle, 4, 4, 0.01, 0); }
+TEST(DistributedTnnmg, SolvesTheSerialCoulombProblemQuadrilaterals) {
+  expectSerialFriction<2>(CellType::Quadrilateral, 4, 4, 0, 0.3);
+}
+TEST(DistributedTnnmg, SolvesTheSerialCoulombProblemHexahedra) { expectSerialFriction<3>(CellType::Hexahedron, 2, 3, 0, 0.3); }
 
 /// An error on one rank only (its problem assembled on another mesh) reaches every rank as the
 /// same obs::Error naming that rank: no rank waits for the failed one.

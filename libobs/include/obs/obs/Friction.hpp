@@ -22,6 +22,7 @@
 #include "obs/obs/ContactModel.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/ContactSolver.hpp"
+#include "obs/obs/HaloExchange.hpp"
 
 namespace obs {
 
@@ -72,10 +73,16 @@ struct CoulombResult {
 /// else the fixed point of the file comment; options.mu is not used) on `problem`, whose slip
 /// bounds are overwritten; origin as for solveCoulomb. Throws obs::Error for vectors of the wrong
 /// size, negative or non-finite entries or invalid options, and what the solver throws.
+///
+/// Distributed (`halo` of the rank's leaf view given; `problem` assembled on its local mesh, owned
+/// vertices first; `solver` a distributed one, e.g. TNNMG(const DistributedGrid&)): the bounds of
+/// the owned vertices' nodes come from their complete rows, the ghosts' from their owners, and the
+/// displacement scale and the change of the bounds are maxima over the ranks, so every rank takes
+/// the same number of Tresca solves. Every rank must call it.
 template <int d>
 CoulombResult solveFriction(ContactProblem<d>& problem, ContactSolver<d>& solver, Eigen::VectorXd& u,
                             const NodalFriction& friction, const CoulombOptions& options,
-                            const Eigen::VectorXd& origin = {});
+                            const Eigen::VectorXd& origin = {}, const HaloExchange* halo = nullptr);
 
 /// Solves the Coulomb problem on `problem` (its slip bounds are overwritten; the origin o, e.g. the
 /// displacement of the previous load increment, is the same for every solve) with `solver`, from
@@ -88,9 +95,11 @@ CoulombResult solveCoulomb(ContactProblem<d>& problem, ContactSolver<d>& solver,
 extern template NodalFriction nodalFriction<2>(const ContactModel<2>&, const ContactSet&);
 extern template NodalFriction nodalFriction<3>(const ContactModel<3>&, const ContactSet&);
 extern template CoulombResult solveFriction<2>(ContactProblem<2>&, ContactSolver<2>&, Eigen::VectorXd&,
-                                               const NodalFriction&, const CoulombOptions&, const Eigen::VectorXd&);
+                                               const NodalFriction&, const CoulombOptions&, const Eigen::VectorXd&,
+                                               const HaloExchange*);
 extern template CoulombResult solveFriction<3>(ContactProblem<3>&, ContactSolver<3>&, Eigen::VectorXd&,
-                                               const NodalFriction&, const CoulombOptions&, const Eigen::VectorXd&);
+                                               const NodalFriction&, const CoulombOptions&, const Eigen::VectorXd&,
+                                               const HaloExchange*);
 extern template CoulombResult solveCoulomb<2>(ContactProblem<2>&, ContactSolver<2>&, Eigen::VectorXd&,
                                               const CoulombOptions&, const Eigen::VectorXd&);
 extern template CoulombResult solveCoulomb<3>(ContactProblem<3>&, ContactSolver<3>&, Eigen::VectorXd&,

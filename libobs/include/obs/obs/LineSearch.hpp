@@ -27,6 +27,7 @@
 #include <limits>
 #include <vector>
 
+#include "obs/obs/Communicator.hpp"
 #include "obs/obs/ContactProblem.hpp"
 
 namespace obs {
@@ -77,18 +78,30 @@ LineSearchResult exactLineSearch(const RotatedProblem<d>& problem, const Eigen::
 /// The line search with friction: cr = c'r for the truncated defect r of TruncatedLinearization
 /// (which contains the friction gradient of the slipping vertices), cAc = c'Ac; `slipping` and
 /// `direction` as TruncatedLinearization::slipping / slipDirection. Without slipping vertices the
-/// energy along the line is quadratic: exactLineSearch.
+/// energy along the line is quadratic: the step of exactLineSearch.
+///
+/// Distributed (comm given; w, c with current ghosts, cr and cAc already summed over the ranks):
+/// alpha_max is the minimum over the ranks (`limiting` stays only where it is attained), the
+/// slope's friction terms are summed over the friction vertices below `owned` and over the ranks,
+/// so every rank bisects the same function to the same alpha, and a kink found on any rank (the
+/// smallest) is the step of all; the ranks holding that vertex (its owner and its ghost copies) mark
+/// it in `stops`. On one process the same code runs with the local sums.
 template <int d>
 LineSearchResult frictionLineSearch(const RotatedProblem<d>& problem, const Eigen::VectorXd& w, const Eigen::VectorXd& c,
                                     double cr, double cAc, const std::vector<std::size_t>& slipping,
-                                    const std::vector<Eigen::Matrix<double, d, 1>>& direction) {
+                                    const std::vector<Eigen::Matrix<double, d, 1>>& direction, Index owned = -1,
+                                    const Communicator* comm = nullptr) {
   using Vec = Eigen::Matrix<double, d, 1>;
-  if (slipping.empty()) return exactLineSearch(problem, w, c, cr, cAc);
   LineSearchResult s = largestFeasibleStep(problem, w, c);
-  if (!(cr > 0) || !(cAc > 0)) return s;  // phi'(0) = -cr >= 0, or no curvature: no descent
+  if (comm) {
+    const double alphaMax = -comm->max(-s.alphaMax);
+    if (s.alphaMax != alphaMax) s.limiting = -1;
+    s.alphaMax = alphaMax;
+  }
   // the slipping terms: bound, t_p, c_p and c_p.e_p (phi'(0) = -cr already contains -s_p c_p.e_p)
   struct Term {
     std::size_t f;
+    bool counted;  ///< owned: enters the slope's sum
     double slip;
     Vec t, c;
     double ce;
@@ -96,23 +109,30 @@ LineSearchResult frictionLineSearch(const RotatedProblem<d>& problem, const Eige
   std::vector<Term> terms;
   for (std::size_t k = 0; k < slipping.size(); ++k) {
     const std::size_t f = slipping[k];
-    const auto i = static_cast<Eigen::Index>(problem.frictionVertices[f]) * d;
+    const Index p = problem.frictionVertices[f];
+    const auto i = static_cast<Eigen::Index>(p) * d;
     Vec cp = c.template segment<d>(i);
     cp[0] = 0;
     for (int a = 1; a < d; ++a)
       if (problem.prescribed[static_cast<std::size_t>(i + a)]) cp[a] = 0;
     if (cp.isZero(0)) continue;
-    terms.push_back({f, problem.slip[f], problem.slipOf(f, w), cp, cp.dot(direction[k])});
+    terms.push_back({f, owned < 0 || p < owned, problem.slip[f], problem.slipOf(f, w), cp, cp.dot(direction[k])});
   }
-  if (terms.empty()) return exactLineSearch(problem, w, c, cr, cAc);
+  const bool anyTerm = comm ? comm->max(terms.empty() ? 0.0 : 1.0) > 0 : !terms.empty();
+  if (!anyTerm) {  // quadratic along the line
+    if (cr > 0 && cAc > 0) s.alpha = std::min(s.alphaMax, cr / cAc);
+    return s;
+  }
+  if (!(cr > 0) || !(cAc > 0)) return s;  // phi'(0) = -cr >= 0, or no curvature: no descent
   const auto slope = [&](double alpha) {  // phi'(alpha), the left derivative at a kink
-    double g = alpha * cAc - cr;
+    double g = comm ? 0.0 : alpha * cAc - cr;  // (one process: the sum in the order of the serial code)
     for (const Term& term : terms) {
+      if (!term.counted) continue;
       const Vec x = term.t + alpha * term.c;
       const double n = x.norm();
       g += term.slip * ((n > 0 ? x.dot(term.c) / n : -term.c.norm()) - term.ce);
     }
-    return g;
+    return comm ? alpha * cAc - cr + comm->sum(g) : g;
   };
   double lo = 0, hi = s.alphaMax;
   if (std::isfinite(hi)) {
@@ -130,14 +150,23 @@ LineSearchResult frictionLineSearch(const RotatedProblem<d>& problem, const Eige
     (slope(mid) <= 0 ? lo : hi) = mid;
   }
   s.alpha = lo;
-  // a kink in [lo, hi]: phi' jumps over zero there, so it is the minimiser; the vertex stops
-  for (const Term& term : terms) {
-    const double a = -term.t.dot(term.c) / term.c.squaredNorm();
-    if (a >= lo && a <= hi && (term.t + a * term.c).norm() <= 1e-12 * term.t.norm()) {
-      s.alpha = a;
-      s.stops = static_cast<std::ptrdiff_t>(term.f);
-      break;
-    }
+  // a kink in [lo, hi]: phi' jumps over zero there, so it is the minimiser; the vertex stops (the
+  // smallest such step, over the ranks)
+  const auto kinkOf = [&](const Term& term) { return -term.t.dot(term.c) / term.c.squaredNorm(); };
+  const auto isKink = [&](const Term& term, double a) {
+    return a >= lo && a <= hi && (term.t + a * term.c).norm() <= 1e-12 * term.t.norm();
+  };
+  double kink = std::numeric_limits<double>::infinity();
+  for (const Term& term : terms)
+    if (const double a = kinkOf(term); isKink(term, a)) kink = std::min(kink, a);
+  if (comm) kink = -comm->max(-kink);
+  if (std::isfinite(kink)) {
+    s.alpha = kink;
+    for (const Term& term : terms)
+      if (kinkOf(term) == kink && isKink(term, kink)) {
+        s.stops = static_cast<std::ptrdiff_t>(term.f);
+        break;
+      }
   }
   return s;
 }

@@ -88,7 +88,9 @@ public:
   /// vertices first, their rows complete), u in that numbering with its ghosts current on entry
   /// (and on return). Sweeps in DistributedSweep's order, the distributed V-cycle, sums and the
   /// step bound reduced over the ranks: every rank takes the same steps and stops together.
-  /// Friction and two-body contact are refused (obs::Error) until they are distributed.
+  /// With friction the friction energy and the friction line search's slope are summed over the
+  /// owned friction vertices and the ranks (Coulomb: solveFriction with the rank's halo). Two-body
+  /// contact is refused (obs::Error) until the mortar coupling is distributed.
   explicit TNNMG(const DistributedGrid& grid, const Options& options = {});
   /// TNNMG with another linear correction (e.g. DirectCorrection).
   TNNMG(const mesh::Grid& grid, const Options& options, std::unique_ptr<LinearCorrection<d>> correction);
