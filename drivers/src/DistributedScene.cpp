@@ -98,11 +98,13 @@ void writePvtu(const std::filesystem::path& path, const std::vector<std::string>
 }
 
 /// The scene's obstacle problem solved by distributed TNNMG: the displacement on the rank's local
-/// mesh (ghost entries current), the assembly, solver and contact reports in r.
+/// mesh (ghost entries current), the assembly, solver and contact reports in r, and the contact
+/// point fields of the serial one-body output on the local vertices in `fields` (exact on the
+/// vertices of owned cells: every cell around such a vertex is held, so its row is complete).
 template <int d>
 Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const DistributedGrid& dg,
                              const DistributedView& leaf, const BoundaryConditions& bc, int contactId,
-                             const Progress& progress, RunResult& r) {
+                             const Progress& progress, RunResult& r, std::vector<Field>& fields) {
   const Index owned = leaf.halo.numOwned();
   // the problem on the rank's local mesh (its owned rows complete)
   auto t = Clock::now();
@@ -264,6 +266,34 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
   }
   c.area = comm.sum(areas[0]);
   c.radius = d == 3 ? std::sqrt(c.area / std::numbers::pi) : c.area / 2;
+  // the point fields (SolutionFields.hpp: the obstacle layout of contactPointFields)
+  {
+    const auto n = static_cast<std::size_t>(leaf.local.numVertices());
+    fields = {Field{"gap", 1, std::vector<double>(n, 0.0), false},
+              Field{"normal_displacement", 1, std::vector<double>(n, 0.0), false},
+              Field{"contact_pressure", 1, std::vector<double>(n, 0.0), false},
+              Field{"contact_state", 1, std::vector<double>(n, 0.0), true},
+              Field{"constraint_direction", 3, std::vector<double>(3 * n, 0.0), false}};
+    if (scene.contact->friction) {
+      fields.push_back(Field{"friction_force", 3, std::vector<double>(3 * n, 0.0), false});
+      fields.push_back(Field{"slip", 1, std::vector<double>(n, 0.0), false});
+      fields.push_back(Field{"stick_slip", 1, std::vector<double>(n, 0.0), true});
+    }
+    for (Index k = 0; k < set->size(); ++k) {
+      const auto v = static_cast<std::size_t>(set->vertex(k));
+      const Point& nu = set->direction(k);
+      for (int a = 0; a < 3; ++a) fields[4].values[3 * v + a] = nu[a];
+      fields[1].values[v] = nu.head<d>().dot(u.template segment<d>(static_cast<Eigen::Index>(v) * d));
+      if (!std::isfinite(set->gap(k))) continue;
+      fields[0].values[v] = set->gap(k);
+      fields[2].values[v] = out.pressure[k];
+      fields[3].values[v] = stickSlip[k] != 0 ? 2 : 1;
+      if (!scene.contact->friction) continue;
+      for (int a = 0; a < d; ++a) fields[5].values[3 * v + a] = -out.tangential[k][a];
+      fields[6].values[v] = out.slip[k];
+      fields[7].values[v] = stickSlip[k];
+    }
+  }
   if (scene.contact->friction) {
     const FrictionLaw& law = scene.contact->friction->law;
     comm.sum(tangential);
@@ -346,8 +376,10 @@ void solveDistributed(const Scene& scene, const RunOptions& options, const Commu
     if (options.progress) options.progress(line);
   };
   const Index owned = leaf.halo.numOwned();
-  const Eigen::VectorXd u = scene.contact ? solveContact<d>(scene, comm, dg, leaf, bc, contactId, progress, r)
-                                          : solveLinear<d>(scene, comm, dg, leaf, bc, progress, r);
+  std::vector<Field> contactFields;
+  const Eigen::VectorXd u = scene.contact
+                                ? solveContact<d>(scene, comm, dg, leaf, bc, contactId, progress, r, contactFields)
+                                : solveLinear<d>(scene, comm, dg, leaf, bc, progress, r);
   // displacement and stresses of the owned vertices and cells
   ElasticitySolution e;
   e.dimension = d;
@@ -376,6 +408,7 @@ void solveDistributed(const Scene& scene, const RunOptions& options, const Commu
   const std::string base = std::filesystem::path(stem).stem().string();
   const std::string piece = base + "_" + std::to_string(comm.rank()) + ".vtu";
   std::vector<Field> pf = pointFields(leaf.local, e), cf = cellFields(leaf.local, e);
+  for (Field& f : contactFields) pf.push_back(std::move(f));
   comm.collective([&] {
     const OwnedPiece p = ownedPiece(leaf.local, ownedCells);
     std::vector<Field> points, cells;

@@ -18,6 +18,7 @@
 #include <vtkPointData.h>
 #include <vtkUnstructuredGrid.h>
 #include <vtkXMLPUnstructuredGridReader.h>
+#include <vtkXMLUnstructuredGridReader.h>
 
 #include "DriverTestSupport.hpp"
 
@@ -204,6 +205,23 @@ TEST_F(Cli, MpirunRunsStaticScenesDistributed) {
   EXPECT_NEAR(fr2["stick_width"].get<double>(), fr1["stick_width"].get<double>(), 1e-12);
   const double peerLoad = q1["contact"]["load_P"];
   EXPECT_NEAR(q2["contact"]["load_P"].get<double>(), peerLoad, 1e-9 * peerLoad);
+  // the contact point fields of the pieces: the serial .vtu's ranges
+  vtkNew<vtkXMLPUnstructuredGridReader> pieces;
+  pieces->SetFileName((kTmp / "out_peer2" / "friction_peer.pvtu").string().c_str());
+  pieces->Update();
+  vtkNew<vtkXMLUnstructuredGridReader> whole;
+  whole->SetFileName((kTmp / "out_peer1" / "friction_peer.vtu").string().c_str());
+  whole->Update();
+  for (const char* name : {"gap", "contact_pressure", "contact_state", "friction_force", "slip", "stick_slip"}) {
+    vtkDataArray* a = pieces->GetOutput()->GetPointData()->GetArray(name);
+    vtkDataArray* b = whole->GetOutput()->GetPointData()->GetArray(name);
+    ASSERT_NE(a, nullptr) << name;
+    ASSERT_NE(b, nullptr) << name;
+    for (int end : {0, 1}) {
+      const double x = a->GetRange(-1)[end], y = b->GetRange(-1)[end];
+      EXPECT_NEAR(x, y, 1e-8 * std::max(1.0, std::abs(y))) << name;
+    }
+  }
 
   // linear elasticity on 3 ranks (distributed multigrid): the compressed block's exact solution,
   // uniaxial compression that Q1 reproduces (max |u| = sqrt(0.01^2 + 2 * 0.003^2), von Mises = p = 10)
