@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <iomanip>
 #include <limits>
 #include <numbers>
 #include <optional>
@@ -35,7 +36,6 @@ std::string notDistributed(const Scene& scene) {
   if (scene.dynamics) return "[dynamics]";
   if (scene.adaptivity) return "[adaptivity]";
   if (scene.multiBody()) return "several [[body]] entries";
-  if (scene.loading) return "[loading]";
   if (scene.contact) {
     if (scene.solverType() != "tnnmg") return "[solver] type = \"" + scene.solverType() + "\"";
   } else if (!scene.solver.type.empty() && scene.solver.type != "multigrid") {
@@ -97,22 +97,46 @@ void writePvtu(const std::filesystem::path& path, const std::vector<std::string>
   if (!out) throw Error(path.string() + ": cannot write");
 }
 
+/// The boundary conditions at the load parameter t of [loading] (resolved on the coarse mesh).
+using BoundaryConditionsAt = std::function<BoundaryConditions(double)>;
+
+/// Per contact node: 0 not in contact, 1 stick, 2 slip, decided as computeContactOutputs does but
+/// with the global scales of the KKT residuals, so that every rank uses the same thresholds.
+template <int d>
+std::vector<char> contactStates(const ContactSet& set, const Eigen::VectorXd& u, const ContactOutputs& out,
+                                const KktResiduals& kkt) {
+  const double U = kkt.displacementScale, F = kkt.forceScale;
+  std::vector<char> state(static_cast<std::size_t>(set.size()), 0);
+  for (Index k = 0; k < set.size(); ++k) {
+    const double g = set.gap(k);
+    if (!std::isfinite(g)) continue;
+    const double un = set.direction(k).head<d>().dot(u.template segment<d>(static_cast<Eigen::Index>(set.vertex(k)) * d));
+    if (g - un <= 1e-8 * U && out.multiplier[k] > 1e-8 * F) state[k] = out.slip[k] <= 1e-8 * U ? 1 : 2;
+  }
+  return state;
+}
+
 /// The scene's obstacle problem solved by distributed TNNMG: the displacement on the rank's local
 /// mesh (ghost entries current), the assembly, solver and contact reports in r, and the contact
 /// point fields of the serial one-body output on the local vertices in `fields` (exact on the
 /// vertices of owned cells: every cell around such a vertex is held, so its row is complete).
 template <int d>
 Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const DistributedGrid& dg,
-                             const DistributedView& leaf, const BoundaryConditions& bc, int contactId,
+                             const DistributedView& leaf, const BoundaryConditionsAt& bcAt, int contactId,
                              const Progress& progress, RunResult& r, std::vector<Field>& fields) {
   const Index owned = leaf.halo.numOwned();
+  // [loading] steps = N: the boundary conditions at t = i/N, one problem per increment (as serially)
+  const int steps = scene.loading ? scene.loading->steps : 1;
+  const auto loadAt = [&](int step) { return scene.loading ? static_cast<double>(step) / steps : 0.0; };
   // the problem on the rank's local mesh (its owned rows complete)
   auto t = Clock::now();
   std::optional<ContactSet> set;
   std::optional<ContactProblem<d>> problem;
+  BoundaryConditions bc;
   comm.collective([&] {
     const std::unique_ptr<Obstacle> obstacle = makeObstacle(scene, d);
     set.emplace(leaf.local, contactId, *obstacle, true);
+    bc = bcAt(loadAt(1));
     problem.emplace(leaf.local, scene.material, bc, *set);
   });
   long long boundaryOwned = 0, freeOwned = 0;
@@ -133,33 +157,96 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
   o.tolerance = config.tolerance;
   o.maxIterations = config.iterationCap();
   t = Clock::now();
+  double laterAssembly = 0;  // of the increments after the first (not solve time)
   TNNMG<d> solver(dg, o);
   Eigen::VectorXd u = Eigen::VectorXd::Zero(problem->numDofs());
   ContactResult result;
-  if (scene.contact->friction) {  // Tresca: one solve; Coulomb: the fixed point over Tresca solves
+  NodalFriction friction;
+  if (scene.contact->friction) {
     const FrictionLaw& law = scene.contact->friction->law;
-    NodalFriction f;
-    f.bound.assign(static_cast<std::size_t>(set->size()), 0.0);
-    f.mu.assign(f.bound.size(), 0.0);
+    friction.bound.assign(static_cast<std::size_t>(set->size()), 0.0);
+    friction.mu.assign(friction.bound.size(), 0.0);
     for (Index k = 0; k < set->size(); ++k) {
-      if (law.type == FrictionLaw::Type::Tresca) f.bound[static_cast<std::size_t>(k)] = law.value * set->boundaryMass(k);
-      if (law.type == FrictionLaw::Type::Coulomb) f.mu[static_cast<std::size_t>(k)] = law.value;
+      if (law.type == FrictionLaw::Type::Tresca)
+        friction.bound[static_cast<std::size_t>(k)] = law.value * set->boundaryMass(k);
+      if (law.type == FrictionLaw::Type::Coulomb) friction.mu[static_cast<std::size_t>(k)] = law.value;
     }
-    CoulombOptions co;
-    co.tolerance = std::max(co.tolerance, 10 * config.tolerance);
-    const CoulombResult fr = solveFriction(*problem, solver, u, f, co, {}, &leaf.halo);
-    result = fr.last;
-    r.solver.friction = FrictionIterationReport{fr.iterations, fr.converged, fr.contracting, fr.changes, fr.innerIterations};
-    if (fr.iterations > 1) {
-      std::ostringstream line;
-      line << "friction: " << fr.iterations << " Tresca solves (" << fr.innerIterations
-           << " iterations), last relative change of the slip bounds " << std::setprecision(3) << fr.changes.back()
-           << (fr.converged ? "" : ", not converged") << (fr.contracting ? "" : " (the iteration did not contract)");
-      progress(line.str());
-    }
-  } else {
-    result = solver.solve(*problem, u);
   }
+  for (int step = 1; step <= steps; ++step) {
+    if (step > 1) {
+      const auto ta = Clock::now();
+      comm.collective([&] {
+        problem.reset();
+        bc = bcAt(loadAt(step));
+        problem.emplace(leaf.local, scene.material, bc, *set);
+      });
+      laterAssembly += secondsSince(ta);
+    }
+    long long stepIterations = 0;
+    if (scene.contact->friction) {  // Tresca: one solve; Coulomb: the fixed point over Tresca solves
+      CoulombOptions co;
+      co.tolerance = std::max(co.tolerance, 10 * config.tolerance);
+      // the slip of an increment is measured from the previous one (u: its solution, the warm start)
+      const Eigen::VectorXd origin = step > 1 ? u : Eigen::VectorXd();
+      const CoulombResult fr = solveFriction(*problem, solver, u, friction, co, origin, &leaf.halo);
+      result = fr.last;
+      stepIterations = fr.innerIterations;
+      FrictionIterationReport total = r.solver.friction.value_or(FrictionIterationReport{0, true, true, {}, 0});
+      total.iterations += fr.iterations;
+      total.converged = total.converged && fr.converged;
+      total.contracting = total.contracting && fr.contracting;
+      total.innerIterations += fr.innerIterations;
+      total.changes = fr.changes;  // of the last increment
+      r.solver.friction = total;
+      if (fr.iterations > 1) {
+        std::ostringstream line;
+        line << "friction: " << fr.iterations << " Tresca solves (" << fr.innerIterations
+             << " iterations), last relative change of the slip bounds " << std::setprecision(3) << fr.changes.back()
+             << (fr.converged ? "" : ", not converged") << (fr.contracting ? "" : " (the iteration did not contract)");
+        progress(line.str());
+      }
+    } else {
+      result = solver.solve(*problem, u);
+      stepIterations = result.iterations;
+    }
+    if (scene.loading) {  // the increment's contact figures, reduced over the owned nodes
+      const ContactOutputs o = computeContactOutputs(*problem, u);
+      const std::vector<char> state = contactStates<d>(*set, u, o, result.kkt);
+      IncrementReport inc;
+      inc.step = step;
+      inc.t = loadAt(step);
+      inc.iterations = stepIterations;
+      inc.converged = result.converged;
+      std::vector<double> sums(6, 0.0);
+      long long counts[3] = {0, 0, 0};
+      for (Index k = 0; k < set->size(); ++k) {
+        if (set->vertex(k) >= owned) continue;
+        for (int a = 0; a < 3; ++a) {
+          sums[static_cast<std::size_t>(a)] += o.multiplier[k] * set->direction(k)[a];
+          sums[static_cast<std::size_t>(3 + a)] += o.tangential[k][a];
+        }
+        counts[0] += state[k] != 0;
+        counts[1] += state[k] == 1;
+        counts[2] += state[k] == 2;
+      }
+      comm.sum(sums);
+      for (int a = 0; a < 3; ++a) {
+        inc.force[static_cast<std::size_t>(a)] = sums[static_cast<std::size_t>(a)];
+        inc.tangentialForce[static_cast<std::size_t>(a)] = sums[static_cast<std::size_t>(3 + a)];
+      }
+      inc.contactVertices = comm.sum(counts[0]);
+      inc.stickVertices = comm.sum(counts[1]);
+      inc.slipVertices = comm.sum(counts[2]);
+      std::ostringstream line;
+      line << "increment " << step << " of " << steps << " (t = " << inc.t << "): " << inc.contactVertices
+           << " contact vertices (" << inc.stickVertices << " stick, " << inc.slipVertices << " slip), "
+           << stepIterations << " iterations";
+      progress(line.str());
+      r.increments.push_back(inc);
+    }
+  }
+  r.assemblySeconds += comm.max(laterAssembly);
+  t += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(laterAssembly));
   r.solveSeconds = comm.max(secondsSince(t));
   r.solver.type = "tnnmg";
   r.solver.iterations = result.iterations;
@@ -178,8 +265,7 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
   // the contact report from the owned contact vertices, reduced; in contact as computeContactOutputs
   // decides it, with the global scales of the KKT residuals
   const ContactOutputs out = computeContactOutputs(*problem, u);
-  const double U = result.kkt.displacementScale, F = result.kkt.forceScale;
-  std::vector<char> inContact(static_cast<std::size_t>(set->size()), 0);
+  std::vector<char> stickSlip = contactStates<d>(*set, u, out, result.kkt);
   ContactReport c;
   c.obstacle = scene.contact->obstacle;
   c.boundary = scene.contact->boundary.name.empty() ? std::to_string(scene.contact->boundary.id)
@@ -193,13 +279,12 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
     if (!std::isfinite(g)) continue;
     const Point nu = set->direction(k);
     const double un = nu.head<d>().dot(u.template segment<d>(static_cast<Eigen::Index>(p) * d));
-    inContact[k] = g - un <= 1e-8 * U && out.multiplier[k] > 1e-8 * F ? 1 : 0;
     if (p >= owned) continue;
     ++potential;
     c.load += out.multiplier[k];
     c.maxViolation = std::max(c.maxViolation, un - g);
     for (int a = 0; a < 3; ++a) sums[a] += out.multiplier[k] * nu[a];
-    if (!inContact[k]) continue;
+    if (!stickSlip[k]) continue;
     ++actual;
     const double w = std::max(out.multiplier[k], 0.0);
     for (int a = 0; a < 3; ++a) {
@@ -220,19 +305,16 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
     if (normal.norm() > 0) normal.normalize();
     double radius = 0;
     for (Index k = 0; k < set->size(); ++k)
-      if (set->vertex(k) < owned && inContact[k]) {
+      if (set->vertex(k) < owned && stickSlip[k]) {
         const Point x = set->position(k) - centre;
         radius = std::max(radius, (x - x.dot(normal) * normal).norm());
       }
     c.radiusNodes = comm.max(radius);
   }
-  // stick (1) or slip (2) of the contact nodes, as computeContactOutputs decides it with the global
-  // displacement scale; the friction force of the owned nodes
-  std::vector<char> stickSlip(static_cast<std::size_t>(set->size()), 0);
+  // the stick and slip counts and the friction force of the owned nodes
   long long stick = 0, slip = 0;
   std::vector<double> tangential(3, 0.0);
   for (Index k = 0; k < set->size(); ++k) {
-    if (inContact[k]) stickSlip[k] = out.slip[k] <= 1e-8 * U ? 1 : 2;
     if (set->vertex(k) >= owned) continue;
     for (int a = 0; a < 3; ++a) tangential[static_cast<std::size_t>(a)] += out.tangential[k][a];
     stick += stickSlip[k] == 1;
@@ -370,7 +452,7 @@ Eigen::VectorXd solveLinear(const Scene& scene, const Communicator& comm, const 
 /// rank 0's .pvtu and .pvd.
 template <int d>
 void solveDistributed(const Scene& scene, const RunOptions& options, const Communicator& comm, const DistributedGrid& dg,
-                      const DistributedView& leaf, const BoundaryConditions& bc, int contactId,
+                      const DistributedView& leaf, const BoundaryConditionsAt& bcAt, int contactId,
                       const std::filesystem::path& dir, RunResult& r) {
   const Progress progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
@@ -378,8 +460,8 @@ void solveDistributed(const Scene& scene, const RunOptions& options, const Commu
   const Index owned = leaf.halo.numOwned();
   std::vector<Field> contactFields;
   const Eigen::VectorXd u = scene.contact
-                                ? solveContact<d>(scene, comm, dg, leaf, bc, contactId, progress, r, contactFields)
-                                : solveLinear<d>(scene, comm, dg, leaf, bc, progress, r);
+                                ? solveContact<d>(scene, comm, dg, leaf, bcAt, contactId, progress, r, contactFields)
+                                : solveLinear<d>(scene, comm, dg, leaf, bcAt(0), progress, r);
   // displacement and stresses of the owned vertices and cells
   ElasticitySolution e;
   e.dimension = d;
@@ -452,15 +534,16 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
   // the boundary conditions and the contact boundary are resolved on the coarse mesh (the same on
   // every rank; a rank's local mesh may have no face of a boundary)
   std::optional<mesh::Grid> coarse;
-  BoundaryConditions bc;
+  std::optional<mesh::Mesh> coarseMesh;
   int contactId = -1;
   comm.collective([&] {  // e.g. a mesh file one rank cannot read: every rank stops
     coarse.emplace(buildGrid(scene, 0));
-    const mesh::Mesh coarseMesh = coarse->leafView().mesh;
-    validateScene(scene, coarseMesh);
-    bc = makeBoundaryConditions(scene, coarseMesh, 0);
-    if (scene.contact) contactId = contactBoundaryId(scene, coarseMesh);
+    coarseMesh.emplace(coarse->leafView().mesh);
+    validateScene(scene, *coarseMesh);
+    makeBoundaryConditions(scene, *coarseMesh, 0);  // its errors here, before the grid is refined
+    if (scene.contact) contactId = contactBoundaryId(scene, *coarseMesh);
   });
+  const BoundaryConditionsAt bcAt = [&](double t) { return makeBoundaryConditions(scene, *coarseMesh, t); };
   const int refine = options.refine.value_or(scene.mesh.refine);
   if (refine < 1)
     throw Error(scene.fileName + ": a distributed run needs refine >= 1 (the coarse mesh is solved on every rank; --refine 1 or [mesh] refine)");
@@ -488,8 +571,8 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
     std::filesystem::create_directories(dir, ec);
     if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
   });
-  if (r.dimension == 2) solveDistributed<2>(scene, options, comm, dg, leaf, bc, contactId, dir, r);
-  else solveDistributed<3>(scene, options, comm, dg, leaf, bc, contactId, dir, r);
+  if (r.dimension == 2) solveDistributed<2>(scene, options, comm, dg, leaf, bcAt, contactId, dir, r);
+  else solveDistributed<3>(scene, options, comm, dg, leaf, bcAt, contactId, dir, r);
 
   // summary.json from rank 0: the figures above are reduced over the ranks; the memory per rank
   const double memory = peakMemoryMB();
@@ -499,16 +582,12 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
   extra["peak_memory_mb_all_ranks"] = comm.sum(memory);
   extra["partition_level"] = dg.partition().level;
   comm.collective([&] {
-    if (comm.rank() == 0) finishRun(scene, options, dir, r, Clock::now(), start, extra);
+    if (comm.rank() != 0) return;
+    const auto outputs = Clock::now();
+    writeIncrementsCsv(dir, r);
+    finishRun(scene, options, dir, r, outputs, start, extra);
   });
-  if (!r.solver.converged) {
-    std::ostringstream os;
-    os << scene.where(scene.solver.line) << "[solver] " << r.solver.type << " did not converge in " << r.solver.iterations
-       << " iterations (correction " << std::setprecision(3) << r.solver.correction << ", tolerance "
-       << r.solver.tolerance << "); raise [solver] max_iterations or tolerance (outputs written to " << dir.string()
-       << ")";
-    throw Error(os.str());
-  }
+  throwIfNotConverged(scene, r, dir);  // (every rank: the same figures)
   return r;
 }
 

@@ -204,42 +204,9 @@ RunResult runScene(const Scene& scene, const RunOptions& options) {
   std::filesystem::create_directories(dir, ec);
   if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
   if (scene.output.vtk) writeStaticVtk(scene, dir, meshes, solved, r);
-  if (!r.increments.empty()) {  // [loading]: one row per increment
-    const std::filesystem::path csv = dir / "increments.csv";
-    std::ofstream f(csv);
-    f << std::setprecision(12)
-      << "step,t,iterations,converged,force_x,force_y,force_z,tangential_x,tangential_y,tangential_z,contact_vertices,"
-         "stick_vertices,slip_vertices\n";
-    for (const IncrementReport& i : r.increments) {
-      f << i.step << ',' << i.t << ',' << i.iterations << ',' << (i.converged ? 1 : 0);
-      for (double v : i.force) f << ',' << v;
-      for (double v : i.tangentialForce) f << ',' << v;
-      f << ',' << i.contactVertices << ',' << i.stickVertices << ',' << i.slipVertices << '\n';
-    }
-    if (!f) throw Error(csv.string() + ": cannot write");
-    r.outputFiles.push_back(csv);
-  }
+  writeIncrementsCsv(dir, r);
   finishRun(scene, options, dir, r, t, start);
-  if (r.solver.friction && !r.solver.friction->converged) {  // the Coulomb fixed point, not the solver
-    const FrictionIterationReport& f = *r.solver.friction;
-    std::ostringstream os;
-    os << scene.fileName << ": the Coulomb fixed point (friction) did not converge in " << f.iterations
-       << " Tresca solves (last relative change of the slip bounds " << std::setprecision(3)
-       << (f.changes.empty() ? 0.0 : f.changes.back()) << ", "
-       << (f.contracting ? "the changes decreased" : "the changes stopped decreasing: mu may be too large for the "
-                                                     "iteration to contract")
-       << "; docs/theory.md#friction-coulomb; outputs written to " << dir.string() << ")";
-    throw Error(os.str());
-  }
-  if (!r.solver.converged) {
-    std::ostringstream os;
-    os << scene.where(scene.solver.line) << "[solver] " << r.solver.type << " did not converge in "
-       << r.solver.iterations << " iterations (correction " << std::setprecision(3)
-       << r.solver.correction << ", tolerance " << r.solver.tolerance;
-    if (r.solver.kkt) os << ", KKT residual " << r.solver.kkt->max();
-    os << "); raise [solver] max_iterations or tolerance (outputs written to " << dir.string() << ")";
-    throw Error(os.str());
-  }
+  throwIfNotConverged(scene, r, dir);
   return r;
 }
 

@@ -5,6 +5,8 @@
 #include <sys/resource.h>
 
 #include <fstream>
+#include <iomanip>
+#include <sstream>
 
 #include "obs/drivers/CsvWriter.hpp"
 #include "obs/drivers/SceneSetup.hpp"
@@ -114,6 +116,48 @@ std::string OutputLayout::dynamicVtu(int n, std::size_t b) const {
   char step[32];
   std::snprintf(step, sizeof step, "%06d", n);
   return scene_ + "_" + (perBody_ ? bodies_[b] + "_" : std::string()) + step + ".vtu";
+}
+
+void writeIncrementsCsv(const std::filesystem::path& dir, RunResult& r) {
+  if (r.increments.empty()) return;
+  {  // [loading]: one row per increment
+    const std::filesystem::path csv = dir / "increments.csv";
+    std::ofstream f(csv);
+    f << std::setprecision(12)
+      << "step,t,iterations,converged,force_x,force_y,force_z,tangential_x,tangential_y,tangential_z,contact_vertices,"
+         "stick_vertices,slip_vertices\n";
+    for (const IncrementReport& i : r.increments) {
+      f << i.step << ',' << i.t << ',' << i.iterations << ',' << (i.converged ? 1 : 0);
+      for (double v : i.force) f << ',' << v;
+      for (double v : i.tangentialForce) f << ',' << v;
+      f << ',' << i.contactVertices << ',' << i.stickVertices << ',' << i.slipVertices << '\n';
+    }
+    if (!f) throw Error(csv.string() + ": cannot write");
+    r.outputFiles.push_back(csv);
+  }
+}
+
+void throwIfNotConverged(const Scene& scene, const RunResult& r, const std::filesystem::path& dir) {
+  if (r.solver.friction && !r.solver.friction->converged) {  // the Coulomb fixed point, not the solver
+    const FrictionIterationReport& f = *r.solver.friction;
+    std::ostringstream os;
+    os << scene.fileName << ": the Coulomb fixed point (friction) did not converge in " << f.iterations
+       << " Tresca solves (last relative change of the slip bounds " << std::setprecision(3)
+       << (f.changes.empty() ? 0.0 : f.changes.back()) << ", "
+       << (f.contracting ? "the changes decreased" : "the changes stopped decreasing: mu may be too large for the "
+                                                     "iteration to contract")
+       << "; docs/theory.md#friction-coulomb; outputs written to " << dir.string() << ")";
+    throw Error(os.str());
+  }
+  if (!r.solver.converged) {
+    std::ostringstream os;
+    os << scene.where(scene.solver.line) << "[solver] " << r.solver.type << " did not converge in "
+       << r.solver.iterations << " iterations (correction " << std::setprecision(3)
+       << r.solver.correction << ", tolerance " << r.solver.tolerance;
+    if (r.solver.kkt) os << ", KKT residual " << r.solver.kkt->max();
+    os << "); raise [solver] max_iterations or tolerance (outputs written to " << dir.string() << ")";
+    throw Error(os.str());
+  }
 }
 
 }  // namespace obs::drivers

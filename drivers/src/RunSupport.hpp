@@ -41,6 +41,15 @@ void recordRunRow(const Scene& scene, const std::filesystem::path& dir, RunResul
 void finishRun(const Scene& scene, const RunOptions& options, const std::filesystem::path& dir, RunResult& r,
                Clock::time_point outputStart, Clock::time_point start, const nlohmann::json& extra = nullptr);
 
+/// [loading] runs: increments.csv in dir, one row per r.increments entry (the path joins
+/// r.outputFiles). Nothing without increments.
+void writeIncrementsCsv(const std::filesystem::path& dir, RunResult& r);
+
+/// The end of a static run whose solve did not converge: the Coulomb fixed point (r.solver.friction)
+/// or the solver, as one obs::Error naming what to change and where the outputs are. Returns if
+/// both converged.
+void throwIfNotConverged(const Scene& scene, const RunResult& r, const std::filesystem::path& dir);
+
 /// The bodies of a scene (Scene::bodyScenes: one for a one-body file), built and checked
 /// (buildGrid, validateScene, makeBoundaryConditions per body; one dimension for all): their grids,
 /// leaf meshes and boundary conditions in that order. Errors of a multi-body file name the body.
