@@ -97,6 +97,17 @@ void writePvtu(const std::filesystem::path& path, const std::vector<std::string>
   if (!out) throw Error(path.string() + ": cannot write");
 }
 
+/// The sizes and assembly time of a distributed problem in r (freeOwned: this rank's free owned
+/// unknowns; t: when the assembly began) and the "assembled" progress line. Collective.
+void reportAssembly(const Communicator& comm, const DistributedView& leaf, int d, long long freeOwned,
+                    Clock::time_point t, const Progress& progress, RunResult& r) {
+  r.assemblySeconds = comm.max(secondsSince(t));
+  r.dofs = static_cast<long long>(d) * leaf.globalVertices();
+  r.freeDofs = comm.sum(freeOwned);
+  progress("assembled: " + std::to_string(r.dofs) + " dofs (" + std::to_string(r.freeDofs) + " free) on " +
+           std::to_string(comm.size()) + " ranks");
+}
+
 /// The boundary conditions at the load parameter t of [loading] (resolved on the coarse mesh).
 using BoundaryConditionsAt = std::function<BoundaryConditions(double)>;
 
@@ -145,11 +156,7 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
   boundaryOwned = comm.sum(boundaryOwned);
   if (boundaryOwned == 0)
     throw Error(scene.where(scene.contact->line) + "[contact]: the contact boundary has no faces");
-  r.assemblySeconds = comm.max(secondsSince(t));
-  r.dofs = static_cast<long long>(d) * leaf.globalVertices();
-  r.freeDofs = comm.sum(freeOwned);
-  progress("assembled: " + std::to_string(r.dofs) + " dofs (" + std::to_string(r.freeDofs) + " free) on " +
-           std::to_string(comm.size()) + " ranks");
+  reportAssembly(comm, leaf, d, freeOwned, t, progress, r);
 
   // distributed TNNMG
   const SolverConfig config = solverConfig(scene);
@@ -191,20 +198,7 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
       const CoulombResult fr = solveFriction(*problem, solver, u, friction, co, origin, &leaf.halo);
       result = fr.last;
       stepIterations = fr.innerIterations;
-      FrictionIterationReport total = r.solver.friction.value_or(FrictionIterationReport{0, true, true, {}, 0});
-      total.iterations += fr.iterations;
-      total.converged = total.converged && fr.converged;
-      total.contracting = total.contracting && fr.contracting;
-      total.innerIterations += fr.innerIterations;
-      total.changes = fr.changes;  // of the last increment
-      r.solver.friction = total;
-      if (fr.iterations > 1) {
-        std::ostringstream line;
-        line << "friction: " << fr.iterations << " Tresca solves (" << fr.innerIterations
-             << " iterations), last relative change of the slip bounds " << std::setprecision(3) << fr.changes.back()
-             << (fr.converged ? "" : ", not converged") << (fr.contracting ? "" : " (the iteration did not contract)");
-        progress(line.str());
-      }
+      if (const std::string line = addFrictionSolve(r.solver.friction, fr); !line.empty()) progress(line);
     } else {
       result = solver.solve(*problem, u);
       stepIterations = result.iterations;
@@ -413,11 +407,7 @@ Eigen::VectorXd solveLinear(const Scene& scene, const Communicator& comm, const 
   });
   long long freeOwned = 0;
   for (Index i = 0; i < owned * d; ++i) freeOwned += g.constrained[static_cast<std::size_t>(i)] ? 0 : 1;
-  r.assemblySeconds = comm.max(secondsSince(t));
-  r.dofs = static_cast<long long>(d) * leaf.globalVertices();
-  r.freeDofs = comm.sum(freeOwned);
-  progress("assembled: " + std::to_string(r.dofs) + " dofs (" + std::to_string(r.freeDofs) + " free) on " +
-           std::to_string(comm.size()) + " ranks");
+  reportAssembly(comm, leaf, d, freeOwned, t, progress, r);
 
   const SolverConfig config = solverConfig(scene);
   LinearMultigridOptions o = config.multigrid;

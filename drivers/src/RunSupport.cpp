@@ -118,6 +118,22 @@ std::string OutputLayout::dynamicVtu(int n, std::size_t b) const {
   return scene_ + "_" + (perBody_ ? bodies_[b] + "_" : std::string()) + step + ".vtu";
 }
 
+std::string addFrictionSolve(std::optional<FrictionIterationReport>& total, const CoulombResult& solve) {
+  FrictionIterationReport t = total.value_or(FrictionIterationReport{0, true, true, {}, 0});
+  t.iterations += solve.iterations;
+  t.converged = t.converged && solve.converged;
+  t.contracting = t.contracting && solve.contracting;
+  t.innerIterations += solve.innerIterations;
+  t.changes = solve.changes;  // of the last increment
+  total = t;
+  if (solve.iterations <= 1) return "";
+  std::ostringstream line;
+  line << "friction: " << solve.iterations << " Tresca solves (" << solve.innerIterations
+       << " iterations), last relative change of the slip bounds " << std::setprecision(3) << solve.changes.back()
+       << (solve.converged ? "" : ", not converged") << (solve.contracting ? "" : " (the iteration did not contract)");
+  return line.str();
+}
+
 void writeIncrementsCsv(const std::filesystem::path& dir, RunResult& r) {
   if (r.increments.empty()) return;
   {  // [loading]: one row per increment

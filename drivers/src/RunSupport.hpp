@@ -17,6 +17,8 @@
 
 #include <nlohmann/json.hpp>
 
+#include "obs/obs/Friction.hpp"
+
 namespace obs::drivers {
 
 using Clock = std::chrono::steady_clock;
@@ -40,6 +42,12 @@ void recordRunRow(const Scene& scene, const std::filesystem::path& dir, RunResul
 /// outputStart: when the run began writing outputs; start: when the run began.
 void finishRun(const Scene& scene, const RunOptions& options, const std::filesystem::path& dir, RunResult& r,
                Clock::time_point outputStart, Clock::time_point start, const nlohmann::json& extra = nullptr);
+
+/// One friction solve (solveFriction: Tresca, or the Coulomb fixed point) of a static run added to
+/// the run's report: Tresca solves and iterations summed over the load increments, converged and
+/// contracting if every increment's was, the changes of the last. Returns the progress line of a
+/// fixed point ("" after a single Tresca solve).
+std::string addFrictionSolve(std::optional<FrictionIterationReport>& total, const CoulombResult& solve);
 
 /// [loading] runs: increments.csv in dir, one row per r.increments entry (the path joins
 /// r.outputFiles). Nothing without increments.

@@ -319,7 +319,6 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
   double tolerance = 0;
   ContactResult result;
   Eigen::VectorXd x;
-  FrictionIterationReport frictionTotal;
   try {
     const auto solver = sceneContactSolver<d>(scene, grids, progress, tolerance);
     for (int step = 1; step <= steps; ++step) {
@@ -335,19 +334,8 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
             solveFriction(*problem, *solver, x, nodalFriction(model, problem->contactSet()), options, origin);
         result = fr.last;
         stepIterations = fr.innerIterations;
-        frictionTotal.iterations += fr.iterations;
-        frictionTotal.converged = (step == 1 || frictionTotal.converged) && fr.converged;
-        frictionTotal.contracting = frictionTotal.contracting && fr.contracting;
-        frictionTotal.innerIterations += fr.innerIterations;
-        frictionTotal.changes = fr.changes;  // of the last increment
-        s.solver.friction = frictionTotal;
-        if (progress && fr.iterations > 1) {
-          std::ostringstream line;
-          line << "friction: " << fr.iterations << " Tresca solves (" << fr.innerIterations
-               << " iterations), last relative change of the slip bounds " << std::setprecision(3) << fr.changes.back()
-               << (fr.converged ? "" : ", not converged") << (fr.contracting ? "" : " (the iteration did not contract)");
-          progress(line.str());
-        }
+        const std::string line = addFrictionSolve(s.solver.friction, fr);
+        if (progress && !line.empty()) progress(line);
       } else {
         result = solver->solve(*problem, x);
         stepIterations = result.iterations;
