@@ -126,6 +126,12 @@ int checkCommand(const std::vector<std::string>& scenes, std::optional<int> refi
 /// `obs sweep`: every combination of the varied keys in its own `obs run` process; sweep.csv.
 int sweepCommand(obs::drivers::SweepOptions options, const std::vector<std::string>& vary, bool quiet) {
   for (const std::string& v : vary) options.vary.push_back(obs::drivers::parseSweepVariable(v));
+  if (options.mpiRanks > 0) {
+    if (!obs::Communicator::built())
+      throw obs::Error("sweep --mpi: this obs is built without MPI (configure with -DOBS_WITH_MPI=ON and an MPI "
+                       "installation, scripts/install-deps)");
+    if (const char* launcher = std::getenv("OBS_MPIEXEC"); launcher && *launcher) options.mpiLauncher = launcher;
+  }
   options.obsBinary = std::filesystem::read_symlink("/proc/self/exe");
   if (!quiet) options.progress = [](const std::string& line) { std::cerr << line << std::endl; };
   const obs::drivers::SweepSummary s = obs::drivers::runSweep(options);
@@ -288,6 +294,11 @@ int main(int argc, char** argv) {
   sweep->add_option("--output,-o", sweepOutput, "Sweep directory (run_NNN/ per run, sweep.csv)")
       ->required()
       ->type_name("DIR");
+  sweep->add_option("--mpi", sweepOptions.mpiRanks,
+                    "Launch every run on N MPI ranks (mpiexec -n N obs run ...; the launcher from OBS_MPIEXEC, "
+                    "default mpiexec on PATH)")
+      ->check(CLI::Range(1, 1 << 20))
+      ->type_name("N");
   sweep->add_flag("--plots", sweepOptions.plots,
                   "Accuracy against wall time and against peak memory as PNG (scripts/plot_sweep.py)");
   sweep->add_flag("--quiet,-q", sweepQuiet, "Print nothing but errors");
@@ -296,7 +307,8 @@ int main(int argc, char** argv) {
       "(the sweep goes on; the exit code is 1 if any failed); running the same sweep again reuses the\n"
       "finished runs (resume after an interrupt). sweep.csv: varied values, status, unknowns,\n"
       "iterations, load P, max |u|, eta, analytic error, load and displacement error against the run\n"
-      "with the most unknowns, wall time, solver time, peak memory. See docs/tradeoffs.md.\n");
+      "with the most unknowns, wall time, solver time, peak memory, ranks (--mpi N: every run on N MPI\n"
+      "ranks). See docs/tradeoffs.md.\n");
 
   std::vector<std::string> plugins;
   obs::drivers::MeshCommandOptions meshOptions;

@@ -20,7 +20,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 
 FIXED = ["run", "repeat", "status", "error", "unknowns", "vertices", "iterations", "load_P", "max_displacement", "eta",
          "analytic_error", "load_error", "displacement_error", "energy_ratio", "energy_error", "force_variation",
-         "max_penetration", "wall_s", "solver_s", "peak_mb", "reference"]
+         "max_penetration", "wall_s", "solver_s", "peak_mb", "reference", "ranks"]
 
 
 def number(s):

@@ -7,6 +7,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -114,8 +115,12 @@ json readJson(const fs::path& p) {
 void execute(const SweepOptions& o, Run& run) {
   fs::remove_all(run.directory);
   fs::create_directories(run.directory);
-  std::vector<std::string> args = {o.obsBinary.string(), "run", o.scene.string(), "--output",
-                                   run.directory.string(), "--quiet"};
+  std::vector<std::string> args;
+  if (o.mpiRanks > 0) args = {o.mpiLauncher, "-n", std::to_string(o.mpiRanks)};
+  for (const std::string& a :
+       {o.obsBinary.string(), std::string("run"), o.scene.string(), std::string("--output"), run.directory.string(),
+        std::string("--quiet")})
+    args.push_back(a);
   for (const std::string& s : run.overrides) {
     args.push_back("--set");
     args.push_back(s);
@@ -132,9 +137,11 @@ void execute(const SweepOptions& o, Run& run) {
   posix_spawn_file_actions_addopen(&actions, 0, "/dev/null", O_RDONLY, 0);
   const auto start = std::chrono::steady_clock::now();
   pid_t pid = 0;
-  const int spawned = posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
+  // the launcher is looked up on PATH (posix_spawnp), obs itself is a path
+  const int spawned = o.mpiRanks > 0 ? posix_spawnp(&pid, argv[0], &actions, nullptr, argv.data(), environ)
+                                     : posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
-  if (spawned != 0) throw Error("sweep: cannot start " + o.obsBinary.string() + ": " + std::strerror(spawned));
+  if (spawned != 0) throw Error("sweep: cannot start " + std::string(argv[0]) + ": " + std::strerror(spawned));
   int status = 0;
   struct rusage usage {};
   while (wait4(pid, &status, 0, &usage) < 0) {
@@ -147,9 +154,12 @@ void execute(const SweepOptions& o, Run& run) {
     run.error = WIFSIGNALED(status) ? "killed by signal " + std::to_string(WTERMSIG(status)) : errorOf(err);
   if (!run.ok && run.error.empty()) run.error = "exit code " + std::to_string(WEXITSTATUS(status));
   run.summary = readJson(run.directory / "summary.json");
+  // a distributed run: the largest rank's peak (the launcher's own is not the ranks')
+  if (const auto largest = number(run.summary, {"peak_memory_mb_largest_rank"})) run.peakMb = *largest;
 
   const json record = {{"scene", fs::absolute(o.scene).lexically_normal().string()},
                        {"overrides", run.overrides},
+                       {"ranks", std::max(o.mpiRanks, 1)},
                        {"status", run.ok ? "ok" : "failed"},
                        {"error", run.error},
                        {"wall_s", run.wallSeconds},
@@ -165,6 +175,7 @@ bool reuse(const SweepOptions& o, Run& run) {
   if (!record.is_object()) return false;
   if (record.value("scene", "") != fs::absolute(o.scene).lexically_normal().string()) return false;
   if (record.value("overrides", std::vector<std::string>{}) != run.overrides) return false;
+  if (record.value("ranks", 1) != std::max(o.mpiRanks, 1)) return false;
   run.ok = record.value("status", "") == "ok";
   run.error = record.value("error", "");
   run.wallSeconds = record.value("wall_s", 0.0);
@@ -351,7 +362,7 @@ SweepSummary runSweep(const SweepOptions& o) {
   for (const SweepVariable& v : o.vary) csv << "," << csvField(v.key);
   csv << ",status,error,unknowns,vertices,iterations,load_P,max_displacement,eta,analytic_error,load_error,"
          "displacement_error,energy_ratio,energy_error,force_variation,max_penetration,wall_s,solver_s,peak_mb,"
-         "reference\n";
+         "reference,ranks\n";
   for (const Run& run : runs) {
     const json& s = run.summary;
     const json* step = lastStep(s);
@@ -376,7 +387,7 @@ SweepSummary runSweep(const SweepOptions& o) {
         << formatNumber(number(s, {"dynamics", "contact_force_variation"})) << ","
         << formatNumber(number(s, {"dynamics", "max_penetration"})) << ","
         << formatNumber(run.wallSeconds) << "," << formatNumber(number(s, {"times", "solve_s"})) << ","
-        << formatNumber(run.peakMb) << "," << (isReference ? "1" : "0") << "\n";
+        << formatNumber(run.peakMb) << "," << (isReference ? "1" : "0") << "," << std::max(o.mpiRanks, 1) << "\n";
   }
   csv.close();
   if (!csv) throw Error("sweep: cannot write " + summary.csv.string());

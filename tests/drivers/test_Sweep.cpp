@@ -4,12 +4,15 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "obs/drivers/SweepCommand.hpp"
 #include "obs/mesh/Error.hpp"
@@ -109,6 +112,52 @@ TEST(Sweep, ParsesVaryArguments) {
     }
   }
 }
+
+#ifdef OBS_MPIEXEC
+// --mpi 2: every run through the MPI launcher on two ranks (the distributed runner); the loads are
+// the runs' in one process, the ranks column and each summary say 2, peak_mb is the largest
+// rank's, and a sweep in one process does not reuse the distributed runs.
+TEST(Sweep, RunsEveryCombinationOnMpiRanks) {
+  if (!fs::exists(OBS_BINARY)) GTEST_SKIP() << "obs not built: " << OBS_BINARY;
+  // Open MPI under CI runs as root; the tests on 2 cores oversubscribe nothing at 2 ranks
+  setenv("OMPI_ALLOW_RUN_AS_ROOT", "1", 1);
+  setenv("OMPI_ALLOW_RUN_AS_ROOT_CONFIRM", "1", 1);
+  setenv("OMP_WAIT_POLICY", "PASSIVE", 1);
+  const fs::path out = kTmp / "mpi";
+  fs::remove_all(out);
+  SweepOptions o = options(out);
+  o.vary = {parseSweepVariable("mesh.refine=1,2")};
+  o.mpiRanks = 2;
+  o.mpiLauncher = OBS_MPIEXEC;
+  const SweepSummary s = runSweep(o);
+  EXPECT_EQ(s.failed, 0);
+  const auto rows = readCsv(out / "sweep.csv");
+  ASSERT_EQ(rows.size(), 2u);
+  SweepOptions serial = options(kTmp / "mpi_serial");
+  fs::remove_all(serial.output);
+  serial.vary = o.vary;
+  runSweep(serial);
+  const auto one = readCsv(serial.output / "sweep.csv");
+  ASSERT_EQ(one.size(), 2u);
+  for (std::size_t i = 0; i < rows.size(); ++i) {
+    EXPECT_EQ(rows[i].at("status"), "ok") << rows[i].at("error");
+    EXPECT_EQ(rows[i].at("ranks"), "2");
+    EXPECT_EQ(one[i].at("ranks"), "1");
+    EXPECT_EQ(rows[i].at("unknowns"), one[i].at("unknowns"));
+    const double p = std::stod(one[i].at("load_P"));
+    EXPECT_NEAR(std::stod(rows[i].at("load_P")), p, 1e-9 * p);
+    std::ifstream in(out / ("run_00" + std::to_string(i)) / "summary.json");
+    const nlohmann::json summary = nlohmann::json::parse(in);
+    EXPECT_EQ(summary.value("ranks", 0), 2);
+    EXPECT_DOUBLE_EQ(std::stod(rows[i].at("peak_mb")), summary.value("peak_memory_mb_largest_rank", 0.0));
+  }
+  // the same sweep in one process reruns everything (the finished runs had 2 ranks)
+  o.mpiRanks = 0;
+  const SweepSummary again = runSweep(o);
+  EXPECT_EQ(again.reused, 0);
+  EXPECT_EQ(readCsv(out / "sweep.csv").front().at("ranks"), "1");
+}
+#endif
 
 TEST(Sweep, RunsEveryCombinationAndMeasuresAccuracyAgainstTheFinestRun) {
   if (!fs::exists(OBS_BINARY)) GTEST_SKIP() << "obs not built: " << OBS_BINARY;

@@ -14,7 +14,7 @@
 ///   error), load_error, displacement_error, energy_ratio, energy_error, force_variation,
 ///   max_penetration (dynamic runs: E_end/E_0, |E_end/E_0 - 1| against the energy the continuous
 ///   problem conserves, the total variation of the contact force, the largest penetration),
-///   wall_s, solver_s, peak_mb, reference
+///   wall_s, solver_s, peak_mb, reference, ranks
 /// The accuracy measures load_error = |P - P_ref| / |P_ref| and displacement_error (the same for
 /// max |u|) are taken against the reference run: with --reference-set KEY=VALUE (repeatable) an extra
 /// run "ref" of the scene with the sweep's --set and these overrides (e.g. a finer grid; it is the
@@ -22,6 +22,11 @@
 /// tolerance, then the first). Their columns are empty for the reference itself (reference = 1) and
 /// for dynamic runs (whose load and max |u| are those of the last step; energy_error measures them). peak_mb is the child's peak resident
 /// memory (getrusage), wall_s its wall-clock time including start-up and output.
+///
+/// With mpiRanks > 0 (`obs sweep --mpi N`) every run, the reference included, is launched through the
+/// MPI launcher on N ranks; peak_mb is then the largest rank's peak (summary.json
+/// peak_memory_mb_largest_rank), and ranks is N (1 for runs in one process). A finished run is reused
+/// only with the same rank count.
 ///
 /// Failures do not stop the sweep: a run that fails is a row with status "failed" and the first
 /// line of its error. An interrupted sweep resumes: a run whose directory holds a sweep_run.json for
@@ -54,6 +59,10 @@ struct SweepOptions {
   std::filesystem::path output;        ///< the sweep directory
   bool plots = false;
   std::filesystem::path obsBinary;     ///< the program to run (the running obs itself)
+  /// > 0: every run is `LAUNCHER -n mpiRanks obs run ...` (a distributed run,
+  /// docs/architecture.md#distributed-runner); 0: `obs run ...` in one process.
+  int mpiRanks = 0;
+  std::string mpiLauncher = "mpiexec";  ///< found on PATH unless a path
   std::function<void(const std::string&)> progress;  ///< one line per run
 };
 
