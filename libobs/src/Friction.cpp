@@ -53,7 +53,7 @@ void ghostsFromOwners(const ContactProblem<d>& problem, const HaloExchange& halo
 /// bound_k + mu_k (lambda_k)^+, the Coulomb part (if `coulomb`: some node on some rank has mu > 0)
 /// only at the nodes whose gap is closed (relative to the displacement scale). Distributed (halo
 /// given): the nodes of owned vertices from their complete rows, with the displacement scale over
-/// all ranks; the ghosts' from their owners.
+/// all ranks; the ghosts' are left for ghostsFromOwners.
 template <int d>
 std::vector<double> slipBounds(const ContactProblem<d>& problem, const Eigen::VectorXd& u, const NodalFriction& f,
                                bool coulomb, const HaloExchange* halo) {
@@ -72,7 +72,6 @@ std::vector<double> slipBounds(const ContactProblem<d>& problem, const Eigen::Ve
     const double slack = c.gap - c.direction.dot(u.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d));
     if (slack <= 1e-10 * U) s[k] += f.mu[k] * std::max(0.0, lambda[static_cast<Eigen::Index>(k)]);
   }
-  if (halo) ghostsFromOwners(problem, *halo, s);
   return s;
 }
 
@@ -117,7 +116,7 @@ CoulombResult solveFriction(ContactProblem<d>& problem, ContactSolver<d>& solver
   std::vector<double> s = empty                    ? std::vector<double>{}
                           : (fixedPoint && initial) ? options.initialBounds
                                                     : slipBounds(problem, u, friction, fixedPoint, halo);
-  if (halo && !empty) ghostsFromOwners(problem, *halo, s);  // e.g. Tresca bounds from incomplete ghost masses
+  if (halo && !empty) ghostsFromOwners(problem, *halo, s);  // (Tresca bounds: from incomplete ghost masses)
   for (int i = 0; i < options.maxIterations; ++i) {
     problem.setFriction(s, origin);
     result.last = solver.solve(problem, u);
@@ -147,6 +146,7 @@ CoulombResult solveFriction(ContactProblem<d>& problem, ContactSolver<d>& solver
       result.converged = result.last.converged;
       break;
     }
+    if (halo) ghostsFromOwners(problem, *halo, next);
     s = std::move(next);
   }
   result.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
