@@ -14,8 +14,9 @@
 /// shares a vertex with an owned cell of level l is then a red child of a cell refined in round l
 /// (its parent shares a point, hence a corner, with the owned cell's parent), so a rank's owned
 /// cells and their one-layer ghosts on the leaf view and on every level view >= L_p are exactly the
-/// cells the serial partition (partView) gives this part, and the fine region a rank holds is its
-/// own plus about two fine layers.
+/// cells the serial partition (partView) gives this part. The marked region is the own one plus two
+/// fine layers; the closure's rules (1-irregularity, more than half of the edges refined) refine
+/// some cells beyond it red as well, then grade the refinement down.
 ///
 /// Vertices across ranks. A vertex has a *key*, the same on every rank that holds it: the grid
 /// vertex index for vertices of the replicated levels (created in the same order everywhere), and
@@ -61,8 +62,8 @@ public:
   DistributedGrid(mesh::Grid coarse, int refinements, const Communicator& comm,
                   const ForestPartitionOptions& options = {});
 
-  /// This rank's grid: the replicated levels, its own subtrees with two fine layers around them, and
-  /// the graded closure beyond.
+  /// This rank's grid: the replicated levels, its own subtrees with two fine layers around them, what
+  /// the closure refines beyond, and the graded closure.
   const mesh::Grid& grid() const { return grid_; }
   const ForestPartition& partition() const { return partition_; }
   const Communicator& communicator() const { return comm_; }
