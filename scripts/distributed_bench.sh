@@ -18,26 +18,4 @@ for k in "${levels[@]}"; do
     mpirun --oversubscribe -np "$np" "$bench" "$out" --refine "$k"
   done
 done
-/usr/bin/python3 - "$out" <<'PY'
-import csv, sys
-rows = list(csv.DictReader(open(sys.argv[1]), delimiter='\t'))
-print('| refine | unknowns | ranks | solve s | iterations | load | memory per rank MB (largest) | leaves held (largest) | ghosts | messages / values per update | solve speed-up | memory ratio |')
-print('|---|---|---|---|---|---|---|---|---|---|---|---|')
-one = {}
-for r in rows:
-    if r['ranks'] == '1': one[r['refine']] = r
-for r in rows:
-    base = one.get(r['refine'])
-    speed = float(base['solve_s']) / float(r['solve_s']) if base else float('nan')
-    mem = float(r['memory_max_mb']) / float(base['memory_max_mb']) if base else float('nan')
-    print(f"| {r['refine']} | {int(r['unknowns']):,} | {r['ranks']} | {float(r['solve_s']):.2f} | {r['iterations']} | "
-          f"{float(r['load']):.3f} | {float(r['memory_max_mb']):.0f} | {int(float(r['leaves_max'])):,} of {int(r['leaves_global']):,} | "
-          f"{int(float(r['ghosts_max'])):,} | {int(float(r['messages_max']))} / {int(float(r['values_max'])):,} | {speed:.2f} | {mem:.2f} |")
-print()
-print('| refine | ranks | colours | neighbour exchanges per iteration | messages sent per iteration | KB sent per iteration | reductions per iteration | values reduced per iteration |')
-print('|---|---|---|---|---|---|---|---|')
-for r in rows:
-    it = int(r['iterations'])
-    print(f"| {r['refine']} | {r['ranks']} | {r['colours']} | {int(r['exchanges']) / it:.1f} | {int(r['messages_sent_max']) / it:.1f} | "
-          f"{int(r['bytes_sent_max']) / it / 1024:.0f} | {int(r['reductions']) / it:.1f} | {int(r['reduced_values_max']) / it:,.0f} |")
-PY
+/usr/bin/python3 "$(dirname "$0")/distributed_tables.py" ranks "$out"

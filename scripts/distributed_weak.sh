@@ -17,22 +17,4 @@ for np in ${RANKS:-1 2 4 8}; do
   [[ -n "${box[$np]:-}" ]] || { echo "distributed_weak.sh: no box for $np ranks (1, 2, 4, ..., 64)" >&2; exit 2; }
   mpirun --oversubscribe -np "$np" "$bench" "$out" --refine "$refine" --cells "${box[$np]}"
 done
-/usr/bin/python3 - "$out" <<'PY'
-import csv, sys
-rows = list(csv.DictReader(open(sys.argv[1]), delimiter='\t'))
-print('| ranks | coarse cells | unknowns | owned vertices per rank (min-max) | iterations | ghosts (largest) | colours | messages / values per update (largest) | leaves held (largest) / leaves per rank | memory per rank MB (largest) |')
-print('|---|---|---|---|---|---|---|---|---|---|')
-for r in rows:
-    ranks = int(r['ranks'])
-    per = int(r['leaves_global']) / ranks
-    print(f"| {ranks} | {r['cells'].replace(',', ' x ')} | {int(r['unknowns']):,} | {int(r['owned_min']):,}-{int(r['owned_max']):,} | "
-          f"{r['iterations']} | {int(r['ghosts_max']):,} | {r['colours']} | {int(r['messages_max'])} / {int(r['values_max']):,} | "
-          f"{int(r['leaves_max']) / per:.2f} | {float(r['memory_max_mb']):.0f} |")
-print()
-print('| ranks | iterations | V-cycles | neighbour exchanges per iteration | messages sent per iteration | KB sent per iteration | reductions per iteration | values reduced per iteration |')
-print('|---|---|---|---|---|---|---|---|')
-for r in rows:
-    it = int(r['iterations'])
-    print(f"| {r['ranks']} | {it} | {r['vcycles']} | {int(r['exchanges']) / it:.1f} | {int(r['messages_sent_max']) / it:.1f} | "
-          f"{int(r['bytes_sent_max']) / it / 1024:.0f} | {int(r['reductions']) / it:.1f} | {int(r['reduced_values_max']) / it:,.0f} |")
-PY
+/usr/bin/python3 "$(dirname "$0")/distributed_tables.py" weak "$out"

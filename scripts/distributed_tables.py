@@ -1,0 +1,70 @@
+#!/usr/bin/python3
+"""The Markdown tables of bench/distributed's rows (docs/performance.md#distributed):
+
+  scripts/distributed_tables.py ranks OUT.tsv   # scripts/distributed_bench.sh: per refinement and
+                                                # rank count, with the ratios to 1 rank
+  scripts/distributed_tables.py weak OUT.tsv    # scripts/distributed_weak.sh: per rank count
+
+Each prints a second table: the communication per TNNMG iteration of the largest rank
+(Communicator::counts() over the solve).
+"""
+import csv
+import sys
+
+
+def communication(rows, lead):
+    """The communication table; lead: (header, value of a row) pairs of the first columns."""
+    print('| ' + ' | '.join(h for h, _ in lead) + ' | neighbour exchanges per iteration | messages sent per iteration | '
+          'KB sent per iteration | reductions per iteration | values reduced per iteration |')
+    print('|' + '---|' * (len(lead) + 5))
+    for r in rows:
+        it = int(r['iterations'])
+        print('| ' + ' | '.join(str(f(r)) for _, f in lead) +
+              f" | {int(r['exchanges']) / it:.1f} | {int(r['messages_sent_max']) / it:.1f} | "
+              f"{int(r['bytes_sent_max']) / it / 1024:.0f} | {int(r['reductions']) / it:.1f} | "
+              f"{int(r['reduced_values_max']) / it:,.0f} |")
+
+
+def ranks_tables(rows):
+    print('| refine | unknowns | ranks | solve s | iterations | load | memory per rank MB (largest) | leaves held (largest) | '
+          'ghosts | messages / values per update | solve speed-up | memory ratio |')
+    print('|---|---|---|---|---|---|---|---|---|---|---|---|')
+    one = {r['refine']: r for r in rows if r['ranks'] == '1'}
+    for r in rows:
+        base = one.get(r['refine'])
+        speed = float(base['solve_s']) / float(r['solve_s']) if base else float('nan')
+        mem = float(r['memory_max_mb']) / float(base['memory_max_mb']) if base else float('nan')
+        print(f"| {r['refine']} | {int(r['unknowns']):,} | {r['ranks']} | {float(r['solve_s']):.2f} | {r['iterations']} | "
+              f"{float(r['load']):.3f} | {float(r['memory_max_mb']):.0f} | "
+              f"{int(float(r['leaves_max'])):,} of {int(r['leaves_global']):,} | {int(float(r['ghosts_max'])):,} | "
+              f"{int(float(r['messages_max']))} / {int(float(r['values_max'])):,} | {speed:.2f} | {mem:.2f} |")
+    print()
+    communication(rows, [('refine', lambda r: r['refine']), ('ranks', lambda r: r['ranks']),
+                         ('colours', lambda r: r['colours'])])
+
+
+def weak_tables(rows):
+    print('| ranks | coarse cells | unknowns | owned vertices per rank (min-max) | iterations | ghosts (largest) | colours | '
+          'messages / values per update (largest) | leaves held (largest) / leaves per rank | '
+          'memory per rank MB (largest) |')
+    print('|---|---|---|---|---|---|---|---|---|---|')
+    for r in rows:
+        per = int(r['leaves_global']) / int(r['ranks'])
+        print(f"| {r['ranks']} | {r['cells'].replace(',', ' x ')} | {int(r['unknowns']):,} | "
+              f"{int(r['owned_min']):,}-{int(r['owned_max']):,} | {r['iterations']} | {int(r['ghosts_max']):,} | "
+              f"{r['colours']} | {int(r['messages_max'])} / {int(r['values_max']):,} | "
+              f"{int(r['leaves_max']) / per:.2f} | {float(r['memory_max_mb']):.0f} |")
+    print()
+    communication(rows, [('ranks', lambda r: r['ranks']), ('iterations', lambda r: r['iterations']),
+                         ('V-cycles', lambda r: r['vcycles'])])
+
+
+def main():
+    if len(sys.argv) != 3 or sys.argv[1] not in ('ranks', 'weak'):
+        sys.exit('usage: scripts/distributed_tables.py ranks|weak OUT.tsv')
+    rows = list(csv.DictReader(open(sys.argv[2]), delimiter='\t'))
+    (ranks_tables if sys.argv[1] == 'ranks' else weak_tables)(rows)
+
+
+if __name__ == '__main__':
+    main()
