@@ -31,9 +31,9 @@ LinearMultigrid<d>::LinearMultigrid(const DistributedGrid& grid, const Options& 
       !(options.tolerance >= 0) || options.krylovSteps < 0)
     throw Error("linear multigrid: invalid options (smoothing steps >= 0, cycles >= 1, maxIterations >= 0, "
                 "tolerance >= 0, krylovSteps >= 0 required)");
-  if (options.smoother != LinearSmoother::GaussSeidel || options.krylovSteps > 0)
-    throw Error("linear multigrid: a distributed hierarchy runs the Gauss-Seidel smoother and plain cycles only "
-                "(the vertex-patch smoother and krylovSteps are not distributed yet)");
+  if (options.smoother != LinearSmoother::GaussSeidel)
+    throw Error("linear multigrid: a distributed hierarchy runs the Gauss-Seidel smoother only "
+                "(the vertex-patch smoother is not distributed yet)");
 }
 
 template <int d>
@@ -387,19 +387,21 @@ void LinearMultigrid<d>::conjugateGradients(const Eigen::VectorXd& r, Eigen::Vec
   c.setZero(r.size());
   vcycle(res, z);
   p = z;
-  double rz = res.dot(z);
+  // distributed: the products' owned rows are complete (the ghosts of p are current: p is made of
+  // V-cycle outputs), and the dot products run over the owned entries (fineDot)
+  double rz = fineDot(res, z);
   for (int k = 0; k < options_.krylovSteps && rz > 0; ++k) {
     A.multiply(p, q);
     hierarchy_.addFineDiagonal(p, q);
     truncateFine(q);
-    const double pq = p.dot(q);
+    const double pq = fineDot(p, q);
     if (!(pq > 0)) break;
     const double alpha = rz / pq;
     c += alpha * p;
     if (k + 1 == options_.krylovSteps) break;
     res -= alpha * q;
     vcycle(res, z);
-    const double next = res.dot(z);
+    const double next = fineDot(res, z);
     p = z + (next / rz) * p;
     rz = next;
   }

@@ -162,8 +162,8 @@ void expectSerialHierarchy(CellType type, int cells, int refinements) {
 /// distributed solve must converge in the serial iteration count (+-1: the sweep order differs)
 /// to the serial solution.
 template <int d>
-void expectSerialSolve(CellType type, int cells, int refinements) {
-  SCOPED_TRACE(std::string(obs::mesh::name(type)));
+void expectSerialSolve(CellType type, int cells, int refinements, int krylovSteps = 0) {
+  SCOPED_TRACE(std::string(obs::mesh::name(type)) + (krylovSteps > 0 ? ", conjugate gradients" : ""));
   const obs::Communicator comm = obs::Communicator::world();
   const obs::mesh::Grid coarse(obs::mesh::boxMesh(type, cells));
   const obs::DistributedGrid dg(coarse, refinements, comm);
@@ -182,6 +182,7 @@ void expectSerialSolve(CellType type, int cells, int refinements) {
   };
   obs::LinearMultigridOptions options;
   options.tolerance = 1e-10;
+  options.krylovSteps = krylovSteps;
   const obs::mesh::Mesh fs = serial.leafView().mesh;
   const obs::BlockSparseMatrix<d> As = obs::assembleStiffness<d>(fs, material);
   std::vector<char> mask;
@@ -215,6 +216,13 @@ void expectSerialSolve(CellType type, int cells, int refinements) {
 
 TEST(DistributedMultigrid, SolvesAsTheSerialMultigridTriangles) { expectSerialSolve<2>(CellType::Triangle, 4, 4); }
 TEST(DistributedMultigrid, SolvesAsTheSerialMultigridHexahedra) { expectSerialSolve<3>(CellType::Hexahedron, 2, 3); }
+// V-cycle-preconditioned conjugate gradients (krylovSteps): the dot products over the owned entries
+TEST(DistributedMultigrid, SolvesAsTheSerialConjugateGradientsTriangles) {
+  expectSerialSolve<2>(CellType::Triangle, 4, 4, 3);
+}
+TEST(DistributedMultigrid, SolvesAsTheSerialConjugateGradientsHexahedra) {
+  expectSerialSolve<3>(CellType::Hexahedron, 2, 3, 2);
+}
 
 TEST(DistributedMultigrid, SerialHierarchyTriangles) { expectSerialHierarchy<2>(CellType::Triangle, 4, 3); }
 TEST(DistributedMultigrid, SerialHierarchyQuadrilaterals) { expectSerialHierarchy<2>(CellType::Quadrilateral, 4, 3); }

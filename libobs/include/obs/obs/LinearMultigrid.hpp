@@ -109,8 +109,9 @@ public:
   /// the owned vertices in the order of DistributedSweep on the distributed levels; the coarse
   /// level is replicated and solved on every rank. apply() and vcycle() read the owned entries of
   /// the right-hand side and return a correction whose ghost entries are current; solve() needs
-  /// the ghosts of x current. Throws obs::Error for the vertex-patch smoother or krylovSteps > 0
-  /// (not distributed yet). Local smoothing does not apply (uniform hierarchies).
+  /// the ghosts of x current. krylovSteps > 0 runs the conjugate gradients with their dot products
+  /// over the owned entries. Throws obs::Error for the vertex-patch smoother (not distributed yet).
+  /// Local smoothing does not apply (uniform hierarchies).
   explicit LinearMultigrid(const DistributedGrid& grid, const Options& options = {});
   ~LinearMultigrid() override;
 
