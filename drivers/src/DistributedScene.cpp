@@ -111,22 +111,6 @@ void reportAssembly(const Communicator& comm, const DistributedView& leaf, int d
 /// The boundary conditions at the load parameter t of [loading] (resolved on the coarse mesh).
 using BoundaryConditionsAt = std::function<BoundaryConditions(double)>;
 
-/// Per contact node: 0 not in contact, 1 stick, 2 slip, decided as computeContactOutputs does but
-/// with the global scales of the KKT residuals, so that every rank uses the same thresholds.
-template <int d>
-std::vector<char> contactStates(const ContactSet& set, const Eigen::VectorXd& u, const ContactOutputs& out,
-                                const KktResiduals& kkt) {
-  const double U = kkt.displacementScale, F = kkt.forceScale;
-  std::vector<char> state(static_cast<std::size_t>(set.size()), 0);
-  for (Index k = 0; k < set.size(); ++k) {
-    const double g = set.gap(k);
-    if (!std::isfinite(g)) continue;
-    const double un = set.direction(k).head<d>().dot(u.template segment<d>(static_cast<Eigen::Index>(set.vertex(k)) * d));
-    if (g - un <= 1e-8 * U && out.multiplier[k] > 1e-8 * F) state[k] = out.slip[k] <= 1e-8 * U ? 1 : 2;
-  }
-  return state;
-}
-
 /// The scene's obstacle problem solved by distributed TNNMG: the displacement on the rank's local
 /// mesh (ghost entries current), the assembly, solver and contact reports in r, and the contact
 /// point fields of the serial one-body output on the local vertices in `fields` (exact on the
@@ -204,8 +188,9 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
       stepIterations = result.iterations;
     }
     if (scene.loading) {  // the increment's contact figures, reduced over the owned nodes
-      const ContactOutputs o = computeContactOutputs(*problem, u);
-      const std::vector<char> state = contactStates<d>(*set, u, o, result.kkt);
+      const ContactOutputs o = computeContactOutputs(*problem, u, 1e-8, result.kkt.displacementScale,
+                                                     result.kkt.forceScale);
+      const std::vector<char>& state = o.state;
       IncrementReport inc;
       inc.step = step;
       inc.t = loadAt(step);
@@ -256,10 +241,11 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
                                 st.correctionSeconds, st.otherSeconds,     st.operatorUpdates};
   r.solver.kkt = result.kkt;
 
-  // the contact report from the owned contact vertices, reduced; in contact as computeContactOutputs
-  // decides it, with the global scales of the KKT residuals
-  const ContactOutputs out = computeContactOutputs(*problem, u);
-  std::vector<char> stickSlip = contactStates<d>(*set, u, out, result.kkt);
+  // the contact report from the owned contact vertices, reduced; in contact (and sticking) with the
+  // global scales of the KKT residuals, so that every rank uses the same thresholds
+  const ContactOutputs out =
+      computeContactOutputs(*problem, u, 1e-8, result.kkt.displacementScale, result.kkt.forceScale);
+  std::vector<char> stickSlip = out.state;
   ContactReport c;
   c.obstacle = scene.contact->obstacle;
   c.boundary = scene.contact->boundary.name.empty() ? std::to_string(scene.contact->boundary.id)

@@ -891,26 +891,14 @@ void ContactProblem<d>::setDiagonalLowerBound(std::vector<double> bound) {
 
 // --- outputs -----------------------------------------------------------------------------------
 
+namespace {
+
+/// computeContactOutputs with its scales U, F given (Au = A u).
 template <int d>
-ContactOutputs computeContactOutputs(const ContactProblem<d>& problem, const Eigen::VectorXd& u,
-                                     double relativeTolerance) {
+ContactOutputs contactOutputs(const ContactProblem<d>& problem, const Eigen::VectorXd& u, const Eigen::VectorXd& Au,
+                              double relativeTolerance, double U, double F) {
   const ContactSet& cs = problem.contactSet();
   const Index n = cs.size();
-  if (u.size() != static_cast<Eigen::Index>(problem.numDofs()))
-    throw Error("contact outputs: displacement vector of wrong size");
-  double U = u.lpNorm<Eigen::Infinity>();
-  for (Index k = 0; k < n; ++k)
-    if (std::isfinite(cs.gap(k))) U = std::max(U, std::abs(cs.gap(k)));
-  if (!(U > 0)) U = 1;
-
-  // force scale F = max(|b_i|, |(A u)_i|) over the free components, as for the KKT residuals
-  Eigen::VectorXd Au;
-  problem.multiply(u, Au);
-  double F = 0;
-  const auto& prescribed = problem.dirichlet().constrained;
-  for (Eigen::Index i = 0; i < Au.size(); ++i)
-    if (!prescribed[static_cast<std::size_t>(i)]) F = std::max({F, std::abs(problem.rhs()[i]), std::abs(Au[i])});
-
   ContactOutputs out;
   out.inContact.assign(n, 0);
   out.multiplier.assign(n, 0.0);
@@ -958,11 +946,46 @@ ContactOutputs computeContactOutputs(const ContactProblem<d>& problem, const Eig
   return out;
 }
 
+}  // namespace
+
+template <int d>
+ContactOutputs computeContactOutputs(const ContactProblem<d>& problem, const Eigen::VectorXd& u,
+                                     double relativeTolerance) {
+  const ContactSet& cs = problem.contactSet();
+  if (u.size() != static_cast<Eigen::Index>(problem.numDofs()))
+    throw Error("contact outputs: displacement vector of wrong size");
+  double U = u.lpNorm<Eigen::Infinity>();
+  for (Index k = 0; k < cs.size(); ++k)
+    if (std::isfinite(cs.gap(k))) U = std::max(U, std::abs(cs.gap(k)));
+  if (!(U > 0)) U = 1;
+  // force scale F = max(|b_i|, |(A u)_i|) over the free components, as for the KKT residuals
+  Eigen::VectorXd Au;
+  problem.multiply(u, Au);
+  double F = 0;
+  const auto& prescribed = problem.dirichlet().constrained;
+  for (Eigen::Index i = 0; i < Au.size(); ++i)
+    if (!prescribed[static_cast<std::size_t>(i)]) F = std::max({F, std::abs(problem.rhs()[i]), std::abs(Au[i])});
+  return contactOutputs(problem, u, Au, relativeTolerance, U, F);
+}
+
+template <int d>
+ContactOutputs computeContactOutputs(const ContactProblem<d>& problem, const Eigen::VectorXd& u, double relativeTolerance,
+                                     double displacementScale, double forceScale) {
+  if (u.size() != static_cast<Eigen::Index>(problem.numDofs()))
+    throw Error("contact outputs: displacement vector of wrong size");
+  Eigen::VectorXd Au;
+  problem.multiply(u, Au);
+  return contactOutputs(problem, u, Au, relativeTolerance, displacementScale, forceScale);
+}
+
+
 template struct RotatedProblem<2>;
 template struct RotatedProblem<3>;
 template class ContactProblem<2>;
 template class ContactProblem<3>;
 template ContactOutputs computeContactOutputs<2>(const ContactProblem<2>&, const Eigen::VectorXd&, double);
 template ContactOutputs computeContactOutputs<3>(const ContactProblem<3>&, const Eigen::VectorXd&, double);
+template ContactOutputs computeContactOutputs<2>(const ContactProblem<2>&, const Eigen::VectorXd&, double, double, double);
+template ContactOutputs computeContactOutputs<3>(const ContactProblem<3>&, const Eigen::VectorXd&, double, double, double);
 
 }  // namespace obs

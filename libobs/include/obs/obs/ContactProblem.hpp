@@ -330,6 +330,12 @@ struct ContactOutputs {
 template <int d>
 ContactOutputs computeContactOutputs(const ContactProblem<d>& problem, const Eigen::VectorXd& u,
                                      double relativeTolerance = 1e-8);
+/// The same with the scales U and F given, e.g. a distributed run's over all ranks (the
+/// KktResiduals' displacementScale and forceScale), so that every rank decides contact and stick
+/// by the same thresholds.
+template <int d>
+ContactOutputs computeContactOutputs(const ContactProblem<d>& problem, const Eigen::VectorXd& u, double relativeTolerance,
+                                     double displacementScale, double forceScale);
 
 extern template struct RotatedProblem<2>;
 extern template struct RotatedProblem<3>;
