@@ -106,6 +106,18 @@ void Communicator::sum(std::vector<double>& x) const {
 #endif
 }
 
+void Communicator::max(std::vector<double>& x) const {
+#ifdef OBS_HAVE_MPI
+  if (size_ > 1) {
+    if (x.size() > static_cast<std::size_t>(INT_MAX)) throw Error("communicator: a maximum of too many values");
+    countReduction(x.size());
+    MPI_Allreduce(MPI_IN_PLACE, x.data(), static_cast<int>(x.size()), MPI_DOUBLE, MPI_MAX, MPI_COMM_WORLD);
+  }
+#else
+  (void)x;
+#endif
+}
+
 std::string Communicator::broadcast(const std::string& text, int root) const {
   if (root < 0 || root >= size_)
     throw Error("communicator: broadcast from rank " + std::to_string(root) + " of " + std::to_string(size_));

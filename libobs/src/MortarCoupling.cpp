@@ -337,11 +337,12 @@ MortarCoupling::MortarCoupling(const MortarSurface& slave, const MortarSurface& 
   double search = options.searchDistance;
   if (!(search > 0)) {
     Box extent;
+    double largest = 0;
     for (const auto& f : sf) {
       extent.extend(f.box);
-      search = std::max(search, f.diameter);
+      largest = std::max(largest, f.diameter);
     }
-    search = std::max(search, 0.1 * extent.diagonal().norm());
+    search = defaultMortarSearchDistance(extent.diagonal().norm(), largest);
   }
 
   BoxGrid grid(mf, dim_);
@@ -455,9 +456,12 @@ MortarCoupling::MortarCoupling(const MortarSurface& slave, const MortarSurface& 
   // "penetrates" by round-off, which the solver pushes apart with round-off forces. A weighted gap
   // within 16 eps X D_pp of zero (X the largest coordinate of either surface; |psi_p| integrates to
   // at most a few D_pp) is zero within the accuracy of its data, and is set to zero.
-  double X = 0;
-  for (const auto& f : sf) X = std::max({X, f.box.min().cwiseAbs().maxCoeff(), f.box.max().cwiseAbs().maxCoeff()});
-  for (const auto& g : mf) X = std::max({X, g.box.min().cwiseAbs().maxCoeff(), g.box.max().cwiseAbs().maxCoeff()});
+  double X = options.coordinateScale;
+  if (!(X > 0)) {
+    X = 0;
+    for (const auto& f : sf) X = std::max({X, f.box.min().cwiseAbs().maxCoeff(), f.box.max().cwiseAbs().maxCoeff()});
+    for (const auto& g : mf) X = std::max({X, g.box.min().cwiseAbs().maxCoeff(), g.box.max().cwiseAbs().maxCoeff()});
+  }
   const double gapRounding = 16 * std::numeric_limits<double>::epsilon() * X;
 
   // constrained nodes: D_pp = sum_q M_pq, coverage D_pp / int phi_p
@@ -479,7 +483,7 @@ MortarCoupling::MortarCoupling(const MortarSurface& slave, const MortarSurface& 
     gap_.push_back(std::abs(gap[k]) <= gapRounding * s ? 0.0 : gap[k]);
     M_.push_back(std::move(rows[k]));
   }
-  if (nodes_.empty()) {
+  if (nodes_.empty() && options.requireCoverage) {
     Box bs, bm;
     for (const auto& f : sf) bs.extend(f.box);
     for (const auto& g : mf) bm.extend(g.box);

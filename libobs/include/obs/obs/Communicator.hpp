@@ -45,6 +45,8 @@ public:
   double max(double x) const;
   /// Element-wise sums of x over the ranks, in place (every rank must pass the same length).
   void sum(std::vector<double>& x) const;
+  /// Element-wise maxima of x over the ranks, in place (every rank must pass the same length).
+  void max(std::vector<double>& x) const;
   /// The string of rank `root` on every rank.
   std::string broadcast(const std::string& text, int root = 0) const;
   void barrier() const;

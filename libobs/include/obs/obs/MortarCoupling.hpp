@@ -39,6 +39,7 @@
 /// sum_p lambda_p M_pq n_p, so action equals reaction.
 #include <Eigen/Core>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -56,7 +57,21 @@ struct MortarOptions {
   double searchDistance = -1;
   /// Minimum coverage D_pp / int_S phi_p of a constrained slave node (see the file comment).
   double minCoverage = 0.5;
+  /// X of the gap rounding (the largest coordinate of either surface, see the file comment). <= 0:
+  /// from the surfaces given. A coupling of parts of the surfaces (one rank's, DistributedMortar)
+  /// passes the value of the whole surfaces, so that every part rounds as one process would.
+  double coordinateScale = -1;
+  /// false: a coupling that constrains no slave node is not an error (a part of the surfaces, whose
+  /// whole the caller checks).
+  bool requireCoverage = true;
 };
+
+/// The default search distance (MortarOptions::searchDistance <= 0): a tenth of the diagonal of the
+/// slave surface's bounding box, at least its largest face diameter (the diagonal of a face's
+/// bounding box).
+inline double defaultMortarSearchDistance(double slaveExtentDiagonal, double largestSlaveFace) {
+  return std::max(largestSlaveFace, 0.1 * slaveExtentDiagonal);
+}
 
 /// One side of a mortar pair: a boundary of one body's mesh and the offset of that body's vertices
 /// in the stacked numbering.

@@ -1,0 +1,238 @@
+#include "obs/obs/DistributedMortar.hpp"
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <map>
+#include <sstream>
+
+#include "obs/mesh/Error.hpp"
+
+namespace obs {
+namespace {
+
+using Box = Eigen::AlignedBox3d;
+
+Box faceBox(const mesh::Mesh& m, Index f) {
+  Box b;
+  for (Index v : m.boundaryFaceVertices(f)) b.extend(m.vertex(v));
+  return b;
+}
+
+double largestCoordinate(const Box& b) {
+  return b.isEmpty() ? 0.0 : std::max(b.min().cwiseAbs().maxCoeff(), b.max().cwiseAbs().maxCoeff());
+}
+
+/// The cell of `m` that has every vertex of boundary face f (-1: none).
+Index cellOfFace(const mesh::Mesh& m, const mesh::VertexCells& around, Index f) {
+  const auto fv = m.boundaryFaceVertices(f);
+  for (Index c : around.cellsOf(fv[0])) {
+    const auto cv = m.cellVertices(c);
+    if (std::all_of(fv.begin(), fv.end(), [&](Index v) { return std::find(cv.begin(), cv.end(), v) != cv.end(); }))
+      return c;
+  }
+  return -1;
+}
+
+/// The global vertex index of local vertex v of a distributed view.
+Index globalOf(const DistributedView& view, Index v) {
+  return view.numbering.global[static_cast<std::size_t>(view.halo.viewVertices()[static_cast<std::size_t>(v)])];
+}
+
+}  // namespace
+
+DistributedMortar::DistributedMortar(const DistributedMortarSurface& slave, const DistributedMortarSurface& master,
+                                     const MortarOptions& options) {
+  const std::string label = slave.label + " / " + master.label;
+  if (!slave.view || !master.view) throw Error("mortar coupling " + label + ": missing view");
+  const Communicator& comm = slave.view->halo.communicator();
+  const mesh::Mesh& sm = slave.view->local;
+  const mesh::Mesh& mm = master.view->local;
+  const int dim = sm.dimension();
+  if (mm.dimension() != dim)
+    throw Error("mortar coupling " + label + ": the slave mesh has dimension " + std::to_string(dim) +
+                ", the master mesh " + std::to_string(mm.dimension()));
+  const Index slaveOwned = slave.view->halo.numOwned();
+  const auto ownedMasterCells = static_cast<Index>(master.view->part.owned.size());
+
+  // 1. this rank's slave faces (those with an owned vertex) and the master faces of its owned cells
+  std::vector<Index> slaveFaces, masterFaces, masterCells;
+  Box slaveBox, masterBox;
+  double largestSlaveFace = 0;
+  comm.collective([&] {
+    for (Index f = 0; f < sm.numBoundaryFaces(); ++f) {
+      if (sm.boundaryFaceId(f) != slave.boundaryId) continue;
+      const auto fv = sm.boundaryFaceVertices(f);
+      if (std::none_of(fv.begin(), fv.end(), [&](Index v) { return v < slaveOwned; })) continue;
+      slaveFaces.push_back(f);
+      const Box b = faceBox(sm, f);
+      slaveBox.extend(b);
+      largestSlaveFace = std::max(largestSlaveFace, b.diagonal().norm());
+    }
+    const mesh::VertexCells around = mesh::vertexCells(mm);
+    for (Index f = 0; f < mm.numBoundaryFaces(); ++f) {
+      if (mm.boundaryFaceId(f) != master.boundaryId) continue;
+      const Index c = cellOfFace(mm, around, f);
+      if (c < 0 || c >= ownedMasterCells) continue;  // sent by the rank that owns the cell
+      masterFaces.push_back(f);
+      masterCells.push_back(c);
+      masterBox.extend(faceBox(mm, f));
+    }
+  });
+
+  // 2. extents of the whole surfaces: boxes (as maxima of max and -min), largest face, coordinate
+  std::vector<double> ext(16);
+  for (int a = 0; a < 3; ++a) {
+    ext[a] = slaveBox.isEmpty() ? -std::numeric_limits<double>::infinity() : -slaveBox.min()[a];
+    ext[3 + a] = slaveBox.isEmpty() ? -std::numeric_limits<double>::infinity() : slaveBox.max()[a];
+    ext[6 + a] = masterBox.isEmpty() ? -std::numeric_limits<double>::infinity() : -masterBox.min()[a];
+    ext[9 + a] = masterBox.isEmpty() ? -std::numeric_limits<double>::infinity() : masterBox.max()[a];
+  }
+  ext[12] = largestSlaveFace;
+  ext[13] = std::max(largestCoordinate(slaveBox), largestCoordinate(masterBox));
+  ext[14] = static_cast<double>(slaveFaces.size()) > 0 ? 1 : 0;
+  ext[15] = static_cast<double>(masterFaces.size()) > 0 ? 1 : 0;
+  comm.max(ext);
+  if (ext[14] == 0) throw Error("mortar surface " + slave.label + ": no boundary face has this id");
+  if (ext[15] == 0) throw Error("mortar surface " + master.label + ": no boundary face has this id");
+  Box wholeSlave, wholeMaster;
+  for (int a = 0; a < 3; ++a) {
+    wholeSlave.min()[a] = -ext[a];
+    wholeSlave.max()[a] = ext[3 + a];
+    wholeMaster.min()[a] = -ext[6 + a];
+    wholeMaster.max()[a] = ext[9 + a];
+  }
+  search_ = options.searchDistance > 0 ? options.searchDistance
+                                       : defaultMortarSearchDistance(wholeSlave.diagonal().norm(), ext[12]);
+
+  // 3. the ranks' search boxes, then each owned master face (with its cell) to the ranks it meets
+  std::vector<std::vector<double>> send(static_cast<std::size_t>(comm.size()));
+  {
+    std::vector<double> mine;
+    if (!slaveBox.isEmpty())
+      for (int a = 0; a < 3; ++a) mine.push_back(slaveBox.min()[a] - search_);
+    if (!slaveBox.isEmpty())
+      for (int a = 0; a < 3; ++a) mine.push_back(slaveBox.max()[a] + search_);
+    for (auto& s : send) s = mine;
+  }
+  const std::vector<std::vector<double>> boxes = comm.exchange(send);
+  for (auto& s : send) s.clear();
+  for (std::size_t i = 0; i < masterFaces.size(); ++i) {
+    const Index f = masterFaces[i], c = masterCells[i];
+    const Box fb = faceBox(mm, f);
+    const auto cv = mm.cellVertices(c);
+    const auto fv = mm.boundaryFaceVertices(f);
+    for (int r = 0; r < comm.size(); ++r) {
+      const auto& b = boxes[static_cast<std::size_t>(r)];
+      if (b.size() != 6) continue;  // no slave face there
+      if (!fb.intersects(Box(Point(b[0], b[1], b[2]), Point(b[3], b[4], b[5])))) continue;
+      auto& out = send[static_cast<std::size_t>(r)];
+      out.push_back(static_cast<double>(static_cast<int>(mm.cellType(c))));
+      out.push_back(static_cast<double>(cv.size()));
+      for (Index v : cv) {
+        out.push_back(static_cast<double>(master.globalOffset + globalOf(*master.view, v)));
+        for (int a = 0; a < 3; ++a) out.push_back(mm.vertex(v)[a]);
+      }
+      out.push_back(static_cast<double>(fv.size()));
+      for (Index v : fv) out.push_back(static_cast<double>(std::find(cv.begin(), cv.end(), v) - cv.begin()));
+    }
+  }
+  const std::vector<std::vector<double>> received = comm.exchange(send);
+  send.clear();
+
+  // 4. the local coupling: this rank's slave surface against the master faces it received
+  comm.collective([&] {
+    mesh::Mesh masterPart(dim);
+    std::vector<Index> masterGlobal;   // masterPart vertex -> global stacked index
+    std::map<Index, Index> partVertex;  // global stacked index -> masterPart vertex
+    for (const auto& in : received) {
+      std::size_t i = 0;
+      while (i < in.size()) {
+        const auto type = static_cast<mesh::CellType>(static_cast<int>(in[i]));
+        const auto n = static_cast<std::size_t>(in[i + 1]);
+        i += 2;
+        std::vector<Index> cell(n);
+        for (std::size_t k = 0; k < n; ++k, i += 4) {
+          const auto g = static_cast<Index>(in[i]);
+          auto [it, inserted] = partVertex.emplace(g, masterPart.numVertices());
+          if (inserted) {
+            masterPart.addVertex(Point(in[i + 1], in[i + 2], in[i + 3]));
+            masterGlobal.push_back(g);
+          }
+          cell[k] = it->second;
+        }
+        masterPart.addCell(type, cell);
+        const auto nf = static_cast<std::size_t>(in[i]);
+        ++i;
+        std::vector<Index> face(nf);
+        for (std::size_t k = 0; k < nf; ++k) face[k] = cell[static_cast<std::size_t>(in[i + k])];
+        i += nf;
+        masterPart.addBoundaryFace(face, master.boundaryId);
+        ++receivedMasterFaces_;
+      }
+    }
+    if (slaveFaces.empty() || receivedMasterFaces_ == 0) return;
+
+    // the slave side: the local vertices (so that a slave node is its local vertex), the cells
+    // around the surface's vertices (the orientation of its faces) and the faces of step 1
+    mesh::Mesh slavePart(dim);
+    std::vector<char> onSurface(static_cast<std::size_t>(sm.numVertices()), 0);
+    for (Index f : slaveFaces)
+      for (Index v : sm.boundaryFaceVertices(f)) onSurface[static_cast<std::size_t>(v)] = 1;
+    for (Index v = 0; v < sm.numVertices(); ++v) slavePart.addVertex(sm.vertex(v));
+    for (Index c = 0; c < sm.numCells(); ++c) {
+      const auto cv = sm.cellVertices(c);
+      if (std::any_of(cv.begin(), cv.end(), [&](Index v) { return onSurface[static_cast<std::size_t>(v)] != 0; }))
+        slavePart.addCell(sm.cellType(c), cv);
+    }
+    for (Index f : slaveFaces) slavePart.addBoundaryFace(sm.boundaryFaceVertices(f), slave.boundaryId);
+
+    MortarOptions local = options;
+    local.searchDistance = search_;
+    local.coordinateScale = ext[13];
+    local.requireCoverage = false;
+    const Index n = slavePart.numVertices() + masterPart.numVertices();
+    const MortarCoupling coupling({&slavePart, slave.boundaryId, 0, slave.label},
+                                  {&masterPart, master.boundaryId, slavePart.numVertices(), master.label}, n, local);
+    stats_ = coupling.statistics();
+    const Index rankOffset = slave.view->numbering.offsets[static_cast<std::size_t>(comm.rank())];
+    std::vector<Index> columns;
+    for (Index k = 0; k < coupling.size(); ++k) {
+      const Index v = coupling.vertex(k);
+      if (v >= slaveOwned) continue;  // a ghost's row: its owner computes it whole
+      Row row;
+      row.local = v;
+      row.global = slave.globalOffset + rankOffset + v;
+      row.position = sm.vertex(v);
+      row.normal = coupling.normal(k);
+      row.D = coupling.D(k);
+      row.mass = coupling.slaveMass(k);
+      row.gap = coupling.weightedGap(k);
+      for (const MortarCoupling::Entry& e : coupling.row(k)) {
+        const Index q = masterGlobal[static_cast<std::size_t>(e.vertex - slavePart.numVertices())];
+        row.entries.push_back({q, e.value});
+        columns.push_back(q);
+      }
+      std::sort(row.entries.begin(), row.entries.end(),
+                [](const MortarCoupling::Entry& a, const MortarCoupling::Entry& b) { return a.vertex < b.vertex; });
+      rows_.push_back(std::move(row));
+    }
+    std::sort(columns.begin(), columns.end());
+    columns.erase(std::unique(columns.begin(), columns.end()), columns.end());
+    masterVertices_ = columns;
+    for (Index q : columns) masterPositions_.push_back(masterPart.vertex(partVertex.at(q)));
+  });
+
+  globalSize_ = comm.sum(static_cast<long long>(rows_.size()));
+  if (globalSize_ == 0) {
+    std::ostringstream os;
+    os << "mortar coupling " << label << ": the master surface covers no slave node (the surfaces do not overlap;"
+       << " distance between their bounding boxes " << wholeSlave.exteriorDistance(wholeMaster) << ", search distance "
+       << search_ << ")";
+    throw Error(os.str());
+  }
+}
+
+}  // namespace obs
