@@ -4,7 +4,11 @@
 // as many ranks as the launch has (docs/performance.md#distributed).
 //
 //   mpirun -np P build/bench/distributed OUT.tsv --refine K [--cells-per-part C] [--cells NX,NY,NZ]
+//                                        [--partition-level L]
 //
+// --partition-level 0 distributes the coarse level too (no replicated level; the coarse problem by
+// hypre's CG + BoomerAMG, DistributedCoarseSolver); by default the coarsest level with C cells per
+// rank, at least level 1, is the partition level and the levels below it are replicated.
 // Rank 0 appends one row to OUT.tsv (written with a header if new): ranks, refinement, unknowns,
 // partition level, the wall seconds of building the grid, assembling and solving (maxima over the
 // ranks), TNNMG iterations, active set, contact load, peak memory per rank (largest and sum, MB),
@@ -12,7 +16,7 @@
 // halo messages and values of one fine-level update (largest rank), V-cycles and operator updates,
 // and the communication of the solve, setup included (Communicator::counts(), largest rank):
 // neighbour exchanges, messages and bytes sent, reductions and the values reduced, other
-// collectives. scripts/distributed_bench.sh
+// collectives; the CG iterations of a distributed coarse level (0 when it is replicated). scripts/distributed_bench.sh
 // runs 1 and 2 ranks side by side and writes the table of docs/performance.md#distributed.
 #include <sys/resource.h>
 
@@ -86,6 +90,7 @@ int main(int argc, char** argv) {
     }
     if (std::string(argv[i]) == "--refine") refine = std::stoi(argv[i + 1]);
     if (std::string(argv[i]) == "--cells-per-part") partition.cellsPerPart = std::stoi(argv[i + 1]);
+    if (std::string(argv[i]) == "--partition-level") partition.level = std::stoi(argv[i + 1]);
   }
   try {
     auto t = Clock::now();
@@ -134,7 +139,7 @@ int main(int argc, char** argv) {
         f << "ranks\trefine\tunknowns\tpartition_level\tbuild_s\tassembly_s\tsolve_s\titerations\tconverged\tactive\tload\t"
              "memory_max_mb\tmemory_sum_mb\tleaves_max\tleaves_global\tghosts_max\tcolours\tmessages_max\tvalues_max\t"
              "owned_max\towned_min\tcells\tvcycles\toperator_updates\texchanges\tmessages_sent_max\tbytes_sent_max\t"
-             "reductions\treduced_values_max\tother_collectives\n";
+             "reductions\treduced_values_max\tother_collectives\tcoarse_iterations\n";
       f << comm.size() << '\t' << refine << '\t' << 3LL * leaf.globalVertices() << '\t' << dg.partition().level << '\t'
         << build << '\t' << assembly << '\t' << solve << '\t' << result.iterations << '\t' << (result.converged ? 1 : 0)
         << '\t' << result.activeSetSize << '\t' << std::setprecision(9) << load << std::setprecision(6) << '\t'
@@ -142,7 +147,7 @@ int main(int argc, char** argv) {
         << sweep.colours() << '\t' << messages << '\t' << values << '\t' << ownedMax << '\t' << ownedMin << '\t'
         << cells[0] << ',' << cells[1] << ',' << cells[2] << '\t' << solver.statistics().vcycles << '\t'
         << solver.statistics().operatorUpdates << '\t' << exchanges << '\t' << sent << '\t' << bytes << '\t'
-        << reductions << '\t' << reduced << '\t' << collectives << '\n';
+        << reductions << '\t' << reduced << '\t' << collectives << '\t' << solver.statistics().coarseIterations << '\n';
       if (!f) throw obs::Error(out.string() + ": cannot write");
       std::cout << comm.size() << " ranks, refine " << refine << ": " << 3LL * leaf.globalVertices() << " unknowns, solve "
                 << solve << " s, " << result.iterations << " iterations, load " << std::setprecision(9) << load

@@ -5,7 +5,9 @@
 # per rank; RANKS, default "1 2 4 8", picks the runs). More ranks than cores are oversubscribed, so
 # the tables report counts, not times (docs/performance.md#distributed-weak): the first the grid,
 # the halo and the memory, the second the communication per TNNMG iteration (largest rank).
-#   [RANKS="1 2 4 8 16 32 64"] scripts/distributed_weak.sh OUT.tsv [REFINE]
+# PARTITION_LEVEL=0 distributes the coarse level too (hypre's CG + BoomerAMG solves it; by default
+# the levels below the partition level, at least level 0, are replicated on every rank).
+#   [RANKS="1 2 4 8 16 32 64"] [PARTITION_LEVEL=0] scripts/distributed_weak.sh OUT.tsv [REFINE]
 set -euo pipefail
 out=${1:?usage: [RANKS=...] scripts/distributed_weak.sh OUT.tsv [REFINE]}
 refine=${2:-3}
@@ -15,6 +17,7 @@ declare -A box=([1]=4,4,4 [2]=8,4,4 [4]=8,8,4 [8]=8,8,8 [16]=16,8,8 [32]=16,16,8
 rm -f "$out"
 for np in ${RANKS:-1 2 4 8}; do
   [[ -n "${box[$np]:-}" ]] || { echo "distributed_weak.sh: no box for $np ranks (1, 2, 4, ..., 64)" >&2; exit 2; }
-  mpirun --oversubscribe -np "$np" "$bench" "$out" --refine "$refine" --cells "${box[$np]}"
+  # shellcheck disable=SC2086
+  mpirun --oversubscribe -np "$np" "$bench" "$out" --refine "$refine" --cells "${box[$np]}" ${PARTITION_LEVEL:+--partition-level $PARTITION_LEVEL}
 done
 /usr/bin/python3 "$(dirname "$0")/distributed_tables.py" weak "$out"

@@ -44,7 +44,8 @@ Index globalOf(const DistributedView& view, Index v) {
 }  // namespace
 
 DistributedMortar::DistributedMortar(const DistributedMortarSurface& slave, const DistributedMortarSurface& master,
-                                     const MortarOptions& options) {
+                                     const MortarOptions& options)
+    : comm_(slave.view ? slave.view->halo.communicator() : Communicator::world()) {
   const std::string label = slave.label + " / " + master.label;
   if (!slave.view || !master.view) throw Error("mortar coupling " + label + ": missing view");
   const Communicator& comm = slave.view->halo.communicator();
@@ -233,6 +234,139 @@ DistributedMortar::DistributedMortar(const DistributedMortarSurface& slave, cons
        << search_ << ")";
     throw Error(os.str());
   }
+
+  // 5. the master-column exchange: each column's owner (from the master view's offsets) learns
+  //    which of its vertices this rank needs
+  const std::vector<Index>& offsets = master.view->numbering.offsets;
+  masterLocalSize_ = master.view->halo.numLocal();
+  askedColumns_.assign(static_cast<std::size_t>(comm.size()), {});
+  std::vector<std::vector<double>> ask(static_cast<std::size_t>(comm.size()));
+  for (std::size_t i = 0; i < masterVertices_.size(); ++i) {
+    const Index g = masterVertices_[i] - master.globalOffset;
+    const auto owner = static_cast<std::size_t>(std::upper_bound(offsets.begin(), offsets.end(), g) - offsets.begin() - 1);
+    askedColumns_[owner].push_back(static_cast<Index>(i));
+    ask[owner].push_back(static_cast<double>(g - offsets[owner]));  // the owner's local index
+  }
+  const std::vector<std::vector<double>> asked = comm.exchange(ask);
+  sentOwned_.assign(static_cast<std::size_t>(comm.size()), {});
+  for (std::size_t r = 0; r < asked.size(); ++r)
+    for (double v : asked[r]) sentOwned_[r].push_back(static_cast<Index>(v));
+}
+
+void DistributedMortar::checkSize(const Eigen::VectorXd& v, Eigen::Index expected, const char* what) const {
+  if (v.size() != expected)
+    throw Error(std::string("distributed mortar: ") + what + " has " + std::to_string(v.size()) + " entries, expected " +
+                std::to_string(expected));
+}
+
+Eigen::VectorXd DistributedMortar::gatherMaster(const Eigen::VectorXd& masterLocal, int components) const {
+  checkSize(masterLocal, static_cast<Eigen::Index>(masterLocalSize_) * components, "the master vector");
+  const int me = comm_.rank();
+  Eigen::VectorXd out(static_cast<Eigen::Index>(masterVertices_.size()) * components);
+  auto pack = [&](std::size_t r) {
+    std::vector<double> m;
+    m.reserve(sentOwned_[r].size() * static_cast<std::size_t>(components));
+    for (Index v : sentOwned_[r])
+      for (int a = 0; a < components; ++a) m.push_back(masterLocal[static_cast<Eigen::Index>(v) * components + a]);
+    return m;
+  };
+  auto unpack = [&](std::size_t r, const std::vector<double>& m) {
+    std::size_t k = 0;
+    for (Index i : askedColumns_[r])
+      for (int a = 0; a < components; ++a) out[static_cast<Eigen::Index>(i) * components + a] = m[k++];
+  };
+  std::vector<int> to, from;
+  std::vector<std::vector<double>> send, recv;
+  for (int r = 0; r < comm_.size(); ++r) {
+    const auto ru = static_cast<std::size_t>(r);
+    if (r == me) {
+      unpack(ru, pack(ru));
+      continue;
+    }
+    if (!sentOwned_[ru].empty()) {
+      to.push_back(r);
+      send.push_back(pack(ru));
+    }
+    if (!askedColumns_[ru].empty()) {
+      from.push_back(r);
+      recv.emplace_back(askedColumns_[ru].size() * static_cast<std::size_t>(components));
+    }
+  }
+  comm_.exchange(to, send, from, recv);
+  for (std::size_t k = 0; k < from.size(); ++k) unpack(static_cast<std::size_t>(from[k]), recv[k]);
+  return out;
+}
+
+void DistributedMortar::addToMaster(const Eigen::VectorXd& columnValues, Eigen::VectorXd& masterLocal,
+                                    int components) const {
+  checkSize(columnValues, static_cast<Eigen::Index>(masterVertices_.size()) * components, "the column values");
+  checkSize(masterLocal, static_cast<Eigen::Index>(masterLocalSize_) * components, "the master vector");
+  const int me = comm_.rank();
+  auto pack = [&](std::size_t r) {
+    std::vector<double> m;
+    m.reserve(askedColumns_[r].size() * static_cast<std::size_t>(components));
+    for (Index i : askedColumns_[r])
+      for (int a = 0; a < components; ++a) m.push_back(columnValues[static_cast<Eigen::Index>(i) * components + a]);
+    return m;
+  };
+  auto add = [&](std::size_t r, const std::vector<double>& m) {
+    std::size_t k = 0;
+    for (Index v : sentOwned_[r])
+      for (int a = 0; a < components; ++a) masterLocal[static_cast<Eigen::Index>(v) * components + a] += m[k++];
+  };
+  std::vector<int> to, from;
+  std::vector<std::vector<double>> send, recv;
+  for (int r = 0; r < comm_.size(); ++r) {
+    const auto ru = static_cast<std::size_t>(r);
+    if (r == me) continue;
+    if (!askedColumns_[ru].empty()) {
+      to.push_back(r);
+      send.push_back(pack(ru));
+    }
+    if (!sentOwned_[ru].empty()) {
+      from.push_back(r);
+      recv.emplace_back(sentOwned_[ru].size() * static_cast<std::size_t>(components));
+    }
+  }
+  comm_.exchange(to, send, from, recv);
+  // in rank order, own contributions in their place, so that the sums do not depend on timing
+  std::size_t k = 0;
+  for (int r = 0; r < comm_.size(); ++r) {
+    const auto ru = static_cast<std::size_t>(r);
+    if (r == me)
+      add(ru, pack(ru));
+    else if (k < from.size() && from[k] == r)
+      add(ru, recv[k++]);
+  }
+}
+
+Eigen::VectorXd DistributedMortar::applyTransformation(const Eigen::VectorXd& masterLocal, int components) const {
+  const Eigen::VectorXd x = gatherMaster(masterLocal, components);
+  Eigen::VectorXd out = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(rows_.size()) * components);
+  for (std::size_t k = 0; k < rows_.size(); ++k) {
+    const Row& row = rows_[k];
+    for (const MortarCoupling::Entry& e : row.entries) {
+      const auto i = std::lower_bound(masterVertices_.begin(), masterVertices_.end(), e.vertex) - masterVertices_.begin();
+      for (int a = 0; a < components; ++a)
+        out[static_cast<Eigen::Index>(k) * components + a] += e.value / row.D * x[i * components + a];
+    }
+  }
+  return out;
+}
+
+void DistributedMortar::addTransposedTransformation(const Eigen::VectorXd& rowValues, Eigen::VectorXd& masterLocal,
+                                                    int components) const {
+  checkSize(rowValues, static_cast<Eigen::Index>(rows_.size()) * components, "the row values");
+  Eigen::VectorXd columns = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(masterVertices_.size()) * components);
+  for (std::size_t k = 0; k < rows_.size(); ++k) {
+    const Row& row = rows_[k];
+    for (const MortarCoupling::Entry& e : row.entries) {
+      const auto i = std::lower_bound(masterVertices_.begin(), masterVertices_.end(), e.vertex) - masterVertices_.begin();
+      for (int a = 0; a < components; ++a)
+        columns[i * components + a] += e.value / row.D * rowValues[static_cast<Eigen::Index>(k) * components + a];
+    }
+  }
+  addToMaster(columns, masterLocal, components);
 }
 
 }  // namespace obs

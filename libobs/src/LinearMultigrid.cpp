@@ -7,6 +7,7 @@
 
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/CholmodSolver.hpp"
+#include "obs/obs/DistributedCoarseSolver.hpp"
 #include "obs/obs/Parallel.hpp"
 
 namespace obs {
@@ -121,6 +122,7 @@ void LinearMultigrid<d>::setOperator(const BlockSparseMatrix<d>& A, std::vector<
       smoothers_[L].setDiagonalTerm(&hierarchy_.fineDiagonalSlot(), &hierarchy_.fineDiagonalBlocks());
   }
   coarseSolver_.reset();
+  distributedCoarse_.reset();
   updateCoarse();
   schedules_.clear();
   if (hierarchy_.distributed()) {  // the sweeps of the distributed levels (patterns fixed from here on)
@@ -190,9 +192,20 @@ void LinearMultigrid<d>::updateCoarse() {
     }
     A0 = &shifted_;
   }
-  if (coarseSolver_) coarseSolver_->refactorize(*A0);
-  else coarseSolver_ = std::make_unique<CholmodSolver>(*A0);
+  if (distributedCoarseLevel()) {
+    if (distributedCoarse_) distributedCoarse_->refactorize(*A0);
+    else distributedCoarse_ = std::make_unique<DistributedCoarseSolver>(*A0, hierarchy_.globalVertices(0), *hierarchy_.halo(0));
+  } else if (coarseSolver_) {
+    coarseSolver_->refactorize(*A0);
+  } else {
+    coarseSolver_ = std::make_unique<CholmodSolver>(*A0);
+  }
   factorSeconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+}
+
+template <int d>
+long long LinearMultigrid<d>::coarseIterations() const {
+  return distributedCoarse_ ? distributedCoarse_->totalIterations() : 0;
 }
 
 template <int d>
@@ -264,6 +277,8 @@ void LinearMultigrid<d>::cycle(int l, const Eigen::VectorXd& r, Eigen::VectorXd&
         for (int c = 0; c < d; ++c)
           if (bits[p] & (1u << c)) work_[0][static_cast<Eigen::Index>(p) * d + c] = 0;
       coarseSolver_->solve(work_[0], x);
+    } else if (distributedCoarse_) {
+      distributedCoarse_->solve(r, x);
     } else {
       coarseSolver_->solve(r, x);
     }

@@ -453,9 +453,9 @@ MultigridHierarchy<d>::MultigridHierarchy(const DistributedGrid& dg) : comm_(dg.
     throw Error("multigrid hierarchy: the grid has dimension " + std::to_string(grid.dimension()) + ", the solver " +
                 std::to_string(d));
   const int L = grid.maxLevel(), Lp = dg.partition().level;
-  if (Lp < 1)
-    throw Error("multigrid hierarchy: the partition level of a distributed grid must be at least 1 (level 0, solved "
-                "directly, is replicated on every rank)");
+  if (Lp < 1 && L < 1)
+    throw Error("multigrid hierarchy: a distributed grid partitioned on level 0 needs at least one refinement (the "
+                "fine level is not the coarse problem)");
   std::vector<mesh::GridView> views(static_cast<std::size_t>(L) + 1);
   levels_.resize(static_cast<std::size_t>(L) + 1);
   for (int l = 0; l <= L; ++l) {
@@ -524,6 +524,12 @@ template <int d>
 const std::vector<Index>& MultigridHierarchy<d>::viewVertices(int l) const {
   static const std::vector<Index> none;
   return distributed() ? levels_[l].viewVertex : none;
+}
+
+template <int d>
+const std::vector<Index>& MultigridHierarchy<d>::globalVertices(int l) const {
+  static const std::vector<Index> none;
+  return distributedLevel(l) ? levels_[l].global : none;
 }
 
 template <int d>

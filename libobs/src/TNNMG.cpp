@@ -128,6 +128,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   }
   const int baseUpdates = correction_->operatorUpdates();
   const long long baseCycles = correction_->cycles();
+  const long long baseCoarse = correction_->coarseIterations();
   const RotatedProblem<d>& rot = *rotated_;
   const BlockSparseMatrix<d>& A = rot.matrix();
   problem.projectToFeasible(u);
@@ -326,6 +327,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
   }
   statistics_.operatorUpdates = correction_->operatorUpdates() - baseUpdates;
   statistics_.vcycles = correction_->cycles() - baseCycles;
+  statistics_.coarseIterations = correction_->coarseIterations() - baseCoarse;
   ContactResult result = monitor.finish(converged, activeCount(w));
   if (!converged || !haveKkt) {  // the last iterate's residual (not yet computed for it)
     u = problem.fromRotated(w);

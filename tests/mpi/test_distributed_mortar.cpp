@@ -5,6 +5,8 @@
 // must cut the interface (rows on several ranks; docs/architecture.md#distributed-mortar).
 #include <gtest/gtest.h>
 
+#include <Eigen/Dense>
+
 #include <array>
 #include <cmath>
 #include <map>
@@ -107,6 +109,45 @@ void checkAgainstSerial(const Case& c) {
       EXPECT_NEAR(e.value, ex->second, 1e-13 * D);
     }
   }
+  // the transformation C = D^{-1} M and its transpose on ranks against one process's, on a smooth
+  // field: C x from the master owners' values (the ghost entries are NaN: never read), C'y added
+  // to the master owners
+  const int d = c.dim;
+  const Eigen::MatrixXd C = [&] {
+    Eigen::MatrixXd m = Eigen::MatrixXd::Zero(serial.size(), ml.numVertices());
+    for (Index k = 0; k < serial.size(); ++k)
+      for (const auto& e : serial.row(k)) m(k, e.vertex) = e.value / serial.D(k);
+    return m;
+  }();
+  auto fieldAt = [&](const Point& x, int a) { return std::sin(2.1 * x[0] - 1.3 * x[1] + 0.7 * x[2] + a); };
+  Eigen::MatrixXd xSerial(ml.numVertices(), d), ySerial(serial.size(), d);
+  for (Index v = 0; v < ml.numVertices(); ++v)
+    for (int a = 0; a < d; ++a) xSerial(v, a) = fieldAt(ml.vertex(v), a);
+  for (Index k = 0; k < serial.size(); ++k)
+    for (int a = 0; a < d; ++a) ySerial(k, a) = fieldAt(mu.vertex(serial.vertex(k) - ml.numVertices()), a + 3);
+  const Eigen::MatrixXd CxSerial = C * xSerial, CtySerial = C.transpose() * ySerial;
+
+  const obs::mesh::Mesh& lowerLocal = lowerLeaf.local;
+  Eigen::VectorXd x = Eigen::VectorXd::Constant(lowerLocal.numVertices() * d, std::nan(""));
+  for (Index v = 0; v < lowerLeaf.halo.numOwned(); ++v)
+    for (int a = 0; a < d; ++a) x[v * d + a] = fieldAt(lowerLocal.vertex(v), a);
+  const Eigen::VectorXd Cx = mortar.applyTransformation(x, d);
+  Eigen::VectorXd y(static_cast<Eigen::Index>(mortar.rows().size()) * d);
+  for (std::size_t k = 0; k < mortar.rows().size(); ++k) {
+    const Index ks = serialRow.at(key(mortar.rows()[k].position));
+    for (int a = 0; a < d; ++a) {
+      EXPECT_NEAR(Cx[static_cast<Eigen::Index>(k) * d + a], CxSerial(ks, a), 1e-13);
+      y[static_cast<Eigen::Index>(k) * d + a] = fieldAt(mortar.rows()[k].position, a + 3);
+    }
+  }
+  Eigen::VectorXd Cty = Eigen::VectorXd::Zero(lowerLocal.numVertices() * d);
+  mortar.addTransposedTransformation(y, Cty, d);
+  std::map<Position, Index> lowerVertex;
+  for (Index v = 0; v < ml.numVertices(); ++v) lowerVertex[key(ml.vertex(v))] = v;
+  for (Index v = 0; v < lowerLeaf.halo.numOwned(); ++v)
+    for (int a = 0; a < d; ++a)
+      EXPECT_NEAR(Cty[v * d + a], CtySerial(lowerVertex.at(key(lowerLocal.vertex(v))), a), 1e-13);
+
   // the rows are those of owned slave vertices, so no row is on two ranks: their count adds up above
   const long long ranksWithRows = comm.sum(static_cast<long long>(mortar.rows().empty() ? 0 : 1));
   if (comm.size() > 1) {

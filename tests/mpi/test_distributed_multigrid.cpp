@@ -15,6 +15,7 @@
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/Communicator.hpp"
+#include "obs/obs/DistributedCoarseSolver.hpp"
 #include "obs/obs/DistributedGrid.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
 #include "obs/obs/LinearMultigrid.hpp"
@@ -161,12 +162,16 @@ void expectSerialHierarchy(CellType type, int cells, int refinements) {
 /// Linear elasticity clamped at y = 0 under a smooth load, solved by V-cycles to 1e-10: the
 /// distributed solve must converge in the serial iteration count (+-1: the sweep order differs)
 /// to the serial solution.
+/// partitionLevel 0: the coarse level is distributed too and solved by hypre (DistributedCoarseSolver).
 template <int d>
-void expectSerialSolve(CellType type, int cells, int refinements, int krylovSteps = 0) {
-  SCOPED_TRACE(std::string(obs::mesh::name(type)) + (krylovSteps > 0 ? ", conjugate gradients" : ""));
+void expectSerialSolve(CellType type, int cells, int refinements, int krylovSteps = 0, int partitionLevel = -1) {
+  SCOPED_TRACE(std::string(obs::mesh::name(type)) + (krylovSteps > 0 ? ", conjugate gradients" : "") +
+               (partitionLevel == 0 ? ", distributed coarse level" : ""));
   const obs::Communicator comm = obs::Communicator::world();
   const obs::mesh::Grid coarse(obs::mesh::boxMesh(type, cells));
-  const obs::DistributedGrid dg(coarse, refinements, comm);
+  obs::ForestPartitionOptions partition;
+  partition.level = partitionLevel;
+  const obs::DistributedGrid dg(coarse, refinements, comm, partition);
   obs::mesh::Grid serial = coarse;
   for (int l = 0; l < refinements; ++l) serial.refineUniformly();
   const obs::Material material{1.0, 0.3};
@@ -200,7 +205,13 @@ void expectSerialSolve(CellType type, int cells, int refinements, int krylovStep
   const obs::LinearSolverResult rd = md.solve(bd, xd);
   if (comm.rank() == 0)
     std::cout << obs::mesh::name(type) << " on " << comm.size() << " ranks: " << rd.iterations << " V-cycles (serial "
-              << rs.iterations << "), rate " << rd.convergenceRate << " (serial " << rs.convergenceRate << ")\n";
+              << rs.iterations << "), rate " << rd.convergenceRate << " (serial " << rs.convergenceRate << ")"
+              << (md.distributedCoarseLevel() ? ", " + std::to_string(md.coarseIterations()) + " coarse CG iterations" : "")
+              << "\n";
+  EXPECT_EQ(md.distributedCoarseLevel(), partitionLevel == 0);
+  if (partitionLevel == 0) {
+    EXPECT_GT(md.coarseIterations(), 0);
+  }
   ASSERT_TRUE(rs.converged);
   ASSERT_TRUE(rd.converged);
   EXPECT_LE(std::abs(rd.iterations - rs.iterations), 1);
@@ -222,6 +233,20 @@ TEST(DistributedMultigrid, SolvesAsTheSerialConjugateGradientsTriangles) {
 }
 TEST(DistributedMultigrid, SolvesAsTheSerialConjugateGradientsHexahedra) {
   expectSerialSolve<3>(CellType::Hexahedron, 2, 3, 2);
+}
+
+// partition level 0: no replicated level; the coarse problem by hypre's CG + BoomerAMG to 1e-12
+TEST(DistributedMultigrid, DistributedCoarseLevelSolvesAsTheSerialMultigridTriangles) {
+  if (!obs::DistributedCoarseSolver::available()) GTEST_SKIP() << "obs is built without hypre";
+  expectSerialSolve<2>(CellType::Triangle, 4, 4, 0, 0);
+}
+TEST(DistributedMultigrid, DistributedCoarseLevelSolvesAsTheSerialMultigridHexahedra) {
+  if (!obs::DistributedCoarseSolver::available()) GTEST_SKIP() << "obs is built without hypre";
+  expectSerialSolve<3>(CellType::Hexahedron, 3, 2, 0, 0);
+}
+TEST(DistributedMultigrid, DistributedCoarseLevelConjugateGradientsTetrahedra) {
+  if (!obs::DistributedCoarseSolver::available()) GTEST_SKIP() << "obs is built without hypre";
+  expectSerialSolve<3>(CellType::Tetrahedron, 2, 2, 2, 0);
 }
 
 TEST(DistributedMultigrid, SerialHierarchyTriangles) { expectSerialHierarchy<2>(CellType::Triangle, 4, 3); }

@@ -20,6 +20,7 @@
 #include "obs/obs/Communicator.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/ContactSet.hpp"
+#include "obs/obs/DistributedCoarseSolver.hpp"
 #include "obs/obs/DistributedGrid.hpp"
 #include "obs/obs/Friction.hpp"
 #include "obs/obs/Material.hpp"
@@ -51,12 +52,15 @@ obs::ContactProblem<d> pressedOntoBall(const obs::mesh::Mesh& m) {
   return obs::ContactProblem<d>(m, obs::Material{1.0, 0.3}, bc, contact);
 }
 
+/// partitionLevel 0: the coarse level distributed too, solved by hypre (DistributedCoarseSolver).
 template <int d>
-void expectSerialTnnmg(CellType type, int cells, int refinements) {
-  SCOPED_TRACE(std::string(obs::mesh::name(type)));
+void expectSerialTnnmg(CellType type, int cells, int refinements, int partitionLevel = -1) {
+  SCOPED_TRACE(std::string(obs::mesh::name(type)) + (partitionLevel == 0 ? ", distributed coarse level" : ""));
   const obs::Communicator comm = obs::Communicator::world();
   const obs::mesh::Grid coarse(obs::mesh::boxMesh(type, cells));
-  const obs::DistributedGrid dg(coarse, refinements, comm);
+  obs::ForestPartitionOptions partition;
+  partition.level = partitionLevel;
+  const obs::DistributedGrid dg(coarse, refinements, comm, partition);
   obs::mesh::Grid serial = coarse;
   for (int l = 0; l < refinements; ++l) serial.refineUniformly();
   typename obs::TNNMG<d>::Options options;
@@ -77,7 +81,11 @@ void expectSerialTnnmg(CellType type, int cells, int refinements) {
   const obs::ContactResult rd = solver.solve(pd, ud);
   if (comm.rank() == 0)
     std::cout << obs::mesh::name(type) << " on " << comm.size() << " ranks: " << rd.iterations << " iterations (serial "
-              << rs.iterations << "), active " << rd.activeSetSize << " (serial " << rs.activeSetSize << ")\n";
+              << rs.iterations << "), active " << rd.activeSetSize << " (serial " << rs.activeSetSize << ")"
+              << (partitionLevel == 0 ? ", " + std::to_string(solver.statistics().coarseIterations) + " coarse CG iterations"
+                                      : "")
+              << "\n";
+  EXPECT_EQ(solver.statistics().coarseIterations > 0, partitionLevel == 0);
   ASSERT_TRUE(rs.converged);
   ASSERT_TRUE(rd.converged);
   EXPECT_LE(std::abs(rd.iterations - rs.iterations), 1);
@@ -100,6 +108,15 @@ TEST(DistributedTnnmg, SolvesTheSerialSignoriniProblemTriangles) { expectSerialT
 TEST(DistributedTnnmg, SolvesTheSerialSignoriniProblemQuadrilaterals) { expectSerialTnnmg<2>(CellType::Quadrilateral, 4, 4); }
 TEST(DistributedTnnmg, SolvesTheSerialSignoriniProblemHexahedra) { expectSerialTnnmg<3>(CellType::Hexahedron, 2, 3); }
 TEST(DistributedTnnmg, SolvesTheSerialSignoriniProblemTetrahedra) { expectSerialTnnmg<3>(CellType::Tetrahedron, 2, 2); }
+// partition level 0: no replicated level, the coarse problem by hypre's CG + BoomerAMG
+TEST(DistributedTnnmg, DistributedCoarseLevelSolvesTheSerialSignoriniProblemQuadrilaterals) {
+  if (!obs::DistributedCoarseSolver::available()) GTEST_SKIP() << "obs is built without hypre";
+  expectSerialTnnmg<2>(CellType::Quadrilateral, 4, 4, 0);
+}
+TEST(DistributedTnnmg, DistributedCoarseLevelSolvesTheSerialSignoriniProblemHexahedra) {
+  if (!obs::DistributedCoarseSolver::available()) GTEST_SKIP() << "obs is built without hypre";
+  expectSerialTnnmg<3>(CellType::Hexahedron, 3, 2, 0);
+}
 
 /// Friction on the ranks: the pressed box slides (the top moves sideways) against the ball or disk
 /// with Tresca (slip bound `bound` per unit area) or Coulomb (coefficient `mu`) friction, solved by

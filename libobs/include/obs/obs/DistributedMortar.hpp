@@ -25,6 +25,8 @@
 /// Master columns are global indices of master vertices that the slave rank need not hold: the
 /// values there reach it through masterVertices() (the columns of its rows, for a ghost exchange
 /// by global index), and forces on them go back to their owners.
+#include <Eigen/Core>
+
 #include <string>
 #include <vector>
 
@@ -69,6 +71,21 @@ public:
   /// The master columns of this rank's rows (global stacked indices, ascending) and their positions.
   const std::vector<Index>& masterVertices() const { return masterVertices_; }
   const std::vector<Point>& masterPositions() const { return masterPositions_; }
+  /// Values at the master columns: (masterVertices().size() x components) values of a vector of
+  /// the master body in its view's local numbering (`components` per vertex; owned entries used),
+  /// from the ranks that own them. Collective (one message to and from each rank involved).
+  Eigen::VectorXd gatherMaster(const Eigen::VectorXd& masterLocal, int components) const;
+  /// The reverse: adds values at the master columns to their owners' entries of a master-body
+  /// vector (local numbering; owned entries changed). Collective.
+  void addToMaster(const Eigen::VectorXd& columnValues, Eigen::VectorXd& masterLocal, int components) const;
+  /// (C x)_p = sum_q M_pq x_q / D_pp per row (rows().size() x components) of the master values x
+  /// (a master-body vector in local numbering): the slave rows of u = (I + C) x. Collective.
+  Eigen::VectorXd applyTransformation(const Eigen::VectorXd& masterLocal, int components) const;
+  /// masterLocal += C' y, y given per row (rows().size() x components): the master rows of
+  /// (I + C)' y. With y_p = mu_p n_p (mu_p the multiplier of row p's bound) these are the forces on
+  /// the master body, MortarCoupling::masterForces. Collective.
+  void addTransposedTransformation(const Eigen::VectorXd& rowValues, Eigen::VectorXd& masterLocal,
+                                   int components) const;
   /// The search distance used (the option's, or the default from the whole slave surface).
   double searchDistance() const { return search_; }
   /// Master faces this rank received (its candidates; a master face can go to several ranks).
@@ -77,7 +94,15 @@ public:
   const MortarCoupling::Statistics& localStatistics() const { return stats_; }
 
 private:
+  /// Throws obs::Error if v does not have the expected size.
+  void checkSize(const Eigen::VectorXd& v, Eigen::Index expected, const char* what) const;
+
+  Communicator comm_;
   std::vector<Row> rows_;
+  /// The master-column exchange: per rank r, the columns (indices into masterVertices_) that r
+  /// owns, and the owned master vertices (local) that r asks for, in r's order.
+  std::vector<std::vector<Index>> askedColumns_, sentOwned_;
+  Index masterLocalSize_ = 0;
   long long globalSize_ = 0;
   std::vector<Index> masterVertices_;
   std::vector<Point> masterPositions_;

@@ -48,6 +48,9 @@ public:
   virtual int operatorUpdates() const = 0;
   /// Preconditioner applications (multigrid: V-cycles) since construction; 0 for direct solves.
   virtual long long cycles() const { return 0; }
+  /// Iterations of an iterative coarse solve since construction (multigrid with a distributed
+  /// coarse level: hypre's CG iterations); 0 for direct coarse solves.
+  virtual long long coarseIterations() const { return 0; }
 };
 
 /// Exact correction c = A_T^{-1} r with CHOLMOD (refactorised with the same pattern when the

@@ -6,7 +6,8 @@
 /// Options::smoother), Galerkin coarse operators with truncated and rotated
 /// transfers on the finest level, and CHOLMOD on level 0 (factorised once per coarse-operator
 /// update, refactorised with the same pattern; truncated coarse operators can be singular, see
-/// below). One cycle from x = 0 on level l:
+/// below); a distributed level 0 (partition level 0) by hypre's conjugate gradients with BoomerAMG
+/// to a relative residual of 1e-12 (DistributedCoarseSolver). One cycle from x = 0 on level l:
 ///   x = S_l^{nu1}(0; r);  d = r - A_l x;  x += P_{l-1} V_{l-1}(P_{l-1}' d);  x = S'_l^{nu2}(x; r)
 /// with V_0 = A_0^{-1}. With nu1 = nu2 the cycle is a symmetric positive definite operator.
 ///
@@ -41,6 +42,8 @@
 #include "obs/obs/VertexPatchSmoother.hpp"
 
 namespace obs {
+
+class DistributedCoarseSolver;
 
 /// The smoother of every level above level 0 (docs/theory.md#vertex-patch-smoother).
 enum class LinearSmoother {
@@ -141,6 +144,11 @@ public:
   std::size_t smootherMemoryBytes() const;
   /// V-cycles run since construction (apply() and solve() count each cycle).
   long long vcycles() const { return vcycles_; }
+  /// Whether level 0 is distributed (a distributed hierarchy with partition level 0): it is then
+  /// solved by hypre's conjugate gradients with BoomerAMG (DistributedCoarseSolver) instead of
+  /// CHOLMOD, and coarseIterations() counts their iterations since construction.
+  bool distributedCoarseLevel() const { return hierarchy_.halo(0) != nullptr; }
+  long long coarseIterations() const override;
   /// Wall seconds of the V-cycles' phases on one level, summed over the cycles since construction
   /// (or the last resetLevelSeconds()). Level 0 has only the coarse solve; the transfers of level l
   /// are those between l and l - 1.
@@ -199,7 +207,8 @@ private:
   std::vector<Eigen::VectorXd> rhs_, sol_, work_;  ///< per level
   static constexpr double kCoarseShift = 1e-10;  ///< relative diagonal shift of A_0 (L > 0)
   BlockSparseMatrix<d> shifted_;
-  std::unique_ptr<CholmodSolver> coarseSolver_;
+  std::unique_ptr<CholmodSolver> coarseSolver_;                 ///< level 0 held whole (serial, replicated)
+  std::unique_ptr<DistributedCoarseSolver> distributedCoarse_;  ///< level 0 distributed (partition level 0)
   double factorSeconds_ = 0;
 };
 

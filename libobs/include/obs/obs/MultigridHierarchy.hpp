@@ -40,7 +40,8 @@
 /// spaces stay the nodal ones of each body.
 ///
 /// Distributed hierarchy (MultigridHierarchy(const DistributedGrid&); docs/architecture.md#distributed-multigrid):
-/// the levels below the partition level L_p are replicated (every rank holds the whole level view),
+/// the levels below the partition level L_p are replicated (every rank holds the whole level view;
+/// none if L_p = 0),
 /// the levels L_p .. L are the rank's parts (DistributedView: owned vertices first, then one layer
 /// of ghosts). A rank's prolongation rows are those of its held fine vertices; their coarse parents
 /// are held. The restriction and the Galerkin products run over the rank's *owned* fine rows only,
@@ -99,8 +100,9 @@ public:
   explicit MultigridHierarchy(const std::vector<const mesh::Grid*>& grids);
 
   /// The distributed hierarchy of this rank (see the file comment). Collective. Throws obs::Error
-  /// if the grid dimension is not d or the partition level is 0 (the coarsest level must be
-  /// replicated: it is solved directly on every rank).
+  /// if the grid dimension is not d, or if the partition level is 0 and the grid has no refinement.
+  /// With partition level 0 the coarsest level is distributed too (no level is replicated; its
+  /// solvers use DistributedCoarseSolver).
   explicit MultigridHierarchy(const DistributedGrid& grid);
   /// Whether the hierarchy is distributed (built from a DistributedGrid, on any number of ranks).
   bool distributed() const { return !levels_.empty(); }
@@ -114,6 +116,9 @@ public:
   /// Level l's local vertex -> vertex of its view of the rank's grid (empty in a serial hierarchy,
   /// where the numbering is the view's).
   const std::vector<Index>& viewVertices(int l) const;
+  /// The global index of each local vertex of a distributed level (owned first; empty on a
+  /// replicated level and in a serial hierarchy).
+  const std::vector<Index>& globalVertices(int l) const;
 
   /// Sets (or with rows == 0 removes) the fine basis transformation C: the last prolongation becomes
   /// (I - C) P_{L-1}. Takes effect at the next setFineOperator(). Throws obs::Error on a wrong size.

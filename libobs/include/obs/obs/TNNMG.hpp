@@ -77,6 +77,7 @@ public:
     double correctionSeconds = 0; ///< V-cycles
     double otherSeconds = 0;      ///< residuals, projection, line search, norms
     long long vcycles = 0;        ///< V-cycles of the linear corrections (LinearCorrection::cycles())
+    long long coarseIterations = 0;  ///< CG iterations of a distributed coarse level (hypre), else 0
   };
 
   /// TNNMG with the multigrid correction on the grid's hierarchy.
