@@ -80,7 +80,7 @@ int runCommand(const std::string& scene, const std::optional<std::string>& outpu
                std::optional<int> refine, bool quiet, bool verbose,
                const std::vector<std::string>& plugins, const std::vector<std::string>& overrides,
                bool plots, bool compareSchemes, const std::optional<std::string>& restart,
-               std::optional<int> stopAfterStep) {
+               std::optional<int> stopAfterStep, std::optional<int> partitionLevel) {
   // plugins first, so that their estimators are valid names in [adaptivity]
   for (const std::string& plugin : plugins)
     obs::estimators::EstimatorRegistry::global().loadPlugin(plugin);
@@ -93,6 +93,7 @@ int runCommand(const std::string& scene, const std::optional<std::string>& outpu
   if (!quiet) options.stepProgress = [](const std::string& line) { std::cerr << line << std::endl; };
   if (output) options.outputDirectory = *output;
   options.refine = refine;
+  options.partitionLevel = partitionLevel;
   if (!quiet) options.progress = [](const std::string& line) { std::cout << line << std::endl; };
   if (verbose)
     options.iterationProgress = [](const std::string& line) { std::cerr << line << std::endl; };
@@ -195,6 +196,7 @@ int main(int argc, char** argv) {
   bool compareSchemes = false;  // [dynamics]: run every scheme
   std::optional<std::string> restart;
   std::optional<int> stopAfterStep;
+  std::optional<int> partitionLevel;
   std::optional<int> threadCount;
   std::vector<std::string> runPlugins, overrides;
   CLI::App* run =
@@ -228,6 +230,12 @@ int main(int argc, char** argv) {
                   "[dynamics] scenes: stop after time step K, [adaptivity] scenes after adaptive step K (0, 1, "
                   "...; its refinement included), with a checkpoint (as on SIGINT/SIGTERM; exit code 3)")
       ->type_name("K");
+  run->add_option("--partition-level", partitionLevel,
+                  "mpirun runs: the levels below L are held by every rank, the others distributed; 0 "
+                  "distributes the coarse level too, solved by hypre's CG + BoomerAMG (default: the coarsest "
+                  "level from 1 on with 8 cells per rank; docs/architecture.md#distributed-coarse-solve)")
+      ->type_name("L")
+      ->check(CLI::Range(0, 64));
   run->add_option("--threads,-t", threadCount,
                   "Threads for assembly, sweeps and products (default: $OBS_THREADS, else 1). Results are "
                   "bitwise reproducible for a fixed N; different N differ in the last bits "
@@ -411,7 +419,7 @@ int main(int argc, char** argv) {
       setThreadCount();
       obs::setBlasThreads(obs::threads());  // CHOLMOD's BLAS: the run's thread count, not every core
       return runCommand(scene, output, refine, quiet, verbose, runPlugins, overrides, runPlots,
-                        compareSchemes, restart, stopAfterStep);
+                        compareSchemes, restart, stopAfterStep, partitionLevel);
     }
     if (check->parsed()) return checkCommand(checkScenes, checkRefine);
     if (sweep->parsed()) {

@@ -13,16 +13,21 @@ import sys
 
 
 def communication(rows, lead):
-    """The communication table; lead: (header, value of a row) pairs of the first columns."""
+    """The communication table; lead: (header, value of a row) pairs of the first columns. Rows with a
+    distributed coarse level (partition level 0) add the CG iterations of its hypre solves per
+    iteration: hypre communicates through MPI itself, outside Communicator::counts()."""
+    hypre = 'coarse_iterations' in rows[0] and any(r['partition_level'] == '0' for r in rows)
     print('| ' + ' | '.join(h for h, _ in lead) + ' | neighbour exchanges per iteration | messages sent per iteration | '
-          'KB sent per iteration | reductions per iteration | values reduced per iteration |')
-    print('|' + '---|' * (len(lead) + 5))
+          'KB sent per iteration | reductions per iteration | values reduced per iteration |' +
+          (' coarse CG iterations per iteration (hypre) |' if hypre else ''))
+    print('|' + '---|' * (len(lead) + 5 + (1 if hypre else 0)))
     for r in rows:
         it = int(r['iterations'])
         print('| ' + ' | '.join(str(f(r)) for _, f in lead) +
               f" | {int(r['exchanges']) / it:.1f} | {int(r['messages_sent_max']) / it:.1f} | "
               f"{int(r['bytes_sent_max']) / it / 1024:.0f} | {int(r['reductions']) / it:.1f} | "
-              f"{int(r['reduced_values_max']) / it:,.0f} |")
+              f"{int(r['reduced_values_max']) / it:,.0f} |" +
+              (f" {int(r['coarse_iterations']) / it:.1f} |" if hypre else ''))
 
 
 def ranks_tables(rows):

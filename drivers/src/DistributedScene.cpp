@@ -237,6 +237,8 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
   // the phases of rank 0's solve (every rank runs the same phases; each waits for the others in them)
   const auto& st = solver.statistics();
   r.solver.vcycles = st.vcycles;
+  r.solver.coarseSolver = dg.partition().level == 0 ? "hypre" : "cholmod";
+  if (dg.partition().level == 0) r.solver.coarseIterations = st.coarseIterations;
   r.solver.phases = TnnmgPhases{st.setupSeconds,      st.smoothingSeconds, st.updateSeconds,
                                 st.correctionSeconds, st.otherSeconds,     st.operatorUpdates};
   r.solver.kkt = result.kkt;
@@ -420,6 +422,8 @@ Eigen::VectorXd solveLinear(const Scene& scene, const Communicator& comm, const 
   r.solver.correction = result.correction;
   r.solver.convergenceRate = result.convergenceRate;
   r.solver.vcycles = mg->vcycles();
+  r.solver.coarseSolver = mg->distributedCoarseLevel() ? "hypre" : "cholmod";
+  if (mg->distributedCoarseLevel()) r.solver.coarseIterations = mg->coarseIterations();
   return u;
 }
 
@@ -523,7 +527,9 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
   const int refine = options.refine.value_or(scene.mesh.refine);
   if (refine < 1)
     throw Error(scene.fileName + ": a distributed run needs refine >= 1 (the coarse mesh is solved on every rank; --refine 1 or [mesh] refine)");
-  const DistributedGrid dg(std::move(*coarse), refine, comm);
+  ForestPartitionOptions partition;
+  if (options.partitionLevel) partition.level = *options.partitionLevel;
+  const DistributedGrid dg(std::move(*coarse), refine, comm, partition);
   const DistributedView leaf = dg.view();
   r.meshSeconds = comm.max(secondsSince(t));
   r.dimension = leaf.local.dimension();

@@ -43,6 +43,8 @@ nlohmann::json summaryJson(const RunResult& r) {
     solver["convergence_rate"] = r.solver.convergenceRate;
   }
   if (r.solver.vcycles >= 0) solver["vcycles"] = r.solver.vcycles;
+  if (!r.solver.coarseSolver.empty()) solver["coarse_solver"] = r.solver.coarseSolver;
+  if (r.solver.coarseIterations >= 0) solver["coarse_iterations"] = r.solver.coarseIterations;
   if (const auto& p = r.solver.phases)
     solver["phases"] = {{"setup_s", p->setup},     {"nonsmooth_s", p->nonsmooth}, {"updates_s", p->updates},
                         {"vcycles_s", p->vcycles}, {"other_s", p->other},         {"operator_updates", p->operatorUpdates}};

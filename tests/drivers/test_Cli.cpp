@@ -22,6 +22,7 @@
 #include <vtkXMLUnstructuredGridReader.h>
 
 #include "DriverTestSupport.hpp"
+#include "obs/obs/DistributedCoarseSolver.hpp"
 
 using obs::test::slurp;
 namespace fs = std::filesystem;
@@ -133,8 +134,10 @@ TEST_F(Cli, SeveralMpiRanksAreRefusedOnEveryRankButForRun) {
 // run's iterations, contact vertices, area and load (the load to 1e-10), and its .pvtu joins two
 // pieces that VTK reads back as the whole mesh. The punch on 3 ranks likewise, the friction_peer
 // scene (Coulomb friction, two load increments) on 2, and the compressed block (linear
-// elasticity, distributed multigrid) to its exact solution. A scene that is not
-// distributed yet stops every rank with exit code 1 and one error line.
+// elasticity, distributed multigrid) to its exact solution. With --partition-level 0 (the coarse
+// level distributed, hypre) step-42 takes the serial iterations (+-1) to the serial load. A scene
+// that is not distributed yet, or a partition level the grid does not have, stops every rank with
+// exit code 1 and one error line.
 TEST_F(Cli, MpirunRunsStaticScenesDistributed) {
   const std::string mpirun = "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=PASSIVE " +
                              std::string(OBS_MPIEXEC) + " --oversubscribe -np 2";
@@ -169,6 +172,31 @@ TEST_F(Cli, MpirunRunsStaticScenesDistributed) {
   ASSERT_NE(grid->GetCellData()->GetArray("rank"), nullptr);
   EXPECT_EQ(grid->GetCellData()->GetArray("rank")->GetRange()[1], 1.0);
   EXPECT_NE(slurp(kTmp / "out_mpi2" / "step42.pvd").find("file=\"step42.pvtu\""), std::string::npos);
+  EXPECT_EQ(jd["solver"]["coarse_solver"], "cholmod");
+
+  // the coarse level distributed too (--partition-level 0): hypre's CG + BoomerAMG solve it, and
+  // the run takes the serial iterations (+-1) to the serial load within the solver tolerance; a
+  // partition level beyond the grid's levels stops both ranks with one line
+  if (obs::DistributedCoarseSolver::available()) {
+    fs::remove_all(kTmp / "out_mpi2_level0");
+    const Output h = runObs("run '" + scene + "' --refine 2 --partition-level 0 --output out_mpi2_level0 -q", "mpirun2_level0",
+                            mpirun);
+    ASSERT_EQ(h.code, 0) << h.err;
+    const nlohmann::json jh = json(kTmp / "out_mpi2_level0" / "summary.json");
+    EXPECT_EQ(jh["partition_level"], 0);
+    EXPECT_EQ(jh["solver"]["coarse_solver"], "hypre");
+    EXPECT_GT(jh["solver"]["coarse_iterations"].get<long long>(), 0);
+    EXPECT_LE(std::abs(jh["solver"]["iterations"].get<int>() - js["solver"]["iterations"].get<int>()), 1);
+    EXPECT_EQ(jh["contact"]["actual_vertices"], js["contact"]["actual_vertices"]);
+    EXPECT_NEAR(jh["contact"]["load_P"].get<double>(), load, 1e-8 * load);
+  }
+  const Output bad = runObs("run '" + scene + "' --refine 2 --partition-level 9 --output out_mpi2_bad", "mpirun2_bad", mpirun);
+  EXPECT_EQ(bad.code, 1);
+  std::size_t badErrors = 0;  // obs' own lines (mpirun adds its report of the exit code)
+  for (std::size_t at = bad.err.find("obs: error:"); at != std::string::npos; at = bad.err.find("obs: error:", at + 1))
+    ++badErrors;
+  EXPECT_EQ(badErrors, 1u) << bad.err;
+  EXPECT_NE(bad.err.find("partition level 9"), std::string::npos) << bad.err;
 
   // 2D on 3 ranks, one of which holds no face of the contact boundary
   const std::string punch = (fs::path(OBS_DATA_DIR) / "scenes" / "punch.toml").string();

@@ -34,6 +34,11 @@ struct RunOptions {
   /// `--stop-after-step K`: a [dynamics] run stops after time step K (< the scene's steps) with a
   /// checkpoint, as on SIGINT/SIGTERM (RunInterrupted).
   std::optional<int> stopAfterStep = {};
+  /// `--partition-level L`: distributed runs (mpirun -np N, N > 1) replicate the levels below L
+  /// and distribute the rest; 0 distributes the coarse level too, solved by hypre
+  /// (docs/architecture.md#distributed-coarse-solve). Default: the coarsest level from 1 on with 8
+  /// cells per rank. No effect on one process.
+  std::optional<int> partitionLevel = {};
 };
 
 /// A run that stopped early (SIGINT/SIGTERM, RunOptions::stopAfterStep); the message says where it

@@ -45,6 +45,10 @@ struct SolverReport {
   double correction = 0;    ///< last relative energy-norm correction (iterative solvers)
   double convergenceRate = 0;  ///< geometric mean of the correction ratios (iterative solvers)
   long long vcycles = -1;   ///< tnnmg, multigrid: V-cycles run (-1: not reported)
+  /// distributed runs: the coarse level's solver, "cholmod" (replicated) or "hypre" (partition
+  /// level 0), and hypre's CG iterations over the solve (-1: not reported)
+  std::string coarseSolver;
+  long long coarseIterations = -1;
   std::optional<TnnmgPhases> phases;  ///< static tnnmg solves
   std::optional<KktResiduals> kkt;  ///< contact solvers: KKT residuals of the solution
   std::optional<FrictionIterationReport> friction;  ///< scenes with friction
