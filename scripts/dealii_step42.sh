@@ -12,25 +12,55 @@
 # not forces. Needs Debian's libdeal.ii-dev and libdeal.ii-doc (the tutorial sources); not part of
 # scripts/install-deps.
 #   scripts/dealii_step42.sh OUT.tsv [RANKS...]     (default: 1 2)
+#
+# With --elastic, the forces instead: the tutorial built with the yield stress 1e10 instead of 400
+# (so the material stays linear elastic, the problem of obs's step42 scene), its contact force on
+# each cycle (8^3 .. 64^3 cells) beside obs's load at refine 1 .. 4 (one process).
+#   scripts/dealii_step42.sh --elastic OUT.tsv [RANKS]   (default: 2)
 set -euo pipefail
-out=${1:?usage: scripts/dealii_step42.sh OUT.tsv [RANKS...]}
+elastic=0
+if [[ ${1:-} == --elastic ]]; then elastic=1; shift; fi
+out=${1:?usage: scripts/dealii_step42.sh [--elastic] OUT.tsv [RANKS...]}
 shift
 ranks=("$@")
 [[ ${#ranks[@]} -eq 0 ]] && ranks=(1 2)
+[[ $elastic == 1 && $# -eq 0 ]] && ranks=(2)
 src=/usr/share/doc/libdeal.ii-doc/examples/step-42
 [[ -f $src/step-42.cc ]] || { echo "dealii_step42.sh: $src/step-42.cc missing (apt-get install libdeal.ii-dev libdeal.ii-doc)" >&2; exit 1; }
 obs=${OBS:-build/drivers/obs}
 [[ -x $obs ]] || { echo "dealii_step42.sh: $obs missing (build obs first)" >&2; exit 1; }
 work=${WORK:-build/peers/step-42}
+[[ $elastic == 1 ]] && work=${WORK:-build/peers/step-42-elastic}
 mkdir -p "$work"
 work=$(cd "$work" && pwd)
 if [[ ! -x $work/step-42 ]]; then
   cp "$src"/* "$work"/
+  if [[ $elastic == 1 ]]; then
+    grep -q ', sigma_0(400.0)' "$work/step-42.cc" || { echo "dealii_step42.sh: the yield stress line of step-42.cc changed" >&2; exit 1; }
+    sed -i 's/, sigma_0(400.0)/, sigma_0(1e10)/' "$work/step-42.cc"
+  fi
   (cd "$work" && cmake -DCMAKE_BUILD_TYPE=Release . > cmake.log && make > make.log)
 fi
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=PASSIVE OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
 sed -e 's/^set number of cycles .*/set number of cycles              = 4/' \
     -e 's|^set output directory .*|set output directory              = output|' "$work/p1_global.prm" > "$work/run.prm"
+
+if [[ $elastic == 1 ]]; then
+  rm -rf "$work/output"; mkdir -p "$work/output"
+  (cd "$work" && mpirun --oversubscribe -np "${ranks[0]}" ./step-42 run.prm > run.log 2>&1)
+  printf 'cells\tunknowns\tdealii_force\tobs_load\trelative_difference\n' > "$out"
+  mapfile -t forces < <(awk '/Contact force =/ {print $4}' "$work/run.log")
+  mapfile -t dofs < <(awk '/Number of degrees of freedom/ {print $NF}' "$work/run.log")
+  for k in 1 2 3 4; do
+    "$obs" run data/scenes/step42.toml --refine "$k" --output "$work/obs-$k" -q
+    load=$(/usr/bin/python3 -c 'import json, sys; print("%.9g" % json.load(open(sys.argv[1]))["contact"]["load_P"])' "$work/obs-$k/summary.json")
+    f=${forces[$((k - 1))]}
+    printf '%d^3\t%s\t%s\t%s\t%s\n' $((4 << k)) "${dofs[$((k - 1))]}" "$f" "$load" \
+      "$(/usr/bin/python3 -c 'import sys; a, b = map(float, sys.argv[1:]); print("%.1e" % (abs(a - b) / b))' "$f" "$load")" >> "$out"
+  done
+  column -t -s $'\t' "$out"
+  exit 0
+fi
 
 # peak RSS of the largest rank from the files rss.<rank> that GNU time wrote (kB -> MB)
 peak_mb() { cat "$1"/rss.* | sort -n | tail -1 | awk '{printf "%.0f", $1 / 1024}'; }

@@ -4,8 +4,10 @@
   scripts/distributed_tables.py ranks OUT.tsv   # scripts/distributed_bench.sh: per refinement and
                                                 # rank count, with the ratios to 1 rank
   scripts/distributed_tables.py weak OUT.tsv    # scripts/distributed_weak.sh: per rank count
+  scripts/distributed_tables.py coarse A.tsv B.tsv  # two distributed_weak.sh series side by side: the
+                                                # default partition level (A) and PARTITION_LEVEL=0 (B)
 
-Each prints a second table: the communication per TNNMG iteration of the largest rank
+ranks and weak print a second table: the communication per TNNMG iteration of the largest rank
 (Communicator::counts() over the solve).
 """
 import csv
@@ -64,9 +66,36 @@ def weak_tables(rows):
                          ('V-cycles', lambda r: r['vcycles'])])
 
 
+def coarse_table(replicated, distributed):
+    """Two distributed_weak.sh series side by side, by rank count: the default partition level
+    (replicated coarse levels) and PARTITION_LEVEL=0 (the coarse level distributed, hypre)."""
+    other = {r['ranks']: r for r in distributed}
+    print('| ranks | unknowns | partition level | iterations | leaves held (largest) / leaves per rank | '
+          'memory per rank MB (largest) | values reduced per iteration | coarse CG iterations per iteration (hypre) | '
+          'solve s (oversubscribed beyond 2) |')
+    print('|---|---|---|---|---|---|---|---|---|')
+    for a in replicated:
+        b = other.get(a['ranks'])
+        if b is None:
+            continue
+        def pair(f, fmt):
+            return f'{fmt(f(a))} / {fmt(f(b))}'
+        per = int(a['leaves_global']) / int(a['ranks'])
+        print(f"| {a['ranks']} | {int(a['unknowns']):,} | {a['partition_level']} / {b['partition_level']} | "
+              f"{a['iterations']} / {b['iterations']} | "
+              + pair(lambda r: int(r['leaves_max']) / per, lambda v: f'{v:.2f}') + ' | '
+              + pair(lambda r: float(r['memory_max_mb']), lambda v: f'{v:.0f}') + ' | '
+              + pair(lambda r: int(r['reduced_values_max']) / int(r['iterations']), lambda v: f'{v:,.0f}') + ' | '
+              + f"{int(b['coarse_iterations']) / int(b['iterations']):.1f} | "
+              + pair(lambda r: float(r['solve_s']), lambda v: f'{v:.2f}') + ' |')
+
+
 def main():
+    if len(sys.argv) == 4 and sys.argv[1] == 'coarse':
+        coarse_table(*(list(csv.DictReader(open(f), delimiter='\t')) for f in sys.argv[2:]))
+        return
     if len(sys.argv) != 3 or sys.argv[1] not in ('ranks', 'weak'):
-        sys.exit('usage: scripts/distributed_tables.py ranks|weak OUT.tsv')
+        sys.exit('usage: scripts/distributed_tables.py ranks|weak OUT.tsv | coarse REPLICATED.tsv DISTRIBUTED.tsv')
     rows = list(csv.DictReader(open(sys.argv[2]), delimiter='\t'))
     (ranks_tables if sys.argv[1] == 'ranks' else weak_tables)(rows)
 

@@ -93,8 +93,8 @@ DistributedMortar::DistributedMortar(const DistributedMortarSurface& slave, cons
   }
   ext[12] = largestSlaveFace;
   ext[13] = std::max(largestCoordinate(slaveBox), largestCoordinate(masterBox));
-  ext[14] = static_cast<double>(slaveFaces.size()) > 0 ? 1 : 0;
-  ext[15] = static_cast<double>(masterFaces.size()) > 0 ? 1 : 0;
+  ext[14] = slaveFaces.empty() ? 0.0 : 1.0;  // some rank has a face of the surface
+  ext[15] = masterFaces.empty() ? 0.0 : 1.0;
   comm.max(ext);
   if (ext[14] == 0) throw Error("mortar surface " + slave.label + ": no boundary face has this id");
   if (ext[15] == 0) throw Error("mortar surface " + master.label + ": no boundary face has this id");
