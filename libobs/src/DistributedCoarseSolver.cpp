@@ -44,7 +44,7 @@ struct DistributedCoarseSolver::Impl {
   // scratch of the row-wise matrix upload
   std::vector<HYPRE_Int> counts;
   std::vector<HYPRE_BigInt> rows, columns, indices;
-  std::vector<double> values;
+  std::vector<double> values, zeros;
 
   ~Impl() { release(); }
   void release() {
@@ -173,8 +173,8 @@ void DistributedCoarseSolver::solve(const Eigen::VectorXd& rhs, Eigen::VectorXd&
   HYPRE_IJVectorInitialize(m.x);
   if (n > 0) {
     HYPRE_IJVectorSetValues(m.b, n, m.indices.data(), rhs.data());
-    m.values.assign(static_cast<std::size_t>(n), 0.0);
-    HYPRE_IJVectorSetValues(m.x, n, m.indices.data(), m.values.data());
+    m.zeros.assign(static_cast<std::size_t>(n), 0.0);  // CG starts from zero
+    HYPRE_IJVectorSetValues(m.x, n, m.indices.data(), m.zeros.data());
   }
   HYPRE_IJVectorAssemble(m.b);
   HYPRE_IJVectorAssemble(m.x);
