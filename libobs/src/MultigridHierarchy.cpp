@@ -595,10 +595,18 @@ void MultigridHierarchy<d>::joinPattern(int l) {
 }
 
 template <int d>
-void MultigridHierarchy<d>::sumShares(int l) {
+std::vector<Index> MultigridHierarchy<d>::sumShares(int l, const std::vector<Index>* rows) {
   const Communicator& comm = *comm_;
   BlockSparseMatrix<d>& C = coarse_[l];
-  C.unshareBlocks();
+  // a local update keeps shared blocks shared: its few changed entries go through a BlockWriter
+  if (!rows) C.unshareBlocks();
+  std::optional<typename BlockSparseMatrix<d>::BlockWriter> writer;
+  if (C.shared()) writer.emplace(C);
+  const BlockSparseMatrix<d>& read = C;
+  const auto write = [&](Index k, const Mat& B) {  // B a copy: a writer may move the stored blocks
+    if (writer) writer->set(k, B);
+    else C.blockAt(k) = B;
+  };
   std::vector<Index> all(static_cast<std::size_t>(C.rows()));
   for (Index I = 0; I < C.rows(); ++I) all[I] = I;
   if (!distributedLevel(l)) {  // replicated: the same pattern on every rank, the blocks summed
@@ -607,18 +615,26 @@ void MultigridHierarchy<d>::sumShares(int l) {
     comm.sum(values);
     for (Index k = 0; k < C.nonZeroBlocks(); ++k) std::copy_n(values.begin() + k * d * d, d * d, C.blockAt(k).data());
     markDeadComponents(C, all, dead_[l]);
-    return;
+    return {};
   }
   // the ghost rows' shares added to their owners' rows (patterns joined by joinPattern)
   const Level& lv = levels_[l];
+  std::vector<char> inRows;  // a local update: the recomputed rows
+  if (rows) {
+    inRows.assign(static_cast<std::size_t>(C.rows()), 0);
+    for (Index I : *rows) inRows[static_cast<std::size_t>(I)] = 1;
+  }
+  const auto recomputed = [&](Index I) { return !rows || inRows[static_cast<std::size_t>(I)] != 0; };
   std::vector<std::vector<double>> send(static_cast<std::size_t>(comm.size()));
   for (Index I = lv.owned; I < C.rows(); ++I) {
+    if (!recomputed(I)) continue;
     std::vector<double>& out = send[lv.owner[I]];
     out.push_back(static_cast<double>(lv.global[I]));
     out.push_back(static_cast<double>(C.rowEnd(I) - C.rowBegin(I)));
     for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) {
       out.push_back(static_cast<double>(lv.global[C.column(k)]));
-      out.insert(out.end(), C.blockAt(k).data(), C.blockAt(k).data() + d * d);
+      const Mat& B = read.blockAt(k);
+      out.insert(out.end(), B.data(), B.data() + d * d);
     }
   }
   const std::vector<std::vector<double>> got = comm.exchange(send);
@@ -629,34 +645,96 @@ void MultigridHierarchy<d>::sumShares(int l) {
       a += 2;
       for (std::size_t k = 0; k < n; ++k, a += 1 + d * d) {
         const Index pos = C.find(I, lv.local(static_cast<Index>(in[a])));
-        C.blockAt(pos) += Eigen::Map<const Mat>(in.data() + a + 1);
+        write(pos, Mat(read.blockAt(pos) + Eigen::Map<const Mat>(in.data() + a + 1)));
       }
     }
-  // dead components from the owned rows: the largest live diagonal entry over all ranks
+  // dead components from the owned rows: the largest live diagonal entry over all ranks (a local
+  // update: the rows it did not recompute keep their dead components, patched, out of the maximum)
   double scale = 0;
-  for (Index I = 0; I < lv.owned; ++I) scale = std::max(scale, C.blockAt(C.diagonal(I)).diagonal().maxCoeff());
+  for (Index I = 0; I < lv.owned; ++I) {
+    const Mat& D = read.blockAt(C.diagonal(I));
+    for (int c = 0; c < d; ++c)
+      if (recomputed(I) || !(dead_[l][I] & (1u << c))) scale = std::max(scale, D(c, c));
+  }
   scale = comm.max(scale);
   const double patch = scale > 0 ? scale : 1.0;
   Eigen::VectorXd bits = Eigen::VectorXd::Zero(C.rows());
+  std::vector<Index> repatched;
   for (Index I = 0; I < lv.owned; ++I) {
-    Mat& D = C.blockAt(C.diagonal(I));
+    const Index k = C.diagonal(I);
+    Mat D = read.blockAt(k);
     unsigned b = 0;
-    for (int c = 0; c < d; ++c)
-      if (D(c, c) <= 1e-12 * scale) {
-        b |= 1u << c;
-        D(c, c) = patch;
-      }
+    bool moved = false;
+    if (recomputed(I)) {
+      for (int c = 0; c < d; ++c)
+        if (D(c, c) <= 1e-12 * scale) {
+          b |= 1u << c;
+          D(c, c) = patch;
+          moved = true;
+        }
+    } else {  // kept: its dead components take the new patch value
+      b = dead_[l][I];
+      for (int c = 0; c < d; ++c)
+        if ((b & (1u << c)) && D(c, c) != patch) {
+          D(c, c) = patch;
+          moved = true;
+        }
+      if (moved) repatched.push_back(I);
+    }
+    if (moved) write(k, D);
     bits[I] = b;
   }
   lv.halo->update(bits);
   for (Index I = 0; I < C.rows(); ++I) dead_[l][I] = static_cast<std::uint8_t>(bits[I]);
   // the ghost rows held this rank's share only: identity rows, so that every diagonal block is
   // regular for the smoothers (which sweep the owned rows only)
-  for (Index I = lv.owned; I < C.rows(); ++I)
-    for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) {
-      if (C.column(k) == I) C.blockAt(k).setIdentity();
-      else C.blockAt(k).setZero();
+  for (Index I = lv.owned; I < C.rows(); ++I) {
+    if (!recomputed(I)) continue;  // still the identity row of the last update
+    for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) write(k, C.column(k) == I ? Mat(Mat::Identity()) : Mat(Mat::Zero()));
+  }
+  return repatched;
+}
+
+template <int d>
+bool MultigridHierarchy<d>::updateDistributedRows(int l, const std::vector<Index>& changed, const std::vector<Index>* slot,
+                                                  const std::vector<Mat>* E, std::vector<Index>& rows) {
+  const Level& lv = levels_[l];
+  BlockSparseMatrix<d>& C = coarse_[l];
+  const mesh::CsrMatrix& P = prolongations_[l];
+  const bool top = l + 1 == maxLevel();
+  const BlockSparseMatrix<d>& F = top ? *fine_ : coarse_[l + 1];
+  // the entries that change are (I, J) with I or J in the supports R of the changed held vertices:
+  // the rows of R and of its neighbours (as serially). Every rank holding such a row recomputes its
+  // share of it (the marks go to the owners and back), so that the owners sum fresh shares.
+  Eigen::VectorXd mark = Eigen::VectorXd::Zero(C.rows());
+  for (Index p : changed)
+    for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k) {
+      const Index I = P.columns[k];
+      for (Index a = C.rowBegin(I); a < C.rowEnd(I); ++a) mark[C.column(a)] = 1;  // I itself included
     }
+  lv.halo->accumulate(mark);
+  lv.halo->update(mark);
+  rows.clear();
+  double owned = 0;
+  for (Index I = 0; I < C.rows(); ++I)
+    if (mark[I] != 0) {
+      rows.push_back(I);
+      if (I < lv.owned) ++owned;
+    }
+  std::vector<double> counts{owned, static_cast<double>(lv.owned)};
+  comm_->sum(counts);
+  if (!(4 * counts[0] < counts[1])) return false;  // a full product is cheaper
+  galerkinRows<d>(F, P, transposed_[l], slot, E, rows, C, nullptr, 0, top ? &diagonalSlot_ : nullptr, &diagonalBlocks_);
+  const std::vector<Index> repatched = sumShares(l, &rows);
+  if (C.shared() && 2 * C.storedBlocks() > C.nonZeroBlocks()) {  // the blocks no entry uses any more
+    C.unshareBlocks();
+    C.shareRepeatedBlocks();
+  }
+  updatedRows_[l] = rows;
+  updatedRows_[l].insert(updatedRows_[l].end(), repatched.begin(), repatched.end());
+  fullUpdate_[l] = 0;
+  rowsRecomputed_ += static_cast<long long>(rows.size());
+  return true;
 }
 
 template <int d>
@@ -893,7 +971,7 @@ void MultigridHierarchy<d>::computeCoarse(bool local) {
   // Local update: the entries of A_l that change are those (I, J) with I or J in
   // R_l = { I : P_pI != 0 for a changed vertex p of level l + 1 }; they lie in the rows of R_l and
   // of its neighbours, and R_l is the changed set for level l - 1.
-  std::vector<Index> changed = changed_, touched, rows, all;
+  std::vector<Index> changed = changed_, touched, rows, all, recomputedRows;
   std::vector<char> mark;
   std::vector<Index> deadSlot;
   std::vector<Mat> deadE;
@@ -906,7 +984,14 @@ void MultigridHierarchy<d>::computeCoarse(bool local) {
     if (!top) deadTransforms<d>(dead_[l + 1], deadSlot, deadE);
     const std::vector<Index>* slot = top ? &transformSlot_ : &deadSlot;
     const std::vector<Mat>* E = top ? &transform_ : &deadE;
-    bool partial = local && !distributed();  // a distributed hierarchy recomputes whole levels
+    bool partial = local && !distributed();  // a distributed hierarchy: below
+    // a distributed hierarchy updates its distributed levels locally (the rows next to the changed
+    // vertices, on every rank that holds them); the rows it recomputed are the changed set of the
+    // next level down. Replicated levels are recomputed whole.
+    if (local && distributedLevel(l) && updateDistributedRows(l, changed, slot, E, recomputedRows)) {
+      changed.swap(recomputedRows);
+      continue;
+    }
     if (partial) {
       mark.assign(C.rows(), 0);
       touched.clear();

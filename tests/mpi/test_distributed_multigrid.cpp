@@ -147,7 +147,7 @@ void expectSerialHierarchy(CellType type, int cells, int refinements) {
     hs.prolongateAdd(l, vectorOf(xs[l]), ps);
     expectOwned(l + 1, pd, ps, hd.numVertices(l + 1), "prolongation");
   }
-  // a truncation change recomputes the distributed levels whole, with the same result
+  // a large truncation change recomputes the distributed levels whole, with the same result
   for (std::size_t i = 0; i < mask.size(); i += d) mask[i] = 0;
   hd.truncate(mask);
   std::vector<char> serialMask;
@@ -157,6 +157,33 @@ void expectSerialHierarchy(CellType type, int cells, int refinements) {
   const Eigen::VectorXd yd = hd.coarseOperator(L - 1) * vectorOf(xd[L - 1]);
   const Eigen::VectorXd ys = hs.coarseOperator(L - 1) * vectorOf(xs[L - 1]);
   expectOwned(L - 1, yd, ys, hd.ownedVertices(L - 1), "coarse operator after truncate()");
+
+  // a small change (the first component truncated in a small ball around the centre) updates the
+  // distributed top coarse level locally, on every rank holding its rows, and the levels below
+  // whole: every level's operator and dead bits are still the serial ones
+  const auto nearCentre = [](const Point& x) { return (x - Point(0.5, 0.5, d == 3 ? 0.5 : 0.0)).norm() < 0.08; };
+  const auto truncateCentre = [&](const std::vector<Point>& x, std::vector<char>& m) {
+    for (std::size_t v = 0; v < x.size(); ++v)
+      if (nearCentre(x[v])) m[v * d] = 1;
+  };
+  truncateCentre(leaf.local.vertices(), mask);
+  truncateCentre(fineSerial.vertices(), serialMask);
+  const long long recomputedBefore = hd.coarseRowsRecomputed();
+  hd.truncate(mask);
+  hs.truncate(serialMask);
+  if (L - 1 >= Lp) {
+    EXPECT_FALSE(hd.fullUpdate(L - 1)) << "the top coarse level was recomputed whole";
+    EXPECT_LT(hd.coarseRowsRecomputed() - recomputedBefore, hd.numVertices(L - 1) + (L > 1 ? hd.numVertices(L - 2) : 0) + 1);
+  }
+  EXPECT_FALSE(hs.fullUpdate(L - 1));
+  for (int l = 0; l < L; ++l) {
+    const Eigen::VectorXd zd = hd.coarseOperator(l) * vectorOf(xd[l]);
+    const Eigen::VectorXd zs = hs.coarseOperator(l) * vectorOf(xs[l]);
+    expectOwned(l, zd, zs, hd.ownedVertices(l), "coarse operator after a local update");
+    for (Index i = 0; i < hd.numVertices(l); ++i)
+      ASSERT_EQ(hd.deadBits(l)[i], hs.deadBits(l)[serialIndex[l].at(quantise(xd[l][i]))])
+          << "level " << l << " after a local update";
+  }
 }
 
 /// Linear elasticity clamped at y = 0 under a smooth load, solved by V-cycles to 1e-10: the

@@ -52,8 +52,11 @@
 /// of a distributed level are found on the owned rows (the largest live diagonal entry a maximum
 /// over the ranks) and given to the ghosts. Vectors of a distributed level are in its local
 /// numbering: restrict() returns complete owned entries (ghosts zero); prolongateAdd() needs the
-/// coarse ghost entries current and gives complete fine entries, ghosts included. Coarse operators
-/// are always recomputed whole (no local updates) and a fine basis transformation is refused.
+/// coarse ghost entries current and gives complete fine entries, ghosts included. After a
+/// truncation change a distributed level is updated locally as serially, the rows next to the
+/// changed vertices, by every rank that holds one of them (so that its owner sums fresh shares),
+/// unless they are a quarter of the level's rows or more over all ranks; replicated levels are
+/// recomputed whole. A fine basis transformation is refused.
 ///
 /// If L = 0 (a grid without refinement) level 0 is the fine level and coarseOperator(0) is the
 /// explicit truncated fine matrix A~_T (for the direct coarse solver).
@@ -209,8 +212,17 @@ private:
   /// The coarse pattern of level l made whole: a distributed level's ghost rows' columns joined to
   /// their owners' rows; a replicated level below a distributed one joined over all ranks.
   void joinPattern(int l);
-  /// The shares of coarse level l summed (as joinPattern), the dead components found.
-  void sumShares(int l);
+  /// The shares of coarse level l summed (as joinPattern), the dead components found. With `rows`
+  /// (a distributed level's local update: the rows recomputed on this rank, ascending) only the
+  /// ghost rows among them are sent, and the dead components of the owned ones found again;
+  /// returns the owned rows outside `rows` whose dead components were patched anew.
+  std::vector<Index> sumShares(int l, const std::vector<Index>* rows = nullptr);
+  /// The local update of a distributed level l whose finer level changed at the held vertices
+  /// `changed` (see computeCoarse); `rows` receives the held rows it recomputed. False, without
+  /// changing anything, if it would recompute a quarter of the level's rows or more (over all
+  /// ranks).
+  bool updateDistributedRows(int l, const std::vector<Index>& changed, const std::vector<Index>* slot,
+                             const std::vector<Mat>* E, std::vector<Index>& rows);
   Index setBits(const std::vector<char>& mask);
   void updateTransforms();
   void computeCoarse(bool local);
