@@ -704,8 +704,12 @@ bool MultigridHierarchy<d>::updateDistributedRows(int l, const std::vector<Index
   const bool top = l + 1 == maxLevel();
   const BlockSparseMatrix<d>& F = top ? *fine_ : coarse_[l + 1];
   // the entries that change are (I, J) with I or J in the supports R of the changed held vertices:
-  // the rows of R and of its neighbours (as serially). Every rank holding such a row recomputes its
-  // share of it (the marks go to the owners and back), so that the owners sum fresh shares.
+  // the rows of R and of its neighbours (as serially). A rank's pattern of a ghost row need not hold
+  // every neighbour, but the rank that owns a changed vertex r has all of them in its rows of r's
+  // support (its share there comes from the owned row r and every fine neighbour of r), and the
+  // marks go to the owners and back: every rank holding a row to recompute recomputes its share of
+  // it, so that the owners sum fresh shares. (The changed vertices' truncation bits are the same on
+  // every rank that holds them.)
   Eigen::VectorXd mark = Eigen::VectorXd::Zero(C.rows());
   for (Index p : changed)
     for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k) {
