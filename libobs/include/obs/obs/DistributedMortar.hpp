@@ -22,9 +22,10 @@
 ///  4. Each rank couples its slave surface with the master faces it received (MortarCoupling on
 ///     the two local meshes) and keeps the rows of its owned slave nodes, their master columns in
 ///     the global stacked numbering.
-/// Master columns are global indices of master vertices that the slave rank need not hold: the
-/// values there reach it through masterVertices() (the columns of its rows, for a ghost exchange
-/// by global index), and forces on them go back to their owners.
+///  5. The columns of a rank's rows (masterVertices()) are global indices of master vertices it
+///     need not hold. Each column's owner (from the master view's offsets) learns once which of its
+///     vertices the rank needs; gatherMaster() then brings their values and addToMaster() sends
+///     values back to be added (one message to and from each rank involved).
 #include <Eigen/Core>
 
 #include <string>
