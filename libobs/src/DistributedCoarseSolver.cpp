@@ -160,7 +160,14 @@ void DistributedCoarseSolver::refactorize(const BlockSparseMatrix<d>& A) {
   const auto t0 = std::chrono::steady_clock::now();
   if (impl_->d != d || A.rows() != impl_->halo->numLocal())
     throw Error("distributed coarse solver: refactorize with a matrix of another size");
+  HYPRE_ClearAllErrors();
   impl_->upload(A);
+  const HYPRE_Int failed = HYPRE_GetError();
+  HYPRE_ClearAllErrors();
+  impl_->halo->communicator().collective([&] {  // a failure on one rank stops every rank
+    if (failed) throw Error("distributed coarse solver: hypre failed to set up the matrix or BoomerAMG (error " +
+                            std::to_string(failed) + ")");
+  });
   setupSeconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
 }
 

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <limits>
 #include <map>
 #include <sstream>
@@ -259,41 +260,57 @@ void DistributedMortar::checkSize(const Eigen::VectorXd& v, Eigen::Index expecte
                 std::to_string(expected));
 }
 
-Eigen::VectorXd DistributedMortar::gatherMaster(const Eigen::VectorXd& masterLocal, int components) const {
-  checkSize(masterLocal, static_cast<Eigen::Index>(masterLocalSize_) * components, "the master vector");
+void DistributedMortar::exchangeColumns(bool towardOwners, int components,
+                                        const std::function<std::vector<double>(std::size_t)>& pack,
+                                        const std::function<void(std::size_t, const std::vector<double>&)>& use) const {
+  // gather: owners send the values of sentOwned_[r] to rank r, which reads them into askedColumns_[r];
+  // add: the other way round
+  const std::vector<std::vector<Index>>& out = towardOwners ? askedColumns_ : sentOwned_;
+  const std::vector<std::vector<Index>>& in = towardOwners ? sentOwned_ : askedColumns_;
   const int me = comm_.rank();
-  Eigen::VectorXd out(static_cast<Eigen::Index>(masterVertices_.size()) * components);
-  auto pack = [&](std::size_t r) {
-    std::vector<double> m;
-    m.reserve(sentOwned_[r].size() * static_cast<std::size_t>(components));
-    for (Index v : sentOwned_[r])
-      for (int a = 0; a < components; ++a) m.push_back(masterLocal[static_cast<Eigen::Index>(v) * components + a]);
-    return m;
-  };
-  auto unpack = [&](std::size_t r, const std::vector<double>& m) {
-    std::size_t k = 0;
-    for (Index i : askedColumns_[r])
-      for (int a = 0; a < components; ++a) out[static_cast<Eigen::Index>(i) * components + a] = m[k++];
-  };
   std::vector<int> to, from;
   std::vector<std::vector<double>> send, recv;
   for (int r = 0; r < comm_.size(); ++r) {
     const auto ru = static_cast<std::size_t>(r);
-    if (r == me) {
-      unpack(ru, pack(ru));
-      continue;
-    }
-    if (!sentOwned_[ru].empty()) {
+    if (r == me) continue;
+    if (!out[ru].empty()) {
       to.push_back(r);
       send.push_back(pack(ru));
     }
-    if (!askedColumns_[ru].empty()) {
+    if (!in[ru].empty()) {
       from.push_back(r);
-      recv.emplace_back(askedColumns_[ru].size() * static_cast<std::size_t>(components));
+      recv.emplace_back(in[ru].size() * static_cast<std::size_t>(components));
     }
   }
   comm_.exchange(to, send, from, recv);
-  for (std::size_t k = 0; k < from.size(); ++k) unpack(static_cast<std::size_t>(from[k]), recv[k]);
+  // in rank order, this rank's own part in its place, so that sums do not depend on timing
+  std::size_t k = 0;
+  for (int r = 0; r < comm_.size(); ++r) {
+    const auto ru = static_cast<std::size_t>(r);
+    if (r == me)
+      use(ru, pack(ru));
+    else if (k < from.size() && from[k] == r)
+      use(ru, recv[k++]);
+  }
+}
+
+Eigen::VectorXd DistributedMortar::gatherMaster(const Eigen::VectorXd& masterLocal, int components) const {
+  checkSize(masterLocal, static_cast<Eigen::Index>(masterLocalSize_) * components, "the master vector");
+  Eigen::VectorXd out(static_cast<Eigen::Index>(masterVertices_.size()) * components);
+  exchangeColumns(
+      false, components,
+      [&](std::size_t r) {
+        std::vector<double> m;
+        m.reserve(sentOwned_[r].size() * static_cast<std::size_t>(components));
+        for (Index v : sentOwned_[r])
+          for (int a = 0; a < components; ++a) m.push_back(masterLocal[static_cast<Eigen::Index>(v) * components + a]);
+        return m;
+      },
+      [&](std::size_t r, const std::vector<double>& m) {
+        std::size_t k = 0;
+        for (Index i : askedColumns_[r])
+          for (int a = 0; a < components; ++a) out[static_cast<Eigen::Index>(i) * components + a] = m[k++];
+      });
   return out;
 }
 
@@ -301,43 +318,20 @@ void DistributedMortar::addToMaster(const Eigen::VectorXd& columnValues, Eigen::
                                     int components) const {
   checkSize(columnValues, static_cast<Eigen::Index>(masterVertices_.size()) * components, "the column values");
   checkSize(masterLocal, static_cast<Eigen::Index>(masterLocalSize_) * components, "the master vector");
-  const int me = comm_.rank();
-  auto pack = [&](std::size_t r) {
-    std::vector<double> m;
-    m.reserve(askedColumns_[r].size() * static_cast<std::size_t>(components));
-    for (Index i : askedColumns_[r])
-      for (int a = 0; a < components; ++a) m.push_back(columnValues[static_cast<Eigen::Index>(i) * components + a]);
-    return m;
-  };
-  auto add = [&](std::size_t r, const std::vector<double>& m) {
-    std::size_t k = 0;
-    for (Index v : sentOwned_[r])
-      for (int a = 0; a < components; ++a) masterLocal[static_cast<Eigen::Index>(v) * components + a] += m[k++];
-  };
-  std::vector<int> to, from;
-  std::vector<std::vector<double>> send, recv;
-  for (int r = 0; r < comm_.size(); ++r) {
-    const auto ru = static_cast<std::size_t>(r);
-    if (r == me) continue;
-    if (!askedColumns_[ru].empty()) {
-      to.push_back(r);
-      send.push_back(pack(ru));
-    }
-    if (!sentOwned_[ru].empty()) {
-      from.push_back(r);
-      recv.emplace_back(sentOwned_[ru].size() * static_cast<std::size_t>(components));
-    }
-  }
-  comm_.exchange(to, send, from, recv);
-  // in rank order, own contributions in their place, so that the sums do not depend on timing
-  std::size_t k = 0;
-  for (int r = 0; r < comm_.size(); ++r) {
-    const auto ru = static_cast<std::size_t>(r);
-    if (r == me)
-      add(ru, pack(ru));
-    else if (k < from.size() && from[k] == r)
-      add(ru, recv[k++]);
-  }
+  exchangeColumns(
+      true, components,
+      [&](std::size_t r) {
+        std::vector<double> m;
+        m.reserve(askedColumns_[r].size() * static_cast<std::size_t>(components));
+        for (Index i : askedColumns_[r])
+          for (int a = 0; a < components; ++a) m.push_back(columnValues[static_cast<Eigen::Index>(i) * components + a]);
+        return m;
+      },
+      [&](std::size_t r, const std::vector<double>& m) {
+        std::size_t k = 0;
+        for (Index v : sentOwned_[r])
+          for (int a = 0; a < components; ++a) masterLocal[static_cast<Eigen::Index>(v) * components + a] += m[k++];
+      });
 }
 
 Eigen::VectorXd DistributedMortar::applyTransformation(const Eigen::VectorXd& masterLocal, int components) const {

@@ -28,6 +28,7 @@
 ///     values back to be added (one message to and from each rank involved).
 #include <Eigen/Core>
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -95,6 +96,11 @@ public:
   const MortarCoupling::Statistics& localStatistics() const { return stats_; }
 
 private:
+  /// One round of the master-column exchange: owners to the ranks that asked (gatherMaster), or
+  /// towardOwners (addToMaster). pack(r) is the message for rank r; use(r, message) takes what came
+  /// from rank r, in rank order with this rank's own part in its place.
+  void exchangeColumns(bool towardOwners, int components, const std::function<std::vector<double>(std::size_t)>& pack,
+                       const std::function<void(std::size_t, const std::vector<double>&)>& use) const;
   /// Throws obs::Error if v does not have the expected size.
   void checkSize(const Eigen::VectorXd& v, Eigen::Index expected, const char* what) const;
 
