@@ -82,6 +82,13 @@ ContactProblem<d>::ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorX
   setup(std::move(stiffness));
 }
 
+template <int d>
+ContactProblem<d>::ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorXd load, DirichletValues dirichlet,
+                                  const ContactSet& contact, mesh::CsrMatrix basis, Transformed)
+    : basis_(std::move(basis)), b_(std::move(load)), dirichlet_(std::move(dirichlet)), contact_(contact) {
+  setup(std::move(stiffness), true);
+}
+
 namespace {
 
 /// x_p with the components of `skip[p]` (bit a: component a) zeroed; x_p itself without skips.
@@ -305,7 +312,7 @@ void transformOperator(BlockSparseMatrix<d>& A, const mesh::CsrMatrix& C, const 
 }  // namespace
 
 template <int d>
-void ContactProblem<d>::transform(BlockSparseMatrix<d>& A) {
+void ContactProblem<d>::transform(BlockSparseMatrix<d>& A, bool applied) {
   const Index n = A.rows();
   const mesh::CsrMatrix& C = basis_;
   if (C.rows != n || C.cols != n || C.rowStart.size() != static_cast<std::size_t>(n) + 1)
@@ -349,6 +356,7 @@ void ContactProblem<d>::transform(BlockSparseMatrix<d>& A) {
                     "non-finite entry in row " + std::to_string(p) + ")");
     }
   }
+  if (applied) return;
   transformOperator(A, C, skip_);
   b_ = applyTransposedBasis<d>(C, skip_, b_);
 }
@@ -467,7 +475,7 @@ Eigen::VectorXd ContactProblem<d>::applyInverseTransposedBasis(const Eigen::Vect
 }
 
 template <int d>
-void ContactProblem<d>::setup(BlockSparseMatrix<d> A) {
+void ContactProblem<d>::setup(BlockSparseMatrix<d> A, bool applied) {
   const Index n = A.rows();
   if (b_.size() != static_cast<Eigen::Index>(n) * d ||
       dirichlet_.constrained.size() != static_cast<std::size_t>(n) * d ||
@@ -478,7 +486,7 @@ void ContactProblem<d>::setup(BlockSparseMatrix<d> A) {
                 " was built for another mesh (dimension " + std::to_string(contact_.dimension()) + ", " +
                 std::to_string(contact_.numMeshVertices()) + " vertices; the problem has dimension " +
                 std::to_string(d) + ", " + std::to_string(n) + " vertices)");
-  if (transformed()) transform(A);
+  if (transformed()) transform(A, applied);
   {
     static std::atomic<std::uint64_t> counter{0};
     operatorId_ = ++counter;

@@ -20,20 +20,46 @@ HaloExchange::HaloExchange(const ViewNumbering& numbering, const PartView& part,
   vertices_.insert(vertices_.end(), part.ghostVertices.begin(), part.ghostVertices.end());
   localOf_.assign(numbering.owner.size(), -1);
   for (Index i = 0; i < numLocal(); ++i) localOf_[vertices_[i]] = i;
+  std::vector<int> owners;
+  std::vector<Index> globals;
+  for (Index i = owned_; i < numLocal(); ++i) {
+    owners.push_back(numbering.owner[vertices_[i]]);
+    globals.push_back(numbering.global[vertices_[i]]);
+  }
+  connect(owners, globals, numbering.offsets[me]);
+}
+
+HaloExchange::HaloExchange(Index owned, Index offset, const std::vector<Index>& ghostGlobal,
+                           const std::vector<int>& ghostOwner, const Communicator& comm)
+    : comm_(comm), owned_(owned) {
+  if (owned < 0 || offset < 0 || ghostGlobal.size() != ghostOwner.size())
+    throw Error("halo exchange: inconsistent owned count, offset or ghost lists");
+  for (int o : ghostOwner)
+    if (o < 0 || o >= comm.size() || o == comm.rank())
+      throw Error("halo exchange: a ghost owned by rank " + std::to_string(o) + " (rank " + std::to_string(comm.rank()) +
+                  " of " + std::to_string(comm.size()) + ")");
+  const Index n = owned + static_cast<Index>(ghostGlobal.size());
+  vertices_.resize(static_cast<std::size_t>(n));
+  localOf_.resize(static_cast<std::size_t>(n));
+  for (Index i = 0; i < n; ++i) vertices_[i] = localOf_[i] = i;
+  connect(ghostOwner, ghostGlobal, offset);
+}
+
+void HaloExchange::connect(const std::vector<int>& ghostOwner, const std::vector<Index>& ghostGlobal, Index offset) {
+  const int me = comm_.rank(), ranks = comm_.size();
   // each ghost vertex's global index to its owner; the owners learn what to send
   std::vector<std::vector<double>> request(static_cast<std::size_t>(ranks));
   recvGhost_.assign(static_cast<std::size_t>(ranks), {});
-  for (Index i = owned_; i < numLocal(); ++i) {
-    const Index v = vertices_[i];
-    const int o = numbering.owner[v];
-    request[o].push_back(static_cast<double>(numbering.global[v]));  // exact below 2^53
-    recvGhost_[o].push_back(i);
+  for (std::size_t j = 0; j < ghostGlobal.size(); ++j) {
+    const int o = ghostOwner[j];
+    request[o].push_back(static_cast<double>(ghostGlobal[j]));  // exact below 2^53
+    recvGhost_[o].push_back(owned_ + static_cast<Index>(j));
   }
-  const std::vector<std::vector<double>> asked = comm.exchange(request);
+  const std::vector<std::vector<double>> asked = comm_.exchange(request);
   sendOwned_.assign(static_cast<std::size_t>(ranks), {});
   for (int r = 0; r < ranks; ++r)
     for (double g : asked[r]) {
-      const auto i = static_cast<Index>(g) - numbering.offsets[me];
+      const auto i = static_cast<Index>(g) - offset;
       if (i < 0 || i >= owned_) throw Error("halo exchange: rank " + std::to_string(r) + " asked for a vertex this rank does not own");
       sendOwned_[r].push_back(i);
     }

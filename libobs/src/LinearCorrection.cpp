@@ -4,13 +4,29 @@
 
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/CholmodSolver.hpp"
+#include "obs/obs/DistributedCoarseSolver.hpp"
+#include "obs/obs/HaloExchange.hpp"
 
 namespace obs {
 
 template <int d>
 DirectCorrection<d>::DirectCorrection() = default;
 template <int d>
+DirectCorrection<d>::DirectCorrection(const HaloExchange& halo, const std::vector<Index>& global)
+    : halo_(&halo), global_(&global) {
+  halo.communicator().collective([&] {
+    if (!DistributedCoarseSolver::available())
+      throw Error("direct correction: a distributed operator needs hypre (obs is built without it; install "
+                  "libhypre-dev and rebuild)");
+  });
+}
+template <int d>
 DirectCorrection<d>::~DirectCorrection() = default;
+
+template <int d>
+long long DirectCorrection<d>::coarseIterations() const {
+  return distributed_ ? distributed_->totalIterations() : 0;
+}
 
 template <int d>
 void DirectCorrection<d>::setOperator(const BlockSparseMatrix<d>& A, std::vector<VertexRotation<d>>,
@@ -22,6 +38,7 @@ void DirectCorrection<d>::setOperator(const BlockSparseMatrix<d>& A, std::vector
     for (std::size_t i = 0; i < mask.size(); ++i) mask_[i] = mask[i] != 0;
   }
   solver_.reset();
+  distributed_.reset();
   updates_ = 0;
   termVertices_.clear();
   termBlocks_.clear();
@@ -54,7 +71,10 @@ Index DirectCorrection<d>::truncate(const std::vector<char>& mask) {
     termVertices_.swap(pendingVertices_);
     termBlocks_.swap(pendingBlocks_);
   }
-  if (changes > 0 || term) {
+  bool update = changes > 0 || term;
+  // distributed: hypre's setup is collective, so every rank refactorises if one has to
+  if (halo_) update = halo_->communicator().max(update ? 1.0 : 0.0) > 0;
+  if (update) {
     for (std::size_t i = 0; i < mask.size(); ++i) mask_[i] = mask[i] != 0;
     factorize();
   }
@@ -76,8 +96,14 @@ void DirectCorrection<d>::factorize() {
         if (p == q && mask_[static_cast<std::size_t>(p) * d + c]) B(c, c) = 1;
       }
     }
-  if (solver_) solver_->refactorize(truncated_);
-  else solver_ = std::make_unique<CholmodSolver>(truncated_);
+  if (halo_) {
+    if (distributed_) distributed_->refactorize(truncated_);
+    else distributed_ = std::make_unique<DistributedCoarseSolver>(truncated_, *global_, *halo_);
+  } else if (solver_) {
+    solver_->refactorize(truncated_);
+  } else {
+    solver_ = std::make_unique<CholmodSolver>(truncated_);
+  }
   ++updates_;
 }
 
@@ -86,7 +112,8 @@ void DirectCorrection<d>::apply(const Eigen::VectorXd& r, Eigen::VectorXd& c) {
   Eigen::VectorXd rt = r;
   for (std::size_t i = 0; i < mask_.size(); ++i)
     if (mask_[i]) rt[static_cast<Eigen::Index>(i)] = 0;
-  solver_->solve(rt, c);
+  if (distributed_) distributed_->solve(rt, c);
+  else solver_->solve(rt, c);
   for (std::size_t i = 0; i < mask_.size(); ++i)
     if (mask_[i]) c[static_cast<Eigen::Index>(i)] = 0;
 }

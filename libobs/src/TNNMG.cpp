@@ -59,13 +59,34 @@ TNNMG<d>::TNNMG(const DistributedGrid& grid, const Options& options) : options_(
 
 template <int d>
 TNNMG<d>::TNNMG(const mesh::Grid& grid, const Options& options, std::unique_ptr<LinearCorrection<d>> correction)
+    : TNNMG(std::vector<const mesh::Grid*>{&grid}, options, std::move(correction)) {}
+
+template <int d>
+TNNMG<d>::TNNMG(const std::vector<const mesh::Grid*>& grids, const Options& options,
+                std::unique_ptr<LinearCorrection<d>> correction)
     : options_(options), correction_(std::move(correction)) {
   checkOptions(options);
-  if (grid.dimension() != d)
-    throw Error("TNNMG: the grid has dimension " + std::to_string(grid.dimension()) + ", the solver " +
-                std::to_string(d));
   if (!correction_) throw Error("TNNMG: no linear correction given");
-  fineVertices_ = grid.leafView().mesh.numVertices();
+  for (const mesh::Grid* grid : grids) {
+    if (!grid) throw Error("TNNMG: a grid is null");
+    if (grid->dimension() != d)
+      throw Error("TNNMG: the grid has dimension " + std::to_string(grid->dimension()) + ", the solver " +
+                  std::to_string(d));
+    fineVertices_ += grid->leafView().mesh.numVertices();
+  }
+}
+
+template <int d>
+TNNMG<d>::TNNMG(const HaloExchange& halo, const Options& options, std::unique_ptr<LinearCorrection<d>> correction)
+    : options_(options), correction_(std::move(correction)) {
+  halo.communicator().collective([&] {
+    checkOptions(options);
+    if (!correction_) throw Error("TNNMG: no linear correction given");
+  });
+  fineVertices_ = halo.numLocal();
+  halo_ = &halo;
+  comm_ = &halo.communicator();
+  owned_ = halo.numOwned();
 }
 
 template <int d>
@@ -80,7 +101,6 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
     else work();
   };
   everywhere([&] {
-    if (distributed && problem.transformed()) throw Error("TNNMG: two-body contact is not distributed yet");
     if (problem.numVertices() != fineVertices_)
       throw Error("TNNMG: the problem has " + std::to_string(problem.numVertices()) +
                   " vertices, the leaf view of the solver's grid " + std::to_string(fineVertices_) +
@@ -111,7 +131,7 @@ ContactResult TNNMG<d>::solve(const ContactProblem<d>& problem, Eigen::VectorXd&
       const BlockSparseMatrix<d>& R = rotated_->matrix();
       fineSweep_ = DistributedSweep(R.rowStarts(), R.columns(), R.sweepOrder(), *halo_);
     }
-    correction_->setFineBasis(problem.basisTransformation());
+    everywhere([&] { correction_->setFineBasis(problem.basisTransformation()); });
     correction_->setOperator(rotated_->matrix(), problemRotations(problem), rotated_->prescribed);
     operatorId_ = problem.operatorId();
     const BlockSparseMatrix<d>& A = rotated_->matrix();

@@ -154,6 +154,14 @@ public:
   /// component above 0.1.
   ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorXd load, DirichletValues dirichlet,
                  const ContactSet& contact, mesh::CsrMatrix basis);
+  /// Marks the stiffness and load of the constructor below as already transformed.
+  struct Transformed {};
+  /// The same with T'AT and T'b given instead of A and b (e.g. summed over the ranks of a
+  /// distributed run, DistributedMultiBody.hpp): C is checked and basisSkip() computed as above, and
+  /// the given operator and load must have been transformed with these skips (the Dirichlet
+  /// components of the vertices with a row of C).
+  ContactProblem(BlockSparseMatrix<d> stiffness, Eigen::VectorXd load, DirichletValues dirichlet,
+                 const ContactSet& contact, mesh::CsrMatrix basis, Transformed);
 
   /// The pattern of T'AT (T = I + C) for a matrix A of `pattern`: the rows next to transformed
   /// (slave) vertices and the rows of master vertices gain columns. A stiffness matrix assembled on
@@ -262,8 +270,9 @@ public:
   Eigen::VectorXd fromRotated(const Eigen::VectorXd& w) const;
 
 private:
-  void setup(BlockSparseMatrix<d> A);
-  void transform(BlockSparseMatrix<d>& A);
+  /// applied: the operator and load are already transformed (checks and skips only)
+  void setup(BlockSparseMatrix<d> A, bool applied = false);
+  void transform(BlockSparseMatrix<d>& A, bool applied);
   /// Removes the (zero) off-diagonal blocks of fully prescribed vertices from A~'s pattern when they
   /// are half of its blocks or more (BlockSparseMatrix::isolate).
   void isolatePrescribed(BlockSparseMatrix<d>& A) const;

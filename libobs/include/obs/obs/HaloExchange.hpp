@@ -24,6 +24,13 @@ public:
   /// rank's PartView of that view). A collective call: every rank builds its own. Throws
   /// obs::Error if the sizes do not match.
   HaloExchange(const ViewNumbering& numbering, const PartView& part, const Communicator& comm);
+  /// The halo of any distributed numbering whose parts own consecutive global indices: this rank
+  /// owns `owned` vertices, global indices offset .. offset + owned - 1 (local 0 .. owned - 1), and
+  /// holds the ghosts `ghostGlobal` (local owned, owned + 1, ...) owned by `ghostOwner`. The
+  /// local numbering is its own view (viewVertices() is 0, 1, ...). Collective. Throws obs::Error
+  /// on inconsistent sizes, an owner out of range or this rank, or a ghost its owner does not own.
+  HaloExchange(Index owned, Index offset, const std::vector<Index>& ghostGlobal, const std::vector<int>& ghostOwner,
+               const Communicator& comm);
 
   /// local -> view vertex (owned first, then ghosts)
   const std::vector<Index>& viewVertices() const { return vertices_; }
@@ -57,6 +64,8 @@ public:
   Index receivedValues() const { return numLocal() - numOwned(); }
 
 private:
+  /// The exchange lists from the ghosts' owners and global indices (one all-to-all).
+  void connect(const std::vector<int>& ghostOwner, const std::vector<Index>& ghostGlobal, Index offset);
   void exchangeGhosts(Eigen::VectorXd& x, int components, const std::vector<char>* from) const;
 
   Communicator comm_;

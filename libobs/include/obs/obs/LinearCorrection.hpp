@@ -17,6 +17,8 @@
 namespace obs {
 
 class CholmodSolver;
+class DistributedCoarseSolver;
+class HaloExchange;
 
 template <int d>
 class LinearCorrection {
@@ -55,10 +57,19 @@ public:
 
 /// Exact correction c = A_T^{-1} r with CHOLMOD (refactorised with the same pattern when the
 /// truncation changes). Rotations are irrelevant: A_T is formed in the frame of A.
+///
+/// Distributed (the constructor with a halo): A is a rank's part of a distributed operator (owned
+/// rows first and complete, the ghost rows not read), and A_T is solved by hypre
+/// (DistributedCoarseSolver: CG with BoomerAMG to a relative residual of 1e-12, so "exact" up to
+/// that), the ghosts of c then current. For problems whose operator reaches beyond the multigrid
+/// hierarchy's ghost layers (two bodies on ranks, DistributedMultiBody.hpp).
 template <int d>
 class DirectCorrection : public LinearCorrection<d> {
 public:
   DirectCorrection();
+  /// Distributed: `global` the global index of each local vertex of the halo's numbering (kept by
+  /// reference with the halo; both must outlive the correction).
+  DirectCorrection(const HaloExchange& halo, const std::vector<Index>& global);
   ~DirectCorrection() override;
   void setOperator(const BlockSparseMatrix<d>& A, std::vector<VertexRotation<d>> rotations,
                    const std::vector<char>& mask) override;
@@ -66,9 +77,14 @@ public:
   bool setDiagonalTerm(std::vector<Index> vertices, std::vector<Eigen::Matrix<double, d, d>> blocks) override;
   void apply(const Eigen::VectorXd& r, Eigen::VectorXd& c) override;
   int operatorUpdates() const override { return updates_; }
+  /// hypre's CG iterations (distributed), 0 with CHOLMOD.
+  long long coarseIterations() const override;
 
 private:
   void factorize();
+  const HaloExchange* halo_ = nullptr;        ///< distributed: the operator's halo
+  const std::vector<Index>* global_ = nullptr;
+  std::unique_ptr<DistributedCoarseSolver> distributed_;
   const BlockSparseMatrix<d>* A_ = nullptr;
   BlockSparseMatrix<d> truncated_;
   std::vector<char> mask_;

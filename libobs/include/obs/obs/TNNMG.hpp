@@ -91,10 +91,19 @@ public:
   /// step bound reduced over the ranks: every rank takes the same steps and stops together.
   /// With friction the friction energy and the friction line search's slope are summed over the
   /// owned friction vertices and the ranks (Coulomb: solveFriction with the rank's halo). Two-body
-  /// contact is refused (obs::Error) until the mortar coupling is distributed.
+  /// contact is refused (obs::Error: the distributed hierarchy has no fine basis transformation yet).
   explicit TNNMG(const DistributedGrid& grid, const Options& options = {});
   /// TNNMG with another linear correction (e.g. DirectCorrection).
   TNNMG(const mesh::Grid& grid, const Options& options, std::unique_ptr<LinearCorrection<d>> correction);
+  /// The same for the stacked leaf views of several bodies' grids.
+  TNNMG(const std::vector<const mesh::Grid*>& grids, const Options& options,
+        std::unique_ptr<LinearCorrection<d>> correction);
+  /// Distributed TNNMG on any distributed numbering with another linear correction (collective): the
+  /// problem in the halo's local numbering (owned vertices first, their rows complete), u with its
+  /// ghosts current; the sweeps in DistributedSweep's order on the problem's own pattern. The
+  /// two-body problem of DistributedMultiBody with the distributed DirectCorrection
+  /// (docs/architecture.md#distributed-two-body). The halo must outlive the solver.
+  TNNMG(const HaloExchange& halo, const Options& options, std::unique_ptr<LinearCorrection<d>> correction);
 
   std::string name() const override { return "tnnmg"; }
   ContactResult solve(const ContactProblem<d>& problem, Eigen::VectorXd& u) override;

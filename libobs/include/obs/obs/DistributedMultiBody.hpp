@@ -1,0 +1,104 @@
+#pragma once
+/// \file DistributedMultiBody.hpp
+/// Bodies coupled by dual mortar, each a DistributedGrid over all ranks, as one distributed contact
+/// problem in the transformed unknowns x = (I - C) u (docs/architecture.md#distributed-two-body).
+///
+/// Stacked numbering. Rank r owns the vertices its parts of the bodies own, body by body, and
+/// numbers them consecutively from its offset (the prefix sums over the ranks of their counts), so
+/// each rank's owned vertices are one range of the global numbering, as on one body. Locally: the
+/// owned vertices of body 0, 1, ..., then the ghosts of body 0, 1, ..., then the *extra ghosts*:
+/// vertices of either body outside both ghost layers that the transformed operator couples to an
+/// owned vertex (master vertices of a slave row, and, on a master vertex's row, the neighbours of
+/// the slave vertices coupled to it).
+///
+/// The transformed operator (docs/theory.md#mortar-transformation). With T = I + C acting per
+/// component (the Dirichlet components of slave vertices left alone, ContactProblem::basisSkip()),
+///   (T'AT)_pq = sum_{r,s} T_rp' A_rs T_sq,   (T'b)_p = sum_r T_rp' b_r.
+/// Every rank adds the terms of its owned rows r of each body's stiffness (complete on the rank):
+/// T_r needs the row of C at r (the rank's own mortar rows), T_s the rows of C at the slave
+/// neighbours s, which a ghost's owner sends once. A term whose row p this rank does not own goes
+/// to p's owner (one all-to-all); each owner sums the terms of a block in a fixed order (its own,
+/// then those of the other ranks in rank order), so its owned rows of T'AT and T'b are complete
+/// and the same bits for a fixed number of ranks. The rank's ContactProblem is then built on the local numbering with these rows (the
+/// ghost rows are identity rows, never read), the local rows of C at its held slave vertices and
+/// the constraints of all held slave vertices (from their owners): the Dirichlet elimination and
+/// the rotations act as in one process.
+#include <Eigen/Core>
+
+#include <memory>
+#include <unordered_map>
+#include <vector>
+
+#include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/DistributedGrid.hpp"
+#include "obs/obs/DistributedMortar.hpp"
+#include "obs/obs/HaloExchange.hpp"
+#include "obs/obs/MultiBody.hpp"
+
+namespace obs {
+
+/// One body of a distributed multi-body problem: its distributed view (the leaf view) and its
+/// system assembled on the view's local mesh (assembleBody: owned rows complete).
+template <int d>
+struct DistributedBody {
+  const DistributedView* view = nullptr;
+  const BodySystem<d>* system = nullptr;
+};
+
+template <int d>
+class DistributedMultiBody {
+public:
+  /// Collective. `bodies` in stacking order; `mortar` couples body `slaveBody` (its slave surface)
+  /// to body `masterBody`, with the surfaces' globalOffset the serial stacked offsets of these
+  /// bodies (the sum of the global vertices of the bodies before each). Throws obs::Error on every
+  /// rank for inconsistent sizes, indices out of range, or a Dirichlet component of a slave vertex
+  /// that ContactProblem refuses.
+  DistributedMultiBody(std::vector<DistributedBody<d>> bodies, const DistributedMortar& mortar, int slaveBody,
+                       int masterBody);
+
+  int numBodies() const { return static_cast<int>(bodies_.size()); }
+  /// The halo of the stacked local numbering (owned first, then body ghosts, then extra ghosts).
+  const HaloExchange& halo() const { return *halo_; }
+  const Communicator& communicator() const { return halo_->communicator(); }
+  Index numOwned() const { return owned_; }
+  Index numLocal() const { return static_cast<Index>(global_.size()); }
+  /// Stacked global index of each local vertex.
+  const std::vector<Index>& global() const { return global_; }
+  Index globalVertices() const { return rankOffset_.back(); }
+  /// Extra ghosts on this rank (held for the transformed operator only).
+  Index extraGhosts() const { return numLocal() - firstExtra_; }
+  /// The stacked local index of body b's vertex v (local numbering of its view's halo).
+  Index local(int body, Index v) const;
+  /// The stacked global index of body b's vertex with global index g (in its view's numbering).
+  Index stackedGlobal(int body, Index g) const;
+  /// The rank owning a stacked global index.
+  int owner(Index stackedGlobal) const;
+
+  /// The rank's contact problem (transformed; owned rows complete, ghost rows identity rows).
+  const ContactProblem<d>& problem() const { return *problem_; }
+  /// The rows of T'AT this rank received from other ranks (a measure of the coupling's traffic).
+  Index receivedTerms() const { return receivedTerms_; }
+
+  /// Body b's part of a stacked local vector (`components` per vertex), in its view's local
+  /// numbering (owned and ghost vertices).
+  Eigen::VectorXd bodyPart(int body, const Eigen::VectorXd& stacked, int components) const;
+  /// u = (I + C) x on the held vertices (ContactProblem::toDisplacement; the ghosts of x current).
+  Eigen::VectorXd toDisplacement(const Eigen::VectorXd& x) const { return problem_->toDisplacement(x); }
+
+private:
+  std::vector<DistributedBody<d>> bodies_;
+  std::vector<Index> rankOffset_;                 ///< first stacked global index per rank (+ total)
+  std::vector<std::vector<Index>> ownedCounts_;   ///< per body, per rank
+  std::vector<Index> ownedStart_, ghostStart_;    ///< per body: first local owned / ghost index
+  Index owned_ = 0, firstExtra_ = 0;
+  std::vector<Index> global_;
+  std::unordered_map<Index, Index> ghostLocal_;   ///< stacked global -> local, ghosts and extras
+  std::unique_ptr<HaloExchange> halo_;
+  std::unique_ptr<ContactProblem<d>> problem_;
+  Index receivedTerms_ = 0;
+};
+
+extern template class DistributedMultiBody<2>;
+extern template class DistributedMultiBody<3>;
+
+}  // namespace obs

@@ -1,0 +1,199 @@
+// Two-body contact on ranks (tests/CMakeLists.txt: 1, 2 and 3 ranks; docs/architecture.md#distributed-two-body):
+// two slabs with non-matching grids, each distributed over all ranks and coupled by dual mortar, the
+// upper one pressed onto part of the lower one (its top moved down by a tilted displacement). Against one process's problem on the uniformly refined grids
+// (vertices matched by body and position):
+//  * the transformed operator: the rotated matrix times a smooth field, and the rotated right-hand
+//    side, on every owned row (T'AT, T'b, the Dirichlet elimination and the rotations at once);
+//  * the solve: distributed TNNMG with the hypre correction against one process's TNNMG with the
+//    CHOLMOD correction, the same algorithm: iterations within one, the same active set, the
+//    displacements u = (I + C) x to the solver tolerance.
+#include <gtest/gtest.h>
+
+#include <Eigen/Dense>
+
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <memory>
+#include <string>
+
+#include "obs/mesh/BoxMesh.hpp"
+#include "obs/mesh/Error.hpp"
+#include "obs/mesh/Grid.hpp"
+#include "obs/obs/Communicator.hpp"
+#include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/DistributedCoarseSolver.hpp"
+#include "obs/obs/DistributedGrid.hpp"
+#include "obs/obs/DistributedMortar.hpp"
+#include "obs/obs/DistributedMultiBody.hpp"
+#include "obs/obs/LinearCorrection.hpp"
+#include "obs/obs/MortarCoupling.hpp"
+#include "obs/obs/MultiBody.hpp"
+#include "obs/obs/TNNMG.hpp"
+
+namespace {
+
+using obs::Index;
+using obs::mesh::CellType;
+using obs::mesh::Point;
+
+/// Positions on the 2^-20 lattice (the coordinates are multiples of 2^-k / 3, far from the
+/// rounding boundary), with the body: the interface vertices of the two bodies share positions.
+using Key = std::array<long long, 4>;
+Key key(int body, const Point& x) {
+  return {body, std::llround(std::ldexp(x[0], 20)), std::llround(std::ldexp(x[1], 20)), std::llround(std::ldexp(x[2], 20))};
+}
+
+struct Case {
+  CellType lower, upper;
+  int nLower, nUpper, refinements;
+};
+
+template <int d>
+struct Slabs {
+  static constexpr double lift = 1.0 / 64, push = 0.03;
+  obs::mesh::Mesh coarse[2];  // lower, upper
+  obs::Material material[2] = {{2e5, 0.3}, {1e5, 0.25}};
+  obs::BoundaryConditions bc[2];
+
+  explicit Slabs(const Case& c) {
+    const int a = d - 1;  // the normal axis
+    auto slab = [&](CellType type, int n, double bottom) {
+      std::array<int, 3> cells{n, n, n};
+      cells[static_cast<std::size_t>(a)] = 1;
+      Point lo = Point::Zero(), hi = Point::Ones();
+      lo[a] = bottom;
+      hi[a] = bottom + 0.25;
+      return obs::mesh::boxMesh(type, cells, lo, hi);
+    };
+    coarse[0] = slab(c.lower, c.nLower, 0.75);
+    coarse[1] = slab(c.upper, c.nUpper, 1 + lift);
+    bc[0].dirichlet.push_back({obs::mesh::kBottom, {true, true, true}});
+    obs::DirichletCondition top{obs::mesh::kTop, {true, true, true}};
+    top.value = [](const Point& x) {  // tilted: the gap closes on part of the interface only
+      Point v = Point::Zero();
+      v[d - 1] = -push * (0.25 + x[0]);
+      return v;
+    };
+    bc[1].dirichlet.push_back(top);
+  }
+};
+
+template <int d>
+void compareWithOneProcess(const Case& c) {
+  const obs::Communicator comm = obs::Communicator::world();
+  const Slabs<d> s(c);
+
+  // one process
+  obs::mesh::Grid grid[2] = {obs::mesh::Grid(s.coarse[0]), obs::mesh::Grid(s.coarse[1])};
+  for (auto& g : grid)
+    for (int l = 0; l < c.refinements; ++l) g.refineUniformly();
+  const obs::mesh::GridView leaf[2] = {grid[0].leafView(), grid[1].leafView()};
+  const obs::mesh::Mesh* mesh[2] = {&leaf[0].mesh, &leaf[1].mesh};
+  std::vector<Index> offsets;
+  const obs::BodySystem<d> system = obs::stackBodies<d>(
+      {obs::assembleBody<d>(*mesh[0], s.material[0], s.bc[0]), obs::assembleBody<d>(*mesh[1], s.material[1], s.bc[1])},
+      &offsets);
+  const obs::MortarCoupling coupling({mesh[1], obs::mesh::kBottom, offsets[1], "upper bottom"},
+                                     {mesh[0], obs::mesh::kTop, offsets[0], "lower top"}, system.numVertices());
+  const obs::ContactProblem<d> serial(system.stiffness, system.load, system.dirichlet, coupling.contactSet(),
+                                      coupling.transformation());
+  std::map<Key, Index> serialVertex;
+  for (int b = 0; b < 2; ++b)
+    for (Index v = 0; v < mesh[b]->numVertices(); ++v) serialVertex[key(b, mesh[b]->vertex(v))] = offsets[b] + v;
+
+  // ranks
+  const obs::DistributedGrid dgrid[2] = {obs::DistributedGrid(obs::mesh::Grid(s.coarse[0]), c.refinements, comm),
+                                         obs::DistributedGrid(obs::mesh::Grid(s.coarse[1]), c.refinements, comm)};
+  const obs::DistributedView view[2] = {dgrid[0].view(), dgrid[1].view()};
+  const obs::BodySystem<d> body[2] = {obs::assembleBody<d>(view[0].local, s.material[0], s.bc[0]),
+                                      obs::assembleBody<d>(view[1].local, s.material[1], s.bc[1])};
+  const obs::DistributedMortar mortar({&view[1], obs::mesh::kBottom, view[0].globalVertices(), "upper bottom"},
+                                      {&view[0], obs::mesh::kTop, 0, "lower top"});
+  const obs::DistributedMultiBody<d> multi({{&view[0], &body[0]}, {&view[1], &body[1]}}, mortar, 1, 0);
+  const obs::ContactProblem<d>& problem = multi.problem();
+  ASSERT_EQ(comm.sum(static_cast<long long>(multi.numOwned())), static_cast<long long>(system.numVertices()));
+  ASSERT_EQ(multi.globalVertices(), system.numVertices());
+  // the serial index of every owned vertex
+  std::vector<Index> serialOf(static_cast<std::size_t>(multi.numOwned()), -1);
+  for (int b = 0; b < 2; ++b)
+    for (Index v = 0; v < view[b].halo.numOwned(); ++v)
+      serialOf[static_cast<std::size_t>(multi.local(b, v))] = serialVertex.at(key(b, view[b].local.vertex(v)));
+
+  // 1. the operator: A~ x of a smooth field (given by the owners, the ghosts through the halo) and
+  // the rotated right-hand side
+  auto field = [](Index serialVertex, int a) { return std::sin(0.37 * static_cast<double>(serialVertex) + a); };
+  Eigen::VectorXd xs(serial.numDofs());
+  for (Index v = 0; v < serial.numVertices(); ++v)
+    for (int a = 0; a < d; ++a) xs[v * d + a] = field(v, a);
+  const Eigen::VectorXd ys = serial.rotatedMatrix() * xs, bs = serial.toRotated(serial.rhs());
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(problem.numDofs());
+  for (Index l = 0; l < multi.numOwned(); ++l)
+    for (int a = 0; a < d; ++a) x[l * d + a] = field(serialOf[l], a);
+  multi.halo().update(x, d);
+  const Eigen::VectorXd y = problem.rotatedMatrix() * x, rhs = problem.toRotated(problem.rhs());
+  const double yScale = ys.cwiseAbs().maxCoeff(), bScale = bs.cwiseAbs().maxCoeff();
+  for (Index l = 0; l < multi.numOwned(); ++l)
+    for (int a = 0; a < d; ++a) {
+      const Index i = serialOf[l] * d + a;
+      EXPECT_NEAR(y[l * d + a], ys[i], 1e-12 * yScale) << "row of serial vertex " << serialOf[l] << ", component " << a;
+      EXPECT_NEAR(rhs[l * d + a], bs[i], 1e-12 * bScale) << "rhs of serial vertex " << serialOf[l];
+    }
+  EXPECT_EQ(comm.sum(static_cast<long long>(problem.contactSet().size() > 0 ? 1 : 0)) >= 1, true);
+
+  // 2. the solve: the same TNNMG, with the CHOLMOD correction on one process and hypre on ranks
+  if (!obs::DistributedCoarseSolver::available()) GTEST_SKIP() << "obs is built without hypre";
+  typename obs::TNNMG<d>::Options options;
+  options.tolerance = 1e-10;
+  obs::TNNMG<d> one({&grid[0], &grid[1]}, options, std::make_unique<obs::DirectCorrection<d>>());
+  Eigen::VectorXd us = Eigen::VectorXd::Zero(serial.numDofs());
+  const obs::ContactResult rs = one.solve(serial, us);
+  ASSERT_TRUE(rs.converged);
+  const Eigen::VectorXd displacementSerial = serial.toDisplacement(us);
+
+  obs::TNNMG<d> ranks(multi.halo(), options, std::make_unique<obs::DirectCorrection<d>>(multi.halo(), multi.global()));
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(problem.numDofs());
+  const obs::ContactResult r = ranks.solve(problem, u);
+  ASSERT_TRUE(r.converged);
+  EXPECT_LE(std::abs(r.iterations - rs.iterations), 1) << "ranks " << r.iterations << ", one process " << rs.iterations;
+  EXPECT_EQ(r.activeSetSize, rs.activeSetSize);
+  EXPECT_GT(rs.activeSetSize, 0);
+  EXPECT_LT(rs.activeSetSize, coupling.size());  // part of the interface open
+  EXPECT_GT(ranks.statistics().coarseIterations, 0);
+  multi.halo().update(u, d);
+  const Eigen::VectorXd displacement = multi.toDisplacement(u);
+  const double uScale = displacementSerial.cwiseAbs().maxCoeff();
+  for (Index l = 0; l < multi.numOwned(); ++l)
+    for (int a = 0; a < d; ++a)
+      EXPECT_NEAR(displacement[l * d + a], displacementSerial[serialOf[l] * d + a], 1e-7 * uScale)
+          << "serial vertex " << serialOf[l] << ", component " << a;
+  if (comm.size() > 1) {
+    EXPECT_GT(comm.sum(static_cast<long long>(multi.extraGhosts())), 0);
+    EXPECT_GT(comm.sum(static_cast<long long>(multi.receivedTerms())), 0);
+  }
+  if (std::getenv("OBS_TEST_VERBOSE") && comm.rank() == 0)
+    std::printf("d = %d, %d ranks: %lld vertices, %lld constrained; iterations %d (one process %d), active %lld "
+                "(%lld), hypre CG iterations %lld; rank 0: %lld extra ghosts, %lld terms received\n",
+                d, comm.size(), static_cast<long long>(system.numVertices()), static_cast<long long>(coupling.size()),
+                r.iterations, rs.iterations, static_cast<long long>(r.activeSetSize),
+                static_cast<long long>(rs.activeSetSize), ranks.statistics().coarseIterations,
+                static_cast<long long>(multi.extraGhosts()), static_cast<long long>(multi.receivedTerms()));
+}
+
+TEST(DistributedTwoBody, TrianglesOnQuadrilaterals2D) {
+  compareWithOneProcess<2>({CellType::Quadrilateral, CellType::Triangle, 3, 2, 3});
+}
+
+TEST(DistributedTwoBody, TetrahedraOnHexahedra3D) {
+  compareWithOneProcess<3>({CellType::Hexahedron, CellType::Tetrahedron, 3, 2, 2});
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  obs::MpiSession mpi(argc, argv);
+  ::testing::InitGoogleTest(&argc, argv);
+  return RUN_ALL_TESTS();
+}
