@@ -19,6 +19,10 @@
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/DistributedGrid.hpp"
+#include "obs/obs/DistributedMortar.hpp"
+#include "obs/obs/DistributedMultiBody.hpp"
+#include "obs/obs/LinearCorrection.hpp"
+#include "obs/obs/MultiBody.hpp"
 #include "obs/obs/Friction.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
 #include "obs/obs/LinearElasticity.hpp"
@@ -31,11 +35,13 @@ namespace {
 
 using Progress = std::function<void(const std::string&)>;
 
+std::string notDistributedBodies(const Scene& scene);
+
 /// What of the scene is not distributed yet ("" if it can run).
 std::string notDistributed(const Scene& scene) {
   if (scene.dynamics) return "[dynamics]";
   if (scene.adaptivity) return "[adaptivity]";
-  if (scene.multiBody()) return "several [[body]] entries";
+  if (scene.multiBody()) return notDistributedBodies(scene);
   if (scene.contact) {
     if (scene.solverType() != "tnnmg") return "[solver] type = \"" + scene.solverType() + "\"";
   } else if (!scene.solver.type.empty() && scene.solver.type != "multigrid") {
@@ -69,6 +75,12 @@ OwnedPiece ownedPiece(const mesh::Mesh& local, Index cells) {
   return p;
 }
 
+/// Each rank's piece <base>_<rank>.vtu (its owned cells, the first `ownedCells` of its local mesh, with
+/// the point fields of the local vertices and the cell fields of the local cells, and the rank) and
+/// rank 0's <base>.pvtu joining them; rank 0 lists the files in r. Collective.
+void writePieces(const std::filesystem::path& dir, const std::string& base, const mesh::Mesh& local, Index ownedCells,
+                 const std::vector<Field>& pf, const std::vector<Field>& cf, const Communicator& comm, RunResult& r);
+
 /// A field of the local mesh's vertices restricted to a piece's vertices.
 Field pieceField(const Field& f, const std::vector<Index>& vertex) {
   Field out{f.name, f.components, {}, f.integer};
@@ -95,6 +107,31 @@ void writePvtu(const std::filesystem::path& path, const std::vector<std::string>
   for (const std::string& p : pieces) out << "    <Piece Source=\"" << p << "\"/>\n";
   out << "  </PUnstructuredGrid>\n</VTKFile>\n";
   if (!out) throw Error(path.string() + ": cannot write");
+}
+
+void writePieces(const std::filesystem::path& dir, const std::string& base, const mesh::Mesh& local, Index ownedCells,
+                 const std::vector<Field>& pf, const std::vector<Field>& cf, const Communicator& comm, RunResult& r) {
+  comm.collective([&] {
+    const OwnedPiece p = ownedPiece(local, ownedCells);
+    std::vector<Field> points, cells;
+    for (const Field& f : pf) points.push_back(pieceField(f, p.vertex));
+    for (const Field& f : cf) {
+      Field g{f.name, f.components, {}, f.integer};
+      g.values.assign(f.values.begin(), f.values.begin() + static_cast<std::ptrdiff_t>(ownedCells) * f.components);
+      cells.push_back(std::move(g));
+    }
+    cells.push_back(Field{"rank", 1, std::vector<double>(static_cast<std::size_t>(ownedCells), comm.rank()), true});
+    writeVtu(dir / (base + "_" + std::to_string(comm.rank()) + ".vtu"), p.mesh, points, cells);
+    if (comm.rank() == 0) {
+      std::vector<std::string> pieces;
+      for (int q = 0; q < comm.size(); ++q) pieces.push_back(base + "_" + std::to_string(q) + ".vtu");
+      writePvtu(dir / (base + ".pvtu"), pieces, points, cells);
+    }
+  });
+  if (comm.rank() == 0) {
+    for (int q = 0; q < comm.size(); ++q) r.outputFiles.push_back(dir / (base + "_" + std::to_string(q) + ".vtu"));
+    r.outputFiles.push_back(dir / (base + ".pvtu"));
+  }
 }
 
 /// The sizes and assembly time of a distributed problem in r (freeOwned: this rank's free owned
@@ -468,32 +505,350 @@ void solveDistributed(const Scene& scene, const RunOptions& options, const Commu
   if (!scene.output.vtk) return;
   const std::string stem = OutputLayout(scene).staticVtu(0);
   const std::string base = std::filesystem::path(stem).stem().string();
-  const std::string piece = base + "_" + std::to_string(comm.rank()) + ".vtu";
   std::vector<Field> pf = pointFields(leaf.local, e), cf = cellFields(leaf.local, e);
   for (Field& f : contactFields) pf.push_back(std::move(f));
+  writePieces(dir, base, leaf.local, ownedCells, pf, cf, comm, r);
   comm.collective([&] {
-    const OwnedPiece p = ownedPiece(leaf.local, ownedCells);
-    std::vector<Field> points, cells;
-    for (const Field& f : pf) points.push_back(pieceField(f, p.vertex));
-    for (const Field& f : cf) {
-      Field g{f.name, f.components, {}, f.integer};
-      g.values.assign(f.values.begin(), f.values.begin() + static_cast<std::ptrdiff_t>(ownedCells) * f.components);
-      cells.push_back(std::move(g));
-    }
-    cells.push_back(Field{"rank", 1, std::vector<double>(static_cast<std::size_t>(ownedCells), comm.rank()), true});
-    writeVtu(dir / piece, p.mesh, points, cells);
-    if (comm.rank() == 0) {
-      std::vector<std::string> pieces;
-      for (int q = 0; q < comm.size(); ++q) pieces.push_back(base + "_" + std::to_string(q) + ".vtu");
-      writePvtu(dir / (base + ".pvtu"), pieces, points, cells);
-      writePvdCollection(dir / (base + ".pvd"), {PvdEntry{0, 0, base + ".pvtu"}});
-    }
+    if (comm.rank() == 0) writePvdCollection(dir / (base + ".pvd"), {PvdEntry{0, 0, base + ".pvtu"}});
   });
-  if (comm.rank() == 0) {
-    for (int q = 0; q < comm.size(); ++q) r.outputFiles.push_back(dir / (base + "_" + std::to_string(q) + ".vtu"));
-    r.outputFiles.push_back(dir / (base + ".pvtu"));
-    r.outputFiles.push_back(dir / (base + ".pvd"));
+  if (comm.rank() == 0) r.outputFiles.push_back(dir / (base + ".pvd"));
+}
+
+/// What of a multi-body scene is not distributed yet ("" if it can run).
+/// The measure of a boundary face from its corners (2D: a segment; 3D: a triangle, or a bilinear
+/// quadrilateral with corners in cyclic order by 2 x 2 Gauss points, exact where it is planar).
+double faceMeasure(const std::vector<Point>& x, int d) {
+  if (d == 2) return (x[1] - x[0]).norm();
+  if (x.size() == 3) return 0.5 * (x[1] - x[0]).cross(x[2] - x[0]).norm();
+  const double g[2] = {0.5 - 0.5 / std::sqrt(3.0), 0.5 + 0.5 / std::sqrt(3.0)};
+  double area = 0;
+  for (double s : g)
+    for (double t : g) {
+      const Point xs = (1 - t) * (x[1] - x[0]) + t * (x[2] - x[3]);
+      const Point xt = (1 - s) * (x[3] - x[0]) + s * (x[2] - x[1]);
+      area += 0.25 * xs.cross(xt).norm();
+    }
+  return area;
+}
+
+std::string notDistributedBodies(const Scene& scene) {
+  if (scene.bodies.size() != 2 || scene.pairs.size() != 1)
+    return std::to_string(scene.bodies.size()) + " [[body]] entries and " + std::to_string(scene.pairs.size()) +
+           " mortar [[contact]] pairs (distributed: two bodies and one pair)";
+  for (const Scene& b : scene.bodies)
+    if (b.contact) return "an obstacle [[contact]] of body '" + b.name + "'";
+  if (scene.pairs.front().friction) return "friction in the [[contact]] pair";
+  if (scene.loading) return "[loading] with several bodies";
+  if (scene.solverType() != "tnnmg") return "[solver] type = \"" + scene.solverType() + "\"";
+  return "";
+}
+
+/// A two-body scene on the ranks (docs/architecture.md#distributed-two-body): each body a
+/// DistributedGrid, their dual-mortar coupling (DistributedMortar) and transformed problem
+/// (DistributedMultiBody), solved by TNNMG whose linear correction is hypre on the fine level;
+/// the report of the pair (summary.json "pairs") and of each body, each body's pieces and .pvtu and
+/// the scene's .pvd of the bodies.
+template <int d>
+void solveBodies(const Scene& scene, const RunOptions& options, const Communicator& comm,
+                 const std::vector<std::unique_ptr<DistributedGrid>>& grids, const std::vector<BoundaryConditions>& bcs,
+                 int slaveId, int masterId, const std::filesystem::path& dir, RunResult& r) {
+  const Progress progress = [&](const std::string& line) {
+    if (options.progress) options.progress(line);
+  };
+  const std::vector<const Scene*> bodies = scene.bodyScenes();
+  const MortarPairSpec& pair = scene.pairs.front();
+  const int s = pair.slaveIndex, m = pair.masterIndex;
+  auto t = Clock::now();
+  std::vector<DistributedView> views;
+  for (const auto& g : grids) views.push_back(g->view());
+  std::vector<BodySystem<d>> systems(2);
+  comm.collective([&] {
+    for (std::size_t i = 0; i < 2; ++i) systems[i] = assembleBody<d>(views[i].local, bodies[i]->material, bcs[i]);
+  });
+  // the mortar pair and the transformed problem (errors name the [[contact]] line, as serially)
+  const std::string slaveLabel = pair.slaveBody + ":" + (pair.slave.name.empty() ? std::to_string(pair.slave.id) : pair.slave.name);
+  const std::string masterLabel =
+      pair.masterBody + ":" + (pair.master.name.empty() ? std::to_string(pair.master.id) : pair.master.name);
+  const Index offsets[2] = {0, views[0].globalVertices()};
+  MortarOptions mo;
+  mo.minCoverage = pair.minCoverage;
+  mo.searchDistance = pair.searchDistance;
+  std::optional<DistributedMortar> mortar;
+  std::optional<DistributedMultiBody<d>> multi;
+  double mortarSeconds = 0;
+  const auto tm = Clock::now();
+  try {
+    mortar.emplace(DistributedMortarSurface{&views[s], slaveId, offsets[s], slaveLabel},
+                   DistributedMortarSurface{&views[m], masterId, offsets[m], masterLabel}, mo);
+    mortarSeconds = comm.max(secondsSince(tm));
+    multi.emplace(std::vector<DistributedBody<d>>{{&views[0], &systems[0]}, {&views[1], &systems[1]}}, *mortar, s, m);
+  } catch (const Error& e) {
+    throw Error(scene.where(pair.line) + "[[contact]] " + e.what());
   }
+  const ContactProblem<d>& problem = multi->problem();
+  const Index owned = multi->numOwned();
+  long long freeOwned = 0;
+  for (Index i = 0; i < owned * d; ++i) freeOwned += problem.dirichlet().constrained[static_cast<std::size_t>(i)] ? 0 : 1;
+  r.assemblySeconds = comm.max(secondsSince(t));
+  r.dofs = static_cast<long long>(d) * multi->globalVertices();
+  r.freeDofs = comm.sum(freeOwned);
+  progress("assembled: " + std::to_string(r.dofs) + " dofs (" + std::to_string(r.freeDofs) + " free, " +
+           std::to_string(mortar->globalSize()) + " constrained slave vertices) on " + std::to_string(comm.size()) +
+           " ranks");
+
+  // TNNMG with the correction by hypre on the fine level
+  const SolverConfig config = solverConfig(scene);
+  typename TNNMG<d>::Options o = tnnmgOptions<d>(config);
+  o.tolerance = config.tolerance;
+  o.maxIterations = config.iterationCap();
+  t = Clock::now();
+  TNNMG<d> solver(multi->halo(), o, std::make_unique<DirectCorrection<d>>(multi->halo(), multi->global()));
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(problem.numDofs());
+  const ContactResult result = solver.solve(problem, x);
+  r.solveSeconds = comm.max(secondsSince(t));
+  r.solver.type = "tnnmg";
+  r.solver.iterations = result.iterations;
+  r.solver.converged = result.converged;
+  r.solver.seconds = r.solveSeconds;
+  r.solver.tolerance = config.tolerance;
+  r.solver.correction = result.correction;
+  r.solver.convergenceRate = result.convergenceRate;
+  const auto& st = solver.statistics();
+  r.solver.vcycles = 0;
+  r.solver.coarseSolver = "hypre-fine";
+  r.solver.coarseIterations = st.coarseIterations;
+  r.solver.phases = TnnmgPhases{st.setupSeconds,      st.smoothingSeconds, st.updateSeconds,
+                                st.correctionSeconds, st.otherSeconds,     st.operatorUpdates};
+  r.solver.kkt = result.kkt;
+
+  // the pair's report from the owned constrained slave vertices, reduced (the contact decisions with
+  // the global scales of the KKT residuals)
+  const ContactOutputs out = computeContactOutputs(problem, x, 1e-8, result.kkt.displacementScale, result.kkt.forceScale);
+  const ContactSet& cs = problem.contactSet();
+  PairReport pr;
+  pr.label = slaveLabel + " / " + masterLabel;
+  pr.mortar = true;
+  pr.slaveBody = s;
+  pr.masterBody = m;
+  pr.slave = slaveLabel;
+  pr.master = masterLabel;
+  // per stacked local vertex: gap, normal displacement, pressure, state, direction (3), force (3)
+  constexpr int W = 10;
+  Eigen::VectorXd F = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(multi->numLocal()) * W);
+  std::vector<double> sums(6, 0.0);  // force on the slave, on the master
+  double pmin = std::numeric_limits<double>::infinity(), pmax = -pmin;
+  long long potential = 0, actual = 0;
+  Eigen::VectorXd y = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(mortar->rows().size()) * d);
+  for (std::size_t j = 0; j < mortar->rows().size(); ++j) {
+    const Index l = multi->local(s, mortar->rows()[j].local);
+    const Index k = cs.nodeOf(l);
+    if (k < 0 || !problem.constraint(k).bounded()) continue;
+    const Point& nu = cs.direction(k);
+    const double mu = out.multiplier[k];
+    ++potential;
+    pr.load += mu;
+    for (int a = 0; a < d; ++a) {
+      sums[static_cast<std::size_t>(a)] -= mu * nu[a];
+      y[static_cast<Eigen::Index>(j) * d + a] = mu * nu[a];
+    }
+    const double xn = nu.head<d>().dot(x.template segment<d>(static_cast<Eigen::Index>(l) * d));
+    pr.maxViolation = std::max(pr.maxViolation, xn - cs.gap(k));
+    if (out.inContact[k]) {
+      ++actual;
+      pmin = std::min(pmin, out.pressure[k]);
+      pmax = std::max(pmax, out.pressure[k]);
+    }
+    double* f = F.data() + static_cast<std::ptrdiff_t>(l) * W;
+    f[0] = cs.gap(k);
+    f[1] = xn;
+    f[2] = out.pressure[k];
+    f[3] = out.inContact[k] ? 2 : 1;
+    for (int a = 0; a < 3; ++a) f[4 + a] = nu[a];
+    for (int a = 0; a < d; ++a) f[7 + a] = -mu * nu[a];
+  }
+  // the master forces C'(mu n), the owners' sums at the master vertices
+  Eigen::VectorXd fm = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(views[m].halo.numLocal()) * d);
+  mortar->addTransposedTransformation(y, fm, d);
+  for (Index v = 0; v < views[m].halo.numOwned(); ++v) {
+    double* f = F.data() + static_cast<std::ptrdiff_t>(multi->local(m, v)) * W;
+    for (int a = 0; a < d; ++a) {
+      f[7 + a] += fm[static_cast<Eigen::Index>(v) * d + a];
+      sums[static_cast<std::size_t>(3 + a)] += fm[static_cast<Eigen::Index>(v) * d + a];
+    }
+  }
+  comm.sum(sums);
+  for (int a = 0; a < 3; ++a) {
+    pr.forceSlave[a] = sums[static_cast<std::size_t>(a)];
+    pr.forceMaster[a] = sums[static_cast<std::size_t>(3 + a)];
+  }
+  pr.potentialVertices = comm.sum(potential);
+  pr.actualVertices = comm.sum(actual);
+  pr.load = comm.sum(pr.load);
+  pr.maxViolation = std::max(0.0, comm.max(pr.maxViolation));
+  pr.pressureMin = pr.actualVertices > 0 ? -comm.max(-pmin) : 0.0;
+  pr.pressureMax = pr.actualVertices > 0 ? comm.max(pmax) : 0.0;
+  multi->halo().update(F, W);  // the ghosts' fields (and states) from their owners
+  // the contact area: slave faces with all vertices in contact, each counted by the owner of its
+  // vertex of smallest global index (every face around an owned vertex is held); the slave vertices
+  long long slaveOwned = 0;
+  {
+    const DistributedView& sv = views[s];
+    const mesh::Mesh& lm = sv.local;
+    std::vector<char> onSlave(static_cast<std::size_t>(lm.numVertices()), 0);
+    double area = 0;
+    for (Index f = 0; f < lm.numBoundaryFaces(); ++f) {
+      if (lm.boundaryFaceId(f) != slaveId) continue;
+      const auto vertices = lm.boundaryFaceVertices(f);
+      bool contact = true;
+      Index first = -1, firstGlobal = std::numeric_limits<Index>::max();
+      std::vector<Point> corners;
+      for (Index v : vertices) {
+        onSlave[static_cast<std::size_t>(v)] = 1;
+        contact = contact && F[static_cast<Eigen::Index>(multi->local(s, v)) * W + 3] == 2;
+        const Index g = multi->global()[static_cast<std::size_t>(multi->local(s, v))];
+        if (g < firstGlobal) {
+          firstGlobal = g;
+          first = v;
+        }
+        corners.push_back(lm.vertex(v));
+      }
+      if (contact && first < sv.halo.numOwned()) area += faceMeasure(corners, d);
+    }
+    for (Index v = 0; v < sv.halo.numOwned(); ++v) slaveOwned += onSlave[static_cast<std::size_t>(v)];
+    pr.area = comm.sum(area);
+  }
+  pr.slaveVertices = comm.sum(slaveOwned);
+  pr.uncovered = pr.slaveVertices - mortar->globalSize();
+  pr.segments = -1;  // not counted: the ranks' local couplings share the faces at their boundaries (null)
+  pr.mortarSeconds = mortarSeconds;
+  pr.radius = d == 3 ? std::sqrt(pr.area / std::numbers::pi) : pr.area / 2;
+  r.pairs.push_back(pr);
+
+  // displacements, stresses and pieces per body
+  multi->halo().update(x, d);
+  const Eigen::VectorXd u = multi->toDisplacement(x);
+  const OutputLayout layout(scene);
+  std::vector<PvdEntry> parts;
+  for (int b = 0; b < 2; ++b) {
+    const DistributedView& view = views[static_cast<std::size_t>(b)];
+    ElasticitySolution e;
+    e.dimension = d;
+    e.displacement = multi->bodyPart(b, u, d);
+    recoverStresses(view.local, bodies[b]->material, e);
+    BodyReport br;
+    br.name = bodies[b]->name;
+    br.vertices = view.globalVertices();
+    br.cells = grids[b]->globalLeaves();
+    double maxU = 0, maxMises = 0;
+    for (Index v = 0; v < view.halo.numOwned(); ++v)
+      maxU = std::max(maxU, e.displacement.template segment<d>(static_cast<Eigen::Index>(v) * d).norm());
+    const auto ownedCells = static_cast<Index>(view.part.owned.size());
+    for (Index cell = 0; cell < ownedCells; ++cell) maxMises = std::max(maxMises, vonMises(e.cellStress[cell]));
+    br.maxDisplacement = comm.max(maxU);
+    br.maxVonMises = comm.max(maxMises);
+    r.maxDisplacement = std::max(r.maxDisplacement, br.maxDisplacement);
+    r.maxVonMises = std::max(r.maxVonMises, br.maxVonMises);
+    r.bodies.push_back(br);
+    if (!scene.output.vtk) continue;
+    const Eigen::VectorXd fb = multi->bodyPart(b, F, W);
+    const auto n = static_cast<std::size_t>(view.local.numVertices());
+    std::vector<Field> pf = pointFields(view.local, e);
+    const char* names[] = {"gap", "normal_displacement", "contact_pressure", "contact_state", "constraint_direction",
+                           "contact_force"};
+    const int components[] = {1, 1, 1, 1, 3, 3}, first[] = {0, 1, 2, 3, 4, 7};
+    for (int k = 0; k < 6; ++k) {
+      Field f{names[k], components[k], std::vector<double>(n * static_cast<std::size_t>(components[k]), 0.0), k == 3};
+      for (std::size_t v = 0; v < n; ++v)
+        for (int c = 0; c < components[k]; ++c)
+          f.values[v * static_cast<std::size_t>(components[k]) + static_cast<std::size_t>(c)] =
+              fb[static_cast<Eigen::Index>(v) * W + first[k] + c];
+      pf.push_back(std::move(f));
+    }
+    const std::string base = std::filesystem::path(layout.staticVtu(static_cast<std::size_t>(b))).stem().string();
+    writePieces(dir, base, view.local, ownedCells, pf, cellFields(view.local, e), comm, r);
+    parts.push_back(PvdEntry{0, b, base + ".pvtu"});
+  }
+  if (scene.output.vtk) {
+    comm.collective([&] {
+      if (comm.rank() == 0) writePvdCollection(dir / (scene.name + ".pvd"), parts);
+    });
+    if (comm.rank() == 0) r.outputFiles.push_back(dir / (scene.name + ".pvd"));
+  }
+  std::ostringstream os;
+  os << "solved in " << std::setprecision(3) << r.solveSeconds << " s (tnnmg, " << r.solver.iterations << " iterations"
+     << (r.solver.converged ? "" : ", NOT converged") << ", " << comm.size() << " ranks): max |u| = "
+     << std::setprecision(6) << r.maxDisplacement << ", max von Mises = " << r.maxVonMises << "; " << pr.slave << " / "
+     << pr.master << ": " << pr.actualVertices << " of " << pr.potentialVertices << " slave vertices in contact, P = "
+     << pr.load;
+  progress(os.str());
+}
+
+/// A multi-body scene on the ranks (solveBodies); the grids from the bodies' coarse meshes.
+RunResult runDistributedBodies(const Scene& scene, const RunOptions& options, const Communicator& comm,
+                               Clock::time_point start) {
+  const auto progress = [&](const std::string& line) {
+    if (options.progress) options.progress(line);
+  };
+  RunResult r;
+  r.scene = scene.fileName;
+  auto t = Clock::now();
+  std::optional<BodyGrids> coarse;
+  int slaveId = -1, masterId = -1;
+  const MortarPairSpec& pair = scene.pairs.front();
+  comm.collective([&] {  // every body's coarse grid, validated, and the pair's boundaries
+    coarse.emplace(buildBodyGrids(scene, 0));
+    const std::vector<const Scene*> bodies = scene.bodyScenes();
+    slaveId = boundaryIdOf(scene, coarse->meshes[static_cast<std::size_t>(pair.slaveIndex)], pair.slave,
+                           "[[contact]] slave of body '" + bodies[pair.slaveIndex]->name + "':");
+    masterId = boundaryIdOf(scene, coarse->meshes[static_cast<std::size_t>(pair.masterIndex)], pair.master,
+                            "[[contact]] master of body '" + bodies[pair.masterIndex]->name + "':");
+  });
+  const std::vector<const Scene*> bodies = scene.bodyScenes();
+  const int refine = options.refine.value_or(bodies.front()->mesh.refine);
+  if (refine < 1)
+    throw Error(scene.fileName + ": a distributed run needs refine >= 1 (the coarse mesh is solved on every rank; --refine 1 or [mesh] refine)");
+  ForestPartitionOptions partition;
+  if (options.partitionLevel) partition.level = *options.partitionLevel;
+  std::vector<std::unique_ptr<DistributedGrid>> grids;
+  for (std::size_t i = 0; i < bodies.size(); ++i)
+    grids.push_back(std::make_unique<DistributedGrid>(std::move(coarse->grids[i]), refine, comm, partition));
+  r.meshSeconds = comm.max(secondsSince(t));
+  r.dimension = coarse->meshes.front().dimension();
+  r.refine = refine;
+  std::vector<double> perType(r.cellsPerType.size(), 0.0);
+  for (const auto& g : grids) {
+    const DistributedView leaf = g->view();
+    r.vertices += leaf.globalVertices();
+    r.cells += g->globalLeaves();
+    for (Index cell = 0; cell < static_cast<Index>(leaf.part.owned.size()); ++cell)
+      perType[static_cast<std::size_t>(leaf.local.cellType(cell))] += 1;
+  }
+  comm.sum(perType);
+  for (std::size_t k = 0; k < perType.size(); ++k) r.cellsPerType[k] = static_cast<long long>(perType[k]);
+  progress("meshes built: " + std::to_string(bodies.size()) + " bodies, " + std::to_string(r.cells) + " cells / " +
+           std::to_string(r.vertices) + " vertices (" + std::to_string(r.dimension) + "D) on " +
+           std::to_string(comm.size()) + " ranks (" + std::to_string(r.meshSeconds) + " s)");
+  const std::filesystem::path dir = options.outputDirectory.value_or(scene.output.directory);
+  comm.collective([&] {
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
+  });
+  if (r.dimension == 2) solveBodies<2>(scene, options, comm, grids, coarse->bcs, slaveId, masterId, dir, r);
+  else solveBodies<3>(scene, options, comm, grids, coarse->bcs, slaveId, masterId, dir, r);
+
+  const double memory = peakMemoryMB();
+  nlohmann::json extra;
+  extra["ranks"] = comm.size();
+  extra["peak_memory_mb_largest_rank"] = comm.max(memory);
+  extra["peak_memory_mb_all_ranks"] = comm.sum(memory);
+  extra["partition_level"] = grids.front()->partition().level;
+  comm.collective([&] {
+    if (comm.rank() != 0) return;
+    finishRun(scene, options, dir, r, Clock::now(), start, extra);
+  });
+  throwIfNotConverged(scene, r, dir);
+  return r;
 }
 
 }  // namespace
@@ -502,11 +857,13 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
   const auto start = Clock::now();
   if (const std::string what = notDistributed(scene); !what.empty())
     throw Error(scene.fileName + ": distributed runs (" + std::to_string(comm.size()) +
-                " MPI ranks) solve static one-body contact scenes with TNNMG so far; this scene has " + what +
+                " MPI ranks) solve static scenes with TNNMG so far (one body, with an obstacle or without contact, or two bodies with "
+                "one mortar pair); this scene has " + what +
                 " (run it without mpirun, and use --threads N for the cores of one machine)");
   const auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
   };
+  if (scene.multiBody()) return runDistributedBodies(scene, options, comm, start);
   RunResult r;
   r.scene = scene.fileName;
   auto t = Clock::now();

@@ -155,7 +155,7 @@ nlohmann::json summaryJson(const RunResult& r) {
                        {"radius", p.radius},
                        {"max_violation", p.maxViolation},
                        {"mortar",
-                        {{"segments", p.segments}, {"uncovered_nodes", p.uncovered}, {"seconds", p.mortarSeconds}}}});
+                        {{"segments", p.segments >= 0 ? nlohmann::json(p.segments) : nlohmann::json()}, {"uncovered_nodes", p.uncovered}, {"seconds", p.mortarSeconds}}}});
       if (p.friction) pairs.back()["friction"] = frictionJson(*p.friction, r.dimension);
     }
     j["pairs"] = pairs;
