@@ -537,8 +537,6 @@ std::string notDistributedBodies(const Scene& scene) {
            " mortar [[contact]] pairs (distributed: two bodies and one pair)";
   for (const Scene& b : scene.bodies)
     if (b.contact) return "an obstacle [[contact]] of body '" + b.name + "'";
-  if (scene.pairs.front().friction) return "friction in the [[contact]] pair";
-  if (scene.loading) return "[loading] with several bodies";
   if (scene.solverType() != "tnnmg") return "[solver] type = \"" + scene.solverType() + "\"";
   return "";
 }
@@ -550,7 +548,7 @@ std::string notDistributedBodies(const Scene& scene) {
 /// the scene's .pvd of the bodies.
 template <int d>
 void solveBodies(const Scene& scene, const RunOptions& options, const Communicator& comm,
-                 const std::vector<std::unique_ptr<DistributedGrid>>& grids, const std::vector<BoundaryConditions>& bcs,
+                 const std::vector<std::unique_ptr<DistributedGrid>>& grids, const std::vector<mesh::Mesh>& coarseMeshes,
                  int slaveId, int masterId, const std::filesystem::path& dir, RunResult& r) {
   const Progress progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
@@ -558,14 +556,13 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
   const std::vector<const Scene*> bodies = scene.bodyScenes();
   const MortarPairSpec& pair = scene.pairs.front();
   const int s = pair.slaveIndex, m = pair.masterIndex;
+  // [loading] steps = N: the boundary conditions at t = i/N, one problem per increment (as serially)
+  const int steps = scene.loading ? scene.loading->steps : 1;
+  const auto loadAt = [&](int step) { return scene.loading ? static_cast<double>(step) / steps : 0.0; };
   auto t = Clock::now();
   std::vector<DistributedView> views;
   for (const auto& g : grids) views.push_back(g->view());
-  std::vector<BodySystem<d>> systems(2);
-  comm.collective([&] {
-    for (std::size_t i = 0; i < 2; ++i) systems[i] = assembleBody<d>(views[i].local, bodies[i]->material, bcs[i]);
-  });
-  // the mortar pair and the transformed problem (errors name the [[contact]] line, as serially)
+  // the mortar pair (errors name the [[contact]] line, as serially); it does not change with the load
   const std::string slaveLabel = pair.slaveBody + ":" + (pair.slave.name.empty() ? std::to_string(pair.slave.id) : pair.slave.name);
   const std::string masterLabel =
       pair.masterBody + ":" + (pair.master.name.empty() ? std::to_string(pair.master.id) : pair.master.name);
@@ -574,51 +571,150 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
   mo.minCoverage = pair.minCoverage;
   mo.searchDistance = pair.searchDistance;
   std::optional<DistributedMortar> mortar;
-  std::optional<DistributedMultiBody<d>> multi;
-  double mortarSeconds = 0;
-  const auto tm = Clock::now();
   try {
     mortar.emplace(DistributedMortarSurface{&views[s], slaveId, offsets[s], slaveLabel},
                    DistributedMortarSurface{&views[m], masterId, offsets[m], masterLabel}, mo);
-    mortarSeconds = comm.max(secondsSince(tm));
-    multi.emplace(std::vector<DistributedBody<d>>{{&views[0], &systems[0]}, {&views[1], &systems[1]}}, *mortar, s, m);
   } catch (const Error& e) {
     throw Error(scene.where(pair.line) + "[[contact]] " + e.what());
   }
-  const ContactProblem<d>& problem = multi->problem();
-  const Index owned = multi->numOwned();
-  long long freeOwned = 0;
-  for (Index i = 0; i < owned * d; ++i) freeOwned += problem.dirichlet().constrained[static_cast<std::size_t>(i)] ? 0 : 1;
-  r.assemblySeconds = comm.max(secondsSince(t));
-  r.dofs = static_cast<long long>(d) * multi->globalVertices();
-  r.freeDofs = comm.sum(freeOwned);
+  const double mortarSeconds = comm.max(secondsSince(t));
+  // the bodies' systems at load parameter lt and their transformed problem
+  std::vector<BodySystem<d>> systems(2);
+  std::optional<DistributedMultiBody<d>> multi;
+  const auto build = [&](double lt) {
+    multi.reset();
+    comm.collective([&] {
+      for (std::size_t i = 0; i < 2; ++i)
+        systems[i] = assembleBody<d>(views[i].local, bodies[i]->material, makeBoundaryConditions(*bodies[i], coarseMeshes[i], lt));
+    });
+    try {
+      multi.emplace(std::vector<DistributedBody<d>>{{&views[0], &systems[0]}, {&views[1], &systems[1]}}, *mortar, s, m);
+    } catch (const Error& e) {
+      throw Error(scene.where(pair.line) + "[[contact]] " + e.what());
+    }
+  };
+  build(loadAt(1));
+  {
+    const Index owned = multi->numOwned();
+    long long freeOwned = 0;
+    for (Index i = 0; i < owned * d; ++i)
+      freeOwned += multi->problem().dirichlet().constrained[static_cast<std::size_t>(i)] ? 0 : 1;
+    r.assemblySeconds = comm.max(secondsSince(t));
+    r.dofs = static_cast<long long>(d) * multi->globalVertices();
+    r.freeDofs = comm.sum(freeOwned);
+  }
   progress("assembled: " + std::to_string(r.dofs) + " dofs (" + std::to_string(r.freeDofs) + " free, " +
            std::to_string(mortar->globalSize()) + " constrained slave vertices) on " + std::to_string(comm.size()) +
            " ranks");
 
-  // TNNMG with the correction by hypre on the fine level
+  // TNNMG with the correction by hypre on the fine level; Tresca friction in one solve, Coulomb by
+  // the fixed point over Tresca solves (as for one body)
   const SolverConfig config = solverConfig(scene);
   typename TNNMG<d>::Options o = tnnmgOptions<d>(config);
   o.tolerance = config.tolerance;
   o.maxIterations = config.iterationCap();
+  const FrictionLaw law = pair.friction ? pair.friction->law : FrictionLaw{};
   t = Clock::now();
-  TNNMG<d> solver(multi->halo(), o, std::make_unique<DirectCorrection<d>>(multi->halo(), multi->global()));
-  Eigen::VectorXd x = Eigen::VectorXd::Zero(problem.numDofs());
-  const ContactResult result = solver.solve(problem, x);
+  double laterAssembly = 0;  // of the increments after the first (not solve time)
+  std::optional<TNNMG<d>> solver;
+  Eigen::VectorXd x;
+  ContactResult result;
+  typename TNNMG<d>::Statistics statistics;
+  for (int step = 1; step <= steps; ++step) {
+    if (step > 1) {
+      const auto ta = Clock::now();
+      solver.reset();  // (it holds the halo of the previous problem)
+      const Eigen::VectorXd previous = x;
+      build(loadAt(step));
+      x = previous;  // the warm start: the same numbering, as the mortar pair is the same
+      laterAssembly += secondsSince(ta);
+    }
+    ContactProblem<d>& problem = multi->problem();
+    if (x.size() != problem.numDofs()) x = Eigen::VectorXd::Zero(problem.numDofs());
+    solver.emplace(multi->halo(), o, std::make_unique<DirectCorrection<d>>(multi->halo(), multi->global()));
+    long long stepIterations = 0;
+    if (pair.friction) {
+      const ContactSet& cs = problem.contactSet();
+      NodalFriction friction;
+      friction.bound.assign(static_cast<std::size_t>(cs.size()), 0.0);
+      friction.mu.assign(friction.bound.size(), 0.0);
+      for (Index k = 0; k < cs.size(); ++k) {
+        if (law.type == FrictionLaw::Type::Tresca) friction.bound[static_cast<std::size_t>(k)] = law.value * cs.boundaryMass(k);
+        if (law.type == FrictionLaw::Type::Coulomb) friction.mu[static_cast<std::size_t>(k)] = law.value;
+      }
+      CoulombOptions co;
+      co.tolerance = std::max(co.tolerance, 10 * config.tolerance);
+      // the slip of an increment is measured from the previous one (x: its solution, the warm start)
+      const Eigen::VectorXd origin = step > 1 ? x : Eigen::VectorXd();
+      const CoulombResult fr = solveFriction(problem, *solver, x, friction, co, origin, &multi->halo());
+      result = fr.last;
+      stepIterations = fr.innerIterations;
+      if (const std::string line = addFrictionSolve(r.solver.friction, fr); !line.empty()) progress(line);
+    } else {
+      result = solver->solve(problem, x);
+      stepIterations = result.iterations;
+    }
+    const auto& st = solver->statistics();
+    statistics.setupSeconds += st.setupSeconds;
+    statistics.smoothingSeconds += st.smoothingSeconds;
+    statistics.updateSeconds += st.updateSeconds;
+    statistics.correctionSeconds += st.correctionSeconds;
+    statistics.otherSeconds += st.otherSeconds;
+    statistics.operatorUpdates += st.operatorUpdates;
+    statistics.coarseIterations += st.coarseIterations;
+    if (scene.loading) {  // the increment's contact figures, reduced over the owned nodes
+      const ContactOutputs io =
+          computeContactOutputs(problem, x, 1e-8, result.kkt.displacementScale, result.kkt.forceScale);
+      const ContactSet& cs = problem.contactSet();
+      IncrementReport inc;
+      inc.step = step;
+      inc.t = loadAt(step);
+      inc.iterations = stepIterations;
+      inc.converged = result.converged;
+      std::vector<double> sums(6, 0.0);
+      long long counts[3] = {0, 0, 0};
+      for (Index k = 0; k < cs.size(); ++k) {
+        if (cs.vertex(k) >= multi->numOwned()) continue;
+        for (int a = 0; a < 3; ++a) {
+          sums[static_cast<std::size_t>(a)] += io.multiplier[k] * cs.direction(k)[a];
+          sums[static_cast<std::size_t>(3 + a)] += io.tangential[k][a];
+        }
+        counts[0] += io.state[k] != 0;
+        counts[1] += io.state[k] == 1;
+        counts[2] += io.state[k] == 2;
+      }
+      comm.sum(sums);
+      for (int a = 0; a < 3; ++a) {
+        inc.force[static_cast<std::size_t>(a)] = sums[static_cast<std::size_t>(a)];
+        inc.tangentialForce[static_cast<std::size_t>(a)] = sums[static_cast<std::size_t>(3 + a)];
+      }
+      inc.contactVertices = comm.sum(counts[0]);
+      inc.stickVertices = comm.sum(counts[1]);
+      inc.slipVertices = comm.sum(counts[2]);
+      std::ostringstream line;
+      line << "increment " << step << " of " << steps << " (t = " << inc.t << "): " << inc.contactVertices
+           << " contact vertices (" << inc.stickVertices << " stick, " << inc.slipVertices << " slip), "
+           << stepIterations << " iterations";
+      progress(line.str());
+      r.increments.push_back(inc);
+    }
+  }
+  r.assemblySeconds += comm.max(laterAssembly);
+  t += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(laterAssembly));
   r.solveSeconds = comm.max(secondsSince(t));
+  const ContactProblem<d>& problem = multi->problem();
   r.solver.type = "tnnmg";
   r.solver.iterations = result.iterations;
-  r.solver.converged = result.converged;
+  r.solver.converged = result.converged && (!r.solver.friction || r.solver.friction->converged);
   r.solver.seconds = r.solveSeconds;
   r.solver.tolerance = config.tolerance;
   r.solver.correction = result.correction;
   r.solver.convergenceRate = result.convergenceRate;
-  const auto& st = solver.statistics();
   r.solver.vcycles = 0;
   r.solver.coarseSolver = "hypre-fine";
-  r.solver.coarseIterations = st.coarseIterations;
-  r.solver.phases = TnnmgPhases{st.setupSeconds,      st.smoothingSeconds, st.updateSeconds,
-                                st.correctionSeconds, st.otherSeconds,     st.operatorUpdates};
+  r.solver.coarseIterations = statistics.coarseIterations;
+  r.solver.phases = TnnmgPhases{statistics.setupSeconds,      statistics.smoothingSeconds, statistics.updateSeconds,
+                                statistics.correctionSeconds, statistics.otherSeconds,     statistics.operatorUpdates};
   r.solver.kkt = result.kkt;
 
   // the pair's report from the owned constrained slave vertices, reduced (the contact decisions with
@@ -632,8 +728,11 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
   pr.masterBody = m;
   pr.slave = slaveLabel;
   pr.master = masterLabel;
-  // per stacked local vertex: gap, normal displacement, pressure, state, direction (3), force (3)
-  constexpr int W = 10;
+  // per stacked local vertex: gap, normal displacement, pressure, state, direction (3), force (3),
+  // and with friction the friction force (3), slip and stick/slip state
+  constexpr int W = 15;
+  std::vector<double> tangential(3, 0.0);
+  long long stick = 0, slip = 0;
   Eigen::VectorXd F = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(multi->numLocal()) * W);
   std::vector<double> sums(6, 0.0);  // force on the slave, on the master
   double pmin = std::numeric_limits<double>::infinity(), pmax = -pmin;
@@ -665,6 +764,14 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
     f[3] = out.inContact[k] ? 2 : 1;
     for (int a = 0; a < 3; ++a) f[4 + a] = nu[a];
     for (int a = 0; a < d; ++a) f[7 + a] = -mu * nu[a];
+    for (int a = 0; a < d; ++a) {
+      f[10 + a] = -out.tangential[k][a];
+      tangential[static_cast<std::size_t>(a)] -= out.tangential[k][a];
+    }
+    f[13] = out.slip[k];
+    f[14] = out.state[k];
+    stick += out.state[k] == 1;
+    slip += out.state[k] == 2;
   }
   // the master forces C'(mu n), the owners' sums at the master vertices
   Eigen::VectorXd fm = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(views[m].halo.numLocal()) * d);
@@ -695,16 +802,17 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
     const DistributedView& sv = views[s];
     const mesh::Mesh& lm = sv.local;
     std::vector<char> onSlave(static_cast<std::size_t>(lm.numVertices()), 0);
-    double area = 0;
+    double area = 0, stickArea = 0;
     for (Index f = 0; f < lm.numBoundaryFaces(); ++f) {
       if (lm.boundaryFaceId(f) != slaveId) continue;
       const auto vertices = lm.boundaryFaceVertices(f);
-      bool contact = true;
+      bool contact = true, sticking = true;
       Index first = -1, firstGlobal = std::numeric_limits<Index>::max();
       std::vector<Point> corners;
       for (Index v : vertices) {
         onSlave[static_cast<std::size_t>(v)] = 1;
         contact = contact && F[static_cast<Eigen::Index>(multi->local(s, v)) * W + 3] == 2;
+        sticking = sticking && F[static_cast<Eigen::Index>(multi->local(s, v)) * W + 14] == 1;
         const Index g = multi->global()[static_cast<std::size_t>(multi->local(s, v))];
         if (g < firstGlobal) {
           firstGlobal = g;
@@ -712,10 +820,28 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
         }
         corners.push_back(lm.vertex(v));
       }
-      if (contact && first < sv.halo.numOwned()) area += faceMeasure(corners, d);
+      if (first >= sv.halo.numOwned()) continue;
+      if (contact) area += faceMeasure(corners, d);
+      if (sticking) stickArea += faceMeasure(corners, d);
     }
     for (Index v = 0; v < sv.halo.numOwned(); ++v) slaveOwned += onSlave[static_cast<std::size_t>(v)];
     pr.area = comm.sum(area);
+    pr.stickArea = comm.sum(stickArea);
+  }
+  if (pair.friction) {
+    comm.sum(tangential);
+    for (int a = 0; a < 3; ++a) pr.tangentialSlave[a] = tangential[static_cast<std::size_t>(a)];
+    pr.stickVertices = comm.sum(stick);
+    pr.slipVertices = comm.sum(slip);
+    FrictionReport fr;
+    fr.law = law.type == FrictionLaw::Type::Coulomb ? "coulomb" : "tresca";
+    fr.value = law.value;
+    for (int a = 0; a < 3; ++a) fr.tangentialForce[static_cast<std::size_t>(a)] = pr.tangentialSlave[a];
+    fr.stickVertices = pr.stickVertices;
+    fr.slipVertices = pr.slipVertices;
+    fr.stickArea = pr.stickArea;
+    fr.stickRadius = d == 3 ? std::sqrt(fr.stickArea / std::numbers::pi) : fr.stickArea / 2;
+    pr.friction = fr;
   }
   pr.slaveVertices = comm.sum(slaveOwned);
   pr.uncovered = pr.slaveVertices - mortar->globalSize();
@@ -754,10 +880,11 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
     const auto n = static_cast<std::size_t>(view.local.numVertices());
     std::vector<Field> pf = pointFields(view.local, e);
     const char* names[] = {"gap", "normal_displacement", "contact_pressure", "contact_state", "constraint_direction",
-                           "contact_force"};
-    const int components[] = {1, 1, 1, 1, 3, 3}, first[] = {0, 1, 2, 3, 4, 7};
-    for (int k = 0; k < 6; ++k) {
-      Field f{names[k], components[k], std::vector<double>(n * static_cast<std::size_t>(components[k]), 0.0), k == 3};
+                           "contact_force", "friction_force", "slip", "stick_slip"};
+    const int components[] = {1, 1, 1, 1, 3, 3, 3, 1, 1}, first[] = {0, 1, 2, 3, 4, 7, 10, 13, 14};
+    for (int k = 0; k < (pair.friction ? 9 : 6); ++k) {
+      Field f{names[k], components[k], std::vector<double>(n * static_cast<std::size_t>(components[k]), 0.0),
+              k == 3 || k == 8};
       for (std::size_t v = 0; v < n; ++v)
         for (int c = 0; c < components[k]; ++c)
           f.values[v * static_cast<std::size_t>(components[k]) + static_cast<std::size_t>(c)] =
@@ -834,8 +961,8 @@ RunResult runDistributedBodies(const Scene& scene, const RunOptions& options, co
     std::filesystem::create_directories(dir, ec);
     if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
   });
-  if (r.dimension == 2) solveBodies<2>(scene, options, comm, grids, coarse->bcs, slaveId, masterId, dir, r);
-  else solveBodies<3>(scene, options, comm, grids, coarse->bcs, slaveId, masterId, dir, r);
+  if (r.dimension == 2) solveBodies<2>(scene, options, comm, grids, coarse->meshes, slaveId, masterId, dir, r);
+  else solveBodies<3>(scene, options, comm, grids, coarse->meshes, slaveId, masterId, dir, r);
 
   const double memory = peakMemoryMB();
   nlohmann::json extra;
@@ -845,7 +972,9 @@ RunResult runDistributedBodies(const Scene& scene, const RunOptions& options, co
   extra["partition_level"] = grids.front()->partition().level;
   comm.collective([&] {
     if (comm.rank() != 0) return;
-    finishRun(scene, options, dir, r, Clock::now(), start, extra);
+    const auto outputs = Clock::now();
+    writeIncrementsCsv(dir, r);
+    finishRun(scene, options, dir, r, outputs, start, extra);
   });
   throwIfNotConverged(scene, r, dir);
   return r;

@@ -338,14 +338,31 @@ TEST_F(Cli, MpirunRunsStaticScenesDistributed) {
   EXPECT_NEAR(c3["width"].get<double>(), c1["width"].get<double>(), 1e-12);
   EXPECT_NEAR(c3["force_master"][1].get<double>(), c1["force_master"][1].get<double>(), 1e-8 * cylLoad);
 
-  // what is not distributed yet stops every rank with one line
+  // Coulomb friction between two bodies on 2 ranks: the serial Tresca solves, stick and slip
+  // vertices and friction force
   const std::string friction = (fs::path(OBS_DATA_DIR) / "scenes" / "twobody_friction.toml").string();
-  const Output e = runObs("run '" + friction + "' --refine 1 --output out_mpi_refused", "mpirun_refused", mpirun);
+  fs::remove_all(kTmp / "out_tbf2");
+  fs::remove_all(kTmp / "out_tbf1");
+  ASSERT_EQ(runObs("run '" + friction + "' --output out_tbf2 -q", "tbf2", mpirun).code, 0);
+  ASSERT_EQ(runObs("run '" + friction + "' --output out_tbf1 -q", "tbf1").code, 0);
+  const nlohmann::json t2j = json(kTmp / "out_tbf2" / "summary.json"), t1j = json(kTmp / "out_tbf1" / "summary.json");
+  EXPECT_EQ(t2j["solver"]["friction"]["iterations"], t1j["solver"]["friction"]["iterations"]);
+  const nlohmann::json& pf2 = t2j["pairs"][0]["friction"];
+  const nlohmann::json& pf1 = t1j["pairs"][0]["friction"];
+  for (const char* key : {"stick_vertices", "slip_vertices"}) EXPECT_EQ(pf2[key], pf1[key]) << key;
+  EXPECT_GT(pf1["slip_vertices"].get<int>(), 0);
+  const double tf = pf1["tangential_force"][0];
+  EXPECT_NEAR(pf2["tangential_force"][0].get<double>(), tf, 1e-8 * std::abs(tf));
+  EXPECT_NEAR(pf2["stick_width"].get<double>(), pf1["stick_width"].get<double>(), 1e-12);
+
+  // what is not distributed yet stops every rank with one line
+  const std::string dynamics = (fs::path(OBS_DATA_DIR) / "scenes" / "dynamics_two_body.toml").string();
+  const Output e = runObs("run '" + dynamics + "' --refine 1 --output out_mpi_refused", "mpirun_refused", mpirun);
   EXPECT_EQ(e.code, 1);
   std::size_t errors = 0;  // obs' own lines (mpirun adds its report of the exit code)
   for (std::size_t at = e.err.find("obs: error:"); at != std::string::npos; at = e.err.find("obs: error:", at + 1)) ++errors;
   EXPECT_EQ(errors, 1u) << e.err;
-  EXPECT_NE(e.err.find("friction in the [[contact]] pair"), std::string::npos) << e.err;
+  EXPECT_NE(e.err.find("[dynamics]"), std::string::npos) << e.err;
 }
 #endif
 

@@ -76,6 +76,8 @@ public:
 
   /// The rank's contact problem (transformed; owned rows complete, ghost rows identity rows).
   const ContactProblem<d>& problem() const { return *problem_; }
+  /// The same, to set its friction (ContactProblem::setFriction, solveFriction).
+  ContactProblem<d>& problem() { return *problem_; }
   /// The rows of T'AT this rank received from other ranks (a measure of the coupling's traffic).
   Index receivedTerms() const { return receivedTerms_; }
 
