@@ -10,6 +10,8 @@
 #include <optional>
 #include <sstream>
 #include <string>
+#include <tuple>
+#include <utility>
 
 #include "RunSupport.hpp"
 #include "obs/drivers/ObstacleFactory.hpp"
@@ -148,6 +150,82 @@ void reportAssembly(const Communicator& comm, const DistributedView& leaf, int d
 /// The boundary conditions at the load parameter t of [loading] (resolved on the coarse mesh).
 using BoundaryConditionsAt = std::function<BoundaryConditions(double)>;
 
+/// The nodal friction of one law at every node of a contact set (Tresca: the bound law.value
+/// times the node's boundary mass; Coulomb: mu), as nodalFriction does serially.
+NodalFriction frictionOf(const FrictionLaw& law, const ContactSet& set) {
+  NodalFriction friction;
+  friction.bound.assign(static_cast<std::size_t>(set.size()), 0.0);
+  friction.mu.assign(friction.bound.size(), 0.0);
+  for (Index k = 0; k < set.size(); ++k) {
+    if (law.type == FrictionLaw::Type::Tresca) friction.bound[static_cast<std::size_t>(k)] = law.value * set.boundaryMass(k);
+    if (law.type == FrictionLaw::Type::Coulomb) friction.mu[static_cast<std::size_t>(k)] = law.value;
+  }
+  return friction;
+}
+
+/// One solve of a load increment `step` by distributed TNNMG: with friction (null: none) Tresca in
+/// one solve, Coulomb by the fixed point over Tresca solves, the slip measured from the previous
+/// increment's solution (u on entry); the friction report and its progress line in r. Returns the
+/// last solve and the TNNMG iterations of the increment. Collective.
+template <int d>
+std::pair<ContactResult, long long> solveIncrement(ContactProblem<d>& problem, TNNMG<d>& solver, Eigen::VectorXd& u,
+                                                   const NodalFriction* friction, double tolerance, int step,
+                                                   const HaloExchange& halo, const Progress& progress, RunResult& r) {
+  if (!friction) {
+    const ContactResult result = solver.solve(problem, u);
+    return {result, result.iterations};
+  }
+  CoulombOptions co;
+  co.tolerance = std::max(co.tolerance, 10 * tolerance);
+  const Eigen::VectorXd origin = step > 1 ? u : Eigen::VectorXd();
+  const CoulombResult fr = solveFriction(problem, solver, u, *friction, co, origin, &halo);
+  if (const std::string line = addFrictionSolve(r.solver.friction, fr); !line.empty()) progress(line);
+  return {fr.last, fr.innerIterations};
+}
+
+/// A [loading] increment's contact figures (force, friction force, contact, stick and slip
+/// vertices) from the owned contact nodes (vertex < owned), reduced over the ranks with the
+/// contact decisions at the global scales of the KKT residuals; its progress line; appended to
+/// r.increments. Collective.
+template <int d>
+void reportIncrement(const ContactProblem<d>& problem, const Eigen::VectorXd& u, const ContactResult& result,
+                     Index owned, const Communicator& comm, int step, int steps, double t, long long iterations,
+                     const Progress& progress, RunResult& r) {
+  const ContactOutputs o = computeContactOutputs(problem, u, 1e-8, result.kkt.displacementScale, result.kkt.forceScale);
+  const ContactSet& set = problem.contactSet();
+  IncrementReport inc;
+  inc.step = step;
+  inc.t = t;
+  inc.iterations = iterations;
+  inc.converged = result.converged;
+  std::vector<double> sums(6, 0.0);
+  long long counts[3] = {0, 0, 0};
+  for (Index k = 0; k < set.size(); ++k) {
+    if (set.vertex(k) >= owned) continue;
+    for (int a = 0; a < 3; ++a) {
+      sums[static_cast<std::size_t>(a)] += o.multiplier[k] * set.direction(k)[a];
+      sums[static_cast<std::size_t>(3 + a)] += o.tangential[k][a];
+    }
+    counts[0] += o.state[k] != 0;
+    counts[1] += o.state[k] == 1;
+    counts[2] += o.state[k] == 2;
+  }
+  comm.sum(sums);
+  for (int a = 0; a < 3; ++a) {
+    inc.force[static_cast<std::size_t>(a)] = sums[static_cast<std::size_t>(a)];
+    inc.tangentialForce[static_cast<std::size_t>(a)] = sums[static_cast<std::size_t>(3 + a)];
+  }
+  inc.contactVertices = comm.sum(counts[0]);
+  inc.stickVertices = comm.sum(counts[1]);
+  inc.slipVertices = comm.sum(counts[2]);
+  std::ostringstream line;
+  line << "increment " << step << " of " << steps << " (t = " << inc.t << "): " << inc.contactVertices
+       << " contact vertices (" << inc.stickVertices << " stick, " << inc.slipVertices << " slip), " << iterations
+       << " iterations";
+  progress(line.str());
+  r.increments.push_back(inc);
+}
+
 /// The scene's obstacle problem solved by distributed TNNMG: the displacement on the rank's local
 /// mesh (ghost entries current), the assembly, solver and contact reports in r, and the contact
 /// point fields of the serial one-body output on the local vertices in `fields` (exact on the
@@ -189,17 +267,8 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
   TNNMG<d> solver(dg, o);
   Eigen::VectorXd u = Eigen::VectorXd::Zero(problem->numDofs());
   ContactResult result;
-  NodalFriction friction;
-  if (scene.contact->friction) {
-    const FrictionLaw& law = scene.contact->friction->law;
-    friction.bound.assign(static_cast<std::size_t>(set->size()), 0.0);
-    friction.mu.assign(friction.bound.size(), 0.0);
-    for (Index k = 0; k < set->size(); ++k) {
-      if (law.type == FrictionLaw::Type::Tresca)
-        friction.bound[static_cast<std::size_t>(k)] = law.value * set->boundaryMass(k);
-      if (law.type == FrictionLaw::Type::Coulomb) friction.mu[static_cast<std::size_t>(k)] = law.value;
-    }
-  }
+  const std::optional<NodalFriction> friction =
+      scene.contact->friction ? std::optional(frictionOf(scene.contact->friction->law, *set)) : std::nullopt;
   for (int step = 1; step <= steps; ++step) {
     if (step > 1) {
       const auto ta = Clock::now();
@@ -211,55 +280,9 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
       laterAssembly += secondsSince(ta);
     }
     long long stepIterations = 0;
-    if (scene.contact->friction) {  // Tresca: one solve; Coulomb: the fixed point over Tresca solves
-      CoulombOptions co;
-      co.tolerance = std::max(co.tolerance, 10 * config.tolerance);
-      // the slip of an increment is measured from the previous one (u: its solution, the warm start)
-      const Eigen::VectorXd origin = step > 1 ? u : Eigen::VectorXd();
-      const CoulombResult fr = solveFriction(*problem, solver, u, friction, co, origin, &leaf.halo);
-      result = fr.last;
-      stepIterations = fr.innerIterations;
-      if (const std::string line = addFrictionSolve(r.solver.friction, fr); !line.empty()) progress(line);
-    } else {
-      result = solver.solve(*problem, u);
-      stepIterations = result.iterations;
-    }
-    if (scene.loading) {  // the increment's contact figures, reduced over the owned nodes
-      const ContactOutputs o = computeContactOutputs(*problem, u, 1e-8, result.kkt.displacementScale,
-                                                     result.kkt.forceScale);
-      const std::vector<char>& state = o.state;
-      IncrementReport inc;
-      inc.step = step;
-      inc.t = loadAt(step);
-      inc.iterations = stepIterations;
-      inc.converged = result.converged;
-      std::vector<double> sums(6, 0.0);
-      long long counts[3] = {0, 0, 0};
-      for (Index k = 0; k < set->size(); ++k) {
-        if (set->vertex(k) >= owned) continue;
-        for (int a = 0; a < 3; ++a) {
-          sums[static_cast<std::size_t>(a)] += o.multiplier[k] * set->direction(k)[a];
-          sums[static_cast<std::size_t>(3 + a)] += o.tangential[k][a];
-        }
-        counts[0] += state[k] != 0;
-        counts[1] += state[k] == 1;
-        counts[2] += state[k] == 2;
-      }
-      comm.sum(sums);
-      for (int a = 0; a < 3; ++a) {
-        inc.force[static_cast<std::size_t>(a)] = sums[static_cast<std::size_t>(a)];
-        inc.tangentialForce[static_cast<std::size_t>(a)] = sums[static_cast<std::size_t>(3 + a)];
-      }
-      inc.contactVertices = comm.sum(counts[0]);
-      inc.stickVertices = comm.sum(counts[1]);
-      inc.slipVertices = comm.sum(counts[2]);
-      std::ostringstream line;
-      line << "increment " << step << " of " << steps << " (t = " << inc.t << "): " << inc.contactVertices
-           << " contact vertices (" << inc.stickVertices << " stick, " << inc.slipVertices << " slip), "
-           << stepIterations << " iterations";
-      progress(line.str());
-      r.increments.push_back(inc);
-    }
+    std::tie(result, stepIterations) = solveIncrement<d>(*problem, solver, u, friction ? &*friction : nullptr,
+                                                         config.tolerance, step, leaf.halo, progress, r);
+    if (scene.loading) reportIncrement<d>(*problem, u, result, owned, comm, step, steps, loadAt(step), stepIterations, progress, r);
   }
   r.assemblySeconds += comm.max(laterAssembly);
   t += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(laterAssembly));
@@ -619,7 +642,6 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
   std::optional<TNNMG<d>> solver;
   Eigen::VectorXd x;
   ContactResult result;
-  typename TNNMG<d>::Statistics statistics;
   for (int step = 1; step <= steps; ++step) {
     if (step > 1) {
       const auto ta = Clock::now();
@@ -632,72 +654,13 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
     ContactProblem<d>& problem = multi->problem();
     if (x.size() != problem.numDofs()) x = Eigen::VectorXd::Zero(problem.numDofs());
     solver.emplace(multi->halo(), o, std::make_unique<DirectCorrection<d>>(multi->halo(), multi->global()));
+    const std::optional<NodalFriction> friction =
+        pair.friction ? std::optional(frictionOf(law, problem.contactSet())) : std::nullopt;
     long long stepIterations = 0;
-    if (pair.friction) {
-      const ContactSet& cs = problem.contactSet();
-      NodalFriction friction;
-      friction.bound.assign(static_cast<std::size_t>(cs.size()), 0.0);
-      friction.mu.assign(friction.bound.size(), 0.0);
-      for (Index k = 0; k < cs.size(); ++k) {
-        if (law.type == FrictionLaw::Type::Tresca) friction.bound[static_cast<std::size_t>(k)] = law.value * cs.boundaryMass(k);
-        if (law.type == FrictionLaw::Type::Coulomb) friction.mu[static_cast<std::size_t>(k)] = law.value;
-      }
-      CoulombOptions co;
-      co.tolerance = std::max(co.tolerance, 10 * config.tolerance);
-      // the slip of an increment is measured from the previous one (x: its solution, the warm start)
-      const Eigen::VectorXd origin = step > 1 ? x : Eigen::VectorXd();
-      const CoulombResult fr = solveFriction(problem, *solver, x, friction, co, origin, &multi->halo());
-      result = fr.last;
-      stepIterations = fr.innerIterations;
-      if (const std::string line = addFrictionSolve(r.solver.friction, fr); !line.empty()) progress(line);
-    } else {
-      result = solver->solve(problem, x);
-      stepIterations = result.iterations;
-    }
-    const auto& st = solver->statistics();
-    statistics.setupSeconds += st.setupSeconds;
-    statistics.smoothingSeconds += st.smoothingSeconds;
-    statistics.updateSeconds += st.updateSeconds;
-    statistics.correctionSeconds += st.correctionSeconds;
-    statistics.otherSeconds += st.otherSeconds;
-    statistics.operatorUpdates += st.operatorUpdates;
-    statistics.coarseIterations += st.coarseIterations;
-    if (scene.loading) {  // the increment's contact figures, reduced over the owned nodes
-      const ContactOutputs io =
-          computeContactOutputs(problem, x, 1e-8, result.kkt.displacementScale, result.kkt.forceScale);
-      const ContactSet& cs = problem.contactSet();
-      IncrementReport inc;
-      inc.step = step;
-      inc.t = loadAt(step);
-      inc.iterations = stepIterations;
-      inc.converged = result.converged;
-      std::vector<double> sums(6, 0.0);
-      long long counts[3] = {0, 0, 0};
-      for (Index k = 0; k < cs.size(); ++k) {
-        if (cs.vertex(k) >= multi->numOwned()) continue;
-        for (int a = 0; a < 3; ++a) {
-          sums[static_cast<std::size_t>(a)] += io.multiplier[k] * cs.direction(k)[a];
-          sums[static_cast<std::size_t>(3 + a)] += io.tangential[k][a];
-        }
-        counts[0] += io.state[k] != 0;
-        counts[1] += io.state[k] == 1;
-        counts[2] += io.state[k] == 2;
-      }
-      comm.sum(sums);
-      for (int a = 0; a < 3; ++a) {
-        inc.force[static_cast<std::size_t>(a)] = sums[static_cast<std::size_t>(a)];
-        inc.tangentialForce[static_cast<std::size_t>(a)] = sums[static_cast<std::size_t>(3 + a)];
-      }
-      inc.contactVertices = comm.sum(counts[0]);
-      inc.stickVertices = comm.sum(counts[1]);
-      inc.slipVertices = comm.sum(counts[2]);
-      std::ostringstream line;
-      line << "increment " << step << " of " << steps << " (t = " << inc.t << "): " << inc.contactVertices
-           << " contact vertices (" << inc.stickVertices << " stick, " << inc.slipVertices << " slip), "
-           << stepIterations << " iterations";
-      progress(line.str());
-      r.increments.push_back(inc);
-    }
+    std::tie(result, stepIterations) = solveIncrement<d>(problem, *solver, x, friction ? &*friction : nullptr,
+                                                         config.tolerance, step, multi->halo(), progress, r);
+    if (scene.loading)
+      reportIncrement<d>(problem, x, result, multi->numOwned(), comm, step, steps, loadAt(step), stepIterations, progress, r);
   }
   r.assemblySeconds += comm.max(laterAssembly);
   t += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(laterAssembly));
@@ -710,11 +673,13 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
   r.solver.tolerance = config.tolerance;
   r.solver.correction = result.correction;
   r.solver.convergenceRate = result.convergenceRate;
+  // the phases of rank 0's last solve, as for one body
+  const auto& st = solver->statistics();
   r.solver.vcycles = 0;
   r.solver.coarseSolver = "hypre-fine";
-  r.solver.coarseIterations = statistics.coarseIterations;
-  r.solver.phases = TnnmgPhases{statistics.setupSeconds,      statistics.smoothingSeconds, statistics.updateSeconds,
-                                statistics.correctionSeconds, statistics.otherSeconds,     statistics.operatorUpdates};
+  r.solver.coarseIterations = st.coarseIterations;
+  r.solver.phases = TnnmgPhases{st.setupSeconds,      st.smoothingSeconds, st.updateSeconds,
+                                st.correctionSeconds, st.otherSeconds,     st.operatorUpdates};
   r.solver.kkt = result.kkt;
 
   // the pair's report from the owned constrained slave vertices, reduced (the contact decisions with
