@@ -210,21 +210,21 @@ DistributedMultiBody<d>::DistributedMultiBody(std::vector<DistributedBody<d>> bo
     ghostLocal_.emplace(g, l);
     return l;
   };
-  std::vector<std::vector<std::pair<Index, Mat>>> merged(static_cast<std::size_t>(owned_));
   for (Index p = 0; p < owned_; ++p) {
     auto& row = rows[p];
-    // equal columns summed in a fixed order: this rank's terms, then those of the ranks in order
+    // equal columns summed in place, in a fixed order: this rank's terms, then the other ranks' in
+    // rank order
     std::stable_sort(row.begin(), row.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
-    auto& mrow = merged[p];
-    for (const auto& [q, B] : row) {
-      if (!mrow.empty() && mrow.back().first == q) mrow.back().second += B;
-      else mrow.emplace_back(q, B);
+    std::size_t kept = 0;
+    for (std::size_t k = 0; k < row.size(); ++k) {
+      if (kept > 0 && row[kept - 1].first == row[k].first) row[kept - 1].second += row[k].second;
+      else row[kept++] = row[k];
     }
-    row = {};
-    for (auto& [q, B] : mrow) q = localOf(q);
-    std::sort(mrow.begin(), mrow.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+    row.resize(kept);
+    row.shrink_to_fit();
+    for (auto& [q, B] : row) q = localOf(q);
+    std::sort(row.begin(), row.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
   }
-  rows.clear();
   mesh::CsrMatrix C;  // local rows at the held slave vertices
   {
     std::vector<std::vector<std::pair<Index, double>>> lrow(static_cast<std::size_t>(firstExtra_));
@@ -247,12 +247,12 @@ DistributedMultiBody<d>::DistributedMultiBody(std::vector<DistributedBody<d>> bo
   const auto n = static_cast<Index>(global_.size());
   typename BlockSparseMatrix<d>::Pattern pattern;
   pattern.rowStart.assign(static_cast<std::size_t>(n) + 1, 0);
-  for (Index p = 0; p < n; ++p) pattern.rowStart[p + 1] = pattern.rowStart[p] + (p < owned_ ? static_cast<Index>(merged[p].size()) : 1);
+  for (Index p = 0; p < n; ++p) pattern.rowStart[p + 1] = pattern.rowStart[p] + (p < owned_ ? static_cast<Index>(rows[p].size()) : 1);
   pattern.columns.resize(static_cast<std::size_t>(pattern.rowStart[n]));
   for (Index p = 0; p < n; ++p) {
     Index k = pattern.rowStart[p];
     if (p < owned_)
-      for (const auto& e : merged[p]) pattern.columns[k++] = e.first;
+      for (const auto& e : rows[p]) pattern.columns[k++] = e.first;
     else
       pattern.columns[k] = p;  // a ghost row: an identity row, never read
   }
@@ -263,9 +263,10 @@ DistributedMultiBody<d>::DistributedMultiBody(std::vector<DistributedBody<d>> bo
       continue;
     }
     Index k = M.rowBegin(p);
-    for (const auto& e : merged[p]) M.blockAt(k++) = e.second;
+    for (const auto& e : rows[p]) M.blockAt(k++) = e.second;
+    rows[p] = {};
   }
-  merged.clear();
+  rows.clear();
 
   // --- the halo, and the vertex data of the ghosts from their owners ---
   std::vector<Index> ghostGlobal(global_.begin() + owned_, global_.end());

@@ -78,7 +78,7 @@ public:
   const ContactProblem<d>& problem() const { return *problem_; }
   /// The same, to set its friction (ContactProblem::setFriction, solveFriction).
   ContactProblem<d>& problem() { return *problem_; }
-  /// The rows of T'AT this rank received from other ranks (a measure of the coupling's traffic).
+  /// The terms (d x d blocks) of T'AT this rank received from other ranks (the coupling's traffic).
   Index receivedTerms() const { return receivedTerms_; }
 
   /// Body b's part of a stacked local vector (`components` per vertex), in its view's local
