@@ -896,17 +896,21 @@ RunResult runDistributedBodies(const Scene& scene, const RunOptions& options, co
                             "[[contact]] master of body '" + bodies[pair.masterIndex]->name + "':");
   });
   const std::vector<const Scene*> bodies = scene.bodyScenes();
-  const int refine = options.refine.value_or(bodies.front()->mesh.refine);
-  if (refine < 1)
-    throw Error(scene.fileName + ": a distributed run needs refine >= 1 (the coarse mesh is solved on every rank; --refine 1 or [mesh] refine)");
+  // each body refined as serially: --refine, else its own [mesh] refine
+  for (const Scene* body : bodies)
+    if (options.refine.value_or(body->mesh.refine) < 1)
+      throw Error(scene.where(body->bodyLine) + "[[body]] '" + body->name +
+                  "': a distributed run needs refine >= 1 (the coarse mesh is solved on every rank; --refine 1 or its "
+                  "[mesh] refine)");
   ForestPartitionOptions partition;
   if (options.partitionLevel) partition.level = *options.partitionLevel;
   std::vector<std::unique_ptr<DistributedGrid>> grids;
   for (std::size_t i = 0; i < bodies.size(); ++i)
-    grids.push_back(std::make_unique<DistributedGrid>(std::move(coarse->grids[i]), refine, comm, partition));
+    grids.push_back(std::make_unique<DistributedGrid>(std::move(coarse->grids[i]),
+                                                      options.refine.value_or(bodies[i]->mesh.refine), comm, partition));
   r.meshSeconds = comm.max(secondsSince(t));
   r.dimension = coarse->meshes.front().dimension();
-  r.refine = refine;
+  r.refine = options.refine.value_or(bodies.front()->mesh.refine);
   std::vector<double> perType(r.cellsPerType.size(), 0.0);
   for (const auto& g : grids) {
     const DistributedView leaf = g->view();

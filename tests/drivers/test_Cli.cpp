@@ -337,6 +337,23 @@ TEST_F(Cli, MpirunRunsStaticScenesDistributed) {
   EXPECT_NEAR(c3["load_P"].get<double>(), cylLoad, 1e-8 * cylLoad);
   EXPECT_NEAR(c3["width"].get<double>(), c1["width"].get<double>(), 1e-12);
   EXPECT_NEAR(c3["force_master"][1].get<double>(), c1["force_master"][1].get<double>(), 1e-8 * cylLoad);
+  // each body refined by its own [mesh] refine (the cylinder once less than the block), as serially
+  {
+    std::string text = slurp(cylinders);
+    const std::string from = "refine = 4";
+    text.replace(text.rfind(from), from.size(), "refine = 3");
+    std::ofstream(kTmp / "cylinders_mixed.toml") << text;
+  }
+  fs::remove_all(kTmp / "out_mixed2");
+  fs::remove_all(kTmp / "out_mixed1");
+  ASSERT_EQ(runObs("run cylinders_mixed.toml --output out_mixed2 -q", "mixed2", mpirun).code, 0);
+  ASSERT_EQ(runObs("run cylinders_mixed.toml --output out_mixed1 -q", "mixed1").code, 0);
+  const nlohmann::json m2 = json(kTmp / "out_mixed2" / "summary.json"), m1 = json(kTmp / "out_mixed1" / "summary.json");
+  EXPECT_EQ(m2["vertices"], m1["vertices"]);
+  EXPECT_LT(m1["vertices"].get<long long>(), json(kTmp / "out_cyl1" / "summary.json")["vertices"].get<long long>());
+  EXPECT_EQ(m2["pairs"][0]["actual_vertices"], m1["pairs"][0]["actual_vertices"]);
+  const double mixedLoad = m1["pairs"][0]["load_P"];
+  EXPECT_NEAR(m2["pairs"][0]["load_P"].get<double>(), mixedLoad, 1e-8 * mixedLoad);
 
   // Coulomb friction between two bodies on 2 ranks: the serial Tresca solves, stick and slip
   // vertices and friction force
