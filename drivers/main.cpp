@@ -23,7 +23,7 @@
 // 3 a [dynamics] or [adaptivity] run stopped early (SIGINT/SIGTERM or --stop-after-step) with a
 // checkpoint to continue it with --restart (docs/checkpoint.md); scheme comparisons stop without one.
 // Every error is one line "obs: error: ..." on stderr. Launched by mpirun with more than one rank,
-// `obs run` runs distributed (static one-body contact scenes; rank 0 prints progress and errors,
+// `obs run` runs distributed (static one-body and two-body scenes; rank 0 prints progress and errors,
 // every rank exits with the same code); other commands stop with exit code 1 on every rank.
 #include <CLI/CLI.hpp>
 

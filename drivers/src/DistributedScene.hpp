@@ -2,8 +2,10 @@
 /// \file DistributedScene.hpp
 /// `mpirun -np N obs run scene.toml` with N > 1 (docs/architecture.md#distributed-runner): a static
 /// one-body scene on a DistributedGrid, solved by distributed TNNMG (contact against an obstacle, with
-/// friction inside solveFriction's fixed point) or
-/// distributed multigrid (linear elasticity). Every rank calls it;
+/// friction inside solveFriction's fixed point) or distributed multigrid (linear elasticity); or a
+/// static two-body scene with one mortar pair, each body a DistributedGrid, solved by TNNMG with
+/// hypre's correction (DistributedMultiBody, docs/architecture.md#distributed-two-body; with
+/// friction as for one body), reported per body and pair. Every rank calls it;
 /// rank 0 reports progress and writes summary.json (figures reduced over the ranks), every rank
 /// writes its piece of the solution (.vtu of its owned cells) and rank 0 the .pvtu that joins them.
 /// Errors reach every rank as the same obs::Error (Communicator::collective), so every rank exits
