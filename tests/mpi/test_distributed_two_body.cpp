@@ -190,6 +190,56 @@ TEST(DistributedTwoBody, TetrahedraOnHexahedra3D) {
   compareWithOneProcess<3>({CellType::Hexahedron, CellType::Tetrahedron, 3, 2, 2});
 }
 
+/// The mortar patch test on ranks (docs/verification.md has the serial one): a block of
+/// hexahedra (slave) on a block of tetrahedra (master), non-matching, under uniaxial compression by
+/// p = 10 (the lower block on rollers, the upper block's top moved with the exact solution): every
+/// slave node is in contact and its dual-mortar pressure is p to round-off, on every rank, with the
+/// partition cutting the interface.
+TEST(DistributedTwoBody, MortarPatchTestIsExact3D) {
+  const obs::Communicator comm = obs::Communicator::world();
+  const obs::mesh::Mesh coarse[2] = {
+      obs::mesh::boxMesh(CellType::Tetrahedron, {3, 3, 3}, Point(0, 0, 0), Point(1, 1, 1)),
+      obs::mesh::boxMesh(CellType::Hexahedron, {5, 5, 2}, Point(0, 0, 1), Point(1, 1, 2))};
+  const obs::Material material[2] = {{2e5, 0.3}, {1e5, 0.25}};
+  obs::BoundaryConditions bc[2];
+  bc[0].dirichlet.push_back({obs::mesh::kBottom, {false, false, true}});
+  bc[0].dirichlet.push_back({obs::mesh::kLeft, {true, false, false}});
+  bc[0].dirichlet.push_back({obs::mesh::kFront, {false, true, false}});
+  obs::DirichletCondition top{obs::mesh::kTop, {true, true, true}};
+  top.value = [](const Point& x) { return Point(2.5e-5 * x[0], 2.5e-5 * x[1], -1.5e-4); };
+  bc[1].dirichlet.push_back(top);
+  const obs::DistributedGrid dgrid[2] = {obs::DistributedGrid(obs::mesh::Grid(coarse[0]), 1, comm),
+                                         obs::DistributedGrid(obs::mesh::Grid(coarse[1]), 1, comm)};
+  const obs::DistributedView view[2] = {dgrid[0].view(), dgrid[1].view()};
+  const obs::BodySystem<3> body[2] = {obs::assembleBody<3>(view[0].local, material[0], bc[0]),
+                                      obs::assembleBody<3>(view[1].local, material[1], bc[1])};
+  const obs::DistributedMortar mortar({&view[1], obs::mesh::kBottom, view[0].globalVertices(), "upper bottom"},
+                                      {&view[0], obs::mesh::kTop, 0, "lower top"});
+  const obs::DistributedMultiBody<3> multi({{&view[0], &body[0]}, {&view[1], &body[1]}}, mortar, 1, 0);
+  if (!obs::DistributedCoarseSolver::available()) GTEST_SKIP() << "obs is built without hypre";
+  typename obs::TNNMG<3>::Options options;
+  options.tolerance = 1e-12;
+  obs::TNNMG<3> solver(multi.halo(), options, std::make_unique<obs::DirectCorrection<3>>(multi.halo(), multi.global()));
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(multi.problem().numDofs());
+  const obs::ContactResult r = solver.solve(multi.problem(), x);
+  ASSERT_TRUE(r.converged);
+  EXPECT_EQ(r.activeSetSize, mortar.globalSize());
+  const obs::ContactOutputs out =
+      obs::computeContactOutputs(multi.problem(), x, 1e-8, r.kkt.displacementScale, r.kkt.forceScale);
+  const obs::ContactSet& cs = multi.problem().contactSet();
+  long long owned = 0;
+  for (Index k = 0; k < cs.size(); ++k) {
+    if (cs.vertex(k) >= multi.numOwned()) continue;
+    ++owned;
+    EXPECT_TRUE(out.inContact[k]) << "slave node at " << cs.position(k).transpose();
+    EXPECT_NEAR(out.pressure[k], 10.0, 1e-9) << "slave node at " << cs.position(k).transpose();
+  }
+  EXPECT_EQ(comm.sum(owned), mortar.globalSize());
+  if (comm.size() > 1) {
+    EXPECT_GE(comm.sum(static_cast<long long>(owned > 0 ? 1 : 0)), 2) << "the partition does not cut the interface";
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
