@@ -3,8 +3,9 @@
 # `mpirun -np 2` and `-np 3`: the one-body contact scenes (hertz, punch, step42, wedge; TNNMG), those
 # with Coulomb friction (friction_cylinder, friction_peer, friction_slip: the fixed point over TNNMG's
 # Tresca solves), the scenes without contact (cantilever, block_compression at refine 2 and 1,
-# mixed_bar; direct serially, distributed multigrid on ranks) and the two-body scenes (twobody_*:
-# multigrid TNNMG serially, TNNMG with hypre's correction on ranks). Prints dofs, solver and
+# mixed_bar; direct serially, distributed multigrid on ranks) and the two-body scenes (twobody_*,
+# cattaneo_mindlin with Coulomb friction in [loading] increments: multigrid TNNMG serially, TNNMG
+# with hypre's correction on ranks). Prints dofs, solver and
 # iterations (with friction: Tresca solves / TNNMG iterations), contact vertices, load (of the
 # [contact] or of the mortar pair), stick / slip vertices, friction force, largest displacement and
 # von Mises stress, and the solve time of each run side by side
@@ -17,7 +18,7 @@ obs=${OBS:-$PWD/build/drivers/obs}
 # scene and its extra options (the scenes without refinement get some: ranks need refine >= 1)
 scenes=("hertz" "punch" "step42" "wedge" "friction_cylinder" "friction_peer" "friction_slip" "cantilever --refine 2"
         "block_compression --refine 1" "mixed_bar" "twobody_patch --refine 1" "twobody_gmsh --refine 1"
-        "twobody_cylinders" "twobody_gmsh_cylinders" "twobody_hertz" "twobody_friction")
+        "twobody_cylinders" "twobody_gmsh_cylinders" "twobody_hertz" "twobody_friction" "cattaneo_mindlin")
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=PASSIVE
 mkdir -p "$out"
 names=()
