@@ -226,6 +226,28 @@ void reportIncrement(const ContactProblem<d>& problem, const Eigen::VectorXd& u,
   r.increments.push_back(inc);
 }
 
+/// The solver report of a distributed TNNMG run in r: the solve time (from t, without the assembly
+/// of later increments, maxima over the ranks), the last solve's result and rank 0's phases of it
+/// (every rank runs the same phases; each waits for the others in them).
+template <int d>
+void reportTnnmg(const ContactResult& result, const typename TNNMG<d>::Statistics& st, double tolerance,
+                 double laterAssembly, Clock::time_point t, const Communicator& comm, RunResult& r) {
+  r.assemblySeconds += comm.max(laterAssembly);
+  t += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(laterAssembly));
+  r.solveSeconds = comm.max(secondsSince(t));
+  r.solver.type = "tnnmg";
+  r.solver.iterations = result.iterations;
+  r.solver.converged = result.converged && (!r.solver.friction || r.solver.friction->converged);
+  r.solver.seconds = r.solveSeconds;
+  r.solver.tolerance = tolerance;
+  r.solver.correction = result.correction;
+  r.solver.convergenceRate = result.convergenceRate;
+  r.solver.vcycles = st.vcycles;
+  r.solver.phases = TnnmgPhases{st.setupSeconds,      st.smoothingSeconds, st.updateSeconds,
+                                st.correctionSeconds, st.otherSeconds,     st.operatorUpdates};
+  r.solver.kkt = result.kkt;
+}
+
 /// The scene's obstacle problem solved by distributed TNNMG: the displacement on the rank's local
 /// mesh (ghost entries current), the assembly, solver and contact reports in r, and the contact
 /// point fields of the serial one-body output on the local vertices in `fields` (exact on the
@@ -284,24 +306,9 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
                                                          config.tolerance, step, leaf.halo, progress, r);
     if (scene.loading) reportIncrement<d>(*problem, u, result, owned, comm, step, steps, loadAt(step), stepIterations, progress, r);
   }
-  r.assemblySeconds += comm.max(laterAssembly);
-  t += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(laterAssembly));
-  r.solveSeconds = comm.max(secondsSince(t));
-  r.solver.type = "tnnmg";
-  r.solver.iterations = result.iterations;
-  r.solver.converged = result.converged && (!r.solver.friction || r.solver.friction->converged);
-  r.solver.seconds = r.solveSeconds;
-  r.solver.tolerance = config.tolerance;
-  r.solver.correction = result.correction;
-  r.solver.convergenceRate = result.convergenceRate;
-  // the phases of rank 0's solve (every rank runs the same phases; each waits for the others in them)
-  const auto& st = solver.statistics();
-  r.solver.vcycles = st.vcycles;
+  reportTnnmg<d>(result, solver.statistics(), config.tolerance, laterAssembly, t, comm, r);
   r.solver.coarseSolver = dg.partition().level == 0 ? "hypre" : "cholmod";
-  if (dg.partition().level == 0) r.solver.coarseIterations = st.coarseIterations;
-  r.solver.phases = TnnmgPhases{st.setupSeconds,      st.smoothingSeconds, st.updateSeconds,
-                                st.correctionSeconds, st.otherSeconds,     st.operatorUpdates};
-  r.solver.kkt = result.kkt;
+  if (dg.partition().level == 0) r.solver.coarseIterations = solver.statistics().coarseIterations;
 
   // the contact report from the owned contact vertices, reduced; in contact (and sticking) with the
   // global scales of the KKT residuals, so that every rank uses the same thresholds
@@ -571,7 +578,8 @@ std::string notDistributedBodies(const Scene& scene) {
 /// the scene's .pvd of the bodies.
 template <int d>
 void solveBodies(const Scene& scene, const RunOptions& options, const Communicator& comm,
-                 const std::vector<std::unique_ptr<DistributedGrid>>& grids, const std::vector<mesh::Mesh>& coarseMeshes,
+                 const std::vector<std::unique_ptr<DistributedGrid>>& grids, const std::vector<DistributedView>& views,
+                 const std::vector<mesh::Mesh>& coarseMeshes,
                  int slaveId, int masterId, const std::filesystem::path& dir, RunResult& r) {
   const Progress progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
@@ -583,12 +591,11 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
   const int steps = scene.loading ? scene.loading->steps : 1;
   const auto loadAt = [&](int step) { return scene.loading ? static_cast<double>(step) / steps : 0.0; };
   auto t = Clock::now();
-  std::vector<DistributedView> views;
-  for (const auto& g : grids) views.push_back(g->view());
   // the mortar pair (errors name the [[contact]] line, as serially); it does not change with the load
-  const std::string slaveLabel = pair.slaveBody + ":" + (pair.slave.name.empty() ? std::to_string(pair.slave.id) : pair.slave.name);
-  const std::string masterLabel =
-      pair.masterBody + ":" + (pair.master.name.empty() ? std::to_string(pair.master.id) : pair.master.name);
+  const auto side = [](const std::string& body, const BoundaryRef& ref) {  // "body:boundary", as serially
+    return body + ":" + (ref.name.empty() ? std::to_string(ref.id) : ref.name);
+  };
+  const std::string slaveLabel = side(pair.slaveBody, pair.slave), masterLabel = side(pair.masterBody, pair.master);
   const Index offsets[2] = {0, views[0].globalVertices()};
   MortarOptions mo;
   mo.minCoverage = pair.minCoverage;
@@ -662,25 +669,10 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
     if (scene.loading)
       reportIncrement<d>(problem, x, result, multi->numOwned(), comm, step, steps, loadAt(step), stepIterations, progress, r);
   }
-  r.assemblySeconds += comm.max(laterAssembly);
-  t += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(laterAssembly));
-  r.solveSeconds = comm.max(secondsSince(t));
   const ContactProblem<d>& problem = multi->problem();
-  r.solver.type = "tnnmg";
-  r.solver.iterations = result.iterations;
-  r.solver.converged = result.converged && (!r.solver.friction || r.solver.friction->converged);
-  r.solver.seconds = r.solveSeconds;
-  r.solver.tolerance = config.tolerance;
-  r.solver.correction = result.correction;
-  r.solver.convergenceRate = result.convergenceRate;
-  // the phases of rank 0's last solve, as for one body
-  const auto& st = solver->statistics();
-  r.solver.vcycles = 0;
+  reportTnnmg<d>(result, solver->statistics(), config.tolerance, laterAssembly, t, comm, r);
   r.solver.coarseSolver = "hypre-fine";
-  r.solver.coarseIterations = st.coarseIterations;
-  r.solver.phases = TnnmgPhases{st.setupSeconds,      st.smoothingSeconds, st.updateSeconds,
-                                st.correctionSeconds, st.otherSeconds,     st.operatorUpdates};
-  r.solver.kkt = result.kkt;
+  r.solver.coarseIterations = solver->statistics().coarseIterations;
 
   // the pair's report from the owned constrained slave vertices, reduced (the contact decisions with
   // the global scales of the KKT residuals)
@@ -912,8 +904,9 @@ RunResult runDistributedBodies(const Scene& scene, const RunOptions& options, co
   r.dimension = coarse->meshes.front().dimension();
   r.refine = options.refine.value_or(bodies.front()->mesh.refine);
   std::vector<double> perType(r.cellsPerType.size(), 0.0);
+  std::vector<DistributedView> views;  // the leaf views (collective), the problem's numbering
   for (const auto& g : grids) {
-    const DistributedView leaf = g->view();
+    const DistributedView& leaf = views.emplace_back(g->view());
     r.vertices += leaf.globalVertices();
     r.cells += g->globalLeaves();
     for (Index cell = 0; cell < static_cast<Index>(leaf.part.owned.size()); ++cell)
@@ -930,8 +923,8 @@ RunResult runDistributedBodies(const Scene& scene, const RunOptions& options, co
     std::filesystem::create_directories(dir, ec);
     if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
   });
-  if (r.dimension == 2) solveBodies<2>(scene, options, comm, grids, coarse->meshes, slaveId, masterId, dir, r);
-  else solveBodies<3>(scene, options, comm, grids, coarse->meshes, slaveId, masterId, dir, r);
+  if (r.dimension == 2) solveBodies<2>(scene, options, comm, grids, views, coarse->meshes, slaveId, masterId, dir, r);
+  else solveBodies<3>(scene, options, comm, grids, views, coarse->meshes, slaveId, masterId, dir, r);
 
   const double memory = peakMemoryMB();
   nlohmann::json extra;
