@@ -4,8 +4,8 @@
 # with Coulomb friction (friction_cylinder, friction_peer, friction_slip: the fixed point over TNNMG's
 # Tresca solves), the scenes without contact (cantilever, block_compression at refine 2 and 1,
 # mixed_bar; direct serially, distributed multigrid on ranks) and the two-body scenes (twobody_*,
-# cattaneo_mindlin with Coulomb friction in [loading] increments: multigrid TNNMG serially, TNNMG
-# with hypre's correction on ranks). Prints dofs, solver and
+# cattaneo_mindlin with Coulomb friction in [loading] increments: TNNMG with the stacked multigrid
+# correction serially and on ranks). Prints dofs, solver and
 # iterations (with friction: Tresca solves / TNNMG iterations), contact vertices, load (of the
 # [contact] or of the mortar pair), stick / slip vertices, friction force, largest displacement and
 # von Mises stress, and the solve time of each run side by side
@@ -46,7 +46,7 @@ for s in scenes:
         friction = f"{f['stick_vertices']} / {f['slip_vertices']} | {f['tangential_force'][0]:.8g}" if f else '- | -'
         fi = j['solver'].get('friction')
         iterations = f"{fi['iterations']} / {fi['inner_iterations']}" if fi else str(j['solver']['iterations'])
-        solver = j['solver']['type'] + (' (hypre)' if j['solver'].get('coarse_solver') == 'hypre-fine' else '')
+        solver = j['solver']['type']
         print(f"| {s} | {n} | {j['dofs']:,} | {solver} | {iterations} | {contact} | {friction} | "
               f"{j['max_displacement']:.10g} | {j['max_von_mises']:.6g} | {j['solver']['time_s']:.3g} |")
 PY

@@ -573,7 +573,7 @@ std::string notDistributedBodies(const Scene& scene) {
 
 /// A two-body scene on the ranks (docs/architecture.md#distributed-two-body): each body a
 /// DistributedGrid, their dual-mortar coupling (DistributedMortar) and transformed problem
-/// (DistributedMultiBody), solved by TNNMG whose linear correction is hypre on the fine level;
+/// (DistributedMultiBody), solved by TNNMG with the stacked distributed multigrid correction;
 /// the report of the pair (summary.json "pairs") and of each body, each body's pieces and .pvtu and
 /// the scene's .pvd of the bodies.
 template <int d>
@@ -637,7 +637,7 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
            std::to_string(mortar->globalSize()) + " constrained slave vertices) on " + std::to_string(comm.size()) +
            " ranks");
 
-  // TNNMG with the correction by hypre on the fine level; Tresca friction in one solve, Coulomb by
+  // TNNMG with the stacked multigrid correction ((I - C) P on the fine level); Tresca friction in one solve, Coulomb by
   // the fixed point over Tresca solves (as for one body)
   const SolverConfig config = solverConfig(scene);
   typename TNNMG<d>::Options o = tnnmgOptions<d>(config);
@@ -660,7 +660,10 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
     }
     ContactProblem<d>& problem = multi->problem();
     if (x.size() != problem.numDofs()) x = Eigen::VectorXd::Zero(problem.numDofs());
-    solver.emplace(multi->halo(), o, std::make_unique<DirectCorrection<d>>(multi->halo(), multi->global()));
+    std::vector<const DistributedGrid*> stacked;
+    for (const auto& g : grids) stacked.push_back(g.get());
+    solver.emplace(multi->halo(), o,
+                   std::make_unique<LinearMultigrid<d>>(stacked, multi->extraGhostGlobals(), o.multigrid));
     const std::optional<NodalFriction> friction =
         pair.friction ? std::optional(frictionOf(law, problem.contactSet())) : std::nullopt;
     long long stepIterations = 0;
@@ -671,8 +674,11 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
   }
   const ContactProblem<d>& problem = multi->problem();
   reportTnnmg<d>(result, solver->statistics(), config.tolerance, laterAssembly, t, comm, r);
-  r.solver.coarseSolver = "hypre-fine";
-  r.solver.coarseIterations = solver->statistics().coarseIterations;
+  // the coarse level: replicated (CHOLMOD on every rank) unless a body is partitioned on level 0
+  bool replicatedCoarse = true;
+  for (const auto& g : grids) replicatedCoarse = replicatedCoarse && g->partition().level > 0;
+  r.solver.coarseSolver = replicatedCoarse ? "cholmod" : "hypre";
+  if (!replicatedCoarse) r.solver.coarseIterations = solver->statistics().coarseIterations;
 
   // the pair's report from the owned constrained slave vertices, reduced (the contact decisions with
   // the global scales of the KKT residuals)

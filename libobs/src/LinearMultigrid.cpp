@@ -27,7 +27,12 @@ LinearMultigrid<d>::LinearMultigrid(const std::vector<const mesh::Grid*>& grids,
 
 template <int d>
 LinearMultigrid<d>::LinearMultigrid(const DistributedGrid& grid, const Options& options)
-    : options_(options), hierarchy_(grid) {
+    : LinearMultigrid(std::vector<const DistributedGrid*>{&grid}, {}, options) {}
+
+template <int d>
+LinearMultigrid<d>::LinearMultigrid(const std::vector<const DistributedGrid*>& grids,
+                                    const std::vector<Index>& fineExtras, const Options& options)
+    : options_(options), hierarchy_(grids, fineExtras) {
   if (options.preSmoothing < 0 || options.postSmoothing < 0 || options.cycles < 1 || options.cycleIndex < 1 || options.maxIterations < 0 ||
       !(options.tolerance >= 0) || options.krylovSteps < 0)
     throw Error("linear multigrid: invalid options (smoothing steps >= 0, cycles >= 1, maxIterations >= 0, "

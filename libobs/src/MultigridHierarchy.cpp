@@ -447,58 +447,203 @@ Index MultigridHierarchy<d>::Level::local(Index g) const {
 }
 
 template <int d>
-MultigridHierarchy<d>::MultigridHierarchy(const DistributedGrid& dg) : comm_(dg.communicator()) {
-  const mesh::Grid& grid = dg.grid();
-  if (grid.dimension() != d)
-    throw Error("multigrid hierarchy: the grid has dimension " + std::to_string(grid.dimension()) + ", the solver " +
-                std::to_string(d));
-  const int L = grid.maxLevel(), Lp = dg.partition().level;
-  if (Lp < 1 && L < 1)
-    throw Error("multigrid hierarchy: a distributed grid partitioned on level 0 needs at least one refinement (the "
-                "fine level is not the coarse problem)");
-  std::vector<mesh::GridView> views(static_cast<std::size_t>(L) + 1);
+int MultigridHierarchy<d>::Level::ownerOf(Index g) const {
+  return static_cast<int>(std::upper_bound(offsets.begin(), offsets.end(), g) - offsets.begin()) - 1;
+}
+
+template <int d>
+MultigridHierarchy<d>::MultigridHierarchy(const DistributedGrid& dg)
+    : MultigridHierarchy(std::vector<const DistributedGrid*>{&dg}) {}
+
+template <int d>
+MultigridHierarchy<d>::MultigridHierarchy(const std::vector<const DistributedGrid*>& grids,
+                                          const std::vector<Index>& fineExtras) {
+  if (grids.empty() || !grids.front()) throw Error("multigrid hierarchy: no distributed grid");
+  comm_.emplace(grids.front()->communicator());
+  const Communicator& comm = *comm_;
+  const int me = comm.rank(), ranks = comm.size();
+  const auto nb = static_cast<int>(grids.size());
+  int L = 0;
+  for (const DistributedGrid* dg : grids) {  // the same data on every rank: every rank throws
+    if (!dg) throw Error("multigrid hierarchy: a distributed grid is null");
+    if (dg->grid().dimension() != d)
+      throw Error("multigrid hierarchy: the grid has dimension " + std::to_string(dg->grid().dimension()) +
+                  ", the solver " + std::to_string(d));
+    if (dg->communicator().size() != ranks)
+      throw Error("multigrid hierarchy: the distributed grids are on different numbers of ranks");
+    if (dg->partition().level < 1 && dg->grid().maxLevel() < 1)
+      throw Error("multigrid hierarchy: a distributed grid partitioned on level 0 needs at least one refinement (the "
+                  "fine level is not the coarse problem)");
+    L = std::max(L, dg->grid().maxLevel());
+  }
+  // A body's part of a stacked level: its view (grid level l - (L - L_b), or its coarsest), held
+  // vertices in local order (owned first) with their global indices and owners in the body's
+  // numbering, and the first global index of each rank. A replicated view inside a distributed
+  // stacked level is held whole by every rank and owned in consecutive slices (rank r owns
+  // n r / R .. n (r + 1) / R - 1), so that every vertex of the level has one owner.
+  struct Part {
+    int gridLevel = 0;
+    bool distributed = false;
+    mesh::GridView view;
+    Index owned = 0;
+    std::vector<Index> held, global;
+    std::vector<int> owner;
+    std::vector<Index> offsets;
+    std::optional<HaloExchange> halo;
+    std::vector<Index> localOf;  ///< view vertex -> stacked local index (-1: not held)
+  };
+  std::vector<std::vector<Part>> parts(static_cast<std::size_t>(L) + 1, std::vector<Part>(static_cast<std::size_t>(nb)));
   levels_.resize(static_cast<std::size_t>(L) + 1);
   for (int l = 0; l <= L; ++l) {
-    Level& lv = levels_[l];
-    if (l < Lp) {
-      views[l] = grid.levelView(l);
-      const auto n = static_cast<Index>(views[l].vertices.size());
-      lv.owned = n;
-      lv.viewVertex.resize(n);
-      for (Index i = 0; i < n; ++i) lv.viewVertex[i] = i;
-    } else {
-      DistributedView dv = dg.view(l == L ? -1 : l);
-      views[l] = std::move(dv.view);
-      lv.owned = dv.halo.numOwned();
-      lv.viewVertex = dv.halo.viewVertices();
-      for (Index v : lv.viewVertex) {
-        lv.global.push_back(dv.numbering.global[v]);
-        lv.owner.push_back(dv.numbering.owner[v]);
-      }
-      for (Index i = lv.owned; i < static_cast<Index>(lv.global.size()); ++i) lv.ghostLocal.emplace(lv.global[i], i);
-      lv.halo = std::make_shared<const HaloExchange>(std::move(dv.halo));
+    bool anyDistributed = false;
+    for (int b = 0; b < nb; ++b) {
+      const DistributedGrid& dg = *grids[b];
+      const int Lb = dg.grid().maxLevel();
+      Part& pt = parts[l][b];
+      pt.gridLevel = std::max(0, l - (L - Lb));
+      pt.distributed = pt.gridLevel >= dg.partition().level;
+      anyDistributed = anyDistributed || pt.distributed;
     }
-    vertices_.push_back(static_cast<Index>(lv.viewVertex.size()));
+    Level& lv = levels_[l];
+    Index viewBase = 0;
+    for (int b = 0; b < nb; ++b) {
+      const mesh::Grid& grid = grids[b]->grid();
+      Part& pt = parts[l][b];
+      const int lb = pt.gridLevel;
+      if (pt.distributed) {
+        DistributedView dv = grids[b]->view(lb == grid.maxLevel() ? -1 : lb);
+        pt.view = std::move(dv.view);
+        pt.owned = dv.halo.numOwned();
+        pt.held = dv.halo.viewVertices();
+        for (Index v : pt.held) {
+          pt.global.push_back(dv.numbering.global[v]);
+          pt.owner.push_back(dv.numbering.owner[v]);
+        }
+        pt.offsets = dv.numbering.offsets;
+        pt.halo.emplace(std::move(dv.halo));
+      } else {
+        pt.view = lb == grid.maxLevel() ? grid.leafView() : grid.levelView(lb);
+        const auto n = static_cast<Index>(pt.view.vertices.size());
+        if (anyDistributed) {  // owned in slices
+          for (int r = 0; r <= ranks; ++r) pt.offsets.push_back(static_cast<Index>(static_cast<long long>(n) * r / ranks));
+          pt.owned = pt.offsets[me + 1] - pt.offsets[me];
+          for (Index v = pt.offsets[me]; v < pt.offsets[me + 1]; ++v) pt.held.push_back(v);
+          for (Index v = 0; v < n; ++v)
+            if (v < pt.offsets[me] || v >= pt.offsets[me + 1]) pt.held.push_back(v);
+          for (Index v : pt.held) {
+            pt.global.push_back(v);
+            pt.owner.push_back(static_cast<int>(std::upper_bound(pt.offsets.begin(), pt.offsets.end(), v) -
+                                                pt.offsets.begin()) - 1);
+          }
+        } else {
+          pt.owned = n;
+          for (Index v = 0; v < n; ++v) pt.held.push_back(v);
+        }
+      }
+      pt.localOf.assign(pt.view.vertices.size(), -1);
+    }
+    if (!anyDistributed) {  // replicated: the bodies' views one after the other
+      for (int b = 0; b < nb; ++b) {
+        Part& pt = parts[l][b];
+        for (Index v : pt.held) {
+          pt.localOf[v] = static_cast<Index>(lv.viewVertex.size());
+          lv.viewVertex.push_back(viewBase + v);
+        }
+        viewBase += static_cast<Index>(pt.view.vertices.size());
+      }
+      lv.owned = static_cast<Index>(lv.viewVertex.size());
+      lv.base = lv.rows = lv.owned;
+      vertices_.push_back(lv.owned);
+      continue;
+    }
+    // the stacked numbering: rank r's owned vertices of body 0, 1, ... from its offset
+    std::vector<std::vector<Index>> count(static_cast<std::size_t>(nb));
+    lv.offsets.assign(static_cast<std::size_t>(ranks) + 1, 0);
+    for (int b = 0; b < nb; ++b)
+      for (int r = 0; r < ranks; ++r) count[b].push_back(parts[l][b].offsets[r + 1] - parts[l][b].offsets[r]);
+    for (int r = 0; r < ranks; ++r) {
+      lv.offsets[r + 1] = lv.offsets[r];
+      for (int b = 0; b < nb; ++b) lv.offsets[r + 1] += count[b][r];
+    }
+    const auto stacked = [&](int b, Index g, int o) {
+      Index s = lv.offsets[o] + g - parts[l][b].offsets[o];
+      for (int c = 0; c < b; ++c) s += count[c][o];
+      return s;
+    };
+    std::vector<Index> viewBases;
+    for (int b = 0; b < nb; ++b) {
+      viewBases.push_back(viewBase);
+      viewBase += static_cast<Index>(parts[l][b].view.vertices.size());
+    }
+    for (int pass = 0; pass < 2; ++pass)  // owned vertices of every body, then ghosts
+      for (int b = 0; b < nb; ++b) {
+        Part& pt = parts[l][b];
+        const auto first = pass == 0 ? Index{0} : pt.owned, last = pass == 0 ? pt.owned : static_cast<Index>(pt.held.size());
+        for (Index i = first; i < last; ++i) {
+          pt.localOf[pt.held[i]] = static_cast<Index>(lv.global.size());
+          lv.global.push_back(stacked(b, pt.global[i], pt.owner[i]));
+          lv.owner.push_back(pt.owner[i]);
+          lv.viewVertex.push_back(viewBases[b] + pt.held[i]);
+        }
+        if (pass == 0) lv.owned += pt.owned;
+      }
+    if (l == L)
+      for (Index g : fineExtras) {  // the fine level's extra ghosts (DistributedMultiBody)
+        const int o = lv.ownerOf(g);
+        if (g < 0 || g >= lv.offsets.back() || o == me)
+          throw Error("multigrid hierarchy: an extra ghost " + std::to_string(g) + " out of range or owned here");
+        lv.global.push_back(g);
+        lv.owner.push_back(o);
+        lv.viewVertex.push_back(-1);
+      }
+    for (Index i = lv.owned; i < static_cast<Index>(lv.global.size()); ++i)
+      if (!lv.ghostLocal.emplace(lv.global[i], i).second)
+        throw Error("multigrid hierarchy: vertex " + std::to_string(lv.global[i]) + " held twice");
+    if (nb == 1 && fineExtras.empty()) {  // one body: its view's halo
+      lv.halo = std::make_shared<const HaloExchange>(std::move(*parts[l][0].halo));
+    } else {
+      std::vector<Index> ghostGlobal(lv.global.begin() + lv.owned, lv.global.end());
+      std::vector<int> ghostOwner(lv.owner.begin() + lv.owned, lv.owner.end());
+      lv.halo = std::make_shared<const HaloExchange>(lv.owned, lv.offsets[me], ghostGlobal, ghostOwner, comm);
+    }
+    lv.base = static_cast<Index>(lv.global.size());
+    lv.rows = static_cast<Index>(lv.global.size()) - (l == L ? static_cast<Index>(fineExtras.size()) : 0);
+    vertices_.push_back(lv.base);
   }
-  // prolongations in the levels' numberings: the rows of the held fine vertices, whose coarse
-  // parents are held (a fine cell next to an owned one lies in a coarse cell next to an owned one)
+  // prolongations in the levels' numberings: the rows of the held fine vertices of the bodies
+  // (their coarse parents are held: a fine cell next to an owned one lies in a coarse cell next to
+  // an owned one); the rows of extra ghosts come from their owners (widen())
   newBasis_.assign(static_cast<std::size_t>(L) + 1, {});
-  comm_->collective([&] {  // local work: a failure on one rank reaches all
+  comm.collective([&] {  // local work: a failure on one rank reaches all
     for (int l = 0; l < L; ++l) {
-      const mesh::CsrMatrix T = mesh::transferMatrix(grid, views[l], views[l + 1]);
-      std::vector<Index> coarseLocal(static_cast<std::size_t>(T.cols), -1);
-      for (Index i = 0; i < vertices_[l]; ++i) coarseLocal[levels_[l].viewVertex[i]] = i;
       mesh::CsrMatrix P;
-      P.rows = vertices_[l + 1];
+      P.rows = levels_[l + 1].rows;  // the fine level's extra ghosts: rows from their owners
       P.cols = vertices_[l];
-      for (Index v : levels_[l + 1].viewVertex) {
-        for (Index k = T.rowStart[v]; k < T.rowStart[v + 1]; ++k) {
-          const Index c = coarseLocal[T.columns[k]];
-          if (c < 0)
-            throw Error("multigrid hierarchy: a coarse parent of a held vertex of level " + std::to_string(l + 1) +
-                        " is not held");
+      std::vector<std::vector<std::pair<Index, double>>> rows(static_cast<std::size_t>(P.rows));
+      for (int b = 0; b < nb; ++b) {
+        const Part& coarse = parts[l][b];
+        const Part& fine = parts[l + 1][b];
+        const bool same = fine.gridLevel == coarse.gridLevel;  // a body below its coarsest level
+        const mesh::CsrMatrix T =
+            same ? mesh::CsrMatrix() : mesh::transferMatrix(grids[b]->grid(), coarse.view, fine.view);
+        for (Index v : fine.held) {
+          auto& row = rows[static_cast<std::size_t>(fine.localOf[v])];
+          const auto add = [&](Index cv, double w) {
+            const Index c = coarse.localOf[cv];
+            if (c < 0)
+              throw Error("multigrid hierarchy: a coarse parent of a held vertex of level " + std::to_string(l + 1) +
+                          " is not held");
+            row.emplace_back(c, w);
+          };
+          if (same) add(v, 1.0);
+          else
+            for (Index k = T.rowStart[v]; k < T.rowStart[v + 1]; ++k) add(T.columns[k], T.values[k]);
+        }
+      }
+      for (const auto& row : rows) {
+        for (const auto& [c, w] : row) {
           P.columns.push_back(c);
-          P.values.push_back(T.values[k]);
+          P.values.push_back(w);
         }
         P.rowStart.push_back(static_cast<Index>(P.columns.size()));
       }
@@ -518,6 +663,9 @@ MultigridHierarchy<d>::MultigridHierarchy(const DistributedGrid& dg) : comm_(dg.
       prolongations_.push_back(std::move(P));
     }
   });
+  baseLevels_ = levels_;
+  baseProlongations_ = prolongations_;
+  widening_ = comm.max(fineExtras.empty() ? 0.0 : 1.0) > 0;
 }
 
 template <int d>
@@ -530,6 +678,147 @@ template <int d>
 const std::vector<Index>& MultigridHierarchy<d>::globalVertices(int l) const {
   static const std::vector<Index> none;
   return distributedLevel(l) ? levels_[l].global : none;
+}
+
+template <int d>
+Index MultigridHierarchy<d>::addExtra(int l, Index g) {
+  Level& lv = levels_[l];
+  const auto i = static_cast<Index>(lv.global.size());
+  lv.global.push_back(g);
+  lv.owner.push_back(lv.ownerOf(g));
+  lv.viewVertex.push_back(-1);
+  lv.ghostLocal.emplace(g, i);
+  vertices_[l] = i + 1;
+  return i;
+}
+
+template <int d>
+void MultigridHierarchy<d>::restoreBase() {
+  levels_ = baseLevels_;
+  prolongations_ = baseProlongations_;
+  for (int l = 0; l <= maxLevel(); ++l) vertices_[l] = levels_[l].base;
+}
+
+template <int d>
+void MultigridHierarchy<d>::fetchRows(int l, Index first) {
+  // the rows of P_l of the held vertices first, first + 1, ... of level l + 1 from their owners,
+  // in global coarse indices; the coarse columns not held become extra ghosts of level l
+  const Communicator& comm = *comm_;
+  const Level& fine = levels_[l + 1];
+  mesh::CsrMatrix& P = prolongations_[l];
+  const auto ranks = static_cast<std::size_t>(comm.size());
+  std::vector<std::vector<double>> ask(ranks), reply(ranks);
+  std::vector<std::vector<Index>> askedLocal(ranks);
+  for (Index p = first; p < vertices_[l + 1]; ++p) {
+    ask[fine.owner[p]].push_back(static_cast<double>(fine.global[p]));
+    askedLocal[fine.owner[p]].push_back(p);
+  }
+  const auto asked = comm.exchange(ask);
+  bool owned = true;
+  for (std::size_t r = 0; r < ranks; ++r)
+    for (double g : asked[r]) {
+      const Index p = fine.local(static_cast<Index>(g));
+      owned = owned && p >= 0 && p < fine.owned && p < P.rows;
+      if (!owned) break;
+      reply[r].push_back(static_cast<double>(P.rowStart[p + 1] - P.rowStart[p]));
+      for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k) {
+        reply[r].push_back(static_cast<double>(globalOf(l, P.columns[k])));
+        reply[r].push_back(P.values[k]);
+      }
+    }
+  comm.collective([&] {
+    if (!owned) throw Error("multigrid hierarchy: a prolongation row of level " + std::to_string(l + 1) + " asked of a rank that does not own it");
+  });
+  const auto got = comm.exchange(reply);
+  std::vector<std::vector<std::pair<Index, double>>> rows(static_cast<std::size_t>(vertices_[l + 1] - first));
+  for (std::size_t r = 0; r < ranks; ++r) {
+    std::size_t k = 0;
+    for (Index p : askedLocal[r]) {
+      const auto n = static_cast<std::size_t>(got[r][k++]);
+      auto& row = rows[static_cast<std::size_t>(p - first)];
+      for (std::size_t e = 0; e < n; ++e, k += 2) {
+        const auto g = static_cast<Index>(got[r][k]);
+        Index c = localOf(l, g);
+        if (c < 0) c = addExtra(l, g);  // (a replicated level holds every vertex)
+        row.emplace_back(c, got[r][k + 1]);
+      }
+    }
+  }
+  P.rowStart.resize(static_cast<std::size_t>(first) + 1);
+  P.columns.resize(static_cast<std::size_t>(P.rowStart.back()));
+  P.values.resize(P.columns.size());
+  for (const auto& row : rows) {
+    for (const auto& [c, w] : row) {
+      P.columns.push_back(c);
+      P.values.push_back(w);
+    }
+    P.rowStart.push_back(static_cast<Index>(P.columns.size()));
+  }
+  P.rows = vertices_[l + 1];
+  P.cols = vertices_[l];
+}
+
+template <int d>
+void MultigridHierarchy<d>::widen(int l) {
+  if (!distributedLevel(l + 1)) return;  // a replicated fine level: every row is held
+  const int L = maxLevel();
+  fetchRows(l, levels_[l + 1].rows);  // the extra ghosts of level l + 1
+  if (l == L - 1 && basis_.rows > 0) {
+    // (I - C) P on the owned rows (the rows of every column of C are held now), then the rows of
+    // the ghosts from their owners
+    mesh::CsrMatrix& P = prolongations_[l];
+    const mesh::CsrMatrix& C = basis_;
+    const Index owned = levels_[L].owned;
+    mesh::CsrMatrix Q;
+    Q.rows = P.rows;
+    Q.cols = P.cols;
+    std::vector<Index> position(static_cast<std::size_t>(P.cols), -1), cols;
+    std::vector<double> vals;
+    for (Index p = 0; p < owned; ++p) {
+      cols.clear();
+      vals.clear();
+      const auto add = [&](Index J, double v) {
+        if (position[J] < 0) {
+          position[J] = static_cast<Index>(cols.size());
+          cols.push_back(J);
+          vals.push_back(v);
+        } else {
+          vals[position[J]] += v;
+        }
+      };
+      for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k) add(P.columns[k], P.values[k]);
+      for (Index m = C.rowStart[p]; m < C.rowStart[p + 1]; ++m) {
+        const Index q = C.columns[m];
+        for (Index k = P.rowStart[q]; k < P.rowStart[q + 1]; ++k) add(P.columns[k], -C.values[m] * P.values[k]);
+      }
+      std::vector<Index> order(cols.size());
+      for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<Index>(i);
+      std::sort(order.begin(), order.end(), [&](Index a, Index b) { return cols[a] < cols[b]; });
+      for (Index i : order) {
+        Q.columns.push_back(cols[i]);
+        Q.values.push_back(vals[i]);
+      }
+      Q.rowStart.push_back(static_cast<Index>(Q.columns.size()));
+      for (Index J : cols) position[J] = -1;
+    }
+    P = std::move(Q);
+    fetchRows(l, owned);
+  }
+  transposed_[l] = transposeRows(prolongations_[l], levels_[l + 1].owned);
+}
+
+template <int d>
+void MultigridHierarchy<d>::finishLevel(int l) {
+  prolongations_[l].cols = vertices_[l];
+  if (distributedLevel(l + 1)) transposed_[l] = transposeRows(prolongations_[l], levels_[l + 1].owned);
+  if (!distributedLevel(l)) return;
+  Level& lv = levels_[l];
+  const bool grown = comm_->max(vertices_[l] > lv.base ? 1.0 : 0.0) > 0;
+  if (!grown) return;
+  const Communicator& comm = *comm_;
+  const std::vector<Index> ghostGlobal(lv.global.begin() + lv.owned, lv.global.end());
+  const std::vector<int> ghostOwner(lv.owner.begin() + lv.owned, lv.owner.end());
+  lv.halo = std::make_shared<const HaloExchange>(lv.owned, lv.offsets[comm.rank()], ghostGlobal, ghostOwner, comm);
 }
 
 template <int d>
@@ -551,10 +840,15 @@ void MultigridHierarchy<d>::joinPattern(int l) {
     bool held = true;
     for (const auto& in : got)
       for (std::size_t a = 0; a < in.size();) {
-        const Index I = lv.local(static_cast<Index>(in[a]));
+        const Index I = levels_[l].local(static_cast<Index>(in[a]));
         const auto n = static_cast<std::size_t>(in[a + 1]);
         for (std::size_t k = 0; k < n; ++k) {
-          const Index J = lv.local(static_cast<Index>(in[a + 2 + k]));
+          const auto g = static_cast<Index>(in[a + 2 + k]);
+          Index J = levels_[l].local(g);
+          if (J < 0 && widening_) {  // a coupling beyond the owner's ghosts: an extra ghost
+            J = addExtra(l, g);
+            extra.resize(static_cast<std::size_t>(vertices_[l]));
+          }
           held = held && I >= 0 && I < lv.owned && J >= 0;
           if (held) extra[I].push_back(J);
         }
@@ -583,9 +877,12 @@ void MultigridHierarchy<d>::joinPattern(int l) {
     }
   }
   std::vector<Index> rowStart{0}, columns;
-  for (Index I = 0; I < C.rows(); ++I) {
+  for (Index I = 0; I < static_cast<Index>(extra.size()); ++I) {
     std::vector<Index>& row = extra[I];
-    for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) row.push_back(C.column(k));
+    if (I < C.rows())
+      for (Index k = C.rowBegin(I); k < C.rowEnd(I); ++k) row.push_back(C.column(k));
+    else
+      row.push_back(I);  // an extra ghost's row: its diagonal (made an identity row by sumShares)
     std::sort(row.begin(), row.end());
     row.erase(std::unique(row.begin(), row.end()), row.end());
     columns.insert(columns.end(), row.begin(), row.end());
@@ -745,11 +1042,26 @@ template <int d>
 void MultigridHierarchy<d>::setFineBasis(const mesh::CsrMatrix& C) {
   const int L = maxLevel();
   const Index n = numVertices(L);
-  if (C.rows != 0 && (C.rows != n || C.cols != n))
-    throw Error("multigrid hierarchy: fine basis transformation of size " + std::to_string(C.rows) + " x " +
-                std::to_string(C.cols) + " for " + std::to_string(n) + " fine vertices");
-  if (distributed() && C.rows != 0 && !C.columns.empty())
-    throw Error("multigrid hierarchy: a fine basis transformation (two-body contact) is not distributed yet");
+  const auto check = [&] {
+    if (C.rows != 0 && (C.rows != n || C.cols != n))
+      throw Error("multigrid hierarchy: fine basis transformation of size " + std::to_string(C.rows) + " x " +
+                  std::to_string(C.cols) + " for " + std::to_string(n) + " fine vertices");
+  };
+  if (distributed()) {  // formed by widen() in the next setFineOperator()
+    comm_->collective(check);
+    const bool any = comm_->max(C.rows > 0 ? 1.0 : 0.0) > 0;
+    comm_->collective([&] {
+      if (any && L == 0) throw Error("multigrid hierarchy: a fine basis transformation needs a refined grid");
+    });
+    basis_ = any ? C : mesh::CsrMatrix();
+    if (any && basis_.rows == 0) {  // no transformation on this rank: C = 0
+      basis_.rows = basis_.cols = n;
+      basis_.rowStart.assign(static_cast<std::size_t>(n) + 1, 0);
+    }
+    widening_ = any || comm_->max(levels_[L].base > levels_[L].rows ? 1.0 : 0.0) > 0;
+    return;
+  }
+  check();
   if (L == 0) return;  // no prolongation into the fine level
   if (plainTop_.rows == 0 && (C.rows == 0 || C.columns.empty())) return;  // nothing set, nothing to set
   if (plainTop_.rows > 0) prolongations_[L - 1] = plainTop_;  // undo an earlier transformation
@@ -829,12 +1141,15 @@ void MultigridHierarchy<d>::setFineOperator(const BlockSparseMatrix<d>& A, std::
 
   const auto t0 = Clock::now();
   coarse_.assign(std::max(L, 1), BlockSparseMatrix<d>());
-  dead_.assign(L, {});
-  for (int l = 0; l < L; ++l) dead_[l].assign(numVertices(l), 0);
+  if (widening_) restoreBase();
   for (int l = L - 1; l >= 0; --l) {
+    if (widening_) widen(l);
     coarse_[l] = galerkinPattern(l == L - 1 ? A : coarse_[l + 1], prolongations_[l], transposed_[l]);
     if (distributedLevel(l) || distributedLevel(l + 1)) joinPattern(l);
+    if (widening_) finishLevel(l);
   }
+  dead_.assign(L, {});
+  for (int l = 0; l < L; ++l) dead_[l].assign(numVertices(l), 0);
   galerkinSeconds_ += since(t0);
   computeCoarse(false);
 }

@@ -29,6 +29,7 @@
 #include "obs/obs/DistributedMortar.hpp"
 #include "obs/obs/DistributedMultiBody.hpp"
 #include "obs/obs/LinearCorrection.hpp"
+#include "obs/obs/LinearMultigrid.hpp"
 #include "obs/obs/MortarCoupling.hpp"
 #include "obs/obs/MultiBody.hpp"
 #include "obs/obs/TNNMG.hpp"
@@ -173,6 +174,39 @@ void compareWithOneProcess(const Case& c) {
     EXPECT_GT(comm.sum(static_cast<long long>(multi.extraGhosts())), 0);
     EXPECT_GT(comm.sum(static_cast<long long>(multi.receivedTerms())), 0);
   }
+
+  // 3. the multigrid correction: the stacked distributed hierarchy with (I - C) P on the ranks
+  // against the serial stacked hierarchy, the same TNNMG with the same V-cycle
+  obs::TNNMG<d> oneMg({&grid[0], &grid[1]}, options);
+  Eigen::VectorXd usMg = Eigen::VectorXd::Zero(serial.numDofs());
+  const obs::ContactResult rsMg = oneMg.solve(serial, usMg);
+  ASSERT_TRUE(rsMg.converged);
+  auto mg = std::make_unique<obs::LinearMultigrid<d>>(std::vector<const obs::DistributedGrid*>{&dgrid[0], &dgrid[1]},
+                                                      multi.extraGhostGlobals(), options.multigrid);
+  const obs::MultigridHierarchy<d>& h = mg->hierarchy();
+  ASSERT_EQ(h.globalVertices(h.maxLevel()), multi.global());  // DistributedMultiBody's numbering
+  obs::TNNMG<d> ranksMg(multi.halo(), options, std::move(mg));
+  Eigen::VectorXd uMg = Eigen::VectorXd::Zero(problem.numDofs());
+  const obs::ContactResult rMg = ranksMg.solve(problem, uMg);
+  ASSERT_TRUE(rMg.converged);
+  EXPECT_LE(std::abs(rMg.iterations - rsMg.iterations), 1) << "ranks " << rMg.iterations << ", one process " << rsMg.iterations;
+  EXPECT_EQ(rMg.activeSetSize, rsMg.activeSetSize);
+  multi.halo().update(uMg, d);
+  const Eigen::VectorXd displacementMg = multi.toDisplacement(uMg);
+  for (Index l = 0; l < multi.numOwned(); ++l)
+    for (int a = 0; a < d; ++a)
+      EXPECT_NEAR(displacementMg[l * d + a], displacementSerial[serialOf[l] * d + a], 1e-7 * uScale)
+          << "multigrid: serial vertex " << serialOf[l] << ", component " << a;
+  const obs::MultigridHierarchy<d>& hr = h;  // (the correction lives on in ranksMg)
+  long long coarseExtras = 0;  // on the distributed levels below the fine one
+  for (int l = 0; l < hr.maxLevel(); ++l) coarseExtras += hr.extraGhosts(l);
+  coarseExtras = comm.sum(coarseExtras);
+  if (comm.size() > 1 && hr.halo(hr.maxLevel() - 1)) {
+    EXPECT_GT(coarseExtras, 0) << "the coarse levels widen for the couplings between the bodies";
+  }
+  if (std::getenv("OBS_TEST_VERBOSE") && comm.rank() == 0)
+    std::printf("multigrid: iterations %d (one process %d), coarse extra ghosts %lld\n", rMg.iterations,
+                rsMg.iterations, coarseExtras);
   if (std::getenv("OBS_TEST_VERBOSE") && comm.rank() == 0)
     std::printf("d = %d, %d ranks: %lld vertices, %lld constrained; iterations %d (one process %d), active %lld "
                 "(%lld), hypre CG iterations %lld; rank 0: %lld extra ghosts, %lld terms received\n",

@@ -67,6 +67,9 @@ public:
   Index globalVertices() const { return rankOffset_.back(); }
   /// Extra ghosts on this rank (held for the transformed operator only).
   Index extraGhosts() const { return numLocal() - firstExtra_; }
+  /// The stacked global indices of the extra ghosts, in local order (the last extraGhosts() of
+  /// global()): the fine extra ghosts of the stacked multigrid hierarchy (LinearMultigrid).
+  std::vector<Index> extraGhostGlobals() const { return {global_.begin() + firstExtra_, global_.end()}; }
   /// The stacked local index of body b's vertex v (local numbering of its view's halo).
   Index local(int body, Index v) const;
   /// The stacked global index of body b's vertex with global index g (in its view's numbering).

@@ -116,6 +116,10 @@ public:
   /// over the owned entries. Throws obs::Error for the vertex-patch smoother (not distributed yet).
   /// Local smoothing does not apply (uniform hierarchies).
   explicit LinearMultigrid(const DistributedGrid& grid, const Options& options = {});
+  /// The block-stacked distributed hierarchy of several bodies in DistributedMultiBody's numbering
+  /// (MultigridHierarchy; `fineExtras` its extra ghosts), otherwise as the one-grid constructor.
+  LinearMultigrid(const std::vector<const DistributedGrid*>& grids, const std::vector<Index>& fineExtras,
+                  const Options& options = {});
   ~LinearMultigrid() override;
 
   void setOperator(const BlockSparseMatrix<d>& A, std::vector<VertexRotation<d>> rotations = {},

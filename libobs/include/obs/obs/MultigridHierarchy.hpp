@@ -56,7 +56,17 @@
 /// truncation change a distributed level is updated locally as serially, the rows next to the
 /// changed vertices, by every rank that holds one of them (so that its owner sums fresh shares),
 /// unless they are a quarter of the level's rows or more over all ranks; replicated levels are
-/// recomputed whole. A fine basis transformation is refused.
+/// recomputed whole.
+///
+/// Several distributed bodies (MultigridHierarchy(grids, fineExtras);
+/// docs/architecture.md#distributed-two-body-multigrid): stacked level by level as serially, each
+/// rank's owned vertices of body 0, 1, ... first, then its ghosts of each body; a body's replicated
+/// level inside a distributed stacked level is held whole and owned in consecutive slices. With a
+/// fine basis transformation or fine extra ghosts the levels below the fine one grow by extra
+/// ghosts in setFineOperator(): the prolongation rows of a level's extra ghosts come from their
+/// owners, (I - C) P_{L-1} is formed on the owned fine rows and its other rows come from their
+/// owners, and the couplings the pattern join brings to an owner's rows beyond its ghosts become
+/// extra ghosts, level by level down to the first replicated one.
 ///
 /// If L = 0 (a grid without refinement) level 0 is the fine level and coarseOperator(0) is the
 /// explicit truncated fine matrix A~_T (for the direct coarse solver).
@@ -107,6 +117,14 @@ public:
   /// With partition level 0 the coarsest level is distributed too (no level is replicated; its
   /// solvers use DistributedCoarseSolver).
   explicit MultigridHierarchy(const DistributedGrid& grid);
+  /// The block-stacked distributed hierarchy of several bodies (see the file comment), in the
+  /// stacked numbering of DistributedMultiBody: on every level a rank's owned vertices of body 0,
+  /// 1, ..., then its ghosts of body 0, 1, ...; on the fine level then `fineExtras` (stacked global
+  /// indices, DistributedMultiBody's extra ghosts in its order). Collective. Throws obs::Error as
+  /// the one-grid constructor, for grids on different numbers of ranks, and for an extra ghost
+  /// this rank owns or holds already.
+  explicit MultigridHierarchy(const std::vector<const DistributedGrid*>& grids,
+                              const std::vector<Index>& fineExtras = {});
   /// Whether the hierarchy is distributed (built from a DistributedGrid, on any number of ranks).
   bool distributed() const { return !levels_.empty(); }
   /// Vertices of level l owned by this rank: the first ownedVertices(l) of the level's numbering
@@ -122,9 +140,15 @@ public:
   /// The global index of each local vertex of a distributed level (owned first; empty on a
   /// replicated level and in a serial hierarchy).
   const std::vector<Index>& globalVertices(int l) const;
+  /// The extra ghosts of level l (held for the operators' couplings beyond the ghost layers; the
+  /// last ones of the level's numbering): the fine level's given ones, and on the levels below
+  /// those setFineOperator() added. 0 on a replicated level and in a serial hierarchy.
+  Index extraGhosts(int l) const { return distributedLevel(l) ? vertices_[l] - levels_[l].rows : 0; }
 
   /// Sets (or with rows == 0 removes) the fine basis transformation C: the last prolongation becomes
   /// (I - C) P_{L-1}. Takes effect at the next setFineOperator(). Throws obs::Error on a wrong size.
+  /// Distributed: C in the fine local numbering with its owned rows complete (ContactProblem's
+  /// basis transformation on DistributedMultiBody's numbering); a collective call.
   void setFineBasis(const mesh::CsrMatrix& C);
 
   int maxLevel() const { return static_cast<int>(prolongations_.size()); }
@@ -206,7 +230,11 @@ private:
     std::vector<int> owner;
     std::unordered_map<Index, Index> ghostLocal;
     std::vector<Index> viewVertex;
+    std::vector<Index> offsets;  ///< the first global index of each rank (+ the total)
+    Index base = 0;  ///< held vertices without the extra ghosts the operators' couplings add (widen())
+    Index rows = 0;  ///< held vertices whose prolongation rows the rank computes (the others' come from owners)
     Index local(Index g) const;  ///< local index of a global one held here, -1 if not held
+    int ownerOf(Index g) const;  ///< the rank owning global index g
   };
   bool distributedLevel(int l) const { return distributed() && levels_[l].halo != nullptr; }
   /// The coarse pattern of level l made whole: a distributed level's ghost rows' columns joined to
@@ -223,6 +251,19 @@ private:
   /// ranks).
   bool updateDistributedRows(int l, const std::vector<Index>& changed, const std::vector<Index>* slot,
                              const std::vector<Mat>* E, std::vector<Index>& rows);
+  /// Extra ghosts (docs/architecture.md#distributed-two-body-multigrid): with a fine basis
+  /// transformation or fine extra ghosts, the levels' held vertices grow below the fine level.
+  /// restoreBase() returns to the constructor's levels; widen(l) (before the pattern of level l)
+  /// fetches the rows of P_l of level l + 1's extra ghosts from their owners and forms (I - C) P_{L-1};
+  /// their coarse columns not held become extra ghosts of level l, as do the columns joinPattern()
+  /// brings to the owners' rows; finishLevel(l) renews level l's halo and transposed prolongation.
+  void restoreBase();
+  void widen(int l);
+  void fetchRows(int l, Index first);
+  void finishLevel(int l);
+  Index addExtra(int l, Index global);
+  Index globalOf(int l, Index local) const { return distributedLevel(l) ? levels_[l].global[local] : local; }
+  Index localOf(int l, Index global) const { return distributedLevel(l) ? levels_[l].local(global) : global; }
   Index setBits(const std::vector<char>& mask);
   void updateTransforms();
   void computeCoarse(bool local);
@@ -248,6 +289,10 @@ private:
   std::vector<char> fullUpdate_;
   mutable Eigen::VectorXd restrictBuffer_;  ///< the transformed fine defect of a threaded restrict()
   std::vector<Level> levels_;               ///< distributed: per level (empty: serial)
+  std::vector<Level> baseLevels_;           ///< distributed: the levels without extra ghosts
+  std::vector<mesh::CsrMatrix> baseProlongations_;  ///< distributed: the prolongations of baseLevels_
+  mesh::CsrMatrix basis_;                   ///< distributed: the fine basis transformation set
+  bool widening_ = false;                   ///< distributed: extra ghosts (fine ones, or a basis) anywhere
   bool changedAnywhere_ = false;
   std::optional<Communicator> comm_;        ///< distributed: the ranks
   long long rowsRecomputed_ = 0;
