@@ -32,6 +32,7 @@
 #include "obs/obs/LinearMultigrid.hpp"
 #include "obs/obs/MortarCoupling.hpp"
 #include "obs/obs/MultiBody.hpp"
+#include "obs/obs/Parallel.hpp"
 #include "obs/obs/TNNMG.hpp"
 
 namespace {
@@ -222,6 +223,45 @@ TEST(DistributedTwoBody, TrianglesOnQuadrilaterals2D) {
 
 TEST(DistributedTwoBody, TetrahedraOnHexahedra3D) {
   compareWithOneProcess<3>({CellType::Hexahedron, CellType::Tetrahedron, 3, 2, 2});
+}
+
+/// The stacked multigrid correction with threads inside the ranks: a second solve on the same rank
+/// and thread count repeats the first bit for bit; one thread per rank gives the same solution in
+/// the same iteration count +-1.
+TEST(DistributedTwoBody, StackedMultigridThreadsAndBitwiseRepeats) {
+  const obs::Communicator comm = obs::Communicator::world();
+  const Slabs<2> s({CellType::Quadrilateral, CellType::Triangle, 3, 2, 6});
+  const obs::DistributedGrid dgrid[2] = {obs::DistributedGrid(obs::mesh::Grid(s.coarse[0]), 6, comm),
+                                         obs::DistributedGrid(obs::mesh::Grid(s.coarse[1]), 6, comm)};
+  const obs::DistributedView view[2] = {dgrid[0].view(), dgrid[1].view()};
+  const obs::BodySystem<2> body[2] = {obs::assembleBody<2>(view[0].local, s.material[0], s.bc[0]),
+                                      obs::assembleBody<2>(view[1].local, s.material[1], s.bc[1])};
+  const obs::DistributedMortar mortar({&view[1], obs::mesh::kBottom, view[0].globalVertices(), "upper bottom"},
+                                      {&view[0], obs::mesh::kTop, 0, "lower top"});
+  const obs::DistributedMultiBody<2> multi({{&view[0], &body[0]}, {&view[1], &body[1]}}, mortar, 1, 0);
+  const auto solve = [&](int threads, Eigen::VectorXd& x) {
+    obs::setThreads(threads);
+    typename obs::TNNMG<2>::Options options;
+    options.tolerance = 1e-10;
+    obs::TNNMG<2> solver(multi.halo(), options,
+                         std::make_unique<obs::LinearMultigrid<2>>(
+                             std::vector<const obs::DistributedGrid*>{&dgrid[0], &dgrid[1]}, multi.extraGhostGlobals(),
+                             options.multigrid));
+    x = Eigen::VectorXd::Zero(multi.problem().numDofs());
+    const obs::ContactResult r = solver.solve(multi.problem(), x);
+    obs::setThreads(1);
+    return r;
+  };
+  Eigen::VectorXd x1, x2, x3;
+  const obs::ContactResult r1 = solve(2, x1), r2 = solve(2, x2), r3 = solve(1, x3);
+  ASSERT_TRUE(r1.converged);
+  ASSERT_TRUE(r3.converged);
+  EXPECT_EQ(r1.iterations, r2.iterations);
+  for (Eigen::Index i = 0; i < x1.size(); ++i) ASSERT_EQ(x1[i], x2[i]) << "entry " << i;  // bitwise
+  EXPECT_LE(std::abs(r1.iterations - r3.iterations), 1);
+  const double scale = x3.cwiseAbs().maxCoeff();
+  for (Eigen::Index i = 0; i < x1.size(); ++i) ASSERT_NEAR(x1[i], x3[i], 1e-7 * scale) << "entry " << i;
+  EXPECT_GT(multi.numOwned(), obs::kParallelMinRows);  // the threaded orders are used
 }
 
 /// The mortar patch test on ranks (docs/verification.md has the serial one): a block of
