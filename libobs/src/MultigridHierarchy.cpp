@@ -356,6 +356,45 @@ mesh::CsrMatrix blockDiagonal(const std::vector<mesh::CsrMatrix>& parts) {
   return out;
 }
 
+/// The first `rows` rows of (I - C) P (the fine basis transformation in the last prolongation),
+/// row by row with a sparse accumulator, columns ascending; the rows of P at C's columns must be
+/// there. The result has P's sizes and `rows` rows stored.
+mesh::CsrMatrix minusBasisTimes(const mesh::CsrMatrix& P, const mesh::CsrMatrix& C, Index rows) {
+  mesh::CsrMatrix Q;
+  Q.rows = P.rows;
+  Q.cols = P.cols;
+  std::vector<Index> position(static_cast<std::size_t>(P.cols), -1), cols;
+  std::vector<double> vals;
+  for (Index p = 0; p < rows; ++p) {
+    cols.clear();
+    vals.clear();
+    const auto add = [&](Index J, double v) {
+      if (position[J] < 0) {
+        position[J] = static_cast<Index>(cols.size());
+        cols.push_back(J);
+        vals.push_back(v);
+      } else {
+        vals[position[J]] += v;
+      }
+    };
+    for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k) add(P.columns[k], P.values[k]);
+    for (Index m = C.rowStart[p]; m < C.rowStart[p + 1]; ++m) {
+      const Index q = C.columns[m];
+      for (Index k = P.rowStart[q]; k < P.rowStart[q + 1]; ++k) add(P.columns[k], -C.values[m] * P.values[k]);
+    }
+    std::vector<Index> order(cols.size());
+    for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<Index>(i);
+    std::sort(order.begin(), order.end(), [&](Index a, Index b) { return cols[a] < cols[b]; });
+    for (Index i : order) {
+      Q.columns.push_back(cols[i]);
+      Q.values.push_back(vals[i]);
+    }
+    Q.rowStart.push_back(static_cast<Index>(Q.columns.size()));
+    for (Index J : cols) position[J] = -1;
+  }
+  return Q;
+}
+
 mesh::CsrMatrix identity(Index n) {
   mesh::CsrMatrix I;
   I.rows = I.cols = n;
@@ -766,42 +805,8 @@ void MultigridHierarchy<d>::widen(int l) {
   if (l == L - 1 && basis_.rows > 0) {
     // (I - C) P on the owned rows (the rows of every column of C are held now), then the rows of
     // the ghosts from their owners
-    mesh::CsrMatrix& P = prolongations_[l];
-    const mesh::CsrMatrix& C = basis_;
     const Index owned = levels_[L].owned;
-    mesh::CsrMatrix Q;
-    Q.rows = P.rows;
-    Q.cols = P.cols;
-    std::vector<Index> position(static_cast<std::size_t>(P.cols), -1), cols;
-    std::vector<double> vals;
-    for (Index p = 0; p < owned; ++p) {
-      cols.clear();
-      vals.clear();
-      const auto add = [&](Index J, double v) {
-        if (position[J] < 0) {
-          position[J] = static_cast<Index>(cols.size());
-          cols.push_back(J);
-          vals.push_back(v);
-        } else {
-          vals[position[J]] += v;
-        }
-      };
-      for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k) add(P.columns[k], P.values[k]);
-      for (Index m = C.rowStart[p]; m < C.rowStart[p + 1]; ++m) {
-        const Index q = C.columns[m];
-        for (Index k = P.rowStart[q]; k < P.rowStart[q + 1]; ++k) add(P.columns[k], -C.values[m] * P.values[k]);
-      }
-      std::vector<Index> order(cols.size());
-      for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<Index>(i);
-      std::sort(order.begin(), order.end(), [&](Index a, Index b) { return cols[a] < cols[b]; });
-      for (Index i : order) {
-        Q.columns.push_back(cols[i]);
-        Q.values.push_back(vals[i]);
-      }
-      Q.rowStart.push_back(static_cast<Index>(Q.columns.size()));
-      for (Index J : cols) position[J] = -1;
-    }
-    P = std::move(Q);
+    prolongations_[l] = minusBasisTimes(prolongations_[l], basis_, owned);
     fetchRows(l, owned);
   }
   transposed_[l] = transposeRows(prolongations_[l], levels_[l + 1].owned);
@@ -1071,42 +1076,7 @@ void MultigridHierarchy<d>::setFineBasis(const mesh::CsrMatrix& C) {
     return;
   }
   plainTop_ = prolongations_[L - 1];
-  const mesh::CsrMatrix& P = plainTop_;
-  // (I - C) P, row by row with a sparse accumulator
-  mesh::CsrMatrix Q;
-  Q.rows = P.rows;
-  Q.cols = P.cols;
-  Q.rowStart = {0};
-  std::vector<Index> position(P.cols, -1), cols;
-  std::vector<double> vals;
-  for (Index p = 0; p < P.rows; ++p) {
-    cols.clear();
-    vals.clear();
-    auto add = [&](Index J, double v) {
-      if (position[J] < 0) {
-        position[J] = static_cast<Index>(cols.size());
-        cols.push_back(J);
-        vals.push_back(v);
-      } else {
-        vals[position[J]] += v;
-      }
-    };
-    for (Index k = P.rowStart[p]; k < P.rowStart[p + 1]; ++k) add(P.columns[k], P.values[k]);
-    for (Index m = C.rowStart[p]; m < C.rowStart[p + 1]; ++m) {
-      const Index q = C.columns[m];
-      for (Index k = P.rowStart[q]; k < P.rowStart[q + 1]; ++k) add(P.columns[k], -C.values[m] * P.values[k]);
-    }
-    std::vector<Index> order(cols.size());
-    for (std::size_t i = 0; i < order.size(); ++i) order[i] = static_cast<Index>(i);
-    std::sort(order.begin(), order.end(), [&](Index a, Index b) { return cols[a] < cols[b]; });
-    for (Index i : order) {
-      Q.columns.push_back(cols[i]);
-      Q.values.push_back(vals[i]);
-    }
-    Q.rowStart.push_back(static_cast<Index>(Q.columns.size()));
-    for (Index J : cols) position[J] = -1;
-  }
-  prolongations_[L - 1] = std::move(Q);
+  prolongations_[L - 1] = minusBasisTimes(plainTop_, C, plainTop_.rows);
   transposed_[L - 1] = transpose(prolongations_[L - 1]);
 }
 
