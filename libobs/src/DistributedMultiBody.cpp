@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdint>
 #include <string>
+#include <unordered_map>
 #include <utility>
 
 #include "obs/mesh/Error.hpp"
@@ -139,16 +140,30 @@ DistributedMultiBody<d>::DistributedMultiBody(std::vector<DistributedBody<d>> bo
       T.push_back({m, t});
     }
   };
+  // the blocks summed as they come (a row's blocks in order of first appearance, each summed in the
+  // order of its terms), the blocks for other ranks likewise before they are sent
   std::vector<std::vector<std::pair<Index, Mat>>> rows(static_cast<std::size_t>(owned_));
   Eigen::VectorXd load = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(owned_) * d);
   std::vector<std::vector<double>> out(static_cast<std::size_t>(ranks));  // [p, q, d x d] or [p, -1, d]
+  std::unordered_map<std::uint64_t, std::size_t> sent;  // (p, q) -> its block in out[owner(p)]
   const auto addBlock = [&](Index p, Index q, const Mat& B) {
     const int o = owner(p);
     if (o == me) {
-      rows[p - rankOffset_[me]].emplace_back(q, B);
+      auto& row = rows[p - rankOffset_[me]];
+      for (auto it = row.rbegin(); it != row.rend(); ++it)
+        if (it->first == q) {
+          it->second += B;
+          return;
+        }
+      row.emplace_back(q, B);
       return;
     }
     auto& m = out[o];
+    const auto [at, fresh] = sent.try_emplace((static_cast<std::uint64_t>(p) << 32) | static_cast<std::uint32_t>(q), m.size());
+    if (!fresh) {
+      Eigen::Map<Mat>(m.data() + at->second + 2) += B;
+      return;
+    }
     m.push_back(static_cast<double>(p));
     m.push_back(static_cast<double>(q));
     m.insert(m.end(), B.data(), B.data() + d * d);
@@ -191,9 +206,12 @@ DistributedMultiBody<d>::DistributedMultiBody(std::vector<DistributedBody<d>> bo
         for (int a = 0; a < d; ++a) load[p * d + a] += m[k + 2 + a];
         k += 2 + d;
       } else {
-        Mat B;
-        std::copy(m.begin() + static_cast<std::ptrdiff_t>(k + 2), m.begin() + static_cast<std::ptrdiff_t>(k + 2 + d * d), B.data());
-        rows[p].emplace_back(static_cast<Index>(m[k + 1]), B);
+        const auto q = static_cast<Index>(m[k + 1]);
+        const Eigen::Map<const Mat> B(m.data() + k + 2);
+        auto& row = rows[p];
+        const auto it = std::find_if(row.rbegin(), row.rend(), [&](const auto& e) { return e.first == q; });
+        if (it != row.rend()) it->second += B;
+        else row.emplace_back(q, B);
         ++receivedTerms_;
         k += 2 + d * d;
       }
@@ -212,15 +230,6 @@ DistributedMultiBody<d>::DistributedMultiBody(std::vector<DistributedBody<d>> bo
   };
   for (Index p = 0; p < owned_; ++p) {
     auto& row = rows[p];
-    // equal columns summed in place, in a fixed order: this rank's terms, then the other ranks' in
-    // rank order
-    std::stable_sort(row.begin(), row.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
-    std::size_t kept = 0;
-    for (std::size_t k = 0; k < row.size(); ++k) {
-      if (kept > 0 && row[kept - 1].first == row[k].first) row[kept - 1].second += row[k].second;
-      else row[kept++] = row[k];
-    }
-    row.resize(kept);
     row.shrink_to_fit();
     for (auto& [q, B] : row) q = localOf(q);
     std::sort(row.begin(), row.end(), [](const auto& x, const auto& y) { return x.first < y.first; });

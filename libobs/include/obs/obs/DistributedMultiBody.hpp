@@ -17,8 +17,9 @@
 /// Every rank adds the terms of its owned rows r of each body's stiffness (complete on the rank):
 /// T_r needs the row of C at r (the rank's own mortar rows), T_s the rows of C at the slave
 /// neighbours s, which a ghost's owner sends once. A term whose row p this rank does not own goes
-/// to p's owner (one all-to-all); each owner sums the terms of a block in a fixed order (its own,
-/// then those of the other ranks in rank order), so its owned rows of T'AT and T'b are complete
+/// to p's owner (one all-to-all). Every rank sums the terms of a block as they come (in the order
+/// of its rows), those of another rank's rows before it sends them, and an owner adds the other
+/// ranks' sums in rank order, so its owned rows of T'AT and T'b are complete
 /// and the same bits for a fixed number of ranks. The rank's ContactProblem is then built on the local numbering with these rows (the
 /// ghost rows are identity rows, never read), the local rows of C at its held slave vertices and
 /// the constraints of all held slave vertices (from their owners): the Dirichlet elimination and
