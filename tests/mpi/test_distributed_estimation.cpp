@@ -15,6 +15,7 @@
 #include <cstdint>
 #include <map>
 #include <numeric>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,7 +25,11 @@
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/Communicator.hpp"
+#include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/ContactSet.hpp"
 #include "obs/obs/DistributedGrid.hpp"
+#include "obs/obs/Obstacle.hpp"
+#include "obs/obs/TNNMG.hpp"
 
 namespace {
 
@@ -95,6 +100,89 @@ void estimatorOnRanks(CellType type, int refinements) {
 
 TEST(DistributedEstimation, ResidualEstimatorOnOwnedCells2D) { estimatorOnRanks(CellType::Quadrilateral, 3); }
 TEST(DistributedEstimation, ResidualEstimatorOnOwnedCells3D) { estimatorOnRanks(CellType::Tetrahedron, 2); }
+
+/// The contact estimator (eta_1 .. eta_8) of a body pressed onto a ball: one process's solution,
+/// given to each rank's local mesh by the vertices' positions, and the contact outputs of each
+/// rank's problem (its rows at the vertices of owned cells are complete: every cell around such a
+/// vertex is held) give the owned cells one process's indicators.
+template <int d>
+void contactEstimatorOnRanks(CellType type, int cells, int refinements) {
+  const obs::Communicator comm = obs::Communicator::world();
+  const obs::mesh::Mesh coarse = obs::mesh::boxMesh(type, cells);
+  const obs::Material material{1.0, 0.3};
+  obs::BoundaryConditions bc;
+  const Point top = d == 2 ? Point(0.002, -0.02, 0) : Point(0.002, 0.001, -0.02);
+  bc.dirichlet.push_back({obs::mesh::kTop, {true, true, true}, [top](const Point&) { return top; }});
+  const double radius = 0.75;
+  const Point centre = d == 2 ? Point(0.5, -radius, 0) : Point(0.5, 0.5, -radius);
+  const obs::DiskObstacle disk(centre, radius);
+  const obs::BallObstacle ball(centre, radius);
+  const obs::Obstacle& obstacle = d == 2 ? static_cast<const obs::Obstacle&>(disk) : ball;
+  const auto estimator = obs::estimators::EstimatorRegistry::global().create("contact-residual");
+  const auto estimate = [&](const obs::mesh::Mesh& m, const Eigen::VectorXd& u, const obs::ContactProblem<d>& problem,
+                            double U, double F, Index owned) {
+    const obs::ContactOutputs out = obs::computeContactOutputs(problem, u, 1e-8, U, F);
+    obs::estimators::ContactData data;
+    data.set = &problem.contactSet();
+    data.outputs = &out;
+    data.obstacle = &obstacle;
+    obs::estimators::EstimatorInput in(m, material, bc, u);
+    in.contact = &data;
+    return owned < 0 ? estimator->estimate(in) : obs::estimators::estimateOwned(*estimator, in, owned, comm);
+  };
+
+  // one process: the solution and the estimate
+  obs::mesh::Grid grid(coarse);
+  for (int l = 0; l < refinements; ++l) grid.refineUniformly();
+  const obs::mesh::Mesh serialMesh = grid.leafMesh();
+  const obs::ContactProblem<d> ps(serialMesh, material, bc, obs::ContactSet(serialMesh, obs::mesh::kBottom, obstacle));
+  typename obs::TNNMG<d>::Options options;
+  options.tolerance = 1e-10;
+  obs::TNNMG<d> solver(grid, options);
+  Eigen::VectorXd us = Eigen::VectorXd::Zero(ps.numDofs());
+  ASSERT_TRUE(solver.solve(ps, us).converged);
+  const double U = us.cwiseAbs().maxCoeff(), F = ps.rhs().cwiseAbs().maxCoeff() + U;  // fixed scales for both
+  const obs::estimators::EstimatorResult rs = estimate(serialMesh, us, ps, U, F, -1);
+  std::map<std::array<long long, 3>, Index> serialCell, serialVertex;
+  for (Index c = 0; c < serialMesh.numCells(); ++c) serialCell[centroidKey(serialMesh, c)] = c;
+  for (Index v = 0; v < serialMesh.numVertices(); ++v) {
+    const Point& x = serialMesh.vertex(v);
+    serialVertex[{std::llround(std::ldexp(x[0], 24)), std::llround(std::ldexp(x[1], 24)), std::llround(std::ldexp(x[2], 24))}] = v;
+  }
+
+  // ranks: the same displacement on the local mesh
+  const obs::DistributedGrid dg(obs::mesh::Grid(coarse), refinements, comm);
+  const obs::DistributedView leaf = dg.view();
+  std::optional<obs::ContactProblem<d>> pd;
+  comm.collective([&] {
+    pd.emplace(leaf.local, material, bc, obs::ContactSet(leaf.local, obs::mesh::kBottom, obstacle, true));
+  });
+  Eigen::VectorXd u(pd->numDofs());
+  for (Index v = 0; v < leaf.local.numVertices(); ++v) {
+    const Point& x = leaf.local.vertex(v);
+    const Index s = serialVertex.at({std::llround(std::ldexp(x[0], 24)), std::llround(std::ldexp(x[1], 24)),
+                                     std::llround(std::ldexp(x[2], 24))});
+    u.template segment<d>(v * d) = us.template segment<d>(s * d);
+  }
+  const auto owned = static_cast<Index>(leaf.part.owned.size());
+  const obs::estimators::EstimatorResult r = estimate(leaf.local, u, *pd, U, F, owned);
+  const double scale = *std::max_element(rs.indicators.begin(), rs.indicators.end());
+  for (Index c = 0; c < owned; ++c) {
+    const Index s = serialCell.at(centroidKey(leaf.local, c));
+    ASSERT_NEAR(r.indicators[c], rs.indicators[s], 1e-12 * scale) << "owned cell " << c << ", one process's " << s;
+  }
+  EXPECT_NEAR(r.total, rs.total, 1e-12 * rs.total);
+  for (std::size_t k = 0; k < rs.contributions.size(); ++k)
+    EXPECT_NEAR(r.contributions[k].value, rs.contributions[k].value, 1e-12 * rs.total) << rs.contributions[k].name;
+  EXPECT_GT(rs.contribution("eta_6") + rs.contribution("eta_7"), 0);  // contact terms present
+}
+
+TEST(DistributedEstimation, ContactEstimatorOnOwnedCells2D) {
+  contactEstimatorOnRanks<2>(CellType::Quadrilateral, 4, 3);
+}
+TEST(DistributedEstimation, ContactEstimatorOnOwnedCells3D) {
+  contactEstimatorOnRanks<3>(CellType::Hexahedron, 3, 2);
+}
 
 /// N cells in global order, owned in uneven consecutive blocks; indicators with many ties (dyadic
 /// values, whose squares and sums are exact) or without (sines); keys a scrambled numbering. The
