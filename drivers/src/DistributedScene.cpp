@@ -136,6 +136,29 @@ void writePieces(const std::filesystem::path& dir, const std::string& base, cons
   }
 }
 
+/// Per-rank work of a distributed run (summary.json "balance"): each figure's maximum and mean over
+/// the ranks and their ratio, the imbalance (docs/architecture.md#distributed-runner).
+struct RankLoad {
+  std::vector<std::pair<std::string, double>> figures;
+  void add(const std::string& name, double value) { figures.emplace_back(name, value); }
+  /// Collective: the same figures on every rank, in the same order.
+  nlohmann::json reduced(const Communicator& comm) const {
+    std::vector<double> sums, maxima;
+    for (const auto& f : figures) {
+      sums.push_back(f.second);
+      maxima.push_back(f.second);
+    }
+    comm.sum(sums);
+    comm.max(maxima);
+    nlohmann::json j = nlohmann::json::object();
+    for (std::size_t k = 0; k < figures.size(); ++k) {
+      const double mean = sums[k] / comm.size();
+      j[figures[k].first] = {{"max", maxima[k]}, {"mean", mean}, {"max_over_mean", mean > 0 ? maxima[k] / mean : 1.0}};
+    }
+    return j;
+  }
+};
+
 /// The sizes and assembly time of a distributed problem in r (freeOwned: this rank's free owned
 /// unknowns; t: when the assembly began) and the "assembled" progress line. Collective.
 void reportAssembly(const Communicator& comm, const DistributedView& leaf, int d, long long freeOwned,
@@ -255,7 +278,7 @@ void reportTnnmg(const ContactResult& result, const typename TNNMG<d>::Statistic
 template <int d>
 Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const DistributedGrid& dg,
                              const DistributedView& leaf, const BoundaryConditionsAt& bcAt, int contactId,
-                             const Progress& progress, RunResult& r, std::vector<Field>& fields) {
+                             const Progress& progress, RunResult& r, std::vector<Field>& fields, RankLoad& load) {
   const Index owned = leaf.halo.numOwned();
   // [loading] steps = N: the boundary conditions at t = i/N, one problem per increment (as serially)
   const int steps = scene.loading ? scene.loading->steps : 1;
@@ -274,6 +297,7 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
   long long boundaryOwned = 0, freeOwned = 0;
   for (Index k = 0; k < set->size(); ++k) boundaryOwned += set->vertex(k) < owned ? 1 : 0;
   for (Index i = 0; i < owned * d; ++i) freeOwned += problem->dirichlet().constrained[static_cast<std::size_t>(i)] ? 0 : 1;
+  load.add("contact_vertices", static_cast<double>(boundaryOwned));
   boundaryOwned = comm.sum(boundaryOwned);
   if (boundaryOwned == 0)
     throw Error(scene.where(scene.contact->line) + "[contact]: the contact boundary has no faces");
@@ -500,14 +524,17 @@ Eigen::VectorXd solveLinear(const Scene& scene, const Communicator& comm, const 
 template <int d>
 void solveDistributed(const Scene& scene, const RunOptions& options, const Communicator& comm, const DistributedGrid& dg,
                       const DistributedView& leaf, const BoundaryConditionsAt& bcAt, int contactId,
-                      const std::filesystem::path& dir, RunResult& r) {
+                      const std::filesystem::path& dir, RunResult& r, RankLoad& load) {
   const Progress progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
   };
   const Index owned = leaf.halo.numOwned();
+  load.add("owned_vertices", static_cast<double>(owned));
+  load.add("ghost_vertices", static_cast<double>(leaf.halo.numLocal() - owned));
+  load.add("owned_cells", static_cast<double>(leaf.part.owned.size()));
   std::vector<Field> contactFields;
   const Eigen::VectorXd u = scene.contact
-                                ? solveContact<d>(scene, comm, dg, leaf, bcAt, contactId, progress, r, contactFields)
+                                ? solveContact<d>(scene, comm, dg, leaf, bcAt, contactId, progress, r, contactFields, load)
                                 : solveLinear<d>(scene, comm, dg, leaf, bcAt(0), progress, r);
   // displacement and stresses of the owned vertices and cells
   ElasticitySolution e;
@@ -580,7 +607,7 @@ template <int d>
 void solveBodies(const Scene& scene, const RunOptions& options, const Communicator& comm,
                  const std::vector<std::unique_ptr<DistributedGrid>>& grids, const std::vector<DistributedView>& views,
                  const std::vector<mesh::Mesh>& coarseMeshes,
-                 int slaveId, int masterId, const std::filesystem::path& dir, RunResult& r) {
+                 int slaveId, int masterId, const std::filesystem::path& dir, RunResult& r, RankLoad& load) {
   const Progress progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
   };
@@ -632,6 +659,17 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
     r.assemblySeconds = comm.max(secondsSince(t));
     r.dofs = static_cast<long long>(d) * multi->globalVertices();
     r.freeDofs = comm.sum(freeOwned);
+    // the rank's work: its vertices and cells of both bodies, the slave vertices it owns (the
+    // mortar rows), and the coupling's extra ghosts and received blocks of T'AT
+    double cells = 0;
+    for (const auto& v : views) cells += static_cast<double>(v.part.owned.size());
+    const auto slaves = static_cast<double>(mortar->rows().size());  // (rows of owned slave vertices)
+    load.add("owned_vertices", static_cast<double>(owned));
+    load.add("ghost_vertices", static_cast<double>(multi->numLocal() - owned - multi->extraGhosts()));
+    load.add("owned_cells", cells);
+    load.add("slave_vertices", slaves);
+    load.add("extra_ghosts", static_cast<double>(multi->extraGhosts()));
+    load.add("received_blocks", static_cast<double>(multi->receivedTerms()));
   }
   progress("assembled: " + std::to_string(r.dofs) + " dofs (" + std::to_string(r.freeDofs) + " free, " +
            std::to_string(mortar->globalSize()) + " constrained slave vertices) on " + std::to_string(comm.size()) +
@@ -929,8 +967,9 @@ RunResult runDistributedBodies(const Scene& scene, const RunOptions& options, co
     std::filesystem::create_directories(dir, ec);
     if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
   });
-  if (r.dimension == 2) solveBodies<2>(scene, options, comm, grids, views, coarse->meshes, slaveId, masterId, dir, r);
-  else solveBodies<3>(scene, options, comm, grids, views, coarse->meshes, slaveId, masterId, dir, r);
+  RankLoad load;
+  if (r.dimension == 2) solveBodies<2>(scene, options, comm, grids, views, coarse->meshes, slaveId, masterId, dir, r, load);
+  else solveBodies<3>(scene, options, comm, grids, views, coarse->meshes, slaveId, masterId, dir, r, load);
 
   const double memory = peakMemoryMB();
   nlohmann::json extra;
@@ -938,6 +977,7 @@ RunResult runDistributedBodies(const Scene& scene, const RunOptions& options, co
   extra["peak_memory_mb_largest_rank"] = comm.max(memory);
   extra["peak_memory_mb_all_ranks"] = comm.sum(memory);
   extra["partition_level"] = grids.front()->partition().level;
+  extra["balance"] = load.reduced(comm);
   comm.collective([&] {
     if (comm.rank() != 0) return;
     const auto outputs = Clock::now();
@@ -1007,8 +1047,9 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
     std::filesystem::create_directories(dir, ec);
     if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
   });
-  if (r.dimension == 2) solveDistributed<2>(scene, options, comm, dg, leaf, bcAt, contactId, dir, r);
-  else solveDistributed<3>(scene, options, comm, dg, leaf, bcAt, contactId, dir, r);
+  RankLoad load;
+  if (r.dimension == 2) solveDistributed<2>(scene, options, comm, dg, leaf, bcAt, contactId, dir, r, load);
+  else solveDistributed<3>(scene, options, comm, dg, leaf, bcAt, contactId, dir, r, load);
 
   // summary.json from rank 0: the figures above are reduced over the ranks; the memory per rank
   const double memory = peakMemoryMB();
@@ -1017,6 +1058,7 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
   extra["peak_memory_mb_largest_rank"] = comm.max(memory);
   extra["peak_memory_mb_all_ranks"] = comm.sum(memory);
   extra["partition_level"] = dg.partition().level;
+  extra["balance"] = load.reduced(comm);
   comm.collective([&] {
     if (comm.rank() != 0) return;
     const auto outputs = Clock::now();

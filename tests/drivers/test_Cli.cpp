@@ -319,6 +319,11 @@ TEST_F(Cli, MpirunRunsStaticScenesDistributed) {
   EXPECT_NEAR(pair["force_master"][2].get<double>(), -10.0, 1e-9);
   EXPECT_NEAR(pair["area"].get<double>(), 1.0, 1e-12);
   EXPECT_EQ(jp["solver"]["coarse_solver"], "cholmod");  // the stacked multigrid's replicated coarse level
+  // the per-rank work: the owned vertices and slave vertices of the ranks add up to the scene's
+  const nlohmann::json& balance = jp["balance"];
+  EXPECT_DOUBLE_EQ(2 * balance["owned_vertices"]["mean"].get<double>(), jp["vertices"].get<double>());
+  EXPECT_DOUBLE_EQ(2 * balance["slave_vertices"]["mean"].get<double>(), pair["slave_vertices"].get<double>());
+  EXPECT_GE(balance["received_blocks"]["max_over_mean"].get<double>(), 1.0);
   EXPECT_EQ(jp["bodies"].size(), 2u);
   for (const char* f : {"twobody_patch.pvd", "twobody_patch_upper.pvtu", "twobody_patch_lower_1.vtu"})
     EXPECT_TRUE(fs::exists(kTmp / "out_patch2" / f)) << f;
