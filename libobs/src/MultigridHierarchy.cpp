@@ -1408,7 +1408,7 @@ void MultigridHierarchy<d>::prolongateAdd(int l, const Eigen::VectorXd& coarse, 
 template <int d>
 std::size_t MultigridHierarchy<d>::memoryBytes() const {
   std::size_t b = 0;
-  for (const auto* list : {&prolongations_, &transposed_})
+  for (const auto* list : {&prolongations_, &transposed_, &baseProlongations_})
     for (const auto& P : *list)
       b += P.rowStart.capacity() * sizeof(Index) + P.columns.capacity() * sizeof(Index) +
            P.values.capacity() * sizeof(double);

@@ -51,6 +51,7 @@ Key key(int body, const Point& x) {
 struct Case {
   CellType lower, upper;
   int nLower, nUpper, refinements;
+  int partitionLevel = -1;  ///< 0: the coarse levels distributed too (hypre on level 0)
 };
 
 template <int d>
@@ -107,8 +108,11 @@ void compareWithOneProcess(const Case& c) {
     for (Index v = 0; v < mesh[b]->numVertices(); ++v) serialVertex[key(b, mesh[b]->vertex(v))] = offsets[b] + v;
 
   // ranks
-  const obs::DistributedGrid dgrid[2] = {obs::DistributedGrid(obs::mesh::Grid(s.coarse[0]), c.refinements, comm),
-                                         obs::DistributedGrid(obs::mesh::Grid(s.coarse[1]), c.refinements, comm)};
+  obs::ForestPartitionOptions partition;
+  partition.level = c.partitionLevel;
+  const obs::DistributedGrid dgrid[2] = {
+      obs::DistributedGrid(obs::mesh::Grid(s.coarse[0]), c.refinements, comm, partition),
+      obs::DistributedGrid(obs::mesh::Grid(s.coarse[1]), c.refinements, comm, partition)};
   const obs::DistributedView view[2] = {dgrid[0].view(), dgrid[1].view()};
   const obs::BodySystem<d> body[2] = {obs::assembleBody<d>(view[0].local, s.material[0], s.bc[0]),
                                       obs::assembleBody<d>(view[1].local, s.material[1], s.bc[1])};
@@ -223,6 +227,12 @@ TEST(DistributedTwoBody, TrianglesOnQuadrilaterals2D) {
 
 TEST(DistributedTwoBody, TetrahedraOnHexahedra3D) {
   compareWithOneProcess<3>({CellType::Hexahedron, CellType::Tetrahedron, 3, 2, 2});
+}
+
+/// Partition level 0: every level of the stacked hierarchy distributed, level 0 too (its extra
+/// ghosts in hypre's coarse solve, DistributedCoarseSolver).
+TEST(DistributedTwoBody, TrianglesOnQuadrilateralsEveryLevelDistributed2D) {
+  compareWithOneProcess<2>({CellType::Quadrilateral, CellType::Triangle, 6, 4, 3, 0});
 }
 
 /// The stacked multigrid correction with threads inside the ranks: a second solve on the same rank
