@@ -646,6 +646,7 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
     });
     try {
       multi.emplace(std::vector<DistributedBody<d>>{{&views[0], &systems[0]}, {&views[1], &systems[1]}}, *mortar, s, m);
+      for (auto& sys : systems) sys = BodySystem<d>();  // in T'AT now (DistributedMultiBody reads them once)
     } catch (const Error& e) {
       throw Error(scene.where(pair.line) + "[[contact]] " + e.what());
     }
@@ -717,6 +718,7 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
   for (const auto& g : grids) replicatedCoarse = replicatedCoarse && g->partition().level > 0;
   r.solver.coarseSolver = replicatedCoarse ? "cholmod" : "hypre";
   if (!replicatedCoarse) r.solver.coarseIterations = solver->statistics().coarseIterations;
+  solver.reset();  // its hierarchy and rotated copy are not needed for the outputs
 
   // the pair's report from the owned constrained slave vertices, reduced (the contact decisions with
   // the global scales of the KKT residuals)

@@ -140,83 +140,50 @@ DistributedMultiBody<d>::DistributedMultiBody(std::vector<DistributedBody<d>> bo
       T.push_back({m, t});
     }
   };
-  // the blocks summed as they come (a row's blocks in order of first appearance, each summed in the
-  // order of its terms), the blocks for other ranks likewise before they are sent
-  std::vector<std::vector<std::pair<Index, Mat>>> rows(static_cast<std::size_t>(owned_));
-  Eigen::VectorXd load = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(owned_) * d);
-  std::vector<std::vector<double>> out(static_cast<std::size_t>(ranks));  // [p, q, d x d] or [p, -1, d]
-  std::unordered_map<std::uint64_t, std::size_t> sent;  // (p, q) -> its block in out[owner(p)]
-  const auto addBlock = [&](Index p, Index q, const Mat& B) {
-    const int o = owner(p);
-    if (o == me) {
-      auto& row = rows[p - rankOffset_[me]];
-      for (auto it = row.rbegin(); it != row.rend(); ++it)
-        if (it->first == q) {
-          it->second += B;
+  // Two passes over the terms, so that no block is stored twice: the pattern first (the columns of
+  // the owned rows, and the (p, q) of other ranks' rows, sent to their owners), then the blocks
+  // summed into T'AT in place and into the buffers for the other ranks, each in the order of its
+  // terms; the owners add the other ranks' sums in rank order.
+  std::vector<Term> Tr, Ts;
+  const auto forEachTerm = [&](auto&& block, auto&& loadTerm) {
+    for (int b = 0; b < nb; ++b) {
+      const BodySystem<d>& sys = *bodies_[b].system;
+      const BlockSparseMatrix<d>& A = sys.stiffness;
+      for (Index r = 0; r < bodies_[b].view->halo.numOwned(); ++r) {
+        termsOf(local(b, r), Tr);
+        const Vec br = sys.load.template segment<d>(static_cast<Eigen::Index>(r) * d);
+        for (const Term& p : Tr) loadTerm(p.vertex, p.t.cwiseProduct(br));
+        for (Index k = A.rowBegin(r); k < A.rowEnd(r); ++k) {
+          termsOf(local(b, A.column(k)), Ts);
+          for (const Term& p : Tr)
+            for (const Term& q : Ts) block(p, q, A.blockAt(k), Tr.size() == 1 && Ts.size() == 1);
+        }
+      }
+    }
+  };
+  const auto keyOf = [](Index p, Index q) { return (static_cast<std::uint64_t>(p) << 32) | static_cast<std::uint32_t>(q); };
+  // pass 1: the pattern
+  std::vector<std::vector<Index>> columns(static_cast<std::size_t>(owned_));  // global, owned rows
+  std::unordered_map<std::uint64_t, std::size_t> sent;  // (p, q) of another rank's row -> its slot
+  std::vector<std::vector<double>> keysOut(static_cast<std::size_t>(ranks));  // [p, q] per slot
+  forEachTerm(
+      [&](const Term& p, const Term& q, const Mat&, bool) {
+        const int o = owner(p.vertex);
+        if (o == me) {
+          columns[p.vertex - rankOffset_[me]].push_back(q.vertex);
           return;
         }
-      row.emplace_back(q, B);
-      return;
-    }
-    auto& m = out[o];
-    const auto [at, fresh] = sent.try_emplace((static_cast<std::uint64_t>(p) << 32) | static_cast<std::uint32_t>(q), m.size());
-    if (!fresh) {
-      Eigen::Map<Mat>(m.data() + at->second + 2) += B;
-      return;
-    }
-    m.push_back(static_cast<double>(p));
-    m.push_back(static_cast<double>(q));
-    m.insert(m.end(), B.data(), B.data() + d * d);
-  };
-  const auto addLoad = [&](Index p, const Vec& f) {
-    const int o = owner(p);
-    if (o == me) {
-      load.template segment<d>((p - rankOffset_[me]) * d) += f;
-      return;
-    }
-    auto& m = out[o];
-    m.push_back(static_cast<double>(p));
-    m.push_back(-1.0);
-    m.insert(m.end(), f.data(), f.data() + d);
-  };
-  std::vector<Term> Tr, Ts;
-  for (int b = 0; b < nb; ++b) {
-    const BodySystem<d>& sys = *bodies_[b].system;
-    const BlockSparseMatrix<d>& A = sys.stiffness;
-    for (Index r = 0; r < bodies_[b].view->halo.numOwned(); ++r) {
-      termsOf(local(b, r), Tr);
-      const Vec br = sys.load.template segment<d>(static_cast<Eigen::Index>(r) * d);
-      for (const Term& p : Tr) addLoad(p.vertex, p.t.cwiseProduct(br));
-      for (Index k = A.rowBegin(r); k < A.rowEnd(r); ++k) {
-        termsOf(local(b, A.column(k)), Ts);
-        const Mat& B = A.blockAt(k);
-        for (const Term& p : Tr)
-          for (const Term& q : Ts)
-            addBlock(p.vertex, q.vertex, Tr.size() == 1 && Ts.size() == 1 ? B : Mat(p.t.asDiagonal() * B * q.t.asDiagonal()));
-      }
-    }
-  }
-  const auto got = comm.exchange(out);
-  out.clear();
-  for (int r = 0; r < ranks; ++r) {
-    const std::vector<double>& m = got[r];
-    for (std::size_t k = 0; k < m.size();) {
-      const auto p = static_cast<Index>(m[k]) - rankOffset_[me];
-      if (m[k + 1] < 0) {
-        for (int a = 0; a < d; ++a) load[p * d + a] += m[k + 2 + a];
-        k += 2 + d;
-      } else {
-        const auto q = static_cast<Index>(m[k + 1]);
-        const Eigen::Map<const Mat> B(m.data() + k + 2);
-        auto& row = rows[p];
-        const auto it = std::find_if(row.rbegin(), row.rend(), [&](const auto& e) { return e.first == q; });
-        if (it != row.rend()) it->second += B;
-        else row.emplace_back(q, B);
-        ++receivedTerms_;
-        k += 2 + d * d;
-      }
-    }
-  }
+        if (sent.try_emplace(keyOf(p.vertex, q.vertex), keysOut[o].size() / 2).second) {
+          keysOut[o].push_back(static_cast<double>(p.vertex));
+          keysOut[o].push_back(static_cast<double>(q.vertex));
+        }
+      },
+      [](Index, const Vec&) {});
+  const auto keysIn = comm.exchange(keysOut);
+  keysOut.clear();
+  for (int r = 0; r < ranks; ++r)
+    for (std::size_t k = 0; k < keysIn[r].size(); k += 2)
+      columns[static_cast<Index>(keysIn[r][k]) - rankOffset_[me]].push_back(static_cast<Index>(keysIn[r][k + 1]));
 
   // --- the owned rows in local numbering: columns outside both ghost layers become extra ghosts ---
   const auto localOf = [&](Index g) {
@@ -228,11 +195,11 @@ DistributedMultiBody<d>::DistributedMultiBody(std::vector<DistributedBody<d>> bo
     ghostLocal_.emplace(g, l);
     return l;
   };
-  for (Index p = 0; p < owned_; ++p) {
-    auto& row = rows[p];
-    row.shrink_to_fit();
-    for (auto& [q, B] : row) q = localOf(q);
-    std::sort(row.begin(), row.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+  for (auto& row : columns) {
+    std::sort(row.begin(), row.end());
+    row.erase(std::unique(row.begin(), row.end()), row.end());
+    for (Index& q : row) q = localOf(q);
+    std::sort(row.begin(), row.end());
   }
   mesh::CsrMatrix C;  // local rows at the held slave vertices
   {
@@ -256,26 +223,65 @@ DistributedMultiBody<d>::DistributedMultiBody(std::vector<DistributedBody<d>> bo
   const auto n = static_cast<Index>(global_.size());
   typename BlockSparseMatrix<d>::Pattern pattern;
   pattern.rowStart.assign(static_cast<std::size_t>(n) + 1, 0);
-  for (Index p = 0; p < n; ++p) pattern.rowStart[p + 1] = pattern.rowStart[p] + (p < owned_ ? static_cast<Index>(rows[p].size()) : 1);
+  for (Index p = 0; p < n; ++p)
+    pattern.rowStart[p + 1] = pattern.rowStart[p] + (p < owned_ ? static_cast<Index>(columns[p].size()) : 1);
   pattern.columns.resize(static_cast<std::size_t>(pattern.rowStart[n]));
   for (Index p = 0; p < n; ++p) {
     Index k = pattern.rowStart[p];
-    if (p < owned_)
-      for (const auto& e : rows[p]) pattern.columns[k++] = e.first;
-    else
+    if (p < owned_) {
+      for (Index q : columns[p]) pattern.columns[k++] = q;
+      columns[p] = {};
+    } else {
       pattern.columns[k] = p;  // a ghost row: an identity row, never read
-  }
-  BlockSparseMatrix<d> M(std::move(pattern));
-  for (Index p = 0; p < n; ++p) {
-    if (p >= owned_) {
-      M.blockAt(M.rowBegin(p)) = Mat::Identity();
-      continue;
     }
-    Index k = M.rowBegin(p);
-    for (const auto& e : rows[p]) M.blockAt(k++) = e.second;
-    rows[p] = {};
   }
-  rows.clear();
+  columns.clear();
+  BlockSparseMatrix<d> M(std::move(pattern));
+  for (Index p = owned_; p < n; ++p) M.blockAt(M.rowBegin(p)) = Mat::Identity();
+
+  // pass 2: the blocks and the right-hand side
+  Eigen::VectorXd load = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(owned_) * d);
+  std::vector<std::vector<double>> out(static_cast<std::size_t>(ranks)), loadOut(static_cast<std::size_t>(ranks));
+  for (const auto& [key, slot] : sent) {
+    auto& m = out[owner(static_cast<Index>(key >> 32))];
+    m.resize(std::max(m.size(), (slot + 1) * d * d), 0.0);
+  }
+  forEachTerm(
+      [&](const Term& p, const Term& q, const Mat& A, bool plain) {
+        const Mat B = plain ? A : Mat(p.t.asDiagonal() * A * q.t.asDiagonal());
+        const int o = owner(p.vertex);
+        if (o == me) {
+          const Index row = p.vertex - rankOffset_[me];
+          M.blockAt(M.find(row, localOf(q.vertex))) += B;
+        } else {
+          Eigen::Map<Mat>(out[o].data() + sent.at(keyOf(p.vertex, q.vertex)) * d * d) += B;
+        }
+      },
+      [&](Index p, const Vec& f) {
+        const int o = owner(p);
+        if (o == me) {
+          load.template segment<d>((p - rankOffset_[me]) * d) += f;
+          return;
+        }
+        loadOut[o].push_back(static_cast<double>(p));
+        loadOut[o].insert(loadOut[o].end(), f.data(), f.data() + d);
+      });
+  sent.clear();
+  const auto got = comm.exchange(out);
+  out.clear();
+  const auto gotLoad = comm.exchange(loadOut);
+  loadOut.clear();
+  for (int r = 0; r < ranks; ++r) {
+    for (std::size_t k = 0; 2 * k < keysIn[r].size(); ++k) {
+      const Index row = static_cast<Index>(keysIn[r][2 * k]) - rankOffset_[me];
+      M.blockAt(M.find(row, localOf(static_cast<Index>(keysIn[r][2 * k + 1])))) +=
+          Eigen::Map<const Mat>(got[r].data() + k * d * d);
+      ++receivedTerms_;
+    }
+    for (std::size_t k = 0; k < gotLoad[r].size(); k += 1 + d)
+      for (int a = 0; a < d; ++a)
+        load[(static_cast<Index>(gotLoad[r][k]) - rankOffset_[me]) * d + a] += gotLoad[r][k + 1 + a];
+  }
 
   // --- the halo, and the vertex data of the ghosts from their owners ---
   std::vector<Index> ghostGlobal(global_.begin() + owned_, global_.end());

@@ -17,9 +17,10 @@
 /// Every rank adds the terms of its owned rows r of each body's stiffness (complete on the rank):
 /// T_r needs the row of C at r (the rank's own mortar rows), T_s the rows of C at the slave
 /// neighbours s, which a ghost's owner sends once. A term whose row p this rank does not own goes
-/// to p's owner (one all-to-all). Every rank sums the terms of a block as they come (in the order
-/// of its rows), those of another rank's rows before it sends them, and an owner adds the other
-/// ranks' sums in rank order, so its owned rows of T'AT and T'b are complete
+/// to p's owner (one all-to-all). Two passes over the terms: the pattern (the owned rows'
+/// columns; the (p, q) of other ranks' rows sent to their owners), then the blocks, summed as they
+/// come into T'AT in place and into one buffer per other rank; an owner adds the other ranks'
+/// sums in rank order, so no block is stored twice and its owned rows of T'AT and T'b are complete
 /// and the same bits for a fixed number of ranks. The rank's ContactProblem is then built on the local numbering with these rows (the
 /// ghost rows are identity rows, never read), the local rows of C at its held slave vertices and
 /// the constraints of all held slave vertices (from their owners): the Dirichlet elimination and
@@ -39,7 +40,8 @@
 namespace obs {
 
 /// One body of a distributed multi-body problem: its distributed view (the leaf view) and its
-/// system assembled on the view's local mesh (assembleBody: owned rows complete).
+/// system assembled on the view's local mesh (assembleBody: owned rows complete). The constructor
+/// reads the systems; they may be released after it, the views must outlive the problem.
 template <int d>
 struct DistributedBody {
   const DistributedView* view = nullptr;
