@@ -531,6 +531,7 @@ MultigridHierarchy<d>::MultigridHierarchy(const std::vector<const DistributedGri
     std::optional<HaloExchange> halo;
     std::vector<Index> localOf;  ///< view vertex -> stacked local index (-1: not held)
   };
+  const bool anyExtras = comm.max(fineExtras.empty() ? 0.0 : 1.0) > 0;
   std::vector<std::vector<Part>> parts(static_cast<std::size_t>(L) + 1, std::vector<Part>(static_cast<std::size_t>(nb)));
   levels_.resize(static_cast<std::size_t>(L) + 1);
   for (int l = 0; l <= L; ++l) {
@@ -626,19 +627,21 @@ MultigridHierarchy<d>::MultigridHierarchy(const std::vector<const DistributedGri
         }
         if (pass == 0) lv.owned += pt.owned;
       }
-    if (l == L)
-      for (Index g : fineExtras) {  // the fine level's extra ghosts (DistributedMultiBody)
-        const int o = lv.ownerOf(g);
-        if (g < 0 || g >= lv.offsets.back() || o == me)
-          throw Error("multigrid hierarchy: an extra ghost " + std::to_string(g) + " out of range or owned here");
-        lv.global.push_back(g);
-        lv.owner.push_back(o);
-        lv.viewVertex.push_back(-1);
-      }
-    for (Index i = lv.owned; i < static_cast<Index>(lv.global.size()); ++i)
-      if (!lv.ghostLocal.emplace(lv.global[i], i).second)
-        throw Error("multigrid hierarchy: vertex " + std::to_string(lv.global[i]) + " held twice");
-    if (nb == 1 && fineExtras.empty()) {  // one body: its view's halo
+    comm.collective([&] {  // (a bad extra ghost list on one rank stops every rank)
+      if (l == L)
+        for (Index g : fineExtras) {  // the fine level's extra ghosts (DistributedMultiBody)
+          const int o = g < 0 || g >= lv.offsets.back() ? -1 : lv.ownerOf(g);
+          if (o < 0 || o == me)
+            throw Error("multigrid hierarchy: an extra ghost " + std::to_string(g) + " out of range or owned here");
+          lv.global.push_back(g);
+          lv.owner.push_back(o);
+          lv.viewVertex.push_back(-1);
+        }
+      for (Index i = lv.owned; i < static_cast<Index>(lv.global.size()); ++i)
+        if (!lv.ghostLocal.emplace(lv.global[i], i).second)
+          throw Error("multigrid hierarchy: vertex " + std::to_string(lv.global[i]) + " held twice");
+    });
+    if (nb == 1 && !anyExtras) {  // one body: its view's halo
       lv.halo = std::make_shared<const HaloExchange>(std::move(*parts[l][0].halo));
     } else {
       std::vector<Index> ghostGlobal(lv.global.begin() + lv.owned, lv.global.end());
@@ -704,7 +707,7 @@ MultigridHierarchy<d>::MultigridHierarchy(const std::vector<const DistributedGri
   });
   baseLevels_ = levels_;
   baseProlongations_ = prolongations_;
-  widening_ = comm.max(fineExtras.empty() ? 0.0 : 1.0) > 0;
+  widening_ = anyExtras;
 }
 
 template <int d>

@@ -274,6 +274,20 @@ TEST(DistributedTwoBody, StackedMultigridThreadsAndBitwiseRepeats) {
   EXPECT_GT(multi.numOwned(), obs::kParallelMinRows);  // the threaded orders are used
 }
 
+/// A wrong extra ghost list on one rank (an owned vertex) stops every rank with the error, without
+/// a hang in the halo construction that follows.
+TEST(DistributedTwoBody, StackedHierarchyRefusesAnOwnedExtraGhostOnEveryRank) {
+  const obs::Communicator comm = obs::Communicator::world();
+  const Slabs<2> s({CellType::Quadrilateral, CellType::Triangle, 3, 2, 2});
+  const obs::DistributedGrid dgrid[2] = {obs::DistributedGrid(obs::mesh::Grid(s.coarse[0]), 2, comm),
+                                         obs::DistributedGrid(obs::mesh::Grid(s.coarse[1]), 2, comm)};
+  const std::vector<const obs::DistributedGrid*> grids{&dgrid[0], &dgrid[1]};
+  const obs::MultigridHierarchy<2> h(grids);  // (collective)
+  std::vector<Index> extras;
+  if (comm.rank() == 0) extras.push_back(h.globalVertices(h.maxLevel()).front());  // owned by rank 0
+  EXPECT_THROW(obs::MultigridHierarchy<2>(grids, extras), obs::Error);
+}
+
 /// The mortar patch test on ranks (docs/verification.md has the serial one): a block of
 /// hexahedra (slave) on a block of tetrahedra (master), non-matching, under uniaxial compression by
 /// p = 10 (the lower block on rollers, the upper block's top moved with the exact solution): every
