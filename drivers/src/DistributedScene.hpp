@@ -4,8 +4,9 @@
 /// one-body scene on a DistributedGrid, solved by distributed TNNMG (contact against an obstacle, with
 /// friction inside solveFriction's fixed point) or distributed multigrid (linear elasticity); or a
 /// static two-body scene with one mortar pair, each body a DistributedGrid, solved by TNNMG with
-/// hypre's correction (DistributedMultiBody, docs/architecture.md#distributed-two-body; with
-/// friction as for one body), reported per body and pair. Every rank calls it;
+/// the stacked distributed multigrid correction (DistributedMultiBody,
+/// docs/architecture.md#distributed-two-body; with friction as for one body), reported per body
+/// and pair. Every rank calls it;
 /// rank 0 reports progress and writes summary.json (figures reduced over the ranks), every rank
 /// writes its piece of the solution (.vtu of its owned cells) and rank 0 the .pvtu that joins them.
 /// Errors reach every rank as the same obs::Error (Communicator::collective), so every rank exits
