@@ -259,16 +259,8 @@ void reportTnnmg(const ContactResult& result, const typename TNNMG<d>::Statistic
   t += std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(laterAssembly));
   r.solveSeconds = comm.max(secondsSince(t));
   r.solver.type = "tnnmg";
-  r.solver.iterations = result.iterations;
-  r.solver.converged = result.converged && (!r.solver.friction || r.solver.friction->converged);
-  r.solver.seconds = r.solveSeconds;
-  r.solver.tolerance = tolerance;
-  r.solver.correction = result.correction;
-  r.solver.convergenceRate = result.convergenceRate;
-  r.solver.vcycles = st.vcycles;
-  r.solver.phases = TnnmgPhases{st.setupSeconds,      st.smoothingSeconds, st.updateSeconds,
-                                st.correctionSeconds, st.otherSeconds,     st.operatorUpdates};
-  r.solver.kkt = result.kkt;
+  reportContactResult(result, r.solveSeconds, tolerance, r.solver);
+  reportTnnmgPhases(st, r.solver);
 }
 
 /// The scene's obstacle problem solved by distributed TNNMG: the displacement on the rank's local

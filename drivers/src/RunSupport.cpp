@@ -176,4 +176,14 @@ void throwIfNotConverged(const Scene& scene, const RunResult& r, const std::file
   }
 }
 
+void reportContactResult(const ContactResult& result, double seconds, double tolerance, SolverReport& report) {
+  report.iterations = result.iterations;
+  report.converged = result.converged && (!report.friction || report.friction->converged);
+  report.seconds = seconds;
+  report.tolerance = tolerance;
+  report.correction = result.correction;
+  report.convergenceRate = result.convergenceRate;
+  report.kkt = result.kkt;
+}
+
 }  // namespace obs::drivers

@@ -9,6 +9,7 @@
 
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/ContactSolver.hpp"
 
 #include "obs/drivers/RunOptions.hpp"
 #include "obs/drivers/RunResult.hpp"
@@ -28,6 +29,19 @@ double secondsSince(Clock::time_point start);
 
 /// Peak resident memory of this process so far, MB (0 if unknown).
 double peakMemoryMB();
+
+/// The figures of a contact solve in a solver report (summary.json "solver"): iterations,
+/// convergence (with friction: of its fixed point too), the solve time, tolerance, correction,
+/// rate and KKT residuals.
+void reportContactResult(const ContactResult& result, double seconds, double tolerance, SolverReport& report);
+
+/// The V-cycles and the phases of a TNNMG solve (TNNMG::Statistics), for summary.json.
+template <class Statistics>
+void reportTnnmgPhases(const Statistics& st, SolverReport& report) {
+  report.vcycles = st.vcycles;
+  report.phases = TnnmgPhases{st.setupSeconds,      st.smoothingSeconds, st.updateSeconds,
+                              st.correctionSeconds, st.otherSeconds,     st.operatorUpdates};
+}
 
 /// Records peak memory and, when the scene has a CSV file, the output and total times and its row
 /// (appended to [output] csv, relative to dir unless absolute; the path joins r.outputFiles).

@@ -48,14 +48,6 @@ std::function<void(const IterationRecord&)> iterationLines(const std::string& ty
   };
 }
 
-/// The V-cycles and the phases of a TNNMG solve, for summary.json.
-template <class Statistics>
-void reportTnnmg(const Statistics& st, SolverReport& report) {
-  report.vcycles = st.vcycles;
-  report.phases = TnnmgPhases{st.setupSeconds,      st.smoothingSeconds, st.updateSeconds,
-                              st.correctionSeconds, st.otherSeconds,     st.operatorUpdates};
-}
-
 /// A scene without contact (one body): CHOLMOD ("direct") or the linear multigrid iteration.
 template <int d>
 SceneSolution solveLinear(const Scene& scene, const mesh::Grid& grid, const mesh::Mesh& mesh,
@@ -364,7 +356,7 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
         }
       }
     }
-    if (const auto* tnnmg = dynamic_cast<const TNNMG<d>*>(solver.get())) reportTnnmg(tnnmg->statistics(), s.solver);
+    if (const auto* tnnmg = dynamic_cast<const TNNMG<d>*>(solver.get())) reportTnnmgPhases(tnnmg->statistics(), s.solver);
   } catch (const Error& err) {
     solverFailed(scene, type, err);
   }
@@ -374,13 +366,7 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
   if (!x.allFinite())
     throw Error(scene.where(scene.solver.line) + "[solver] " + type + " failed: NaN or Inf in the solution");
   s.solver.type = type;
-  s.solver.iterations = result.iterations;
-  s.solver.converged = result.converged && (!s.solver.friction || s.solver.friction->converged);
-  s.solver.seconds = s.solveSeconds;
-  s.solver.tolerance = tolerance;
-  s.solver.correction = result.correction;
-  s.solver.convergenceRate = result.convergenceRate;
-  s.solver.kkt = result.kkt;
+  reportContactResult(result, s.solveSeconds, tolerance, s.solver);
 
   // displacements per body
   const Eigen::VectorXd u = problem->toDisplacement(x);
