@@ -15,8 +15,16 @@ namespace obs {
 
 RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vector<mesh::Point>& vertices,
                                    int dimension, const std::vector<char>& massless,
-                                   const MassRedistributionOptions& options) {
+                                   const MassRedistributionOptions& options, Index owned, const Communicator* comm) {
   const Eigen::Index n = M.rows();
+  // the rows this rank sums (all without comm), and the reductions over the ranks
+  const Eigen::Index rows = comm ? owned : n;
+  if (comm && (owned < 0 || owned > n))
+    throw Error("mass redistribution: " + std::to_string(owned) + " owned rows of " + std::to_string(n));
+  const auto sum = [&](std::vector<double>& x) {
+    if (comm) comm->sum(x);
+  };
+  const auto maximum = [&](double x) { return comm ? comm->max(x) : x; };
   if (M.cols() != n || static_cast<Eigen::Index>(vertices.size()) != n ||
       static_cast<Eigen::Index>(massless.size()) != n)
     throw Error("mass redistribution: matrix (" + std::to_string(M.rows()) + " x " + std::to_string(M.cols()) +
@@ -33,16 +41,18 @@ RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vecto
     RedistributedMass out;
     out.massless = massless;
     out.matrix = M;
-    bool keeps = false;
+    std::vector<double> totals{0.0, 0.0};  // moved mass, kept entries (owned rows)
     for (Eigen::Index i = 0; i < n; ++i)
       for (ScalarSparseMatrix::InnerIterator it(out.matrix, i); it; ++it)
         if (massless[i] || massless[it.col()]) {
-          out.movedMass += it.value();
+          if (i < rows) totals[0] += it.value();
           it.valueRef() = 0;
-        } else {
-          keeps = true;
+        } else if (i < rows) {
+          totals[1] += 1;
         }
-    if (!keeps) throw Error("mass redistribution: no matrix entry couples two vertices that keep mass");
+    sum(totals);
+    out.movedMass = totals[0];
+    if (totals[1] == 0) throw Error("mass redistribution: no matrix entry couples two vertices that keep mass");
     return out;
   }
   // constraints: 1 (total mass), d first moments, d(d+1)/2 second moments (moments = 2)
@@ -54,12 +64,22 @@ RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vecto
   // weights of order one
   Eigen::Vector3d xbar = Eigen::Vector3d::Zero();
   Eigen::Index kept = 0;
-  for (Eigen::Index i = 0; i < n; ++i)
-    if (!massless[i]) xbar += vertices[i], ++kept;
+  {
+    std::vector<double> s(4, 0.0);  // sum of the kept (owned) positions, their number
+    for (Eigen::Index i = 0; i < rows; ++i)
+      if (!massless[i]) {
+        for (int a = 0; a < 3; ++a) s[a] += vertices[i][a];
+        s[3] += 1;
+      }
+    sum(s);
+    xbar = Eigen::Vector3d(s[0], s[1], s[2]);
+    kept = static_cast<Eigen::Index>(s[3]);
+  }
   if (kept == 0) throw Error("mass redistribution: every vertex is massless (no vertex keeps mass)");
   xbar /= static_cast<double>(kept);
   double L = 0;
-  for (Eigen::Index i = 0; i < n; ++i) L = std::max(L, (vertices[i] - xbar).norm());
+  for (Eigen::Index i = 0; i < rows; ++i) L = std::max(L, (vertices[i] - xbar).norm());
+  L = maximum(L);
   if (!(L > 0) || !std::isfinite(L))
     throw Error("mass redistribution: the vertices span no volume (radius " + std::to_string(L) + ")");
 
@@ -82,20 +102,32 @@ RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vecto
   out.matrix = M;
   Eigen::VectorXd target = Eigen::VectorXd::Zero(m);
   Eigen::MatrixXd G = Eigen::MatrixXd::Zero(m, m);
-  Eigen::Index keptEntries = 0;
+  double keptEntries = 0;
   for (Eigen::Index i = 0; i < n; ++i)
     for (ScalarSparseMatrix::InnerIterator it(out.matrix, i); it; ++it) {
       const Eigen::Index j = it.col();
+      const bool counted = i < rows;
       const Eigen::VectorXd w = weights(i, j);
-      target += it.value() * w;
+      if (counted) target += it.value() * w;
       if (massless[i] || massless[j]) {
-        out.movedMass += it.value();
+        if (counted) out.movedMass += it.value();
         it.valueRef() = 0;
-      } else {
+      } else if (counted) {
         G += std::abs(it.value()) * w * w.transpose();
         ++keptEntries;
       }
     }
+  if (comm) {  // target, G, moved mass, kept entries summed over the ranks
+    std::vector<double> s(target.data(), target.data() + m);
+    s.insert(s.end(), G.data(), G.data() + m * m);
+    s.push_back(out.movedMass);
+    s.push_back(keptEntries);
+    sum(s);
+    target = Eigen::Map<const Eigen::VectorXd>(s.data(), m);
+    G = Eigen::Map<const Eigen::MatrixXd>(s.data() + m, m, m);
+    out.movedMass = s[static_cast<std::size_t>(m + m * m)];
+    keptEntries = s[static_cast<std::size_t>(m + m * m + 1)];
+  }
   if (keptEntries == 0) throw Error("mass redistribution: no matrix entry couples two vertices that keep mass");
   // G is singular iff the kept entries cannot carry the constraints independently (e.g. all vertices
   // that keep mass on one line in 2D, on one plane in 3D): no such M~ exists in general
@@ -130,6 +162,7 @@ RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vecto
     e.gram = Eigen::MatrixXd::Zero(m, m);
     for (Eigen::Index i = 0; i < n; ++i) {
       if (massless[i]) continue;
+      const bool counted = i < rows;  // the other rows are rescaled but summed by their owners
       for (ScalarSparseMatrix::InnerIterator it(out.matrix, i), it0(M0, i); it; ++it, ++it0) {
         const Eigen::Index j = it.col();
         if (massless[j]) continue;
@@ -137,15 +170,28 @@ RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vecto
         const double mij = it0.value(), q = lambda.dot(w);
         if (1 + q > theta || mij == 0) {
           it.valueRef() = mij + std::abs(mij) * q;
-          e.gram += std::abs(mij) * w * w.transpose();
+          if (counted) e.gram += std::abs(mij) * w * w.transpose();
         } else {
           it.valueRef() = theta * mij;
-          ++e.bounded;
+          if (counted) ++e.bounded;
         }
+        if (!counted) continue;
         if (mij != 0) e.minimumFactor = std::min(e.minimumFactor, it.value() / mij);
         e.constraints += it.value() * w;
         if (mij != 0) e.dual += (it.value() - mij) * (it.value() - mij) / (2 * std::abs(mij)) - it.value() * q;
       }
+    }
+    if (comm) {  // one reduction per evaluation: constraints, Gram matrix, dual, bounded count
+      std::vector<double> s(e.constraints.data(), e.constraints.data() + m);
+      s.insert(s.end(), e.gram.data(), e.gram.data() + m * m);
+      s.push_back(e.dual);
+      s.push_back(static_cast<double>(e.bounded));
+      sum(s);
+      e.constraints = Eigen::Map<const Eigen::VectorXd>(s.data(), m);
+      e.gram = Eigen::Map<const Eigen::MatrixXd>(s.data() + m, m, m);
+      e.dual = s[static_cast<std::size_t>(m + m * m)];
+      e.bounded = static_cast<Eigen::Index>(s[static_cast<std::size_t>(m + m * m + 1)]);
+      e.minimumFactor = -comm->max(-e.minimumFactor);
     }
     e.dual += lambda.dot(target);
     return e;

@@ -6,7 +6,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <functional>
 #include <limits>
+#include <optional>
 #include <sstream>
 #include <utility>
 
@@ -157,32 +159,103 @@ NewmarkFamily<d>::NewmarkFamily(const std::vector<const mesh::Grid*>& grids, Con
 }
 
 template <int d>
-void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, ContactModel<d>& model) {
-  checkInputs(grids, model);
-  typename ContactModel<d>::Parts parts = model.assembleParts();
-  const ContactSet& contact = parts.contact;
-  numVertices_ = parts.system.numVertices();
-  for (Index v : options_.trackedVertices)
-    if (v < 0 || v >= numVertices_)
-      throw Error("time stepping: tracked vertex " + std::to_string(v) + " is not a vertex of the mesh (0.." +
-                  std::to_string(numVertices_ - 1) + ")");
-  A_ = std::move(parts.system.stiffness);
-  f_ = std::move(parts.system.load);
-  dirichlet_ = std::move(parts.system.dirichlet);
-  basis_ = parts.basis;
-  assembleMasses(model, contact);
-  BlockSparseMatrix<d> S = stepMatrix(contact);
-  contact_ = std::make_unique<ContactSet>(contact);
-  friction_ = nodalFriction(model, contact);
-  S_ = S;
-  // From here on the matrices are only read: on grids of repeated cells their products (S base and
-  // A u^{n+1} in every step) read a block number per entry instead of a block (the same values and
-  // bits, docs/performance.md#shared-blocks)
-  for (BlockSparseMatrix<d>* m : {&A_, &M_, &Mr_, &S_}) m->shareRepeatedBlocks();
-  setupStepProblem(std::move(S));
+NewmarkFamily<d>::NewmarkFamily(const DistributedGrid& grid, const DistributedView& leaf, ContactModel<d>& model,
+                                const NewmarkOptions& options)
+    : options_(options), comm_(&grid.communicator()), halo_(&leaf.halo), owned_(leaf.halo.numOwned()) {
+  comm_->collective([&] {
+    if (grid.grid().dimension() != d)
+      throw Error("time stepping: the grid has dimension " + std::to_string(grid.grid().dimension()) +
+                  ", the stepper " + std::to_string(d));
+    if (model.bodies().size() != 1)
+      throw Error("time stepping: a distributed contact model has one body (got " +
+                  std::to_string(model.bodies().size()) + "); several bodies are not distributed yet");
+    if (model.bodies().front().mesh->numVertices() != leaf.local.numVertices())
+      throw Error("time stepping: the body of the distributed contact model is not the rank's local mesh (" +
+                  std::to_string(model.bodies().front().mesh->numVertices()) + " vertices, the local mesh has " +
+                  std::to_string(leaf.local.numVertices()) + ")");
+  });
+  init({&grid.grid()}, model, &grid);
+}
+
+template <int d>
+void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, ContactModel<d>& model,
+                            const DistributedGrid* distributed) {
+  // the local work of the setup runs through guard: an error on one rank reaches every rank
+  // (Communicator::collective) instead of leaving the others in the next reduction
+  const auto guard = [&](const std::function<void()>& work) {
+    if (comm_)
+      comm_->collective(work);
+    else
+      work();
+  };
+  std::optional<typename ContactModel<d>::Parts> assembled;
+  guard([&] {
+    checkInputs(grids, model);
+    assembled.emplace(model.assembleParts());
+    typename ContactModel<d>::Parts& parts = *assembled;
+    numVertices_ = parts.system.numVertices();
+    if (!comm_) owned_ = numVertices_;
+    for (Index v : options_.trackedVertices)
+      if (v < (comm_ ? -1 : 0) || v >= owned_)
+        throw Error("time stepping: tracked vertex " + std::to_string(v) + " is not " +
+                    (comm_ ? "-1 or an owned vertex of the rank (0.." : "a vertex of the mesh (0..") +
+                    std::to_string(owned_ - 1) + ")");
+    if (comm_ && parts.basis.rows > 0)
+      throw Error("time stepping: mortar pairs are not distributed (one body against obstacles on ranks)");
+    A_ = std::move(parts.system.stiffness);
+    f_ = std::move(parts.system.load);
+    dirichlet_ = std::move(parts.system.dirichlet);
+    basis_ = parts.basis;
+  });
+  const ContactSet& contact = assembled->contact;
+  assembleMasses(model, contact);  // collective with redistribution
+  guard([&] {
+    BlockSparseMatrix<d> S = stepMatrix(contact);
+    contact_ = std::make_unique<ContactSet>(contact);
+    friction_ = nodalFriction(model, contact);
+    // the model's couplings decide, the same on every rank (a rank may hold no contact node)
+    frictional_ = model.frictional() && !friction_.bound.empty();
+    S_ = S;
+    // From here on the matrices are only read: on grids of repeated cells their products (S base and
+    // A u^{n+1} in every step) read a block number per entry instead of a block (the same values and
+    // bits, docs/performance.md#shared-blocks)
+    for (BlockSparseMatrix<d>* m : {&A_, &M_, &Mr_, &S_}) m->shareRepeatedBlocks();
+    setupStepProblem(std::move(S));
+  });
+  frictional_ = anyRank(frictional_);
   typename TNNMG<d>::Options so = tnnmgOptions<d>(options_.solver);
   so.recordHistory = false;
-  solver_ = grids.size() == 1 ? std::make_unique<TNNMG<d>>(*grids.front(), so) : std::make_unique<TNNMG<d>>(grids, so);
+  if (distributed)
+    solver_ = std::make_unique<TNNMG<d>>(*distributed, so);  // collective
+  else
+    solver_ = grids.size() == 1 ? std::make_unique<TNNMG<d>>(*grids.front(), so) : std::make_unique<TNNMG<d>>(grids, so);
+}
+
+template <int d>
+void NewmarkFamily<d>::sum(std::vector<double>& x) const {
+  if (comm_) comm_->sum(x);
+}
+
+template <int d>
+double NewmarkFamily<d>::maximum(double x) const {
+  return comm_ ? comm_->max(x) : x;
+}
+
+template <int d>
+bool NewmarkFamily<d>::anyRank(bool flag) const {
+  return comm_ ? comm_->max(flag ? 1.0 : 0.0) > 0 : flag;
+}
+
+template <int d>
+double NewmarkFamily<d>::dot(const Eigen::VectorXd& x, const Eigen::VectorXd& y) const {
+  const Eigen::Index n = static_cast<Eigen::Index>(owned_) * d;
+  const double local = x.head(n).dot(y.head(n));
+  return comm_ ? comm_->sum(local) : local;
+}
+
+template <int d>
+void NewmarkFamily<d>::updateGhosts(Eigen::VectorXd& x) const {
+  if (halo_ && x.size() == static_cast<Eigen::Index>(numVertices_) * d) halo_->update(x, d);
 }
 
 template <int d>
@@ -200,7 +273,7 @@ void NewmarkFamily<d>::checkInputs(const std::vector<const mesh::Grid*>& grids, 
     if (!grids[i] || grids[i]->dimension() != d)
       throw Error("time stepping: the grid of body '" + bodies[i].name + "' has dimension " +
                   std::to_string(grids[i] ? grids[i]->dimension() : 0) + ", the stepper " + std::to_string(d));
-    if (grids[i]->leafView().mesh.numVertices() != bodies[i].mesh->numVertices())
+    if (!comm_ && grids[i]->leafView().mesh.numVertices() != bodies[i].mesh->numVertices())
       throw Error("time stepping: the grid of body '" + bodies[i].name + "' does not carry the body's mesh (" +
                   std::to_string(grids[i]->leafView().mesh.numVertices()) + " leaf vertices, the mesh has " +
                   std::to_string(bodies[i].mesh->numVertices()) + ")");
@@ -258,12 +331,13 @@ void NewmarkFamily<d>::redistributeMasses(const ContactModel<d>& model,
     const Index off = bodies[i].offset, n = bodies[i].mesh->numVertices();
     offsets.push_back(off);
     std::vector<char> local(massless.begin() + off, massless.begin() + off + n);
-    if (std::find(local.begin(), local.end(), 1) == local.end()) {
+    if (!anyRank(std::find(local.begin(), local.end(), 1) != local.end())) {
       tilde.push_back(consistentPerBody[i]);  // no contact vertex: nothing to redistribute
       continue;
     }
+    // distributed (one body): global multipliers from the rank's owned rows (collective)
     RedistributedMass r = redistributeMass(consistentPerBody[i], bodies[i].mesh->vertices(), d, local,
-                                           options_.redistribution);
+                                           options_.redistribution, comm_ ? owned_ : -1, comm_);
     tilde.push_back(std::move(r.matrix));
     const Eigen::Index m = stacked->multipliers.size();
     stacked->multipliers.conservativeResize(m + r.multipliers.size());
@@ -278,13 +352,23 @@ void NewmarkFamily<d>::redistributeMasses(const ContactModel<d>& model,
   redistributed_ = std::move(stacked);
   Mr_ = expandMass<d>(redistributed_->matrix, A_);
   const ScalarSparseMatrix& Mt = redistributed_->matrix;
-  for (Eigen::Index i = 0; i < Mt.outerSize(); ++i) {
-    if (massless[static_cast<std::size_t>(i)]) continue;
-    if (!(Mt.coeff(i, i) > 0))
-      throw Error("time stepping: the redistributed mass matrix has the non-positive diagonal entry " +
-                  num(Mt.coeff(i, i)) + " at vertex " + std::to_string(i) +
-                  " (too much mass on the contact boundary: refine the mesh near it)");
+  const auto checkDiagonal = [&] {  // the owned rows (distributed: the others are partial sums)
+    for (Eigen::Index i = 0; i < owned_; ++i) {
+      if (massless[static_cast<std::size_t>(i)]) continue;
+      if (!(Mt.coeff(i, i) > 0))
+        throw Error("time stepping: the redistributed mass matrix has the non-positive diagonal entry " +
+                    num(Mt.coeff(i, i)) + " at vertex " + std::to_string(i) +
+                    " (too much mass on the contact boundary: refine the mesh near it)");
+    }
+  };
+  if (comm_) {
+    comm_->collective(checkDiagonal);
+    // the inertia check factorises the whole M~, which no rank holds: not done on ranks
+    redistributedCheck_.positiveDefinite = true;
+    redistributedCheck_.checked = false;
+    return;
   }
+  checkDiagonal();
   // An indefinite M~ gives modes with x'M~x < 0 < x'Ax, which grow (weakly for large tau^2 A);
   // checked once on the vertices that keep mass and are not fully Dirichlet-constrained (one scalar
   // sparse LDL'). If it is indefinite, S = M~ + c tau^2 A is checked by stepMatrix.
@@ -445,7 +529,10 @@ Eigen::VectorXd NewmarkFamily<d>::applyMass(const Eigen::VectorXd& x, bool redis
 
 template <int d>
 double NewmarkFamily<d>::energy(const Eigen::VectorXd& u, const Eigen::VectorXd& v) const {
-  return 0.5 * v.dot(applyMass(v, false)) + 0.5 * A_.energy(u) - f_.dot(u);
+  if (!comm_) return 0.5 * v.dot(applyMass(v, false)) + 0.5 * A_.energy(u) - f_.dot(u);
+  Eigen::VectorXd Au;
+  A_.multiply(u, Au);
+  return 0.5 * dot(v, applyMass(v, false)) + 0.5 * dot(u, Au) - dot(f_, u);
 }
 
 template <int d>
@@ -467,7 +554,7 @@ double NewmarkFamily<d>::activeTolerance(const Eigen::VectorXd& u) const {
   double U = u.size() ? u.template lpNorm<Eigen::Infinity>() : 0.0;
   for (double g : gaps_)
     if (std::isfinite(g)) U = std::max(U, std::abs(g));
-  return options_.activeTolerance * std::max(U, 1e-300);
+  return options_.activeTolerance * std::max(maximum(U), 1e-300);  // the same scale on every rank
 }
 
 template <int d>
@@ -493,6 +580,31 @@ void NewmarkFamily<d>::checkInitialized() const {
 template <int d>
 void NewmarkFamily<d>::initialize(const Eigen::VectorXd& u0, const Eigen::VectorXd& v0) {
   const Eigen::Index n = static_cast<Eigen::Index>(numVertices_) * d;
+  const auto guard = [&](const std::function<void()>& work) {  // see init()
+    if (comm_)
+      comm_->collective(work);
+    else
+      work();
+  };
+  guard([&] { checkInitialState(u0, v0); });
+  const double tol = activeTolerance(u0);  // collective
+  guard([&] { checkInitialContact(u0, tol); });
+  state_ = DynamicState{0, 0.0, u0, v0, Eigen::VectorXd()};
+  frictionDissipation_ = 0;
+  previousMultiplier_ = Eigen::VectorXd::Zero(n);
+  multiplier_ = Eigen::VectorXd::Zero(n);
+  previousVelocity_.resize(0);
+  nextTolerance_ = 0;
+  previousIncrement_.resize(0);
+  if (options_.scheme == NewmarkScheme::KhenousLabordeRenard) state_.a = initialAcceleration(u0);
+  initialized_ = true;
+  A_.multiply(state_.u, Au_);
+  last_ = makeRecord();
+}
+
+template <int d>
+void NewmarkFamily<d>::checkInitialState(const Eigen::VectorXd& u0, const Eigen::VectorXd& v0) const {
+  const Eigen::Index n = static_cast<Eigen::Index>(numVertices_) * d;
   if (u0.size() != n || v0.size() != n)
     throw Error("time stepping: initial state with " + std::to_string(u0.size()) + " / " + std::to_string(v0.size()) +
                 " entries, the problem has " + std::to_string(n) + " unknowns");
@@ -506,12 +618,16 @@ void NewmarkFamily<d>::initialize(const Eigen::VectorXd& u0, const Eigen::Vector
                   std::to_string(i % d) + " does not match the Dirichlet condition (u = " + num(u0[i]) +
                   ", prescribed " + num(g) + "; v = " + num(v0[i]) + ", must be 0)");
   }
-  const double tol = activeTolerance(u0);
+}
+
+template <int d>
+void NewmarkFamily<d>::checkInitialContact(const Eigen::VectorXd& u0, double tol) const {
   const Eigen::VectorXd x0 = relative(u0);
   for (Index k = 0; k < contact_->size(); ++k) {
     const double g = gaps_[static_cast<std::size_t>(k)];
     if (!std::isfinite(g)) continue;
     const Index p = contact_->vertex(k);
+    if (p >= owned_) continue;  // distributed: a ghost, checked by its owner
     const double un = contact_->direction(k).template head<d>().dot(x0.template segment<d>(static_cast<Eigen::Index>(p) * d));
     if (un - g > tol) {
       const Point& x = contact_->position(k);
@@ -520,49 +636,79 @@ void NewmarkFamily<d>::initialize(const Eigen::VectorXd& u0, const Eigen::Vector
                   "): nu.u = " + num(un) + " > gap " + num(g));
     }
   }
-  state_ = DynamicState{0, 0.0, u0, v0, Eigen::VectorXd()};
-  frictionDissipation_ = 0;
-  previousMultiplier_ = Eigen::VectorXd::Zero(n);
-  multiplier_ = Eigen::VectorXd::Zero(n);
-  previousVelocity_.resize(0);
-  nextTolerance_ = 0;
-  previousIncrement_.resize(0);
-  if (options_.scheme == NewmarkScheme::KhenousLabordeRenard) {
-    // a^0: M~ a^0 = f - A u^0 on the vertices with mass, per component (Dirichlet components 0)
-    state_.a = Eigen::VectorXd::Zero(n);
-    const Eigen::VectorXd r = f_ - A_ * u0;
-    const ScalarSparseMatrix& Mt = redistributed_->matrix;
-    for (int c = 0; c < d; ++c) {
-      auto fixed = [&](Eigen::Index v) {
-        return redistributed_->massless[static_cast<std::size_t>(v)] ||
-               dirichlet_.constrained[static_cast<std::size_t>(v * d + c)];
-      };
-      std::vector<Eigen::Triplet<double>> t;
-      Eigen::VectorXd b = Eigen::VectorXd::Zero(numVertices_);
-      for (Eigen::Index i = 0; i < Mt.outerSize(); ++i) {
-        if (fixed(i)) {
-          t.emplace_back(i, i, 1.0);
-          continue;
+}
+
+template <int d>
+Eigen::VectorXd NewmarkFamily<d>::initialAcceleration(const Eigen::VectorXd& u0) const {
+  // a^0: M~ a^0 = f - A u^0 on the vertices with mass, per component (Dirichlet components and
+  // massless vertices 0), by conjugate gradients preconditioned with the diagonal of M~; the sums
+  // run over the owned vertices (and the ranks), the ghosts of the search direction come from their
+  // owners before every product
+  const Eigen::Index n = static_cast<Eigen::Index>(numVertices_) * d;
+  Eigen::VectorXd a = Eigen::VectorXd::Zero(n);
+  Eigen::VectorXd Au;
+  A_.multiply(u0, Au);
+  const Eigen::VectorXd r0 = f_ - Au;
+  const ScalarSparseMatrix& Mt = redistributed_->matrix;
+  std::vector<char> fixed(static_cast<std::size_t>(n), 0);  // per component: a = 0
+  for (Eigen::Index i = 0; i < n; ++i)
+    fixed[static_cast<std::size_t>(i)] = redistributed_->massless[static_cast<std::size_t>(i / d)] ||
+                                         dirichlet_.constrained[static_cast<std::size_t>(i)];
+  // y = K x on the owned rows (all rows serially): K = M~ on the free components of each component
+  const auto apply = [&](const Eigen::VectorXd& x, Eigen::VectorXd& y) {
+    y.setZero(n);
+    for (Index i = 0; i < owned_; ++i)
+      for (int c = 0; c < d; ++c) {
+        const Eigen::Index row = static_cast<Eigen::Index>(i) * d + c;
+        if (fixed[static_cast<std::size_t>(row)]) continue;
+        double s = 0;
+        for (ScalarSparseMatrix::InnerIterator it(Mt, i); it; ++it) {
+          const Eigen::Index col = static_cast<Eigen::Index>(it.col()) * d + c;
+          if (!fixed[static_cast<std::size_t>(col)]) s += it.value() * x[col];
         }
-        b[i] = r[i * d + c];
-        for (ScalarSparseMatrix::InnerIterator it(Mt, i); it; ++it)
-          if (!fixed(it.col())) t.emplace_back(i, it.col(), it.value());
+        y[row] = s;
       }
-      Eigen::SparseMatrix<double> K(numVertices_, numVertices_);
-      K.setFromTriplets(t.begin(), t.end());
-      Eigen::ConjugateGradient<Eigen::SparseMatrix<double>, Eigen::Lower | Eigen::Upper> cg;
-      cg.setTolerance(1e-14);
-      cg.setMaxIterations(10 * numVertices_ + 100);
-      cg.compute(K);
-      const Eigen::VectorXd x = cg.solve(b);
-      if (!x.allFinite())
-        throw Error("time stepping: the initial acceleration (M~ a = f - A u^0) could not be computed");
-      for (Index v = 0; v < numVertices_; ++v) state_.a[static_cast<Eigen::Index>(v) * d + c] = x[v];
+  };
+  Eigen::VectorXd diagonal = Eigen::VectorXd::Ones(n);
+  Eigen::VectorXd r = Eigen::VectorXd::Zero(n);
+  for (Index i = 0; i < owned_; ++i)
+    for (int c = 0; c < d; ++c) {
+      const Eigen::Index row = static_cast<Eigen::Index>(i) * d + c;
+      if (fixed[static_cast<std::size_t>(row)]) continue;
+      diagonal[row] = Mt.coeff(i, i);
+      r[row] = r0[row];
     }
+  const double bnorm = std::sqrt(dot(r, r));
+  if (!std::isfinite(bnorm))
+    throw Error("time stepping: the initial acceleration (M~ a = f - A u^0) has a non-finite right-hand side");
+  Eigen::VectorXd z = r.cwiseQuotient(diagonal), p = z, q;
+  double rz = dot(r, z);
+  const double cap = maximum(10.0 * static_cast<double>(numVertices_) + 100);  // the same on every rank
+  bool converged = bnorm == 0;
+  for (double it = 0; it < cap && !converged; ++it) {
+    updateGhosts(p);
+    apply(p, q);
+    const double pq = dot(p, q);
+    if (!(pq > 0)) break;  // M~ not positive on this direction: reported below
+    const double alpha = rz / pq;
+    a += alpha * p;
+    r -= alpha * q;
+    if (std::sqrt(dot(r, r)) <= 1e-14 * bnorm) {
+      converged = true;
+      break;
+    }
+    z = r.cwiseQuotient(diagonal);
+    const double rzNext = dot(r, z);
+    p = z + (rzNext / rz) * p;
+    rz = rzNext;
   }
-  initialized_ = true;
-  A_.multiply(state_.u, Au_);
-  last_ = makeRecord();
+  if (!converged || anyRank(!a.allFinite()))
+    throw Error("time stepping: the initial acceleration (M~ a = f - A u^0) could not be computed (conjugate "
+                "gradients did not converge on the redistributed mass matrix)");
+  for (Eigen::Index i = 0; i < n; ++i)  // the ghosts from their owners; a = 0 where fixed
+    if (fixed[static_cast<std::size_t>(i)]) a[i] = 0;
+  updateGhosts(a);
+  return a;
 }
 
 template <int d>
@@ -674,6 +820,7 @@ StepRecord NewmarkFamily<d>::step() {
       base += predictorCorrection(P, std::vector<double>(constraints_.size(), 1.0));  // the projection onto K
     }
   }
+  updateGhosts(base);  // distributed: the owners' base (a ghost's constraint is its owner's business)
   Eigen::VectorXd rhs = applyMass(base, redistributed) + (0.5 * tau * tau) * f_;
   if (scheme != NewmarkScheme::KhenousLabordeRenard) rhs -= (0.25 * tau * tau) * Au_;  // Au_ = A u^n
   // classical (5.21): + tau^2/4 M F_con^n, the reaction of the obstacle at t^n. The solver's multiplier
@@ -719,7 +866,7 @@ StepRecord NewmarkFamily<d>::step() {
   ContactResult result;
   int frictionSolves = 0;
   Eigen::VectorXd slipOrigin;
-  if (friction_.bound.empty()) {
+  if (!frictional_) {
     result = solver_->solve(*problem_, increment);
   } else {
     NodalFriction f = friction_;
@@ -727,7 +874,7 @@ StepRecord NewmarkFamily<d>::step() {
     slipOrigin = basis_.rows > 0 ? problem_->fromDisplacement(u - base) : Eigen::VectorXd(u - base);
     CoulombOptions co;
     co.tolerance = std::max(co.tolerance, 10 * tolerance);
-    const CoulombResult fr = solveFriction(*problem_, *solver_, increment, f, co, slipOrigin);
+    const CoulombResult fr = solveFriction(*problem_, *solver_, increment, f, co, slipOrigin, halo_);
     result = fr.last;
     result.iterations = static_cast<int>(fr.innerIterations);
     frictionSolves = fr.iterations;
@@ -742,7 +889,7 @@ StepRecord NewmarkFamily<d>::step() {
     throw Error("time stepping: step " + std::to_string(state_.step + 1) + " (t = " + num(state_.time + tau) +
                 "): TNNMG did not converge in " + std::to_string(result.iterations) + " iterations (correction " +
                 num(result.correction) + ")");
-  if (!unew.allFinite())
+  if (anyRank(!unew.allFinite()))
     throw Error("time stepping: step " + std::to_string(state_.step + 1) + ": non-finite displacement");
 
   // nodal multipliers lambda = c' tau^2 M F_con
@@ -795,7 +942,9 @@ StepRecord NewmarkFamily<d>::step() {
       if (basis_.rows > 0) vnew -= (2 / tau) * predictorCorrection(P, betas);
     }
   }
-  if (!vnew.allFinite())
+  updateGhosts(vnew);  // distributed: a ghost's predictor terms are its owner's
+  if (scheme == NewmarkScheme::KhenousLabordeRenard) updateGhosts(anew);
+  if (anyRank(!vnew.allFinite()))
     throw Error("time stepping: step " + std::to_string(state_.step + 1) + ": non-finite velocity");
   if (scheme == NewmarkScheme::Classical) previousMultiplier_ = multiplier_;
 
@@ -803,7 +952,7 @@ StepRecord NewmarkFamily<d>::step() {
   // velocity differences) and the tolerance of the next one, both in the S-norm of TNNMG's test
   double timeError = std::numeric_limits<double>::quiet_NaN();
   if (inexact) {
-    auto normS = [&](const Eigen::VectorXd& x) { return std::sqrt(std::max(0.0, x.dot(S_ * x))); };
+    auto normS = [&](const Eigen::VectorXd& x) { return std::sqrt(std::max(0.0, dot(x, S_ * x))); };
     if (previousVelocity_.size() == n) {
       const double c = scheme == NewmarkScheme::KhenousLabordeRenard ? 1.0 / 3.0 : 1.0 / 12.0;  // |beta - 1/6|
       timeError = c * tau * normS(vnew - 2 * v + previousVelocity_);
@@ -812,23 +961,45 @@ StepRecord NewmarkFamily<d>::step() {
     previousVelocity_ = v;  // v^n (v refers to state_.v, replaced below)
   }
 
-  // friction: the friction force of the step and the energy it dissipates, |F_T| |(u^{n+1} - u^n)_T|
-  Eigen::Vector3d frictionForce = Eigen::Vector3d::Zero();
-  Index stickNodes = 0, slipNodes = 0;
-  if (problem_->frictional()) {
-    const ContactOutputs out = computeContactOutputs(*problem_, increment);
+  // friction: the friction force of the step and the energy it dissipates, |F_T| |(u^{n+1} - u^n)_T|,
+  // and the step's node counts, summed over the owned nodes (and the ranks) in one reduction:
+  // dissipation, friction force (3), stick, slip, active predictor, predictor only, solution only
+  std::vector<double> sums(9, 0.0);
+  if (frictional_) {
+    // the scales of computeContactOutputs over the owned vertices and the ranks (the same thresholds
+    // of contact and stick on every rank)
+    const Eigen::Index ownedDofs = static_cast<Eigen::Index>(owned_) * d;
+    double U = increment.head(ownedDofs).template lpNorm<Eigen::Infinity>(), F = 0;
+    for (Index k = 0; k < contact_->size(); ++k)
+      if (contact_->vertex(k) < owned_ && std::isfinite(contact_->gap(k))) U = std::max(U, std::abs(contact_->gap(k)));
+    Eigen::VectorXd Aw;
+    problem_->multiply(increment, Aw);
+    for (Eigen::Index i = 0; i < ownedDofs; ++i)
+      if (!problem_->dirichlet().constrained[static_cast<std::size_t>(i)])
+        F = std::max({F, std::abs(problem_->rhs()[i]), std::abs(Aw[i])});
+    U = maximum(U);
+    const ContactOutputs out = computeContactOutputs(*problem_, increment, 1e-8, U > 0 ? U : 1, maximum(F));
     const double factor = multiplierFactor_ * tau * tau;
     frictionForces_.setZero(n);
     for (Index k = 0; k < contact_->size(); ++k) {
-      frictionDissipation_ += out.tangential[k].norm() / factor * out.slip[k];
-      frictionForce += out.tangential[k] / factor;
       frictionForces_.template segment<d>(static_cast<Eigen::Index>(contact_->vertex(k)) * d) +=
           out.tangential[k].template head<d>() / factor;
+      if (contact_->vertex(k) >= owned_) continue;  // a ghost: its owner's
+      sums[0] += out.tangential[k].norm() / factor * out.slip[k];
+      for (int a = 0; a < 3; ++a) sums[1 + a] += out.tangential[k][a] / factor;
+      sums[4] += out.state[static_cast<std::size_t>(k)] == 1;
+      sums[5] += out.state[static_cast<std::size_t>(k)] == 2;
     }
     frictionStates_ = out.state;
-    stickNodes = out.stickNodes;
-    slipNodes = out.slipNodes;
   }
+  for (std::size_t k = 0; k < constraints_.size(); ++k) {
+    if (constraints_[k].vertex >= owned_) continue;
+    sums[6] += P.active[k];
+    sums[7] += P.active[k] && !solActive[k];
+    sums[8] += !P.active[k] && solActive[k];
+  }
+  sum(sums);
+  frictionDissipation_ += sums[0];
   if (options_.start == NewmarkStart::PreviousIncrement) previousIncrement_ = increment;
   state_.u = unew;
   A_.multiply(state_.u, Au_);
@@ -838,11 +1009,9 @@ StepRecord NewmarkFamily<d>::step() {
   state_.time += tau;
 
   StepRecord r = makeRecord();
-  for (std::size_t k = 0; k < constraints_.size(); ++k) {
-    r.activePredictor += P.active[k];
-    r.predictorOnly += P.active[k] && !solActive[k];
-    r.solutionOnly += !P.active[k] && solActive[k];
-  }
+  r.activePredictor = static_cast<Index>(sums[6]);
+  r.predictorOnly = static_cast<Index>(sums[7]);
+  r.solutionOnly = static_cast<Index>(sums[8]);
   r.solverIterations = result.iterations;
   r.solverRate = result.iterations >= 2 ? result.convergenceRate : std::numeric_limits<double>::quiet_NaN();
   r.solverSeconds = result.seconds;
@@ -850,9 +1019,9 @@ StepRecord NewmarkFamily<d>::step() {
   r.solverKkt = result.kkt.max();
   r.solverErrorBound = result.errorBound;
   r.timeError = timeError;
-  r.frictionForce = frictionForce;
-  r.stickNodes = stickNodes;
-  r.slipNodes = slipNodes;
+  r.frictionForce = Eigen::Vector3d(sums[1], sums[2], sums[3]);
+  r.stickNodes = static_cast<Index>(sums[4]);
+  r.slipNodes = static_cast<Index>(sums[5]);
   r.frictionSolves = frictionSolves;
   r.stepSeconds = seconds(start);
   last_ = r;
@@ -930,64 +1099,102 @@ template <int d>
 StepRecord NewmarkFamily<d>::makeRecord() const {
   const Eigen::VectorXd& u = state_.u;
   const Eigen::VectorXd& v = state_.v;
+  const double tau = options_.timeStep;
   StepRecord r;
   r.step = state_.step;
   r.time = state_.time;
   r.frictionDissipation = frictionDissipation_;
+  // the sums over the owned vertices (every vertex serially), added over the ranks in one reduction:
+  // 0 kinetic, 1 elastic, 2 load potential, 3-5 momentum, 6 kinetic (M~), 7-9 momentum (M~),
+  // 10 acceleration energy, 11-13 contact force, 14 active nodes, then per tracked vertex 10 values
+  const Eigen::Index ownedDofs = static_cast<Eigen::Index>(owned_) * d;
+  const std::size_t base = 15;
+  std::vector<double> sums(base + 10 * options_.trackedVertices.size(), 0.0);
   const Eigen::VectorXd Mv = applyMass(v, false);
-  r.kineticEnergy = 0.5 * v.dot(Mv);
-  r.elasticEnergy = 0.5 * u.dot(Au_);  // = A_.energy(u): Au_ is A u of the state
-  r.loadPotential = -f_.dot(u);
-  r.energy = r.kineticEnergy + r.elasticEnergy + r.loadPotential;
-  for (Index p = 0; p < numVertices_; ++p)
-    r.momentum.template head<d>() += Mv.template segment<d>(static_cast<Eigen::Index>(p) * d);
+  sums[0] = 0.5 * v.head(ownedDofs).dot(Mv.head(ownedDofs));
+  sums[1] = 0.5 * u.head(ownedDofs).dot(Au_.head(ownedDofs));  // = A_.energy(u): Au_ is A u of the state
+  sums[2] = -f_.head(ownedDofs).dot(u.head(ownedDofs));
+  for (Index p = 0; p < owned_; ++p)
+    for (int a = 0; a < d; ++a) sums[3 + a] += Mv[static_cast<Eigen::Index>(p) * d + a];
   if (redistributed_) {
     const Eigen::VectorXd Mrv = Mr_ * v;
-    r.hasRedistributed = true;
-    r.kineticEnergyRedistributed = 0.5 * v.dot(Mrv);
-    r.energyRedistributed = r.kineticEnergyRedistributed + r.elasticEnergy + r.loadPotential;
-    for (Index p = 0; p < numVertices_; ++p)
-      r.momentumRedistributed.template head<d>() += Mrv.template segment<d>(static_cast<Eigen::Index>(p) * d);
+    sums[6] = 0.5 * v.head(ownedDofs).dot(Mrv.head(ownedDofs));
+    for (Index p = 0; p < owned_; ++p)
+      for (int a = 0; a < d; ++a) sums[7 + a] += Mrv[static_cast<Eigen::Index>(p) * d + a];
   }
-  if (options_.scheme == NewmarkScheme::KhenousLabordeRenard && state_.a.size() == v.size()) {
-    const double tau = options_.timeStep;
-    r.hasAcceleration = true;
-    r.accelerationEnergy = 0.125 * tau * tau * state_.a.dot(Mr_ * state_.a);
-    r.energyModified = r.energyRedistributed + r.accelerationEnergy;
+  const bool acceleration = options_.scheme == NewmarkScheme::KhenousLabordeRenard && state_.a.size() == v.size();
+  if (acceleration) {
+    const Eigen::VectorXd Ma = Mr_ * state_.a;
+    sums[10] = 0.125 * tau * tau * state_.a.head(ownedDofs).dot(Ma.head(ownedDofs));
   }
-  const double tau = options_.timeStep;
-  for (Index p = 0; p < numVertices_; ++p)
-    r.contactForce.template head<d>() += multiplier_.template segment<d>(static_cast<Eigen::Index>(p) * d);
-  r.contactForce /= multiplierFactor_ * tau * tau;
+  for (Index p = 0; p < owned_; ++p)
+    for (int a = 0; a < d; ++a) sums[11 + a] += multiplier_[static_cast<Eigen::Index>(p) * d + a];
 
-  const double tol = activeTolerance(u);
+  const double tol = activeTolerance(u);  // collective
+  double penetration = 0;
   const Eigen::VectorXd x = relative(u), w = basis_.rows > 0 ? relative(v) : v;
   for (Index k = 0; k < contact_->size(); ++k) {
     const double g = gaps_[static_cast<std::size_t>(k)];
-    if (!std::isfinite(g)) continue;
+    if (!std::isfinite(g) || contact_->vertex(k) >= owned_) continue;
     const double un = contact_->direction(k).template head<d>().dot(
         x.template segment<d>(static_cast<Eigen::Index>(contact_->vertex(k)) * d));
-    r.activeSolution += g - un <= tol;
-    r.maxPenetration = std::max(r.maxPenetration, un - g);
+    sums[14] += g - un <= tol;
+    penetration = std::max(penetration, un - g);
   }
-  for (Index vtx : options_.trackedVertices) {
-    TrackedVertex t;
-    t.vertex = vtx;
+  // tracked vertices: on the rank that holds them (distributed: owns them; -1 elsewhere)
+  for (std::size_t j = 0; j < options_.trackedVertices.size(); ++j) {
+    const Index vtx = options_.trackedVertices[j];
+    if (vtx < 0) continue;
+    double* t = &sums[base + 10 * j];
     const auto i = static_cast<Eigen::Index>(vtx) * d;
-    t.displacement.template head<d>() = u.template segment<d>(i);
-    t.velocity.template head<d>() = v.template segment<d>(i);
+    for (int a = 0; a < d; ++a) {
+      t[a] = u[i + a];
+      t[3 + a] = v[i + a];
+    }
     const Index k = contact_->nodeOf(vtx);
     if (k >= 0) {
-      t.contactNode = true;
+      t[6] = 1;
       const Point& nu = contact_->direction(k);
       Eigen::Vector3d xr = Eigen::Vector3d::Zero(), wr = Eigen::Vector3d::Zero();
       xr.template head<d>() = x.template segment<d>(i);
       wr.template head<d>() = w.template segment<d>(i);
-      t.normalDisplacement = nu.dot(xr);
-      t.normalVelocity = nu.dot(wr);
-      t.gap = gaps_[static_cast<std::size_t>(k)] - t.normalDisplacement;
+      t[7] = nu.dot(xr);
+      t[8] = nu.dot(wr);
+      t[9] = gaps_[static_cast<std::size_t>(k)] - t[7];
     }
-    r.tracked.push_back(t);
+  }
+  sum(sums);
+  r.maxPenetration = maximum(penetration);
+
+  r.kineticEnergy = sums[0];
+  r.elasticEnergy = sums[1];
+  r.loadPotential = sums[2];
+  r.energy = r.kineticEnergy + r.elasticEnergy + r.loadPotential;
+  r.momentum = Eigen::Vector3d(sums[3], sums[4], sums[5]);
+  if (redistributed_) {
+    r.hasRedistributed = true;
+    r.kineticEnergyRedistributed = sums[6];
+    r.energyRedistributed = r.kineticEnergyRedistributed + r.elasticEnergy + r.loadPotential;
+    r.momentumRedistributed = Eigen::Vector3d(sums[7], sums[8], sums[9]);
+  }
+  if (acceleration) {
+    r.hasAcceleration = true;
+    r.accelerationEnergy = sums[10];
+    r.energyModified = r.energyRedistributed + r.accelerationEnergy;
+  }
+  r.contactForce = Eigen::Vector3d(sums[11], sums[12], sums[13]) / (multiplierFactor_ * tau * tau);
+  r.activeSolution = static_cast<Index>(sums[14]);
+  for (std::size_t j = 0; j < options_.trackedVertices.size(); ++j) {
+    const double* t = &sums[base + 10 * j];
+    TrackedVertex tv;
+    tv.vertex = options_.trackedVertices[j];
+    tv.displacement = Eigen::Vector3d(t[0], t[1], t[2]);
+    tv.velocity = Eigen::Vector3d(t[3], t[4], t[5]);
+    tv.contactNode = t[6] > 0;
+    tv.normalDisplacement = t[7];
+    tv.normalVelocity = t[8];
+    tv.gap = t[9];
+    r.tracked.push_back(tv);
   }
   return r;
 }

@@ -55,6 +55,7 @@
 #include <vector>
 
 #include "obs/mesh/Mesh.hpp"
+#include "obs/obs/Communicator.hpp"
 #include "obs/obs/MassMatrix.hpp"
 
 namespace obs {
@@ -96,13 +97,25 @@ struct RedistributedMass {
 /// `vertices` are the mesh vertex positions, `dimension` 2 or 3. Throws obs::Error on inconsistent
 /// sizes, if every vertex is massless, no kept entry exists or the kept entries cannot carry the
 /// constraints (singular Gram matrix), or if the Uzawa iteration does not reach the tolerance.
+///
+/// Distributed (docs/architecture.md#distributed-dynamics): with `comm`, M is a rank's matrix on its
+/// local vertices whose first `owned` rows are complete (owned vertices first, as a DistributedView's
+/// local mesh; the other rows may be partial). The multipliers are global: the centre and radius of
+/// the kept vertices, the targets, the Gram matrices and the dual are sums (maxima) over the owned
+/// rows and the ranks, so every rank takes the same iterations and rescales its entries with the
+/// same lambda; the counts and moved mass of the result are global too. A collective call: every
+/// rank throws the same obs::Error. Without `comm` (owned < 0) every row is owned.
 RedistributedMass redistributeMass(const ScalarSparseMatrix& M, const std::vector<mesh::Point>& vertices,
                                    int dimension, const std::vector<char>& massless,
-                                   const MassRedistributionOptions& options = {});
+                                   const MassRedistributionOptions& options = {}, Index owned = -1,
+                                   const Communicator* comm = nullptr);
 
 /// Result of checkPositiveDefinite.
 struct DefinitenessCheck {
   bool positiveDefinite = false;
+  /// false: not computed (distributed time stepping, which has no rank with the whole matrix);
+  /// positiveDefinite is then assumed, not known.
+  bool checked = true;
   Eigen::Index size = 0;               ///< rows of the restricted matrix
   Eigen::Index nonPositivePivots = 0;  ///< = number of eigenvalues <= 0 (up to the pivot tolerance)
 };

@@ -62,6 +62,16 @@
 /// bodies is conserved by every scheme (thesis (5.46)), and mass redistribution removes the mass of
 /// the slave and the coupled master vertices, body by body (each body keeps its own mass, centre of
 /// gravity and second moments).
+///
+/// Distributed (docs/architecture.md#distributed-dynamics): one body on a DistributedGrid, the
+/// vectors in the local numbering of the rank's leaf view (owned vertices first, then ghosts; the
+/// rows of the owned vertices complete). Every step is the serial one: the matrices are assembled
+/// on the local mesh, the predictor and the velocity update are node-wise, the step problem is
+/// solved by distributed TNNMG, and the new state's ghosts are taken from their owners. Every
+/// figure of a StepRecord is a sum or maximum over the owned vertices and the ranks, so every rank
+/// holds the same record; the redistributed mass is computed with global multipliers
+/// (redistributeMass with the rank's owned rows) and the initial acceleration of
+/// khenous-laborde-renard by a conjugate gradient iteration whose sums run over the ranks.
 #include <Eigen/Core>
 
 #include <limits>
@@ -76,6 +86,7 @@
 #include "obs/obs/ContactModel.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/ContactSet.hpp"
+#include "obs/obs/DistributedGrid.hpp"
 #include "obs/obs/Friction.hpp"
 #include "obs/obs/MassMatrix.hpp"
 #include "obs/obs/MassRedistribution.hpp"
@@ -145,7 +156,8 @@ struct NewmarkOptions {
   /// finite |g_p|, 1e-300).
   double activeTolerance = 1e-8;
   /// Vertices whose displacement and velocity are reported in every record (stacked numbering of
-  /// the bodies for a ContactModel).
+  /// the bodies for a ContactModel). Distributed: the local index on the rank that owns the vertex
+  /// and -1 on the others (every rank lists the same number of entries).
   std::vector<Index> trackedVertices;
   /// Predictor of a mortar model (Hildreth iteration on the multipliers): relative tolerance of the
   /// constraint residual and the sweep cap (obs::Error if reached).
@@ -297,6 +309,14 @@ public:
   /// with a model of one body and one obstacle coupling. Throws as above, and obs::Error if the grids
   /// do not match the bodies or the model cannot be assembled.
   NewmarkFamily(const std::vector<const mesh::Grid*>& grids, ContactModel<d>& model, const NewmarkOptions& options);
+  /// Distributed (collective; see the file comment): one body on `grid` with its obstacle couplings
+  /// (friction allowed), the model's body on the rank's local mesh leaf.local of its leaf view `leaf`
+  /// (grid.view(); both must outlive the stepper). Vectors (initial state, state(), forces) are in
+  /// the local numbering of the leaf view, with the ghosts' values those of their owners. Throws, on
+  /// every rank, what the serial constructor throws, and obs::Error for a model of several bodies or
+  /// a body on another mesh.
+  NewmarkFamily(const DistributedGrid& grid, const DistributedView& leaf, ContactModel<d>& model,
+                const NewmarkOptions& options);
   ~NewmarkFamily() override;
 
   std::string name() const override { return std::string(obs::name(options_.scheme)); }
@@ -313,10 +333,12 @@ public:
   const RedistributedMass& redistributedMass() const;
   /// Inertia check of M~ on the vertices that keep mass (redistributed schemes; throws obs::Error
   /// otherwise): positiveDefinite false means M~ is indefinite but S was positive definite.
+  /// Distributed: not checked (checked false; the check is one sparse factorisation of the whole
+  /// M~), see docs/architecture.md#distributed-dynamics.
   const DefinitenessCheck& redistributedMassDefiniteness() const;
   const Eigen::VectorXd& load() const { return f_; }
   const ContactProblem<d>& problem() const { return *problem_; }
-  /// Energy E(u, v) = 1/2 v'Mv + 1/2 u'Au - f'u.
+  /// Energy E(u, v) = 1/2 v'Mv + 1/2 u'Au - f'u (distributed: summed over the ranks, collective).
   double energy(const Eigen::VectorXd& u, const Eigen::VectorXd& v) const;
   /// Nodal contact forces of the last step on the obstacle, F_p nu_p per vertex (vertex-major, zero
   /// away from the contact nodes; all zero after initialize()): the multiplier divided by c' tau^2.
@@ -347,7 +369,23 @@ public:
 private:
   struct Predictor;
   struct MortarRow;
-  void init(const std::vector<const mesh::Grid*>& grids, ContactModel<d>& model);
+  void init(const std::vector<const mesh::Grid*>& grids, ContactModel<d>& model,
+            const DistributedGrid* distributed = nullptr);
+  /// Sums of x over the ranks (in place; serial: nothing), the maximum, and whether a flag is set on
+  /// any rank. Distributed figures are sums over the owned vertices (the first owned_).
+  void sum(std::vector<double>& x) const;
+  double maximum(double x) const;
+  bool anyRank(bool flag) const;
+  /// x'y over the owned entries, summed over the ranks.
+  double dot(const Eigen::VectorXd& x, const Eigen::VectorXd& y) const;
+  /// Overwrites the ghost entries of a state vector with the owners' values (serial: nothing).
+  void updateGhosts(Eigen::VectorXd& x) const;
+  /// The checks of initialize(): sizes, finite values, Dirichlet components; u^0 against the
+  /// contact constraints (owned nodes) with the active tolerance `tol`.
+  void checkInitialState(const Eigen::VectorXd& u0, const Eigen::VectorXd& v0) const;
+  void checkInitialContact(const Eigen::VectorXd& u0, double tol) const;
+  /// khenous-laborde-renard: a^0 from M~ a^0 = f - A u^0 (initialize()).
+  Eigen::VectorXd initialAcceleration(const Eigen::VectorXd& u0) const;
   /// The steps of init: the options and the grids against the model; the lumped and (where needed)
   /// consistent masses, stacked like the stiffness, and M; the redistributed mass M~ with its checks;
   /// the step matrix S = M_s + c tau^2 A (checked when M~ is indefinite); the step problem for the
@@ -388,6 +426,7 @@ private:
   std::vector<double> gaps_;                     ///< physical gaps of the ContactSet
   std::unique_ptr<TNNMG<d>> solver_;
   NodalFriction friction_;          ///< of the model's couplings (empty: frictionless)
+  bool frictional_ = false;         ///< friction on a coupling with contact nodes (on some rank)
   double frictionDissipation_ = 0;  ///< StepRecord::frictionDissipation of the current state
   Eigen::VectorXd frictionForces_;  ///< frictionForces()
   std::vector<char> frictionStates_;  ///< frictionStates()
@@ -403,6 +442,11 @@ private:
   Eigen::VectorXd previousIncrement_;   ///< NewmarkStart::PreviousIncrement: w of the last step (else empty)
   Eigen::VectorXd Au_;                  ///< A u^n of the current state (energy and the next right-hand side)
   StepRecord last_;
+  /// Distributed (the constructor on a DistributedGrid): the communicator and the leaf view's halo;
+  /// owned_ the rank's owned vertices (serial: every vertex).
+  const Communicator* comm_ = nullptr;
+  const HaloExchange* halo_ = nullptr;
+  Index owned_ = 0;
 };
 
 /// A stepper by scheme (the factory of scene files).
