@@ -13,7 +13,9 @@
 #include <tuple>
 #include <utility>
 
+#include "DistributedOutput.hpp"
 #include "RunSupport.hpp"
+#include "obs/drivers/DynamicScene.hpp"
 #include "obs/drivers/ObstacleFactory.hpp"
 #include "obs/drivers/SceneSetup.hpp"
 #include "obs/drivers/SolutionFields.hpp"
@@ -41,8 +43,9 @@ std::string notDistributedBodies(const Scene& scene);
 
 /// What of the scene is not distributed yet ("" if it can run).
 std::string notDistributed(const Scene& scene) {
-  if (scene.dynamics) return "[dynamics]";
   if (scene.adaptivity) return "[adaptivity]";
+  if (scene.dynamics && scene.multiBody()) return "[dynamics] with several bodies";
+  if (scene.dynamics) return scene.solverType() != "tnnmg" ? "[solver] type = \"" + scene.solverType() + "\"" : "";
   if (scene.multiBody()) return notDistributedBodies(scene);
   if (scene.contact) {
     if (scene.solverType() != "tnnmg") return "[solver] type = \"" + scene.solverType() + "\"";
@@ -51,113 +54,6 @@ std::string notDistributed(const Scene& scene) {
   }
   return "";
 }
-
-/// The owned cells of a rank's local mesh (its first `cells` cells) on the vertices they use:
-/// piece vertex -> local vertex in `vertex`.
-struct OwnedPiece {
-  mesh::Mesh mesh;
-  std::vector<Index> vertex;
-};
-
-OwnedPiece ownedPiece(const mesh::Mesh& local, Index cells) {
-  OwnedPiece p{mesh::Mesh(local.dimension()), {}};
-  std::vector<Index> pieceOf(static_cast<std::size_t>(local.numVertices()), -1);
-  std::vector<Index> corners;
-  for (Index c = 0; c < cells; ++c) {
-    corners.clear();
-    for (Index v : local.cellVertices(c)) {
-      if (pieceOf[v] < 0) {
-        pieceOf[v] = p.mesh.addVertex(local.vertex(v));
-        p.vertex.push_back(v);
-      }
-      corners.push_back(pieceOf[v]);
-    }
-    p.mesh.addCell(local.cellType(c), corners);
-  }
-  return p;
-}
-
-/// Each rank's piece <base>_<rank>.vtu (its owned cells, the first `ownedCells` of its local mesh, with
-/// the point fields of the local vertices and the cell fields of the local cells, and the rank) and
-/// rank 0's <base>.pvtu joining them; rank 0 lists the files in r. Collective.
-void writePieces(const std::filesystem::path& dir, const std::string& base, const mesh::Mesh& local, Index ownedCells,
-                 const std::vector<Field>& pf, const std::vector<Field>& cf, const Communicator& comm, RunResult& r);
-
-/// A field of the local mesh's vertices restricted to a piece's vertices.
-Field pieceField(const Field& f, const std::vector<Index>& vertex) {
-  Field out{f.name, f.components, {}, f.integer};
-  out.values.reserve(vertex.size() * static_cast<std::size_t>(f.components));
-  for (Index v : vertex)
-    for (int k = 0; k < f.components; ++k) out.values.push_back(f.values[static_cast<std::size_t>(v) * f.components + k]);
-  return out;
-}
-
-/// The .pvtu joining the ranks' pieces (ParaView's parallel unstructured grid).
-void writePvtu(const std::filesystem::path& path, const std::vector<std::string>& pieces,
-               const std::vector<Field>& pointFields, const std::vector<Field>& cellFields) {
-  std::ofstream out(path);
-  const auto array = [&](const Field& f) {
-    out << "      <PDataArray type=\"" << (f.integer ? "Int32" : "Float64") << "\" Name=\"" << f.name
-        << "\" NumberOfComponents=\"" << f.components << "\"/>\n";
-  };
-  out << "<?xml version=\"1.0\"?>\n<VTKFile type=\"PUnstructuredGrid\" version=\"1.0\" byte_order=\"LittleEndian\" "
-         "header_type=\"UInt64\">\n  <PUnstructuredGrid GhostLevel=\"0\">\n    <PPointData>\n";
-  for (const Field& f : pointFields) array(f);
-  out << "    </PPointData>\n    <PCellData>\n";
-  for (const Field& f : cellFields) array(f);
-  out << "    </PCellData>\n    <PPoints>\n      <PDataArray type=\"Float64\" NumberOfComponents=\"3\"/>\n    </PPoints>\n";
-  for (const std::string& p : pieces) out << "    <Piece Source=\"" << p << "\"/>\n";
-  out << "  </PUnstructuredGrid>\n</VTKFile>\n";
-  if (!out) throw Error(path.string() + ": cannot write");
-}
-
-void writePieces(const std::filesystem::path& dir, const std::string& base, const mesh::Mesh& local, Index ownedCells,
-                 const std::vector<Field>& pf, const std::vector<Field>& cf, const Communicator& comm, RunResult& r) {
-  comm.collective([&] {
-    const OwnedPiece p = ownedPiece(local, ownedCells);
-    std::vector<Field> points, cells;
-    for (const Field& f : pf) points.push_back(pieceField(f, p.vertex));
-    for (const Field& f : cf) {
-      Field g{f.name, f.components, {}, f.integer};
-      g.values.assign(f.values.begin(), f.values.begin() + static_cast<std::ptrdiff_t>(ownedCells) * f.components);
-      cells.push_back(std::move(g));
-    }
-    cells.push_back(Field{"rank", 1, std::vector<double>(static_cast<std::size_t>(ownedCells), comm.rank()), true});
-    writeVtu(dir / (base + "_" + std::to_string(comm.rank()) + ".vtu"), p.mesh, points, cells);
-    if (comm.rank() == 0) {
-      std::vector<std::string> pieces;
-      for (int q = 0; q < comm.size(); ++q) pieces.push_back(base + "_" + std::to_string(q) + ".vtu");
-      writePvtu(dir / (base + ".pvtu"), pieces, points, cells);
-    }
-  });
-  if (comm.rank() == 0) {
-    for (int q = 0; q < comm.size(); ++q) r.outputFiles.push_back(dir / (base + "_" + std::to_string(q) + ".vtu"));
-    r.outputFiles.push_back(dir / (base + ".pvtu"));
-  }
-}
-
-/// Per-rank work of a distributed run (summary.json "balance"): each figure's maximum and mean over
-/// the ranks and their ratio, the imbalance (docs/architecture.md#distributed-runner).
-struct RankLoad {
-  std::vector<std::pair<std::string, double>> figures;
-  void add(const std::string& name, double value) { figures.emplace_back(name, value); }
-  /// Collective: the same figures on every rank, in the same order.
-  nlohmann::json reduced(const Communicator& comm) const {
-    std::vector<double> sums, maxima;
-    for (const auto& f : figures) {
-      sums.push_back(f.second);
-      maxima.push_back(f.second);
-    }
-    comm.sum(sums);
-    comm.max(maxima);
-    nlohmann::json j = nlohmann::json::object();
-    for (std::size_t k = 0; k < figures.size(); ++k) {
-      const double mean = sums[k] / comm.size();
-      j[figures[k].first] = {{"max", maxima[k]}, {"mean", mean}, {"max_over_mean", mean > 0 ? maxima[k] / mean : 1.0}};
-    }
-    return j;
-  }
-};
 
 /// The sizes and assembly time of a distributed problem in r (freeOwned: this rank's free owned
 /// unknowns; t: when the assembly began) and the "assembled" progress line. Collective.
@@ -556,7 +452,7 @@ void solveDistributed(const Scene& scene, const RunOptions& options, const Commu
   const std::string base = std::filesystem::path(stem).stem().string();
   std::vector<Field> pf = pointFields(leaf.local, e), cf = cellFields(leaf.local, e);
   for (Field& f : contactFields) pf.push_back(std::move(f));
-  writePieces(dir, base, leaf.local, ownedCells, pf, cf, comm, r);
+  for (auto& f : writePieces(dir, base, leaf.local, ownedCells, pf, cf, comm)) r.outputFiles.push_back(f);
   comm.collective([&] {
     if (comm.rank() == 0) writePvdCollection(dir / (base + ".pvd"), {PvdEntry{0, 0, base + ".pvtu"}});
   });
@@ -887,7 +783,8 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
       pf.push_back(std::move(f));
     }
     const std::string base = std::filesystem::path(layout.staticVtu(static_cast<std::size_t>(b))).stem().string();
-    writePieces(dir, base, view.local, ownedCells, pf, cellFields(view.local, e), comm, r);
+    for (auto& f : writePieces(dir, base, view.local, ownedCells, pf, cellFields(view.local, e), comm))
+      r.outputFiles.push_back(f);
     parts.push_back(PvdEntry{0, b, base + ".pvtu"});
   }
   if (scene.output.vtk) {
@@ -989,7 +886,7 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
   if (const std::string what = notDistributed(scene); !what.empty())
     throw Error(scene.fileName + ": distributed runs (" + std::to_string(comm.size()) +
                 " MPI ranks) solve static scenes with TNNMG so far (one body, with an obstacle or without contact, or two bodies with "
-                "one mortar pair); this scene has " + what +
+                "one mortar pair) and dynamic scenes of one body; this scene has " + what +
                 " (run it without mpirun, and use --threads N for the cores of one machine)");
   const auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
@@ -1034,6 +931,8 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
   progress("mesh built: " + std::to_string(r.cells) + " cells / " + std::to_string(r.vertices) + " vertices (" +
            std::to_string(r.dimension) + "D) on " + std::to_string(comm.size()) + " ranks, partition level " +
            std::to_string(dg.partition().level) + " (" + std::to_string(r.meshSeconds) + " s)");
+
+  if (scene.dynamics) return runDistributedDynamicScene(scene, dg, leaf, bcAt(0), options, std::move(r), start);
 
   const std::filesystem::path dir = options.outputDirectory.value_or(scene.output.directory);
   comm.collective([&] {

@@ -25,7 +25,9 @@
 #include "obs/obs/ElasticityAssembly.hpp"
 #include "obs/obs/LinearElasticity.hpp"
 #include "obs/obs/Checkpoint.hpp"
+#include "obs/obs/DistributedGrid.hpp"
 #include "obs/obs/Newmark.hpp"
+#include "DistributedOutput.hpp"
 #include "PlotScript.hpp"
 #include "RunCheckpoint.hpp"
 #include "RunSupport.hpp"
@@ -56,7 +58,10 @@ struct TrackedTimes {
 
 struct TrackedInfo {
   mesh::Point requested = mesh::Point::Zero();
-  mesh::Index vertex = -1;
+  mesh::Index vertex = -1;  ///< stacked vertex (distributed: global index)
+  /// the vertex the stepper reports (NewmarkOptions::trackedVertices): serially `vertex`;
+  /// distributed its local index on the rank that owns it, -1 on the others
+  mesh::Index stepperVertex = -1;
   mesh::Point position = mesh::Point::Zero();
   bool contactNode = false;
   double distance = 0;
@@ -76,6 +81,7 @@ struct SchemeRun {
   long long redistributionBounded = 0;
   double redistributionMinFactor = 1;
   bool redistributionPositiveDefinite = true;
+  bool redistributionChecked = true;  ///< false: not computed (distributed runs)
   double maxPenetration = 0;
   double forceVariation = 0;  ///< sum_n |F^{n+1} - F^n| (total variation of the contact force)
   double maxForce = 0;        ///< max_n |F^n|
@@ -86,7 +92,8 @@ struct SchemeRun {
   StepRecord last;
   Eigen::VectorXd u, v;
   fs::path timeseries;
-  std::vector<fs::path> vtuFiles;
+  std::vector<fs::path> vtuFiles;   ///< listed by the .pvd (distributed: the .pvtu files, rank 0)
+  std::vector<fs::path> pieceFiles;  ///< distributed: the ranks' pieces of them (rank 0)
   std::vector<double> vtuTimes;
 };
 
@@ -116,6 +123,22 @@ struct Context {
   };
   std::vector<Body> bodies;
   OutputLayout layout;
+  /// A distributed run (runDistributedDynamicScene, docs/architecture.md#distributed-dynamics): the
+  /// communicator, the grid and the rank's leaf view, whose local mesh is the one body's mesh;
+  /// null for one process. Rank 0 writes the time series, the .pvd and summary.json; every rank
+  /// writes its piece of each .vtu.
+  const Communicator* comm = nullptr;
+  const DistributedGrid* grid = nullptr;
+  const DistributedView* leaf = nullptr;
+  bool writer() const { return !comm || comm->rank() == 0; }
+  /// Runs local work so that an error on one rank reaches every rank (Communicator::collective).
+  void collective(const std::function<void()>& work) const {
+    if (comm)
+      comm->collective(work);
+    else
+      work();
+  }
+  double maximum(double x) const { return comm ? comm->max(x) : x; }
 };
 
 /// The bodies whose grids a checkpoint identifies, in stacked order, named as in the layout's files
@@ -269,6 +292,7 @@ std::string csvLine(const StepRecord& r, bool friction) {
 /// vertices F = (I - C')F~ (NewmarkFamily::contactForces(); the force on the bodies is -F).
 struct StateContact {
   Eigen::VectorXd x, w;
+  double scale = 1e-300;  ///< max |u| (distributed: over the ranks), the scale of contact_state
   std::optional<Eigen::VectorXd> nodal, forces;
   /// with friction, after a step: NewmarkFamily::frictionForces() and frictionStates()
   std::optional<Eigen::VectorXd> friction;
@@ -308,8 +332,7 @@ std::vector<Field> stateFields(const Context& c, std::size_t b, const Eigen::Vec
   Field force{"contact_force", 3, std::vector<double>(3 * n, 0.0), false};
   Field friction{"friction_force", 3, std::vector<double>(3 * n, 0.0), false};
   Field stickSlip{"stick_slip", 1, std::vector<double>(n, 0.0), true};
-  double scale = 1e-300;
-  for (Eigen::Index i = 0; i < u.size(); ++i) scale = std::max(scale, std::abs(u[i]));
+  const double scale = sc.scale;
   for (Index k = 0; k < c.contact.size(); ++k) {
     const double g = c.contact.gap(k);
     if (!std::isfinite(g)) continue;
@@ -365,8 +388,13 @@ std::unique_ptr<TimeStepper<d>> makeSchemeStepper(const Context& c, const std::s
       meshes.push_back(b.mesh);
       grids.push_back(b.grid);
     }
-    model = makeContactModel<d>(c.couplings.spec, meshes);
-    stepper = makeTimeStepper<d>(grids, model, o);
+    if (c.leaf) {  // one body on the rank's local mesh; the stepper's construction is collective
+      c.collective([&] { model = makeContactModel<d>(c.couplings.spec, meshes); });
+      stepper = std::make_unique<NewmarkFamily<d>>(*c.grid, *c.leaf, model, o);
+    } else {
+      model = makeContactModel<d>(c.couplings.spec, meshes);
+      stepper = makeTimeStepper<d>(grids, model, o);
+    }
   } catch (const Error& e) {
     const int line = schemeName == dyn.scheme ? dyn.schemeLine : dyn.compareLine;  // 0: --compare-schemes
     throw Error(scene.where(line ? line : dyn.line) + "[dynamics] scheme = \"" +
@@ -390,10 +418,14 @@ std::unique_ptr<TimeStepper<d>> makeSchemeStepper(const Context& c, const std::s
 /// them and cuts it back to them.
 class TimeSeriesFile {
 public:
-  TimeSeriesFile(fs::path path, bool friction) : path_(std::move(path)), friction_(friction) {}
+  /// writer false: a distributed run's ranks other than 0, which write nothing (every rank holds
+  /// the same records)
+  TimeSeriesFile(fs::path path, bool friction, bool writer = true)
+      : path_(std::move(path)), friction_(friction), writer_(writer) {}
 
   /// A new file with the header and the initial state's row.
   void start(std::size_t tracked, const StepRecord& first) {
+    if (!writer_) return;
     out_.open(path_, std::ios::binary);
     if (!out_) throw Error(path_.string() + ": cannot write the time series");
     emit(csvHeaderLine(tracked, friction_));
@@ -430,6 +462,7 @@ public:
   }
 
   void emit(const std::string& line) {
+    if (!writer_) return;
     const std::string text = line + "\n";
     out_ << text;
     bytes_ += static_cast<long long>(text.size());
@@ -438,6 +471,7 @@ public:
 
   /// Flushes; throws if anything could not be written.
   void flush() {
+    if (!writer_) return;
     out_.flush();
     if (!out_) throw Error(path_.string() + ": cannot write the time series");
   }
@@ -448,6 +482,7 @@ public:
 private:
   fs::path path_;
   bool friction_ = false;  ///< the friction columns (kFrictionColumns)
+  bool writer_ = true;
   std::ofstream out_;
   long long bytes_ = 0;
   std::uint64_t hash_ = kFnvOffset;
@@ -473,12 +508,24 @@ void writeStateVtu(const Context& c, const TimeStepper<d>& stepper, const Newmar
     sc.x = state.u;
     sc.w = state.v;
   }
+  sc.scale = c.maximum(state.u.size() ? state.u.cwiseAbs().maxCoeff() : 0.0);
+  sc.scale = std::max(sc.scale, 1e-300);
   for (std::size_t b = 0; b < c.bodies.size(); ++b) {
     const fs::path path = c.dir / c.layout.dynamicVtu(r.step, b);
     std::vector<Field> cells;
     const auto pf = stateFields(c, b, state.u, state.v, sc, &cells);
-    writeVtu(path, *c.bodies[b].mesh, pf, cells);
-    run.vtuFiles.push_back(path);
+    if (c.leaf) {  // each rank its owned cells, rank 0 the .pvtu the .pvd lists
+      const std::string base = path.stem().string();
+      const auto files = writePieces(c.dir, base, *c.bodies[b].mesh, static_cast<Index>(c.leaf->part.owned.size()), pf,
+                                     cells, *c.comm);
+      if (!files.empty()) {
+        run.vtuFiles.push_back(files.back());
+        run.pieceFiles.insert(run.pieceFiles.end(), files.begin(), files.end() - 1);
+      }
+    } else {
+      writeVtu(path, *c.bodies[b].mesh, pf, cells);
+      run.vtuFiles.push_back(path);
+    }
     run.vtuTimes.push_back(r.time);
   }
 }
@@ -529,7 +576,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
   SchemeRun run;
   run.scheme = schemeName;
   NewmarkOptions o = newmarkOptions(scene, schemeName);
-  for (const TrackedInfo& t : c.tracked) o.trackedVertices.push_back(t.vertex);
+  for (const TrackedInfo& t : c.tracked) o.trackedVertices.push_back(t.stepperVertex);
 
   const auto t0 = Clock::now();
   ContactModel<d> model;  // the bodies and the couplings
@@ -545,11 +592,12 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
     run.redistributionBounded = static_cast<long long>(newmark->redistributedMass().boundedEntries);
     run.redistributionMinFactor = newmark->redistributedMass().minimumFactor;
     run.redistributionPositiveDefinite = newmark->redistributedMassDefiniteness().positiveDefinite;
+    run.redistributionChecked = newmark->redistributedMassDefiniteness().checked;
   }
   run.times.assign(c.tracked.size(), TrackedTimes{});
 
   run.timeseries = c.dir / timeseriesName;
-  TimeSeriesFile csv(run.timeseries, scene.frictional());
+  TimeSeriesFile csv(run.timeseries, scene.frictional(), c.writer());
   int startStep = 0;
   if (c.restart) {
     const CheckpointRecord& cp = *c.restart;
@@ -567,7 +615,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
     }
     csv.openForAppend();
   } else {
-    csv.start(c.tracked.size(), first);
+    c.collective([&] { csv.start(c.tracked.size(), first); });
     if (writeVtk) writeStateVtu<d>(c, *stepper, newmark, first, run);
     trackContactTimes(first, run.times);
   }
@@ -613,11 +661,13 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
       c.options.stepProgress(os.str());
     }
     previous = r;
-    const bool signalled = InterruptGuard::requested();
+    // distributed: every rank stops if one was signalled
+    const bool signalled = c.maximum(InterruptGuard::requested() ? 1.0 : 0.0) > 0;
     const bool stop = k < c.steps && (signalled || (c.options.stopAfterStep && k >= *c.options.stopAfterStep));
     if (stop && !c.checkpointing)
       throw RunInterrupted("interrupted by " + InterruptGuard::signalName() + " after step " + std::to_string(k) + " of " +
-                  schemeName + " (scheme comparisons write no checkpoints)");
+                  schemeName + (c.leaf ? " (distributed runs write no checkpoints yet)"
+                                       : " (scheme comparisons write no checkpoints)"));
     if (c.checkpointing && (stop || schedule.due(k))) writeCheckpointAt(k);
     if (stop) {
       std::ostringstream os;
@@ -633,7 +683,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
   run.finalEnergyRedistributed = previous.energyRedistributed;
   run.u = stepper->state().u;
   run.v = stepper->state().v;
-  csv.flush();
+  c.collective([&] { csv.flush(); });
   return run;
 }
 
@@ -704,7 +754,9 @@ nlohmann::json schemeJson(const Context& c, const SchemeRun& run) {
     j["redistribution"] = {{"moments", dyn.redistributionMoments},
                            {"bounded_entries", run.redistributionBounded},
                            {"min_factor", run.redistributionMinFactor},
-                           {"positive_definite", run.redistributionPositiveDefinite}};
+                           {"positive_definite", run.redistributionChecked
+                                                     ? nlohmann::json(run.redistributionPositiveDefinite)
+                                                     : nlohmann::json(nullptr)}};
   }
   return j;
 }
@@ -770,11 +822,22 @@ ContactSet mergedContactSet(const Scene& scene, const SceneCouplings& couplings,
 }
 
 /// The tracked vertices of [dynamics] tracked: the stacked vertex nearest to each point (of
-/// coinciding vertices, the two sides of a contact interface, the contact node).
+/// coinciding vertices, the two sides of a contact interface, the contact node; of several, the
+/// lowest index). Distributed (comm): the candidates are the rank's `owned` first vertices, with the
+/// global indices offset + local index; every rank gets the same list (collective).
 std::vector<TrackedInfo> trackedVertices(const Scene& scene, const std::vector<mesh::Point>& positions,
-                                         const ContactSet& contact, int dim) {
+                                         const ContactSet& contact, int dim, const Communicator* comm = nullptr,
+                                         mesh::Index owned = -1, mesh::Index offset = 0) {
   const DynamicsSpec& dyn = *scene.dynamics;
-  const auto n = static_cast<mesh::Index>(positions.size());
+  const auto n = comm ? owned : static_cast<mesh::Index>(positions.size());
+  const auto lowest = [&](double x) { return comm ? -comm->max(-x) : x; };
+  const auto distance = [&](mesh::Index v, const TrackedInfo& t) {
+    return (positions[static_cast<std::size_t>(v)] - t.requested).norm();
+  };
+  const auto isContactNode = [&](mesh::Index v) {
+    const Index node = contact.nodeOf(v);
+    return node >= 0 && std::isfinite(contact.gap(node));
+  };
   std::vector<TrackedInfo> tracked;
   for (std::size_t k = 0; k < dyn.tracked.size(); ++k) {
     if (dyn.trackedDimensions[k] != dim)
@@ -784,28 +847,34 @@ std::vector<TrackedInfo> trackedVertices(const Scene& scene, const std::vector<m
     TrackedInfo t;
     t.requested = dyn.tracked[k];
     double best = std::numeric_limits<double>::infinity();
-    for (mesh::Index v = 0; v < n; ++v) {
-      const double dist = (positions[static_cast<std::size_t>(v)] - t.requested).norm();
-      if (dist < best) {
-        best = dist;
-        t.vertex = v;
-      }
-    }
-    // coinciding vertices (the two sides of a contact interface): the contact node
+    for (mesh::Index v = 0; v < n; ++v) best = std::min(best, distance(v, t));
+    best = lowest(best);
+    // the vertices within round-off of the nearest distance (coinciding vertices: the two sides of
+    // a contact interface): the first contact node among them, else the first of them
     const double tie = best + 1e-12 * (1 + best);
-    for (mesh::Index v = 0; v < n; ++v)
-      if ((positions[static_cast<std::size_t>(v)] - t.requested).norm() <= tie) {
-        const Index node = contact.nodeOf(v);
-        if (node >= 0 && std::isfinite(contact.gap(node))) {
-          t.vertex = v;
-          best = (positions[static_cast<std::size_t>(v)] - t.requested).norm();
-          break;
-        }
-      }
-    t.position = positions[static_cast<std::size_t>(t.vertex)];
-    t.distance = best;
-    const Index node = contact.nodeOf(t.vertex);
-    t.contactNode = node >= 0 && std::isfinite(contact.gap(node));
+    mesh::Index nearest = -1, node = -1;
+    for (mesh::Index v = 0; v < n && node < 0; ++v) {
+      if (distance(v, t) > tie) continue;
+      if (nearest < 0) nearest = v;
+      if (isContactNode(v)) node = v;
+    }
+    const double big = std::numeric_limits<double>::max();
+    const bool anyNode = lowest(node >= 0 ? 0.0 : 1.0) == 0;
+    const mesh::Index chosen = anyNode ? node : nearest;  // on this rank (-1: none here)
+    const double global = lowest(chosen >= 0 ? static_cast<double>(offset + chosen) : big);
+    t.vertex = static_cast<mesh::Index>(global);
+    t.stepperVertex = chosen >= 0 && offset + chosen == t.vertex ? chosen : -1;
+    // position, distance and contact node from the rank that holds the vertex
+    std::vector<double> info(5, 0.0);
+    if (t.stepperVertex >= 0) {
+      for (int a = 0; a < 3; ++a) info[static_cast<std::size_t>(a)] = positions[static_cast<std::size_t>(chosen)][a];
+      info[3] = distance(chosen, t);
+      info[4] = isContactNode(chosen) ? 1 : 0;
+    }
+    if (comm) comm->sum(info);
+    t.position = mesh::Point(info[0], info[1], info[2]);
+    t.distance = info[3];
+    t.contactNode = info[4] > 0;
     tracked.push_back(t);
   }
   return tracked;
@@ -875,9 +944,15 @@ DirichletValues initialState(const Scene& scene, const std::vector<Context::Body
 /// The run's figures (RunResult): the first scheme's solver and contact figures, the setup and
 /// step times of all schemes, max |u| and max von Mises of the final state (per body where the
 /// layout reports bodies).
-void reportDynamics(const Scene& scene, const OutputLayout& layout, const ContactSet& contact,
-                    const std::vector<Context::Body>& bodies, const std::vector<SchemeRun>& runs, RunResult& r) {
+void reportDynamics(const Context& c, const ContactSet& contact, const std::vector<SchemeRun>& runs, RunResult& r) {
+  const Scene& scene = c.scene;
+  const OutputLayout& layout = c.layout;
+  const std::vector<Context::Body>& bodies = c.bodies;
   const int dim = bodies.front().mesh->dimension();
+  // distributed: the counts over the owned vertices and cells, added (maxima) over the ranks
+  const Index ownedVertices = c.leaf ? c.leaf->halo.numOwned() : std::numeric_limits<Index>::max();
+  const Index ownedCells = c.leaf ? static_cast<Index>(c.leaf->part.owned.size()) : std::numeric_limits<Index>::max();
+  const auto total = [&](double x) { return c.comm ? c.comm->sum(x) : x; };
   const SchemeRun& primary = runs.front();
   for (const SchemeRun& run : runs) {
     r.assemblySeconds += run.setupSeconds;
@@ -891,9 +966,13 @@ void reportDynamics(const Scene& scene, const OutputLayout& layout, const Contac
   ContactReport cr;
   cr.obstacle = layout.perBody() ? contact.obstacleName() : scene.contact->obstacle;
   cr.boundary = layout.perBody() ? contact.boundaryLabel() : scene.contact->boundary.describe();
-  cr.boundaryVertices = contact.size();
-  for (Index k = 0; k < contact.size(); ++k)
+  for (Index k = 0; k < contact.size(); ++k) {
+    if (contact.vertex(k) >= ownedVertices) continue;
+    ++cr.boundaryVertices;
     if (std::isfinite(contact.gap(k))) ++cr.potentialVertices;
+  }
+  cr.boundaryVertices = static_cast<Index>(total(static_cast<double>(cr.boundaryVertices)));
+  cr.potentialVertices = static_cast<Index>(total(static_cast<double>(cr.potentialVertices)));
   cr.actualVertices = primary.last.activeSolution;
   for (int a = 0; a < 3; ++a) cr.force[a] = primary.last.contactForce[a];
   cr.load = primary.last.contactForce.norm();
@@ -908,14 +987,20 @@ void reportDynamics(const Scene& scene, const OutputLayout& layout, const Contac
     sol.dimension = dim;
     sol.displacement = primary.u.segment(static_cast<Eigen::Index>(b.offset) * dim, br.vertices * dim);
     recoverStresses(*b.mesh, b.spec->material, sol);
-    for (mesh::Index v = 0; v < b.mesh->numVertices(); ++v)
+    for (mesh::Index v = 0; v < std::min(b.mesh->numVertices(), ownedVertices); ++v)
       br.maxDisplacement = std::max(br.maxDisplacement, sol.displacement.segment(v * dim, dim).norm());
-    for (const Stress& st : sol.cellStress) br.maxVonMises = std::max(br.maxVonMises, vonMises(st));
+    for (std::size_t k = 0; k < sol.cellStress.size() && static_cast<Index>(k) < ownedCells; ++k)
+      br.maxVonMises = std::max(br.maxVonMises, vonMises(sol.cellStress[k]));
+    br.maxDisplacement = c.maximum(br.maxDisplacement);
+    br.maxVonMises = c.maximum(br.maxVonMises);
     r.maxDisplacement = std::max(r.maxDisplacement, br.maxDisplacement);
     r.maxVonMises = std::max(r.maxVonMises, br.maxVonMises);
     if (layout.perBody()) r.bodies.push_back(br);
   }
 }
+
+void writeRunFiles(const Context& c, const RunOptions& options, const std::vector<SchemeRun>& runs,
+                   const nlohmann::json& extra, RunResult& r, Clock::time_point t, Clock::time_point start);
 
 /// The end of a dynamic run: the .pvd of the first scheme's .vtu files (one part per body), the
 /// runs.csv row, the plots, summary.json (the run, "dynamics" of the first scheme and, comparing
@@ -926,7 +1011,43 @@ void writeDynamicOutputs(const Context& c, const RunOptions& options, const std:
   const Scene& scene = c.scene;
   const SchemeRun& primary = runs.front();
   const auto t = Clock::now();
+  nlohmann::json extra;
+  extra["dynamics"] = schemeJson(c, primary);
+  if (comparison) {
+    nlohmann::json all = nlohmann::json::array();
+    for (const SchemeRun& run : runs) all.push_back(schemeJson(c, run));
+    for (const auto& [scheme, message] : failed) all.push_back({{"scheme", scheme}, {"error", message}});
+    extra["dynamics_comparison"] = all;
+  }
+  if (c.leaf) {  // distributed: the memory per rank and the per-rank work (collective)
+    const Communicator& comm = *c.comm;
+    const double memory = peakMemoryMB();
+    extra["ranks"] = comm.size();
+    extra["peak_memory_mb_largest_rank"] = comm.max(memory);
+    extra["peak_memory_mb_all_ranks"] = comm.sum(memory);
+    extra["partition_level"] = c.grid->partition().level;
+    const Index owned = c.leaf->halo.numOwned();
+    double contactOwned = 0;
+    for (Index k = 0; k < c.contact.size(); ++k) contactOwned += c.contact.vertex(k) < owned ? 1 : 0;
+    RankLoad load;
+    load.add("owned_vertices", static_cast<double>(owned));
+    load.add("ghost_vertices", static_cast<double>(c.leaf->halo.numLocal() - owned));
+    load.add("owned_cells", static_cast<double>(c.leaf->part.owned.size()));
+    load.add("contact_vertices", contactOwned);
+    extra["balance"] = load.reduced(comm);
+  }
+  c.collective([&] {
+    if (c.writer()) writeRunFiles(c, options, runs, extra, r, t, start);
+  });
+}
+
+/// writeDynamicOutputs' files (rank 0 of a distributed run).
+void writeRunFiles(const Context& c, const RunOptions& options, const std::vector<SchemeRun>& runs,
+                   const nlohmann::json& extra, RunResult& r, Clock::time_point t, Clock::time_point start) {
+  const Scene& scene = c.scene;
+  const SchemeRun& primary = runs.front();
   for (const SchemeRun& run : runs) r.outputFiles.push_back(run.timeseries);
+  for (const fs::path& f : primary.pieceFiles) r.outputFiles.push_back(f);
   for (const fs::path& f : primary.vtuFiles) r.outputFiles.push_back(f);
   if (!primary.vtuFiles.empty()) {
     const fs::path pvd = c.dir / (scene.name + ".pvd");
@@ -942,21 +1063,34 @@ void writeDynamicOutputs(const Context& c, const RunOptions& options, const std:
     for (const char* png : {"dyn_energy.png", "dyn_contact_force.png", "dyn_active.png", "dyn_velocity.png"})
       if (fs::exists(c.dir / png)) r.outputFiles.push_back(c.dir / png);
   }
-  nlohmann::json extra;
-  extra["dynamics"] = schemeJson(c, primary);
-  if (comparison) {
-    nlohmann::json all = nlohmann::json::array();
-    for (const SchemeRun& run : runs) all.push_back(schemeJson(c, run));
-    for (const auto& [scheme, message] : failed) all.push_back({{"scheme", scheme}, {"error", message}});
-    extra["dynamics_comparison"] = all;
-  }
   finishRun(scene, options, c.dir, r, t, start, extra);
 }
 
-/// runDynamicScene on the bodies of the scene (Context::bodies, in stacked order).
+/// The distributed part of a run (runDistributedDynamicScene), all null for one process.
+struct Distribution {
+  const Communicator* comm = nullptr;
+  const DistributedGrid* grid = nullptr;
+  const DistributedView* leaf = nullptr;
+};
+
+/// runDynamicScene on the bodies of the scene (Context::bodies, in stacked order), or
+/// runDistributedDynamicScene on the one body of the rank's local mesh (`dist`).
 RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodies, const SceneCouplings& couplings,
-                      const RunOptions& options, RunResult r, Clock::time_point start) {
+                      const RunOptions& options, RunResult r, Clock::time_point start, const Distribution& dist = {}) {
   const DynamicsSpec& dyn = *scene.dynamics;
+  const bool distributed = dist.leaf != nullptr;
+  const auto collective = [&](const std::function<void()>& work) {
+    if (distributed)
+      dist.comm->collective(work);
+    else
+      work();
+  };
+  if (distributed && (options.restart || options.stopAfterStep || scene.output.checkpoint)) {
+    const std::string what = options.restart ? "--restart" : options.stopAfterStep ? "--stop-after-step" : "[output] checkpoint";
+    throw Error((scene.output.checkpoint && !options.restart && !options.stopAfterStep ? scene.where(scene.output.checkpoint->line)
+                                                                                       : scene.fileName + ": ") +
+                what + ": distributed dynamic runs write no checkpoints yet (run it without mpirun to checkpoint)");
+  }
   auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
   };
@@ -981,20 +1115,38 @@ RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodi
   }
 
   // contact set, tracked vertices, initial state (all checked before any time step)
-  const ContactSet contact =
-      dim == 2 ? mergedContactSet<2>(scene, couplings, bodies) : mergedContactSet<3>(scene, couplings, bodies);
-  const std::vector<TrackedInfo> tracked = trackedVertices(scene, positions, contact, dim);
+  std::optional<ContactSet> merged;
+  collective([&] {
+    merged.emplace(dim == 2 ? mergedContactSet<2>(scene, couplings, bodies) : mergedContactSet<3>(scene, couplings, bodies));
+  });
+  const ContactSet& contact = *merged;
+  const Index owned = distributed ? dist.leaf->halo.numOwned() : n;
+  const std::vector<TrackedInfo> tracked =
+      distributed ? trackedVertices(scene, positions, contact, dim, dist.comm, owned,
+                                    dist.leaf->numbering.offsets[static_cast<std::size_t>(dist.comm->rank())])
+                  : trackedVertices(scene, positions, contact, dim);
 
-  Context c{scene, options, contact, couplings, tracked, {}, {}, 0, {}, false, {}, nullptr, {}, bodies, layout};
+  Context c{scene, options, contact, couplings, tracked, {}, {}, 0, {}, false, {}, nullptr, {}, bodies, layout,
+            dist.comm, dist.grid, dist.leaf};
   c.steps = dyn.steps ? *dyn.steps : static_cast<int>(std::ceil(*dyn.endTime / dyn.timeStep - 1e-9));
-  const DirichletValues dirichlet = initialState(scene, bodies, positions, owner, dim, c.u0, c.v0);
-  r.dofs = static_cast<long long>(n) * dim;
-  r.freeDofs = r.dofs - dirichlet.count();
+  DirichletValues dirichlet;
+  collective([&] { dirichlet = initialState(scene, bodies, positions, owner, dim, c.u0, c.v0); });
+  if (distributed) {  // the global unknowns; the free ones counted over the owned vertices
+    r.dofs = static_cast<long long>(dist.leaf->globalVertices()) * dim;
+    long long fixed = 0;
+    for (Index i = 0; i < owned * dim; ++i) fixed += dirichlet.constrained[static_cast<std::size_t>(i)] ? 1 : 0;
+    r.freeDofs = r.dofs - dist.comm->sum(fixed);
+  } else {
+    r.dofs = static_cast<long long>(n) * dim;
+    r.freeDofs = r.dofs - dirichlet.count();
+  }
 
   c.dir = options.outputDirectory.value_or(scene.output.directory);
-  std::error_code ec;
-  fs::create_directories(c.dir, ec);
-  if (ec) throw Error(c.dir.string() + ": cannot create the output directory (" + ec.message() + ")");
+  collective([&] {
+    std::error_code ec;
+    fs::create_directories(c.dir, ec);
+    if (ec) throw Error(c.dir.string() + ": cannot create the output directory (" + ec.message() + ")");
+  });
 
   const std::vector<std::string> schemes = dynamicSchemes(scene, options.compareSchemes);
   const bool comparison = schemes.size() > 1;
@@ -1008,7 +1160,7 @@ RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodi
     throw Error(scene.fileName + ": --stop-after-step " + std::to_string(*options.stopAfterStep) +
                 " must lie in [1, " + std::to_string(c.steps - 1) + "] (the run has " + std::to_string(c.steps) +
                 " steps)");
-  c.checkpointing = !comparison;
+  c.checkpointing = !comparison && !distributed;
   c.checkpointFile = c.dir / "checkpoint.h5";
   if (restart) {
     c.restart = &*restart;
@@ -1021,9 +1173,12 @@ RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodi
     }
   }
   {
+    long long contactNodes = 0;  // over the owned vertices (and the ranks)
+    for (Index k = 0; k < contact.size(); ++k) contactNodes += contact.vertex(k) < owned ? 1 : 0;
+    if (distributed) contactNodes = dist.comm->sum(contactNodes);
     std::ostringstream os;
     os << "dynamics: " << (comparison ? std::to_string(schemes.size()) + " schemes" : schemes[0]) << ", tau = "
-       << dyn.timeStep << ", " << c.steps << " steps, " << contact.size() << " potential contact nodes";
+       << dyn.timeStep << ", " << c.steps << " steps, " << contactNodes << " potential contact nodes";
     progress(os.str());
   }
   std::vector<SchemeRun> runs;
@@ -1042,7 +1197,7 @@ RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodi
       // a coarse mesh) is reported, and the comparison goes on
       failed.emplace_back(schemes[i], e.what());
       std::error_code ignore;
-      fs::remove(c.dir / file, ignore);
+      if (c.writer()) fs::remove(c.dir / file, ignore);
       if (options.stepProgress) options.stepProgress("warning: " + schemes[i] + " skipped: " + e.what());
       continue;
     }
@@ -1055,7 +1210,7 @@ RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodi
     progress(os.str());
   }
 
-  reportDynamics(scene, layout, contact, bodies, runs, r);
+  reportDynamics(c, contact, runs, r);
   writeDynamicOutputs(c, options, runs, failed, comparison, r, start);
   return r;
 }
@@ -1077,6 +1232,20 @@ RunResult runDynamicScene(const Scene& scene, const std::vector<const mesh::Grid
   }
   const SceneCouplings couplings = sceneCouplings(scene, meshes, bcs);
   return runDynamics(scene, bodies, couplings, options, std::move(r), start);
+}
+
+RunResult runDistributedDynamicScene(const Scene& scene, const DistributedGrid& grid, const DistributedView& leaf,
+                                     const BoundaryConditions& bc, const RunOptions& options, RunResult r,
+                                     Clock::time_point start) {
+  if (scene.multiBody())
+    throw Error(scene.fileName + ": distributed dynamic runs integrate one body against obstacles so far (run "
+                "scenes with several bodies without mpirun)");
+  const Communicator& comm = grid.communicator();
+  const std::vector<BoundaryConditions> bcs{bc};  // kept by pointer in the couplings
+  const std::vector<Context::Body> bodies{{&scene, &grid.grid(), &leaf.local, &bcs.front(), 0}};
+  std::optional<SceneCouplings> couplings;
+  comm.collective([&] { couplings.emplace(sceneCouplings(scene, {&leaf.local}, bcs)); });
+  return runDynamics(scene, bodies, *couplings, options, std::move(r), start, Distribution{&comm, &grid, &leaf});
 }
 
 }  // namespace obs::drivers

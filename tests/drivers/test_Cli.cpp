@@ -390,6 +390,140 @@ TEST_F(Cli, MpirunRunsStaticScenesDistributed) {
   EXPECT_EQ(errors, 1u) << e.err;
   EXPECT_NE(e.err.find("[dynamics]"), std::string::npos) << e.err;
 }
+
+/// A time series (timeseries.csv): the header's columns and the rows' values (empty cells: NaN).
+struct Series {
+  std::vector<std::string> columns;
+  std::vector<std::vector<double>> rows;
+  double at(std::size_t row, const std::string& column) const {
+    const auto c = std::find(columns.begin(), columns.end(), column);
+    if (c == columns.end()) ADD_FAILURE() << "no column " << column;
+    return c == columns.end() ? std::nan("") : rows.at(row).at(static_cast<std::size_t>(c - columns.begin()));
+  }
+};
+
+Series readSeries(const fs::path& p) {
+  Series s;
+  std::ifstream in(p);
+  std::string line;
+  const auto cells = [](const std::string& l) {
+    std::vector<std::string> out;
+    std::string cell;
+    std::istringstream is(l);
+    while (std::getline(is, cell, ',')) out.push_back(cell);
+    if (!l.empty() && l.back() == ',') out.emplace_back();
+    return out;
+  };
+  if (std::getline(in, line)) s.columns = cells(line);
+  while (std::getline(in, line)) {
+    std::vector<double> row;
+    for (const std::string& c : cells(line)) row.push_back(c.empty() ? std::nan("") : std::stod(c));
+    s.rows.push_back(row);
+  }
+  return s;
+}
+
+/// The largest difference of the columns of two series over all rows, relative to the largest
+/// |value| of the columns in `a` (a group shares one scale: the components of a vector).
+double seriesDeviation(const Series& a, const Series& b, const std::vector<std::string>& columns) {
+  double scale = 1e-300, worst = 0;
+  for (std::size_t r = 0; r < a.rows.size(); ++r)
+    for (const std::string& c : columns)
+      if (!std::isnan(a.at(r, c))) scale = std::max(scale, std::abs(a.at(r, c)));
+  for (std::size_t r = 0; r < a.rows.size() && r < b.rows.size(); ++r)
+    for (const std::string& c : columns)
+      if (!std::isnan(a.at(r, c))) worst = std::max(worst, std::abs(a.at(r, c) - b.at(r, c)));
+  return worst / scale;
+}
+
+// `mpirun -np N obs run` on dynamic scenes of one body (docs/architecture.md#distributed-dynamics):
+// the time series of the serial run, energies, momentum, contact force and the tracked vertex to
+// 1e-8 of their scales and the same active node counts every step; rank 0 writes the series,
+// summary.json (ranks, balance) and the .pvd of .pvtu files whose pieces VTK reads back as the
+// whole mesh. Geometry 1 (hexahedra) with mass redistribution on 2 ranks, the ball of pyramids on
+// 3, Coulomb friction on 2; checkpoints are refused on every rank with one line.
+TEST_F(Cli, MpirunRunsDynamicScenesDistributed) {
+  const auto launcher = [](int ranks) {
+    return "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=PASSIVE " + std::string(OBS_MPIEXEC) +
+           " --oversubscribe -np " + std::to_string(ranks);
+  };
+  const auto json = [](const fs::path& p) { return nlohmann::json::parse(slurp(p)); };
+  struct Run {
+    const char* scene;
+    std::string options;
+    int ranks;
+  };
+  for (const Run& run : {Run{"dynamics_block.toml", "--set 'dynamics.scheme=\"khenous-laborde-renard\"' --set dynamics.steps=80", 2},
+                         Run{"dynamics_ball.toml", "--set dynamics.steps=60", 3},
+                         Run{"dynamics_sliding_block.toml", "--set dynamics.steps=40", 2}}) {
+    SCOPED_TRACE(run.scene);
+    const std::string scene = (fs::path(OBS_DATA_DIR) / "scenes" / run.scene).string();
+    const std::string name = fs::path(run.scene).stem().string();
+    fs::remove_all(kTmp / ("out_dyn_mpi_" + name));
+    fs::remove_all(kTmp / ("out_dyn_one_" + name));
+    const Output d = runObs("run '" + scene + "' " + run.options + " --output out_dyn_mpi_" + name, "dyn_mpi_" + name,
+                            launcher(run.ranks));
+    ASSERT_EQ(d.code, 0) << d.err;
+    EXPECT_NE(d.out.find("on " + std::to_string(run.ranks) + " ranks"), std::string::npos) << d.out;
+    const Output s = runObs("run '" + scene + "' " + run.options + " -q --output out_dyn_one_" + name, "dyn_one_" + name);
+    ASSERT_EQ(s.code, 0) << s.err;
+    const fs::path dd = kTmp / ("out_dyn_mpi_" + name), ds = kTmp / ("out_dyn_one_" + name);
+    const Series a = readSeries(ds / "timeseries.csv"), b = readSeries(dd / "timeseries.csv");
+    ASSERT_EQ(a.columns, b.columns);
+    ASSERT_EQ(a.rows.size(), b.rows.size());
+    EXPECT_LE(seriesDeviation(a, b, {"energy", "kinetic_energy", "elastic_energy", "energy_redistributed"}), 1e-8);
+    EXPECT_LE(seriesDeviation(a, b, {"momentum_x", "momentum_y", "momentum_z"}), 1e-8);
+    EXPECT_LE(seriesDeviation(a, b, {"contact_force_x", "contact_force_y", "contact_force_z"}), 1e-8);
+    const auto has = [&](const char* column) {
+      return std::find(a.columns.begin(), a.columns.end(), column) != a.columns.end();
+    };
+    if (has("tracked0_gap")) EXPECT_LE(seriesDeviation(a, b, {"tracked0_normal_displacement", "tracked0_gap"}), 1e-8);
+    const bool friction = has("friction_dissipation");
+    if (friction) {
+      EXPECT_LE(seriesDeviation(a, b, {"friction_dissipation"}), 1e-8);
+      EXPECT_LE(seriesDeviation(a, b, {"friction_force_x", "friction_force_y", "friction_force_z"}), 1e-8);
+    }
+    double active = 0;
+    for (std::size_t r = 0; r < a.rows.size(); ++r) {
+      EXPECT_EQ(a.at(r, "active_solution"), b.at(r, "active_solution")) << "row " << r;
+      EXPECT_EQ(a.at(r, "active_predictor"), b.at(r, "active_predictor")) << "row " << r;
+      if (friction) EXPECT_EQ(a.at(r, "stick_nodes") + a.at(r, "slip_nodes"), b.at(r, "stick_nodes") + b.at(r, "slip_nodes"));
+      active = std::max(active, a.at(r, "active_solution"));
+    }
+    EXPECT_GT(active, 0) << "the body must touch the obstacle";
+    const nlohmann::json jd = json(dd / "summary.json"), js = json(ds / "summary.json");
+    EXPECT_EQ(jd["ranks"], run.ranks);
+    for (const char* key : {"dofs", "free_dofs", "vertices", "cells"}) EXPECT_EQ(jd[key], js[key]) << key;
+    for (const char* key : {"boundary_vertices", "potential_vertices", "actual_vertices"})
+      EXPECT_EQ(jd["contact"][key], js["contact"][key]) << key;
+    ASSERT_EQ(jd["dynamics"]["tracked"].size(), js["dynamics"]["tracked"].size());
+    for (std::size_t k = 0; k < js["dynamics"]["tracked"].size(); ++k) {
+      EXPECT_EQ(jd["dynamics"]["tracked"][k]["contact_node"], js["dynamics"]["tracked"][k]["contact_node"]);
+      EXPECT_EQ(jd["dynamics"]["tracked"][k]["coordinates"], js["dynamics"]["tracked"][k]["coordinates"]);
+    }
+    EXPECT_TRUE(jd["balance"].contains("contact_vertices"));
+    EXPECT_EQ(jd["balance"]["owned_vertices"]["mean"].get<double>() * run.ranks, js["vertices"].get<double>());
+    // the last .vtu step, joined from its pieces
+    const std::string pvd = slurp(dd / (name + ".pvd"));
+    const std::size_t at = pvd.rfind("file=\"");
+    ASSERT_NE(at, std::string::npos) << pvd;
+    const std::string last = pvd.substr(at + 6, pvd.find('"', at + 6) - at - 6);
+    EXPECT_EQ(fs::path(last).extension(), ".pvtu");
+    vtkNew<vtkXMLPUnstructuredGridReader> reader;
+    reader->SetFileName((dd / last).string().c_str());
+    reader->Update();
+    EXPECT_EQ(reader->GetOutput()->GetNumberOfCells(), js["cells"].get<long long>());
+    ASSERT_NE(reader->GetOutput()->GetPointData()->GetArray("contact_state"), nullptr);
+  }
+  // checkpoints of distributed dynamic runs: refused on every rank with one line
+  const std::string block = (fs::path(OBS_DATA_DIR) / "scenes" / "dynamics_block.toml").string();
+  const Output c = runObs("run '" + block + "' --stop-after-step 5 --output out_dyn_mpi_stop", "dyn_mpi_stop", launcher(2));
+  EXPECT_EQ(c.code, 1);
+  std::size_t errors = 0;
+  for (std::size_t at = c.err.find("obs: error:"); at != std::string::npos; at = c.err.find("obs: error:", at + 1)) ++errors;
+  EXPECT_EQ(errors, 1u) << c.err;
+  EXPECT_NE(c.err.find("--stop-after-step"), std::string::npos) << c.err;
+}
 #endif
 
 TEST_F(Cli, RunPrintsProgressAndQuietDoesNot) {

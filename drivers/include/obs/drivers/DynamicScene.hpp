@@ -38,6 +38,7 @@
 #include "obs/drivers/Scene.hpp"
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/DistributedGrid.hpp"
 #include "obs/obs/Newmark.hpp"
 
 namespace obs::drivers {
@@ -63,5 +64,16 @@ NewmarkOptions newmarkOptions(const Scene& scene, const std::string& scheme);
 RunResult runDynamicScene(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
                           const std::vector<const mesh::Mesh*>& meshes, const std::vector<BoundaryConditions>& bcs,
                           const RunOptions& options, RunResult result, std::chrono::steady_clock::time_point start);
+
+/// The same on the ranks of a distributed run (`mpirun -np N obs run`, docs/architecture.md#distributed-dynamics):
+/// one body on `grid`, the scene's obstacle coupling (with friction) on the rank's leaf view
+/// `leaf` (its local mesh; `bc` its boundary conditions), integrated by NewmarkFamily on the
+/// DistributedGrid. Every rank holds the same step records; rank 0 writes the time series, the .pvd
+/// of the .pvtu files and summary.json (with "ranks", the memory per rank and "balance"), every rank
+/// its piece of each .vtu. Collective; errors reach every rank. Refused (obs::Error): several bodies,
+/// and checkpoints ([output] checkpoint, --restart, --stop-after-step).
+RunResult runDistributedDynamicScene(const Scene& scene, const DistributedGrid& grid, const DistributedView& leaf,
+                                     const BoundaryConditions& bc, const RunOptions& options, RunResult result,
+                                     std::chrono::steady_clock::time_point start);
 
 }  // namespace obs::drivers
