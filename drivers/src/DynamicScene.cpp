@@ -1008,7 +1008,6 @@ void writeRunFiles(const Context& c, const RunOptions& options, const std::vecto
 void writeDynamicOutputs(const Context& c, const RunOptions& options, const std::vector<SchemeRun>& runs,
                          const std::vector<std::pair<std::string, std::string>>& failed, bool comparison,
                          RunResult& r, Clock::time_point start) {
-  const Scene& scene = c.scene;
   const SchemeRun& primary = runs.front();
   const auto t = Clock::now();
   nlohmann::json extra;

@@ -19,6 +19,16 @@
 /// (rename is atomic on POSIX file systems), so a process killed while writing (even by SIGKILL)
 /// leaves the previous checkpoint intact; only the .tmp file may be incomplete.
 ///
+/// Rows (docs/checkpoint.md#distributed): a record may hold *row entries*, per-vertex data with a
+/// fixed number of values per vertex (setRows), and then the entry "rows/keys": one key per row,
+/// identifying the vertex independently of how the grid is numbered or partitioned (an integer
+/// vector holding the bits of 64-bit keys). Each row dataset carries the attribute
+/// "row_components". A distributed run writes one file from all ranks, each rank's rows in rank
+/// order (writeCheckpoint with a Communicator, collective writes with parallel HDF5); a reader on
+/// any number of ranks asks for the keys of its vertices (readCheckpoint with keys), so a run
+/// written on N ranks continues on M. The file is the one a single process writing all rows in
+/// that order would write, content hash included.
+///
 /// A plain record format: the solvers store their states themselves (a Newmark time stepper by
 /// storeNewmarkState / loadNewmarkState in Newmark.hpp, the adaptive loop by its checkpoint functions
 /// in AdaptiveLoop.hpp); the obs program adds its own entries (docs/checkpoint.md lists them).
@@ -33,6 +43,7 @@
 #include <variant>
 #include <vector>
 
+#include "obs/obs/Communicator.hpp"
 
 namespace obs {
 
@@ -44,6 +55,7 @@ public:
   struct Entry {
     Value value;
     std::string description;
+    int rowComponents = 0;  ///< > 0: a row entry with this many values per row (setRows)
   };
 
   /// What the record describes (root attribute "kind").
@@ -53,6 +65,17 @@ public:
   /// '/', no leading or trailing '/'; a name cannot also be a group of other entries. Throws
   /// obs::Error otherwise.
   void set(const std::string& name, Value value, std::string description);
+
+  /// Adds or replaces a row entry (see the file comment): a real or integer vector of
+  /// `components` values per row, in the order of "rows/keys". Throws obs::Error for another value
+  /// type, components < 1, or a length that is not a multiple of it.
+  void setRows(const std::string& name, Value value, int components, std::string description);
+  /// Sets "rows/keys" (a row entry of one component).
+  void setRowKeys(const std::vector<std::uint64_t>& keys);
+  /// The row keys; obs::Error if the record has none.
+  std::vector<std::uint64_t> rowKeys() const;
+  /// Values per row of a row entry, 0 for the other entries (obs::Error if missing).
+  int rowComponents(const std::string& name) const;
 
   bool has(const std::string& name) const { return entries_.count(name) > 0; }
   /// Typed access; obs::Error naming the entry if it is missing or of another type.
@@ -80,6 +103,25 @@ void writeCheckpoint(const std::filesystem::path& file, const CheckpointRecord& 
 /// or damaged (HDF5 cannot read it, or the content hash differs), not an obs checkpoint, or of
 /// another format version.
 CheckpointRecord readCheckpoint(const std::filesystem::path& file);
+
+/// Writes a record with rows from every rank of `comm` to one file (collective; see the file
+/// comment): the entries other than row entries must be the same on every rank, each rank's row
+/// entries hold its rows (every rank has the same row entries, "rows/keys" among them). The file
+/// holds the rows in rank order; on more than one rank it is written with parallel HDF5 (MPI-IO,
+/// collective writes), then renamed into place by rank 0 as writeCheckpoint does. One rank:
+/// writeCheckpoint(file, record). Every rank throws the same one-line obs::Error if it cannot be
+/// written, or (several ranks) if obs is built without parallel HDF5.
+void writeCheckpoint(const std::filesystem::path& file, const CheckpointRecord& record, const Communicator& comm);
+
+/// Reads a checkpoint with rows on every rank of `comm` (collective), whatever number of ranks
+/// wrote it: the entries other than row entries as readCheckpoint(file), and each row entry for
+/// the rows of `keys`, in that order ("rows/keys" = keys; several ranks may ask for the same key).
+/// Each rank reads a slab of the rows and sends each row to the rank that asked for it. Every rank
+/// throws the same one-line obs::Error for what readCheckpoint(file) refuses, for a file without
+/// rows (written without "rows/keys", e.g. by an older obs), for a key the file does not hold (a
+/// vertex of another grid) and for a key the file holds twice.
+CheckpointRecord readCheckpoint(const std::filesystem::path& file, const std::vector<std::uint64_t>& keys,
+                                const Communicator& comm);
 
 /// The obs version written into checkpoints ("major.minor.patch").
 const char* checkpointObsVersion();
