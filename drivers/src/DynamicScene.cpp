@@ -92,7 +92,7 @@ struct SchemeRun {
   StepRecord last;
   Eigen::VectorXd u, v;
   fs::path timeseries;
-  std::vector<fs::path> vtuFiles;   ///< listed by the .pvd (distributed: the .pvtu files, rank 0)
+  std::vector<fs::path> vtuFiles;   ///< listed by the .pvd (distributed: the .pvtu files)
   std::vector<fs::path> pieceFiles;  ///< distributed: the ranks' pieces of them (rank 0)
   std::vector<double> vtuTimes;
 };
@@ -130,6 +130,10 @@ struct Context {
   const Communicator* comm = nullptr;
   const DistributedGrid* grid = nullptr;
   const DistributedView* leaf = nullptr;
+  /// The checkpoint rows (docs/checkpoint.md#rows): the key of every stacked (local) vertex, and the
+  /// vertices whose rows this process writes (the first `owned`; one process: all).
+  std::vector<std::uint64_t> keys;
+  Index owned = 0;
   bool writer() const { return !comm || comm->rank() == 0; }
   /// Runs local work so that an error on one rank reaches every rank (Communicator::collective).
   void collective(const std::function<void()>& work) const {
@@ -142,11 +146,37 @@ struct Context {
 };
 
 /// The bodies whose grids a checkpoint identifies, in stacked order, named as in the layout's files
-/// (a one-body file: "").
-std::vector<RunBody> runBodies(const std::vector<Context::Body>& bodies, const OutputLayout& layout) {
+/// (a one-body file: ""), known by their vertex keys (the checkpoints hold rows; distributed: the
+/// rank's owned vertices and cells, collective).
+std::vector<RunBody> runBodies(const std::vector<Context::Body>& bodies, const OutputLayout& layout,
+                               const DistributedView* leaf = nullptr, const Communicator* comm = nullptr) {
   std::vector<RunBody> out;
-  for (const Context::Body& b : bodies) out.push_back({layout.perBody() ? b.spec->name : std::string(), b.mesh});
+  for (std::size_t b = 0; b < bodies.size(); ++b) {
+    RunBody r{layout.perBody() ? bodies[b].spec->name : std::string(), bodies[b].mesh};
+    r.keyed = true;
+    r.index = b;
+    if (leaf) {
+      r.comm = comm;
+      r.ownedVertices = leaf->halo.numOwned();
+      r.ownedCells = static_cast<Index>(leaf->part.owned.size());
+    }
+    out.push_back(r);
+  }
   return out;
+}
+
+/// A Newmark state in a checkpoint record with rows: the per-vertex vectors of scheme/ (those of the
+/// stacked length n_local * d) as rows of the owned vertices, with their keys (docs/checkpoint.md#rows).
+void storeStateRows(CheckpointRecord& cp, const Context& c, int d) {
+  const auto local = static_cast<Eigen::Index>(c.keys.size()) * d;
+  const auto owned = static_cast<Eigen::Index>(c.owned) * d;
+  std::vector<std::pair<std::string, CheckpointRecord::Entry>> rows;
+  for (const auto& [name, e] : cp.entries())
+    if (name.rfind("scheme/", 0) == 0)
+      if (const auto* x = std::get_if<Eigen::VectorXd>(&e.value); x && x->size() == local && local > 0)
+        rows.emplace_back(name, CheckpointRecord::Entry{Eigen::VectorXd(x->head(owned)), e.description});
+  for (auto& [name, e] : rows) cp.setRows(name, std::move(e.value), d, e.description);
+  cp.setRowKeys(std::vector<std::uint64_t>(c.keys.begin(), c.keys.begin() + static_cast<std::ptrdiff_t>(c.owned)));
 }
 
 /// The driver's running figures of a scheme run (SchemeRun) in a checkpoint, "run/...", with the
@@ -425,9 +455,10 @@ public:
 
   /// A new file with the header and the initial state's row.
   void start(std::size_t tracked, const StepRecord& first) {
-    if (!writer_) return;
-    out_.open(path_, std::ios::binary);
-    if (!out_) throw Error(path_.string() + ": cannot write the time series");
+    if (writer_) {
+      out_.open(path_, std::ios::binary);
+      if (!out_) throw Error(path_.string() + ": cannot write the time series");
+    }
     emit(csvHeaderLine(tracked, friction_));
     emit(csvLine(first, friction_));
   }
@@ -437,6 +468,10 @@ public:
   void resume(const CheckpointRecord& cp, std::size_t tracked, int step) {
     bytes_ = cp.integer("run/timeseries_bytes");
     const std::string hash = cp.text("run/timeseries_hash");
+    if (!writer_) {  // the length and hash only (the same in every rank's checkpoint entries)
+      hash_ = std::stoull(hash, nullptr, 16);
+      return;
+    }
     std::ifstream in(path_, std::ios::binary);
     std::string text(static_cast<std::size_t>(std::max(bytes_, 0LL)), '\0');
     if (!in || !in.read(text.data(), static_cast<std::streamsize>(text.size())) ||
@@ -457,15 +492,15 @@ public:
 
   /// Opens the resumed file for appending (after resume, outside its error context).
   void openForAppend() {
+    if (!writer_) return;
     out_.open(path_, std::ios::app | std::ios::binary);
     if (!out_) throw Error(path_.string() + ": cannot write the time series");
   }
 
   void emit(const std::string& line) {
-    if (!writer_) return;
     const std::string text = line + "\n";
-    out_ << text;
-    bytes_ += static_cast<long long>(text.size());
+    if (writer_) out_ << text;
+    bytes_ += static_cast<long long>(text.size());  // on every rank: the checkpoints' entries
     hash_ = fnv1a(text.data(), text.size(), hash_);
   }
 
@@ -518,10 +553,8 @@ void writeStateVtu(const Context& c, const TimeStepper<d>& stepper, const Newmar
       const std::string base = path.stem().string();
       const auto files = writePieces(c.dir, base, *c.bodies[b].mesh, static_cast<Index>(c.leaf->part.owned.size()), pf,
                                      cells, *c.comm);
-      if (!files.empty()) {
-        run.vtuFiles.push_back(files.back());
-        run.pieceFiles.insert(run.pieceFiles.end(), files.begin(), files.end() - 1);
-      }
+      run.vtuFiles.push_back(c.dir / (base + ".pvtu"));  // on every rank: the checkpoints' entries
+      if (!files.empty()) run.pieceFiles.insert(run.pieceFiles.end(), files.begin(), files.end() - 1);
     } else {
       writeVtu(path, *c.bodies[b].mesh, pf, cells);
       run.vtuFiles.push_back(path);
@@ -581,7 +614,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
   const auto t0 = Clock::now();
   ContactModel<d> model;  // the bodies and the couplings
   const std::unique_ptr<TimeStepper<d>> stepper = makeSchemeStepper<d>(c, schemeName, o, model);
-  run.setupSeconds = secondsSince(t0);
+  run.setupSeconds = c.maximum(secondsSince(t0));  // distributed: the slowest rank's
   auto* newmark = dynamic_cast<NewmarkFamily<d>*>(stepper.get());
 
   const StepRecord first = stepper->record();
@@ -602,18 +635,22 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
   if (c.restart) {
     const CheckpointRecord& cp = *c.restart;
     try {
-      const NewmarkSchemeState state = loadNewmarkState(cp);
-      if (state.state.step > c.steps)
-        throw Error("the checkpoint is at step " + std::to_string(state.state.step) + ", beyond the scene's " +
-                    std::to_string(c.steps) + " steps");
-      newmark->setSchemeState(state);
+      NewmarkSchemeState state;
+      // the checks of the entries and of the time series (rank 0's file) reach every rank
+      c.collective([&] {
+        state = loadNewmarkState(cp);
+        if (state.state.step > c.steps)
+          throw Error("the checkpoint is at step " + std::to_string(state.state.step) + ", beyond the scene's " +
+                      std::to_string(c.steps) + " steps");
+        restoreSchemeRun(cp, run, c.dir);
+        csv.resume(cp, c.tracked.size(), state.state.step);
+      });
+      newmark->setSchemeState(state);  // collective (the records' sums)
       startStep = state.state.step;
-      restoreSchemeRun(cp, run, c.dir);
-      csv.resume(cp, c.tracked.size(), startStep);
     } catch (const Error& e) {
       throw Error(c.restartFile.string() + ": " + e.what());
     }
-    csv.openForAppend();
+    c.collective([&] { csv.openForAppend(); });
   } else {
     c.collective([&] { csv.start(c.tracked.size(), first); });
     if (writeVtk) writeStateVtu<d>(c, *stepper, newmark, first, run);
@@ -622,13 +659,15 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
 
   CheckpointSchedule schedule(scene.output.checkpoint);
   auto writeCheckpointAt = [&](int k) {
-    csv.flush();  // the checkpoint refers to these bytes
+    c.collective([&] { csv.flush(); });  // the checkpoint refers to these bytes
     CheckpointRecord cp;
     cp.kind = "dynamic";
-    storeRunIdentity(cp, scene, runBodies(c.bodies, c.layout));
+    storeRunIdentity(cp, scene, runBodies(c.bodies, c.layout, c.leaf, c.comm));  // collective
     storeNewmarkState(cp, newmark->schemeState());
+    storeStateRows(cp, c, d);
     storeSchemeRun(cp, run, csv.bytes(), csv.hash());
-    writeCheckpoint(c.checkpointFile, cp);
+    // one file from every rank (one process: all rows)
+    writeCheckpoint(c.checkpointFile, cp, c.comm ? *c.comm : Communicator::world());
     schedule.written();
     if (c.options.stepProgress)
       c.options.stepProgress("checkpoint: step " + std::to_string(k) + " -> " + c.checkpointFile.string());
@@ -666,9 +705,10 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
     const bool stop = k < c.steps && (signalled || (c.options.stopAfterStep && k >= *c.options.stopAfterStep));
     if (stop && !c.checkpointing)
       throw RunInterrupted("interrupted by " + InterruptGuard::signalName() + " after step " + std::to_string(k) + " of " +
-                  schemeName + (c.leaf ? " (distributed runs write no checkpoints yet)"
-                                       : " (scheme comparisons write no checkpoints)"));
-    if (c.checkpointing && (stop || schedule.due(k))) writeCheckpointAt(k);
+                  schemeName + " (scheme comparisons write no checkpoints)");
+    // distributed: due on every rank if on one (the schedule in seconds reads each rank's clock)
+    const bool due = c.checkpointing && c.maximum(schedule.due(k) ? 1.0 : 0.0) > 0;
+    if (c.checkpointing && (stop || due)) writeCheckpointAt(k);
     if (stop) {
       std::ostringstream os;
       os << (signalled ? "interrupted by " + InterruptGuard::signalName() : std::string("stopped (--stop-after-step)"))
@@ -1084,12 +1124,6 @@ RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodi
     else
       work();
   };
-  if (distributed && (options.restart || options.stopAfterStep || scene.output.checkpoint)) {
-    const std::string what = options.restart ? "--restart" : options.stopAfterStep ? "--stop-after-step" : "[output] checkpoint";
-    throw Error((scene.output.checkpoint && !options.restart && !options.stopAfterStep ? scene.where(scene.output.checkpoint->line)
-                                                                                       : scene.fileName + ": ") +
-                what + ": distributed dynamic runs write no checkpoints yet (run it without mpirun to checkpoint)");
-  }
   auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
   };
@@ -1106,11 +1140,25 @@ RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodi
       owner.push_back(b.spec);
     }
 
-  // --restart: the checkpoint must belong to this scene, its bodies and grids
+  // the checkpoint rows: a key per stacked vertex (docs/checkpoint.md#rows)
+  std::vector<std::uint64_t> keys;
+  for (std::size_t b = 0; b < bodies.size(); ++b)
+    for (mesh::Index v = 0; v < bodies[b].mesh->numVertices(); ++v) keys.push_back(vertexKey(b, bodies[b].mesh->vertex(v)));
+  const Communicator world = Communicator::world();
+  const Communicator& comm = distributed ? *dist.comm : world;  // one process: a communicator of one
+  // --restart: the checkpoint must belong to this scene, its bodies and grids (checked before its
+  // rows are matched with this run's vertices), whatever number of ranks wrote it
   std::optional<CheckpointRecord> restart;
   if (options.restart) {
-    restart = readCheckpoint(*options.restart);
-    checkRunIdentity(*restart, *options.restart, "dynamic", scene, runBodies(bodies, layout));
+    long long missing = 0;
+    restart = readCheckpoint(*options.restart, keys, comm, &missing);
+    if (missing < 0 && restart->kind == "dynamic")
+      throw Error(options.restart->string() + ": the checkpoint has no rows/keys (written by an obs before "
+                  "checkpoints with rows, docs/checkpoint.md#rows): this obs cannot continue it; start the run again");
+    checkRunIdentity(*restart, *options.restart, "dynamic", scene, runBodies(bodies, layout, dist.leaf, dist.comm));
+    if (missing > 0)
+      throw Error(options.restart->string() + ": " + std::to_string(missing) +
+                  " vertices of this run are not in the checkpoint (written for another grid: another --refine?)");
   }
 
   // contact set, tracked vertices, initial state (all checked before any time step)
@@ -1126,7 +1174,7 @@ RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodi
                   : trackedVertices(scene, positions, contact, dim);
 
   Context c{scene, options, contact, couplings, tracked, {}, {}, 0, {}, false, {}, nullptr, {}, bodies, layout,
-            dist.comm, dist.grid, dist.leaf};
+            dist.comm, dist.grid, dist.leaf, keys, owned};
   c.steps = dyn.steps ? *dyn.steps : static_cast<int>(std::ceil(*dyn.endTime / dyn.timeStep - 1e-9));
   DirichletValues dirichlet;
   collective([&] { dirichlet = initialState(scene, bodies, positions, owner, dim, c.u0, c.v0); });
@@ -1159,7 +1207,7 @@ RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodi
     throw Error(scene.fileName + ": --stop-after-step " + std::to_string(*options.stopAfterStep) +
                 " must lie in [1, " + std::to_string(c.steps - 1) + "] (the run has " + std::to_string(c.steps) +
                 " steps)");
-  c.checkpointing = !comparison && !distributed;
+  c.checkpointing = !comparison;
   c.checkpointFile = c.dir / "checkpoint.h5";
   if (restart) {
     c.restart = &*restart;

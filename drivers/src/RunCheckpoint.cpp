@@ -1,6 +1,7 @@
 #include "RunCheckpoint.hpp"
 
 #include <algorithm>
+#include <cstring>
 #include <sstream>
 
 #include "obs/mesh/Error.hpp"
@@ -41,6 +42,11 @@ std::string quoted(std::string s) {
 
 }  // namespace
 
+std::uint64_t vertexKey(std::size_t body, const mesh::Point& x) {
+  const std::uint64_t b = body;
+  return fnv1a(x.data(), sizeof(double) * 3, fnv1a(&b, sizeof b));
+}
+
 std::string sceneHash(const Scene& scene) {
   const std::string o = overridesText(scene.overrides);
   return hexHash(fnv1a(o.data(), o.size(), fnv1a(scene.text.data(), scene.text.size())));
@@ -63,12 +69,39 @@ struct GridIdentity {
   std::uint64_t checksum = kFnvOffset;
 };
 
+/// One body's grid: its counts and checksum, by the leaf's numbering or (keyed) by its vertex keys
+/// over the ranks (collective with comm).
+GridIdentity bodyIdentity(const RunBody& b) {
+  const mesh::Mesh& leaf = *b.leaf;
+  if (!b.keyed) return {leaf.numVertices(), leaf.numCells(), gridChecksum(leaf)};
+  const mesh::Index vertices = b.comm ? b.ownedVertices : leaf.numVertices();
+  const mesh::Index cells = b.comm ? b.ownedCells : leaf.numCells();
+  std::uint64_t sum = 0;  // of the keys, modulo 2^64: independent of the order
+  for (mesh::Index v = 0; v < vertices; ++v) sum += vertexKey(b.index, leaf.vertex(v));
+  GridIdentity g{vertices, cells, 0};
+  if (b.comm) {
+    long long bits = 0;
+    std::memcpy(&bits, &sum, sizeof sum);
+    sum = 0;
+    for (long long x : b.comm->allGather(bits)) {
+      std::uint64_t y = 0;
+      std::memcpy(&y, &x, sizeof y);
+      sum += y;
+    }
+    g.vertices = b.comm->sum(static_cast<long long>(vertices));
+    g.cells = b.comm->sum(static_cast<long long>(cells));
+  }
+  g.checksum = fnv1a(&sum, sizeof sum, fnv1a(&g.cells, sizeof g.cells));
+  return g;
+}
+
 GridIdentity gridIdentity(const std::vector<RunBody>& bodies) {
   GridIdentity g;
   for (const RunBody& b : bodies) {
-    g.vertices += b.leaf->numVertices();
-    g.cells += b.leaf->numCells();
-    g.checksum = gridChecksum(*b.leaf, g.checksum);
+    const GridIdentity own = bodyIdentity(b);
+    g.vertices += own.vertices;
+    g.cells += own.cells;
+    g.checksum = b.keyed ? fnv1a(&own.checksum, sizeof own.checksum, g.checksum) : gridChecksum(*b.leaf, g.checksum);
   }
   return g;
 }
@@ -82,9 +115,9 @@ std::string bodyList(const std::vector<std::string>& names) {
   return s + ")";
 }
 
-std::string gridMismatch(long long nv, long long nc, const mesh::Mesh& leaf) {
+std::string gridMismatch(long long nv, long long nc, const GridIdentity& now) {
   return "written for a grid of " + std::to_string(nv) + " vertices / " + std::to_string(nc) + " cells, this run has " +
-         std::to_string(leaf.numVertices()) + " / " + std::to_string(leaf.numCells()) + " (another --refine?)";
+         std::to_string(now.vertices) + " / " + std::to_string(now.cells) + " (another --refine?)";
 }
 
 }  // namespace
@@ -96,12 +129,19 @@ void storeRunIdentity(CheckpointRecord& r, const Scene& scene, const std::vector
   r.set("run/threads", static_cast<long long>(threads()),
         "obs run --threads of the run (Gauss-Seidel sweeps in an order that depends on it: a restart with "
         "another count would not continue bitwise)");
+  if (!bodies.empty() && bodies.front().keyed)
+    r.set("run/ranks", static_cast<long long>(bodies.front().comm ? bodies.front().comm->size() : 1),
+          "MPI ranks of the run (a restart on another number continues within the solver tolerance, on the same "
+          "number and threads bit for bit)");
   const GridIdentity g = gridIdentity(bodies);
   if (!scene.multiBody()) {
     r.set("grid/leaf_vertices", g.vertices, "vertices of the leaf mesh");
     r.set("grid/leaf_cells", g.cells, "cells of the leaf mesh");
     r.set("grid/leaf_checksum", hexHash(g.checksum),
-          "FNV-1a 64 of the leaf vertex coordinates and cell vertex lists (the grid is rebuilt from the scene)");
+          bodies.front().keyed ? "FNV-1a 64 of the cell count and the sum of the vertex keys (rows/keys; the grid is "
+                                 "rebuilt from the scene, on any number of ranks)"
+                               : "FNV-1a 64 of the leaf vertex coordinates and cell vertex lists (the grid is rebuilt "
+                                 "from the scene)");
     return;
   }
   r.set("grid/leaf_vertices", g.vertices, "vertices of the leaf meshes of all bodies (the stacked problem)");
@@ -113,17 +153,18 @@ void storeRunIdentity(CheckpointRecord& r, const Scene& scene, const std::vector
         "bodies ([[body]] sections), stacked in this order in the scheme/ and run/ vectors");
   long long offset = 0;
   for (std::size_t b = 0; b < bodies.size(); ++b) {
-    const mesh::Mesh& leaf = *bodies[b].leaf;
+    const GridIdentity own = bodyIdentity(bodies[b]);
     const std::string g0 = bodyGroup(b);
     r.set(g0 + "name", bodies[b].name, "the [[body]] name");
     r.set(g0 + "vertex_offset", offset,
           "first stacked vertex of the body: its entries of a scheme/ vector are [offset * d, (offset + "
           "leaf_vertices) * d)");
-    r.set(g0 + "leaf_vertices", static_cast<long long>(leaf.numVertices()), "vertices of the body's leaf mesh");
-    r.set(g0 + "leaf_cells", static_cast<long long>(leaf.numCells()), "cells of the body's leaf mesh");
-    r.set(g0 + "leaf_checksum", hexHash(gridChecksum(leaf)),
-          "FNV-1a 64 of the body's leaf vertex coordinates and cell vertex lists");
-    offset += leaf.numVertices();
+    r.set(g0 + "leaf_vertices", own.vertices, "vertices of the body's leaf mesh");
+    r.set(g0 + "leaf_cells", own.cells, "cells of the body's leaf mesh");
+    r.set(g0 + "leaf_checksum", hexHash(own.checksum),
+          bodies[b].keyed ? "FNV-1a 64 of the body's cell count and the sum of its vertex keys"
+                          : "FNV-1a 64 of the body's leaf vertex coordinates and cell vertex lists");
+    offset += own.vertices;
   }
 }
 
@@ -198,20 +239,20 @@ void checkRunIdentity(const CheckpointRecord& r, const std::filesystem::path& fi
   try {
     if (r.has("bodies/count")) {  // several bodies: the grid of each
       for (std::size_t b = 0; b < bodies.size(); ++b) {
-        const mesh::Mesh& leaf = *bodies[b].leaf;
+        const GridIdentity own = bodyIdentity(bodies[b]);
         const std::string g0 = bodyGroup(b);
         const long long nv = r.integer(g0 + "leaf_vertices"), nc = r.integer(g0 + "leaf_cells");
-        if (nv != leaf.numVertices() || nc != leaf.numCells())
-          throw Error("body '" + bodies[b].name + "' " + gridMismatch(nv, nc, leaf));
-        if (r.text(g0 + "leaf_checksum") != hexHash(gridChecksum(leaf)))
+        if (nv != own.vertices || nc != own.cells)
+          throw Error("body '" + bodies[b].name + "' " + gridMismatch(nv, nc, own));
+        if (r.text(g0 + "leaf_checksum") != hexHash(own.checksum))
           throw Error("body '" + bodies[b].name + "': the grid checksum differs (" + r.text(g0 + "leaf_checksum") +
-                      " in the checkpoint, " + hexHash(gridChecksum(leaf)) + " now): the mesh was built differently");
+                      " in the checkpoint, " + hexHash(own.checksum) + " now): the mesh was built differently");
       }
     }
     const GridIdentity g = gridIdentity(bodies);
     const long long nv = r.integer("grid/leaf_vertices"), nc = r.integer("grid/leaf_cells");
     if (nv != g.vertices || nc != g.cells) {
-      if (bodies.size() == 1) throw Error(gridMismatch(nv, nc, *bodies.front().leaf));
+      if (bodies.size() == 1) throw Error(gridMismatch(nv, nc, g));
       throw Error("written for grids of " + std::to_string(nv) + " vertices / " + std::to_string(nc) +
                   " cells in all, this run has " + std::to_string(g.vertices) + " / " + std::to_string(g.cells));
     }

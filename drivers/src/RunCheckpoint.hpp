@@ -15,6 +15,8 @@
 #include "obs/obs/Checkpoint.hpp"
 #include "RunSupport.hpp"
 
+#include "obs/obs/Communicator.hpp"
+
 namespace obs::drivers {
 
 /// FNV-1a 64 (hex) of the scene text followed by its --set overrides (one "\n--set <override>"
@@ -26,7 +28,22 @@ std::string sceneHash(const Scene& scene);
 struct RunBody {
   std::string name;
   const mesh::Mesh* leaf = nullptr;
+  /// Keyed identity (dynamic runs, whose checkpoints hold rows: docs/checkpoint.md#rows): the grid
+  /// is known by its vertex and cell counts and the sum of its vertex keys (vertexKey), which does
+  /// not depend on the numbering, so that a run on another number of ranks recognises it. With
+  /// `comm` (a distributed run) the first ownedVertices vertices and ownedCells cells of `leaf` are
+  /// this rank's and the figures are summed over the ranks: the identity functions are then
+  /// collective.
+  bool keyed = false;
+  std::size_t index = 0;  ///< the body's place in the stacked order (part of its vertices' keys)
+  const Communicator* comm = nullptr;
+  mesh::Index ownedVertices = -1, ownedCells = -1;
 };
+
+/// The key of a vertex at x of body `body` (stacked order) in checkpoints with rows
+/// (docs/checkpoint.md#rows): FNV-1a 64 of the body index and the bits of the coordinates, the
+/// same for every numbering and partition of the grid.
+std::uint64_t vertexKey(std::size_t body, const mesh::Point& x);
 
 /// Stores "scene/text", "scene/overrides", "scene/hash", "grid/leaf_vertices", "grid/leaf_cells"
 /// and "grid/leaf_checksum" (FNV-1a of the leaf vertex coordinates and cell vertex lists; several

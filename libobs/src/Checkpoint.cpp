@@ -667,7 +667,8 @@ void writeCheckpoint(const fs::path& file, const CheckpointRecord& record, const
 #endif
 }
 
-CheckpointRecord readCheckpoint(const fs::path& file, const std::vector<std::uint64_t>& keys, const Communicator& comm) {
+CheckpointRecord readCheckpoint(const fs::path& file, const std::vector<std::uint64_t>& keys, const Communicator& comm,
+                                long long* missingRows) {
   const QuietHdf5 quiet;
   const std::string where = file.string() + ": ";
   const int ranks = comm.size(), me = comm.rank();
@@ -675,6 +676,7 @@ CheckpointRecord readCheckpoint(const fs::path& file, const std::vector<std::uin
   CheckpointRecord slab;
   std::string storedHash;
   long long totalRows = 0;
+  bool rows = true;  // the file has rows/keys
   comm.collective([&] {
     std::error_code ec;
     if (!fs::is_regular_file(file, ec)) throw Error(where + "no such checkpoint file");
@@ -698,11 +700,12 @@ CheckpointRecord readCheckpoint(const fs::path& file, const std::vector<std::uin
     std::vector<std::string> names;
     if (H5Ovisit(h.get(), H5_INDEX_NAME, H5_ITER_NATIVE, collectName, &names) < 0)
       throw Error(where + "HDF5 cannot read its contents (truncated or damaged checkpoint)");
-    if (std::find(names.begin(), names.end(), "rows/keys") == names.end())
+    rows = std::find(names.begin(), names.end(), "rows/keys") != names.end();
+    if (!rows && !missingRows)
       throw Error(where + "the checkpoint has no rows/keys (written by an obs before " +
                   "checkpoints with rows): it cannot be continued by this obs; start the run again");
     try {
-      {
+      if (rows) {
         Handle set(H5Dopen2(h.get(), "rows/keys", H5P_DEFAULT), H5Dclose);
         Handle space(H5Dget_space(set.get()), H5Sclose);
         hsize_t dims[1] = {0};
@@ -732,6 +735,10 @@ CheckpointRecord readCheckpoint(const fs::path& file, const std::vector<std::uin
   if (computed != storedHash)  // the same on every rank
     throw Error(where + "content hash " + computed + " differs from the stored " + storedHash +
                 " (the checkpoint is damaged)");
+  if (!rows) {  // the entries alone (missingRows given)
+    *missingRows = -1;
+    return slab;
+  }
 
   // the rows to the ranks that ask for them, through the rank key % ranks: the rows read and the
   // keys asked for go there, the matches come back
@@ -787,9 +794,10 @@ CheckpointRecord readCheckpoint(const fs::path& file, const std::vector<std::uin
   missing = comm.sum(missing);
   if (duplicates > 0)
     throw Error(where + "the checkpoint holds " + std::to_string(duplicates) + " vertex keys twice (damaged)");
-  if (missing > 0)
+  if (missing > 0 && !missingRows)
     throw Error(where + std::to_string(missing) + " vertices of this run are not in the checkpoint (written for another " +
                 "grid: another --refine?)");
+  if (missingRows) *missingRows = missing;
   const auto answers = comm.exchange(answer);
   // the record: the entries, and the row entries in the order of `keys`
   CheckpointRecord out;

@@ -1014,7 +1014,10 @@ StepRecord NewmarkFamily<d>::step() {
   r.solutionOnly = static_cast<Index>(sums[8]);
   r.solverIterations = result.iterations;
   r.solverRate = result.iterations >= 2 ? result.convergenceRate : std::numeric_limits<double>::quiet_NaN();
-  r.solverSeconds = result.seconds;
+  // distributed: the slowest rank's times, so that every rank holds the same record
+  std::vector<double> times{result.seconds, seconds(start)};
+  if (comm_) comm_->max(times);
+  r.solverSeconds = times[0];
   r.solverTolerance = tolerance;
   r.solverKkt = result.kkt.max();
   r.solverErrorBound = result.errorBound;
@@ -1023,7 +1026,7 @@ StepRecord NewmarkFamily<d>::step() {
   r.stickNodes = static_cast<Index>(sums[4]);
   r.slipNodes = static_cast<Index>(sums[5]);
   r.frictionSolves = frictionSolves;
-  r.stepSeconds = seconds(start);
+  r.stepSeconds = comm_ ? times[1] : seconds(start);
   last_ = r;
   return r;
 }

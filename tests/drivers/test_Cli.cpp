@@ -441,7 +441,7 @@ double seriesDeviation(const Series& a, const Series& b, const std::vector<std::
 // 1e-8 of their scales and the same active node counts every step; rank 0 writes the series,
 // summary.json (ranks, balance) and the .pvd of .pvtu files whose pieces VTK reads back as the
 // whole mesh. Geometry 1 (hexahedra) with mass redistribution on 2 ranks, the ball of pyramids on
-// 3, Coulomb friction on 2; checkpoints are refused on every rank with one line.
+// 3, Coulomb friction on 2; a checkpoint written on 2 ranks continues on 2, 3 and 1.
 TEST_F(Cli, MpirunRunsDynamicScenesDistributed) {
   const auto launcher = [](int ranks) {
     return "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=PASSIVE " + std::string(OBS_MPIEXEC) +
@@ -515,14 +515,56 @@ TEST_F(Cli, MpirunRunsDynamicScenesDistributed) {
     EXPECT_EQ(reader->GetOutput()->GetNumberOfCells(), js["cells"].get<long long>());
     ASSERT_NE(reader->GetOutput()->GetPointData()->GetArray("contact_state"), nullptr);
   }
-  // checkpoints of distributed dynamic runs: refused on every rank with one line
-  const std::string block = (fs::path(OBS_DATA_DIR) / "scenes" / "dynamics_block.toml").string();
-  const Output c = runObs("run '" + block + "' --stop-after-step 5 --output out_dyn_mpi_stop", "dyn_mpi_stop", launcher(2));
-  EXPECT_EQ(c.code, 1);
+  // checkpoints (docs/checkpoint.md#rows): the ball stopped after step 30 on 2 ranks (one file,
+  // written by both) continues on 2 ranks bit for bit (every column but the times), and on 3 ranks
+  // and on one process to the uninterrupted run within 1e-8
+  const std::string ball = (fs::path(OBS_DATA_DIR) / "scenes" / "dynamics_ball.toml").string();
+  const std::string steps = " --set dynamics.steps=60 -q";
+  fs::remove_all(kTmp / "out_cp_full2");
+  ASSERT_EQ(runObs("run '" + ball + "'" + steps + " --output out_cp_full2", "cp_full2", launcher(2)).code, 0);
+  fs::remove_all(kTmp / "out_cp_stop");
+  const Output stop = runObs("run '" + ball + "'" + steps + " --stop-after-step 30 --output out_cp_stop", "cp_stop",
+                             launcher(2));
+  EXPECT_EQ(stop.code, 3) << stop.err;
+  ASSERT_TRUE(fs::exists(kTmp / "out_cp_stop" / "checkpoint.h5"));
+  EXPECT_FALSE(fs::exists(kTmp / "out_cp_stop" / "checkpoint.h5.tmp"));
+  const Series full2 = readSeries(kTmp / "out_cp_full2" / "timeseries.csv");
+  const Series full1 = readSeries(kTmp / "out_dyn_one_dynamics_ball" / "timeseries.csv");
+  for (int ranks : {2, 3, 1}) {
+    SCOPED_TRACE("restart on " + std::to_string(ranks) + " rank(s)");
+    const std::string dir = "out_cp_restart" + std::to_string(ranks);
+    fs::remove_all(kTmp / dir);
+    fs::copy(kTmp / "out_cp_stop", kTmp / dir, fs::copy_options::recursive);
+    const Output r = runObs("run '" + ball + "'" + steps + " --restart " + (kTmp / dir / "checkpoint.h5").string() +
+                                " --output " + dir,
+                            "cp_restart" + std::to_string(ranks), ranks > 1 ? launcher(ranks) : std::string());
+    ASSERT_EQ(r.code, 0) << r.err;
+    const Series b = readSeries(kTmp / dir / "timeseries.csv");
+    ASSERT_EQ(b.rows.size(), 61u);
+    if (ranks == 2) {
+      for (std::size_t row = 0; row < b.rows.size(); ++row)
+        for (std::size_t k = 0; k < b.columns.size(); ++k) {
+          if (b.columns[k].find("seconds") != std::string::npos) continue;
+          const double x = full2.rows[row][k], y = b.rows[row][k];
+          EXPECT_TRUE(x == y || (std::isnan(x) && std::isnan(y))) << b.columns[k] << " row " << row;
+        }
+    } else {
+      EXPECT_LE(seriesDeviation(full1, b, {"energy", "kinetic_energy", "elastic_energy"}), 1e-8);
+      EXPECT_LE(seriesDeviation(full1, b, {"contact_force_x", "contact_force_y", "contact_force_z"}), 1e-8);
+    }
+  }
+  // a checkpoint of another grid: one line on every rank
+  fs::remove_all(kTmp / "out_cp_refined");
+  fs::copy(kTmp / "out_cp_stop", kTmp / "out_cp_refined", fs::copy_options::recursive);
+  const Output refined = runObs("run '" + ball + "'" + steps + " --refine 2 --restart " +
+                                    (kTmp / "out_cp_refined" / "checkpoint.h5").string() + " --output out_cp_refined",
+                                "cp_refined", launcher(3));
+  EXPECT_EQ(refined.code, 1);
   std::size_t errors = 0;
-  for (std::size_t at = c.err.find("obs: error:"); at != std::string::npos; at = c.err.find("obs: error:", at + 1)) ++errors;
-  EXPECT_EQ(errors, 1u) << c.err;
-  EXPECT_NE(c.err.find("--stop-after-step"), std::string::npos) << c.err;
+  for (std::size_t at = refined.err.find("obs: error:"); at != std::string::npos; at = refined.err.find("obs: error:", at + 1))
+    ++errors;
+  EXPECT_EQ(errors, 1u) << refined.err;
+  EXPECT_NE(refined.err.find("another --refine"), std::string::npos) << refined.err;
 }
 #endif
 

@@ -119,9 +119,12 @@ void writeCheckpoint(const std::filesystem::path& file, const CheckpointRecord& 
 /// Each rank reads a slab of the rows and sends each row to the rank that asked for it. Every rank
 /// throws the same one-line obs::Error for what readCheckpoint(file) refuses, for a file without
 /// rows (written without "rows/keys", e.g. by an older obs), for a key the file does not hold (a
-/// vertex of another grid) and for a key the file holds twice.
+/// vertex of another grid) and for a key the file holds twice. With `missingRows` the first two
+/// are not errors, so that the caller can first check what the record is: a file without rows
+/// gives its entries and *missingRows = -1, keys the file does not hold get zero rows and their
+/// number over all ranks in *missingRows (0: all found).
 CheckpointRecord readCheckpoint(const std::filesystem::path& file, const std::vector<std::uint64_t>& keys,
-                                const Communicator& comm);
+                                const Communicator& comm, long long* missingRows = nullptr);
 
 /// The obs version written into checkpoints ("major.minor.patch").
 const char* checkpointObsVersion();
