@@ -1,4 +1,4 @@
-// Checkpoints with rows under mpirun (tests/CMakeLists.txt: 1, 2 and 3 ranks; docs/checkpoint.md#distributed):
+// Checkpoints with rows under mpirun (tests/CMakeLists.txt: 1, 2 and 3 ranks; docs/checkpoint.md#rows):
 // a record whose row entries each rank fills with its rows is written to one file (parallel HDF5,
 // collective writes) and read back by every rank for another distribution of the keys, as a run on
 // another number of ranks would; the file is the one a single process would write (the serial

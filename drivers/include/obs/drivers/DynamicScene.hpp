@@ -70,8 +70,9 @@ RunResult runDynamicScene(const Scene& scene, const std::vector<const mesh::Grid
 /// `leaf` (its local mesh; `bc` its boundary conditions), integrated by NewmarkFamily on the
 /// DistributedGrid. Every rank holds the same step records; rank 0 writes the time series, the .pvd
 /// of the .pvtu files and summary.json (with "ranks", the memory per rank and "balance"), every rank
-/// its piece of each .vtu. Collective; errors reach every rank. Refused (obs::Error): several bodies,
-/// and checkpoints ([output] checkpoint, --restart, --stop-after-step).
+/// its piece of each .vtu. Checkpoints: one file from all ranks, the state as rows keyed by vertex
+/// (docs/checkpoint.md#rows), and --restart from a file of any number of ranks. Collective; errors
+/// reach every rank. Refused (obs::Error): several bodies.
 RunResult runDistributedDynamicScene(const Scene& scene, const DistributedGrid& grid, const DistributedView& leaf,
                                      const BoundaryConditions& bc, const RunOptions& options, RunResult result,
                                      std::chrono::steady_clock::time_point start);

@@ -19,7 +19,7 @@
 /// (rename is atomic on POSIX file systems), so a process killed while writing (even by SIGKILL)
 /// leaves the previous checkpoint intact; only the .tmp file may be incomplete.
 ///
-/// Rows (docs/checkpoint.md#distributed): a record may hold *row entries*, per-vertex data with a
+/// Rows (docs/checkpoint.md#rows): a record may hold *row entries*, per-vertex data with a
 /// fixed number of values per vertex (setRows), and then the entry "rows/keys": one key per row,
 /// identifying the vertex independently of how the grid is numbered or partitioned (an integer
 /// vector holding the bits of 64-bit keys). Each row dataset carries the attribute
