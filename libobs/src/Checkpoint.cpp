@@ -118,39 +118,72 @@ void createGroups(hid_t file, const std::string& name, std::set<std::string>& ma
   }
 }
 
-void writeEntry(hid_t file, const std::string& name, const CheckpointRecord::Entry& e) {
-  const CheckpointRecord::Value& v = e.value;
-  hsize_t dims[1] = {0};
-  if (const auto* x = std::get_if<Eigen::VectorXd>(&v)) dims[0] = static_cast<hsize_t>(x->size());
-  if (const auto* x = std::get_if<std::vector<long long>>(&v)) dims[0] = static_cast<hsize_t>(x->size());
-  const bool isVector = v.index() >= 3;
-  Handle space(isVector ? H5Screate_simple(1, dims, nullptr) : H5Screate(H5S_SCALAR), H5Sclose);
-  std::string text;  // fixed-length text type of the string's length (at least 1)
-  if (const auto* x = std::get_if<std::string>(&v)) text = x->empty() ? std::string(1, '\0') : *x;
-  Handle textType(std::holds_alternative<std::string>(v) ? H5Tcopy(H5T_C_S1) : -1, H5Tclose);
-  if (textType.valid()) {
-    H5Tset_size(textType.get(), text.size());
-    H5Tset_strpad(textType.get(), H5T_STR_NULLPAD);
+/// The HDF5 types of an entry's value and its data in memory (text: a fixed-length type of the
+/// string's length, at least 1).
+struct StoredValue {
+  explicit StoredValue(const CheckpointRecord::Value& v)
+      : isVector(v.index() >= 3), textType(std::holds_alternative<std::string>(v) ? H5Tcopy(H5T_C_S1) : -1, H5Tclose) {
+    if (const auto* x = std::get_if<std::string>(&v)) text = x->empty() ? std::string(1, '\0') : *x;
+    if (textType.valid()) {
+      H5Tset_size(textType.get(), text.size());
+      H5Tset_strpad(textType.get(), H5T_STR_NULLPAD);
+    }
+    const bool real = std::holds_alternative<double>(v) || std::holds_alternative<Eigen::VectorXd>(v);
+    fileType = textType.valid() ? textType.get() : real ? H5T_IEEE_F64LE : H5T_STD_I64LE;
+    memType = textType.valid() ? textType.get() : real ? H5T_NATIVE_DOUBLE : H5T_NATIVE_LLONG;
+    if (const auto* x = std::get_if<Eigen::VectorXd>(&v)) length = static_cast<hsize_t>(x->size());
+    if (const auto* x = std::get_if<std::vector<long long>>(&v)) length = static_cast<hsize_t>(x->size());
+    data = std::visit(
+        [&](const auto& x) -> const void* {
+          using T = std::decay_t<decltype(x)>;
+          if constexpr (std::is_same_v<T, std::string>) return text.data();
+          else if constexpr (std::is_same_v<T, double> || std::is_same_v<T, long long>) return &x;
+          else return x.data();
+        },
+        v);
   }
-  const bool real = std::holds_alternative<double>(v) || std::holds_alternative<Eigen::VectorXd>(v);
-  const hid_t fileType = textType.valid() ? textType.get() : real ? H5T_IEEE_F64LE : H5T_STD_I64LE;
-  const hid_t memType = textType.valid() ? textType.get() : real ? H5T_NATIVE_DOUBLE : H5T_NATIVE_LLONG;
-  const void* data = std::visit(
-      [&](const auto& x) -> const void* {
-        using T = std::decay_t<decltype(x)>;
-        if constexpr (std::is_same_v<T, std::string>) return text.data();
-        else if constexpr (std::is_same_v<T, double> || std::is_same_v<T, long long>) return &x;
-        else return x.data();
-      },
-      v);
-  Handle set(H5Dcreate2(file, name.c_str(), fileType, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+  bool isVector;
+  hsize_t length = 0;  ///< values of a vector
+  std::string text;
+  Handle textType;
+  hid_t fileType = -1, memType = -1;
+  const void* data = nullptr;
+};
+
+/// The attributes every dataset carries.
+void writeDatasetAttributes(hid_t set, const CheckpointRecord::Entry& e) {
+  writeTextAttribute(set, "description", e.description);
+  if (e.rowComponents > 0) writeIntegerAttribute(set, "row_components", e.rowComponents);
+}
+
+void writeEntry(hid_t file, const std::string& name, const CheckpointRecord::Entry& e) {
+  const StoredValue v(e.value);
+  hsize_t dims[1] = {v.length};
+  Handle space(v.isVector ? H5Screate_simple(1, dims, nullptr) : H5Screate(H5S_SCALAR), H5Sclose);
+  Handle set(H5Dcreate2(file, name.c_str(), v.fileType, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
              H5Dclose);
   if (!space.valid() || !set.valid()) throw Error("cannot create the dataset " + name);
-  const bool empty = isVector && dims[0] == 0;
-  if (!empty && H5Dwrite(set.get(), memType, H5S_ALL, H5S_ALL, H5P_DEFAULT, data) < 0)
+  const bool empty = v.isVector && dims[0] == 0;
+  if (!empty && H5Dwrite(set.get(), v.memType, H5S_ALL, H5S_ALL, H5P_DEFAULT, v.data) < 0)
     throw Error("cannot write the dataset " + name);
-  writeTextAttribute(set.get(), "description", e.description);
-  if (e.rowComponents > 0) writeIntegerAttribute(set.get(), "row_components", e.rowComponents);
+  writeDatasetAttributes(set.get(), e);
+}
+
+/// FNV-1a of an entry's name, type tag and value (of `length` values for a vector) from h: the
+/// content hash's step per entry, up to the vector's data, which the caller hashes (`data`, `bytes`).
+std::uint64_t hashEntryHead(const std::string& name, const CheckpointRecord::Value& value, std::uint64_t length,
+                            std::uint64_t h) {
+  h = fnv1a(name.data(), name.size() + 1, h);  // with the terminating NUL: names cannot run together
+  const unsigned char tag = static_cast<unsigned char>(value.index() + 1);
+  h = fnv1a(&tag, 1, h);
+  if (const auto* x = std::get_if<std::string>(&value)) {
+    const std::uint64_t n = x->size();
+    h = fnv1a(&n, sizeof n, h);
+    return fnv1a(x->data(), x->size(), h);
+  }
+  if (const auto* x = std::get_if<double>(&value)) return fnv1a(x, sizeof *x, h);
+  if (const auto* x = std::get_if<long long>(&value)) return fnv1a(x, sizeof *x, h);
+  return fnv1a(&length, sizeof length, h);  // a vector: its length, then its data
 }
 
 void writeFile(const fs::path& path, const CheckpointRecord& record) {
@@ -327,25 +360,9 @@ const std::vector<long long>& CheckpointRecord::integers(const std::string& name
 std::uint64_t CheckpointRecord::contentHash() const {
   std::uint64_t h = fnv1a(kind.data(), kind.size());
   for (const auto& [name, entry] : entries_) {
-    h = fnv1a(name.data(), name.size() + 1, h);  // with the terminating NUL: names cannot run together
-    const unsigned char tag = static_cast<unsigned char>(entry.value.index() + 1);
-    h = fnv1a(&tag, 1, h);
-    std::visit(
-        [&](const auto& x) {
-          using T = std::decay_t<decltype(x)>;
-          if constexpr (std::is_same_v<T, std::string>) {
-            const std::uint64_t n = x.size();
-            h = fnv1a(&n, sizeof n, h);
-            h = fnv1a(x.data(), x.size(), h);
-          } else if constexpr (std::is_same_v<T, double> || std::is_same_v<T, long long>) {
-            h = fnv1a(&x, sizeof x, h);
-          } else {
-            const std::uint64_t n = static_cast<std::uint64_t>(x.size());
-            h = fnv1a(&n, sizeof n, h);
-            h = fnv1a(x.data(), static_cast<std::size_t>(x.size()) * sizeof(x[0]), h);
-          }
-        },
-        entry.value);
+    const StoredValue v(entry.value);
+    h = hashEntryHead(name, entry.value, v.length, h);
+    if (v.isVector) h = fnv1a(v.data, static_cast<std::size_t>(v.length) * 8, h);  // doubles, 64-bit integers
   }
   return h;
 }
@@ -439,34 +456,16 @@ std::uint64_t chainedFnv(const void* data, std::size_t bytes, std::uint64_t h, c
 std::uint64_t distributedContentHash(const CheckpointRecord& record, const Communicator& comm) {
   std::uint64_t h = fnv1a(record.kind.data(), record.kind.size());
   for (const auto& [name, entry] : record.entries()) {
-    h = fnv1a(name.data(), name.size() + 1, h);
-    const unsigned char tag = static_cast<unsigned char>(entry.value.index() + 1);
-    h = fnv1a(&tag, 1, h);
-    if (entry.rowComponents > 0) {
-      const auto* x = std::get_if<Eigen::VectorXd>(&entry.value);
-      const auto* y = std::get_if<std::vector<long long>>(&entry.value);
-      const std::size_t local = x ? static_cast<std::size_t>(x->size()) : y->size();
-      const auto n = static_cast<std::uint64_t>(comm.sum(static_cast<long long>(local)));
-      h = fnv1a(&n, sizeof n, h);
-      h = chainedFnv(x ? static_cast<const void*>(x->data()) : static_cast<const void*>(y->data()), local * 8, h, comm);
+    const StoredValue v(entry.value);
+    if (entry.rowComponents == 0) {  // the same on every rank
+      h = hashEntryHead(name, entry.value, v.length, h);
+      if (v.isVector) h = fnv1a(v.data, static_cast<std::size_t>(v.length) * 8, h);
       continue;
     }
-    std::visit(
-        [&](const auto& x) {
-          using T = std::decay_t<decltype(x)>;
-          if constexpr (std::is_same_v<T, std::string>) {
-            const std::uint64_t n = x.size();
-            h = fnv1a(&n, sizeof n, h);
-            h = fnv1a(x.data(), x.size(), h);
-          } else if constexpr (std::is_same_v<T, double> || std::is_same_v<T, long long>) {
-            h = fnv1a(&x, sizeof x, h);
-          } else {
-            const std::uint64_t n = static_cast<std::uint64_t>(x.size());
-            h = fnv1a(&n, sizeof n, h);
-            h = fnv1a(x.data(), static_cast<std::size_t>(x.size()) * sizeof(x[0]), h);
-          }
-        },
-        entry.value);
+    // a row entry: its length over the ranks, then each rank's rows in rank order
+    const auto n = static_cast<std::uint64_t>(comm.sum(static_cast<long long>(v.length)));
+    h = hashEntryHead(name, entry.value, n, h);
+    h = chainedFnv(v.data, static_cast<std::size_t>(v.length) * 8, h, comm);
   }
   return h;
 }
@@ -499,27 +498,9 @@ void writeFileDistributed(const fs::path& path, const CheckpointRecord& record, 
   std::set<std::string> groups;
   for (const auto& [name, e] : record.entries()) {
     createGroups(file.get(), name, groups);
-    const CheckpointRecord::Value& v = e.value;
+    const StoredValue v(e.value);
     const bool row = e.rowComponents > 0;
-    const bool isVector = v.index() >= 3;
-    std::string text;
-    if (const auto* x = std::get_if<std::string>(&v)) text = x->empty() ? std::string(1, '\0') : *x;
-    Handle textType(std::holds_alternative<std::string>(v) ? H5Tcopy(H5T_C_S1) : -1, H5Tclose);
-    if (textType.valid()) {
-      H5Tset_size(textType.get(), text.size());
-      H5Tset_strpad(textType.get(), H5T_STR_NULLPAD);
-    }
-    const bool real = std::holds_alternative<double>(v) || std::holds_alternative<Eigen::VectorXd>(v);
-    const hid_t fileType = textType.valid() ? textType.get() : real ? H5T_IEEE_F64LE : H5T_STD_I64LE;
-    const hid_t memType = textType.valid() ? textType.get() : real ? H5T_NATIVE_DOUBLE : H5T_NATIVE_LLONG;
-    const void* data = std::visit(
-        [&](const auto& x) -> const void* {
-          using T = std::decay_t<decltype(x)>;
-          if constexpr (std::is_same_v<T, std::string>) return text.data();
-          else if constexpr (std::is_same_v<T, double> || std::is_same_v<T, long long>) return &x;
-          else return x.data();
-        },
-        v);
+    const bool isVector = v.isVector;
     // the dataset's length: a row entry's over all ranks, components per row
     hsize_t dims[1] = {0};
     hsize_t local = 0, offset = 0;
@@ -530,10 +511,10 @@ void writeFileDistributed(const fs::path& path, const CheckpointRecord& record, 
       // an entry empty on every rank (e.g. no acceleration) stays empty
       if (comm.sum(static_cast<long long>(local)) == 0) dims[0] = 0;
     } else if (isVector) {
-      dims[0] = static_cast<hsize_t>(rowLength(e));
+      dims[0] = v.length;
     }
     Handle space(isVector ? H5Screate_simple(1, dims, nullptr) : H5Screate(H5S_SCALAR), H5Sclose);
-    Handle set(H5Dcreate2(file.get(), name.c_str(), fileType, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
+    Handle set(H5Dcreate2(file.get(), name.c_str(), v.fileType, space.get(), H5P_DEFAULT, H5P_DEFAULT, H5P_DEFAULT),
                H5Dclose);
     if (!space.valid() || !set.valid()) throw Error("cannot create the dataset " + name);
     if (!isVector || dims[0] > 0) {
@@ -553,11 +534,10 @@ void writeFileDistributed(const fs::path& path, const CheckpointRecord& record, 
         H5Sselect_none(space.get());
         H5Sselect_none(memSpace.get());
       }
-      if (H5Dwrite(set.get(), memType, memSpace.get(), space.get(), xfer.get(), data) < 0)
+      if (H5Dwrite(set.get(), v.memType, memSpace.get(), space.get(), xfer.get(), v.data) < 0)
         throw Error("cannot write the dataset " + name);
     }
-    writeTextAttribute(set.get(), "description", e.description);
-    if (row) writeIntegerAttribute(set.get(), "row_components", e.rowComponents);
+    writeDatasetAttributes(set.get(), e);
   }
   if (H5Fflush(file.get(), H5F_SCOPE_GLOBAL) < 0) throw Error("cannot flush the HDF5 file");
 }
