@@ -225,6 +225,35 @@ long long readIntegerAttribute(hid_t object, const char* name) {
   return value;
 }
 
+/// Opens a checkpoint for reading; one-line obs::Error naming `where` if it is missing, not HDF5 or
+/// cannot be opened. The caller closes it.
+hid_t openCheckpoint(const fs::path& file, const std::string& where) {
+  std::error_code ec;
+  if (!fs::is_regular_file(file, ec)) throw Error(where + "no such checkpoint file");
+  if (H5Fis_hdf5(file.c_str()) <= 0)
+    throw Error(where + "not an HDF5 file (or its header is damaged): not an obs checkpoint");
+  const hid_t h = H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT);
+  if (h < 0) throw Error(where + "HDF5 cannot open it (truncated or damaged checkpoint)");
+  return h;
+}
+
+/// The root attributes: the format and its version checked, the kind and the stored content hash.
+void readHeader(hid_t h, const std::string& where, std::string& kind, std::string& storedHash) {
+  try {
+    const std::string format = readTextAttribute(h, "format");
+    if (format != kFormatName) throw Error("format is '" + format + "', not '" + kFormatName + "'");
+    const long long version = readIntegerAttribute(h, "format_version");
+    if (version != kCheckpointFormatVersion)
+      throw Error("checkpoint format version " + std::to_string(version) + " (written by obs " +
+                  readTextAttribute(h, "obs_version") + "), this obs " + checkpointObsVersion() +
+                  " reads version " + std::to_string(kCheckpointFormatVersion));
+    kind = readTextAttribute(h, "kind");
+    storedHash = readTextAttribute(h, "content_hash");
+  } catch (const Error& e) {
+    throw Error(where + e.what());
+  }
+}
+
 struct VisitState {
   CheckpointRecord* record = nullptr;
   std::string error;
@@ -394,27 +423,10 @@ void writeCheckpoint(const fs::path& file, const CheckpointRecord& record) {
 CheckpointRecord readCheckpoint(const fs::path& file) {
   const QuietHdf5 quiet;
   const std::string where = file.string() + ": ";
-  std::error_code ec;
-  if (!fs::is_regular_file(file, ec)) throw Error(where + "no such checkpoint file");
-  if (H5Fis_hdf5(file.c_str()) <= 0)
-    throw Error(where + "not an HDF5 file (or its header is damaged): not an obs checkpoint");
-  Handle h(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-  if (!h.valid()) throw Error(where + "HDF5 cannot open it (truncated or damaged checkpoint)");
+  Handle h(openCheckpoint(file, where), H5Fclose);
   CheckpointRecord record;
   std::string storedHash;
-  try {
-    const std::string format = readTextAttribute(h.get(), "format");
-    if (format != kFormatName) throw Error("format is '" + format + "', not '" + kFormatName + "'");
-    const long long version = readIntegerAttribute(h.get(), "format_version");
-    if (version != kCheckpointFormatVersion)
-      throw Error("checkpoint format version " + std::to_string(version) + " (written by obs " +
-                  readTextAttribute(h.get(), "obs_version") + "), this obs " + checkpointObsVersion() +
-                  " reads version " + std::to_string(kCheckpointFormatVersion));
-    record.kind = readTextAttribute(h.get(), "kind");
-    storedHash = readTextAttribute(h.get(), "content_hash");
-  } catch (const Error& e) {
-    throw Error(where + e.what());
-  }
+  readHeader(h.get(), where, record.kind, storedHash);
   VisitState state{&record, {}};
   if (H5Ovisit(h.get(), H5_INDEX_NAME, H5_ITER_NATIVE, visitObject, &state) < 0)
     throw Error(where + (state.error.empty() ? "HDF5 cannot read its contents" : state.error) +
@@ -658,25 +670,8 @@ CheckpointRecord readCheckpoint(const fs::path& file, const std::vector<std::uin
   long long totalRows = 0;
   bool rows = true;  // the file has rows/keys
   comm.collective([&] {
-    std::error_code ec;
-    if (!fs::is_regular_file(file, ec)) throw Error(where + "no such checkpoint file");
-    if (H5Fis_hdf5(file.c_str()) <= 0)
-      throw Error(where + "not an HDF5 file (or its header is damaged): not an obs checkpoint");
-    Handle h(H5Fopen(file.c_str(), H5F_ACC_RDONLY, H5P_DEFAULT), H5Fclose);
-    if (!h.valid()) throw Error(where + "HDF5 cannot open it (truncated or damaged checkpoint)");
-    try {
-      const std::string format = readTextAttribute(h.get(), "format");
-      if (format != kFormatName) throw Error("format is '" + format + "', not '" + kFormatName + "'");
-      const long long version = readIntegerAttribute(h.get(), "format_version");
-      if (version != kCheckpointFormatVersion)
-        throw Error("checkpoint format version " + std::to_string(version) + " (written by obs " +
-                    readTextAttribute(h.get(), "obs_version") + "), this obs " + checkpointObsVersion() +
-                    " reads version " + std::to_string(kCheckpointFormatVersion));
-      slab.kind = readTextAttribute(h.get(), "kind");
-      storedHash = readTextAttribute(h.get(), "content_hash");
-    } catch (const Error& e) {
-      throw Error(where + e.what());
-    }
+    Handle h(openCheckpoint(file, where), H5Fclose);
+    readHeader(h.get(), where, slab.kind, storedHash);
     std::vector<std::string> names;
     if (H5Ovisit(h.get(), H5_INDEX_NAME, H5_ITER_NATIVE, collectName, &names) < 0)
       throw Error(where + "HDF5 cannot read its contents (truncated or damaged checkpoint)");
