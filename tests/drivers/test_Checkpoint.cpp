@@ -583,6 +583,21 @@ TEST(CheckpointRestart, RestartWithAnotherSceneGridOrOutputIsAnErrorNamingTheDif
   o = quiet(dir);
   o.refine = 1;
   expectContains(restart(scene, o), {cp.string() + ": ", "grid of 42 vertices / 20 cells", "another --refine"});
+  // a dynamic checkpoint without rows (as obs wrote before rows, docs/checkpoint.md#rows): the
+  // same entries with the vectors as plain entries and no rows/keys
+  {
+    const fs::path old = kTmp / "err_no_rows.h5";
+    const obs::CheckpointRecord withRows = obs::readCheckpoint(cp);
+    obs::CheckpointRecord plain;
+    plain.kind = withRows.kind;
+    for (const auto& [name, e] : withRows.entries())
+      if (name != "rows/keys") plain.set(name, e.value, e.description);
+    obs::writeCheckpoint(old, plain);
+    RunOptions r = quiet(dir);
+    r.restart = old;
+    expectContains(errorOf([&] { runScene(scene, r); }),
+                   {old.string() + ": ", "no rows/keys", "before checkpoints with rows", "start the run again"});
+  }
   // the outputs of the interrupted run are not in the output directory
   expectContains(restart(scene, quiet(kTmp / "err_elsewhere")),
                  {cp.string() + ": ", "is missing", "output directory of the interrupted run"});
