@@ -13,9 +13,8 @@
 #include "obs/drivers/Scene.hpp"
 #include "obs/mesh/Mesh.hpp"
 #include "obs/obs/Checkpoint.hpp"
-#include "RunSupport.hpp"
-
 #include "obs/obs/Communicator.hpp"
+#include "RunSupport.hpp"
 
 namespace obs::drivers {
 
