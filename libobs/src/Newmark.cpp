@@ -180,16 +180,8 @@ NewmarkFamily<d>::NewmarkFamily(const DistributedGrid& grid, const DistributedVi
 template <int d>
 void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, ContactModel<d>& model,
                             const DistributedGrid* distributed) {
-  // the local work of the setup runs through guard: an error on one rank reaches every rank
-  // (Communicator::collective) instead of leaving the others in the next reduction
-  const auto guard = [&](const std::function<void()>& work) {
-    if (comm_)
-      comm_->collective(work);
-    else
-      work();
-  };
   std::optional<typename ContactModel<d>::Parts> assembled;
-  guard([&] {
+  collective([&] {
     checkInputs(grids, model);
     assembled.emplace(model.assembleParts());
     typename ContactModel<d>::Parts& parts = *assembled;
@@ -209,7 +201,7 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
   });
   const ContactSet& contact = assembled->contact;
   assembleMasses(model, contact);  // collective with redistribution
-  guard([&] {
+  collective([&] {
     BlockSparseMatrix<d> S = stepMatrix(contact);
     contact_ = std::make_unique<ContactSet>(contact);
     friction_ = nodalFriction(model, contact);
@@ -229,6 +221,14 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
     solver_ = std::make_unique<TNNMG<d>>(*distributed, so);  // collective
   else
     solver_ = grids.size() == 1 ? std::make_unique<TNNMG<d>>(*grids.front(), so) : std::make_unique<TNNMG<d>>(grids, so);
+}
+
+template <int d>
+void NewmarkFamily<d>::collective(const std::function<void()>& work) const {
+  if (comm_)
+    comm_->collective(work);
+  else
+    work();
 }
 
 template <int d>
@@ -362,7 +362,7 @@ void NewmarkFamily<d>::redistributeMasses(const ContactModel<d>& model,
     }
   };
   if (comm_) {
-    comm_->collective(checkDiagonal);
+    collective(checkDiagonal);
     // the inertia check factorises the whole M~, which no rank holds: not done on ranks
     redistributedCheck_.positiveDefinite = true;
     redistributedCheck_.checked = false;
@@ -580,15 +580,9 @@ void NewmarkFamily<d>::checkInitialized() const {
 template <int d>
 void NewmarkFamily<d>::initialize(const Eigen::VectorXd& u0, const Eigen::VectorXd& v0) {
   const Eigen::Index n = static_cast<Eigen::Index>(numVertices_) * d;
-  const auto guard = [&](const std::function<void()>& work) {  // see init()
-    if (comm_)
-      comm_->collective(work);
-    else
-      work();
-  };
-  guard([&] { checkInitialState(u0, v0); });
+  collective([&] { checkInitialState(u0, v0); });
   const double tol = activeTolerance(u0);  // collective
-  guard([&] { checkInitialContact(u0, tol); });
+  collective([&] { checkInitialContact(u0, tol); });
   state_ = DynamicState{0, 0.0, u0, v0, Eigen::VectorXd()};
   frictionDissipation_ = 0;
   previousMultiplier_ = Eigen::VectorXd::Zero(n);

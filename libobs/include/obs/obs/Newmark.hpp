@@ -74,6 +74,7 @@
 /// khenous-laborde-renard by a conjugate gradient iteration whose sums run over the ranks.
 #include <Eigen/Core>
 
+#include <functional>
 #include <limits>
 #include <memory>
 #include <string>
@@ -371,6 +372,9 @@ private:
   struct MortarRow;
   void init(const std::vector<const mesh::Grid*>& grids, ContactModel<d>& model,
             const DistributedGrid* distributed = nullptr);
+  /// Runs local work so that an error on one rank reaches every rank (Communicator::collective)
+  /// instead of leaving the others in the next reduction; serially the work alone.
+  void collective(const std::function<void()>& work) const;
   /// Sums of x over the ranks (in place; serial: nothing), the maximum, and whether a flag is set on
   /// any rank. Distributed figures are sums over the owned vertices (the first owned_).
   void sum(std::vector<double>& x) const;
