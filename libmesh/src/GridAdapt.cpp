@@ -119,11 +119,7 @@ struct Grid::Context {
 };
 
 // ------------------------------------------------------------------------------------------------
-AdaptResult Grid::adapt(int threads) {
-  AdaptResult result;
-  result.firstNewElement = numElements();
-  result.firstNewVertex = numVertices();
-  Context ctx;
+void Grid::startClosure(Context& ctx, AdaptResult& result) const {
   const Index n = ctx.numOld = numElements();
   ctx.regular.assign(n, 0);
   for (Index e = 0; e < n; ++e)
@@ -156,6 +152,26 @@ AdaptResult Grid::adapt(int threads) {
         ctx.queue.push_back(target);
       }
     }
+}
+
+std::vector<Index> Grid::redClosure() const {
+  Context ctx;
+  AdaptResult unused;
+  startClosure(ctx, unused);
+  ctx.newEdges.reserve(3 * ctx.queue.size());
+  propagate(ctx);
+  std::vector<Index> red = std::move(ctx.queue);
+  std::sort(red.begin(), red.end());
+  return red;
+}
+
+// ------------------------------------------------------------------------------------------------
+AdaptResult Grid::adapt(int threads) {
+  AdaptResult result;
+  result.firstNewElement = numElements();
+  result.firstNewVertex = numVertices();
+  Context ctx;
+  startClosure(ctx, result);
   const std::size_t initiallyRed = ctx.queue.size();
   // on threads where it pays and no boundary projection (a user function) is involved; the same
   // grid either way
@@ -301,7 +317,7 @@ void Grid::forElementsWithEntities(const Context& ctx, Index p, std::uint32_t bi
 }
 
 // ------------------------------------------------------------------------------------------------
-void Grid::propagate(Context& ctx) {
+void Grid::propagate(Context& ctx) const {
   auto push = [&](Index g) {
     if (!ctx.red[g]) {
       ctx.red[g] = 1;
@@ -358,7 +374,7 @@ void Grid::propagate(Context& ctx) {
 // the touched elements concern elements that are not red, and rule 1 pushes only red ones, so what
 // is left of it is rule 1's childCheck. It is set here on threads, father by father: the entities of
 // a father scanned are those of all its queued children, as propagate() scans them child by child.
-void Grid::propagateAllRed(Context& ctx, int threads) {
+void Grid::propagateAllRed(Context& ctx, int threads) const {
   std::vector<Index> fathers;
   {
     std::vector<char> seen(static_cast<std::size_t>(ctx.numOld), 0);

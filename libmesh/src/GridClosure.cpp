@@ -112,13 +112,15 @@ void Grid::closureRule(Index e, unsigned pattern, std::vector<LocalChild>& out) 
     const Index a = ev[le[0]], b = ev[le[1]];
     return edgeMidpoints_.find(edgeKey(a, b));
   };
-  // Shorter diagonal; tie: the one at the corner with the smaller global index. Both cells of a
-  // face evaluate the same two distances (of the same vertex pairs), so they agree.
+  // Shorter diagonal; tie: the one at the corner that comes first in lexicographic order of the
+  // coordinates, which depends on the geometry only, not on the vertex numbers (a distributed grid
+  // numbers its vertices differently on every rank and must split the face as one process does).
+  // Both cells of a face evaluate the same two distances (of the same vertex pairs), so they agree.
   auto atA = [&](int a, int m2, int m1, int c) {
     const Index ga = global(a), gm2 = global(m2), gm1 = global(m1), gc = global(c);
     const double la = (x_[ga] - x_[gm2]).squaredNorm(), lc = (x_[gm1] - x_[gc]).squaredNorm();
     if (la != lc) return la < lc;
-    return ga < gc;
+    return std::lexicographical_compare(x_[ga].data(), x_[ga].data() + 3, x_[gc].data(), x_[gc].data() + 3);
   };
   auto refined = [&](int edge) { return ((pattern >> edge) & 1u) != 0; };
   Pieces pieces;

@@ -21,15 +21,22 @@ std::uint64_t mix(std::uint64_t h) {  // splitmix64 finaliser
 constexpr std::uint64_t kHashed = std::uint64_t{1} << 63;  ///< keys of vertices below the replicated levels
 constexpr std::uint64_t kUnknown = std::numeric_limits<std::uint64_t>::max();
 
-/// The keys of the grid's vertices: index for the first `replicated` ones, else the hash of the
-/// sorted keys of the corners that span the vertex's point in its creating element.
-std::vector<std::uint64_t> computeVertexKeys(const mesh::Grid& grid, Index replicated) {
+std::uint64_t hashKeys(std::uint64_t seed, std::vector<std::uint64_t>& keys) {
+  std::sort(keys.begin(), keys.end());
+  std::uint64_t h = mix(seed + 0x9e3779b97f4a7c15ULL);
+  for (std::uint64_t k : keys) h = mix(h ^ (k + 0x9e3779b97f4a7c15ULL + (h << 6) + (h >> 2)));
+  return h;
+}
+
+/// Extends `keys` to the grid's vertices: the index for the first `replicated` ones, else the hash
+/// of the sorted keys of the corners that span the vertex's point in its creating element (the
+/// same entity, hence key, whichever element created it).
+void extendVertexKeys(const mesh::Grid& grid, Index replicated, std::vector<std::uint64_t>& keys) {
   const Index n = grid.numVertices();
-  std::vector<std::uint64_t> keys(static_cast<std::size_t>(n));
   std::vector<std::uint64_t> corners;
-  for (Index v = 0; v < n; ++v) {
+  for (auto v = static_cast<Index>(keys.size()); v < n; ++v) {
     if (v < replicated) {
-      keys[v] = static_cast<std::uint64_t>(v);
+      keys.push_back(static_cast<std::uint64_t>(v));
       continue;
     }
     const mesh::Grid::Origin origin = grid.vertexOrigin(v);
@@ -40,12 +47,8 @@ std::vector<std::uint64_t> computeVertexKeys(const mesh::Grid& grid, Index repli
     corners.clear();
     for (std::size_t i = 0; i < weights.size(); ++i)
       if (weights[i] != 0) corners.push_back(keys[vs[i]]);
-    std::sort(corners.begin(), corners.end());
-    std::uint64_t h = mix(corners.size() + 0x9e3779b97f4a7c15ULL);
-    for (std::uint64_t k : corners) h = mix(h ^ (k + 0x9e3779b97f4a7c15ULL + (h << 6) + (h >> 2)));
-    keys[v] = h | kHashed;
+    keys.push_back(hashKeys(corners.size(), corners) | kHashed);
   }
-  return keys;
 }
 
 }  // namespace
@@ -96,11 +99,13 @@ DistributedGrid::DistributedGrid(mesh::Grid coarse, int refinements, const Commu
       grid_.adapt();
       partition_.follow(grid_);
     }
-    keys_ = computeVertexKeys(grid_, replicated);
+    replicated_ = replicated;
+    extendVertexKeys(grid_, replicated, keys_);
     for (Index e : grid_.leafElements())
       if (partition_.partOf(e) == me) ++owned;
   });
   globalLeaves_ = comm.sum(owned);
+  maxLevel_ = grid_.maxLevel();  // the same on every rank after uniform rounds
 }
 
 DistributedView DistributedGrid::view(int level) const {
@@ -108,7 +113,8 @@ DistributedView DistributedGrid::view(int level) const {
     throw Error("distributed grid: no distributed view of level " + std::to_string(level) + " (levels " +
                 std::to_string(partition_.level) + ".." + std::to_string(maxLevel()) + " and the leaf view -1)");
   const int me = comm_.rank(), ranks = comm_.size();
-  mesh::GridView v = level < 0 ? grid_.leafView() : grid_.levelView(level);
+  mesh::GridView v = level < 0 || level >= grid_.maxLevel() ? grid_.leafView() : grid_.levelView(level);
+  v.level = level;
   ViewNumbering numbering;
   PartView part;
   comm_.collective([&] {
@@ -157,6 +163,122 @@ DistributedView DistributedGrid::view(int level) const {
   HaloExchange halo(numbering, part, comm_);
   mesh::Mesh local = localMesh(v, part, halo);
   return DistributedView{std::move(v), std::move(numbering), std::move(part), std::move(halo), std::move(local)};
+}
+
+}  // namespace obs
+
+namespace obs {
+
+std::uint64_t DistributedGrid::cellKey(Index element) const {
+  std::vector<std::uint64_t> corners;
+  for (Index v : grid_.vertices(element)) corners.push_back(keys_[v]);
+  return hashKeys(static_cast<std::uint64_t>(grid_.level(element)) << 8 | corners.size(), corners);
+}
+
+mesh::AdaptResult DistributedGrid::adapt(const std::vector<Index>& marked, int* rounds) {
+  const int me = comm_.rank(), ranks = comm_.size();
+  const auto rendezvous = [ranks](std::uint64_t key) { return static_cast<int>(key % static_cast<std::uint64_t>(ranks)); };
+  // the region: the regular elements over the owned leaves and three leaf layers around them
+  std::vector<Index> region;
+  std::vector<char> inRegion, known;
+  std::unordered_map<std::uint64_t, Index> byKey;
+  comm_.collective([&] {
+    const Index ne = grid_.numElements();
+    for (Index e : marked)
+      if (e < 0 || e >= ne || !grid_.isLeaf(e) || partition_.partOf(e) != me)
+        throw Error("distributed grid: rank " + std::to_string(me) + " marks element " + std::to_string(e) +
+                    ", which is not a leaf it owns");
+    const std::vector<Index> leaves = grid_.leafElements();
+    std::vector<char> layer(leaves.size(), 0), near(static_cast<std::size_t>(grid_.numVertices()), 0);
+    for (std::size_t i = 0; i < leaves.size(); ++i)
+      if (partition_.partOf(leaves[i]) == me) layer[i] = 1;
+    for (int pass = 0; pass < 3; ++pass) {
+      for (std::size_t i = 0; i < leaves.size(); ++i)
+        if (layer[i])
+          for (Index v : grid_.vertices(leaves[i])) near[v] = 1;
+      for (std::size_t i = 0; i < leaves.size(); ++i)
+        if (!layer[i]) {
+          const auto vs = grid_.vertices(leaves[i]);
+          layer[i] = std::any_of(vs.begin(), vs.end(), [&](Index v) { return near[v] != 0; });
+        }
+    }
+    inRegion.assign(static_cast<std::size_t>(ne), 0);
+    for (std::size_t i = 0; i < leaves.size(); ++i)
+      if (layer[i]) {
+        const Index r = grid_.isGreen(leaves[i]) ? grid_.father(leaves[i]) : leaves[i];
+        if (!inRegion[r]) {
+          inRegion[r] = 1;
+          region.push_back(r);
+        }
+      }
+    byKey.reserve(region.size());
+    for (Index r : region)
+      if (!byKey.emplace(cellKey(r), r).second) throw Error("distributed grid: two elements with the same cell key");
+    known.assign(static_cast<std::size_t>(ne), 0);
+    for (Index e : marked) known[grid_.isGreen(e) ? grid_.father(e) : e] = 1;
+  });
+  // every rank registers its region's keys at their rendezvous ranks, which remember the holders
+  std::unordered_map<std::uint64_t, std::vector<int>> holders;
+  {
+    std::vector<std::vector<std::uint64_t>> send(static_cast<std::size_t>(ranks));
+    for (const auto& [key, element] : byKey) send[rendezvous(key)].push_back(key);
+    const std::vector<std::vector<std::uint64_t>> got = comm_.exchange(send);
+    for (int r = 0; r < ranks; ++r)
+      for (std::uint64_t key : got[r]) holders[key].push_back(r);
+  }
+  // rounds: the closure of what is known; its new red elements of the region reported; the
+  // rendezvous ranks pass first reports on to every holder
+  std::vector<char> reported(known.size(), 0);
+  std::unordered_map<std::uint64_t, char> heard;  // at a rendezvous rank: keys reported red
+  int round = 0;
+  auto markKnown = [&] {
+    grid_.clearMarks();
+    for (Index r : region)
+      if (known[r]) grid_.mark(grid_.refinement(r) == mesh::Refinement::Green ? grid_.child(r, 0) : r);
+    for (Index e : marked) grid_.mark(e);
+  };
+  for (;; ++round) {
+    std::vector<std::vector<std::uint64_t>> send(static_cast<std::size_t>(ranks));
+    long long fresh = 0;
+    comm_.collective([&] {
+      markKnown();
+      for (Index r : grid_.redClosure())
+        if (inRegion[r] && !reported[r]) {
+          reported[r] = 1;
+          const std::uint64_t key = cellKey(r);
+          send[rendezvous(key)].push_back(key);
+          ++fresh;
+        }
+    });
+    if (comm_.sum(fresh) == 0) break;
+    const std::vector<std::vector<std::uint64_t>> got = comm_.exchange(send);
+    std::vector<std::vector<std::uint64_t>> tell(static_cast<std::size_t>(ranks));
+    for (int r = 0; r < ranks; ++r)
+      for (std::uint64_t key : got[r])
+        if (heard.emplace(key, 1).second)
+          for (int h : holders[key]) tell[h].push_back(key);
+    const std::vector<std::vector<std::uint64_t>> told = comm_.exchange(tell);
+    for (int r = 0; r < ranks; ++r)
+      for (std::uint64_t key : told[r]) {
+        const Index e = byKey.at(key);
+        known[e] = 1;
+        reported[e] = 1;
+      }
+  }
+  if (rounds) *rounds = round;
+  mesh::AdaptResult result;
+  long long owned = 0;
+  comm_.collective([&] {
+    markKnown();
+    result = grid_.adapt();
+    partition_.follow(grid_);
+    extendVertexKeys(grid_, replicated_, keys_);
+    for (Index e : grid_.leafElements())
+      if (partition_.partOf(e) == me) ++owned;
+  });
+  globalLeaves_ = comm_.sum(owned);
+  maxLevel_ = static_cast<int>(comm_.max(static_cast<double>(grid_.maxLevel())));
+  return result;
 }
 
 }  // namespace obs

@@ -510,10 +510,10 @@ MultigridHierarchy<d>::MultigridHierarchy(const std::vector<const DistributedGri
                   ", the solver " + std::to_string(d));
     if (dg->communicator().size() != ranks)
       throw Error("multigrid hierarchy: the distributed grids are on different numbers of ranks");
-    if (dg->partition().level < 1 && dg->grid().maxLevel() < 1)
+    if (dg->partition().level < 1 && dg->maxLevel() < 1)
       throw Error("multigrid hierarchy: a distributed grid partitioned on level 0 needs at least one refinement (the "
                   "fine level is not the coarse problem)");
-    L = std::max(L, dg->grid().maxLevel());
+    L = std::max(L, dg->maxLevel());
   }
   // A body's part of a stacked level: its view (grid level l - (L - L_b), or its coarsest), held
   // vertices in local order (owned first) with their global indices and owners in the body's
@@ -538,7 +538,7 @@ MultigridHierarchy<d>::MultigridHierarchy(const std::vector<const DistributedGri
     bool anyDistributed = false;
     for (int b = 0; b < nb; ++b) {
       const DistributedGrid& dg = *grids[b];
-      const int Lb = dg.grid().maxLevel();
+      const int Lb = dg.maxLevel();
       Part& pt = parts[l][b];
       pt.gridLevel = std::max(0, l - (L - Lb));
       pt.distributed = pt.gridLevel >= dg.partition().level;
@@ -551,7 +551,7 @@ MultigridHierarchy<d>::MultigridHierarchy(const std::vector<const DistributedGri
       Part& pt = parts[l][b];
       const int lb = pt.gridLevel;
       if (pt.distributed) {
-        DistributedView dv = grids[b]->view(lb == grid.maxLevel() ? -1 : lb);
+        DistributedView dv = grids[b]->view(lb == grids[b]->maxLevel() ? -1 : lb);
         pt.view = std::move(dv.view);
         pt.owned = dv.halo.numOwned();
         pt.held = dv.halo.viewVertices();

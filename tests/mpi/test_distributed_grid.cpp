@@ -4,12 +4,14 @@
 // part: the same owned and ghost cells and vertices (compared by position), the ghosts' global
 // indices those of their owners (their positions arrive through the halo exchange), every vertex
 // owned once, and the owned rows of the stiffness product those of the serial product
-// (docs/architecture.md#distributed-grid).
+// (docs/architecture.md#distributed-grid). After adaptive refinement (each rank marking its
+// owned leaves, DistributedGrid::adapt) the same holds for the serially adapted grid.
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <string>
 
@@ -55,28 +57,12 @@ double field(const obs::mesh::Point& x, int component) {
   return std::sin(3.1 * x[0] + 1.7 * x[1] - 0.9 * x[2] + 1.3 * component) + 0.1 * component;
 }
 
+/// Every distributed view of `dist` holds what the serial partition `sp` of `serial` gives this
+/// rank: cells and vertices (by position), the ghosts' global indices (positions through the
+/// halo), the owned rows of the stiffness product.
 template <int d>
-void expectSerialPartView(CellType type, int cells, int refinements) {
-  SCOPED_TRACE(std::string(obs::mesh::name(type)));
-  const obs::Communicator comm = obs::Communicator::world();
-  const obs::mesh::Grid coarse(obs::mesh::boxMesh(type, cells));
-  const obs::DistributedGrid dist(coarse, refinements, comm);
-  obs::mesh::Grid serial = coarse;
-  for (int l = 0; l < refinements; ++l) serial.refineUniformly();
-  ASSERT_EQ(dist.maxLevel(), serial.maxLevel());
-  obs::ForestPartitionOptions options;
-  options.level = dist.partition().level;
-  const obs::ForestPartition sp = obs::partitionForest(serial, comm.size(), options);
-  EXPECT_EQ(dist.partition().cellPart, sp.cellPart);
-  EXPECT_EQ(dist.globalLeaves(), static_cast<long long>(serial.numLeafElements()));
-  // no rank holds the whole fine level: red leaves of the finest level (the graded closure around
-  // its near cells is coarser or green)
-  Index fine = 0;
-  for (Index e : dist.grid().leafElements()) fine += dist.grid().level(e) == dist.maxLevel() && !dist.grid().isGreen(e) ? 1 : 0;
-  if (comm.size() > 1) {
-    EXPECT_LT(fine, serial.numLeafElements());
-  }
-
+void expectSerialViews(const obs::DistributedGrid& dist, const obs::mesh::Grid& serial, const obs::ForestPartition& sp) {
+  const obs::Communicator& comm = dist.communicator();
   for (int level = -1; level <= dist.maxLevel(); ++level) {
     if (level >= 0 && level < dist.partition().level) {
       EXPECT_THROW(dist.view(level), obs::Error);
@@ -125,10 +111,137 @@ void expectSerialPartView(CellType type, int cells, int refinements) {
   }
 }
 
+template <int d>
+void expectSerialPartView(CellType type, int cells, int refinements) {
+  SCOPED_TRACE(std::string(obs::mesh::name(type)));
+  const obs::Communicator comm = obs::Communicator::world();
+  const obs::mesh::Grid coarse(obs::mesh::boxMesh(type, cells));
+  const obs::DistributedGrid dist(coarse, refinements, comm);
+  obs::mesh::Grid serial = coarse;
+  for (int l = 0; l < refinements; ++l) serial.refineUniformly();
+  ASSERT_EQ(dist.maxLevel(), serial.maxLevel());
+  obs::ForestPartitionOptions options;
+  options.level = dist.partition().level;
+  const obs::ForestPartition sp = obs::partitionForest(serial, comm.size(), options);
+  EXPECT_EQ(dist.partition().cellPart, sp.cellPart);
+  EXPECT_EQ(dist.globalLeaves(), static_cast<long long>(serial.numLeafElements()));
+  // no rank holds the whole fine level: red leaves of the finest level (the graded closure around
+  // its near cells is coarser or green)
+  Index fine = 0;
+  for (Index e : dist.grid().leafElements()) fine += dist.grid().level(e) == dist.maxLevel() && !dist.grid().isGreen(e) ? 1 : 0;
+  if (comm.size() > 1) {
+    EXPECT_LT(fine, serial.numLeafElements());
+  }
+
+  expectSerialViews<d>(dist, serial, sp);
+}
+
 TEST(DistributedGrid, HoldsTheSerialPartViewTriangles) { expectSerialPartView<2>(CellType::Triangle, 8, 3); }
 TEST(DistributedGrid, HoldsTheSerialPartViewQuadrilaterals) { expectSerialPartView<2>(CellType::Quadrilateral, 8, 3); }
 TEST(DistributedGrid, HoldsTheSerialPartViewTetrahedra) { expectSerialPartView<3>(CellType::Tetrahedron, 2, 2); }
 TEST(DistributedGrid, HoldsTheSerialPartViewHexahedra) { expectSerialPartView<3>(CellType::Hexahedron, 4, 2); }
+
+/// Leaves within `width` times their size of a sphere (circle) whose radius shrinks with the step, and one in `sparse` leaves by
+/// a hash of its centroid: graded fronts with cascades of the closure and irregular green patterns.
+bool marksNearSphere(const obs::mesh::Grid& grid, Index e, int step, unsigned long long sparse, double width) {
+  obs::mesh::Point c = obs::mesh::Point::Zero(), lo = grid.vertex(grid.vertices(e)[0]), hi = lo;
+  for (Index v : grid.vertices(e)) {
+    c += grid.vertex(v);
+    lo = lo.cwiseMin(grid.vertex(v));
+    hi = hi.cwiseMax(grid.vertex(v));
+  }
+  c /= static_cast<double>(grid.vertices(e).size());
+  const double h = (hi - lo).maxCoeff(), radius = 0.45 - 0.08 * step;
+  const Position q = quantise(c);
+  const auto hash = static_cast<unsigned long long>(q[0] * 73856093LL ^ q[1] * 19349663LL ^ q[2] * 83492791LL);
+  return std::abs((c - obs::mesh::Point(0.3, 0.4, 0.35)).norm() - radius) < width * h || hash % sparse == 0;
+}
+
+/// The leaves whose closure contains the point p: refined step after step, they grade the grid
+/// towards p, and each new mark at the finest level pushes rule 1 of the closure out level by level.
+bool marksPoint(const obs::mesh::Grid& grid, Index e, const obs::mesh::Point& p) {
+  obs::mesh::Point lo = grid.vertex(grid.vertices(e)[0]), hi = lo;
+  for (Index v : grid.vertices(e)) {
+    lo = lo.cwiseMin(grid.vertex(v));
+    hi = hi.cwiseMax(grid.vertex(v));
+  }
+  return (p.array() >= lo.array() - 1e-12).all() && (p.array() <= hi.array() + 1e-12).all();
+}
+
+using Marker = std::function<bool(const obs::mesh::Grid&, Index, int)>;
+
+Marker nearSphere(unsigned long long sparse, double width) {
+  return [=](const obs::mesh::Grid& g, Index e, int step) { return marksNearSphere(g, e, step, sparse, width); };
+}
+
+/// Adaptive refinement on the ranks (DistributedGrid::adapt): each rank marks its owned leaves
+/// of the serial marking; after every step the views are those of the serially adapted grid.
+template <int d>
+void expectSerialAdaptation(CellType type, int cells, int refinements, int steps, const Marker& marks,
+                            obs::mesh::ClosureRule rule = obs::mesh::ClosureRule::MoreThanHalfEdges,
+                            int* mostRounds = nullptr) {
+  SCOPED_TRACE(std::string(obs::mesh::name(type)));
+  const obs::Communicator comm = obs::Communicator::world();
+  obs::mesh::Grid coarse(obs::mesh::boxMesh(type, cells));
+  coarse.setClosureRule(rule);  // copied into both grids
+  obs::DistributedGrid dist(coarse, refinements, comm);
+  obs::mesh::Grid serial = coarse;
+  for (int l = 0; l < refinements; ++l) serial.refineUniformly();
+  obs::ForestPartitionOptions options;
+  options.level = dist.partition().level;
+  obs::ForestPartition sp = obs::partitionForest(serial, comm.size(), options);
+  for (int step = 0; step < steps; ++step) {
+    SCOPED_TRACE("step " + std::to_string(step));
+    std::vector<Index> own;
+    for (Index e : dist.grid().leafElements())
+      if (dist.partition().partOf(e) == comm.rank() && marks(dist.grid(), e, step)) own.push_back(e);
+    for (Index e : serial.leafElements())
+      if (marks(serial, e, step)) serial.mark(e);
+    const obs::mesh::AdaptResult sr = serial.adapt();
+    sp.follow(serial);
+    int rounds = 0;
+    dist.adapt(own, &rounds);
+    EXPECT_GE(rounds, 1);
+    if (mostRounds) *mostRounds = std::max(*mostRounds, rounds);
+    ASSERT_EQ(dist.globalLeaves(), static_cast<long long>(serial.numLeafElements()));
+    ASSERT_EQ(dist.maxLevel(), serial.maxLevel());
+    if (rule == obs::mesh::ClosureRule::AllEdges || type != CellType::Hexahedron) {
+      EXPECT_GT(sr.greenClosed, 0);
+      if (comm.size() > 1 && step + 1 == steps) {  // not every rank holds the whole grid
+        const bool fewer = dist.grid().numLeafElements() < serial.numLeafElements();
+        EXPECT_GE(comm.sum(fewer ? 1LL : 0LL), 1);
+      }
+    }
+    expectSerialViews<d>(dist, serial, sp);
+  }
+}
+
+TEST(DistributedGrid, AdaptsAsOneProcessTriangles) { expectSerialAdaptation<2>(CellType::Triangle, 6, 2, 4, nearSphere(7, 0.5)); }
+TEST(DistributedGrid, AdaptsAsOneProcessQuadrilaterals) { expectSerialAdaptation<2>(CellType::Quadrilateral, 6, 2, 4, nearSphere(7, 0.5)); }
+TEST(DistributedGrid, AdaptsAsOneProcessTetrahedra) { expectSerialAdaptation<3>(CellType::Tetrahedron, 2, 1, 3, nearSphere(13, 0.2)); }
+// (hexahedra with more than half of their edges refined go red and refine this grid uniformly)
+TEST(DistributedGrid, AdaptsAsOneProcessHexahedra) {
+  expectSerialAdaptation<3>(CellType::Hexahedron, 4, 1, 3, nearSphere(31, 0.0), obs::mesh::ClosureRule::AllEdges);
+}
+
+// A cascade of rule 2 through the whole grid (hexahedra with more than half of their edges
+// refined go red: 21 marks refine all 512 cells) crosses the ranks: the reports of the closure
+// of the first exchanged marks need a second round.
+TEST(DistributedGrid, ClosureCascadesAcrossRanks) {
+  int rounds = 0;
+  expectSerialAdaptation<3>(CellType::Hexahedron, 4, 1, 1, nearSphere(31, 0.0), obs::mesh::ClosureRule::MoreThanHalfEdges,
+                            &rounds);
+  if (obs::Communicator::world().size() > 1) {
+    EXPECT_GE(rounds, 2);
+  }
+}
+
+// Refinement towards a point for many steps: rule 1 carries each new finest mark out through the
+// coarser rings, across the ranks.
+TEST(DistributedGrid, GradingTowardsAPointCrossesRanks) {
+  const obs::mesh::Point p(0.3, 0.45, 0);
+  expectSerialAdaptation<2>(CellType::Triangle, 8, 1, 8, [&](const obs::mesh::Grid& g, Index e, int) { return marksPoint(g, e, p); });
+}
 
 TEST(DistributedGrid, ErrorsReachEveryRank) {
   const obs::Communicator comm = obs::Communicator::world();
@@ -139,6 +252,14 @@ TEST(DistributedGrid, ErrorsReachEveryRank) {
   EXPECT_THROW(obs::DistributedGrid(coarse, 2, comm, options), obs::Error);
   const obs::DistributedGrid dist(coarse, 2, comm);
   EXPECT_THROW(dist.view(dist.maxLevel() + 1), obs::Error);
+  // only owned leaves can be marked: rank 0 marks an element it does not own (or a non-leaf)
+  obs::DistributedGrid copy = dist;
+  std::vector<Index> wrong;
+  if (comm.rank() == 0) {
+    for (Index e = 0; e < copy.grid().numElements() && wrong.empty(); ++e)
+      if (!copy.grid().isLeaf(e) || copy.partition().partOf(e) != 0) wrong.push_back(e);
+  }
+  EXPECT_THROW(copy.adapt(wrong), obs::Error);
 }
 
 }  // namespace

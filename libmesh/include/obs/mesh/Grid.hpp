@@ -43,7 +43,8 @@
 /// refined edges and global data, so both cells sharing a face split it identically):
 ///  - triangle face: 1 refined edge -> bisection from the opposite corner; 2 -> the corner triangle
 ///    at the common corner plus the remaining quadrilateral cut along its shorter diagonal (ties:
-///    the diagonal at the corner with the smaller vertex index); 3 -> the 4 red children;
+///    the diagonal at the corner first in lexicographic coordinate order, so the split does not
+///    depend on the vertex numbers); 3 -> the 4 red children;
 ///  - quadrilateral face: 4 refined edges -> the 4 red children (through the face centre); 1 to 3 ->
 ///    a fan of triangles from the face centre over the (halved) edges;
 ///  - 2D cells: the face rule applied to the cell itself;
@@ -358,6 +359,9 @@ public:
   /// the same for any thread count: the same vertices, elements and numbers, bit for bit
   /// (docs/performance.md#refinement-threads).
   AdaptResult adapt(int threads = 1);
+  /// The elements the next adapt() would refine red (ascending): the marked regular leaves, the
+  /// fathers of marked green leaves and what the closure's rules 1 and 2 add. Nothing changes.
+  std::vector<Index> redClosure() const;
   /// markAll() and adapt(threads).
   AdaptResult refineUniformly(int threads = 1);
 
@@ -395,8 +399,10 @@ private:
   Point pointPosition(Index e, int point) const;
   GridView makeView(int level) const;
   // GridAdapt.cpp
-  void propagate(Context& ctx);
-  void propagateAllRed(Context& ctx, int threads);
+  /// The closure's start: the regular elements, their vertex adjacency, the marked ones queued red.
+  void startClosure(Context& ctx, AdaptResult& result) const;
+  void propagate(Context& ctx) const;
+  void propagateAllRed(Context& ctx, int threads) const;
   bool hasEntity(Index g, const std::array<Index, 4>& vs, int k) const;
   int entityCorners(Index p, int ent, std::array<Index, 4>& vs) const;
   std::uint32_t fatherEntitiesOfEdges(Index e) const;

@@ -29,6 +29,28 @@
 /// (the prefix sums of the parts' counts); a ghost vertex gets its index from its owner, asked by
 /// key (one all-to-all).
 ///
+/// Adaptive refinement (adapt()). Every rank marks leaves it owns; the grid must then be what one
+/// process gets when it marks the union of the marks on the whole grid and calls Grid::adapt(), as
+/// far as a rank's owned cells and their ghost layer go. The closure's rules look one cell around
+/// an element (an element is refined red because of the red refinement of elements that share part
+/// of an edge or face with it, hence a corner point), so they are run to agreement:
+///   - a rank's *region* is the regular elements (leaves that are not green, fathers of green
+///     leaves) over its owned leaves and three leaf layers around them (leaves sharing a vertex
+///     with the previous layer); a rank holds the serial refinement tree exactly on the first
+///     layers (the invariant kept by every adapt(), below);
+///   - each round, every rank computes the closure of what it knows to be refined red
+///     (Grid::redClosure: its own marks and what it was told) and reports the elements of its region
+///     that are newly red, by *cell key* (the level and the keys of the corners), to the rank
+///     key mod P, which tells every rank whose region has that key; the rounds end when no rank
+///     reports anything new. The closure of a rank's local grid, which is coarser than the serial
+///     grid away from its region, refines a subset of what the serial closure refines (the rules
+///     are monotone), so every report is a serial decision; an element's owner holds all elements
+///     around it, so every serial decision in a region is reached by a chain of owners;
+///   - then one Grid::adapt() refines what is known; a region's new leaves are red children of
+///     exactly refined elements, or leaves of its regular elements closed green by their exact edge
+///     patterns, so the next region is exact again. The green closures' ties depend on positions
+///     only (Grid.hpp), not on the local vertex numbers.
+///
 /// Input: uniformly refined grids (scenes' `refine = k`) from any coarse mesh the serial grid
 /// accepts; the replicated grid must have no green leaves. Boundary projections set on the grid
 /// apply in every rank's refinement.
@@ -67,12 +89,24 @@ public:
   const mesh::Grid& grid() const { return grid_; }
   const ForestPartition& partition() const { return partition_; }
   const Communicator& communicator() const { return comm_; }
-  /// The finest level (the same on every rank).
-  int maxLevel() const { return grid_.maxLevel(); }
+  /// The finest level over all ranks (a rank's own grid may stop below it after adapt(): its
+  /// level views beyond its own finest level are its leaf view).
+  int maxLevel() const { return maxLevel_; }
   /// Per vertex of grid(): its key (see the file comment).
   const std::vector<std::uint64_t>& vertexKeys() const { return keys_; }
   /// Leaves of the uniformly refined grid (the sum over the parts; what one process would hold).
   long long globalLeaves() const { return globalLeaves_; }
+
+  /// Refines the leaves `marked` (elements of grid() that are leaves owned by this rank; the other
+  /// ranks pass theirs) and what the closure adds, as one process refining the whole grid with all
+  /// ranks' marks would on this rank's owned cells and ghost layers (see the file comment); the
+  /// partition cells and their parts do not change. Collective. Returns the statistics of the
+  /// local adapt() and the number of closure rounds in `rounds` (if given). Throws obs::Error (on
+  /// every rank) for an element that is not an owned leaf.
+  mesh::AdaptResult adapt(const std::vector<Index>& marked, int* rounds = nullptr);
+  /// A key of a grid element, the same on every rank that holds it: a hash of its level and the
+  /// keys of its corners.
+  std::uint64_t cellKey(Index element) const;
 
   /// The leaf view (level -1) or level view `level` (partition level <= level <= maxLevel()),
   /// numbered and with its halo. Collective. Throws obs::Error for a level out of range.
@@ -83,6 +117,8 @@ private:
   ForestPartition partition_;
   Communicator comm_;
   std::vector<std::uint64_t> keys_;
+  Index replicated_ = 0;
+  int maxLevel_ = 0;  ///< vertices of the replicated levels (keyed by index)
   long long globalLeaves_ = 0;
 };
 
