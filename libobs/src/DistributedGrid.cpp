@@ -266,17 +266,42 @@ mesh::AdaptResult DistributedGrid::adapt(const std::vector<Index>& marked, int* 
       }
   }
   if (rounds) *rounds = round;
+  // the refinement, and its figures over the owned elements (what one process's adapt() reports)
   mesh::AdaptResult result;
-  long long owned = 0;
+  std::vector<double> counts(5, 0.0);  // marked, red, of these marked targets, green closed, leaves
   comm_.collective([&] {
     markKnown();
+    std::vector<char> target(known.size(), 0);
+    for (Index e : marked) target[grid_.isGreen(e) ? grid_.father(e) : e] = 1;
+    for (Index e : grid_.redClosure())
+      if (partition_.partOf(e) == me) {
+        counts[1] += 1;
+        counts[2] += target[e];
+      }
     result = grid_.adapt();
     partition_.follow(grid_);
     extendVertexKeys(grid_, replicated_, keys_);
+    std::vector<char> closed(static_cast<std::size_t>(result.firstNewElement), 0);
+    for (Index x = result.firstNewElement; x < grid_.numElements(); ++x)
+      if (grid_.isGreen(x) && !grid_.isRemoved(x)) {
+        const Index f = grid_.father(x);
+        if (f < result.firstNewElement && !closed[f] && partition_.partOf(f) == me) {
+          closed[f] = 1;
+          counts[3] += 1;
+        } else if (f >= result.firstNewElement && grid_.child(f, 0) == x && partition_.partOf(f) == me) {
+          counts[3] += 1;  // a red child closed green in the same adapt (its first green child)
+        }
+      }
     for (Index e : grid_.leafElements())
-      if (partition_.partOf(e) == me) ++owned;
+      if (partition_.partOf(e) == me) counts[4] += 1;
   });
-  globalLeaves_ = comm_.sum(owned);
+  counts[0] = static_cast<double>(marked.size());
+  comm_.sum(counts);
+  result.marked = static_cast<Index>(counts[0]);
+  result.redRefined = static_cast<Index>(counts[1]);
+  result.propagated = static_cast<Index>(counts[1] - counts[2]);
+  result.greenClosed = static_cast<Index>(counts[3]);
+  globalLeaves_ = static_cast<long long>(counts[4]);
   maxLevel_ = static_cast<int>(comm_.max(static_cast<double>(grid_.maxLevel())));
   return result;
 }

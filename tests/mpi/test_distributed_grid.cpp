@@ -200,7 +200,11 @@ void expectSerialAdaptation(CellType type, int cells, int refinements, int steps
     const obs::mesh::AdaptResult sr = serial.adapt();
     sp.follow(serial);
     int rounds = 0;
-    dist.adapt(own, &rounds);
+    const obs::mesh::AdaptResult dr = dist.adapt(own, &rounds);
+    EXPECT_EQ(dr.marked, sr.marked);
+    EXPECT_EQ(dr.redRefined, sr.redRefined);
+    EXPECT_EQ(dr.propagated, sr.propagated);
+    EXPECT_EQ(dr.greenClosed, sr.greenClosed);
     EXPECT_GE(rounds, 1);
     if (mostRounds) *mostRounds = std::max(*mostRounds, rounds);
     ASSERT_EQ(dist.globalLeaves(), static_cast<long long>(serial.numLeafElements()));

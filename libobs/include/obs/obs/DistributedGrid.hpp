@@ -100,10 +100,14 @@ public:
   /// Refines the leaves `marked` (elements of grid() that are leaves owned by this rank; the other
   /// ranks pass theirs) and what the closure adds, as one process refining the whole grid with all
   /// ranks' marks would on this rank's owned cells and ghost layers (see the file comment); the
-  /// partition cells and their parts do not change. Collective. Returns the statistics of the
-  /// local adapt() and the number of closure rounds in `rounds` (if given). Throws obs::Error (on
-  /// every rank) for an element that is not an owned leaf.
+  /// partition cells and their parts do not change. Collective. Returns what one process's adapt()
+  /// would report: marked, redRefined, propagated and greenClosed summed over the owned elements
+  /// of all ranks (firstNewElement, firstNewVertex and invertedElements are the local grid's), and
+  /// the number of closure rounds in `rounds` (if given). Throws obs::Error (on every rank) for an
+  /// element that is not an owned leaf.
   mesh::AdaptResult adapt(const std::vector<Index>& marked, int* rounds = nullptr);
+  /// Rule 2 of the closure (Grid::setClosureRule) for later adapt() calls; the same on every rank.
+  void setClosureRule(mesh::ClosureRule rule) { grid_.setClosureRule(rule); }
   /// A key of a grid element, the same on every rank that holds it: a hash of its level and the
   /// keys of its corners.
   std::uint64_t cellKey(Index element) const;

@@ -1,0 +1,74 @@
+#pragma once
+/// \file DistributedAdaptiveLoop.hpp
+/// The adaptive loop of AdaptiveLoop.hpp on the ranks of a distributed run
+/// (docs/architecture.md#distributed-adaptivity), for one body against a rigid obstacle. Step k:
+///  1. the leaf view of the DistributedGrid; the contact problem assembled on the rank's local mesh
+///     (its owned rows complete);
+///  2. distributed TNNMG, warm started (default) from the previous solution transferred to the new
+///     leaf view as serially (mesh::transferMatrix on the local grid: a new held vertex lies in an
+///     old owned or ghost cell, whose vertices were held);
+///  3. contact outputs and node classes on the local mesh, counted over the owned vertices; the
+///     load P = sum_p mu_p over the owned contact vertices of all ranks;
+///  4. the estimate of the owned cells (estimateOwned) and eta over all ranks; eoc as serially;
+///  5. record + callback; the stopping rules of AdaptiveLoop;
+///  6. marking with global thresholds (markOwned; ties by DistributedGrid::cellKey), then
+///     DistributedGrid::adapt; Uniform mode: every owned leaf.
+/// The records are AdaptiveStep's, with the figures over all ranks (every rank holds the same
+/// record). Every call is collective; an error on one rank reaches every rank.
+///
+/// Not on ranks (obs::Error at construction): the primal-dual active set solver, inexact solves,
+/// friction, several bodies or couplings, and the analytic reference errors (the record's
+/// `reference` stays empty).
+#include <Eigen/Core>
+
+#include <functional>
+#include <vector>
+
+#include "obs/estimators/AdaptiveLoop.hpp"
+#include "obs/estimators/Estimator.hpp"
+#include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/DistributedGrid.hpp"
+#include "obs/obs/Material.hpp"
+#include "obs/obs/Obstacle.hpp"
+
+namespace obs::estimators {
+
+/// What the callback sees after step k, before the grid is refined (valid during the call only).
+struct DistributedAdaptiveStepView {
+  const AdaptiveStep& record;           ///< the step's record, the same on every rank
+  const DistributedGrid& grid;          ///< not yet refined
+  const DistributedView& leaf;          ///< the rank's part of the leaf view of the step
+  const Eigen::VectorXd& displacement;  ///< on leaf.local (owned vertices first, ghosts current)
+  const EstimatorResult* estimate;      ///< of the owned cells (null if not estimated)
+  const std::vector<Index>& marked;     ///< owned cells (of leaf.local) to be refined after the step
+};
+
+class DistributedAdaptiveLoop {
+public:
+  using Callback = std::function<void(const DistributedAdaptiveStepView&)>;
+
+  /// The grid is refined in place; material, bc and obstacle must outlive the loop; contact on the
+  /// boundary faces with id `boundaryId`. Throws obs::Error (on every rank) for what is not on ranks
+  /// (see the file comment) and what AdaptiveLoop refuses.
+  DistributedAdaptiveLoop(DistributedGrid& grid, const Material& material, const BoundaryConditions& bc,
+                          const Obstacle& obstacle, int boundaryId, AdaptiveLoopOptions options = {});
+
+  /// The function called after every step (replaces an earlier one).
+  void setCallback(Callback callback) { callback_ = std::move(callback); }
+  /// Runs the loop; the records of the steps. Collective.
+  std::vector<AdaptiveStep> run();
+
+private:
+  template <int d>
+  std::vector<AdaptiveStep> runDim();
+
+  DistributedGrid& grid_;
+  const Material& material_;
+  const BoundaryConditions& bc_;
+  const Obstacle& obstacle_;
+  int boundaryId_;
+  AdaptiveLoopOptions options_;
+  Callback callback_;
+};
+
+}  // namespace obs::estimators
