@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <iomanip>
+#include <limits>
 #include <numbers>
 #include <sstream>
 
@@ -20,9 +21,12 @@
 #include "obs/drivers/Summary.hpp"
 #include "obs/drivers/VtkWriter.hpp"
 #include "obs/estimators/AdaptiveLoop.hpp"
+#include "obs/estimators/DistributedAdaptiveLoop.hpp"
 #include "obs/estimators/Marking.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/Checkpoint.hpp"
+#include "obs/obs/DistributedGrid.hpp"
+#include "DistributedOutput.hpp"
 #include "PlotScript.hpp"
 #include "obs/obs/LinearElasticity.hpp"
 #include "RunCheckpoint.hpp"
@@ -101,12 +105,13 @@ struct PressureRow {
   double weight = 0;  ///< m_p = m_p^C, the lumped boundary mass
 };
 
-/// The constrained vertices of a step (finite gap) as estimators::nodalPressureError samples:
-/// x_p, m_p = m_p^C (the lumped boundary mass) and s_p.
-std::vector<est::NodalPressure> nodalPressures(const ContactSet& set, const ContactOutputs& out) {
+/// The constrained vertices of a step (finite gap; of a distributed run's local mesh, the owned
+/// ones) as estimators::nodalPressureError samples: x_p, m_p = m_p^C (the lumped boundary mass) and s_p.
+std::vector<est::NodalPressure> nodalPressures(const ContactSet& set, const ContactOutputs& out,
+                                               Index ownedVertices = std::numeric_limits<Index>::max()) {
   std::vector<est::NodalPressure> nodes;
   for (Index k = 0; k < set.size(); ++k)
-    if (std::isfinite(set.gap(k))) nodes.push_back(est::NodalPressure{set.position(k), set.boundaryMass(k), out.pressure[k]});
+    if (std::isfinite(set.gap(k)) && set.vertex(k) < ownedVertices) nodes.push_back(est::NodalPressure{set.position(k), set.boundaryMass(k), out.pressure[k]});
   return nodes;
 }
 
@@ -541,7 +546,8 @@ private:
 /// of an unconverged last step.
 void finishAdaptiveRun(const Scene& scene, const RunOptions& options, const fs::path& dir, const fs::path& stepsCsv,
                        const std::vector<est::AdaptiveStep>& steps, const NodalErrors& nodalErrors,
-                       double theta, RunResult& r, Clock::time_point t, Clock::time_point start) {
+                       double theta, RunResult& r, Clock::time_point t, Clock::time_point start,
+                       nlohmann::json extra = nlohmann::json::object()) {
   const AdaptivitySpec& spec = *scene.adaptivity;
   const est::AdaptiveStep& final = steps.back();
   if (scene.output.plots || options.plots) {
@@ -576,7 +582,8 @@ void finishAdaptiveRun(const Scene& scene, const RunOptions& options, const fs::
     a["steps"].push_back(
         stepJson(s, nodalErrors.at(nodalErrors.load, s.step), nodalErrors.at(nodalErrors.fixedLoad, s.step),
                  scene.frictional()));
-  finishRun(scene, options, dir, r, t, start, {{"adaptivity", a}});
+  extra["adaptivity"] = std::move(a);
+  finishRun(scene, options, dir, r, t, start, extra);
   if (!final.converged) {
     std::ostringstream os;
     os << scene.where(scene.solver.line) << "[solver] " << final.solver << " did not converge in step "
@@ -757,6 +764,135 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
 
   finishAdaptiveRun(scene, options, dir, stepsCsv, steps, nodalErrors,
                     est::MarkingStrategy(spec.marking, spec.theta).parameter(), r, t, start);
+  return r;
+}
+
+RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid, const BoundaryConditions& bc,
+                                      int contactId, const RunOptions& options, RunResult r, Clock::time_point start) {
+  const AdaptivitySpec& spec = *scene.adaptivity;
+  const Communicator& comm = grid.communicator();
+  auto progress = [&](const std::string& line) {
+    if (options.progress) options.progress(line);
+  };
+  const int dim = grid.grid().dimension();
+  const est::AdaptiveLoopOptions o = adaptiveLoopOptions(scene, true);
+  std::unique_ptr<Obstacle> obstacle;
+  std::optional<est::DistributedAdaptiveLoop> loop;
+  const fs::path dir = options.outputDirectory.value_or(scene.output.directory);
+  comm.collective([&] {
+    if (scene.output.checkpoint || options.restart)
+      throw Error(scene.fileName + ": checkpoints of adaptive runs are not distributed yet (run it without mpirun, or "
+                  "without [output] checkpoint and --restart)");
+    obstacle = makeObstacle(scene, dim);
+    std::error_code ec;
+    fs::create_directories(dir, ec);
+    if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
+  });
+  loop.emplace(grid, scene.material, bc, *obstacle, contactId, o);
+  const std::optional<est::ContactReference> reference = makeReference(scene, dim);
+  if (reference) loop->setReference(*reference);
+  progress("adaptive loop on " + std::to_string(comm.size()) + " ranks: " +
+           std::string(spec.uniform ? "uniform" : "adaptive") + " refinement, estimator " + spec.estimator +
+           (spec.uniform ? "" : ", marking " + spec.marking) + ", up to " + std::to_string(spec.steps) + " steps from " +
+           std::to_string(r.vertices) + " vertices");
+
+  // every step: the solution's pieces (each rank its owned cells) and the figures of the last step
+  const OutputLayout layout(scene);
+  std::vector<PvdEntry> vtkFiles;
+  std::vector<fs::path> pieces;
+  RankLoad load;
+  NodalErrors nodalErrors;
+  double maxU = 0, maxMises = 0;
+  loop->setCallback([&](const est::DistributedAdaptiveStepView& v) {
+    const bool isLast = v.record.marked == 0;
+    const auto ownedCells = static_cast<Index>(v.leaf.part.owned.size());
+    const Index owned = v.leaf.halo.numOwned();
+    ElasticitySolution e;
+    e.dimension = dim;
+    e.displacement = v.displacement;
+    recoverStresses(v.leaf.local, scene.material, e);
+    double u = 0, mises = 0;
+    for (Index p = 0; p < owned; ++p)
+      u = std::max(u, v.displacement.segment(static_cast<Eigen::Index>(p) * dim, dim).norm());
+    for (Index c = 0; c < ownedCells; ++c) mises = std::max(mises, vonMises(e.cellStress[c]));
+    maxU = comm.max(u);
+    maxMises = comm.max(mises);
+    if (isLast) {
+      load = RankLoad{};
+      load.add("owned_vertices", static_cast<double>(owned));
+      load.add("ghost_vertices", static_cast<double>(v.leaf.halo.numLocal() - owned));
+      load.add("owned_cells", static_cast<double>(ownedCells));
+    }
+    if (spec.vtk == AdaptivitySpec::Vtk::Every || (spec.vtk == AdaptivitySpec::Vtk::Last && isLast)) {
+      std::vector<Field> points = pointFields(v.leaf.local, e), cells = cellFields(v.leaf.local, e);
+      if (v.estimate) {
+        Field eta{"eta", 1, std::vector<double>(static_cast<std::size_t>(v.leaf.local.numCells()), 0.0)};
+        for (Index c = 0; c < ownedCells; ++c) eta.values[c] = v.estimate->indicators[c];
+        cells.push_back(std::move(eta));
+      }
+      const std::string base = fs::path(layout.adaptiveVtu(v.record.step, 0)).stem().string();
+      for (auto& f : writePieces(dir, base, v.leaf.local, ownedCells, points, cells, comm)) pieces.push_back(f);
+      vtkFiles.push_back(PvdEntry{static_cast<double>(v.record.step), 0, base + ".pvtu"});
+    }
+    if (reference && v.record.reference) {  // the owned nodes of every rank, on every rank
+      std::vector<double> mine;
+      for (const est::NodalPressure& n : nodalPressures(v.contactSet, v.outputs, owned))
+        mine.insert(mine.end(), {n.x[0], n.x[1], n.x[2], n.weight, n.pressure});
+      const std::vector<std::vector<double>> all =
+          comm.exchange(std::vector<std::vector<double>>(static_cast<std::size_t>(comm.size()), mine));
+      std::vector<est::NodalPressure> nodes;
+      for (const std::vector<double>& part : all)
+        for (std::size_t i = 0; i + 4 < part.size(); i += 5)
+          nodes.push_back(est::NodalPressure{Point(part[i], part[i + 1], part[i + 2]), part[i + 3], part[i + 4]});
+      const auto k = static_cast<std::size_t>(v.record.step);
+      nodalErrors.load.resize(k + 1, std::nan(""));
+      nodalErrors.load[k] = est::nodalPressureError(nodes, *reference, v.record.reference->load);
+      nodalErrors.fixedLoad.resize(k + 1, std::nan(""));
+      if (spec.referenceLoad) nodalErrors.fixedLoad[k] = est::nodalPressureError(nodes, *reference, *spec.referenceLoad);
+    }
+    if (options.stepProgress) options.stepProgress(stepLine(v.record, spec.steps));
+  });
+  const std::vector<est::AdaptiveStep> steps = loop->run();
+  const est::AdaptiveStep& final = steps.back();
+
+  // rank 0: the .pvd, steps.csv and summary.json (the figures are the same on every rank)
+  r.vertices = final.vertices;
+  r.cells = final.cells;
+  r.dofs = final.unknowns;
+  r.freeDofs = final.unknowns;
+  for (const auto& s : steps) {
+    r.assemblySeconds += s.assemblySeconds;
+    r.solveSeconds += s.solverSeconds;
+  }
+  r.maxDisplacement = maxU;
+  r.maxVonMises = maxMises;
+  r.solver.type = "tnnmg";
+  r.solver.iterations = final.solverIterations;
+  r.solver.converged = final.converged;
+  r.solver.seconds = final.solverSeconds;
+  r.solver.tolerance = o.solver.tolerance;
+  const double memory = peakMemoryMB();
+  nlohmann::json extra;
+  extra["ranks"] = comm.size();
+  extra["peak_memory_mb_largest_rank"] = comm.max(memory);
+  extra["peak_memory_mb_all_ranks"] = comm.sum(memory);
+  extra["partition_level"] = grid.partition().level;
+  extra["balance"] = load.reduced(comm);
+  comm.collective([&] {
+    if (comm.rank() != 0) return;
+    const auto t = Clock::now();
+    r.outputFiles = pieces;
+    if (!vtkFiles.empty()) {
+      const fs::path pvd = dir / (scene.name + ".pvd");
+      writePvdCollection(pvd, vtkFiles);
+      r.outputFiles.push_back(pvd);
+    }
+    const fs::path stepsCsv = dir / "steps.csv";
+    writeStepsCsv(stepsCsv, steps, nodalErrors);
+    r.outputFiles.push_back(stepsCsv);
+    finishAdaptiveRun(scene, options, dir, stepsCsv, steps, nodalErrors,
+                      est::MarkingStrategy(spec.marking, spec.theta).parameter(), r, t, start, extra);
+  });
   return r;
 }
 

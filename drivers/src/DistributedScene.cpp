@@ -15,6 +15,7 @@
 
 #include "DistributedOutput.hpp"
 #include "RunSupport.hpp"
+#include "obs/drivers/AdaptiveScene.hpp"
 #include "obs/drivers/DynamicScene.hpp"
 #include "obs/drivers/ObstacleFactory.hpp"
 #include "obs/drivers/SceneSetup.hpp"
@@ -43,7 +44,14 @@ std::string notDistributedBodies(const Scene& scene);
 
 /// What of the scene is not distributed yet ("" if it can run).
 std::string notDistributed(const Scene& scene) {
-  if (scene.adaptivity) return "[adaptivity]";
+  if (scene.adaptivity) {
+    if (scene.multiBody()) return "[adaptivity] with several bodies";
+    if (!scene.contact) return "[adaptivity] without [contact]";
+    if (scene.frictional()) return "[adaptivity] with friction";
+    if (scene.solverType() != "tnnmg") return "[adaptivity] with [solver] type = \"" + scene.solverType() + "\"";
+    if (scene.adaptivity->inexact > 0) return "[adaptivity] inexact";
+    return "";
+  }
   if (scene.dynamics && scene.multiBody()) return "[dynamics] with several bodies";
   if (scene.dynamics) return scene.solverType() != "tnnmg" ? "[solver] type = \"" + scene.solverType() + "\"" : "";
   if (scene.multiBody()) return notDistributedBodies(scene);
@@ -886,7 +894,7 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
   if (const std::string what = notDistributed(scene); !what.empty())
     throw Error(scene.fileName + ": distributed runs (" + std::to_string(comm.size()) +
                 " MPI ranks) solve static scenes with TNNMG so far (one body, with an obstacle or without contact, or two bodies with "
-                "one mortar pair) and dynamic scenes of one body; this scene has " + what +
+                "one mortar pair), adaptive scenes of one body against an obstacle and dynamic scenes of one body; this scene has " + what +
                 " (run it without mpirun, and use --threads N for the cores of one machine)");
   const auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
@@ -914,7 +922,7 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
     throw Error(scene.fileName + ": a distributed run needs refine >= 1 (the coarse mesh is solved on every rank; --refine 1 or [mesh] refine)");
   ForestPartitionOptions partition;
   if (options.partitionLevel) partition.level = *options.partitionLevel;
-  const DistributedGrid dg(std::move(*coarse), refine, comm, partition);
+  DistributedGrid dg(std::move(*coarse), refine, comm, partition);
   const DistributedView leaf = dg.view();
   r.meshSeconds = comm.max(secondsSince(t));
   r.dimension = leaf.local.dimension();
@@ -933,6 +941,7 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
            std::to_string(dg.partition().level) + " (" + std::to_string(r.meshSeconds) + " s)");
 
   if (scene.dynamics) return runDistributedDynamicScene(scene, dg, leaf, bcAt(0), options, std::move(r), start);
+  if (scene.adaptivity) return runDistributedAdaptiveScene(scene, dg, bcAt(0), contactId, options, std::move(r), start);
 
   const std::filesystem::path dir = options.outputDirectory.value_or(scene.output.directory);
   comm.collective([&] {

@@ -50,17 +50,30 @@ double experimentalOrder(double eta0, double n0, double eta1, double n1) {
   return (std::log(eta0) - std::log(eta1)) / (std::log(n1) - std::log(n0));
 }
 
-ReferenceErrors referenceErrors(const mesh::Mesh& mesh, const ContactSet& set, const ContactOutputs& outputs,
-                                const ContactReference& reference) {
+namespace {
+
+/// A process's part of the reference errors: the L2 sums over the boundary faces it counts, the
+/// contact radius over its nodes, and its node nearest to the centre.
+struct ReferencePart {
+  double err2 = 0, norm2 = 0, radius = 0;
+  double nearest = std::numeric_limits<double>::infinity();
+  Index nearestNode = -1;
+};
+
+/// The part of the faces with counted[f] != 0 (all if counted is empty) and the nodes on vertices
+/// below `ownedVertices`; the nearest node to the centre by distance, ties by position (so the
+/// choice does not depend on the vertex numbering).
+ReferencePart referencePart(const mesh::Mesh& mesh, const ContactSet& set, const ContactOutputs& outputs,
+                            const ContactReference& reference, double load, std::span<const char> counted,
+                            Index ownedVertices) {
   if (!reference.pressure) throw Error("contact reference: no pressure function given");
   if (set.numMeshVertices() != mesh.numVertices() || outputs.pressure.size() != static_cast<std::size_t>(set.size()))
     throw Error("contact reference: contact set, outputs and mesh do not belong together");
-  ReferenceErrors r;
-  for (double mu : outputs.multiplier) r.load += mu;
+  ReferencePart part;
   // relative L2 error of s_m on Gamma_C
-  double err2 = 0, norm2 = 0, shape[4], grad[8];
+  double shape[4], grad[8];
   for (Index f = 0; f < mesh.numBoundaryFaces(); ++f) {
-    if (mesh.boundaryFaceId(f) != set.boundaryId()) continue;
+    if (mesh.boundaryFaceId(f) != set.boundaryId() || (!counted.empty() && !counted[f])) continue;
     const auto fv = mesh.boundaryFaceVertices(f);
     const mesh::CellType ft = mesh::faceTypeFromVertexCount(static_cast<int>(fv.size()));
     const auto& ref = mesh::referenceElement(ft);
@@ -77,27 +90,99 @@ ReferenceErrors referenceErrors(const mesh::Mesh& mesh, const ContactSet& set, c
         sm += shape[i] * outputs.pressure[static_cast<std::size_t>(set.nodeOf(fv[i]))];
       }
       const double w = rule.weights[q] * (ref.dim == 1 ? ds.norm() : ds.cross(dt).norm());
-      const double p = reference.pressure(x, r.load);
-      err2 += w * (sm - p) * (sm - p);
-      norm2 += w * p * p;
+      const double p = reference.pressure(x, load);
+      part.err2 += w * (sm - p) * (sm - p);
+      part.norm2 += w * p * p;
     }
   }
-  r.pressureError = norm2 > 0 ? std::sqrt(err2 / norm2) : std::numeric_limits<double>::quiet_NaN();
   // contact radius and centre node
-  double best = std::numeric_limits<double>::infinity();
   for (Index k = 0; k < set.size(); ++k) {
+    if (set.vertex(k) >= ownedVertices) continue;
     const double dist = (set.position(k) - reference.centre).norm();
-    if (outputs.inContact[static_cast<std::size_t>(k)]) r.radius = std::max(r.radius, dist);
-    if (dist < best) {
-      best = dist;
-      r.centreVertex = set.vertex(k);
-      r.centrePressure = outputs.pressure[static_cast<std::size_t>(k)];
-      r.exactCentrePressure = reference.pressure(set.position(k), r.load);
+    if (outputs.inContact[static_cast<std::size_t>(k)]) part.radius = std::max(part.radius, dist);
+    const auto before = [&](Index a, Index b) {
+      const Point& xa = set.position(a);
+      const Point& xb = set.position(b);
+      return std::lexicographical_compare(xa.data(), xa.data() + 3, xb.data(), xb.data() + 3);
+    };
+    if (dist < part.nearest || (dist == part.nearest && before(k, part.nearestNode))) {
+      part.nearest = dist;
+      part.nearestNode = k;
     }
   }
-  r.exactRadius = reference.radius ? reference.radius(r.load) : std::numeric_limits<double>::quiet_NaN();
+  return part;
+}
+
+/// The errors from the (summed) part, the centre node's pressure and position.
+ReferenceErrors finishReference(const ReferencePart& part, double load, double centrePressure, const Point& centre,
+                                const ContactReference& reference) {
+  ReferenceErrors r;
+  r.load = load;
+  r.pressureError = part.norm2 > 0 ? std::sqrt(part.err2 / part.norm2) : std::numeric_limits<double>::quiet_NaN();
+  r.radius = part.radius;
+  r.centrePressure = centrePressure;
+  r.exactCentrePressure = reference.pressure(centre, load);
+  r.exactRadius = reference.radius ? reference.radius(load) : std::numeric_limits<double>::quiet_NaN();
   r.radiusError = std::abs(r.radius - r.exactRadius) / r.exactRadius;
   r.centreError = std::abs(r.centrePressure - r.exactCentrePressure) / std::abs(r.exactCentrePressure);
+  return r;
+}
+
+}  // namespace
+
+ReferenceErrors referenceErrors(const mesh::Mesh& mesh, const ContactSet& set, const ContactOutputs& outputs,
+                                const ContactReference& reference) {
+  double load = 0;
+  for (double mu : outputs.multiplier) load += mu;
+  const ReferencePart part = referencePart(mesh, set, outputs, reference, load, {}, mesh.numVertices());
+  if (part.nearestNode < 0) return finishReference(part, load, std::numeric_limits<double>::quiet_NaN(), reference.centre, reference);
+  const auto k = static_cast<std::size_t>(part.nearestNode);
+  ReferenceErrors r = finishReference(part, load, outputs.pressure[k], set.position(part.nearestNode), reference);
+  r.centreVertex = set.vertex(part.nearestNode);
+  return r;
+}
+
+ReferenceErrors referenceErrors(const mesh::Mesh& mesh, const ContactSet& set, const ContactOutputs& outputs,
+                                const ContactReference& reference, Index ownedVertices,
+                                std::span<const char> countedFaces, const Communicator& comm) {
+  ReferencePart part;
+  double load = 0;
+  comm.collective([&] {
+    for (Index k = 0; k < set.size(); ++k)
+      if (set.vertex(k) < ownedVertices) load += outputs.multiplier[static_cast<std::size_t>(k)];
+  });
+  load = comm.sum(load);
+  comm.collective([&] { part = referencePart(mesh, set, outputs, reference, load, countedFaces, ownedVertices); });
+  std::vector<double> sums = {part.err2, part.norm2};
+  comm.sum(sums);
+  part.err2 = sums[0];
+  part.norm2 = sums[1];
+  part.radius = comm.max(part.radius);
+  // the nearest node over the ranks (ties by position): every rank's candidate, the best taken
+  const std::vector<double> mine = part.nearestNode < 0
+                                       ? std::vector<double>{part.nearest, 0, 0, 0, 0}
+                                       : std::vector<double>{part.nearest, set.position(part.nearestNode)[0],
+                                                             set.position(part.nearestNode)[1],
+                                                             set.position(part.nearestNode)[2],
+                                                             outputs.pressure[static_cast<std::size_t>(part.nearestNode)]};
+  std::vector<double> all(mine.size() * static_cast<std::size_t>(comm.size()), 0.0);
+  std::copy(mine.begin(), mine.end(), all.begin() + static_cast<std::ptrdiff_t>(mine.size() * comm.rank()));
+  comm.sum(all);  // each rank's five numbers in its own slot
+  int best = -1;
+  for (int q = 0; q < comm.size(); ++q) {
+    const double* c = all.data() + 5 * q;
+    if (!std::isfinite(c[0])) continue;
+    if (best < 0) {
+      best = q;
+      continue;
+    }
+    const double* b = all.data() + 5 * best;
+    if (c[0] < b[0] || (c[0] == b[0] && std::lexicographical_compare(c + 1, c + 4, b + 1, b + 4))) best = q;
+  }
+  if (best < 0) return finishReference(part, load, std::numeric_limits<double>::quiet_NaN(), reference.centre, reference);
+  const double* b = all.data() + 5 * best;
+  ReferenceErrors r = finishReference(part, load, b[4], Point(b[1], b[2], b[3]), reference);
+  r.centreVertex = best == comm.rank() ? set.vertex(part.nearestNode) : -1;
   return r;
 }
 

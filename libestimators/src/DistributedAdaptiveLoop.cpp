@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <limits>
 #include <memory>
 #include <optional>
 #include <span>
@@ -134,6 +135,21 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
     comm.collective([&] {
       const auto [U, F] = contactScales<d>(*problem, x, owned, comm);
       outputs = computeContactOutputs(*problem, x, options_.contactTolerance, U, F);
+      // a ghost's own row is incomplete away from the owned cells: its outputs from the owner
+      Eigen::VectorXd flat = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(leaf.halo.numLocal()) * 3);
+      for (Index q = 0; q < set->size(); ++q) {
+        const auto k = static_cast<std::size_t>(q);
+        const Eigen::Index at = static_cast<Eigen::Index>(set->vertex(q)) * 3;
+        flat.segment<3>(at) << outputs->pressure[k], outputs->multiplier[k], outputs->inContact[k];
+      }
+      leaf.halo.update(flat, 3);
+      for (Index q = 0; q < set->size(); ++q)
+        if (const Index v = set->vertex(q); v >= owned) {
+          const auto k = static_cast<std::size_t>(q);
+          outputs->pressure[k] = flat[v * 3];
+          outputs->multiplier[k] = flat[v * 3 + 1];
+          outputs->inContact[k] = static_cast<char>(flat[v * 3 + 2] != 0);
+        }
       classes = classifyContactNodes(leaf.local, {boundaryId_}, &*set, u, options_.contactTolerance);
       for (Index v = 0; v < owned; ++v) {
         const NodeClass c = classes.ofVertex[v];
@@ -151,6 +167,20 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
     rec.semiContact = static_cast<Index>(sums[2]);
     rec.fullContact = static_cast<Index>(sums[3]);
     rec.load = sums[4];
+    if (reference_) {  // each contact face counted by the owner of its vertex of smallest global index
+      std::vector<char> counted(static_cast<std::size_t>(leaf.local.numBoundaryFaces()), 0);
+      const auto& held = leaf.halo.viewVertices();
+      for (Index f = 0; f < leaf.local.numBoundaryFaces(); ++f) {
+        Index first = -1, firstGlobal = std::numeric_limits<Index>::max();
+        for (Index v : leaf.local.boundaryFaceVertices(f))
+          if (const Index g = leaf.numbering.global[held[v]]; g < firstGlobal) {
+            firstGlobal = g;
+            first = v;
+          }
+        counted[f] = first >= 0 && first < owned;
+      }
+      rec.reference = referenceErrors(leaf.local, *set, *outputs, *reference_, owned, counted, comm);
+    }
 
     // estimate (not on an unconverged solution, as serially)
     std::optional<EstimatorResult> est;
@@ -191,7 +221,7 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
     rec.bodies[0].marked = rec.marked;
     const double markSeconds = since(t);
     steps.push_back(rec);
-    if (callback_) callback_(DistributedAdaptiveStepView{steps.back(), grid_, leaf, u, est ? &*est : nullptr, marked});
+    if (callback_) callback_(DistributedAdaptiveStepView{steps.back(), grid_, leaf, u, *set, *outputs, est ? &*est : nullptr, marked});
     if (last) break;
 
     // refine; the solution on the held grid vertices, interpolated to the new ones

@@ -391,7 +391,8 @@ TEST_F(Cli, MpirunRunsStaticScenesDistributed) {
   EXPECT_NE(e.err.find("[dynamics]"), std::string::npos) << e.err;
 }
 
-/// A time series (timeseries.csv): the header's columns and the rows' values (empty cells: NaN).
+/// A table (timeseries.csv, steps.csv): the header's columns and the rows' values (empty cells and
+/// text: NaN).
 struct Series {
   std::vector<std::string> columns;
   std::vector<std::vector<double>> rows;
@@ -417,7 +418,11 @@ Series readSeries(const fs::path& p) {
   if (std::getline(in, line)) s.columns = cells(line);
   while (std::getline(in, line)) {
     std::vector<double> row;
-    for (const std::string& c : cells(line)) row.push_back(c.empty() ? std::nan("") : std::stod(c));
+    for (const std::string& c : cells(line)) {  // empty cells and text (a solver's name): NaN
+      char* end = nullptr;
+      const double v = std::strtod(c.c_str(), &end);
+      row.push_back(c.empty() || end != c.c_str() + c.size() ? std::nan("") : v);
+    }
     s.rows.push_back(row);
   }
   return s;
@@ -569,6 +574,67 @@ TEST_F(Cli, MpirunRunsDynamicScenesDistributed) {
     ++errors;
   EXPECT_EQ(errors, 1u) << refined.err;
   EXPECT_NE(refined.err.find("another --refine"), std::string::npos) << refined.err;
+}
+
+// `mpirun -np N obs run` on adaptive scenes (docs/architecture.md#distributed-adaptivity): steps.csv
+// of the serial run, with the same grids every step (cells, vertices, contact counts, marked,
+// red, closure and green refinements, TNNMG iterations) and eta, its contributions, the load and
+// the reference errors to 1e-8 of their scales; summary.json has the ranks and the balance, the
+// .pvd lists .pvtu files. Example 1A (flat punch, quadrilaterals) on 2 ranks, Example 3A (ball,
+// hexahedra, from 512 cells) on 3. An adaptive checkpoint is refused on every rank with one line.
+TEST_F(Cli, MpirunRunsAdaptiveScenesDistributed) {
+  const auto launcher = [](int ranks) {
+    return "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=PASSIVE " + std::string(OBS_MPIEXEC) +
+           " --oversubscribe -np " + std::to_string(ranks);
+  };
+  struct Run {
+    const char* scene;
+    std::string options;
+    int ranks;
+  };
+  const std::vector<std::string> exact = {"cells", "vertices", "unknowns", "potential_contact", "actual_contact",
+                                          "semi_contact", "full_contact", "iterations", "marked", "refined_red",
+                                          "closure_red", "green_closed"};
+  for (const Run& run : {Run{"example1a.toml", "--set adaptivity.steps=7", 2},
+                         Run{"example3a.toml", "--refine 1 --set adaptivity.steps=4", 3}}) {
+    SCOPED_TRACE(run.scene);
+    const std::string scene = (fs::path(OBS_DATA_DIR) / "scenes" / run.scene).string();
+    const std::string name = fs::path(run.scene).stem().string();
+    fs::remove_all(kTmp / ("out_ad_mpi_" + name));
+    fs::remove_all(kTmp / ("out_ad_one_" + name));
+    const Output d = runObs("run '" + scene + "' " + run.options + " --output out_ad_mpi_" + name, "ad_mpi_" + name,
+                            launcher(run.ranks));
+    ASSERT_EQ(d.code, 0) << d.err;
+    EXPECT_NE(d.out.find("on " + std::to_string(run.ranks) + " ranks"), std::string::npos) << d.out;
+    const Output s = runObs("run '" + scene + "' " + run.options + " -q --output out_ad_one_" + name, "ad_one_" + name);
+    ASSERT_EQ(s.code, 0) << s.err;
+    const fs::path dd = kTmp / ("out_ad_mpi_" + name), ds = kTmp / ("out_ad_one_" + name);
+    const Series a = readSeries(ds / "steps.csv"), b = readSeries(dd / "steps.csv");
+    ASSERT_EQ(a.columns, b.columns);
+    ASSERT_EQ(a.rows.size(), b.rows.size());
+    ASSERT_GE(a.rows.size(), 4u);
+    for (std::size_t r = 0; r < a.rows.size(); ++r)
+      for (const std::string& c : exact) EXPECT_EQ(a.at(r, c), b.at(r, c)) << c << ", step " << r;
+    const auto first = std::find(a.columns.begin(), a.columns.end(), "eta");
+    const auto eoc = std::find(a.columns.begin(), a.columns.end(), "eoc");
+    for (auto c = first; c != eoc; ++c) EXPECT_LT(seriesDeviation(a, b, {*c}), 1e-8) << *c;
+    for (const char* c : {"load", "pressure_error", "radius", "radius_error", "centre_pressure", "nodal_pressure_error"})
+      EXPECT_LT(seriesDeviation(a, b, {c}), 1e-8) << c;
+    EXPECT_FALSE(std::isnan(a.at(a.rows.size() - 1, "pressure_error")));
+    const nlohmann::json summary = nlohmann::json::parse(slurp(dd / "summary.json"));
+    EXPECT_EQ(summary["ranks"], run.ranks);
+    EXPECT_TRUE(summary.contains("balance"));
+    EXPECT_NE(slurp(dd / (name + ".pvd")).find(".pvtu"), std::string::npos);
+  }
+  const std::string punch = (fs::path(OBS_DATA_DIR) / "scenes" / "example1a.toml").string();
+  const Output refused = runObs("run '" + punch + "' --set 'output.checkpoint={every=1}' --output out_ad_refused",
+                                "ad_refused", launcher(2));
+  EXPECT_EQ(refused.code, 1);
+  std::size_t errors = 0;
+  for (std::size_t at = refused.err.find("obs: error:"); at != std::string::npos; at = refused.err.find("obs: error:", at + 1))
+    ++errors;
+  EXPECT_EQ(errors, 1u) << refused.err;
+  EXPECT_NE(refused.err.find("checkpoints of adaptive runs"), std::string::npos) << refused.err;
 }
 #endif
 

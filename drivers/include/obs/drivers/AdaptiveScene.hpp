@@ -46,15 +46,31 @@
 ///                  last two then throw RunInterrupted); RunOptions::restart continues such a run
 ///                  with step k + 1 into its output directory, with the same outputs, bit for bit
 ///                  (wall times aside), as a run that was never interrupted.
+#include <chrono>
+
 #include "obs/drivers/RunOptions.hpp"
 #include "obs/drivers/RunResult.hpp"
 #include "obs/drivers/Scene.hpp"
 #include "obs/estimators/AdaptiveLoop.hpp"
+#include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/DistributedGrid.hpp"
 
 namespace obs::drivers {
 
 /// Runs a scene with [adaptivity] (see the file comment); throws obs::Error like runScene.
 RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options);
+
+/// The same on the ranks of a distributed run (`mpirun -np N obs run`,
+/// docs/architecture.md#distributed-adaptivity): one body against the scene's obstacle on `grid`
+/// (refined in place; `bc` its boundary conditions, `contactId` the contact boundary), by
+/// estimators::DistributedAdaptiveLoop. Every rank holds the same step records (the reference
+/// errors over all ranks); rank 0 writes steps.csv, the .pvd of the .pvtu files and summary.json
+/// (with "ranks", the memory per rank and "balance" of the last step), every rank its piece of
+/// each written step. Collective; errors reach every rank.
+/// Refused (obs::Error): checkpoints and --restart.
+RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid, const BoundaryConditions& bc,
+                                      int contactId, const RunOptions& options, RunResult result,
+                                      std::chrono::steady_clock::time_point start);
 
 /// The loop options of the scene's [adaptivity] and [solver] sections (the solver by solverConfig,
 /// as for a static and a dynamic run); `contact`: the scene has a contact coupling, whose solver

@@ -52,6 +52,7 @@
 #include <functional>
 #include <limits>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -61,6 +62,7 @@
 #include "obs/mesh/Grid.hpp"
 #include "obs/obs/BoundaryConditions.hpp"
 #include "obs/obs/Checkpoint.hpp"
+#include "obs/obs/Communicator.hpp"
 #include "obs/obs/ContactModel.hpp"
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/LinearMultigrid.hpp"
@@ -309,8 +311,17 @@ private:
 /// eoc = (ln eta0 - ln eta1) / (ln n1 - ln n0) (docs/theory.md#eoc); NaN if undefined.
 double experimentalOrder(double eta0, double n0, double eta1, double n1);
 
-/// The reference errors of a solution (see the file comment).
+/// The reference errors of a solution (see the file comment; the centre vertex: the nearest,
+/// equal distances by lexicographic position).
 ReferenceErrors referenceErrors(const mesh::Mesh& mesh, const ContactSet& set, const ContactOutputs& outputs,
                                 const ContactReference& reference);
+/// The same on the ranks of a distributed run, from each rank's local mesh (its first
+/// `ownedVertices` vertices owned, their rows and hence outputs complete): the load over the owned
+/// nodes, the L2 sums over the boundary faces with countedFaces[f] != 0 (every face counted on one
+/// rank), the radius and the centre vertex over all ranks (centreVertex: local, on the rank that
+/// holds it; -1 on the others). Collective.
+ReferenceErrors referenceErrors(const mesh::Mesh& mesh, const ContactSet& set, const ContactOutputs& outputs,
+                                const ContactReference& reference, Index ownedVertices,
+                                std::span<const char> countedFaces, const Communicator& comm);
 
 }  // namespace obs::estimators

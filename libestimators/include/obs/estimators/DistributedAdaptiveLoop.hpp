@@ -17,16 +17,18 @@
 /// record). Every call is collective; an error on one rank reaches every rank.
 ///
 /// Not on ranks (obs::Error at construction): the primal-dual active set solver, inexact solves,
-/// friction, several bodies or couplings, and the analytic reference errors (the record's
-/// `reference` stays empty).
+/// friction, several bodies or couplings.
 #include <Eigen/Core>
 
 #include <functional>
+#include <optional>
 #include <vector>
 
 #include "obs/estimators/AdaptiveLoop.hpp"
 #include "obs/estimators/Estimator.hpp"
 #include "obs/obs/BoundaryConditions.hpp"
+#include "obs/obs/ContactProblem.hpp"
+#include "obs/obs/ContactSet.hpp"
 #include "obs/obs/DistributedGrid.hpp"
 #include "obs/obs/Material.hpp"
 #include "obs/obs/Obstacle.hpp"
@@ -39,6 +41,8 @@ struct DistributedAdaptiveStepView {
   const DistributedGrid& grid;          ///< not yet refined
   const DistributedView& leaf;          ///< the rank's part of the leaf view of the step
   const Eigen::VectorXd& displacement;  ///< on leaf.local (owned vertices first, ghosts current)
+  const ContactSet& contactSet;         ///< the obstacle's nodes on leaf.local
+  const ContactOutputs& outputs;        ///< for contactSet (exact at the owned vertices)
   const EstimatorResult* estimate;      ///< of the owned cells (null if not estimated)
   const std::vector<Index>& marked;     ///< owned cells (of leaf.local) to be refined after the step
 };
@@ -53,6 +57,10 @@ public:
   DistributedAdaptiveLoop(DistributedGrid& grid, const Material& material, const BoundaryConditions& bc,
                           const Obstacle& obstacle, int boundaryId, AdaptiveLoopOptions options = {});
 
+  /// An analytic reference (AnalyticContact.hpp): every step then records ReferenceErrors, over
+  /// all ranks (referenceErrors on ranks: each contact face counted by the owner of its vertex of
+  /// smallest global index).
+  void setReference(ContactReference reference) { reference_ = std::move(reference); }
   /// The function called after every step (replaces an earlier one).
   void setCallback(Callback callback) { callback_ = std::move(callback); }
   /// Runs the loop; the records of the steps. Collective.
@@ -68,6 +76,7 @@ private:
   const Obstacle& obstacle_;
   int boundaryId_;
   AdaptiveLoopOptions options_;
+  std::optional<ContactReference> reference_;
   Callback callback_;
 };
 
