@@ -801,6 +801,9 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
   std::vector<PvdEntry> vtkFiles;
   std::vector<fs::path> pieces;
   RankLoad load;
+  std::ostringstream balance;  // balance.csv: the imbalance of every step (the partition stays fixed)
+  balance << std::setprecision(10) << "step,owned_cells_max,owned_cells_mean,cells_imbalance,contact_nodes_max,"
+          << "contact_nodes_mean,contact_imbalance\n";
   NodalErrors nodalErrors;
   double maxU = 0, maxMises = 0;
   loop->setCallback([&](const est::DistributedAdaptiveStepView& v) {
@@ -817,6 +820,17 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
     for (Index c = 0; c < ownedCells; ++c) mises = std::max(mises, vonMises(e.cellStress[c]));
     maxU = comm.max(u);
     maxMises = comm.max(mises);
+    {  // the work per rank of this step: owned cells and owned contact nodes, largest and mean
+      long long nodes = 0;
+      for (Index q = 0; q < v.contactSet.size(); ++q) nodes += v.contactSet.vertex(q) < owned ? 1 : 0;
+      std::vector<double> largest = {static_cast<double>(ownedCells), static_cast<double>(nodes)};
+      std::vector<double> total = largest;
+      comm.max(largest);
+      comm.sum(total);
+      balance << v.record.step << "," << largest[0] << "," << total[0] / comm.size() << ","
+              << largest[0] * comm.size() / std::max(total[0], 1.0) << "," << largest[1] << ","
+              << total[1] / comm.size() << "," << (total[1] > 0 ? largest[1] * comm.size() / total[1] : 1.0) << "\n";
+    }
     if (isLast) {
       load = RankLoad{};
       load.add("owned_vertices", static_cast<double>(owned));
@@ -890,6 +904,9 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
     const fs::path stepsCsv = dir / "steps.csv";
     writeStepsCsv(stepsCsv, steps, nodalErrors);
     r.outputFiles.push_back(stepsCsv);
+    const fs::path balanceCsv = dir / "balance.csv";
+    std::ofstream(balanceCsv) << balance.str();
+    r.outputFiles.push_back(balanceCsv);
     finishAdaptiveRun(scene, options, dir, stepsCsv, steps, nodalErrors,
                       est::MarkingStrategy(spec.marking, spec.theta).parameter(), r, t, start, extra);
   });

@@ -102,19 +102,22 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
     auto t = Clock::now();
     std::optional<ContactSet> set;
     std::optional<ContactProblem<d>> problem;
-    Eigen::VectorXd x;
+    Eigen::VectorXd x, u0;
     comm.collective([&] {
       set.emplace(leaf.local, boundaryId_, obstacle_, true);
       problem.emplace(leaf.local, material_, bc_, *set);
-      Eigen::VectorXd u0 = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(leaf.local.numVertices()) * d);
+      u0 = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(leaf.local.numVertices()) * d);
       if (!start.empty()) {  // on the leaf view's vertices
         const auto& held = leaf.halo.viewVertices();
         for (Index i = 0; i < leaf.local.numVertices(); ++i)
           for (int c = 0; c < d; ++c)
             u0[static_cast<Eigen::Index>(i) * d + c] = start[static_cast<std::size_t>(held[i]) * d + c];
       }
-      x = problem->fromDisplacement(u0);
     });
+    // the start's ghost entries from their owners: an owned vertex lies in old owned or ghost cells
+    // only, whose vertices were all held, but a ghost may have been located in an old cell beyond
+    leaf.halo.update(u0, d);
+    comm.collective([&] { x = problem->fromDisplacement(u0); });
     rec.assemblySeconds = comm.max(since(t));
     t = Clock::now();
     typename TNNMG<d>::Options so = tnnmgOptions<d>(options_.solver);

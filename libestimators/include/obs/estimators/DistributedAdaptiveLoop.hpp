@@ -5,8 +5,8 @@
 ///  1. the leaf view of the DistributedGrid; the contact problem assembled on the rank's local mesh
 ///     (its owned rows complete);
 ///  2. distributed TNNMG, warm started (default) from the previous solution transferred to the new
-///     leaf view as serially (mesh::transferMatrix on the local grid: a new held vertex lies in an
-///     old owned or ghost cell, whose vertices were held);
+///     leaf view as serially (mesh::transferMatrix on the local grid; exact at the owned vertices,
+///     which lie in old owned or ghost cells only; the ghosts' values from their owners);
 ///  3. contact outputs and node classes on the local mesh, counted over the owned vertices; the
 ///     load P = sum_p mu_p over the owned contact vertices of all ranks;
 ///  4. the estimate of the owned cells (estimateOwned) and eta over all ranks; eoc as serially;
