@@ -803,33 +803,42 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
   RankLoad load;
   std::ostringstream balance;  // balance.csv: the imbalance of every step (the partition stays fixed)
   balance << std::setprecision(10) << "step,owned_cells_max,owned_cells_mean,cells_imbalance,contact_nodes_max,"
-          << "contact_nodes_mean,contact_imbalance\n";
+          << "contact_nodes_mean,contact_imbalance,held_leaves_max,held_leaves_mean\n";
   NodalErrors nodalErrors;
   double maxU = 0, maxMises = 0;
   loop->setCallback([&](const est::DistributedAdaptiveStepView& v) {
     const bool isLast = v.record.marked == 0;
     const auto ownedCells = static_cast<Index>(v.leaf.part.owned.size());
     const Index owned = v.leaf.halo.numOwned();
+    // the local work in collective() (an error reaches every rank), the reductions after it
     ElasticitySolution e;
-    e.dimension = dim;
-    e.displacement = v.displacement;
-    recoverStresses(v.leaf.local, scene.material, e);
-    double u = 0, mises = 0;
-    for (Index p = 0; p < owned; ++p)
-      u = std::max(u, v.displacement.segment(static_cast<Eigen::Index>(p) * dim, dim).norm());
-    for (Index c = 0; c < ownedCells; ++c) mises = std::max(mises, vonMises(e.cellStress[c]));
-    maxU = comm.max(u);
-    maxMises = comm.max(mises);
-    {  // the work per rank of this step: owned cells and owned contact nodes, largest and mean
-      long long nodes = 0;
-      for (Index q = 0; q < v.contactSet.size(); ++q) nodes += v.contactSet.vertex(q) < owned ? 1 : 0;
-      std::vector<double> largest = {static_cast<double>(ownedCells), static_cast<double>(nodes)};
-      std::vector<double> total = largest;
+    std::vector<double> largest(5, 0.0);  // max |u|, max von Mises; owned cells, contact nodes, held leaves
+    std::vector<double> mine;             // the owned nodes' nodal pressure samples
+    comm.collective([&] {
+      e.dimension = dim;
+      e.displacement = v.displacement;
+      recoverStresses(v.leaf.local, scene.material, e);
+      for (Index p = 0; p < owned; ++p)
+        largest[0] = std::max(largest[0], v.displacement.segment(static_cast<Eigen::Index>(p) * dim, dim).norm());
+      for (Index c = 0; c < ownedCells; ++c) largest[1] = std::max(largest[1], vonMises(e.cellStress[c]));
+      largest[2] = static_cast<double>(ownedCells);
+      for (Index q = 0; q < v.contactSet.size(); ++q) largest[3] += v.contactSet.vertex(q) < owned ? 1 : 0;
+      largest[4] = static_cast<double>(v.grid.grid().numLeafElements());
+      if (reference && v.record.reference)
+        for (const est::NodalPressure& n : nodalPressures(v.contactSet, v.outputs, owned))
+          mine.insert(mine.end(), {n.x[0], n.x[1], n.x[2], n.weight, n.pressure});
+    });
+    {  // the work per rank of this step: owned cells, owned contact nodes, held leaves
+      std::vector<double> total(largest.begin() + 2, largest.end());
       comm.max(largest);
+      maxU = largest[0];
+      maxMises = largest[1];
+      largest.erase(largest.begin(), largest.begin() + 2);
       comm.sum(total);
       balance << v.record.step << "," << largest[0] << "," << total[0] / comm.size() << ","
               << largest[0] * comm.size() / std::max(total[0], 1.0) << "," << largest[1] << ","
-              << total[1] / comm.size() << "," << (total[1] > 0 ? largest[1] * comm.size() / total[1] : 1.0) << "\n";
+              << total[1] / comm.size() << "," << (total[1] > 0 ? largest[1] * comm.size() / total[1] : 1.0) << ","
+              << largest[2] << "," << total[2] / comm.size() << "\n";
     }
     if (isLast) {
       load = RankLoad{};
@@ -838,20 +847,21 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
       load.add("owned_cells", static_cast<double>(ownedCells));
     }
     if (spec.vtk == AdaptivitySpec::Vtk::Every || (spec.vtk == AdaptivitySpec::Vtk::Last && isLast)) {
-      std::vector<Field> points = pointFields(v.leaf.local, e), cells = cellFields(v.leaf.local, e);
-      if (v.estimate) {
-        Field eta{"eta", 1, std::vector<double>(static_cast<std::size_t>(v.leaf.local.numCells()), 0.0)};
-        for (Index c = 0; c < ownedCells; ++c) eta.values[c] = v.estimate->indicators[c];
-        cells.push_back(std::move(eta));
-      }
+      std::vector<Field> points, cells;
+      comm.collective([&] {
+        points = pointFields(v.leaf.local, e);
+        cells = cellFields(v.leaf.local, e);
+        if (v.estimate) {
+          Field eta{"eta", 1, std::vector<double>(static_cast<std::size_t>(v.leaf.local.numCells()), 0.0)};
+          for (Index c = 0; c < ownedCells; ++c) eta.values[c] = v.estimate->indicators[c];
+          cells.push_back(std::move(eta));
+        }
+      });
       const std::string base = fs::path(layout.adaptiveVtu(v.record.step, 0)).stem().string();
       for (auto& f : writePieces(dir, base, v.leaf.local, ownedCells, points, cells, comm)) pieces.push_back(f);
       vtkFiles.push_back(PvdEntry{static_cast<double>(v.record.step), 0, base + ".pvtu"});
     }
     if (reference && v.record.reference) {  // the owned nodes of every rank, on every rank
-      std::vector<double> mine;
-      for (const est::NodalPressure& n : nodalPressures(v.contactSet, v.outputs, owned))
-        mine.insert(mine.end(), {n.x[0], n.x[1], n.x[2], n.weight, n.pressure});
       const std::vector<std::vector<double>> all =
           comm.exchange(std::vector<std::vector<double>>(static_cast<std::size_t>(comm.size()), mine));
       std::vector<est::NodalPressure> nodes;

@@ -28,11 +28,11 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
 
-/// The scales of computeContactOutputs' rule over the owned entries of all ranks: U = max(|u|,
-/// finite gaps), F = max(|b_i|, |(A u)_i|) over the free components (owned rows are complete).
+/// This rank's part of the scales of computeContactOutputs' rule (to be maximised over the ranks):
+/// U = max(|u|, finite gaps), F = max(|b_i|, |(A u)_i|) over the free components of the owned
+/// vertices (their rows are complete).
 template <int d>
-std::pair<double, double> contactScales(const ContactProblem<d>& problem, const Eigen::VectorXd& x, Index owned,
-                                        const Communicator& comm) {
+std::vector<double> contactScales(const ContactProblem<d>& problem, const Eigen::VectorXd& x, Index owned) {
   const ContactSet& cs = problem.contactSet();
   const Eigen::Index n = static_cast<Eigen::Index>(owned) * d;
   std::vector<double> scales = {n > 0 ? x.head(n).lpNorm<Eigen::Infinity>() : 0.0, 0.0};
@@ -44,8 +44,7 @@ std::pair<double, double> contactScales(const ContactProblem<d>& problem, const 
   for (Eigen::Index i = 0; i < n; ++i)
     if (!prescribed[static_cast<std::size_t>(i)])
       scales[1] = std::max({scales[1], std::abs(problem.rhs()[i]), std::abs(Ax[i])});
-  comm.max(scales);
-  return {scales[0] > 0 ? scales[0] : 1.0, scales[1]};
+  return scales;
 }
 
 }  // namespace
@@ -131,21 +130,27 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
     rec.kkt = result.kkt.max();
     const Eigen::VectorXd u = problem->toDisplacement(x);
 
-    // contact figures over the owned vertices
+    // contact figures over the owned vertices (local work in collective(), the exchanges between:
+    // a rank that fails must not leave the others waiting in an exchange)
     std::optional<ContactOutputs> outputs;
     ContactNodeClasses classes;
     std::vector<double> sums(5, 0.0);  // potential, actual, semi, full, load
+    std::vector<double> scales;
+    comm.collective([&] { scales = contactScales<d>(*problem, x, owned); });
+    comm.max(scales);
+    // a ghost's own row is incomplete away from the owned cells: its outputs come from the owner
+    Eigen::VectorXd flat = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(leaf.halo.numLocal()) * 3);
     comm.collective([&] {
-      const auto [U, F] = contactScales<d>(*problem, x, owned, comm);
-      outputs = computeContactOutputs(*problem, x, options_.contactTolerance, U, F);
-      // a ghost's own row is incomplete away from the owned cells: its outputs from the owner
-      Eigen::VectorXd flat = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(leaf.halo.numLocal()) * 3);
+      outputs = computeContactOutputs(*problem, x, options_.contactTolerance, scales[0] > 0 ? scales[0] : 1.0,
+                                      scales[1]);
       for (Index q = 0; q < set->size(); ++q) {
         const auto k = static_cast<std::size_t>(q);
         const Eigen::Index at = static_cast<Eigen::Index>(set->vertex(q)) * 3;
         flat.segment<3>(at) << outputs->pressure[k], outputs->multiplier[k], outputs->inContact[k];
       }
-      leaf.halo.update(flat, 3);
+    });
+    leaf.halo.update(flat, 3);
+    comm.collective([&] {
       for (Index q = 0; q < set->size(); ++q)
         if (const Index v = set->vertex(q); v >= owned) {
           const auto k = static_cast<std::size_t>(q);

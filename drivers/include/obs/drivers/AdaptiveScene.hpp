@@ -65,7 +65,8 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options);
 /// (refined in place; `bc` its boundary conditions, `contactId` the contact boundary), by
 /// estimators::DistributedAdaptiveLoop. Every rank holds the same step records (the reference
 /// errors over all ranks); rank 0 writes steps.csv, balance.csv (per step the owned cells and
-/// contact nodes per rank: largest, mean, imbalance), the .pvd of the .pvtu files and summary.json
+/// contact nodes per rank: largest, mean, imbalance; the leaves each rank's grid holds: largest,
+/// mean), the .pvd of the .pvtu files and summary.json
 /// (with "ranks", the memory per rank and "balance" of the last step), every rank its piece of
 /// each written step. Collective; errors reach every rank.
 /// Refused (obs::Error): checkpoints and --restart.
