@@ -542,6 +542,19 @@ private:
   std::vector<mesh::Mesh> initial_;
 };
 
+/// The run's sizes from the last step and the assembly and solve times summed over the steps.
+void recordFinalStep(const std::vector<est::AdaptiveStep>& steps, RunResult& r) {
+  const est::AdaptiveStep& final = steps.back();
+  r.vertices = final.vertices;
+  r.cells = final.cells;
+  r.dofs = final.unknowns;
+  r.freeDofs = final.unknowns;
+  for (const auto& s : steps) {
+    r.assemblySeconds += s.assemblySeconds;
+    r.solveSeconds += s.solverSeconds;
+  }
+}
+
 /// The end of an adaptive run: the plots, finishRun with summary.json "adaptivity", and the error
 /// of an unconverged last step.
 void finishAdaptiveRun(const Scene& scene, const RunOptions& options, const fs::path& dir, const fs::path& stepsCsv,
@@ -728,14 +741,7 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
     r.outputFiles.push_back(p);
   }
 
-  r.vertices = final.vertices;
-  r.cells = final.cells;
-  r.dofs = final.unknowns;
-  r.freeDofs = final.unknowns;
-  for (const auto& s : steps) {
-    r.assemblySeconds += s.assemblySeconds;
-    r.solveSeconds += s.solverSeconds;
-  }
+  recordFinalStep(steps, r);
   for (std::size_t i = 0; i < specs.size(); ++i) {
     const FinalState& fin = finals[i];
     for (std::size_t k = 0; k < r.cellsPerType.size(); ++k) r.cellsPerType[k] += fin.cellsPerType[k];
@@ -880,14 +886,7 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
   const est::AdaptiveStep& final = steps.back();
 
   // rank 0: the .pvd, steps.csv and summary.json (the figures are the same on every rank)
-  r.vertices = final.vertices;
-  r.cells = final.cells;
-  r.dofs = final.unknowns;
-  r.freeDofs = final.unknowns;
-  for (const auto& s : steps) {
-    r.assemblySeconds += s.assemblySeconds;
-    r.solveSeconds += s.solverSeconds;
-  }
+  recordFinalStep(steps, r);
   r.maxDisplacement = maxU;
   r.maxVonMises = maxMises;
   r.solver.type = "tnnmg";
@@ -895,13 +894,8 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
   r.solver.converged = final.converged;
   r.solver.seconds = final.solverSeconds;
   r.solver.tolerance = o.solver.tolerance;
-  const double memory = peakMemoryMB();
   nlohmann::json extra;
-  extra["ranks"] = comm.size();
-  extra["peak_memory_mb_largest_rank"] = comm.max(memory);
-  extra["peak_memory_mb_all_ranks"] = comm.sum(memory);
-  extra["partition_level"] = grid.partition().level;
-  extra["balance"] = load.reduced(comm);
+  addDistributedSummary(extra, comm, grid.partition().level, load);
   comm.collective([&] {
     if (comm.rank() != 0) return;
     const auto t = Clock::now();

@@ -2,6 +2,7 @@
 
 #include <fstream>
 
+#include "RunSupport.hpp"
 #include "obs/drivers/VtkWriter.hpp"
 #include "obs/mesh/Error.hpp"
 
@@ -108,6 +109,15 @@ nlohmann::json RankLoad::reduced(const Communicator& comm) const {
     j[figures[k].first] = {{"max", maxima[k]}, {"mean", mean}, {"max_over_mean", mean > 0 ? maxima[k] / mean : 1.0}};
   }
   return j;
+}
+
+void addDistributedSummary(nlohmann::json& extra, const Communicator& comm, int partitionLevel, const RankLoad& load) {
+  const double memory = peakMemoryMB();
+  extra["ranks"] = comm.size();
+  extra["peak_memory_mb_largest_rank"] = comm.max(memory);
+  extra["peak_memory_mb_all_ranks"] = comm.sum(memory);
+  extra["partition_level"] = partitionLevel;
+  extra["balance"] = load.reduced(comm);
 }
 
 }  // namespace obs::drivers

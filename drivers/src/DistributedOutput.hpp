@@ -34,4 +34,9 @@ struct RankLoad {
   nlohmann::json reduced(const Communicator& comm) const;
 };
 
+/// summary.json's figures of every distributed run, added to `extra` on every rank: "ranks", the
+/// peak memory of the largest rank and of all ranks, "partition_level" and "balance" (`load`
+/// reduced). Collective.
+void addDistributedSummary(nlohmann::json& extra, const Communicator& comm, int partitionLevel, const RankLoad& load);
+
 }  // namespace obs::drivers

@@ -870,13 +870,8 @@ RunResult runDistributedBodies(const Scene& scene, const RunOptions& options, co
   if (r.dimension == 2) solveBodies<2>(scene, options, comm, grids, views, coarse->meshes, slaveId, masterId, dir, r, load);
   else solveBodies<3>(scene, options, comm, grids, views, coarse->meshes, slaveId, masterId, dir, r, load);
 
-  const double memory = peakMemoryMB();
   nlohmann::json extra;
-  extra["ranks"] = comm.size();
-  extra["peak_memory_mb_largest_rank"] = comm.max(memory);
-  extra["peak_memory_mb_all_ranks"] = comm.sum(memory);
-  extra["partition_level"] = grids.front()->partition().level;
-  extra["balance"] = load.reduced(comm);
+  addDistributedSummary(extra, comm, grids.front()->partition().level, load);
   comm.collective([&] {
     if (comm.rank() != 0) return;
     const auto outputs = Clock::now();
@@ -954,13 +949,8 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
   else solveDistributed<3>(scene, options, comm, dg, leaf, bcAt, contactId, dir, r, load);
 
   // summary.json from rank 0: the figures above are reduced over the ranks; the memory per rank
-  const double memory = peakMemoryMB();
   nlohmann::json extra;
-  extra["ranks"] = comm.size();
-  extra["peak_memory_mb_largest_rank"] = comm.max(memory);
-  extra["peak_memory_mb_all_ranks"] = comm.sum(memory);
-  extra["partition_level"] = dg.partition().level;
-  extra["balance"] = load.reduced(comm);
+  addDistributedSummary(extra, comm, dg.partition().level, load);
   comm.collective([&] {
     if (comm.rank() != 0) return;
     const auto outputs = Clock::now();

@@ -1060,11 +1060,6 @@ void writeDynamicOutputs(const Context& c, const RunOptions& options, const std:
   }
   if (c.leaf) {  // distributed: the memory per rank and the per-rank work (collective)
     const Communicator& comm = *c.comm;
-    const double memory = peakMemoryMB();
-    extra["ranks"] = comm.size();
-    extra["peak_memory_mb_largest_rank"] = comm.max(memory);
-    extra["peak_memory_mb_all_ranks"] = comm.sum(memory);
-    extra["partition_level"] = c.grid->partition().level;
     const Index owned = c.leaf->halo.numOwned();
     double contactOwned = 0;
     for (Index k = 0; k < c.contact.size(); ++k) contactOwned += c.contact.vertex(k) < owned ? 1 : 0;
@@ -1073,7 +1068,7 @@ void writeDynamicOutputs(const Context& c, const RunOptions& options, const std:
     load.add("ghost_vertices", static_cast<double>(c.leaf->halo.numLocal() - owned));
     load.add("owned_cells", static_cast<double>(c.leaf->part.owned.size()));
     load.add("contact_vertices", contactOwned);
-    extra["balance"] = load.reduced(comm);
+    addDistributedSummary(extra, comm, c.grid->partition().level, load);
   }
   c.collective([&] {
     if (c.writer()) writeRunFiles(c, options, runs, extra, r, t, start);
