@@ -31,6 +31,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <iostream>
+#include <limits>
 #include <new>
 #include <optional>
 #include <string>
@@ -80,7 +81,8 @@ int runCommand(const std::string& scene, const std::optional<std::string>& outpu
                std::optional<int> refine, bool quiet, bool verbose,
                const std::vector<std::string>& plugins, const std::vector<std::string>& overrides,
                bool plots, bool compareSchemes, const std::optional<std::string>& restart,
-               std::optional<int> stopAfterStep, std::optional<int> partitionLevel) {
+               std::optional<int> stopAfterStep, std::optional<int> partitionLevel,
+               std::optional<double> imbalanceTolerance) {
   // plugins first, so that their estimators are valid names in [adaptivity]
   for (const std::string& plugin : plugins)
     obs::estimators::EstimatorRegistry::global().loadPlugin(plugin);
@@ -94,6 +96,7 @@ int runCommand(const std::string& scene, const std::optional<std::string>& outpu
   if (output) options.outputDirectory = *output;
   options.refine = refine;
   options.partitionLevel = partitionLevel;
+  options.imbalanceTolerance = imbalanceTolerance;
   if (!quiet) options.progress = [](const std::string& line) { std::cout << line << std::endl; };
   if (verbose)
     options.iterationProgress = [](const std::string& line) { std::cerr << line << std::endl; };
@@ -197,6 +200,7 @@ int main(int argc, char** argv) {
   std::optional<std::string> restart;
   std::optional<int> stopAfterStep;
   std::optional<int> partitionLevel;
+  std::optional<double> imbalanceTolerance;
   std::optional<int> threadCount;
   std::vector<std::string> runPlugins, overrides;
   CLI::App* run =
@@ -236,6 +240,12 @@ int main(int argc, char** argv) {
                   "level from 1 on with 8 cells per rank; docs/architecture.md#distributed-coarse-solve)")
       ->type_name("L")
       ->check(CLI::Range(0, 64));
+  run->add_option("--imbalance-tolerance", imbalanceTolerance,
+                  "mpirun adaptive runs: repartition after a refinement when the largest rank's leaves exceed "
+                  "the mean by more than the factor T (>= 1; inf: never; default 1.1; "
+                  "docs/architecture.md#load-balancing)")
+      ->type_name("T")
+      ->check(CLI::Range(1.0, std::numeric_limits<double>::infinity()));
   run->add_option("--threads,-t", threadCount,
                   "Threads for assembly, sweeps and products (default: $OBS_THREADS, else 1). Results are "
                   "bitwise reproducible for a fixed N; different N differ in the last bits "
@@ -419,7 +429,8 @@ int main(int argc, char** argv) {
       setThreadCount();
       obs::setBlasThreads(obs::threads());  // CHOLMOD's BLAS: the run's thread count, not every core
       return runCommand(scene, output, refine, quiet, verbose, runPlugins, overrides, runPlots,
-                        compareSchemes, restart, stopAfterStep, partitionLevel);
+                        compareSchemes, restart, stopAfterStep, partitionLevel,
+                        imbalanceTolerance);
     }
     if (check->parsed()) return checkCommand(checkScenes, checkRefine);
     if (sweep->parsed()) {

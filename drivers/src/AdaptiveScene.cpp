@@ -797,6 +797,7 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
   loop.emplace(grid, scene.material, bc, *obstacle, contactId, o);
   const std::optional<est::ContactReference> reference = makeReference(scene, dim);
   if (reference) loop->setReference(*reference);
+  loop->setImbalanceTolerance(options.imbalanceTolerance.value_or(est::DistributedAdaptiveLoop::kDefaultImbalanceTolerance));
   progress("adaptive loop on " + std::to_string(comm.size()) + " ranks: " +
            std::string(spec.uniform ? "uniform" : "adaptive") + " refinement, estimator " + spec.estimator +
            (spec.uniform ? "" : ", marking " + spec.marking) + ", up to " + std::to_string(spec.steps) + " steps from " +
@@ -807,9 +808,11 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
   std::vector<PvdEntry> vtkFiles;
   std::vector<fs::path> pieces;
   RankLoad load;
-  std::ostringstream balance;  // balance.csv: the imbalance of every step (the partition stays fixed)
+  std::ostringstream balance;  // balance.csv: the imbalance of every step, before and after balancing
   balance << std::setprecision(10) << "step,owned_cells_max,owned_cells_mean,cells_imbalance,contact_nodes_max,"
-          << "contact_nodes_mean,contact_imbalance,held_leaves_max,held_leaves_mean\n";
+          << "contact_nodes_mean,contact_imbalance,held_leaves_max,held_leaves_mean,refined_imbalance,rebalanced,"
+          << "moved_leaves,rebalance_s\n";
+  int rebalances = 0;
   NodalErrors nodalErrors;
   double maxU = 0, maxMises = 0;
   loop->setCallback([&](const est::DistributedAdaptiveStepView& v) {
@@ -844,7 +847,9 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
       balance << v.record.step << "," << largest[0] << "," << total[0] / comm.size() << ","
               << largest[0] * comm.size() / std::max(total[0], 1.0) << "," << largest[1] << ","
               << total[1] / comm.size() << "," << (total[1] > 0 ? largest[1] * comm.size() / total[1] : 1.0) << ","
-              << largest[2] << "," << total[2] / comm.size() << "\n";
+              << largest[2] << "," << total[2] / comm.size() << "," << v.balance.before << ","
+              << (v.balance.moved ? 1 : 0) << "," << v.balance.movedLeaves << "," << v.balanceSeconds << "\n";
+      rebalances += v.balance.moved ? 1 : 0;
     }
     if (isLast) {
       load = RankLoad{};
@@ -896,6 +901,7 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
   r.solver.tolerance = o.solver.tolerance;
   nlohmann::json extra;
   addDistributedSummary(extra, comm, grid.partition().level, load);
+  extra["rebalances"] = rebalances;
   comm.collective([&] {
     if (comm.rank() != 0) return;
     const auto t = Clock::now();

@@ -66,6 +66,12 @@ DistributedAdaptiveLoop::DistributedAdaptiveLoop(DistributedGrid& grid, const Ma
   });
 }
 
+void DistributedAdaptiveLoop::setImbalanceTolerance(double tolerance) {
+  if (!(tolerance >= 1.0))
+    throw Error("adaptive loop on ranks: imbalance tolerance " + std::to_string(tolerance) + " (at least 1)");
+  imbalanceTolerance_ = tolerance;
+}
+
 std::vector<AdaptiveStep> DistributedAdaptiveLoop::run() {
   return grid_.grid().dimension() == 2 ? runDim<2>() : runDim<3>();
 }
@@ -85,6 +91,9 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
   std::vector<AdaptiveStep> steps;
   std::vector<double> start;  // d values per vertex of the leaf view (warm start); empty: cold
   double transferSeconds = 0;
+  // the balancing after the refinement that made the step's grid (step 0: measured only)
+  RebalanceReport balance = grid_.rebalance(std::numeric_limits<double>::infinity());
+  double balanceSeconds = 0;
   for (int k = 0; k < options_.maxSteps; ++k) {
     AdaptiveStep rec;
     rec.step = k;
@@ -229,7 +238,8 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
     rec.bodies[0].marked = rec.marked;
     const double markSeconds = since(t);
     steps.push_back(rec);
-    if (callback_) callback_(DistributedAdaptiveStepView{steps.back(), grid_, leaf, u, *set, *outputs, est ? &*est : nullptr, marked});
+    if (callback_) callback_(DistributedAdaptiveStepView{steps.back(), grid_, leaf, u, *set, *outputs, est ? &*est : nullptr, marked,
+                                                balance, balanceSeconds});
     if (last) break;
 
     // refine; the solution on the held grid vertices, interpolated to the new ones
@@ -259,6 +269,10 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
       });
     }
     transferSeconds = comm.max(since(t));
+    // the parts balanced again if refinement unbalanced them; the start moves with its vertices
+    t = Clock::now();
+    balance = grid_.rebalance(imbalanceTolerance_, options_.warmStart ? &start : nullptr, d);
+    balanceSeconds = comm.max(since(t));
   }
   return steps;
 }

@@ -55,10 +55,16 @@ void extendVertexKeys(const mesh::Grid& grid, Index replicated, std::vector<std:
 
 DistributedGrid::DistributedGrid(mesh::Grid coarse, int refinements, const Communicator& comm,
                                  const ForestPartitionOptions& options)
-    : grid_(std::move(coarse)), comm_(comm) {
-  Index replicated = 0;
+    : initial_(std::move(coarse)), refinements_(refinements), options_(options), grid_(initial_), comm_(comm) {
+  build(refinements, options);
+}
+
+void DistributedGrid::build(int refinements, const ForestPartitionOptions& options) {
+  const Communicator& comm = comm_;
   long long owned = 0;
   comm.collective([&] {
+    grid_ = initial_;
+    keys_.clear();
     if (refinements < 0) throw Error("distributed grid: " + std::to_string(refinements) + " refinements");
     for (Index e : grid_.leafElements())
       if (grid_.isGreen(e))
@@ -76,7 +82,7 @@ DistributedGrid::DistributedGrid(mesh::Grid coarse, int refinements, const Commu
       // at least level 1 (level 0 stays replicated: the coarse problem of multigrid)
       for (; left > 0 && (grid_.maxLevel() == 0 || grid_.numLeafElements() < wanted); --left) grid_.refineUniformly();
     }
-    replicated = grid_.numVertices();
+    replicated_ = grid_.numVertices();
     ForestPartitionOptions po = options;
     po.level = grid_.maxLevel();
     po.refinementsBelow = left;
@@ -99,8 +105,7 @@ DistributedGrid::DistributedGrid(mesh::Grid coarse, int refinements, const Commu
       grid_.adapt();
       partition_.follow(grid_);
     }
-    replicated_ = replicated;
-    extendVertexKeys(grid_, replicated, keys_);
+    extendVertexKeys(grid_, replicated_, keys_);
     for (Index e : grid_.leafElements())
       if (partition_.partOf(e) == me) ++owned;
   });
@@ -216,6 +221,10 @@ mesh::AdaptResult DistributedGrid::adapt(const std::vector<Index>& marked, int* 
       if (!byKey.emplace(cellKey(r), r).second) throw Error("distributed grid: two elements with the same cell key");
     known.assign(static_cast<std::size_t>(ne), 0);
     for (Index e : marked) known[grid_.isGreen(e) ? grid_.father(e) : e] = 1;
+    MarkedStep step{grid_.closureRule(), {}};
+    step.marks.reserve(marked.size());
+    for (Index e : marked) step.marks.emplace_back(partition_.elementCell[e], cellKey(e));
+    history_.push_back(std::move(step));
   });
   // every rank registers its region's keys at their rendezvous ranks, which remember the holders
   std::unordered_map<std::uint64_t, std::vector<int>> holders;
@@ -304,6 +313,139 @@ mesh::AdaptResult DistributedGrid::adapt(const std::vector<Index>& marked, int* 
   globalLeaves_ = static_cast<long long>(counts[4]);
   maxLevel_ = static_cast<int>(comm_.max(static_cast<double>(grid_.maxLevel())));
   return result;
+}
+
+RebalanceReport DistributedGrid::rebalance(double tolerance, std::vector<double>* leafValues, int width) {
+  const int me = comm_.rank(), ranks = comm_.size();
+  const std::size_t nc = partition_.cells.size();
+  RebalanceReport report;
+  // the leaves below each partition cell, from its owner
+  std::vector<double> weights(nc, 0.0);
+  comm_.collective([&] {
+    if (!(tolerance >= 1.0)) throw Error("distributed grid: imbalance tolerance " + std::to_string(tolerance) + " (at least 1)");
+    if (leafValues && (width < 1 || leafValues->size() != grid_.leafView().vertices.size() * static_cast<std::size_t>(width)))
+      throw Error("distributed grid: rebalance needs " + std::to_string(width) + " values per leaf view vertex");
+    for (std::size_t c = 0; c < nc; ++c)
+      if (partition_.cellPart[c] == me) weights[c] = static_cast<double>(partition_.cellLeaves[c]);
+  });
+  comm_.sum(weights);
+  const auto imbalanceOf = [&](const std::vector<int>& parts) {
+    std::vector<double> leaves(static_cast<std::size_t>(ranks), 0.0);
+    double total = 0;
+    for (std::size_t c = 0; c < nc; ++c) {
+      leaves[parts[c]] += weights[c];
+      total += weights[c];
+    }
+    return total > 0 ? *std::max_element(leaves.begin(), leaves.end()) * ranks / total : 1.0;
+  };
+  report.before = report.after = imbalanceOf(partition_.cellPart);
+  if (ranks == 1 || report.before <= tolerance) return report;
+  std::vector<int> parts;
+  comm_.collective([&] {  // the same input on every rank, hence the same split
+    std::vector<Index> w(nc);
+    for (std::size_t c = 0; c < nc; ++c) w[c] = static_cast<Index>(weights[c]);
+    parts = splitPartitionCells(grid_, partition_, w);
+  });
+  const double after = imbalanceOf(parts);
+  if (after >= report.before) return report;  // METIS found no better split in these cells
+  report.after = after;
+  report.moved = true;
+  for (std::size_t c = 0; c < nc; ++c)
+    if (parts[c] != partition_.cellPart[c]) report.movedLeaves += static_cast<long long>(weights[c]);
+  const auto rendezvous = [ranks](std::uint64_t key) { return static_cast<int>(key % static_cast<std::uint64_t>(ranks)); };
+
+  // the values at the vertices of the owned leaves to the rendezvous ranks of their keys
+  std::vector<std::vector<std::uint64_t>> keysOut(static_cast<std::size_t>(ranks));
+  std::vector<std::vector<double>> valuesOut(static_cast<std::size_t>(ranks));
+  // the marks of every step to the new owners of their partition cells: (step, cell, key)
+  std::vector<std::vector<std::uint64_t>> marksOut(static_cast<std::size_t>(ranks));
+  comm_.collective([&] {
+    if (leafValues) {
+      const mesh::GridView leaf = grid_.leafView();
+      std::vector<Index> at(static_cast<std::size_t>(grid_.numVertices()), -1);
+      for (std::size_t i = 0; i < leaf.vertices.size(); ++i) at[leaf.vertices[i]] = static_cast<Index>(i);
+      std::vector<char> sent(leaf.vertices.size(), 0);
+      for (Index e : leaf.elements)
+        if (partition_.partOf(e) == me)
+          for (Index v : grid_.vertices(e))
+            if (const Index i = at[v]; !sent[i]) {
+              sent[i] = 1;
+              const int r = rendezvous(keys_[v]);
+              keysOut[r].push_back(keys_[v]);
+              for (int c = 0; c < width; ++c) valuesOut[r].push_back((*leafValues)[static_cast<std::size_t>(i) * width + c]);
+            }
+    }
+    for (std::size_t s = 0; s < history_.size(); ++s)
+      for (const auto& [cell, key] : history_[s].marks) {
+        auto& out = marksOut[parts[cell]];
+        out.insert(out.end(), {static_cast<std::uint64_t>(s), static_cast<std::uint64_t>(cell), key});
+      }
+  });
+  std::unordered_map<std::uint64_t, std::vector<double>> stored;  // at a rendezvous rank (first sender wins)
+  if (leafValues) {
+    const auto keysIn = comm_.exchange(keysOut);
+    const auto valuesIn = comm_.exchange(valuesOut);
+    for (int r = 0; r < ranks; ++r)
+      for (std::size_t i = 0; i < keysIn[r].size(); ++i)
+        stored.emplace(keysIn[r][i], std::vector<double>(valuesIn[r].begin() + static_cast<std::ptrdiff_t>(i * width),
+                                                          valuesIn[r].begin() + static_cast<std::ptrdiff_t>((i + 1) * width)));
+  }
+  const auto marksIn = comm_.exchange(marksOut);
+
+  // the rebuild on the new parts, then the steps replayed
+  const std::vector<MarkedStep> steps = std::move(history_);
+  history_.clear();
+  const mesh::ClosureRule rule = grid_.closureRule();
+  ForestPartitionOptions po = options_;
+  po.level = partition_.level;
+  po.cellParts = parts;
+  build(refinements_, po);
+  std::vector<std::vector<std::pair<Index, std::uint64_t>>> replay(steps.size());
+  for (int r = 0; r < ranks; ++r)
+    for (std::size_t i = 0; i + 2 < marksIn[r].size(); i += 3)
+      replay[marksIn[r][i]].emplace_back(static_cast<Index>(marksIn[r][i + 1]), marksIn[r][i + 2]);
+  for (std::size_t s = 0; s < steps.size(); ++s) {
+    std::vector<Index> marked;
+    comm_.collective([&] {
+      grid_.setClosureRule(steps[s].rule);
+      std::unordered_map<std::uint64_t, Index> owned;
+      for (Index e : grid_.leafElements())
+        if (partition_.partOf(e) == me) owned.emplace(cellKey(e), e);
+      std::sort(replay[s].begin(), replay[s].end());  // a fixed order, whatever the senders
+      for (const auto& [cell, key] : replay[s]) {
+        const auto it = owned.find(key);
+        if (it == owned.end() || partition_.elementCell[it->second] != cell)
+          throw Error("distributed grid: rank " + std::to_string(me) + " does not hold a leaf marked in step " +
+                      std::to_string(s) + " of partition cell " + std::to_string(cell));
+        marked.push_back(it->second);
+      }
+    });
+    adapt(marked);
+    ++report.replayedSteps;
+  }
+  grid_.setClosureRule(rule);
+
+  // the values at the new leaf view's vertices, asked from the rendezvous ranks by key
+  if (leafValues) {
+    std::vector<std::vector<std::uint64_t>> ask(static_cast<std::size_t>(ranks));
+    const mesh::GridView leaf = grid_.leafView();
+    for (Index v : leaf.vertices) ask[rendezvous(keys_[v])].push_back(keys_[v]);
+    const auto asked = comm_.exchange(ask);
+    std::vector<std::vector<double>> answer(static_cast<std::size_t>(ranks));
+    for (int r = 0; r < ranks; ++r)
+      for (std::uint64_t key : asked[r]) {
+        const auto it = stored.find(key);
+        for (int c = 0; c < width; ++c) answer[r].push_back(it == stored.end() ? 0.0 : it->second[c]);
+      }
+    const auto answers = comm_.exchange(answer);
+    leafValues->assign(leaf.vertices.size() * static_cast<std::size_t>(width), 0.0);
+    std::vector<std::size_t> next(static_cast<std::size_t>(ranks), 0);
+    for (std::size_t i = 0; i < leaf.vertices.size(); ++i) {
+      const int r = rendezvous(keys_[leaf.vertices[i]]);
+      for (int c = 0; c < width; ++c) (*leafValues)[i * width + c] = answers[r][next[r]++];
+    }
+  }
+  return report;
 }
 
 }  // namespace obs

@@ -47,15 +47,14 @@ ForestPartition partitionForest(const mesh::Grid& grid, int parts, const ForestP
   p.cellPart.assign(static_cast<std::size_t>(nc), 0);
   p.follow(grid);
 
-  // the face graph of the partition cells, split by METIS in leaves
-  if (parts > 1) {
-    const mesh::GridView::Neighbours nb = view.faceNeighbours();
-    std::vector<Index> rowStart(static_cast<std::size_t>(nc) + 1, 0), columns;
-    for (Index c = 0; c < nc; ++c) {
-      for (Index k = nb.offsets[c]; k < nb.offsets[c + 1]; ++k)
-        if (nb.cells[k] >= 0) columns.push_back(nb.cells[k]);
-      rowStart[c + 1] = static_cast<Index>(columns.size());
-    }
+  if (!options.cellParts.empty()) {  // given parts
+    if (options.cellParts.size() != static_cast<std::size_t>(nc))
+      throw Error("forest partition: " + std::to_string(options.cellParts.size()) + " given parts for " +
+                  std::to_string(nc) + " partition cells");
+    for (int q : options.cellParts)
+      if (q < 0 || q >= parts) throw Error("forest partition: given part " + std::to_string(q) + " of " + std::to_string(parts));
+    p.cellPart = options.cellParts;
+  } else if (parts > 1) {
     // weights: the leaves below each cell, each counted as the leaves its future uniform
     // refinements will give it (children^k: the weights METIS gets from the refined grid), scaled
     // down by the fewest children^k where their sum would not fit METIS' integers
@@ -76,12 +75,31 @@ ForestPartition partitionForest(const mesh::Grid& grid, int parts, const ForestP
       for (Index e : leaves) w[p.elementCell[e]] += std::round(std::pow(children(e), options.refinementsBelow) / unit);
       for (std::size_t c = 0; c < w.size(); ++c) weights[c] = static_cast<Index>(w[c]);
     }
-    const std::vector<int> part = partitionPattern(rowStart, columns, parts, weights);
-    if (part.size() != static_cast<std::size_t>(nc)) throw Error("forest partition: METIS failed");
-    p.cellPart = part;
+    p.cellPart = splitPartitionCells(grid, p, weights);
   }
   p.follow(grid);
   return p;
+}
+
+std::vector<int> splitPartitionCells(const mesh::Grid& grid, const ForestPartition& partition,
+                                     const std::vector<Index>& weights) {
+  const auto nc = static_cast<Index>(partition.cells.size());
+  if (weights.size() != static_cast<std::size_t>(nc))
+    throw Error("forest partition: " + std::to_string(weights.size()) + " weights for " + std::to_string(nc) + " partition cells");
+  if (partition.parts == 1) return std::vector<int>(static_cast<std::size_t>(nc), 0);
+  // the face graph of the partition cells (the elements of the partition level's view)
+  const mesh::GridView view = grid.levelView(partition.level);
+  if (view.elements != partition.cells) throw Error("forest partition: the grid does not have the partition cells of this partition");
+  const mesh::GridView::Neighbours nb = view.faceNeighbours();
+  std::vector<Index> rowStart(static_cast<std::size_t>(nc) + 1, 0), columns;
+  for (Index c = 0; c < nc; ++c) {
+    for (Index k = nb.offsets[c]; k < nb.offsets[c + 1]; ++k)
+      if (nb.cells[k] >= 0) columns.push_back(nb.cells[k]);
+    rowStart[c + 1] = static_cast<Index>(columns.size());
+  }
+  std::vector<int> part = partitionPattern(rowStart, columns, partition.parts, weights);
+  if (part.size() != static_cast<std::size_t>(nc)) throw Error("forest partition: METIS failed");
+  return part;
 }
 
 void ForestPartition::follow(const mesh::Grid& grid) {

@@ -176,10 +176,13 @@ Marker nearSphere(unsigned long long sparse, double width) {
 
 /// Adaptive refinement on the ranks (DistributedGrid::adapt): each rank marks its owned leaves
 /// of the serial marking; after every step the views are those of the serially adapted grid.
+/// With an imbalance tolerance, DistributedGrid::rebalance after every step: the views are then
+/// those of the serial grid on the new parts, and a field carried through the rebalance is the
+/// field at the new leaves' vertices; `moves` counts the rebalances that moved cells.
 template <int d>
 void expectSerialAdaptation(CellType type, int cells, int refinements, int steps, const Marker& marks,
                             obs::mesh::ClosureRule rule = obs::mesh::ClosureRule::MoreThanHalfEdges,
-                            int* mostRounds = nullptr) {
+                            int* mostRounds = nullptr, double imbalanceTolerance = 0, int* moves = nullptr) {
   SCOPED_TRACE(std::string(obs::mesh::name(type)));
   const obs::Communicator comm = obs::Communicator::world();
   obs::mesh::Grid coarse(obs::mesh::boxMesh(type, cells));
@@ -216,6 +219,39 @@ void expectSerialAdaptation(CellType type, int cells, int refinements, int steps
         EXPECT_GE(comm.sum(fewer ? 1LL : 0LL), 1);
       }
     }
+    if (imbalanceTolerance >= 1) {
+      // the field at the vertices of the leaf view (exact at those of the owned leaves)
+      const obs::mesh::GridView before = dist.grid().leafView();
+      std::vector<double> values(before.vertices.size() * d, -1e300);
+      for (std::size_t i = 0; i < before.vertices.size(); ++i)
+        for (int c = 0; c < d; ++c) values[i * d + c] = field(dist.grid().vertex(before.vertices[i]), c);
+      const double expected = sp.imbalance();
+      const std::vector<int> oldParts = dist.partition().cellPart;
+      const obs::RebalanceReport report = dist.rebalance(imbalanceTolerance, &values, d);
+      EXPECT_DOUBLE_EQ(report.before, expected);
+      sp.cellPart = dist.partition().cellPart;
+      sp.follow(serial);
+      EXPECT_DOUBLE_EQ(report.after, sp.imbalance());
+      if (report.moved) {
+        if (moves) ++*moves;
+        EXPECT_GT(report.before, imbalanceTolerance);
+        EXPECT_LT(report.after, report.before);
+        EXPECT_EQ(report.replayedSteps, step + 1);
+        EXPECT_NE(oldParts, dist.partition().cellPart);
+      } else {
+        EXPECT_EQ(oldParts, dist.partition().cellPart);
+      }
+      ASSERT_EQ(dist.globalLeaves(), static_cast<long long>(serial.numLeafElements()));
+      const obs::mesh::GridView after = dist.grid().leafView();
+      ASSERT_EQ(values.size(), after.vertices.size() * d);
+      std::vector<Index> at(static_cast<std::size_t>(dist.grid().numVertices()), -1);
+      for (std::size_t i = 0; i < after.vertices.size(); ++i) at[after.vertices[i]] = static_cast<Index>(i);
+      for (Index e : after.elements)
+        if (dist.partition().partOf(e) == comm.rank())
+          for (Index v : dist.grid().vertices(e))
+            for (int c = 0; c < d; ++c)
+              ASSERT_EQ(values[static_cast<std::size_t>(at[v]) * d + c], field(dist.grid().vertex(v), c)) << "vertex " << v;
+    }
     expectSerialViews<d>(dist, serial, sp);
   }
 }
@@ -247,6 +283,28 @@ TEST(DistributedGrid, GradingTowardsAPointCrossesRanks) {
   expectSerialAdaptation<2>(CellType::Triangle, 8, 1, 8, [&](const obs::mesh::Grid& g, Index e, int) { return marksPoint(g, e, p); });
 }
 
+// The same grading with load balancing after every step: the refinement near the point unbalances
+// the parts; rebalanced, each step's grid is the serial one on the new parts, and the next steps
+// refine it (marks recorded again by the new owners) as one process does.
+TEST(DistributedGrid, RebalancesAsOneProcessTriangles) {
+  const obs::mesh::Point p(0.3, 0.45, 0);
+  int moves = 0;
+  expectSerialAdaptation<2>(CellType::Triangle, 8, 1, 8, [&](const obs::mesh::Grid& g, Index e, int) { return marksPoint(g, e, p); },
+                            obs::mesh::ClosureRule::MoreThanHalfEdges, nullptr, 1.05, &moves);
+  if (obs::Communicator::world().size() > 1) {
+    EXPECT_GE(moves, 2);
+  }
+}
+
+TEST(DistributedGrid, RebalancesAsOneProcessHexahedra) {
+  int moves = 0;
+  expectSerialAdaptation<3>(CellType::Hexahedron, 4, 1, 3, nearSphere(31, 0.0), obs::mesh::ClosureRule::AllEdges, nullptr,
+                            1.02, &moves);
+  if (obs::Communicator::world().size() > 1) {
+    EXPECT_GE(moves, 1);
+  }
+}
+
 TEST(DistributedGrid, ErrorsReachEveryRank) {
   const obs::Communicator comm = obs::Communicator::world();
   const obs::mesh::Grid coarse(obs::mesh::boxMesh(CellType::Triangle, 2));
@@ -264,6 +322,10 @@ TEST(DistributedGrid, ErrorsReachEveryRank) {
       if (!copy.grid().isLeaf(e) || copy.partition().partOf(e) != 0) wrong.push_back(e);
   }
   EXPECT_THROW(copy.adapt(wrong), obs::Error);
+  // a rebalance: a tolerance below 1, values of the wrong size on rank 0 only
+  EXPECT_THROW(copy.rebalance(0.9), obs::Error);
+  std::vector<double> values(copy.grid().leafView().vertices.size() * 2 + (comm.rank() == 0 ? 1 : 0), 0.0);
+  EXPECT_THROW(copy.rebalance(1.0, &values, 2), obs::Error);
 }
 
 }  // namespace

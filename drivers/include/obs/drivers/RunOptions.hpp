@@ -39,6 +39,10 @@ struct RunOptions {
   /// (docs/architecture.md#distributed-coarse-solve). Default: the coarsest level from 1 on with 8
   /// cells per rank. No effect on one process.
   std::optional<int> partitionLevel = {};
+  /// `--imbalance-tolerance T`: distributed adaptive runs repartition the grid after a refinement
+  /// when the owned leaves of the largest rank exceed the mean by more than the factor T (>= 1;
+  /// `inf`: never; docs/architecture.md#load-balancing). Default: 1.1.
+  std::optional<double> imbalanceTolerance = {};
 };
 
 /// A run that stopped early (SIGINT/SIGTERM, RunOptions::stopAfterStep); the message says where it

@@ -12,7 +12,9 @@
 ///  4. the estimate of the owned cells (estimateOwned) and eta over all ranks; eoc as serially;
 ///  5. record + callback; the stopping rules of AdaptiveLoop;
 ///  6. marking with global thresholds (markOwned; ties by DistributedGrid::cellKey), then
-///     DistributedGrid::adapt; Uniform mode: every owned leaf.
+///     DistributedGrid::adapt; Uniform mode: every owned leaf;
+///  7. load balancing: DistributedGrid::rebalance when the owned leaves of the largest rank exceed
+///     the mean by more than the imbalance tolerance; the warm start moves with the vertices.
 /// The records are AdaptiveStep's, with the figures over all ranks (every rank holds the same
 /// record). Every call is collective; an error on one rank reaches every rank.
 ///
@@ -45,6 +47,10 @@ struct DistributedAdaptiveStepView {
   const ContactOutputs& outputs;        ///< for contactSet (exact at the owned vertices)
   const EstimatorResult* estimate;      ///< of the owned cells (null if not estimated)
   const std::vector<Index>& marked;     ///< owned cells (of leaf.local) to be refined after the step
+  /// The load balancing after the refinement that made this step's grid (before: the imbalance of
+  /// the refined grid on the old parts; nothing moved at step 0) and its seconds (largest rank).
+  const RebalanceReport& balance;
+  double balanceSeconds;
 };
 
 class DistributedAdaptiveLoop {
@@ -61,6 +67,11 @@ public:
   /// all ranks (referenceErrors on ranks: each contact face counted by the owner of its vertex of
   /// smallest global index).
   void setReference(ContactReference reference) { reference_ = std::move(reference); }
+  /// Load balancing after each refinement: the grid is repartitioned when the owned leaves of the
+  /// largest rank exceed the mean by more than the factor `tolerance` (>= 1; infinity: never;
+  /// default kDefaultImbalanceTolerance). Throws obs::Error for a tolerance below 1.
+  void setImbalanceTolerance(double tolerance);
+  static constexpr double kDefaultImbalanceTolerance = 1.1;
   /// The function called after every step (replaces an earlier one).
   void setCallback(Callback callback) { callback_ = std::move(callback); }
   /// Runs the loop; the records of the steps. Collective.
@@ -76,6 +87,7 @@ private:
   const Obstacle& obstacle_;
   int boundaryId_;
   AdaptiveLoopOptions options_;
+  double imbalanceTolerance_ = kDefaultImbalanceTolerance;
   std::optional<ContactReference> reference_;
   Callback callback_;
 };

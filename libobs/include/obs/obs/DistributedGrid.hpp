@@ -51,6 +51,19 @@
 ///     patterns, so the next region is exact again. The green closures' ties depend on positions
 ///     only (Grid.hpp), not on the local vertex numbers.
 ///
+/// Load balancing (rebalance()). Refinement below the partition cells never moves a cell between
+/// parts, so adaptive refinement unbalances the parts. rebalance() weighs each partition cell by the
+/// leaves below it (the sum over the ranks of the owners' counts), and if the largest part's leaves
+/// exceed the mean by more than a tolerance, METIS splits the partition cells anew in these
+/// weights. Every rank then rebuilds its grid for its new part: the construction above with the new
+/// parts, then the adapt() steps so far replayed. Each rank records the leaves it marked in every
+/// step by (partition cell, cell key); a replay sends them to the partition cell's new owner, which
+/// finds them among its leaves by key (they are leaves of its exact region at that step). Because
+/// adapt() gives one process's grid for any partition, the rebuilt grid is the same grid, on new
+/// parts. Vertex data (a warm start) moves by vertex key through rendezvous ranks. The cost is one
+/// construction and all adapt() steps again; METIS' new split does not try to keep cells in place,
+/// since nothing migrates but the marks.
+///
 /// Input: uniformly refined grids (scenes' `refine = k`) from any coarse mesh the serial grid
 /// accepts; the replicated grid must have no green leaves. Boundary projections set on the grid
 /// apply in every rank's refinement.
@@ -74,6 +87,15 @@ struct DistributedView {
   HaloExchange halo;        ///< local numbering (owned first) and the ghost exchange
   mesh::Mesh local;         ///< the owned cells, then the ghost cells, on the local vertices
   Index globalVertices() const { return numbering.offsets.back(); }
+};
+
+/// What rebalance() found and did.
+struct RebalanceReport {
+  double before = 1.0;  ///< owned leaves of the largest part over the mean, before
+  double after = 1.0;   ///< and after (before, if nothing moved)
+  bool moved = false;   ///< the grid was rebuilt on new parts
+  int replayedSteps = 0;
+  long long movedLeaves = 0;  ///< leaves whose partition cell changed its part
 };
 
 class DistributedGrid {
@@ -116,7 +138,30 @@ public:
   /// numbered and with its halo. Collective. Throws obs::Error for a level out of range.
   DistributedView view(int level = -1) const;
 
+  /// Load balancing (see the file comment). Collective. If the leaves of the largest part exceed
+  /// the mean by more than the factor `tolerance` (>= 1) and METIS' split of the partition cells
+  /// in their leaves is better balanced, rebuilds this rank's grid for its new part. `leafValues`
+  /// (if given): `width` numbers per vertex of the leaf view of grid() (leafView() order), read at
+  /// the vertices of the owned leaves; on return, the same numbers per vertex of the new leaf
+  /// view, at the vertices of every part's owned leaves (0 at the others). Throws obs::Error (on
+  /// every rank) for a tolerance below 1 or values of the wrong size.
+  RebalanceReport rebalance(double tolerance, std::vector<double>* leafValues = nullptr, int width = 1);
+
 private:
+  /// The construction (see the file comment) on the parts `partition` gives (METIS if it has none).
+  void build(int refinements, const ForestPartitionOptions& partition);
+
+  /// The marks of one adapt() of this rank: the closure rule, and (partition cell, cell key) of
+  /// each marked leaf.
+  struct MarkedStep {
+    mesh::ClosureRule rule;
+    std::vector<std::pair<Index, std::uint64_t>> marks;
+  };
+
+  mesh::Grid initial_;  ///< the coarse grid, for rebuilds
+  int refinements_ = 0;
+  ForestPartitionOptions options_;
+  std::vector<MarkedStep> history_;
   mesh::Grid grid_;
   ForestPartition partition_;
   Communicator comm_;

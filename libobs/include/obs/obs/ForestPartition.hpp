@@ -35,6 +35,9 @@ struct ForestPartitionOptions {
   /// leaf weighs its red children count to this power (a distributed grid partitions before it
   /// refines, DistributedGrid.hpp). 0: the leaves as they are.
   int refinementsBelow = 0;
+  /// The part of each partition cell (in the order of the level view's elements), if given: no
+  /// METIS (a repartition, DistributedGrid::rebalance). Empty: METIS decides.
+  std::vector<int> cellParts;
 };
 
 struct ForestPartition {
@@ -62,6 +65,12 @@ struct ForestPartition {
 /// Partitions the grid's refinement forest into `parts` (>= 1) parts. Throws obs::Error for
 /// parts < 1, a level out of range, or fewer partition cells than parts.
 ForestPartition partitionForest(const mesh::Grid& grid, int parts, const ForestPartitionOptions& options = {});
+
+/// METIS' split of the face graph of the partition cells into partition.parts parts balanced in
+/// `weights` (one per partition cell); the same on every process for the same input. Throws
+/// obs::Error for a weight count other than the cell count or a grid without the partition cells.
+std::vector<int> splitPartitionCells(const mesh::Grid& grid, const ForestPartition& partition,
+                                     const std::vector<Index>& weights);
 
 /// The global vertex numbering of a view: per view vertex its owner and its global index, and the
 /// first global index of each part (parts + 1 entries).
