@@ -6,8 +6,11 @@
 # the solve and total seconds (summary.json times), the peak memory of the largest rank, the
 # TNNMG iterations of the last step, the final eta, the largest deviation of eta from the one
 # process's over all steps (relative), the imbalance of the owned cells of the first and last steps
-# (largest over mean, balance.csv; the partition stays fixed), and the leaves the largest rank's
-# grid holds in the last step, relative to all cells. Runs in OUT (default out/distributed_adaptive).
+# (largest over mean, balance.csv), the largest imbalance of a refined grid before balancing, the
+# rebalances, and the leaves the largest rank's grid holds in the last step, relative to all
+# cells. Two ranks run twice: with the partition fixed (--imbalance-tolerance inf) and balanced
+# (the default tolerance 1.1; docs/architecture.md#load-balancing). Runs in OUT (default
+# out/distributed_adaptive).
 #   scripts/distributed_adaptive.sh [OUT]
 set -euo pipefail
 out=${1:-out/distributed_adaptive}
@@ -23,6 +26,8 @@ for entry in "${scenes[@]}"; do
   # shellcheck disable=SC2086
   "$obs" run "data/scenes/$s.toml" $args --output "$out/$s.1" -q
   # shellcheck disable=SC2086
+  mpirun --oversubscribe -np 2 "$obs" run "data/scenes/$s.toml" $args --imbalance-tolerance inf --output "$out/$s.2f" -q
+  # shellcheck disable=SC2086
   mpirun --oversubscribe -np 2 "$obs" run "data/scenes/$s.toml" $args --output "$out/$s.2" -q
 done
 /usr/bin/python3 - "$out" "${names[@]}" <<'PY'
@@ -33,22 +38,25 @@ def rows(path):
     with open(path) as f:
         return list(csv.DictReader(f))
 
-print('| scene | ranks | steps | cells | unknowns | solve s | total s | memory MB (largest rank) | TNNMG its (last) | eta | eta dev. | imbalance first / last | held / cells (last) |')
-print('|---|---|---|---|---|---|---|---|---|---|---|---|---|')
+print('| scene | ranks | steps | cells | unknowns | solve s | total s | memory MB (largest rank) | TNNMG its (last) | eta | eta dev. | imbalance first / last | largest refined | rebalances | held / cells (last) |')
+print('|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|')
 for s in scenes:
     serial = rows(f'{out}/{s}.1/steps.csv')
-    for n in ('1', '2'):
+    for n in ('1', '2f', '2'):
         j = json.load(open(f'{out}/{s}.{n}/summary.json'))
         st = rows(f'{out}/{s}.{n}/steps.csv')
         memory = j.get('peak_memory_mb_largest_rank', j.get('peak_memory_mb'))
         if n == '1':
-            dev, imbalance, held = '-', '-', '-'
+            dev, imbalance, refined, rebalances, held = '-', '-', '-', '-', '-'
         else:
             dev = f"{max(abs(float(a['eta']) - float(b['eta'])) / float(a['eta']) for a, b in zip(serial, st)):.1e}"
             bal = rows(f'{out}/{s}.{n}/balance.csv')
             imbalance = f"{float(bal[0]['cells_imbalance']):.2f} / {float(bal[-1]['cells_imbalance']):.2f}"
             held = f"{float(bal[-1]['held_leaves_max']) / float(st[-1]['cells']):.2f}"
+            refined = f"{max(float(b['refined_imbalance']) for b in bal):.2f}"
+            rebalances = str(j['rebalances'])
         last = st[-1]
-        print(f"| {s} | {n} | {len(st)} | {int(last['cells']):,} | {int(last['unknowns']):,} | {j['times']['solve_s']:.3g} | "
-              f"{j['times']['total_s']:.3g} | {memory:.0f} | {last['iterations']} | {float(last['eta']):.4g} | {dev} | {imbalance} | {held} |")
+        ranks = {'1': '1', '2f': '2, fixed', '2': '2, balanced'}[n]
+        print(f"| {s} | {ranks} | {len(st)} | {int(last['cells']):,} | {int(last['unknowns']):,} | {j['times']['solve_s']:.3g} | "
+              f"{j['times']['total_s']:.3g} | {memory:.0f} | {last['iterations']} | {float(last['eta']):.4g} | {dev} | {imbalance} | {refined} | {rebalances} | {held} |")
 PY

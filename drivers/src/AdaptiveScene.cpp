@@ -811,7 +811,7 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
   std::ostringstream balance;  // balance.csv: the imbalance of every step, before and after balancing
   balance << std::setprecision(10) << "step,owned_cells_max,owned_cells_mean,cells_imbalance,contact_nodes_max,"
           << "contact_nodes_mean,contact_imbalance,held_leaves_max,held_leaves_mean,refined_imbalance,rebalanced,"
-          << "moved_leaves,rebalance_s\n";
+          << "moved_leaves,rebalance_s,memory_mb_max,memory_mb_sum\n";
   int rebalances = 0;
   NodalErrors nodalErrors;
   double maxU = 0, maxMises = 0;
@@ -821,7 +821,8 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
     const Index owned = v.leaf.halo.numOwned();
     // the local work in collective() (an error reaches every rank), the reductions after it
     ElasticitySolution e;
-    std::vector<double> largest(5, 0.0);  // max |u|, max von Mises; owned cells, contact nodes, held leaves
+    // max |u|, max von Mises; owned cells, contact nodes, held leaves, peak memory so far
+    std::vector<double> largest(6, 0.0);
     std::vector<double> mine;             // the owned nodes' nodal pressure samples
     comm.collective([&] {
       e.dimension = dim;
@@ -833,11 +834,12 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
       largest[2] = static_cast<double>(ownedCells);
       for (Index q = 0; q < v.contactSet.size(); ++q) largest[3] += v.contactSet.vertex(q) < owned ? 1 : 0;
       largest[4] = static_cast<double>(v.grid.grid().numLeafElements());
+      largest[5] = peakMemoryMB();
       if (reference && v.record.reference)
         for (const est::NodalPressure& n : nodalPressures(v.contactSet, v.outputs, owned))
           mine.insert(mine.end(), {n.x[0], n.x[1], n.x[2], n.weight, n.pressure});
     });
-    {  // the work per rank of this step: owned cells, owned contact nodes, held leaves
+    {  // the work per rank of this step: owned cells, owned contact nodes, held leaves, memory
       std::vector<double> total(largest.begin() + 2, largest.end());
       comm.max(largest);
       maxU = largest[0];
@@ -848,7 +850,8 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
               << largest[0] * comm.size() / std::max(total[0], 1.0) << "," << largest[1] << ","
               << total[1] / comm.size() << "," << (total[1] > 0 ? largest[1] * comm.size() / total[1] : 1.0) << ","
               << largest[2] << "," << total[2] / comm.size() << "," << v.balance.before << ","
-              << (v.balance.moved ? 1 : 0) << "," << v.balance.movedLeaves << "," << v.balanceSeconds << "\n";
+              << (v.balance.moved ? 1 : 0) << "," << v.balance.movedLeaves << "," << v.balanceSeconds << ","
+              << largest[3] << "," << total[3] << "\n";
       rebalances += v.balance.moved ? 1 : 0;
     }
     if (isLast) {

@@ -925,7 +925,8 @@ ContactOutputs contactOutputs(const ContactProblem<d>& problem, const Eigen::Vec
                        mu[k] > relativeTolerance * F;
     out.contactNodes += out.inContact[k];
     out.multiplier[k] = mu[k] / c.scale;
-    out.pressure[k] = out.multiplier[k] / cs.boundaryMass(k);
+    // (a ghost of a distributed run without a held face has no mass here: its owner has the pressure)
+    out.pressure[k] = cs.boundaryMass(k) > 0 ? out.multiplier[k] / cs.boundaryMass(k) : 0.0;
     out.force += out.multiplier[k] * nu;
     if (!c.bounded()) continue;
     // the tangential force in the rotated frame: (b - A u)_p without the normal and prescribed parts

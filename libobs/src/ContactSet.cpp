@@ -103,6 +103,11 @@ void ContactSet::build(const mesh::Mesh& mesh, const Obstacle& obstacle, bool al
     contactFaces.push_back(f);
     for (Index v : mesh.boundaryFaceVertices(f)) nodeOf_[v] = 0;
   }
+  // vertices on the boundary whose faces the mesh lacks (a ghost at the edge of a distributed run's
+  // ghost layer, Mesh::addBoundaryVertex): constrained as their owner constrains them; their
+  // boundary mass is 0 here (their owner's is the whole one)
+  for (const auto& [v, id] : mesh.boundaryVertices())
+    if (id == boundaryId_) nodeOf_[v] = 0;
   if (contactFaces.empty() && !allowEmpty)
     throw Error(where + ": no boundary face has this id (empty potential contact boundary)");
   for (Index v = 0; v < mesh.numVertices(); ++v)

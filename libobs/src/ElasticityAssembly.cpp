@@ -389,6 +389,11 @@ DirichletValues collectDirichlet(const mesh::Mesh& mesh, const std::vector<Diric
         prescribe(v);
       }
     }
+    for (const auto& [v, id] : mesh.boundaryVertices())  // vertices whose faces the mesh lacks
+      if (id == dc.boundaryId && !seen[v]) {
+        seen[v] = 1;
+        prescribe(v);
+      }
   }
   return g;
 }

@@ -1,6 +1,7 @@
 #include "obs/obs/HaloExchange.hpp"
 
 #include <algorithm>
+#include <set>
 #include <string>
 
 #include "obs/mesh/Error.hpp"
@@ -162,12 +163,20 @@ mesh::Mesh localMesh(const mesh::GridView& view, const PartView& part, const Hal
       m.addCell(vm.cellType(c), local);
     }
   // the boundary faces on held vertices (with their ids and names): every face around an owned
-  // vertex, and enough to mark the held vertices on each boundary as the whole view does
+  // vertex; a ghost vertex at the edge of the ghost layer may lie on faces with vertices not held,
+  // so it is marked on their boundaries (Mesh::addBoundaryVertex) as the whole view marks it
+  std::set<std::pair<Index, int>> partial;
   for (Index f = 0; f < vm.numBoundaryFaces(); ++f) {
     local.clear();
     for (Index v : vm.boundaryFaceVertices(f)) local.push_back(halo.local(v));
-    if (std::all_of(local.begin(), local.end(), [](Index l) { return l >= 0; })) m.addBoundaryFace(local, vm.boundaryFaceId(f));
+    if (std::all_of(local.begin(), local.end(), [](Index l) { return l >= 0; })) {
+      m.addBoundaryFace(local, vm.boundaryFaceId(f));
+    } else {
+      for (Index l : local)
+        if (l >= 0) partial.emplace(l, vm.boundaryFaceId(f));
+    }
   }
+  for (const auto& [l, id] : partial) m.addBoundaryVertex(l, id);
   for (const auto& [id, name] : vm.boundaryNames()) m.setBoundaryName(id, name);
   return m;
 }

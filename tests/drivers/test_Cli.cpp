@@ -633,6 +633,23 @@ TEST_F(Cli, MpirunRunsAdaptiveScenesDistributed) {
     const Series balance = readSeries(dd / "balance.csv");
     EXPECT_EQ(balance.rows.size(), a.rows.size());
     EXPECT_GE(balance.at(0, "cells_imbalance"), 1.0);
+    // rebalanced (default tolerance 1.1) exactly when the refined grid was unbalanced beyond it and
+    // the new split is better; the owned cells' imbalance is then the new split's
+    double rebalances = 0;
+    for (std::size_t r = 0; r < balance.rows.size(); ++r) {
+      const double refined = balance.at(r, "refined_imbalance"), now = balance.at(r, "cells_imbalance");
+      if (balance.at(r, "rebalanced") == 1) {
+        rebalances += 1;
+        EXPECT_GT(refined, 1.1) << "step " << r;
+        EXPECT_LT(now, refined) << "step " << r;
+      } else {
+        EXPECT_DOUBLE_EQ(now, refined) << "step " << r;
+      }
+    }
+    EXPECT_EQ(summary["rebalances"], rebalances);
+    if (name == "example3b") {  // the refinement at the ball's contact zone unbalances 2 ranks
+      EXPECT_GE(rebalances, 1);
+    }
   }
   const std::string punch = (fs::path(OBS_DATA_DIR) / "scenes" / "example1a.toml").string();
   const Output refused = runObs("run '" + punch + "' --set 'output.checkpoint={every=1}' --output out_ad_refused",

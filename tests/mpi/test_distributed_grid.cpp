@@ -17,7 +17,10 @@
 
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Grid.hpp"
+#include "obs/obs/BoundaryConditions.hpp"
 #include "obs/obs/Communicator.hpp"
+#include "obs/obs/ContactSet.hpp"
+#include "obs/obs/Obstacle.hpp"
 #include "obs/obs/DistributedGrid.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
 #include "obs/obs/Material.hpp"
@@ -89,6 +92,30 @@ void expectSerialViews(const obs::DistributedGrid& dist, const obs::mesh::Grid& 
     dv.halo.update(x, d);
     for (Index i = dv.halo.numOwned(); i < nl; ++i)
       for (int c = 0; c < d; ++c) ASSERT_NEAR(x[i * d + c], dv.local.vertex(i)[c], 1e-14) << "ghost " << i;
+
+    // every held vertex is on the boundaries its owner finds it on: a Dirichlet condition on each
+    // side prescribes a ghost as it prescribes the owned vertex (ghosts at the edge of the ghost
+    // layer whose boundary faces are not all held included)
+    for (int side = obs::mesh::kLeft; side <= (d == 3 ? obs::mesh::kBack : obs::mesh::kTop); ++side) {
+      const obs::DirichletValues g = obs::collectDirichlet(
+          dv.local, {obs::DirichletCondition{side, {true, false, false}, [](const obs::mesh::Point& p) { return p; }}});
+      Eigen::VectorXd flags(static_cast<Eigen::Index>(nl));
+      for (Index i = 0; i < nl; ++i) flags[i] = g.constrained[static_cast<std::size_t>(i) * d];
+      const Eigen::VectorXd mine = flags;
+      dv.halo.update(flags, 1);
+      long long differ = 0;
+      for (Index i = dv.halo.numOwned(); i < nl; ++i) differ += flags[i] != mine[i] ? 1 : 0;
+      EXPECT_EQ(differ, 0) << "side " << side;
+      // and it is a contact vertex of a contact boundary there exactly when its owner's is
+      const obs::PlaneObstacle plane(obs::mesh::Point(0, 0, -1), obs::mesh::Point(0, -1, -1));
+      const obs::ContactSet set(dv.local, side, plane, true);
+      for (Index i = 0; i < nl; ++i) flags[i] = set.nodeOf(i) >= 0 ? 1 : 0;
+      const Eigen::VectorXd held = flags;
+      dv.halo.update(flags, 1);
+      differ = 0;
+      for (Index i = dv.halo.numOwned(); i < nl; ++i) differ += flags[i] != held[i] ? 1 : 0;
+      EXPECT_EQ(differ, 0) << "contact side " << side;
+    }
 
     // the owned rows of the distributed product are the serial ones
     for (Index i = 0; i < nl; ++i)

@@ -68,6 +68,12 @@ public:
     return faceTypeFromVertexCount(faceOffsets_[f + 1] - faceOffsets_[f]);
   }
   int boundaryFaceId(Index f) const { return faceIds_[f]; }
+  /// A vertex on boundary `id` none of whose faces with that id is in the mesh: the local mesh of a
+  /// distributed run (localMesh, HaloExchange.hpp) holds a ghost vertex at the edge of its ghost
+  /// layer whose boundary faces have vertices it does not hold. Dirichlet conditions on `id`
+  /// prescribe it (collectDirichlet) as they prescribe the vertices of the faces.
+  void addBoundaryVertex(Index v, int id) { vertexIds_.emplace_back(v, id); }
+  const std::vector<std::pair<Index, int>>& boundaryVertices() const { return vertexIds_; }
 
   // --- boundary names --------------------------------------------------------------------------
   void setBoundaryName(int id, const std::string& name);
@@ -85,6 +91,7 @@ private:
   std::vector<Index> cellOffsets_{0};
   std::vector<Index> cellConn_;
   std::vector<int> faceIds_;
+  std::vector<std::pair<Index, int>> vertexIds_;  ///< addBoundaryVertex
   std::vector<Index> faceOffsets_{0};
   std::vector<Index> faceConn_;
   std::map<int, std::string> names_;

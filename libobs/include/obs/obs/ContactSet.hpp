@@ -31,7 +31,8 @@ public:
     double measure = 0;
   };
 
-  /// Potential contact boundary = the boundary faces with id `boundaryId`. Throws obs::Error if no
+  /// Potential contact boundary = the vertices of the boundary faces with id `boundaryId` and the
+  /// mesh's boundary vertices with that id (Mesh::addBoundaryVertex; boundary mass 0). Throws obs::Error if no
   /// face has this id, if the obstacle is made for another dimension than the mesh, or if the
   /// obstacle returns a NaN or -infinity gap or a zero / non-finite direction at a contact vertex.
   /// Throws obs::Error if no boundary face has the id, unless `allowEmpty` (a rank's local mesh of a
