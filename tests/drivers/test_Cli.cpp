@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -24,7 +25,9 @@
 #include "DriverTestSupport.hpp"
 #include "obs/obs/DistributedCoarseSolver.hpp"
 
+using obs::test::readVtu;
 using obs::test::slurp;
+using obs::test::Vtu;
 namespace fs = std::filesystem;
 
 namespace {
@@ -583,6 +586,45 @@ TEST_F(Cli, MpirunRunsDynamicScenesDistributed) {
 // .pvd lists .pvtu files, balance.csv has a row per step. Example 1A (flat punch, quadrilaterals)
 // on 2 ranks, Example 3A (ball, hexahedra, from 512 cells) on 3, Example 3B (tetrahedra, from 3,072
 // cells, to 52,760) on 2. An adaptive checkpoint is refused on every rank with one line.
+/// The pieces <base>_<rank>.vtu of a distributed run agree where they meet: every point array has
+/// the same values at the same position in every piece (within 1e-12 of the array's largest value:
+/// a piece holds the vertices of its owned cells, all of whose cells the rank holds, so their
+/// averaged stresses and contact rows are whole). Returns the number of shared points compared.
+std::size_t expectPiecesAgree(const fs::path& dir, const std::string& base, int ranks) {
+  std::map<std::array<long long, 3>, std::vector<std::vector<double>>> seen;  // position -> arrays
+  std::vector<std::string> names;
+  std::vector<double> largest;
+  std::size_t shared = 0;
+  for (int q = 0; q < ranks; ++q) {
+    const Vtu piece = readVtu(dir / (base + "_" + std::to_string(q) + ".vtu"));
+    if (q == 0) {
+      names = piece.names;
+      largest.assign(names.size(), 0.0);
+    }
+    EXPECT_EQ(piece.names, names);
+    for (std::size_t a = 0; a < names.size(); ++a)
+      for (double x : piece.arrays[a]) largest[a] = std::max(largest[a], std::abs(x));
+    for (std::size_t i = 0; i < piece.points.size(); ++i) {
+      std::array<long long, 3> key;
+      for (int c = 0; c < 3; ++c) key[c] = std::llround(piece.points[i][c] * 1e9);
+      std::vector<std::vector<double>> values(names.size());
+      for (std::size_t a = 0; a < names.size(); ++a) {
+        const std::size_t k = piece.arrays[a].size() / piece.points.size();
+        values[a].assign(piece.arrays[a].begin() + static_cast<std::ptrdiff_t>(i * k),
+                         piece.arrays[a].begin() + static_cast<std::ptrdiff_t>((i + 1) * k));
+      }
+      const auto [it, fresh] = seen.emplace(key, values);
+      if (fresh) continue;
+      ++shared;
+      for (std::size_t a = 0; a < names.size(); ++a)
+        for (std::size_t c = 0; c < values[a].size(); ++c)
+          EXPECT_NEAR(values[a][c], it->second[a][c], 1e-12 * std::max(largest[a], 1e-300))
+              << names[a] << " at a point of pieces " << base << " (rank " << q << ")";
+    }
+  }
+  return shared;
+}
+
 TEST_F(Cli, MpirunRunsAdaptiveScenesDistributed) {
   const auto launcher = [](int ranks) {
     return "OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=PASSIVE " + std::string(OBS_MPIEXEC) +
@@ -650,6 +692,11 @@ TEST_F(Cli, MpirunRunsAdaptiveScenesDistributed) {
     if (name == "example3b") {  // the refinement at the ball's contact zone unbalances 2 ranks
       EXPECT_GE(rebalances, 1);
     }
+    // the last step's pieces agree where they meet
+    const std::string pvd = slurp(dd / (name + ".pvd"));
+    const std::size_t at = pvd.rfind(".pvtu\""), from = pvd.rfind('"', at - 1) + 1;
+    ASSERT_NE(at, std::string::npos);
+    EXPECT_GT(expectPiecesAgree(dd, pvd.substr(from, at - from), run.ranks), 0u);
   }
   const std::string punch = (fs::path(OBS_DATA_DIR) / "scenes" / "example1a.toml").string();
   const Output refused = runObs("run '" + punch + "' --set 'output.checkpoint={every=1}' --output out_ad_refused",
