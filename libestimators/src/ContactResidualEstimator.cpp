@@ -192,7 +192,7 @@ Eigen::VectorXd frictionTraction(const EstimatorInput& in, const std::vector<Con
 
 ContactNodeClasses classifyContactNodes(const mesh::Mesh& mesh, const std::vector<int>& contactIds,
                                         const ContactSet* set, const Eigen::VectorXd& u,
-                                        double relativeTolerance) {
+                                        double relativeTolerance, double scale) {
   const int d = mesh.dimension();
   const Index n = mesh.numVertices();
   if (u.size() != static_cast<Eigen::Index>(n) * d)
@@ -201,9 +201,12 @@ ContactNodeClasses classifyContactNodes(const mesh::Mesh& mesh, const std::vecto
   requireSetOfMesh(mesh, set, "contact node classes");
   std::vector<char> actual(static_cast<std::size_t>(n), 0);
   if (set) {
-    double U = u.size() ? u.lpNorm<Eigen::Infinity>() : 0.0;
-    for (Index k = 0; k < set->size(); ++k)
-      if (std::isfinite(set->gap(k))) U = std::max(U, std::abs(set->gap(k)));
+    double U = scale;
+    if (!(U > 0)) {
+      U = u.size() ? u.lpNorm<Eigen::Infinity>() : 0.0;
+      for (Index k = 0; k < set->size(); ++k)
+        if (std::isfinite(set->gap(k))) U = std::max(U, std::abs(set->gap(k)));
+    }
     if (!(U > 0)) U = 1;
     for (Index k = 0; k < set->size(); ++k) {
       const double g = set->gap(k);
@@ -262,7 +265,8 @@ void ContactResidualEstimator::addContactFaces(const EstimatorInput& input,
   const ContactSet* set = input.contact ? input.contact->set : nullptr;
   const Obstacle* obstacle = input.contact ? input.contact->obstacle : nullptr;
   const ContactNodeClasses classes = classifyContactNodes(
-      m, contactBoundaryIds(input), set, input.displacement, contactOptions_.contactTolerance);
+      m, contactBoundaryIds(input), set, input.displacement, contactOptions_.contactTolerance,
+      input.contact ? input.contact->contactScale : 0.0);
   const std::vector<double> s = pressures(input, classes, true);
   if (set && !obstacle)  // eta_7 and eta_8 would silently be 0
     throw Error("estimator 'contact-residual': the input has the contact set " + set->boundaryLabel() +
@@ -434,7 +438,8 @@ void ContactResidualEstimator::addContactFaces(const EstimatorInput& input,
 void ContactResidualEstimator::decorate(const EstimatorInput& input, EstimatorResult& result) const {
   const ContactSet* set = input.contact ? input.contact->set : nullptr;
   const ContactNodeClasses classes = classifyContactNodes(
-      input.mesh, contactBoundaryIds(input), set, input.displacement, contactOptions_.contactTolerance);
+      input.mesh, contactBoundaryIds(input), set, input.displacement, contactOptions_.contactTolerance,
+      input.contact ? input.contact->contactScale : 0.0);
   const std::vector<double> s = pressures(input, classes, false);
   const Eigen::Index n = input.mesh.numVertices();
   Eigen::VectorXd cls(n), sp(n);

@@ -145,7 +145,15 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
     ContactNodeClasses classes;
     std::vector<double> sums(5, 0.0);  // potential, actual, semi, full, load
     std::vector<double> scales;
-    comm.collective([&] { scales = contactScales<d>(*problem, x, owned); });
+    comm.collective([&] {
+      scales = contactScales<d>(*problem, x, owned);
+      // the node classes' scale: max |u| over the vertices and the finite gaps, as one process's
+      const Eigen::Index n = static_cast<Eigen::Index>(owned) * d;
+      double U = n > 0 ? u.head(n).lpNorm<Eigen::Infinity>() : 0.0;
+      for (Index k = 0; k < set->size(); ++k)
+        if (set->vertex(k) < owned && std::isfinite(set->gap(k))) U = std::max(U, std::abs(set->gap(k)));
+      scales.push_back(U);
+    });
     comm.max(scales);
     // a ghost's own row is incomplete away from the owned cells: its outputs come from the owner
     Eigen::VectorXd flat = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(leaf.halo.numLocal()) * 3);
@@ -167,7 +175,7 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
           outputs->multiplier[k] = flat[v * 3 + 1];
           outputs->inContact[k] = static_cast<char>(flat[v * 3 + 2] != 0);
         }
-      classes = classifyContactNodes(leaf.local, {boundaryId_}, &*set, u, options_.contactTolerance);
+      classes = classifyContactNodes(leaf.local, {boundaryId_}, &*set, u, options_.contactTolerance, scales[2]);
       for (Index v = 0; v < owned; ++v) {
         const NodeClass c = classes.ofVertex[v];
         sums[0] += c != NodeClass::None;
@@ -207,6 +215,7 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
       in.meshRevision = static_cast<std::uint64_t>(k);
       in.contactBoundaryIds = {boundaryId_};
       ContactData data{&*set, &*outputs, &obstacle_, nullptr, {}};
+      data.contactScale = scales[2];  // the classes of one process
       in.contact = &data;
       est = estimateOwned(*estimator, in, ownedCells, comm);
       rec.estimatorSeconds = comm.max(since(t));

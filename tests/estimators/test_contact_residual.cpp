@@ -184,6 +184,12 @@ TEST(ContactResidualEstimator, ClassifiesNodes) {
   // within the relative tolerance (1e-8 * 0.01) still in contact; nobody in contact: all potential
   for (double& y : uy) y = -0.01 + 1e-12;
   EXPECT_EQ(classesFor(uy).full, 4);
+  // a given scale replaces max(|u|, g) = 0.01 (a distributed run passes the one over all ranks):
+  // 1e-12 is beyond 1e-8 * 1e-5
+  Eigen::VectorXd u = Eigen::VectorXd::Zero(m.numVertices() * 2);
+  for (Index k = 0; k < 4; ++k) u[set.vertex(k) * 2 + 1] = uy[static_cast<std::size_t>(k)];
+  EXPECT_EQ(classifyContactNodes(m, {mesh::kBottom}, &set, u, 1e-8, 1e-5).actual, 0);
+  EXPECT_EQ(classifyContactNodes(m, {mesh::kBottom}, &set, u, 1e-8, 1.0).full, 4);
   cls = classesFor({0, 0, 0, 0});
   EXPECT_EQ(cls.actual, 0);
   for (Index v : byX) EXPECT_EQ(cls.ofVertex[v], NodeClass::Potential);

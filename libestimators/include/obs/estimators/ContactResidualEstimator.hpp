@@ -93,10 +93,12 @@ struct ContactNodeClasses {
 
 /// Classifies the vertices of the boundary faces of `mesh` with an id in contactIds (see the
 /// file comment). `set` may be null (then nobody is in contact); if given, it must belong to the
-/// mesh (vertex count) else obs::Error. u is the displacement, vertex-major.
+/// mesh (vertex count) else obs::Error. u is the displacement, vertex-major. A node is in contact
+/// if g - u.nu <= relativeTolerance U; U = `scale` if it is positive, else the largest of |u| and
+/// the finite gaps of the set.
 ContactNodeClasses classifyContactNodes(const mesh::Mesh& mesh, const std::vector<int>& contactIds,
                                         const ContactSet* set, const Eigen::VectorXd& u,
-                                        double relativeTolerance = 1e-8);
+                                        double relativeTolerance = 1e-8, double scale = 0);
 
 class ContactResidualEstimator : public ResidualEstimator {
 public:

@@ -7,9 +7,11 @@
 ///  2. distributed TNNMG, warm started (default) from the previous solution transferred to the new
 ///     leaf view as serially (mesh::transferMatrix on the local grid; exact at the owned vertices,
 ///     which lie in old owned or ghost cells only; the ghosts' values from their owners);
-///  3. contact outputs and node classes on the local mesh, counted over the owned vertices; the
-///     load P = sum_p mu_p over the owned contact vertices of all ranks;
-///  4. the estimate of the owned cells (estimateOwned) and eta over all ranks; eoc as serially;
+///  3. contact outputs and node classes on the local mesh at the scales over all ranks (as one
+///     process's), counted over the owned vertices; the load P = sum_p mu_p over the owned contact
+///     vertices of all ranks;
+///  4. the estimate of the owned cells (estimateOwned; its node classes at the same scale) and eta
+///     over all ranks; eoc as serially;
 ///  5. record + callback; the stopping rules of AdaptiveLoop;
 ///  6. marking with global thresholds (markOwned; ties by DistributedGrid::cellKey), then
 ///     DistributedGrid::adapt; Uniform mode: every owned leaf;

@@ -82,6 +82,10 @@ struct ContactData {
   /// `contact-residual` measures the tangential boundary stress against their traction instead of
   /// against zero (docs/theory.md#friction-estimators).
   bool friction = false;
+  /// The scale U of the relative contact tolerance (classifyContactNodes); 0: from the input's
+  /// displacement and the set's gaps. A distributed run gives the scale over all ranks, so that a
+  /// rank classifies its nodes as one process does.
+  double contactScale = 0;
 };
 
 /// What an estimator needs: the problem (mesh, material, boundary conditions) and the discrete
