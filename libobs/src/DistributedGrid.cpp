@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <limits>
+#include <optional>
 #include <string>
 #include <unordered_map>
 
@@ -17,6 +18,9 @@ std::uint64_t mix(std::uint64_t h) {  // splitmix64 finaliser
   h *= 0x94d049bb133111ebULL;
   return h ^ (h >> 31);
 }
+
+/// The rank that collects what the ranks know about `key` (cell and vertex keys).
+int rendezvousRank(std::uint64_t key, int ranks) { return static_cast<int>(key % static_cast<std::uint64_t>(ranks)); }
 
 constexpr std::uint64_t kHashed = std::uint64_t{1} << 63;  ///< keys of vertices below the replicated levels
 constexpr std::uint64_t kUnknown = std::numeric_limits<std::uint64_t>::max();
@@ -182,7 +186,7 @@ std::uint64_t DistributedGrid::cellKey(Index element) const {
 
 mesh::AdaptResult DistributedGrid::adapt(const std::vector<Index>& marked, int* rounds) {
   const int me = comm_.rank(), ranks = comm_.size();
-  const auto rendezvous = [ranks](std::uint64_t key) { return static_cast<int>(key % static_cast<std::uint64_t>(ranks)); };
+  const auto rendezvous = [ranks](std::uint64_t key) { return rendezvousRank(key, ranks); };
   // the region: the regular elements over the owned leaves and three leaf layers around them
   std::vector<Index> region;
   std::vector<char> inRegion, known;
@@ -321,9 +325,11 @@ RebalanceReport DistributedGrid::rebalance(double tolerance, std::vector<double>
   RebalanceReport report;
   // the leaves below each partition cell, from its owner
   std::vector<double> weights(nc, 0.0);
+  std::optional<mesh::GridView> leaf;  // of the current grid, if values move
   comm_.collective([&] {
     if (!(tolerance >= 1.0)) throw Error("distributed grid: imbalance tolerance " + std::to_string(tolerance) + " (at least 1)");
-    if (leafValues && (width < 1 || leafValues->size() != grid_.leafView().vertices.size() * static_cast<std::size_t>(width)))
+    if (leafValues) leaf = grid_.leafView();
+    if (leafValues && (width < 1 || leafValues->size() != leaf->vertices.size() * static_cast<std::size_t>(width)))
       throw Error("distributed grid: rebalance needs " + std::to_string(width) + " values per leaf view vertex");
     for (std::size_t c = 0; c < nc; ++c)
       if (partition_.cellPart[c] == me) weights[c] = static_cast<double>(partition_.cellLeaves[c]);
@@ -352,7 +358,7 @@ RebalanceReport DistributedGrid::rebalance(double tolerance, std::vector<double>
   report.moved = true;
   for (std::size_t c = 0; c < nc; ++c)
     if (parts[c] != partition_.cellPart[c]) report.movedLeaves += static_cast<long long>(weights[c]);
-  const auto rendezvous = [ranks](std::uint64_t key) { return static_cast<int>(key % static_cast<std::uint64_t>(ranks)); };
+  const auto rendezvous = [ranks](std::uint64_t key) { return rendezvousRank(key, ranks); };
 
   // the values at the vertices of the owned leaves to the rendezvous ranks of their keys
   std::vector<std::vector<std::uint64_t>> keysOut(static_cast<std::size_t>(ranks));
@@ -361,11 +367,10 @@ RebalanceReport DistributedGrid::rebalance(double tolerance, std::vector<double>
   std::vector<std::vector<std::uint64_t>> marksOut(static_cast<std::size_t>(ranks));
   comm_.collective([&] {
     if (leafValues) {
-      const mesh::GridView leaf = grid_.leafView();
       std::vector<Index> at(static_cast<std::size_t>(grid_.numVertices()), -1);
-      for (std::size_t i = 0; i < leaf.vertices.size(); ++i) at[leaf.vertices[i]] = static_cast<Index>(i);
-      std::vector<char> sent(leaf.vertices.size(), 0);
-      for (Index e : leaf.elements)
+      for (std::size_t i = 0; i < leaf->vertices.size(); ++i) at[leaf->vertices[i]] = static_cast<Index>(i);
+      std::vector<char> sent(leaf->vertices.size(), 0);
+      for (Index e : leaf->elements)
         if (partition_.partOf(e) == me)
           for (Index v : grid_.vertices(e))
             if (const Index i = at[v]; !sent[i]) {
@@ -391,6 +396,7 @@ RebalanceReport DistributedGrid::rebalance(double tolerance, std::vector<double>
                                                           valuesIn[r].begin() + static_cast<std::ptrdiff_t>((i + 1) * width)));
   }
   const auto marksIn = comm_.exchange(marksOut);
+  leaf.reset();
 
   // the rebuild on the new parts, then the steps replayed
   const std::vector<MarkedStep> steps = std::move(history_);
@@ -428,8 +434,8 @@ RebalanceReport DistributedGrid::rebalance(double tolerance, std::vector<double>
   // the values at the new leaf view's vertices, asked from the rendezvous ranks by key
   if (leafValues) {
     std::vector<std::vector<std::uint64_t>> ask(static_cast<std::size_t>(ranks));
-    const mesh::GridView leaf = grid_.leafView();
-    for (Index v : leaf.vertices) ask[rendezvous(keys_[v])].push_back(keys_[v]);
+    leaf = grid_.leafView();
+    for (Index v : leaf->vertices) ask[rendezvous(keys_[v])].push_back(keys_[v]);
     const auto asked = comm_.exchange(ask);
     std::vector<std::vector<double>> answer(static_cast<std::size_t>(ranks));
     for (int r = 0; r < ranks; ++r)
@@ -438,10 +444,10 @@ RebalanceReport DistributedGrid::rebalance(double tolerance, std::vector<double>
         for (int c = 0; c < width; ++c) answer[r].push_back(it == stored.end() ? 0.0 : it->second[c]);
       }
     const auto answers = comm_.exchange(answer);
-    leafValues->assign(leaf.vertices.size() * static_cast<std::size_t>(width), 0.0);
+    leafValues->assign(leaf->vertices.size() * static_cast<std::size_t>(width), 0.0);
     std::vector<std::size_t> next(static_cast<std::size_t>(ranks), 0);
-    for (std::size_t i = 0; i < leaf.vertices.size(); ++i) {
-      const int r = rendezvous(keys_[leaf.vertices[i]]);
+    for (std::size_t i = 0; i < leaf->vertices.size(); ++i) {
+      const int r = rendezvous(keys_[leaf->vertices[i]]);
       for (int c = 0; c < width; ++c) (*leafValues)[i * width + c] = answers[r][next[r]++];
     }
   }
