@@ -11,6 +11,7 @@
 #include <optional>
 #include <sstream>
 #include <utility>
+#include <variant>
 
 #include <nlohmann/json.hpp>
 
@@ -26,6 +27,9 @@
 #include "obs/obs/LinearElasticity.hpp"
 #include "obs/obs/Checkpoint.hpp"
 #include "obs/obs/DistributedGrid.hpp"
+#include "obs/obs/DistributedMortar.hpp"
+#include "obs/obs/DistributedMultiBody.hpp"
+#include "obs/obs/MultiBody.hpp"
 #include "obs/obs/Newmark.hpp"
 #include "DistributedOutput.hpp"
 #include "PlotScript.hpp"
@@ -97,6 +101,22 @@ struct SchemeRun {
   std::vector<double> vtuTimes;
 };
 
+/// Two distributed bodies coupled by mortar (runDistributedDynamicScene): the pair's rows and
+/// DistributedMultiBody, whose numbering is the run's stacked numbering, in the run's dimension.
+struct Coupled {
+  std::unique_ptr<DistributedMortar> mortar;
+  std::variant<std::unique_ptr<DistributedMultiBody<2>>, std::unique_ptr<DistributedMultiBody<3>>> multi;
+  template <int d>
+  const DistributedMultiBody<d>* get() const {
+    const auto* m = std::get_if<std::unique_ptr<DistributedMultiBody<d>>>(&multi);
+    return m ? m->get() : nullptr;
+  }
+  template <typename F>
+  decltype(auto) visit(F&& f) const {
+    return std::visit([&](const auto& m) -> decltype(auto) { return f(*m); }, multi);
+  }
+};
+
 struct Context {
   const Scene& scene;
   const RunOptions& options;
@@ -114,26 +134,31 @@ struct Context {
   fs::path restartFile;
   /// The bodies in stacked order (Scene::bodyScenes: grid, leaf mesh, boundary conditions, first
   /// stacked vertex).
+  /// Distributed: the body's grid and the rank's leaf view (whose local mesh is `mesh`).
   struct Body {
     const Scene* spec = nullptr;
     const mesh::Grid* grid = nullptr;
     const mesh::Mesh* mesh = nullptr;
     const BoundaryConditions* bc = nullptr;
-    Index offset = 0;
+    std::vector<Index> index;  ///< the stacked (distributed: local) index of each vertex of mesh
+    const DistributedGrid* distributed = nullptr;
+    const DistributedView* leaf = nullptr;
   };
   std::vector<Body> bodies;
   OutputLayout layout;
   /// A distributed run (runDistributedDynamicScene, docs/architecture.md#distributed-dynamics): the
-  /// communicator, the grid and the rank's leaf view, whose local mesh is the one body's mesh;
-  /// null for one process. Rank 0 writes the time series, the .pvd and summary.json; every rank
-  /// writes its piece of each .vtu.
+  /// communicator (null for one process) and, for two bodies, their DistributedMultiBody, whose
+  /// local numbering is the stacked one. Rank 0 writes the time series, the .pvd and summary.json;
+  /// every rank writes its piece of each .vtu.
   const Communicator* comm = nullptr;
-  const DistributedGrid* grid = nullptr;
-  const DistributedView* leaf = nullptr;
+  const Coupled* coupled = nullptr;
   /// The checkpoint rows (docs/checkpoint.md#rows): the key of every stacked (local) vertex, and the
   /// vertices whose rows this process writes (the first `owned`; one process: all).
   std::vector<std::uint64_t> keys;
   Index owned = 0;
+  /// The body and its vertex of every stacked vertex (-1: an extra ghost of a distributed pair).
+  std::vector<int> bodyOf;
+  std::vector<Index> vertexOf;
   bool writer() const { return !comm || comm->rank() == 0; }
   /// Runs local work so that an error on one rank reaches every rank (Communicator::collective).
   void collective(const std::function<void()>& work) const {
@@ -149,13 +174,13 @@ struct Context {
 /// (a one-body file: ""), known by their vertex keys (the checkpoints hold rows; distributed: the
 /// rank's owned vertices and cells, collective).
 std::vector<RunBody> runBodies(const std::vector<Context::Body>& bodies, const OutputLayout& layout,
-                               const DistributedView* leaf = nullptr, const Communicator* comm = nullptr) {
+                               const Communicator* comm = nullptr) {
   std::vector<RunBody> out;
   for (std::size_t b = 0; b < bodies.size(); ++b) {
     RunBody r{layout.perBody() ? bodies[b].spec->name : std::string(), bodies[b].mesh};
     r.keyed = true;
     r.index = b;
-    if (leaf) {
+    if (const DistributedView* leaf = bodies[b].leaf) {
       r.comm = comm;
       r.ownedVertices = leaf->halo.numOwned();
       r.ownedCells = static_cast<Index>(leaf->part.owned.size());
@@ -342,18 +367,19 @@ std::vector<Field> stateFields(const Context& c, std::size_t b, const Eigen::Vec
                                const StateContact& sc, std::vector<Field>* cells) {
   const mesh::Mesh& mesh = *c.bodies[b].mesh;
   const Material& material = c.bodies[b].spec->material;
-  const Index offset = c.bodies[b].offset;
+  const std::vector<Index>& at = c.bodies[b].index;
   const int dim = mesh.dimension();
   const mesh::Index n = mesh.numVertices();
   ElasticitySolution s;
   s.dimension = dim;
-  s.displacement = u.segment(static_cast<Eigen::Index>(offset) * dim, static_cast<Eigen::Index>(n) * dim);
+  s.displacement.resize(static_cast<Eigen::Index>(n) * dim);
+  for (mesh::Index p = 0; p < n; ++p) s.displacement.segment(p * dim, dim) = u.segment(at[p] * dim, dim);
   recoverStresses(mesh, material, s);
   std::vector<Field> pf = pointFields(mesh, s);
   *cells = cellFields(mesh, s);
   Field vel{"velocity", 3, std::vector<double>(3 * n, 0.0), false};
   for (mesh::Index p = 0; p < n; ++p)
-    for (int a = 0; a < dim; ++a) vel.values[3 * p + a] = v[(offset + p) * dim + a];
+    for (int a = 0; a < dim; ++a) vel.values[3 * p + a] = v[at[p] * dim + a];
   Field gap{"gap", 1, std::vector<double>(n, 0.0), false};
   Field nd{"normal_displacement", 1, std::vector<double>(n, 0.0), false};
   Field nv{"normal_velocity", 1, std::vector<double>(n, 0.0), false};
@@ -367,8 +393,8 @@ std::vector<Field> stateFields(const Context& c, std::size_t b, const Eigen::Vec
     const double g = c.contact.gap(k);
     if (!std::isfinite(g)) continue;
     const Index P = c.contact.vertex(k);  // stacked
-    if (P < offset || P >= offset + n) continue;  // a node of another body
-    const Index p = P - offset;
+    if (c.bodyOf[P] != static_cast<int>(b)) continue;  // a node of another body (or an extra ghost)
+    const Index p = c.vertexOf[P];
     double nu_u = 0, nu_v = 0, nu_f = 0;
     for (int a = 0; a < dim; ++a) {
       nu_u += c.contact.direction(k)[a] * sc.x[P * dim + a];
@@ -387,7 +413,7 @@ std::vector<Field> stateFields(const Context& c, std::size_t b, const Eigen::Vec
   }
   if (sc.forces)
     for (mesh::Index p = 0; p < n; ++p)
-      for (int a = 0; a < dim; ++a) force.values[3 * p + a] = -(*sc.forces)[(offset + p) * dim + a];
+      for (int a = 0; a < dim; ++a) force.values[3 * p + a] = -(*sc.forces)[at[p] * dim + a];
   pf.push_back(std::move(vel));
   pf.push_back(std::move(gap));
   pf.push_back(std::move(nd));
@@ -418,9 +444,15 @@ std::unique_ptr<TimeStepper<d>> makeSchemeStepper(const Context& c, const std::s
       meshes.push_back(b.mesh);
       grids.push_back(b.grid);
     }
-    if (c.leaf) {  // one body on the rank's local mesh; the stepper's construction is collective
+    if (c.comm) {  // the bodies on the rank's local meshes; the stepper's construction is collective
       c.collective([&] { model = makeContactModel<d>(c.couplings.spec, meshes); });
-      stepper = std::make_unique<NewmarkFamily<d>>(*c.grid, *c.leaf, model, o);
+      std::vector<const DistributedGrid*> distributed;
+      std::vector<const DistributedView*> leaves;
+      for (const Context::Body& b : c.bodies) {
+        distributed.push_back(b.distributed);
+        leaves.push_back(b.leaf);
+      }
+      stepper = std::make_unique<NewmarkFamily<d>>(distributed, leaves, model, o, c.coupled ? c.coupled->get<d>() : nullptr);
     } else {
       model = makeContactModel<d>(c.couplings.spec, meshes);
       stepper = makeTimeStepper<d>(grids, model, o);
@@ -549,9 +581,9 @@ void writeStateVtu(const Context& c, const TimeStepper<d>& stepper, const Newmar
     const fs::path path = c.dir / c.layout.dynamicVtu(r.step, b);
     std::vector<Field> cells;
     const auto pf = stateFields(c, b, state.u, state.v, sc, &cells);
-    if (c.leaf) {  // each rank its owned cells, rank 0 the .pvtu the .pvd lists
+    if (c.comm) {  // each rank its owned cells, rank 0 the .pvtu the .pvd lists
       const std::string base = path.stem().string();
-      const auto files = writePieces(c.dir, base, *c.bodies[b].mesh, static_cast<Index>(c.leaf->part.owned.size()), pf,
+      const auto files = writePieces(c.dir, base, *c.bodies[b].mesh, static_cast<Index>(c.bodies[b].leaf->part.owned.size()), pf,
                                      cells, *c.comm);
       run.vtuFiles.push_back(c.dir / (base + ".pvtu"));  // on every rank: the checkpoints' entries
       if (!files.empty()) run.pieceFiles.insert(run.pieceFiles.end(), files.begin(), files.end() - 1);
@@ -662,7 +694,7 @@ SchemeRun runScheme(const Context& c, const std::string& schemeName, bool writeV
     c.collective([&] { csv.flush(); });  // the checkpoint refers to these bytes
     CheckpointRecord cp;
     cp.kind = "dynamic";
-    storeRunIdentity(cp, scene, runBodies(c.bodies, c.layout, c.leaf, c.comm));  // collective
+    storeRunIdentity(cp, scene, runBodies(c.bodies, c.layout, c.comm));  // collective
     storeNewmarkState(cp, newmark->schemeState());
     storeStateRows(cp, c, d);
     storeSchemeRun(cp, run, csv.bytes(), csv.hash());
@@ -969,9 +1001,12 @@ DirichletValues initialState(const Scene& scene, const std::vector<Context::Body
       throw Error(scene.where(b.spec->bodyInitialVelocityLine) + "[[body]] '" + b.spec->name +
                   "' initial_velocity: every vertex of the body is prescribed ([[dirichlet]] everywhere = true), "
                   "so it moves as its prescribed displacement says; remove initial_velocity");
-    const auto off = static_cast<std::size_t>(b.offset) * dim;
-    std::copy(own.constrained.begin(), own.constrained.end(), dirichlet.constrained.begin() + static_cast<std::ptrdiff_t>(off));
-    dirichlet.values.segment(static_cast<Eigen::Index>(off), own.values.size()) = own.values;
+    for (std::size_t p = 0; p < b.index.size(); ++p)
+      for (int a = 0; a < dim; ++a) {
+        const auto i = static_cast<std::size_t>(b.index[p]) * dim + a, j = p * dim + a;
+        dirichlet.constrained[i] = own.constrained[j];
+        dirichlet.values[static_cast<Eigen::Index>(i)] = own.values[static_cast<Eigen::Index>(j)];
+      }
   }
   for (Eigen::Index i = 0; i < u0.size(); ++i)
     if (dirichlet.constrained[static_cast<std::size_t>(i)]) {
@@ -990,8 +1025,7 @@ void reportDynamics(const Context& c, const ContactSet& contact, const std::vect
   const std::vector<Context::Body>& bodies = c.bodies;
   const int dim = bodies.front().mesh->dimension();
   // distributed: the counts over the owned vertices and cells, added (maxima) over the ranks
-  const Index ownedVertices = c.leaf ? c.leaf->halo.numOwned() : std::numeric_limits<Index>::max();
-  const Index ownedCells = c.leaf ? static_cast<Index>(c.leaf->part.owned.size()) : std::numeric_limits<Index>::max();
+  const Index ownedVertices = c.comm ? c.owned : std::numeric_limits<Index>::max();
   const auto total = [&](double x) { return c.comm ? c.comm->sum(x) : x; };
   const SchemeRun& primary = runs.front();
   for (const SchemeRun& run : runs) {
@@ -1021,13 +1055,16 @@ void reportDynamics(const Context& c, const ContactSet& contact, const std::vect
   for (const Context::Body& b : bodies) {
     BodyReport br;
     br.name = b.spec->name;
-    br.vertices = b.mesh->numVertices();
-    br.cells = b.mesh->numCells();
+    br.vertices = b.leaf ? b.leaf->globalVertices() : b.mesh->numVertices();
+    br.cells = b.distributed ? b.distributed->globalLeaves() : b.mesh->numCells();
+    const Index ownedCells = b.leaf ? static_cast<Index>(b.leaf->part.owned.size()) : std::numeric_limits<Index>::max();
     ElasticitySolution sol;
     sol.dimension = dim;
-    sol.displacement = primary.u.segment(static_cast<Eigen::Index>(b.offset) * dim, br.vertices * dim);
+    sol.displacement.resize(static_cast<Eigen::Index>(b.mesh->numVertices()) * dim);
+    for (mesh::Index v = 0; v < b.mesh->numVertices(); ++v)
+      sol.displacement.segment(v * dim, dim) = primary.u.segment(b.index[v] * dim, dim);
     recoverStresses(*b.mesh, b.spec->material, sol);
-    for (mesh::Index v = 0; v < std::min(b.mesh->numVertices(), ownedVertices); ++v)
+    for (mesh::Index v = 0; v < (b.leaf ? b.leaf->halo.numOwned() : b.mesh->numVertices()); ++v)
       br.maxDisplacement = std::max(br.maxDisplacement, sol.displacement.segment(v * dim, dim).norm());
     for (std::size_t k = 0; k < sol.cellStress.size() && static_cast<Index>(k) < ownedCells; ++k)
       br.maxVonMises = std::max(br.maxVonMises, vonMises(sol.cellStress[k]));
@@ -1058,17 +1095,25 @@ void writeDynamicOutputs(const Context& c, const RunOptions& options, const std:
     for (const auto& [scheme, message] : failed) all.push_back({{"scheme", scheme}, {"error", message}});
     extra["dynamics_comparison"] = all;
   }
-  if (c.leaf) {  // distributed: the memory per rank and the per-rank work (collective)
+  if (c.comm) {  // distributed: the memory per rank and the per-rank work (collective)
     const Communicator& comm = *c.comm;
-    const Index owned = c.leaf->halo.numOwned();
-    double contactOwned = 0;
+    const Index owned = c.owned;
+    double contactOwned = 0, ghosts = 0, cells = 0;
     for (Index k = 0; k < c.contact.size(); ++k) contactOwned += c.contact.vertex(k) < owned ? 1 : 0;
+    for (const Context::Body& b : c.bodies) {
+      ghosts += static_cast<double>(b.leaf->halo.numLocal() - b.leaf->halo.numOwned());
+      cells += static_cast<double>(b.leaf->part.owned.size());
+    }
     RankLoad load;
     load.add("owned_vertices", static_cast<double>(owned));
-    load.add("ghost_vertices", static_cast<double>(c.leaf->halo.numLocal() - owned));
-    load.add("owned_cells", static_cast<double>(c.leaf->part.owned.size()));
+    load.add("ghost_vertices", ghosts);
+    load.add("owned_cells", cells);
     load.add("contact_vertices", contactOwned);
-    addDistributedSummary(extra, comm, c.grid->partition().level, load);
+    if (c.coupled) {  // the pair's rows and the coupling's extra ghosts (as static runs of two bodies)
+      load.add("slave_vertices", static_cast<double>(c.coupled->mortar->rows().size()));
+      load.add("extra_ghosts", static_cast<double>(c.coupled->visit([](const auto& m) { return m.extraGhosts(); })));
+    }
+    addDistributedSummary(extra, comm, c.bodies.front().distributed->partition().level, load);
   }
   c.collective([&] {
     if (c.writer()) writeRunFiles(c, options, runs, extra, r, t, start);
@@ -1100,19 +1145,18 @@ void writeRunFiles(const Context& c, const RunOptions& options, const std::vecto
   finishRun(scene, options, c.dir, r, t, start, extra);
 }
 
-/// The distributed part of a run (runDistributedDynamicScene), all null for one process.
+/// The distributed part of a run (runDistributedDynamicScene), null for one process.
 struct Distribution {
   const Communicator* comm = nullptr;
-  const DistributedGrid* grid = nullptr;
-  const DistributedView* leaf = nullptr;
+  const Coupled* coupled = nullptr;  ///< two bodies: their coupling
 };
 
 /// runDynamicScene on the bodies of the scene (Context::bodies, in stacked order), or
-/// runDistributedDynamicScene on the one body of the rank's local mesh (`dist`).
+/// runDistributedDynamicScene on the bodies of the rank's local meshes (`dist`).
 RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodies, const SceneCouplings& couplings,
                       const RunOptions& options, RunResult r, Clock::time_point start, const Distribution& dist = {}) {
   const DynamicsSpec& dyn = *scene.dynamics;
-  const bool distributed = dist.leaf != nullptr;
+  const bool distributed = dist.comm != nullptr;
   const auto collective = [&](const std::function<void()>& work) {
     if (distributed)
       dist.comm->collective(work);
@@ -1124,21 +1168,34 @@ RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodi
   };
   const OutputLayout layout(scene);
   const int dim = bodies.front().mesh->dimension();
-  const mesh::Index n = bodies.back().offset + bodies.back().mesh->numVertices();
+  // the stacked vertices: the bodies' (Body::index), and of a distributed pair the coupling's extra
+  // ghosts, whose positions and bodies come from their owners
+  const mesh::Index n = dist.coupled ? dist.coupled->visit([](const auto& m) { return m.numLocal(); })
+                                     : static_cast<mesh::Index>(bodies.back().index.back() + 1);
   const InterruptGuard interrupts;  // SIGINT/SIGTERM: finish the step, checkpoint, stop
-  // the stacked vertex positions
+  std::vector<int> bodyOf(static_cast<std::size_t>(n), -1);
+  std::vector<mesh::Index> vertexOf(static_cast<std::size_t>(n), -1);
+  Eigen::VectorXd where = Eigen::VectorXd::Zero(4 * n);  // position, body
+  for (std::size_t b = 0; b < bodies.size(); ++b)
+    for (mesh::Index v = 0; v < bodies[b].mesh->numVertices(); ++v) {
+      const Index P = bodies[b].index[v];
+      bodyOf[P] = static_cast<int>(b);
+      vertexOf[P] = v;
+      for (int a = 0; a < 3; ++a) where[4 * P + a] = bodies[b].mesh->vertex(v)[a];
+      where[4 * P + 3] = static_cast<double>(b);
+    }
+  if (dist.coupled) dist.coupled->visit([&](const auto& m) { m.halo().update(where, 4); });
   std::vector<mesh::Point> positions;
   std::vector<const Scene*> owner;  // the body description of each stacked vertex
-  for (const Context::Body& b : bodies)
-    for (mesh::Index v = 0; v < b.mesh->numVertices(); ++v) {
-      positions.push_back(b.mesh->vertex(v));
-      owner.push_back(b.spec);
-    }
-
   // the checkpoint rows: a key per stacked vertex (docs/checkpoint.md#rows)
   std::vector<std::uint64_t> keys;
-  for (std::size_t b = 0; b < bodies.size(); ++b)
-    for (mesh::Index v = 0; v < bodies[b].mesh->numVertices(); ++v) keys.push_back(vertexKey(b, bodies[b].mesh->vertex(v)));
+  for (mesh::Index P = 0; P < n; ++P) {
+    const mesh::Point x(where[4 * P], where[4 * P + 1], where[4 * P + 2]);
+    const auto b = static_cast<std::size_t>(where[4 * P + 3]);
+    positions.push_back(x);
+    owner.push_back(bodies[b].spec);
+    keys.push_back(vertexKey(b, x));
+  }
   const Communicator world = Communicator::world();
   const Communicator& comm = distributed ? *dist.comm : world;  // one process: a communicator of one
   // --restart: the checkpoint must belong to this scene, its bodies and grids (checked before its
@@ -1150,31 +1207,42 @@ RunResult runDynamics(const Scene& scene, const std::vector<Context::Body>& bodi
     if (missing < 0 && restart->kind == "dynamic")
       throw Error(options.restart->string() + ": the checkpoint has no rows/keys (written by an obs before "
                   "checkpoints with rows, docs/checkpoint.md#rows): this obs cannot continue it; start the run again");
-    checkRunIdentity(*restart, *options.restart, "dynamic", scene, runBodies(bodies, layout, dist.leaf, dist.comm));
+    checkRunIdentity(*restart, *options.restart, "dynamic", scene, runBodies(bodies, layout, dist.comm));
     if (missing > 0)
       throw Error(options.restart->string() + ": " + std::to_string(missing) +
                   " vertices of this run are not in the checkpoint (written for another grid: another --refine?)");
   }
 
   // contact set, tracked vertices, initial state (all checked before any time step)
+  // (a distributed pair: the coupling's constraints of the held slave vertices)
   std::optional<ContactSet> merged;
   collective([&] {
-    merged.emplace(dim == 2 ? mergedContactSet<2>(scene, couplings, bodies) : mergedContactSet<3>(scene, couplings, bodies));
+    if (dist.coupled)
+      merged.emplace(dist.coupled->visit([](const auto& m) { return m.contactSet(); }));
+    else
+      merged.emplace(dim == 2 ? mergedContactSet<2>(scene, couplings, bodies) : mergedContactSet<3>(scene, couplings, bodies));
   });
   const ContactSet& contact = *merged;
-  const Index owned = distributed ? dist.leaf->halo.numOwned() : n;
+  // distributed: the owned vertices come first; their global indices from the rank's first one
+  const Index owned = !distributed ? n
+                      : dist.coupled ? dist.coupled->visit([](const auto& m) { return m.numOwned(); })
+                                     : bodies.front().leaf->halo.numOwned();
+  const Index firstGlobal =
+      !distributed ? 0
+      : dist.coupled ? dist.coupled->visit([&](const auto& m) { return owned > 0 ? m.global().front() : Index(0); })
+                     : bodies.front().leaf->numbering.offsets[static_cast<std::size_t>(dist.comm->rank())];
   const std::vector<TrackedInfo> tracked =
-      distributed ? trackedVertices(scene, positions, contact, dim, dist.comm, owned,
-                                    dist.leaf->numbering.offsets[static_cast<std::size_t>(dist.comm->rank())])
+      distributed ? trackedVertices(scene, positions, contact, dim, dist.comm, owned, firstGlobal)
                   : trackedVertices(scene, positions, contact, dim);
 
   Context c{scene, options, contact, couplings, tracked, {}, {}, 0, {}, false, {}, nullptr, {}, bodies, layout,
-            dist.comm, dist.grid, dist.leaf, keys, owned};
+            dist.comm, dist.coupled, keys, owned, bodyOf, vertexOf};
   c.steps = dyn.steps ? *dyn.steps : static_cast<int>(std::ceil(*dyn.endTime / dyn.timeStep - 1e-9));
   DirichletValues dirichlet;
   collective([&] { dirichlet = initialState(scene, bodies, positions, owner, dim, c.u0, c.v0); });
   if (distributed) {  // the global unknowns; the free ones counted over the owned vertices
-    r.dofs = static_cast<long long>(dist.leaf->globalVertices()) * dim;
+    r.dofs = 0;
+    for (const Context::Body& b : bodies) r.dofs += static_cast<long long>(b.leaf->globalVertices()) * dim;
     long long fixed = 0;
     for (Index i = 0; i < owned * dim; ++i) fixed += dirichlet.constrained[static_cast<std::size_t>(i)] ? 1 : 0;
     r.freeDofs = r.dofs - dist.comm->sum(fixed);
@@ -1269,25 +1337,89 @@ RunResult runDynamicScene(const Scene& scene, const std::vector<const mesh::Grid
   std::vector<Context::Body> bodies;
   Index offset = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    bodies.push_back({specs[i], grids[i], meshes[i], &bcs[i], offset});
+    Context::Body b{specs[i], grids[i], meshes[i], &bcs[i]};
+    for (Index v = 0; v < meshes[i]->numVertices(); ++v) b.index.push_back(offset + v);
     offset += meshes[i]->numVertices();
+    bodies.push_back(std::move(b));
   }
   const SceneCouplings couplings = sceneCouplings(scene, meshes, bcs);
   return runDynamics(scene, bodies, couplings, options, std::move(r), start);
 }
 
-RunResult runDistributedDynamicScene(const Scene& scene, const DistributedGrid& grid, const DistributedView& leaf,
-                                     const BoundaryConditions& bc, const RunOptions& options, RunResult r,
+namespace {
+
+/// The coupling of two distributed bodies (Coupled): the scene's mortar pair on the leaf views and
+/// the DistributedMultiBody of the bodies' elastic systems (only its numbering, constraints and C
+/// are used). Errors name the [[contact]] line. Collective.
+template <int d>
+void couple(const Scene& scene, const std::vector<const DistributedView*>& leaves,
+            const std::vector<BoundaryConditions>& bcs, const ContactModelSpec& spec, Coupled& out) {
+  const MortarPairSpec& pair = scene.pairs.front();
+  const auto& cs = spec.couplings.front();
+  const std::vector<const Scene*> specs = scene.bodyScenes();
+  const int s = pair.slaveIndex, m = pair.masterIndex;
+  const Index offsets[2] = {0, leaves[0]->globalVertices()};
+  const auto side = [](const std::string& body, const BoundaryRef& ref) {
+    return body + ":" + (ref.name.empty() ? std::to_string(ref.id) : ref.name);
+  };
+  MortarOptions mo;
+  mo.minCoverage = pair.minCoverage;
+  mo.searchDistance = pair.searchDistance;
+  try {
+    out.mortar = std::make_unique<DistributedMortar>(
+        DistributedMortarSurface{leaves[static_cast<std::size_t>(s)], cs.boundaryId, offsets[s], side(pair.slaveBody, pair.slave)},
+        DistributedMortarSurface{leaves[static_cast<std::size_t>(m)], cs.masterId, offsets[m], side(pair.masterBody, pair.master)},
+        mo);
+    std::vector<BodySystem<d>> systems(2);
+    leaves.front()->halo.communicator().collective([&] {
+      for (std::size_t i = 0; i < 2; ++i) systems[i] = assembleBody<d>(leaves[i]->local, specs[i]->material, bcs[i]);
+    });
+    out.multi = std::make_unique<DistributedMultiBody<d>>(
+        std::vector<DistributedBody<d>>{{leaves[0], &systems[0]}, {leaves[1], &systems[1]}}, *out.mortar, s, m);
+  } catch (const Error& e) {
+    throw Error(scene.where(pair.line) + "[[contact]] " + e.what());
+  }
+}
+
+}  // namespace
+
+RunResult runDistributedDynamicScene(const Scene& scene, const std::vector<const DistributedGrid*>& grids,
+                                     const std::vector<const DistributedView*>& leaves,
+                                     const std::vector<const mesh::Mesh*>& coarseMeshes,
+                                     const std::vector<BoundaryConditions>& bcs, const RunOptions& options, RunResult r,
                                      Clock::time_point start) {
-  if (scene.multiBody())
-    throw Error(scene.fileName + ": distributed dynamic runs integrate one body against obstacles so far (run "
-                "scenes with several bodies without mpirun)");
-  const Communicator& comm = grid.communicator();
-  const std::vector<BoundaryConditions> bcs{bc};  // kept by pointer in the couplings
-  const std::vector<Context::Body> bodies{{&scene, &grid.grid(), &leaf.local, &bcs.front(), 0}};
+  const std::vector<const Scene*> specs = scene.bodyScenes();
+  const std::size_t n = specs.size();
+  if (grids.size() != n || leaves.size() != n || coarseMeshes.size() != n || bcs.size() != n || n == 0)
+    throw Error(scene.where(0) + "internal: distributed dynamics with inconsistent body lists");
+  const Communicator& comm = grids.front()->communicator();
+  // the couplings resolve the boundaries on the coarse meshes (the same on every rank; ids survive
+  // refinement, a rank's local mesh may have no face of a boundary)
   std::optional<SceneCouplings> couplings;
-  comm.collective([&] { couplings.emplace(sceneCouplings(scene, {&leaf.local}, bcs)); });
-  return runDynamics(scene, bodies, *couplings, options, std::move(r), start, Distribution{&comm, &grid, &leaf});
+  comm.collective([&] {
+    couplings.emplace(sceneCouplings(scene, coarseMeshes, bcs));
+    if (n > 1 && (n != 2 || scene.pairs.size() != 1 || couplings->spec.couplings.size() != 1))
+      throw Error(scene.fileName + ": distributed dynamic runs take one body or two bodies with one mortar pair (" +
+                  std::to_string(n) + " bodies, " + std::to_string(couplings->spec.couplings.size()) + " couplings)");
+  });
+  Coupled coupled;
+  if (n == 2) {
+    if (leaves.front()->local.dimension() == 2)
+      couple<2>(scene, leaves, bcs, couplings->spec, coupled);
+    else
+      couple<3>(scene, leaves, bcs, couplings->spec, coupled);
+  }
+  std::vector<Context::Body> bodies;
+  for (std::size_t i = 0; i < n; ++i) {
+    Context::Body b{specs[i], &grids[i]->grid(), &leaves[i]->local, &bcs[i]};
+    for (Index v = 0; v < leaves[i]->local.numVertices(); ++v)
+      b.index.push_back(n == 2 ? coupled.visit([&](const auto& m) { return m.local(static_cast<int>(i), v); }) : v);
+    b.distributed = grids[i];
+    b.leaf = leaves[i];
+    bodies.push_back(std::move(b));
+  }
+  return runDynamics(scene, bodies, *couplings, options, std::move(r), start,
+                     Distribution{&comm, n == 2 ? &coupled : nullptr});
 }
 
 }  // namespace obs::drivers

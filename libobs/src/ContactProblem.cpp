@@ -772,7 +772,15 @@ void ContactProblem<d>::setLoad(const Eigen::VectorXd& load) {
   if (load.size() != b_.size())
     throw Error("contact problem: setLoad with " + std::to_string(load.size()) + " entries, the problem has " +
                 std::to_string(b_.size()) + " unknowns");
-  b_ = (transformed() ? applyTransposedBasis<d>(basis_, skip_, load) : load) - dirichletLift_;
+  setLoad(transformed() ? applyTransposedBasis<d>(basis_, skip_, load) : load, Transformed{});
+}
+
+template <int d>
+void ContactProblem<d>::setLoad(const Eigen::VectorXd& load, Transformed) {
+  if (load.size() != b_.size())
+    throw Error("contact problem: setLoad with " + std::to_string(load.size()) + " entries, the problem has " +
+                std::to_string(b_.size()) + " unknowns");
+  b_ = load - dirichletLift_;
   for (std::size_t i = 0; i < dirichlet_.constrained.size(); ++i)
     if (dirichlet_.constrained[i]) b_[static_cast<Eigen::Index>(i)] = dirichlet_.values[static_cast<Eigen::Index>(i)];
 }

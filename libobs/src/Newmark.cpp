@@ -10,11 +10,14 @@
 #include <limits>
 #include <optional>
 #include <sstream>
+#include <unordered_map>
 #include <utility>
 
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/CholmodSolver.hpp"
 #include "obs/obs/ElasticityAssembly.hpp"
+#include "obs/obs/LinearMultigrid.hpp"
+#include "obs/obs/MultiBody.hpp"
 
 namespace obs {
 namespace {
@@ -37,17 +40,17 @@ bool hasPredictorInDisplacement(NewmarkScheme s) {  // alpha + beta = 1
          s == NewmarkScheme::AlphaHalf || s == NewmarkScheme::AlphaOneZero;
 }
 
-/// Block-diagonal stacking of scalar matrices (one per body) at the given vertex offsets (one
-/// matrix: itself).
-ScalarSparseMatrix stackScalar(const std::vector<ScalarSparseMatrix>& parts, const std::vector<Index>& offsets,
+/// Block-diagonal stacking of scalar matrices (one per body), body i's vertex v at index
+/// vertices[i][v] (one matrix in its own numbering: itself).
+ScalarSparseMatrix stackScalar(const std::vector<ScalarSparseMatrix>& parts, const std::vector<std::vector<Index>>& vertices,
                                Index size) {
-  if (parts.size() == 1) return parts.front();
+  if (parts.size() == 1 && parts.front().rows() == size) return parts.front();
   std::vector<Eigen::Triplet<double>> t;
   for (std::size_t i = 0; i < parts.size(); ++i) {
-    const Index off = offsets[i];
+    const std::vector<Index>& at = vertices[i];
     for (Eigen::Index r = 0; r < parts[i].outerSize(); ++r)
       for (ScalarSparseMatrix::InnerIterator it(parts[i], r); it; ++it)
-        t.emplace_back(off + it.row(), off + it.col(), it.value());
+        t.emplace_back(at[static_cast<std::size_t>(it.row())], at[static_cast<std::size_t>(it.col())], it.value());
   }
   ScalarSparseMatrix m(size, size);
   m.setFromTriplets(t.begin(), t.end());
@@ -122,14 +125,27 @@ struct NewmarkFamily<d>::Predictor {
   std::vector<double> tauStar;  ///< local impact time
   std::vector<double> delta;    ///< (tau* - tau) nu'v^n = normal predictor correction (<= 0)
   std::vector<double> mu;       ///< mortar: multipliers of the projection (>= 0)
+  std::vector<double> rowMu;    ///< mortar: the same per row of PredictorRows (every rank's)
 };
 
-/// One constraint row of B (mortar): nu_p'(x_p) with x_p = u_p - sum_j C_pj u_j, i.e. the entries
-/// (p, 1) and (j, -C_pj), all along nu_p.
+/// The constraint rows of B (mortar) of every rank, in rank order and, on a rank, in the order of
+/// its owned bounded constraints (serial: all, in constraint order): row k is nu_p'x_p with
+/// x_p = u_p - sum_j C_pj u_j, i.e. the entries (p, 1) and (j, -C_pj), all along nu_p. The vertices
+/// of the rows are numbered compactly (every rank the same numbering), so that every rank runs the
+/// serial Hildreth iteration over all rows (the rows share master vertices across ranks).
 template <int d>
-struct NewmarkFamily<d>::MortarRow {
-  std::vector<std::pair<Index, double>> entries;
-  double diagonal = 0;  ///< (B M^{-1} B')_pp over the free components
+struct NewmarkFamily<d>::PredictorRows {
+  struct Row {
+    Eigen::Matrix<double, d, 1> direction;
+    double diagonal = 0;  ///< (B M^{-1} B')_kk over the free components
+    std::vector<std::pair<Index, double>> entries;  ///< (compact vertex, coefficient)
+  };
+  std::vector<Row> rows;
+  std::vector<double> mass;          ///< per compact vertex: its lumped mass
+  std::vector<std::uint8_t> fixed;   ///< per compact vertex: its Dirichlet components (bit a)
+  std::vector<Index> local;          ///< per compact vertex: the stepper's index (-1: not held)
+  std::vector<std::size_t> own;      ///< the constraint of each of this rank's rows
+  std::size_t first = 0;             ///< the index of this rank's first row
 };
 
 template <int d>
@@ -161,48 +177,111 @@ NewmarkFamily<d>::NewmarkFamily(const std::vector<const mesh::Grid*>& grids, Con
 template <int d>
 NewmarkFamily<d>::NewmarkFamily(const DistributedGrid& grid, const DistributedView& leaf, ContactModel<d>& model,
                                 const NewmarkOptions& options)
-    : options_(options), comm_(&grid.communicator()), halo_(&leaf.halo), owned_(leaf.halo.numOwned()) {
+    : NewmarkFamily(std::vector<const DistributedGrid*>{&grid}, std::vector<const DistributedView*>{&leaf}, model,
+                    options) {}
+
+template <int d>
+NewmarkFamily<d>::NewmarkFamily(const std::vector<const DistributedGrid*>& grids,
+                                const std::vector<const DistributedView*>& leaves, ContactModel<d>& model,
+                                const NewmarkOptions& options, const DistributedMultiBody<d>* coupled)
+    : options_(options), multi_(coupled) {
+  if (grids.empty() || !grids.front()) throw Error("time stepping: no distributed grid");
+  comm_ = &grids.front()->communicator();
   comm_->collective([&] {
-    if (grid.grid().dimension() != d)
-      throw Error("time stepping: the grid has dimension " + std::to_string(grid.grid().dimension()) +
-                  ", the stepper " + std::to_string(d));
-    if (model.bodies().size() != 1)
-      throw Error("time stepping: a distributed contact model has one body (got " +
-                  std::to_string(model.bodies().size()) + "); several bodies are not distributed yet");
-    if (model.bodies().front().mesh->numVertices() != leaf.local.numVertices())
-      throw Error("time stepping: the body of the distributed contact model is not the rank's local mesh (" +
-                  std::to_string(model.bodies().front().mesh->numVertices()) + " vertices, the local mesh has " +
-                  std::to_string(leaf.local.numVertices()) + ")");
+    const auto& bodies = model.bodies();
+    if (grids.size() != bodies.size() || leaves.size() != bodies.size())
+      throw Error("time stepping: " + std::to_string(grids.size()) + " distributed grids and " +
+                  std::to_string(leaves.size()) + " views for a contact model of " + std::to_string(bodies.size()) +
+                  " bodies");
+    for (std::size_t i = 0; i < bodies.size(); ++i) {
+      if (!grids[i] || !leaves[i]) throw Error("time stepping: the grid or view of body " + std::to_string(i) + " is not given");
+      if (grids[i]->grid().dimension() != d)
+        throw Error("time stepping: the grid has dimension " + std::to_string(grids[i]->grid().dimension()) +
+                    ", the stepper " + std::to_string(d));
+      if (bodies[i].mesh->numVertices() != leaves[i]->local.numVertices())
+        throw Error("time stepping: body '" + bodies[i].name + "' of the distributed contact model is not on the rank's "
+                    "local mesh (" + std::to_string(bodies[i].mesh->numVertices()) + " vertices, the local mesh has " +
+                    std::to_string(leaves[i]->local.numVertices()) + ")");
+    }
+    std::size_t pairs = 0;
+    for (const auto& c : model.couplings()) pairs += c.mortar ? 1 : 0;
+    if (!coupled) {
+      if (bodies.size() != 1 || pairs > 0)
+        throw Error("time stepping: a distributed contact model of " + std::to_string(bodies.size()) + " bodies and " +
+                    std::to_string(pairs) + " mortar pairs needs their DistributedMultiBody (one body: obstacles only)");
+      return;
+    }
+    const auto& cs = model.couplings();
+    if (bodies.size() != 2 || cs.size() != 1 || !cs.front().mortar || coupled->numBodies() != 2 ||
+        cs.front().slave != coupled->slaveBody() || cs.front().master != coupled->masterBody())
+      throw Error("time stepping: distributed bodies are two bodies with one mortar pair, the pair of their "
+                  "DistributedMultiBody (got " + std::to_string(bodies.size()) + " bodies, " + std::to_string(cs.size()) +
+                  " couplings)");
+    if (model.frictional())
+      throw Error("time stepping: friction on a mortar pair is not distributed yet (run it without mpirun)");
   });
-  init({&grid.grid()}, model, &grid);
+  halo_ = multi_ ? &multi_->halo() : &leaves.front()->halo;
+  owned_ = halo_->numOwned();
+  std::vector<const mesh::Grid*> serial;
+  for (const DistributedGrid* g : grids) serial.push_back(&g->grid());
+  for (std::size_t i = 0; i < leaves.size(); ++i) {
+    std::vector<Index> at(static_cast<std::size_t>(leaves[i]->halo.numLocal()));
+    for (Index v = 0; v < static_cast<Index>(at.size()); ++v) at[v] = multi_ ? multi_->local(static_cast<int>(i), v) : v;
+    bodyVertices_.push_back(std::move(at));
+    bodyOwned_.push_back(leaves[i]->halo.numOwned());
+  }
+  init(serial, model, grids);
 }
 
 template <int d>
 void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, ContactModel<d>& model,
-                            const DistributedGrid* distributed) {
+                            const std::vector<const DistributedGrid*>& distributed) {
   std::optional<typename ContactModel<d>::Parts> assembled;
+  std::vector<BodySystem<d>> systems;  // distributed bodies coupled by mortar: each on its local mesh
   collective([&] {
     checkInputs(grids, model);
-    assembled.emplace(model.assembleParts());
-    typename ContactModel<d>::Parts& parts = *assembled;
-    numVertices_ = parts.system.numVertices();
-    if (!comm_) owned_ = numVertices_;
+    if (multi_) {
+      // the bodies' systems on their local meshes, stacked below in the coupling's numbering (its
+      // constraints and C are those of the pair: assembleParts() would couple the local meshes)
+      for (const auto& b : model.bodies()) systems.push_back(assembleBody<d>(*b.mesh, b.material, b.bc));
+      numVertices_ = multi_->numLocal();
+    } else {
+      assembled.emplace(model.assembleParts());
+      numVertices_ = assembled->system.numVertices();
+    }
+    if (!comm_) {
+      owned_ = numVertices_;
+      for (const auto& b : model.bodies()) {
+        std::vector<Index> at(static_cast<std::size_t>(b.mesh->numVertices()));
+        for (Index v = 0; v < static_cast<Index>(at.size()); ++v) at[v] = b.offset + v;
+        bodyVertices_.push_back(std::move(at));
+        bodyOwned_.push_back(-1);
+      }
+    }
     for (Index v : options_.trackedVertices)
       if (v < (comm_ ? -1 : 0) || v >= owned_)
         throw Error("time stepping: tracked vertex " + std::to_string(v) + " is not " +
                     (comm_ ? "-1 or an owned vertex of the rank (0.." : "a vertex of the mesh (0..") +
                     std::to_string(owned_ - 1) + ")");
-    if (comm_ && parts.basis.rows > 0)
-      throw Error("time stepping: mortar pairs are not distributed (one body against obstacles on ranks)");
+  });
+  if (multi_) {  // collective (the extra ghosts' loads from their owners)
+    A_ = multi_->stack({&systems[0].stiffness, &systems[1].stiffness});
+    f_ = multi_->stack({systems[0].load, systems[1].load}, d);
+    systems.clear();
+    dirichlet_ = multi_->dirichlet();
+    basis_ = multi_->basis();
+  } else {
+    typename ContactModel<d>::Parts& parts = *assembled;
     A_ = std::move(parts.system.stiffness);
     f_ = std::move(parts.system.load);
     dirichlet_ = std::move(parts.system.dirichlet);
-    basis_ = parts.basis;
-  });
-  const ContactSet& contact = assembled->contact;
+    basis_ = std::move(parts.basis);
+  }
+  const ContactSet& contact = multi_ ? multi_->contactSet() : assembled->contact;
   assembleMasses(model, contact);  // collective with redistribution
+  BlockSparseMatrix<d> S;
   collective([&] {
-    BlockSparseMatrix<d> S = stepMatrix(contact);
+    S = stepMatrix(contact);
     contact_ = std::make_unique<ContactSet>(contact);
     friction_ = nodalFriction(model, contact);
     // the model's couplings decide, the same on every rank (a rank may hold no contact node)
@@ -212,13 +291,16 @@ void NewmarkFamily<d>::init(const std::vector<const mesh::Grid*>& grids, Contact
     // A u^{n+1} in every step) read a block number per entry instead of a block (the same values and
     // bits, docs/performance.md#shared-blocks)
     for (BlockSparseMatrix<d>* m : {&A_, &M_, &Mr_, &S_}) m->shareRepeatedBlocks();
-    setupStepProblem(std::move(S));
   });
+  setupStepProblem(std::move(S));  // collective
   frictional_ = anyRank(frictional_);
   typename TNNMG<d>::Options so = tnnmgOptions<d>(options_.solver);
   so.recordHistory = false;
-  if (distributed)
-    solver_ = std::make_unique<TNNMG<d>>(*distributed, so);  // collective
+  if (multi_)  // the stacked distributed hierarchy with the coupling's extra ghosts (collective)
+    solver_ = std::make_unique<TNNMG<d>>(
+        multi_->halo(), so, std::make_unique<LinearMultigrid<d>>(distributed, multi_->extraGhostGlobals(), so.multigrid));
+  else if (!distributed.empty())
+    solver_ = std::make_unique<TNNMG<d>>(*distributed.front(), so);  // collective
   else
     solver_ = grids.size() == 1 ? std::make_unique<TNNMG<d>>(*grids.front(), so) : std::make_unique<TNNMG<d>>(grids, so);
 }
@@ -299,16 +381,22 @@ void NewmarkFamily<d>::assembleMasses(const ContactModel<d>& model, const Contac
   const bool needConsistent = options_.mass == MassKind::Consistent || redistributed;
   // masses body by body, stacked like the stiffness (one body: the body's matrices as they are)
   std::vector<ScalarSparseMatrix> consistentPerBody;
-  lumped_.resize(numVertices_);
-  for (const auto& b : bodies) {
-    lumped_.segment(b.offset, b.mesh->numVertices()) = assembleLumpedMass(*b.mesh, b.material);
-    if (needConsistent) consistentPerBody.push_back(assembleConsistentMass(*b.mesh, b.material));
-  }
-  std::vector<Index> offsets;
-  for (const auto& b : bodies) offsets.push_back(b.offset);
-  ScalarSparseMatrix consistent;
-  if (needConsistent) consistent = stackScalar(consistentPerBody, offsets, numVertices_);
-  M_ = options_.mass == MassKind::Lumped ? expandLumpedMass<d>(lumped_, A_) : expandMass<d>(consistent, A_);
+  lumped_ = Eigen::VectorXd::Zero(numVertices_);
+  collective([&] {
+    for (std::size_t i = 0; i < bodies.size(); ++i) {
+      const Eigen::VectorXd m = assembleLumpedMass(*bodies[i].mesh, bodies[i].material);
+      for (Index v = 0; v < static_cast<Index>(m.size()); ++v) lumped_[bodyVertices_[i][v]] = m[v];
+      if (needConsistent) consistentPerBody.push_back(assembleConsistentMass(*bodies[i].mesh, bodies[i].material));
+    }
+  });
+  // distributed bodies coupled by mortar: the masses of the extra ghosts (the predictor's rows reach
+  // them) and of the body ghosts from their owners
+  if (multi_) halo_->update(lumped_, 1);
+  collective([&] {
+    ScalarSparseMatrix consistent;
+    if (needConsistent) consistent = stackScalar(consistentPerBody, bodyVertices_, numVertices_);
+    M_ = options_.mass == MassKind::Lumped ? expandLumpedMass<d>(lumped_, A_) : expandMass<d>(consistent, A_);
+  });
   if (redistributed) redistributeMasses(model, consistentPerBody, contact);
 }
 
@@ -322,22 +410,30 @@ void NewmarkFamily<d>::redistributeMasses(const ContactModel<d>& model,
   for (Index v : contact.vertices()) massless[static_cast<std::size_t>(v)] = 1;
   for (std::size_t k = 0; k < basis_.columns.size(); ++k)
     if (basis_.values[k] != 0) massless[static_cast<std::size_t>(basis_.columns[k])] = 1;
+  if (multi_) {
+    // a master vertex is coupled by the C rows of its slave vertices, which other ranks may hold:
+    // the flags summed at the owners and sent back to every rank that holds the vertex
+    Eigen::VectorXd flags(numVertices_);
+    for (Index v = 0; v < numVertices_; ++v) flags[v] = massless[static_cast<std::size_t>(v)];
+    halo_->accumulate(flags, 1);
+    halo_->update(flags, 1);
+    for (Index v = 0; v < numVertices_; ++v) massless[static_cast<std::size_t>(v)] = flags[v] > 0 ? 1 : 0;
+  }
   // each body keeps its own mass, centre of gravity and second moments
   std::vector<ScalarSparseMatrix> tilde;
-  std::vector<Index> offsets;
   auto stacked = std::make_unique<RedistributedMass>();
   stacked->massless = massless;
   for (std::size_t i = 0; i < bodies.size(); ++i) {
-    const Index off = bodies[i].offset, n = bodies[i].mesh->numVertices();
-    offsets.push_back(off);
-    std::vector<char> local(massless.begin() + off, massless.begin() + off + n);
+    const std::vector<Index>& at = bodyVertices_[i];
+    std::vector<char> local(at.size());
+    for (std::size_t v = 0; v < at.size(); ++v) local[v] = massless[static_cast<std::size_t>(at[v])];
     if (!anyRank(std::find(local.begin(), local.end(), 1) != local.end())) {
       tilde.push_back(consistentPerBody[i]);  // no contact vertex: nothing to redistribute
       continue;
     }
-    // distributed (one body): global multipliers from the rank's owned rows (collective)
+    // distributed: global multipliers from the rank's owned rows of the body (collective)
     RedistributedMass r = redistributeMass(consistentPerBody[i], bodies[i].mesh->vertices(), d, local,
-                                           options_.redistribution, comm_ ? owned_ : -1, comm_);
+                                           options_.redistribution, bodyOwned_[i], comm_);
     tilde.push_back(std::move(r.matrix));
     const Eigen::Index m = stacked->multipliers.size();
     stacked->multipliers.conservativeResize(m + r.multipliers.size());
@@ -348,7 +444,7 @@ void NewmarkFamily<d>::redistributeMasses(const ContactModel<d>& model,
     stacked->boundedEntries += r.boundedEntries;
     stacked->minimumFactor = std::min(stacked->minimumFactor, r.minimumFactor);
   }
-  stacked->matrix = stackScalar(tilde, offsets, numVertices_);
+  stacked->matrix = stackScalar(tilde, bodyVertices_, numVertices_);
   redistributed_ = std::move(stacked);
   Mr_ = expandMass<d>(redistributed_->matrix, A_);
   const ScalarSparseMatrix& Mt = redistributed_->matrix;
@@ -423,14 +519,25 @@ BlockSparseMatrix<d> NewmarkFamily<d>::stepMatrix(const ContactSet& contact) con
 
 template <int d>
 void NewmarkFamily<d>::setupStepProblem(BlockSparseMatrix<d> S) {
-  const NewmarkScheme scheme = options_.scheme;
-  const ContactSet& contact = *contact_;
   // the step problem is posed for the increment u^{n+1} - base (base = u^n + tau v^n, see step()):
   // its Dirichlet values are zero
   DirichletValues zero = dirichlet_;
   zero.values.setZero();
-  problem_ = std::make_unique<ContactProblem<d>>(std::move(S), Eigen::VectorXd::Zero(numVertices_ * d), zero,
-                                                 *contact_, basis_);
+  if (multi_)  // T'ST summed over the ranks (collective)
+    problem_ = multi_->transformed(S, Eigen::VectorXd::Zero(numVertices_ * d), zero);
+  else
+    collective([&] {
+      problem_ = std::make_unique<ContactProblem<d>>(std::move(S), Eigen::VectorXd::Zero(numVertices_ * d), zero,
+                                                     *contact_, basis_);
+    });
+  collective([&] { setupConstraints(); });
+  if (basis_.rows > 0) setupPredictorRows();  // collective
+}
+
+template <int d>
+void NewmarkFamily<d>::setupConstraints() {
+  const NewmarkScheme scheme = options_.scheme;
+  const ContactSet& contact = *contact_;
   // S = M + c tau^2 A with the lumped (diagonal) M and A positive semidefinite: S - M >= 0, so the
   // lumped masses bound S from below and TNNMG can stop on an a posteriori bound of the error
   // (docs/theory.md#tnnmg-error-bound); not for M~ or the consistent M (not diagonal), nor in mortar
@@ -452,24 +559,90 @@ void NewmarkFamily<d>::setupStepProblem(BlockSparseMatrix<d> S) {
   gaps_.resize(static_cast<std::size_t>(contact.size()));
   for (Index k = 0; k < contact.size(); ++k) gaps_[static_cast<std::size_t>(k)] = contact.gap(k);
   multiplierFactor_ = scheme == NewmarkScheme::Classical ? 0.25 : 0.5;
+}
 
+template <int d>
+std::vector<double> NewmarkFamily<d>::gatherRows(const std::vector<double>& own, int width) const {
+  if (!comm_) return own;
+  const std::vector<std::vector<double>> got =
+      comm_->exchange(std::vector<std::vector<double>>(static_cast<std::size_t>(comm_->size()), own));
+  std::vector<double> all;
+  all.reserve(rows_ ? rows_->rows.size() * static_cast<std::size_t>(width) : own.size());
+  for (const auto& part : got) all.insert(all.end(), part.begin(), part.end());
+  return all;
+}
+
+template <int d>
+void NewmarkFamily<d>::setupPredictorRows() {
   // mortar: the rows of B for the predictor (a Dirichlet component of a slave vertex is orthogonal
-  // to its direction, ContactProblem::basisSkip(), so it adds nothing to the row)
-  if (basis_.rows > 0) {
-    rows_.resize(constraints_.size());
+  // to its direction, ContactProblem::basisSkip(), so it adds nothing to the row). Each rank packs
+  // the rows of its owned bounded constraints: direction, diagonal (from its held masses), and per
+  // entry the global vertex, coefficient, lumped mass and Dirichlet components; every rank gets all
+  auto rows = std::make_unique<PredictorRows>();
+  std::vector<double> pack;
+  std::vector<Index> global;  // the stepper's global index of a local vertex
+  collective([&] {
     for (std::size_t k = 0; k < constraints_.size(); ++k) {
       const auto& cn = constraints_[k];
-      if (!cn.bounded()) continue;
-      MortarRow& row = rows_[k];
-      row.entries.emplace_back(cn.vertex, 1.0);
+      if (!cn.bounded() || cn.vertex >= owned_) continue;
+      rows->own.push_back(k);
+      std::vector<std::pair<Index, double>> entries{{cn.vertex, 1.0}};
       for (Index m = basis_.rowStart[cn.vertex]; m < basis_.rowStart[cn.vertex + 1]; ++m)
-        if (basis_.values[m] != 0) row.entries.emplace_back(basis_.columns[m], -basis_.values[m]);
-      for (const auto& [v, coef] : row.entries)
+        if (basis_.values[m] != 0) entries.emplace_back(basis_.columns[m], -basis_.values[m]);
+      double diagonal = 0;
+      for (const auto& [v, coef] : entries)
         for (int a = 0; a < d; ++a)
           if (!dirichlet_.constrained[static_cast<std::size_t>(v) * d + a])
-            row.diagonal += coef * coef * cn.direction[a] * cn.direction[a] / lumped_[v];
+            diagonal += coef * coef * cn.direction[a] * cn.direction[a] / lumped_[v];
+      for (int a = 0; a < d; ++a) pack.push_back(cn.direction[a]);
+      pack.push_back(diagonal);
+      pack.push_back(static_cast<double>(entries.size()));
+      for (const auto& [v, coef] : entries) {
+        unsigned fixed = 0;
+        for (int a = 0; a < d; ++a)
+          if (dirichlet_.constrained[static_cast<std::size_t>(v) * d + a]) fixed |= 1u << a;
+        pack.push_back(static_cast<double>(multi_ ? multi_->global()[v] : v));
+        pack.push_back(coef);
+        pack.push_back(lumped_[v]);
+        pack.push_back(static_cast<double>(fixed));
+      }
     }
+  });
+  std::vector<std::vector<double>> all;
+  if (comm_) {
+    all = comm_->exchange(std::vector<std::vector<double>>(static_cast<std::size_t>(comm_->size()), pack));
+  } else {
+    all.push_back(std::move(pack));
   }
+  collective([&] {
+    std::unordered_map<Index, Index> compact;  // global vertex -> compact index
+    std::unordered_map<Index, Index> held;     // global vertex -> the stepper's index
+    if (multi_)
+      for (Index v = 0; v < numVertices_; ++v) held.emplace(multi_->global()[v], v);
+    for (std::size_t r = 0; r < all.size(); ++r) {
+      if (comm_ && static_cast<int>(r) == comm_->rank()) rows->first = rows->rows.size();
+      const std::vector<double>& x = all[r];
+      for (std::size_t i = 0; i < x.size();) {
+        typename PredictorRows::Row row;
+        for (int a = 0; a < d; ++a) row.direction[a] = x[i++];
+        row.diagonal = x[i++];
+        const auto count = static_cast<std::size_t>(x[i++]);
+        for (std::size_t e = 0; e < count; ++e, i += 4) {
+          const auto g = static_cast<Index>(x[i]);
+          const auto [it, added] = compact.try_emplace(g, static_cast<Index>(rows->mass.size()));
+          if (added) {
+            rows->mass.push_back(x[i + 2]);
+            rows->fixed.push_back(static_cast<std::uint8_t>(x[i + 3]));
+            const auto h = multi_ ? held.find(g) : held.end();
+            rows->local.push_back(!multi_ ? g : h != held.end() ? h->second : -1);
+          }
+          row.entries.emplace_back(it->second, x[i + 1]);
+        }
+        rows->rows.push_back(std::move(row));
+      }
+    }
+  });
+  rows_ = std::move(rows);
 }
 
 template <int d>
@@ -479,25 +652,39 @@ Eigen::VectorXd NewmarkFamily<d>::relative(const Eigen::VectorXd& u) const {
 
 template <int d>
 Eigen::VectorXd NewmarkFamily<d>::physicalForce(const Eigen::VectorXd& y) const {
-  return problem_->applyInverseTransposedBasis(y);
+  // distributed bodies: the slave rows' parts summed at the masters' owners (collective)
+  return multi_ ? multi_->transposedProduct(y, -1.0) : problem_->applyInverseTransposedBasis(y);
 }
 
 template <int d>
 Eigen::VectorXd NewmarkFamily<d>::predictorCorrection(const Predictor& P, const std::vector<double>& weight) const {
   Eigen::VectorXd z = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(numVertices_) * d);
-  for (std::size_t k = 0; k < constraints_.size(); ++k) {
-    if (!P.active[k] || weight[k] == 0) continue;
-    const auto& c = constraints_[k];
-    if (basis_.rows == 0) {
+  if (basis_.rows == 0) {
+    for (std::size_t k = 0; k < constraints_.size(); ++k) {
+      if (!P.active[k] || weight[k] == 0) continue;
+      const auto& c = constraints_[k];
       z.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d) += weight[k] * P.delta[k] * c.direction;
-      continue;
     }
-    for (const auto& [v, coef] : rows_[k].entries)
-      for (int a = 0; a < d; ++a) {
-        const std::size_t i = static_cast<std::size_t>(v) * d + a;
-        if (!dirichlet_.constrained[i]) z[static_cast<Eigen::Index>(i)] -= weight[k] * P.mu[k] * coef * c.direction[a] / lumped_[v];
-      }
+    return z;
   }
+  // mortar: -M^{-1} B'(w mu) over the rows of every rank (the weights of the others' rows gathered),
+  // in row order on the rows' vertices, then at the vertices this rank holds
+  const PredictorRows& R = *rows_;
+  std::vector<double> own(R.own.size());
+  for (std::size_t j = 0; j < R.own.size(); ++j) own[j] = P.active[R.own[j]] ? weight[R.own[j]] : 0.0;
+  const std::vector<double> w = gatherRows(own, 1);  // collective
+  Eigen::VectorXd y = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(R.mass.size()) * d);
+  for (std::size_t j = 0; j < R.rows.size(); ++j) {
+    if (P.rowMu[j] <= 0 || w[j] == 0) continue;
+    const auto& row = R.rows[j];
+    for (const auto& [v, coef] : row.entries)
+      for (int a = 0; a < d; ++a)
+        if (!(R.fixed[static_cast<std::size_t>(v)] & (1u << a)))
+          y[static_cast<Eigen::Index>(v) * d + a] -= w[j] * P.rowMu[j] * coef * row.direction[a] / R.mass[static_cast<std::size_t>(v)];
+  }
+  for (std::size_t v = 0; v < R.local.size(); ++v)
+    if (R.local[v] >= 0)
+      z.template segment<d>(static_cast<Eigen::Index>(R.local[v]) * d) = y.template segment<d>(static_cast<Eigen::Index>(v) * d);
   return z;
 }
 
@@ -580,17 +767,27 @@ void NewmarkFamily<d>::checkInitialized() const {
 template <int d>
 void NewmarkFamily<d>::initialize(const Eigen::VectorXd& u0, const Eigen::VectorXd& v0) {
   const Eigen::Index n = static_cast<Eigen::Index>(numVertices_) * d;
-  collective([&] { checkInitialState(u0, v0); });
-  const double tol = activeTolerance(u0);  // collective
-  collective([&] { checkInitialContact(u0, tol); });
-  state_ = DynamicState{0, 0.0, u0, v0, Eigen::VectorXd()};
+  collective([&] {
+    if (u0.size() != n || v0.size() != n)
+      throw Error("time stepping: initial state with " + std::to_string(u0.size()) + " / " +
+                  std::to_string(v0.size()) + " entries, the problem has " + std::to_string(n) + " unknowns");
+  });
+  Eigen::VectorXd u = u0, v = v0;
+  if (multi_) {  // the extra ghosts' values from their owners
+    updateGhosts(u);
+    updateGhosts(v);
+  }
+  collective([&] { checkInitialState(u, v); });
+  const double tol = activeTolerance(u);  // collective
+  collective([&] { checkInitialContact(u, tol); });
+  state_ = DynamicState{0, 0.0, u, v, Eigen::VectorXd()};
   frictionDissipation_ = 0;
   previousMultiplier_ = Eigen::VectorXd::Zero(n);
   multiplier_ = Eigen::VectorXd::Zero(n);
   previousVelocity_.resize(0);
   nextTolerance_ = 0;
   previousIncrement_.resize(0);
-  if (options_.scheme == NewmarkScheme::KhenousLabordeRenard) state_.a = initialAcceleration(u0);
+  if (options_.scheme == NewmarkScheme::KhenousLabordeRenard) state_.a = initialAcceleration(u);
   initialized_ = true;
   A_.multiply(state_.u, Au_);
   last_ = makeRecord();
@@ -735,57 +932,74 @@ void NewmarkFamily<d>::computePredictor(Predictor& P) const {
     return;
   }
   // mortar: min 1/2 |z|_M^2 subject to B(y + z) <= g, y = u^n + tau v^n, by projected Gauss-Seidel on
-  // the multipliers (Hildreth): z = -M^{-1} B'mu, mu_k <- max(0, mu_k + (B(y + z) - g)_k / G_kk)
+  // the multipliers (Hildreth): z = -M^{-1} B'mu, mu_k <- max(0, mu_k + (B(y + z) - g)_k / G_kk).
+  // The rows of every rank (PredictorRows), their r and vn from the ranks that own them: every rank
+  // runs the same iteration on the same values (serial: the constraints' rows in their order)
   P.mu.assign(nc, 0.0);
-  std::vector<double> r(nc, 0.0), vn(nc, 0.0);  // r_k = g_k - (B y)_k
-  double scale = 0, worst = 0;
-  for (std::size_t k = 0; k < nc; ++k) {
-    const auto& c = constraints_[k];
-    if (!c.bounded()) continue;
+  const PredictorRows& R = *rows_;
+  std::vector<double> own(3 * R.own.size());  // r_k = g_k - (B y)_k, vn_k, g_k
+  for (std::size_t j = 0; j < R.own.size(); ++j) {
+    const auto& c = constraints_[R.own[j]];
     const auto i = static_cast<Eigen::Index>(c.vertex) * d;
-    vn[k] = c.direction.dot(w.template segment<d>(i));
-    r[k] = c.gap - c.direction.dot(x.template segment<d>(i)) - tau * vn[k];
-    scale = std::max({scale, std::abs(c.gap), std::abs(tau * vn[k])});
-    worst = std::max(worst, -r[k]);
+    own[3 * j + 1] = c.direction.dot(w.template segment<d>(i));
+    own[3 * j] = c.gap - c.direction.dot(x.template segment<d>(i)) - tau * own[3 * j + 1];
+    own[3 * j + 2] = c.gap;
   }
-  if (worst <= 0) return;  // y is admissible: z = 0
+  const std::vector<double> rv = gatherRows(own, 3);  // collective
+  const std::size_t nr = R.rows.size();
+  P.rowMu.assign(nr, 0.0);
+  double scale = 0, worst = 0;
+  for (std::size_t j = 0; j < nr; ++j) {
+    scale = std::max({scale, std::abs(rv[3 * j + 2]), std::abs(tau * rv[3 * j + 1])});
+    worst = std::max(worst, -rv[3 * j]);
+  }
   const double tol = options_.predictorTolerance * std::max(scale, 1e-300);
-  Eigen::VectorXd z = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(numVertices_) * d);
-  auto rowValue = [&](std::size_t k) {  // (B z)_k
+  const double touch = activeTolerance(state_.u + tau * state_.v);  // collective
+  Eigen::VectorXd z = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(R.mass.size()) * d);
+  auto rowValue = [&](std::size_t j) {  // (B z)_j
     double s = 0;
-    for (const auto& [v, coef] : rows_[k].entries)
-      s += coef * constraints_[k].direction.dot(z.template segment<d>(static_cast<Eigen::Index>(v) * d));
+    for (const auto& [v, coef] : R.rows[j].entries)
+      s += coef * R.rows[j].direction.dot(z.template segment<d>(static_cast<Eigen::Index>(v) * d));
     return s;
   };
-  int sweep = 0;
-  for (;; ++sweep) {
+  std::vector<double>& mu = P.rowMu;
+  // y admissible up to the iteration's tolerance: z = 0 (a violation of round-off size would give
+  // multipliers of round-off size, whose support depends on the order of the rows)
+  for (int sweep = 0; worst > tol; ++sweep) {
     if (sweep >= options_.maxPredictorSweeps)
       throw Error("time stepping: step " + std::to_string(state_.step + 1) + ": the contact predictor did not converge in " +
                   std::to_string(sweep) + " sweeps (constraint residual " + num(worst) + ")");
     double change = 0;
-    for (std::size_t k = 0; k < nc; ++k) {
-      if (!constraints_[k].bounded() || rows_[k].diagonal <= 0) continue;
-      const double violation = rowValue(k) - r[k];  // (B(y + z) - g)_k
-      const double next = std::max(0.0, P.mu[k] + violation / rows_[k].diagonal);
-      const double dmu = next - P.mu[k];
+    for (std::size_t j = 0; j < nr; ++j) {
+      const auto& row = R.rows[j];
+      if (row.diagonal <= 0) continue;
+      const double violation = rowValue(j) - rv[3 * j];  // (B(y + z) - g)_j
+      const double next = std::max(0.0, mu[j] + violation / row.diagonal);
+      const double dmu = next - mu[j];
       if (dmu == 0) continue;
-      P.mu[k] = next;
-      change = std::max(change, std::abs(dmu) * rows_[k].diagonal);
-      const auto& dir = constraints_[k].direction;
-      for (const auto& [v, coef] : rows_[k].entries)
-        for (int a = 0; a < d; ++a) {
-          const std::size_t i = static_cast<std::size_t>(v) * d + a;
-          if (!dirichlet_.constrained[i]) z[static_cast<Eigen::Index>(i)] -= dmu * coef * dir[a] / lumped_[v];
-        }
+      mu[j] = next;
+      change = std::max(change, std::abs(dmu) * row.diagonal);
+      for (const auto& [v, coef] : row.entries)
+        for (int a = 0; a < d; ++a)
+          if (!(R.fixed[static_cast<std::size_t>(v)] & (1u << a)))
+            z[static_cast<Eigen::Index>(v) * d + a] -= dmu * coef * row.direction[a] / R.mass[static_cast<std::size_t>(v)];
     }
     worst = change;
     if (change <= tol) break;
   }
-  for (std::size_t k = 0; k < nc; ++k) {
-    if (!constraints_[k].bounded() || P.mu[k] <= 0) continue;
+  // a row is active for the predictor if the projected predictor lies on its constraint, with the
+  // tolerance of the solution's active set (as for obstacles: also a row that y touches without a
+  // multiplier; not the sign of a multiplier, which is round-off for rows the projection barely moves)
+  for (std::size_t j = 0; j < R.own.size(); ++j) {
+    const std::size_t k = R.own[j], row = R.first + j;
+    const double moved = rowValue(row);  // (B z)_k: the change of the normal jump
+    if (rv[3 * row] - moved > touch) continue;  // g - B(y + z) > 0: apart
+    P.mu[k] = mu[row];
     P.active[k] = 1;
-    P.delta[k] = rowValue(k);  // change of the normal jump, = (tau* - tau) [v]_nu at an active node
-    P.tauStar[k] = vn[k] > 0 ? std::clamp(tau + P.delta[k] / vn[k], 0.0, tau) : 0.0;
+    if (moved >= 0) continue;  // touching: delta = 0, tau* = tau (no impact inside the step)
+    P.delta[k] = moved;  // = (tau* - tau) [v]_nu
+    const double vn = own[3 * j + 1];
+    P.tauStar[k] = vn > 0 ? std::clamp(tau + moved / vn, 0.0, tau) : 0.0;
   }
 }
 
@@ -843,9 +1057,22 @@ StepRecord NewmarkFamily<d>::step() {
       else if (un >= gk - tol)
         g[static_cast<std::size_t>(k)] = un - bn;
     }
-    problem_->setGaps(g);
+    if (multi_) {
+      // (I - C) is exact at the owned vertices only (an extra ghost has no row of C): the ghosts'
+      // bounds from their owners (the solver projects every held vertex onto its bound)
+      Eigen::VectorXd at = Eigen::VectorXd::Zero(numVertices_);
+      for (Index k = 0; k < contact_->size(); ++k)
+        if (contact_->vertex(k) < owned_) at[contact_->vertex(k)] = g[static_cast<std::size_t>(k)];
+      halo_->update(at, 1);
+      for (Index k = 0; k < contact_->size(); ++k) g[static_cast<std::size_t>(k)] = at[contact_->vertex(k)];
+    }
+    collective([&] { problem_->setGaps(g); });
   }
-  problem_->setLoad(rhs - S_ * base);
+  // T'(rhs - S base): distributed bodies sum the slave rows' parts at the masters' owners
+  if (multi_)
+    problem_->setLoad(multi_->transposedProduct(rhs - S_ * base), typename ContactProblem<d>::Transformed{});
+  else
+    problem_->setLoad(rhs - S_ * base);
 
   // inexact solves: the tolerance predicted from the previous step (docs/theory.md#dynamic-inexact-solves)
   const bool inexact = options_.inexactFraction > 0;
@@ -878,7 +1105,8 @@ StepRecord NewmarkFamily<d>::step() {
                   " Tresca solves (last relative change of the slip bounds " + num(fr.changes.back()) +
                   (fr.contracting ? "" : "; the iteration did not contract: mu may be too large") + ")");
   }
-  const Eigen::VectorXd unew = base + (basis_.rows > 0 ? problem_->toDisplacement(increment) : increment);
+  Eigen::VectorXd unew = base + (basis_.rows > 0 ? problem_->toDisplacement(increment) : increment);
+  if (multi_) updateGhosts(unew);  // an extra ghost has no row of C
   if (!result.converged)
     throw Error("time stepping: step " + std::to_string(state_.step + 1) + " (t = " + num(state_.time + tau) +
                 "): TNNMG did not converge in " + std::to_string(result.iterations) + " iterations (correction " +
@@ -894,6 +1122,7 @@ StepRecord NewmarkFamily<d>::step() {
     if (c.bounded())
       multiplier_.template segment<d>(static_cast<Eigen::Index>(c.vertex) * d) += mu[static_cast<Eigen::Index>(k)] * c.direction;
   }
+  updateGhosts(multiplier_);  // distributed: the owned rows are complete, a ghost's are not
 
   // velocity
   Eigen::VectorXd vnew;

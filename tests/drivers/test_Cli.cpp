@@ -385,13 +385,13 @@ TEST_F(Cli, MpirunRunsStaticScenesDistributed) {
   EXPECT_NEAR(pf2["stick_width"].get<double>(), pf1["stick_width"].get<double>(), 1e-12);
 
   // what is not distributed yet stops every rank with one line
-  const std::string dynamics = (fs::path(OBS_DATA_DIR) / "scenes" / "dynamics_two_body.toml").string();
-  const Output e = runObs("run '" + dynamics + "' --refine 1 --output out_mpi_refused", "mpirun_refused", mpirun);
+  const std::string adaptive = (fs::path(OBS_DATA_DIR) / "scenes" / "twobody_hertz_adaptive.toml").string();
+  const Output e = runObs("run '" + adaptive + "' --refine 1 --output out_mpi_refused", "mpirun_refused", mpirun);
   EXPECT_EQ(e.code, 1);
   std::size_t errors = 0;  // obs' own lines (mpirun adds its report of the exit code)
   for (std::size_t at = e.err.find("obs: error:"); at != std::string::npos; at = e.err.find("obs: error:", at + 1)) ++errors;
   EXPECT_EQ(errors, 1u) << e.err;
-  EXPECT_NE(e.err.find("[dynamics]"), std::string::npos) << e.err;
+  EXPECT_NE(e.err.find("[adaptivity]"), std::string::npos) << e.err;
 }
 
 /// A table (timeseries.csv, steps.csv): the header's columns and the rows' values (empty cells and
@@ -463,7 +463,8 @@ TEST_F(Cli, MpirunRunsDynamicScenesDistributed) {
   };
   for (const Run& run : {Run{"dynamics_block.toml", "--set 'dynamics.scheme=\"khenous-laborde-renard\"' --set dynamics.steps=80", 2},
                          Run{"dynamics_ball.toml", "--set dynamics.steps=60", 3},
-                         Run{"dynamics_sliding_block.toml", "--set dynamics.steps=40", 2}}) {
+                         Run{"dynamics_sliding_block.toml", "--set dynamics.steps=40", 2},
+                         Run{"dynamics_two_body.toml", "--refine 3 --set dynamics.steps=40", 3}}) {
     SCOPED_TRACE(run.scene);
     const std::string scene = (fs::path(OBS_DATA_DIR) / "scenes" / run.scene).string();
     const std::string name = fs::path(run.scene).stem().string();
@@ -502,7 +503,7 @@ TEST_F(Cli, MpirunRunsDynamicScenesDistributed) {
       }
       active = std::max(active, a.at(r, "active_solution"));
     }
-    EXPECT_GT(active, 0) << "the body must touch the obstacle";
+    EXPECT_GT(active, 0) << "the body must touch the obstacle (or the other body)";
     const nlohmann::json jd = json(dd / "summary.json"), js = json(ds / "summary.json");
     EXPECT_EQ(jd["ranks"], run.ranks);
     for (const char* key : {"dofs", "free_dofs", "vertices", "cells"}) EXPECT_EQ(jd[key], js[key]) << key;
@@ -524,7 +525,15 @@ TEST_F(Cli, MpirunRunsDynamicScenesDistributed) {
     vtkNew<vtkXMLPUnstructuredGridReader> reader;
     reader->SetFileName((dd / last).string().c_str());
     reader->Update();
-    EXPECT_EQ(reader->GetOutput()->GetNumberOfCells(), js["cells"].get<long long>());
+    // (two bodies: the last body's file of the last time)
+    const long long cells = js.contains("bodies") ? js["bodies"].back()["cells"].get<long long>() : js["cells"].get<long long>();
+    EXPECT_EQ(reader->GetOutput()->GetNumberOfCells(), cells);
+    if (js.contains("bodies")) {
+      ASSERT_EQ(jd["bodies"].size(), js["bodies"].size());
+      for (std::size_t b = 0; b < js["bodies"].size(); ++b)
+        for (const char* key : {"vertices", "cells"}) EXPECT_EQ(jd["bodies"][b][key], js["bodies"][b][key]) << key;
+      EXPECT_TRUE(jd["balance"].contains("extra_ghosts"));
+    }
     ASSERT_NE(reader->GetOutput()->GetPointData()->GetArray("contact_state"), nullptr);
   }
   // checkpoints (docs/checkpoint.md#rows): the ball stopped after step 30 on 2 ranks (one file,

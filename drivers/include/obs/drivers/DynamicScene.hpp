@@ -66,15 +66,20 @@ RunResult runDynamicScene(const Scene& scene, const std::vector<const mesh::Grid
                           const RunOptions& options, RunResult result, std::chrono::steady_clock::time_point start);
 
 /// The same on the ranks of a distributed run (`mpirun -np N obs run`, docs/architecture.md#distributed-dynamics):
-/// one body on `grid`, the scene's obstacle coupling (with friction) on the rank's leaf view
-/// `leaf` (its local mesh; `bc` its boundary conditions), integrated by NewmarkFamily on the
-/// DistributedGrid. Every rank holds the same step records; rank 0 writes the time series, the .pvd
-/// of the .pvtu files and summary.json (with "ranks", the memory per rank and "balance"), every rank
-/// its piece of each .vtu. Checkpoints: one file from all ranks, the state as rows keyed by vertex
-/// (docs/checkpoint.md#rows), and --restart from a file of any number of ranks. Collective; errors
-/// reach every rank. Refused (obs::Error): several bodies.
-RunResult runDistributedDynamicScene(const Scene& scene, const DistributedGrid& grid, const DistributedView& leaf,
-                                     const BoundaryConditions& bc, const RunOptions& options, RunResult result,
-                                     std::chrono::steady_clock::time_point start);
+/// body i on grids[i] with the rank's leaf view leaves[i] (its local mesh; bcs[i] its boundary
+/// conditions, resolved on coarseMeshes[i], the body's coarse mesh, as the couplings' boundaries),
+/// integrated by NewmarkFamily on the DistributedGrids: one body with the scene's obstacle coupling
+/// (with friction), or two bodies with one frictionless mortar pair (DistributedMortar and
+/// DistributedMultiBody, whose numbering is the stacked one). Every rank holds the same step
+/// records; rank 0 writes the time series, the .pvd of the .pvtu files and summary.json (with
+/// "ranks", the memory per rank and "balance"), every rank its piece of each .vtu. Checkpoints: one
+/// file from all ranks, the state as rows keyed by vertex (docs/checkpoint.md#rows), and --restart
+/// from a file of any number of ranks. Collective; errors reach every rank. Refused (obs::Error):
+/// other numbers of bodies and couplings.
+RunResult runDistributedDynamicScene(const Scene& scene, const std::vector<const DistributedGrid*>& grids,
+                                     const std::vector<const DistributedView*>& leaves,
+                                     const std::vector<const mesh::Mesh*>& coarseMeshes,
+                                     const std::vector<BoundaryConditions>& bcs, const RunOptions& options,
+                                     RunResult result, std::chrono::steady_clock::time_point start);
 
 }  // namespace obs::drivers

@@ -222,6 +222,9 @@ public:
   /// constructor's load; the Dirichlet values of construction are eliminated again). Throws
   /// obs::Error on a wrong size.
   void setLoad(const Eigen::VectorXd& load);
+  /// The same with T'b given instead of b (the transformed constructor's load; e.g. summed over
+  /// the ranks, DistributedMultiBody::transposedProduct): only the Dirichlet elimination is applied.
+  void setLoad(const Eigen::VectorXd& load, Transformed);
   /// Replaces the gaps g_p of the physical constraints nu_p'u_p <= g_p (ContactSet numbering;
   /// +infinity: no constraint at that node). Directions and rotations stay those of construction,
   /// so operatorId() is unchanged. Throws obs::Error on a wrong size, a NaN or -infinity gap, a

@@ -27,6 +27,8 @@
 /// the rotations act as in one process.
 #include <Eigen/Core>
 
+#include <cstdint>
+#include <functional>
 #include <memory>
 #include <unordered_map>
 #include <vector>
@@ -93,7 +95,55 @@ public:
   /// u = (I + C) x on the held vertices (ContactProblem::toDisplacement; the ghosts of x current).
   Eigen::VectorXd toDisplacement(const Eigen::VectorXd& x) const { return problem_->toDisplacement(x); }
 
+  // --- other operators on the same bodies and pair (time stepping, docs/architecture.md#distributed-dynamics) ---
+  /// The slave and master body of the pair.
+  int slaveBody() const { return slave_; }
+  int masterBody() const { return master_; }
+  /// The first extra ghost (local index): the vertices below it are the bodies' owned and ghost
+  /// vertices.
+  Index firstExtraGhost() const { return firstExtra_; }
+  /// The constraints of all held slave vertices (the problem's contact set), the local rows of C
+  /// (at the owned and ghost slave vertices; none at extra ghosts) and the Dirichlet data of the
+  /// held vertices (from their owners), all in the local numbering.
+  const ContactSet& contactSet() const { return problem_->contactSet(); }
+  const mesh::CsrMatrix& basis() const { return problem_->basisTransformation(); }
+  const DirichletValues& dirichlet() const { return dirichlet_; }
+  /// Body matrices (each on its view's local mesh, rows of owned vertices complete) as one matrix
+  /// in this local numbering (numLocal() rows; an extra ghost's row one zero diagonal block).
+  BlockSparseMatrix<d> stack(const std::vector<const BlockSparseMatrix<d>*>& bodies) const;
+  /// Body vectors (`components` values per vertex, each in its view's local numbering) as one
+  /// vector in this numbering; the extra ghosts' values from their owners (collective). The inverse
+  /// of bodyPart().
+  Eigen::VectorXd stack(const std::vector<Eigen::VectorXd>& bodies, int components) const;
+  /// The transformed problem of another operator of the bodies (collective): `stacked` in this
+  /// numbering with complete owned rows whose columns the constructor's operator also couples
+  /// (e.g. a time step's M + c tau^2 A on the stiffness' pattern), `load` likewise, `dirichlet`
+  /// in this numbering (e.g. dirichlet() with other values). T'AT and T'b are summed as by the
+  /// constructor; the problem has this contact set and C. Throws obs::Error on every rank if a term
+  /// couples a vertex this rank does not hold.
+  std::unique_ptr<ContactProblem<d>> transformed(const BlockSparseMatrix<d>& stacked, const Eigen::VectorXd& load,
+                                                 const DirichletValues& dirichlet) const;
+  /// (I + sign C')y of a vector y in this numbering whose owned entries are complete (its ghost
+  /// entries are ignored): sign = 1 gives T'y (a load on the transformed unknowns), sign = -1 the
+  /// forces (I - C')y on the displacements of forces y on the transformed unknowns. The owned
+  /// entries complete, the ghosts' those of their owners (collective).
+  Eigen::VectorXd transposedProduct(const Eigen::VectorXd& y, double sign = 1.0) const;
+
 private:
+  /// A matrix and load whose owned rows enter T'AT and T'b: a body's (body >= 0, its view's local
+  /// numbering) or a stacked one (body = -1, this numbering).
+  struct Source {
+    const BlockSparseMatrix<d>* matrix = nullptr;
+    const Eigen::VectorXd* load = nullptr;
+    int body = -1;
+  };
+  /// T'AT (this rank's owned rows; ghost rows identity rows) and T'b (owned rows) of the sources'
+  /// owned rows, summed over the ranks (collective). `localOf` gives the local index of a stacked
+  /// global one, -1 if the rank does not hold it (an obs::Error on every rank); the constructor's
+  /// makes such columns extra ghosts. `received`: the count of blocks other ranks sent.
+  void transform(const std::vector<Source>& sources, const std::function<Index(Index)>& localOf,
+                 BlockSparseMatrix<d>& out, Eigen::VectorXd& load, Index* received = nullptr) const;
+
   std::vector<DistributedBody<d>> bodies_;
   std::vector<Index> rankOffset_;                 ///< first stacked global index per rank (+ total)
   std::vector<std::vector<Index>> ownedCounts_;   ///< per body, per rank
@@ -104,6 +154,12 @@ private:
   std::unique_ptr<HaloExchange> halo_;
   std::unique_ptr<ContactProblem<d>> problem_;
   Index receivedTerms_ = 0;
+  int slave_ = 0, master_ = 1;
+  /// rows of C at the held slave vertices (stacked global columns; firstExtra_ rows) and the
+  /// components the transformation leaves alone (ContactProblem::basisSkip())
+  std::vector<std::vector<std::pair<Index, double>>> crow_;
+  std::vector<std::uint8_t> skip_;
+  DirichletValues dirichlet_;
 };
 
 extern template class DistributedMultiBody<2>;

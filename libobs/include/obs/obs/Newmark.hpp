@@ -88,6 +88,7 @@
 #include "obs/obs/ContactProblem.hpp"
 #include "obs/obs/ContactSet.hpp"
 #include "obs/obs/DistributedGrid.hpp"
+#include "obs/obs/DistributedMultiBody.hpp"
 #include "obs/obs/Friction.hpp"
 #include "obs/obs/MassMatrix.hpp"
 #include "obs/obs/MassRedistribution.hpp"
@@ -318,6 +319,18 @@ public:
   /// a body on another mesh.
   NewmarkFamily(const DistributedGrid& grid, const DistributedView& leaf, ContactModel<d>& model,
                 const NewmarkOptions& options);
+  /// Distributed, any number of bodies (collective; the constructor above is this one with one
+  /// body): body i of `model` on grids[i], its mesh the rank's local mesh leaves[i]->local of its leaf
+  /// view. One body: obstacle couplings as above. Two bodies: `coupled` is the DistributedMultiBody
+  /// of these views and of the model's one mortar pair (the only coupling; frictionless), built
+  /// from any systems of the bodies (only its numbering, constraints and C are used); its local
+  /// numbering is the stepper's (vectors have coupled->numLocal() vertices, tracked vertices are
+  /// its owned local indices). Grids, views and `coupled` must outlive the stepper. Throws, on
+  /// every rank, what the serial constructors throw, and obs::Error for bodies on other meshes, a
+  /// coupling the distributed stepper does not take, or friction on a mortar pair.
+  NewmarkFamily(const std::vector<const DistributedGrid*>& grids, const std::vector<const DistributedView*>& leaves,
+                ContactModel<d>& model, const NewmarkOptions& options,
+                const DistributedMultiBody<d>* coupled = nullptr);
   ~NewmarkFamily() override;
 
   std::string name() const override { return std::string(obs::name(options_.scheme)); }
@@ -369,9 +382,14 @@ public:
 
 private:
   struct Predictor;
-  struct MortarRow;
+  struct PredictorRows;
   void init(const std::vector<const mesh::Grid*>& grids, ContactModel<d>& model,
-            const DistributedGrid* distributed = nullptr);
+            const std::vector<const DistributedGrid*>& distributed = {});
+  /// The mortar predictor's constraint rows of every rank (setupStepProblem; collective).
+  void setupPredictorRows();
+  /// Values per owned predictor row (`width` each, in the rank's row order) of every rank, in the
+  /// order of PredictorRows::rows (serial: the values themselves; collective).
+  std::vector<double> gatherRows(const std::vector<double>& own, int width) const;
   /// Runs local work so that an error on one rank reaches every rank (Communicator::collective)
   /// instead of leaving the others in the next reduction; serially the work alone.
   void collective(const std::function<void()>& work) const;
@@ -400,6 +418,8 @@ private:
                           const ContactSet& contact);
   BlockSparseMatrix<d> stepMatrix(const ContactSet& contact) const;
   void setupStepProblem(BlockSparseMatrix<d> S);
+  /// The effective constraints for u and the gaps (setupStepProblem, local work).
+  void setupConstraints();
   void checkInitialized() const;
   /// x = (I - C) u (a copy of u without mortar pairs).
   Eigen::VectorXd relative(const Eigen::VectorXd& u) const;
@@ -435,7 +455,7 @@ private:
   Eigen::VectorXd frictionForces_;  ///< frictionForces()
   std::vector<char> frictionStates_;  ///< frictionStates()
   mesh::CsrMatrix basis_;          ///< C of the mortar pairs (rows() == 0: none)
-  std::vector<MortarRow> rows_;    ///< mortar: the constraint rows B of the predictor, per contact node
+  std::unique_ptr<PredictorRows> rows_;  ///< mortar: the constraint rows B of the predictor
   DynamicState state_;
   bool initialized_ = false;
   Eigen::VectorXd previousMultiplier_;  ///< classical: tau^2/4 M F_con^n as a nodal vector
@@ -451,6 +471,12 @@ private:
   const Communicator* comm_ = nullptr;
   const HaloExchange* halo_ = nullptr;
   Index owned_ = 0;
+  /// Distributed bodies coupled by mortar: their numbering, constraints and C (null otherwise).
+  const DistributedMultiBody<d>* multi_ = nullptr;
+  /// The stepper's (stacked) index of each body vertex, and each body's owned vertices (its first
+  /// ones in its own numbering; serial: -1).
+  std::vector<std::vector<Index>> bodyVertices_;
+  std::vector<Index> bodyOwned_;
 };
 
 /// A stepper by scheme (the factory of scene files).
