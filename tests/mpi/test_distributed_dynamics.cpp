@@ -233,8 +233,7 @@ obs::ContactModel<d> blocksModel(const obs::mesh::Mesh& lower, const obs::mesh::
   obs::ContactModel<d> model;
   model.addBody("lower", lower, obs::Material{2e3, 0.3, 1.0}, {});
   model.addBody("upper", upper, obs::Material{1e3, 0.25, 2.0}, {});
-  const int top = d == 2 ? obs::mesh::kTop : obs::mesh::kTop;
-  model.addMortarPair(1, d == 2 ? obs::mesh::kBottom : obs::mesh::kBottom, 0, top, "upper/lower");
+  model.addMortarPair(1, obs::mesh::kBottom, 0, obs::mesh::kTop, "upper/lower");
   return model;
 }
 
@@ -399,6 +398,36 @@ TEST(DistributedDynamics, TwoBodies3dFollowTheSerialSeries) {
   for (NewmarkScheme s : {NewmarkScheme::ImprovedContactStabilized, NewmarkScheme::Classical,
                           NewmarkScheme::KhenousLabordeRenard})
     expectSerialCollision<3>(c, s);
+}
+
+/// Two bodies: a pair without its DistributedMultiBody, friction on the pair, a model of one body
+/// with a coupling, and a wrong tracked vertex throw on every rank.
+TEST(DistributedDynamics, TwoBodiesRefuseOnEveryRank) {
+  const obs::Communicator comm = obs::Communicator::world();
+  const Blocks<2> c;
+  const obs::DistributedGrid dgLower(obs::mesh::Grid(c.lower()), 1, comm), dgUpper(obs::mesh::Grid(c.upper()), 1, comm);
+  const obs::DistributedView lv = dgLower.view(), uv = dgUpper.view();
+  const obs::DistributedMortar mortar({&uv, obs::mesh::kBottom, lv.globalVertices(), "upper"},
+                                      {&lv, obs::mesh::kTop, 0, "lower"}, obs::MortarOptions{});
+  std::optional<obs::ContactModel<2>> model, frictional, one;
+  std::vector<obs::BodySystem<2>> systems(2);
+  comm.collective([&] {
+    model.emplace(blocksModel<2>(lv.local, uv.local));
+    frictional.emplace(blocksModel<2>(lv.local, uv.local));
+    frictional->setFriction(0, {obs::FrictionLaw::Type::Coulomb, 0.3});
+    one.emplace();
+    one->addBody("lower", lv.local, obs::Material{2e3, 0.3, 1.0}, {});
+    systems[0] = obs::assembleBody<2>(lv.local, model->bodies()[0].material, {});
+    systems[1] = obs::assembleBody<2>(uv.local, model->bodies()[1].material, {});
+  });
+  const obs::DistributedMultiBody<2> multi({{&lv, &systems[0]}, {&uv, &systems[1]}}, mortar, 1, 0);
+  obs::NewmarkOptions o;
+  o.timeStep = 1e-3;
+  EXPECT_THROW(obs::NewmarkFamily<2>({&dgLower, &dgUpper}, {&lv, &uv}, *model, o), obs::Error);
+  EXPECT_THROW(obs::NewmarkFamily<2>({&dgLower, &dgUpper}, {&lv, &uv}, *frictional, o, &multi), obs::Error);
+  EXPECT_THROW(obs::NewmarkFamily<2>({&dgLower}, {&lv}, *one, o, &multi), obs::Error);
+  o.trackedVertices = {comm.rank() == comm.size() - 1 ? multi.numOwned() : -1};  // a ghost or beyond
+  EXPECT_THROW(obs::NewmarkFamily<2>({&dgLower, &dgUpper}, {&lv, &uv}, *model, o, &multi), obs::Error);
 }
 
 /// A tracked vertex list that is wrong on one rank stops every rank with the same error.
