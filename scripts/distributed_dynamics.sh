@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
-# The dynamic scenes of one body with `obs run` serially and under `mpirun -np 2` and `-np 3`
-# (docs/architecture.md#distributed-dynamics): Geometry 1 (dynamics_block) and the ball (Geometry A,
-# dynamics_ball) at the thesis' sizes, the tibia, and the sliding block with Coulomb friction. Prints
+# The dynamic scenes with `obs run` serially and under `mpirun -np 2` and `-np 3`
+# (docs/architecture.md#distributed-dynamics): Geometry 1 (dynamics_block), the ball (Geometry A,
+# dynamics_ball) and Geometry B (two cubes coupled by dual mortar, dynamics_two_body) at the thesis'
+# sizes, the tibia, and the sliding block with Coulomb friction. Prints
 # per run: vertices, scheme, steps, TNNMG iterations per step, seconds per step (the step loop;
 # summary.json dynamics.seconds_per_step), the peak memory of the largest rank, and the largest
 # deviation of the time series from the serial one: energies relative to the largest energy,
@@ -12,7 +13,7 @@ set -euo pipefail
 out=${1:-out/distributed_dynamics}
 obs=${OBS:-$PWD/build/drivers/obs}
 scenes=("dynamics_block --refine 3 --set dynamics.steps=500" "dynamics_ball --refine 2 --set dynamics.steps=200"
-        "dynamics_tibia" "dynamics_sliding_block")
+        "dynamics_two_body" "dynamics_tibia" "dynamics_sliding_block")
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=PASSIVE OPENBLAS_NUM_THREADS=1
 mkdir -p "$out"
 names=()

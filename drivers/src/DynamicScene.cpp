@@ -1039,7 +1039,9 @@ void reportDynamics(const Context& c, const ContactSet& contact, const std::vect
   r.solver.tolerance = solverConfig(scene).tolerance;
   ContactReport cr;
   cr.obstacle = layout.perBody() ? contact.obstacleName() : scene.contact->obstacle;
-  cr.boundary = layout.perBody() ? contact.boundaryLabel() : scene.contact->boundary.describe();
+  // (a distributed pair's constraints are the coupling's: the pair's label, as serially)
+  cr.boundary = c.coupled ? c.couplings.spec.couplings.front().label
+                : layout.perBody() ? contact.boundaryLabel() : scene.contact->boundary.describe();
   for (Index k = 0; k < contact.size(); ++k) {
     if (contact.vertex(k) >= ownedVertices) continue;
     ++cr.boundaryVertices;
@@ -1337,7 +1339,11 @@ RunResult runDynamicScene(const Scene& scene, const std::vector<const mesh::Grid
   std::vector<Context::Body> bodies;
   Index offset = 0;
   for (std::size_t i = 0; i < n; ++i) {
-    Context::Body b{specs[i], grids[i], meshes[i], &bcs[i]};
+    Context::Body b;
+    b.spec = specs[i];
+    b.grid = grids[i];
+    b.mesh = meshes[i];
+    b.bc = &bcs[i];
     for (Index v = 0; v < meshes[i]->numVertices(); ++v) b.index.push_back(offset + v);
     offset += meshes[i]->numVertices();
     bodies.push_back(std::move(b));
@@ -1411,7 +1417,11 @@ RunResult runDistributedDynamicScene(const Scene& scene, const std::vector<const
   }
   std::vector<Context::Body> bodies;
   for (std::size_t i = 0; i < n; ++i) {
-    Context::Body b{specs[i], &grids[i]->grid(), &leaves[i]->local, &bcs[i]};
+    Context::Body b;
+    b.spec = specs[i];
+    b.grid = &grids[i]->grid();
+    b.mesh = &leaves[i]->local;
+    b.bc = &bcs[i];
     for (Index v = 0; v < leaves[i]->local.numVertices(); ++v)
       b.index.push_back(n == 2 ? coupled.visit([&](const auto& m) { return m.local(static_cast<int>(i), v); }) : v);
     b.distributed = grids[i];

@@ -508,7 +508,7 @@ TEST_F(Cli, MpirunRunsDynamicScenesDistributed) {
     const nlohmann::json jd = json(dd / "summary.json"), js = json(ds / "summary.json");
     EXPECT_EQ(jd["ranks"], run.ranks);
     for (const char* key : {"dofs", "free_dofs", "vertices", "cells"}) EXPECT_EQ(jd[key], js[key]) << key;
-    for (const char* key : {"boundary_vertices", "potential_vertices", "actual_vertices"})
+    for (const char* key : {"boundary", "boundary_vertices", "potential_vertices", "actual_vertices"})
       EXPECT_EQ(jd["contact"][key], js["contact"][key]) << key;
     ASSERT_EQ(jd["dynamics"]["tracked"].size(), js["dynamics"]["tracked"].size());
     for (std::size_t k = 0; k < js["dynamics"]["tracked"].size(); ++k) {

@@ -63,14 +63,21 @@
 /// the slave and the coupled master vertices, body by body (each body keeps its own mass, centre of
 /// gravity and second moments).
 ///
-/// Distributed (docs/architecture.md#distributed-dynamics): one body on a DistributedGrid, the
+/// A constraint is active in the predictor if the projected predictor lies on it (within the active
+/// tolerance), not by the sign of its multiplier, which is round-off where the projection barely
+/// moves the row.
+///
+/// Distributed (docs/architecture.md#distributed-dynamics): each body on a DistributedGrid, the
 /// vectors in the local numbering of the rank's leaf view (owned vertices first, then ghosts; the
-/// rows of the owned vertices complete). Every step is the serial one: the matrices are assembled
-/// on the local mesh, the predictor and the velocity update are node-wise, the step problem is
+/// rows of the owned vertices complete), or for two bodies coupled by mortar in the numbering of
+/// their DistributedMultiBody (owned vertices of both bodies, their ghosts, the extra ghosts).
+/// Every step is the serial one: the matrices are assembled on the local meshes, the obstacle
+/// predictor and the velocity update are node-wise, the mortar predictor iterates over the rows of
+/// every rank (gathered), T'ST and the loads T'b are summed over the ranks, the step problem is
 /// solved by distributed TNNMG, and the new state's ghosts are taken from their owners. Every
 /// figure of a StepRecord is a sum or maximum over the owned vertices and the ranks, so every rank
 /// holds the same record; the redistributed mass is computed with global multipliers
-/// (redistributeMass with the rank's owned rows) and the initial acceleration of
+/// (redistributeMass with each body's owned rows) and the initial acceleration of
 /// khenous-laborde-renard by a conjugate gradient iteration whose sums run over the ranks.
 #include <Eigen/Core>
 
