@@ -407,6 +407,11 @@ std::string stepLine(const est::AdaptiveStep& s, int steps) {
   return os.str();
 }
 
+/// The marks of a distributed adaptive checkpoint by cell key (docs/checkpoint.md#distributed-adaptive-runs):
+/// its mark, and the count per step.
+const std::string kMarkedKeys = "adaptivity/refinement/marked_keys";
+const std::string kMarkedKeyCounts = "adaptivity/refinement/marked_key_counts";
+
 /// Checkpoints of an adaptive run, one body or several (docs/checkpoint.md#adaptive-runs): a
 /// checkpoint after step k (on the [output] checkpoint schedule, at --stop-after-step and on
 /// SIGINT/SIGTERM) holds the loop's state (estimators AdaptiveLoopState: the step records, the
@@ -442,6 +447,9 @@ public:
     const fs::path& file = *options_.restart;
     const CheckpointRecord cp = readCheckpoint(file);
     checkRunScene(cp, file, "adaptive", scene_, names_);
+    if (cp.has(kMarkedKeys))
+      throw Error(file.string() + ": the checkpoint was written by a distributed run (mpirun): continue it with "
+                  "mpirun -np N obs run (N >= 2, any number of ranks)");
     checkInitialGrid(cp, file, runBodies(initial_));
     try {
       est::AdaptiveLoopState state = est::loadAdaptiveState(cp);
@@ -786,9 +794,11 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
   std::optional<est::DistributedAdaptiveLoop> loop;
   const fs::path dir = options.outputDirectory.value_or(scene.output.directory);
   comm.collective([&] {
-    if (scene.output.checkpoint || options.restart)
-      throw Error(scene.fileName + ": checkpoints of adaptive runs are not distributed yet (run it without mpirun, or "
-                  "without [output] checkpoint and --restart)");
+    if (options.stopAfterStep && (*options.stopAfterStep < 0 || *options.stopAfterStep > spec.steps - 2))
+      throw Error(scene.fileName + ": --stop-after-step " + std::to_string(*options.stopAfterStep) +
+                  (spec.steps < 2 ? " needs at least two adaptive steps (the run has " + std::to_string(spec.steps) + ")"
+                                  : " must lie in [0, " + std::to_string(spec.steps - 2) + "] (the run has steps 0 to " +
+                                        std::to_string(spec.steps - 1) + ")"));
     obstacle = makeObstacle(scene, dim);
     std::error_code ec;
     fs::create_directories(dir, ec);
@@ -815,6 +825,153 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
   int rebalances = 0;
   NodalErrors nodalErrors;
   double maxU = 0, maxMises = 0;
+
+  // checkpoints (docs/checkpoint.md#distributed-adaptive-runs): after step k the loop's records, the
+  // marks by cell key, the start as rows keyed by vertex, the outputs so far; one file from all ranks
+  const InterruptGuard interrupts;  // SIGINT/SIGTERM: finish the step, checkpoint, stop
+  const fs::path checkpointFile = dir / "checkpoint.h5";
+  CheckpointSchedule schedule(scene.output.checkpoint);
+  const std::vector<std::string> names{layout.perBody() ? scene.name : std::string()};
+  const DistributedView initial = grid.view();  // the grid before any adaptive step
+  const auto keyedBody = [&](const DistributedView& view) {
+    RunBody b{names.front(), &view.local};
+    b.keyed = true;
+    b.comm = &comm;
+    b.ownedVertices = view.halo.numOwned();
+    b.ownedCells = static_cast<Index>(view.part.owned.size());
+    return std::vector<RunBody>{b};
+  };
+  const auto vertexKeys = [&](const DistributedView& view, Index count) {
+    std::vector<std::uint64_t> keys(static_cast<std::size_t>(count));
+    for (Index v = 0; v < count; ++v) keys[v] = vertexKey(0, view.local.vertex(v));
+    return keys;
+  };
+  if (options.restart) {
+    const fs::path& file = *options.restart;
+    long long missing = 0;
+    const CheckpointRecord cp = readCheckpoint(file, {}, comm, &missing);  // the entries; the rows below
+    checkRunScene(cp, file, "adaptive", scene, names);
+    comm.collective([&] {
+      if (!cp.has(kMarkedKeys))
+        throw Error(file.string() + ": the checkpoint was written by one process: continue it without mpirun");
+    });
+    checkInitialGrid(cp, file, keyedBody(initial));  // (collective)
+    est::DistributedAdaptiveLoopState state;
+    comm.collective([&] {
+      try {
+        const est::AdaptiveLoopState serial = est::loadAdaptiveState(cp);
+        state.nextStep = serial.nextStep;
+        state.steps = serial.steps;
+        state.transferSeconds = serial.transferSeconds;
+        const std::vector<long long>& counts = cp.integers(kMarkedKeyCounts);
+        const std::vector<long long>& keys = cp.integers(kMarkedKeys);
+        std::size_t at = 0;
+        for (long long c : counts) {
+          if (c < 0 || at + static_cast<std::size_t>(c) > keys.size()) throw Error(kMarkedKeys + " is shorter than its counts");
+          std::vector<std::uint64_t>& step = state.marked.emplace_back();
+          for (long long i = 0; i < c; ++i) step.push_back(static_cast<std::uint64_t>(keys[at++]));
+        }
+        std::istringstream files(cp.text("run/vtu_files"));
+        const std::vector<long long>& vtuSteps = cp.integers("run/vtu_steps");
+        for (std::string f; std::getline(files, f);) {
+          if (!fs::exists(dir / f))
+            throw Error("the interrupted run's " + (dir / f).string() +
+                        " is missing (restart into the output directory of the interrupted run)");
+          vtkFiles.push_back(PvdEntry{0, 0, f});
+        }
+        if (vtuSteps.size() != vtkFiles.size()) throw Error("run/vtu_files and run/vtu_steps differ in length");
+        for (std::size_t i = 0; i < vtuSteps.size(); ++i) vtkFiles[i].time = static_cast<double>(vtuSteps[i]);
+        std::istringstream written(cp.text("run/pieces"));
+        for (std::string f; std::getline(written, f);) pieces.push_back(dir / f);
+        balance.str(cp.text("run/balance_csv"));
+        balance.seekp(0, std::ios::end);
+        rebalances = static_cast<int>(cp.integer("run/rebalances"));
+        const Eigen::VectorXd& e = cp.vector("run/nodal_pressure_errors");
+        const Eigen::VectorXd& f = cp.vector("run/nodal_pressure_errors_fixed_load");
+        nodalErrors.load.assign(e.data(), e.data() + e.size());
+        nodalErrors.fixedLoad.assign(f.data(), f.data() + f.size());
+      } catch (const Error& e) {
+        throw Error(file.string() + ": " + e.what());
+      }
+    });
+    const int next = state.nextStep;
+    // the refinements replayed, then the start by vertex on the rebuilt leaf view
+    loop->restore(std::move(state), [&](const DistributedView& view) {
+      checkRunIdentity(cp, file, "adaptive", scene, keyedBody(view));  // the rebuilt grid (collective)
+      long long absent = 0;
+      const CheckpointRecord rows = readCheckpoint(file, vertexKeys(view, view.local.numVertices()), comm, &absent);
+      Eigen::VectorXd start;
+      comm.collective([&] {
+        if (absent != 0)
+          throw Error(file.string() + ": " + std::to_string(absent) + " vertices of the rebuilt grid are not in the checkpoint");
+        if (rows.has("run/start")) start = rows.vector("run/start");
+      });
+      return start;
+    });
+    progress("restart from " + file.string() + " at step " + std::to_string(next));
+  }
+  loop->setStateHook([&](const est::DistributedAdaptiveLoopState& state, const DistributedView& next,
+                         const Eigen::VectorXd& start) {
+    const int k = state.nextStep - 1;
+    const bool signalled = comm.max(InterruptGuard::requested() ? 1.0 : 0.0) > 0;
+    const bool stop = signalled || (options.stopAfterStep && k >= *options.stopAfterStep);
+    const bool due = comm.max(schedule.due(k + 1) ? 1.0 : 0.0) > 0;  // (a schedule in seconds: each rank's clock)
+    if (!stop && !due) return;
+    CheckpointRecord cp;
+    cp.kind = "adaptive";
+    storeRunIdentity(cp, scene, keyedBody(next));  // collective
+    storeInitialGrid(cp, keyedBody(initial));      // collective
+    comm.collective([&] {
+      est::AdaptiveLoopState serial;
+      serial.nextStep = state.nextStep;
+      serial.steps = state.steps;
+      serial.refinements.assign(state.steps.size(), std::vector<std::vector<Index>>(1));  // (by key below)
+      serial.transferSeconds = state.transferSeconds;
+      est::storeAdaptiveState(cp, serial);
+      std::vector<long long> counts, keys;
+      for (const auto& step : state.marked) {
+        counts.push_back(static_cast<long long>(step.size()));
+        for (std::uint64_t key : step) keys.push_back(static_cast<long long>(key));
+      }
+      cp.set(kMarkedKeyCounts, counts, "the number of leaves marked after each step (all ranks)");
+      cp.set(kMarkedKeys, keys, "the cell keys (DistributedGrid::cellKey) of the leaves marked after each step, sorted");
+      std::string files, written;
+      std::vector<long long> steps;
+      for (const PvdEntry& e : vtkFiles) {
+        files += e.file + "\n";
+        steps.push_back(static_cast<long long>(e.time));
+      }
+      for (const fs::path& f : pieces) written += f.filename().string() + "\n";
+      cp.set("run/vtu_files", files, "the .pvtu files written so far (one name per line)");
+      cp.set("run/vtu_steps", steps, "the step of each .pvtu file");
+      cp.set("run/pieces", written, "the pieces of the .pvtu files written so far (one name per line)");
+      cp.set("run/balance_csv", balance.str(), "balance.csv so far");
+      cp.set("run/rebalances", static_cast<long long>(rebalances), "the rebalances so far");
+      auto vec = [](const std::vector<double>& v) {
+        return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size())));
+      };
+      cp.set("run/nodal_pressure_errors", vec(nodalErrors.load),
+             "the nodal pressure error of each step so far (with a reference; NaN: none)");
+      cp.set("run/nodal_pressure_errors_fixed_load", vec(nodalErrors.fixedLoad),
+             "the nodal pressure error for the fixed reference_load of each step so far (NaN: none)");
+      const Index owned = next.halo.numOwned();
+      if (start.size() > 0)
+        cp.setRows("run/start", Eigen::VectorXd(start.head(static_cast<Eigen::Index>(owned) * dim)), dim,
+                   "the start of step next_step (the last solution on the refined grid) at the owned vertices");
+      cp.setRowKeys(vertexKeys(next, owned));
+    });
+    writeCheckpoint(checkpointFile, cp, comm);
+    schedule.written();
+    if (options.stepProgress) options.stepProgress("checkpoint: step " + std::to_string(k) + " -> " + checkpointFile.string());
+    if (!stop) return;
+    std::ostringstream os;
+    os << (signalled ? "interrupted by " + InterruptGuard::signalName() : std::string("stopped (--stop-after-step)"))
+       << " after adaptive step " << k << " of " << spec.steps - 1 << " (refined to " << next.globalVertices()
+       << " vertices): checkpoint written to " << checkpointFile.string() << "; continue with: mpirun -np N obs run "
+       << scene.fileName << " --restart " << checkpointFile.string()
+       << " (any N >= 2; the same --output, --refine and --set options)";
+    throw RunInterrupted(os.str());
+  });
   loop->setCallback([&](const est::DistributedAdaptiveStepView& v) {
     const bool isLast = v.record.marked == 0;
     const auto ownedCells = static_cast<Index>(v.leaf.part.owned.size());

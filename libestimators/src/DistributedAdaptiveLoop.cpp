@@ -92,9 +92,23 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
   std::vector<double> start;  // d values per vertex of the leaf view (warm start); empty: cold
   double transferSeconds = 0;
   // the balancing after the refinement that made the step's grid (step 0: measured only)
-  RebalanceReport balance = grid_.rebalance(std::numeric_limits<double>::infinity());
+  RebalanceReport balance;
   double balanceSeconds = 0;
-  for (int k = 0; k < options_.maxSteps; ++k) {
+  std::vector<std::vector<std::uint64_t>> markedKeys;  // for the state hook: the marks of every step
+  int first = 0;
+  if (resume_) {  // restore(): the grid rebuilt, the records and the start of the interrupted run
+    steps = resume_->steps;
+    markedKeys = resume_->marked;
+    transferSeconds = resume_->transferSeconds;
+    first = resume_->nextStep;
+    start = std::move(resumeStart_);
+    balance = resumeBalance_;
+    balanceSeconds = resumeBalanceSeconds_;
+    resume_.reset();
+  } else {
+    balance = grid_.rebalance(std::numeric_limits<double>::infinity());
+  }
+  for (int k = first; k < options_.maxSteps; ++k) {
     AdaptiveStep rec;
     rec.step = k;
     rec.transferSeconds = transferSeconds;
@@ -245,6 +259,14 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
       rec.marked = rec.cells;
     }
     rec.bodies[0].marked = rec.marked;
+    if (hook_ && !last) {  // the marks by cell key, of every rank (a restart replays them on any partition)
+      std::vector<std::uint64_t> mine;
+      for (Index c : marked) mine.push_back(grid_.cellKey(leaf.view.elements[leaf.part.owned[c]]));
+      const auto all = comm.exchange(std::vector<std::vector<std::uint64_t>>(static_cast<std::size_t>(comm.size()), mine));
+      std::vector<std::uint64_t>& keys = markedKeys.emplace_back();
+      for (const auto& part : all) keys.insert(keys.end(), part.begin(), part.end());
+      std::sort(keys.begin(), keys.end());
+    }
     const double markSeconds = since(t);
     steps.push_back(rec);
     if (callback_) callback_(DistributedAdaptiveStepView{steps.back(), grid_, leaf, u, *set, *outputs, est ? &*est : nullptr, marked,
@@ -282,8 +304,72 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
     t = Clock::now();
     balance = grid_.rebalance(imbalanceTolerance_, options_.warmStart ? &start : nullptr, d);
     balanceSeconds = comm.max(since(t));
+    if (hook_) {  // the state after step k: the records, the marks, the start on the new leaf view
+      DistributedAdaptiveLoopState state{k + 1, steps, markedKeys, transferSeconds};
+      const DistributedView next = grid_.view();
+      Eigen::VectorXd local;
+      if (!start.empty()) {
+        local.resize(static_cast<Eigen::Index>(next.local.numVertices()) * d);
+        const auto& held = next.halo.viewVertices();
+        for (Index i = 0; i < next.local.numVertices(); ++i)
+          for (int c = 0; c < d; ++c)
+            local[static_cast<Eigen::Index>(i) * d + c] = start[static_cast<std::size_t>(held[i]) * d + c];
+      }
+      hook_(state, next, local);
+    }
   }
   return steps;
+}
+
+void DistributedAdaptiveLoop::restore(DistributedAdaptiveLoopState state,
+                                      const std::function<Eigen::VectorXd(const DistributedView&)>& start) {
+  const Communicator& comm = grid_.communicator();
+  const int d = grid_.grid().dimension();
+  comm.collective([&] {
+    const auto n = static_cast<std::size_t>(std::max(state.nextStep, 0));
+    if (state.nextStep < 1 || state.steps.size() != n || state.marked.size() != n)
+      throw Error("adaptive loop on ranks: a state at step " + std::to_string(state.nextStep) + " with " +
+                  std::to_string(state.steps.size()) + " records and the marks of " + std::to_string(state.marked.size()) +
+                  " steps");
+    if (state.nextStep >= options_.maxSteps)
+      throw Error("adaptive loop on ranks: a state at step " + std::to_string(state.nextStep) + " of a loop of " +
+                  std::to_string(options_.maxSteps) + " steps");
+  });
+  // the refinements of the interrupted run, each followed by its load balancing
+  grid_.setClosureRule(options_.closure);
+  RebalanceReport balance;
+  double seconds = 0;
+  for (std::vector<std::uint64_t>& keys : state.marked) {
+    std::sort(keys.begin(), keys.end());
+    const DistributedView leaf = grid_.view();
+    std::vector<Index> elements;
+    for (Index c : leaf.part.owned) {
+      const Index e = leaf.view.elements[c];
+      if (std::binary_search(keys.begin(), keys.end(), grid_.cellKey(e))) elements.push_back(e);
+    }
+    grid_.adapt(elements);
+    const auto t = Clock::now();
+    balance = grid_.rebalance(imbalanceTolerance_);
+    seconds = comm.max(since(t));
+  }
+  const DistributedView next = grid_.view();
+  const Eigen::VectorXd local = start(next);
+  std::vector<double> values;  // on the grid's leaf view, as run() keeps its start
+  comm.collective([&] {
+    if (local.size() != 0 && local.size() != static_cast<Eigen::Index>(next.local.numVertices()) * d)
+      throw Error("adaptive loop on ranks: a start of " + std::to_string(local.size()) + " values for " +
+                  std::to_string(next.local.numVertices()) + " vertices");
+    if (local.size() == 0) return;
+    values.assign(grid_.grid().leafView().vertices.size() * static_cast<std::size_t>(d), 0.0);
+    const auto& held = next.halo.viewVertices();
+    for (Index i = 0; i < next.local.numVertices(); ++i)
+      for (int c = 0; c < d; ++c)
+        values[static_cast<std::size_t>(held[i]) * d + c] = local[static_cast<Eigen::Index>(i) * d + c];
+  });
+  resume_ = std::move(state);
+  resumeStart_ = std::move(values);
+  resumeBalance_ = balance;
+  resumeBalanceSeconds_ = seconds;
 }
 
 template std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim<2>();

@@ -628,7 +628,7 @@ TEST_F(Cli, MpirunRunsDynamicScenesDistributed) {
 // the reference errors to 1e-8 of their scales; summary.json has the ranks and the balance, the
 // .pvd lists .pvtu files, balance.csv has a row per step. Example 1A (flat punch, quadrilaterals)
 // on 2 ranks, Example 3A (ball, hexahedra, from 512 cells) on 3, Example 3B (tetrahedra, from 3,072
-// cells, to 52,760) on 2. An adaptive checkpoint is refused on every rank with one line.
+// cells, to 52,760) on 2. Example 1A stopped on 2 ranks continues on 2 (bit for bit) and on 3.
 /// The pieces <base>_<rank>.vtu of a distributed run agree where they meet: every point array has
 /// the same values at the same position in every piece (within 1e-12 of the array's largest value:
 /// a piece holds the vertices of its owned cells, all of whose cells the rank holds, so their
@@ -741,15 +741,63 @@ TEST_F(Cli, MpirunRunsAdaptiveScenesDistributed) {
     ASSERT_NE(at, std::string::npos);
     EXPECT_GT(expectPiecesAgree(dd, pvd.substr(from, at - from), run.ranks), 0u);
   }
+  // checkpoints (docs/checkpoint.md#distributed-adaptive-runs): Example 1A stopped after step 3 on 2
+  // ranks continues on 2 to the uninterrupted run's steps.csv and balance.csv bit for bit (every
+  // column but the times and memory), on 3 to its steps within 1e-8; a checkpoint of one process is refused on
+  // ranks and one of ranks by one process, with one line each
   const std::string punch = (fs::path(OBS_DATA_DIR) / "scenes" / "example1a.toml").string();
-  const Output refused = runObs("run '" + punch + "' --set 'output.checkpoint={every=1}' --output out_ad_refused",
-                                "ad_refused", launcher(2));
-  EXPECT_EQ(refused.code, 1);
-  std::size_t errors = 0;
-  for (std::size_t at = refused.err.find("obs: error:"); at != std::string::npos; at = refused.err.find("obs: error:", at + 1))
-    ++errors;
-  EXPECT_EQ(errors, 1u) << refused.err;
-  EXPECT_NE(refused.err.find("checkpoints of adaptive runs"), std::string::npos) << refused.err;
+  const std::string steps = " --set adaptivity.steps=7 -q";
+  fs::remove_all(kTmp / "out_ad_stop");
+  const Output stop = runObs("run '" + punch + "'" + steps + " --stop-after-step 3 --output out_ad_stop", "ad_stop",
+                             launcher(2));
+  ASSERT_EQ(stop.code, 3) << stop.err;
+  const Series full = readSeries(kTmp / "out_ad_mpi_example1a" / "steps.csv");
+  const auto withoutTimes = [](const Series& s, std::size_t row) {
+    std::vector<double> v;
+    for (std::size_t k = 0; k < s.columns.size(); ++k)
+      if (s.columns[k].find("seconds") == std::string::npos && !s.columns[k].ends_with("_s") &&
+          s.columns[k].rfind("memory", 0) != 0)
+        v.push_back(std::isnan(s.rows[row][k]) ? -1e300 : s.rows[row][k]);
+    return v;
+  };
+  for (int ranks : {2, 3}) {
+    SCOPED_TRACE("adaptive restart on " + std::to_string(ranks) + " ranks");
+    const std::string dir = "out_ad_restart" + std::to_string(ranks);
+    fs::remove_all(kTmp / dir);
+    fs::copy(kTmp / "out_ad_stop", kTmp / dir, fs::copy_options::recursive);
+    const Output r = runObs("run '" + punch + "'" + steps + " --restart " + (kTmp / dir / "checkpoint.h5").string() +
+                                " --output " + dir, "ad_restart" + std::to_string(ranks), launcher(ranks));
+    ASSERT_EQ(r.code, 0) << r.err;
+    const Series b = readSeries(kTmp / dir / "steps.csv");
+    ASSERT_EQ(b.rows.size(), full.rows.size());
+    if (ranks == 2) {
+      for (std::size_t row = 0; row < b.rows.size(); ++row) EXPECT_EQ(withoutTimes(full, row), withoutTimes(b, row)) << row;
+      const Series fb = readSeries(kTmp / "out_ad_mpi_example1a" / "balance.csv"), bb = readSeries(kTmp / dir / "balance.csv");
+      ASSERT_EQ(fb.rows.size(), bb.rows.size());
+      for (std::size_t row = 0; row < bb.rows.size(); ++row) EXPECT_EQ(withoutTimes(fb, row), withoutTimes(bb, row)) << row;
+    } else {
+      for (std::size_t row = 0; row < b.rows.size(); ++row)
+        for (const std::string& c : exact) EXPECT_EQ(full.at(row, c), b.at(row, c)) << c << ", step " << row;
+      EXPECT_LE(seriesDeviation(full, b, {"eta"}), 1e-8);
+      EXPECT_LE(seriesDeviation(full, b, {"load"}), 1e-8);
+    }
+    EXPECT_EQ(slurp(kTmp / dir / "example1a.pvd"), slurp(kTmp / "out_ad_mpi_example1a" / "example1a.pvd"));
+  }
+  const auto oneLine = [](const Output& o, const char* what) {
+    EXPECT_EQ(o.code, 1);
+    std::size_t errors = 0;
+    for (std::size_t at = o.err.find("obs: error:"); at != std::string::npos; at = o.err.find("obs: error:", at + 1)) ++errors;
+    EXPECT_EQ(errors, 1u) << o.err;
+    EXPECT_NE(o.err.find(what), std::string::npos) << o.err;
+  };
+  fs::remove_all(kTmp / "out_ad_serial_stop");
+  ASSERT_EQ(runObs("run '" + punch + "'" + steps + " --stop-after-step 2 --output out_ad_serial_stop", "ad_serial_stop").code, 3);
+  oneLine(runObs("run '" + punch + "'" + steps + " --restart " + (kTmp / "out_ad_serial_stop" / "checkpoint.h5").string() +
+                     " --output out_ad_serial_stop", "ad_serial_on_ranks", launcher(2)),
+          "written by one process");
+  oneLine(runObs("run '" + punch + "'" + steps + " --restart " + (kTmp / "out_ad_stop" / "checkpoint.h5").string() +
+                     " --output out_ad_stop", "ad_ranks_serially"),
+          "written by a distributed run");
 }
 #endif
 

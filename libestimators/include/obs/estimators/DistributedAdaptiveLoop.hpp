@@ -24,6 +24,7 @@
 /// friction, several bodies or couplings.
 #include <Eigen/Core>
 
+#include <cstdint>
 #include <functional>
 #include <optional>
 #include <vector>
@@ -55,9 +56,27 @@ struct DistributedAdaptiveStepView {
   double balanceSeconds;
 };
 
+/// What the loop needs to continue after step k on any number of ranks (checkpoints,
+/// docs/checkpoint.md#distributed-adaptive-runs): taken by the state hook once the grid is refined
+/// (and rebalanced) after step k, given to restore() in another run. The grid is rebuilt by
+/// replaying the marks, which are known by cell key (DistributedGrid::cellKey), the same on every
+/// partition; the start vector is a function on the vertices, which the caller keeps by vertex.
+struct DistributedAdaptiveLoopState {
+  int nextStep = 0;                ///< k + 1: the step the loop continues with
+  std::vector<AdaptiveStep> steps;  ///< the records of steps 0..k (the same on every rank)
+  /// [step j]: the cell keys of the leaves marked after step j on all ranks, sorted
+  std::vector<std::vector<std::uint64_t>> marked;
+  double transferSeconds = 0;  ///< the time taken to build the start (reported by step k + 1)
+};
+
 class DistributedAdaptiveLoop {
 public:
   using Callback = std::function<void(const DistributedAdaptiveStepView&)>;
+  /// After the grid is refined and rebalanced after step k (not after the last step): the state,
+  /// the rank's part `next` of the new leaf view, and the start of step k + 1 on next.local (d
+  /// values per vertex, owned vertices first; empty: cold start). Collective.
+  using StateHook = std::function<void(const DistributedAdaptiveLoopState&, const DistributedView& next,
+                                       const Eigen::VectorXd& start)>;
 
   /// The grid is refined in place; material, bc and obstacle must outlive the loop; contact on the
   /// boundary faces with id `boundaryId`. Throws obs::Error (on every rank) for what is not on ranks
@@ -76,6 +95,14 @@ public:
   static constexpr double kDefaultImbalanceTolerance = 1.1;
   /// The function called after every step (replaces an earlier one).
   void setCallback(Callback callback) { callback_ = std::move(callback); }
+  void setStateHook(StateHook hook) { hook_ = std::move(hook); }
+  /// Continues a loop from a state its hook gave (collective): replays state.marked on the grid,
+  /// which must be the initial grid of that loop, not yet refined, with the loop's closure rule
+  /// and load balancing (on the same number of ranks: the same parts), then asks `start` for the
+  /// start of step state.nextStep on the rank's part of the rebuilt leaf view (d values per local
+  /// vertex; empty: cold start). run() then begins with step state.nextStep and returns every
+  /// record. Throws obs::Error on every rank for an inconsistent state or a start of another size.
+  void restore(DistributedAdaptiveLoopState state, const std::function<Eigen::VectorXd(const DistributedView&)>& start);
   /// Runs the loop; the records of the steps. Collective.
   std::vector<AdaptiveStep> run();
 
@@ -92,6 +119,12 @@ private:
   double imbalanceTolerance_ = kDefaultImbalanceTolerance;
   std::optional<ContactReference> reference_;
   Callback callback_;
+  StateHook hook_;
+  /// restore(): the state, the start on the grid's leaf view vertices and the last balancing
+  std::optional<DistributedAdaptiveLoopState> resume_;
+  std::vector<double> resumeStart_;
+  RebalanceReport resumeBalance_;
+  double resumeBalanceSeconds_ = 0;
 };
 
 }  // namespace obs::estimators
