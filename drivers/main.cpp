@@ -82,7 +82,7 @@ int runCommand(const std::string& scene, const std::optional<std::string>& outpu
                const std::vector<std::string>& plugins, const std::vector<std::string>& overrides,
                bool plots, bool compareSchemes, const std::optional<std::string>& restart,
                std::optional<int> stopAfterStep, std::optional<int> partitionLevel,
-               std::optional<double> imbalanceTolerance) {
+               std::optional<double> imbalanceTolerance, bool balanceContact) {
   // plugins first, so that their estimators are valid names in [adaptivity]
   for (const std::string& plugin : plugins)
     obs::estimators::EstimatorRegistry::global().loadPlugin(plugin);
@@ -97,6 +97,7 @@ int runCommand(const std::string& scene, const std::optional<std::string>& outpu
   options.refine = refine;
   options.partitionLevel = partitionLevel;
   options.imbalanceTolerance = imbalanceTolerance;
+  options.balanceContact = balanceContact;
   if (!quiet) options.progress = [](const std::string& line) { std::cout << line << std::endl; };
   if (verbose)
     options.iterationProgress = [](const std::string& line) { std::cerr << line << std::endl; };
@@ -201,6 +202,7 @@ int main(int argc, char** argv) {
   std::optional<int> stopAfterStep;
   std::optional<int> partitionLevel;
   std::optional<double> imbalanceTolerance;
+  bool balanceContact = false;
   std::optional<int> threadCount;
   std::vector<std::string> runPlugins, overrides;
   CLI::App* run =
@@ -246,6 +248,9 @@ int main(int argc, char** argv) {
                   "docs/architecture.md#load-balancing)")
       ->type_name("T")
       ->check(CLI::Range(1.0, std::numeric_limits<double>::infinity()));
+  run->add_flag("--balance-contact", balanceContact,
+                "mpirun adaptive runs: balance the contact boundary's faces over the ranks as well as the leaves "
+                "(METIS multi-constraint; docs/architecture.md#load-balancing)");
   run->add_option("--threads,-t", threadCount,
                   "Threads for assembly, sweeps and products (default: $OBS_THREADS, else 1). Results are "
                   "bitwise reproducible for a fixed N; different N differ in the last bits "
@@ -430,7 +435,7 @@ int main(int argc, char** argv) {
       obs::setBlasThreads(obs::threads());  // CHOLMOD's BLAS: the run's thread count, not every core
       return runCommand(scene, output, refine, quiet, verbose, runPlugins, overrides, runPlots,
                         compareSchemes, restart, stopAfterStep, partitionLevel,
-                        imbalanceTolerance);
+                        imbalanceTolerance, balanceContact);
     }
     if (check->parsed()) return checkCommand(checkScenes, checkRefine);
     if (sweep->parsed()) {

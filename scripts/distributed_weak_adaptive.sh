@@ -8,7 +8,9 @@
 # owned cells of the largest rank and the mean in the last step, the imbalance of each step's
 # refined grid before and after balancing (balance.csv: refined_imbalance -> cells_imbalance), the
 # contact nodes' imbalance and the leaves the largest rank's grid holds over its owned cells in
-# the last step. Runs in OUT (default out/distributed_weak_adaptive).
+# the last step; then the same with `--balance-contact` (the contact faces balanced with the
+# leaves, METIS multi-constraint), a row "N, contact" per count. Runs in OUT (default
+# out/distributed_weak_adaptive).
 #   scripts/distributed_weak_adaptive.sh [OUT]
 set -euo pipefail
 out=${1:-out/distributed_weak_adaptive}
@@ -20,6 +22,10 @@ counts=(1 2 4 8)
 for n in "${counts[@]}"; do
   mpirun --oversubscribe -np "$n" "$obs" run data/scenes/example3b.toml --refine 1 \
     --set adaptivity.steps=30 --set "adaptivity.max_vertices=$((n * per))" --output "$out/np$n" -q
+  if [ "$n" -gt 1 ]; then
+    mpirun --oversubscribe -np "$n" "$obs" run data/scenes/example3b.toml --refine 1 --balance-contact \
+      --set adaptivity.steps=30 --set "adaptivity.max_vertices=$((n * per))" --output "$out/np${n}_contact" -q
+  fi
 done
 /usr/bin/python3 - "$out" "${counts[@]}" <<'PY'
 import csv, json, sys
@@ -31,18 +37,18 @@ def rows(path):
 
 print('| ranks | steps | vertices | per rank | TNNMG its (last) | owned cells max / mean (last) | imbalance before -> after, per step | contact imbalance (last) | held / owned (last) |')
 print('|---|---|---|---|---|---|---|---|---|')
-for n in counts:
-    st = rows(f'{out}/np{n}/steps.csv')
-    j = json.load(open(f'{out}/np{n}/summary.json'))
+runs = [(n, '') for n in counts] + [(n, '_contact') for n in counts if n != '1']
+for n, variant in runs:
+    st = rows(f'{out}/np{n}{variant}/steps.csv')
     last = st[-1]
     if n == '1':
         print(f"| 1 | {len(st)} | {int(last['vertices']):,} | {int(last['vertices']):,} | {last['iterations']} | - | - | - | - |")
         continue
-    bal = rows(f'{out}/np{n}/balance.csv')
+    bal = rows(f'{out}/np{n}{variant}/balance.csv')
     steps = ', '.join(f"{float(b['refined_imbalance']):.2f}" + (f"->{float(b['cells_imbalance']):.2f}" if b['rebalanced'] == '1' else '')
                       for b in bal[1:])
     b = bal[-1]
-    print(f"| {n} | {len(st)} | {int(last['vertices']):,} | {int(last['vertices']) // int(n):,} | {last['iterations']} | "
+    print(f"| {n}{', contact' if variant else ''} | {len(st)} | {int(last['vertices']):,} | {int(last['vertices']) // int(n):,} | {last['iterations']} | "
           f"{float(b['owned_cells_max']):,.0f} / {float(b['owned_cells_mean']):,.0f} | {steps} | {float(b['contact_imbalance']):.2f} | "
           f"{float(b['held_leaves_max']) / float(b['owned_cells_max']):.2f} |")
 PY

@@ -808,6 +808,7 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
   const std::optional<est::ContactReference> reference = makeReference(scene, dim);
   if (reference) loop->setReference(*reference);
   loop->setImbalanceTolerance(options.imbalanceTolerance.value_or(est::DistributedAdaptiveLoop::kDefaultImbalanceTolerance));
+  if (options.balanceContact) grid.setBalancedBoundary(contactId);  // the contact faces a second weight
   progress("adaptive loop on " + std::to_string(comm.size()) + " ranks: " +
            std::string(spec.uniform ? "uniform" : "adaptive") + " refinement, estimator " + spec.estimator +
            (spec.uniform ? "" : ", marking " + spec.marking) + ", up to " + std::to_string(spec.steps) + " steps from " +

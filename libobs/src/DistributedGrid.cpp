@@ -7,6 +7,7 @@
 #include <unordered_map>
 
 #include "obs/mesh/Error.hpp"
+#include "obs/mesh/MeshTopology.hpp"
 
 namespace obs {
 namespace {
@@ -323,8 +324,10 @@ RebalanceReport DistributedGrid::rebalance(double tolerance, std::vector<double>
   const int me = comm_.rank(), ranks = comm_.size();
   const std::size_t nc = partition_.cells.size();
   RebalanceReport report;
-  // the leaves below each partition cell, from its owner
-  std::vector<double> weights(nc, 0.0);
+  // the leaves below each partition cell, from its owner (and, with a balanced boundary, the
+  // faces of the owned leaves on it: the weights of the second kind, after the leaves)
+  const bool second = balancedBoundary_ >= 0;
+  std::vector<double> weights(second ? 2 * nc : nc, 0.0);
   std::optional<mesh::GridView> leaf;  // of the current grid, if values move
   comm_.collective([&] {
     if (!(tolerance >= 1.0)) throw Error("distributed grid: imbalance tolerance " + std::to_string(tolerance) + " (at least 1)");
@@ -333,28 +336,39 @@ RebalanceReport DistributedGrid::rebalance(double tolerance, std::vector<double>
       throw Error("distributed grid: rebalance needs " + std::to_string(width) + " values per leaf view vertex");
     for (std::size_t c = 0; c < nc; ++c)
       if (partition_.cellPart[c] == me) weights[c] = static_cast<double>(partition_.cellLeaves[c]);
+    if (second)
+      for (Index e = 0; e < grid_.numElements(); ++e) {
+        if (grid_.isRemoved(e) || !grid_.isLeaf(e) || partition_.partOf(e) != me) continue;
+        const auto faces = static_cast<int>(mesh::localFaces(grid_.type(e)).size());
+        for (int f = 0; f < faces; ++f)
+          if (grid_.boundaryId(e, f) == balancedBoundary_) weights[nc + static_cast<std::size_t>(partition_.elementCell[e])] += 1;
+      }
   });
   comm_.sum(weights);
-  const auto imbalanceOf = [&](const std::vector<int>& parts) {
-    std::vector<double> leaves(static_cast<std::size_t>(ranks), 0.0);
+  const auto imbalanceOf = [&](const std::vector<int>& parts, std::size_t kind) {
+    std::vector<double> load(static_cast<std::size_t>(ranks), 0.0);
     double total = 0;
     for (std::size_t c = 0; c < nc; ++c) {
-      leaves[parts[c]] += weights[c];
-      total += weights[c];
+      load[parts[c]] += weights[kind * nc + c];
+      total += weights[kind * nc + c];
     }
-    return total > 0 ? *std::max_element(leaves.begin(), leaves.end()) * ranks / total : 1.0;
+    return total > 0 ? *std::max_element(load.begin(), load.end()) * ranks / total : 1.0;
   };
-  report.before = report.after = imbalanceOf(partition_.cellPart);
-  if (ranks == 1 || report.before <= tolerance) return report;
+  report.before = report.after = imbalanceOf(partition_.cellPart, 0);
+  if (second) report.boundaryBefore = report.boundaryAfter = imbalanceOf(partition_.cellPart, 1);
+  const double worst = std::max(report.before, report.boundaryBefore);
+  if (ranks == 1 || worst <= tolerance) return report;
   std::vector<int> parts;
   comm_.collective([&] {  // the same input on every rank, hence the same split
-    std::vector<Index> w(nc);
-    for (std::size_t c = 0; c < nc; ++c) w[c] = static_cast<Index>(weights[c]);
+    std::vector<Index> w(weights.size());
+    for (std::size_t c = 0; c < nc; ++c)  // cell-major: the leaves, then the boundary faces
+      for (std::size_t k = 0; k < weights.size() / nc; ++k) w[c * (weights.size() / nc) + k] = static_cast<Index>(weights[k * nc + c]);
     parts = splitPartitionCells(grid_, partition_, w);
   });
-  const double after = imbalanceOf(parts);
-  if (after >= report.before) return report;  // METIS found no better split in these cells
+  const double after = imbalanceOf(parts, 0), boundaryAfter = second ? imbalanceOf(parts, 1) : 1.0;
+  if (std::max(after, boundaryAfter) >= worst) return report;  // METIS found no better split in these cells
   report.after = after;
+  report.boundaryAfter = boundaryAfter;
   report.moved = true;
   for (std::size_t c = 0; c < nc; ++c)
     if (parts[c] != partition_.cellPart[c]) report.movedLeaves += static_cast<long long>(weights[c]);

@@ -84,7 +84,7 @@ ForestPartition partitionForest(const mesh::Grid& grid, int parts, const ForestP
 std::vector<int> splitPartitionCells(const mesh::Grid& grid, const ForestPartition& partition,
                                      const std::vector<Index>& weights) {
   const auto nc = static_cast<Index>(partition.cells.size());
-  if (weights.size() != static_cast<std::size_t>(nc))
+  if (nc == 0 || weights.size() < static_cast<std::size_t>(nc) || weights.size() % static_cast<std::size_t>(nc) != 0)
     throw Error("forest partition: " + std::to_string(weights.size()) + " weights for " + std::to_string(nc) + " partition cells");
   if (partition.parts == 1) return std::vector<int>(static_cast<std::size_t>(nc), 0);
   // the face graph of the partition cells (the elements of the partition level's view)

@@ -53,7 +53,7 @@ std::vector<int> partitionPattern(std::span<const Index> rowStart, std::span<con
                                   std::span<const Index> weights) {
   const Index n = rowStart.empty() ? 0 : static_cast<Index>(rowStart.size()) - 1;
   if (parts < 2 || n < 2) return {};
-  if (!weights.empty() && weights.size() != static_cast<std::size_t>(n))
+  if (!weights.empty() && (weights.size() % static_cast<std::size_t>(n) != 0 || weights.size() < static_cast<std::size_t>(n)))
     throw Error("partition: " + std::to_string(weights.size()) + " vertex weights for " + std::to_string(n) +
                 " vertices");
   // the graph without its diagonal, in METIS' integer type
@@ -64,7 +64,8 @@ std::vector<int> partitionPattern(std::span<const Index> rowStart, std::span<con
       if (columns[k] != p) adjncy.push_back(static_cast<idx_t>(columns[k]));
     xadj[p + 1] = static_cast<idx_t>(adjncy.size());
   }
-  idx_t nvtxs = static_cast<idx_t>(n), ncon = 1, nparts = parts, objval = 0;
+  idx_t nvtxs = static_cast<idx_t>(n), nparts = parts, objval = 0;
+  idx_t ncon = weights.empty() ? 1 : static_cast<idx_t>(weights.size() / static_cast<std::size_t>(n));
   std::vector<idx_t> part(static_cast<std::size_t>(n), 0);
   idx_t options[METIS_NOPTIONS];
   METIS_SetDefaultOptions(options);

@@ -17,6 +17,7 @@
 
 #include "obs/mesh/BoxMesh.hpp"
 #include "obs/mesh/Grid.hpp"
+#include "obs/mesh/MeshTopology.hpp"
 #include "obs/obs/BoundaryConditions.hpp"
 #include "obs/obs/Communicator.hpp"
 #include "obs/obs/ContactSet.hpp"
@@ -329,6 +330,64 @@ TEST(DistributedGrid, RebalancesAsOneProcessHexahedra) {
                             1.02, &moves);
   if (obs::Communicator::world().size() > 1) {
     EXPECT_GE(moves, 1);
+  }
+}
+
+/// The faces of a boundary as a second weight of the balance (setBalancedBoundary): the reported
+/// imbalances of the faces are those of the parts, a move lowers the larger imbalance, the grid is
+/// the serial one on the new parts, and the boundary ends better balanced than when only the leaves
+/// count (grading towards a point inside, the bottom boundary balanced).
+TEST(DistributedGrid, BalancesABoundaryWithTheLeaves) {
+  const obs::Communicator comm = obs::Communicator::world();
+  const obs::mesh::Point p(0.3, 0.45, 0);
+  double finalBoundary[2] = {0, 0};
+  for (int balanced = 0; balanced < 2; ++balanced) {
+    SCOPED_TRACE(balanced ? "leaves and boundary faces" : "leaves");
+    const obs::mesh::Grid coarse(obs::mesh::boxMesh(CellType::Triangle, 8));
+    obs::DistributedGrid dist(coarse, 1, comm);
+    if (balanced) dist.setBalancedBoundary(obs::mesh::kBottom);
+    obs::mesh::Grid serial = coarse;
+    serial.refineUniformly();
+    obs::ForestPartitionOptions options;
+    options.level = dist.partition().level;
+    obs::ForestPartition sp = obs::partitionForest(serial, comm.size(), options);
+    const auto boundaryImbalance = [&](const obs::ForestPartition& part) {  // of the serial grid's leaves
+      std::vector<double> faces(static_cast<std::size_t>(comm.size()), 0.0);
+      double total = 0;
+      for (Index e : serial.leafElements())
+        for (int f = 0; f < static_cast<int>(obs::mesh::localFaces(serial.type(e)).size()); ++f)
+          if (serial.boundaryId(e, f) == obs::mesh::kBottom) {
+            faces[static_cast<std::size_t>(part.partOf(e))] += 1;
+            total += 1;
+          }
+      return *std::max_element(faces.begin(), faces.end()) * comm.size() / total;
+    };
+    for (int step = 0; step < 6; ++step) {
+      SCOPED_TRACE("step " + std::to_string(step));
+      std::vector<Index> own;
+      for (Index e : dist.grid().leafElements())
+        if (dist.partition().partOf(e) == comm.rank() && marksPoint(dist.grid(), e, p)) own.push_back(e);
+      for (Index e : serial.leafElements())
+        if (marksPoint(serial, e, p)) serial.mark(e);
+      serial.adapt();
+      sp.follow(serial);
+      dist.adapt(own);
+      const double before = boundaryImbalance(sp);
+      const obs::RebalanceReport r = dist.rebalance(1.05);
+      EXPECT_DOUBLE_EQ(r.boundaryBefore, balanced ? before : 1.0);
+      sp.cellPart = dist.partition().cellPart;
+      sp.follow(serial);
+      EXPECT_DOUBLE_EQ(r.after, sp.imbalance());
+      EXPECT_DOUBLE_EQ(r.boundaryAfter, balanced ? boundaryImbalance(sp) : 1.0);
+      if (r.moved) {
+        EXPECT_LT(std::max(r.after, r.boundaryAfter), std::max(r.before, r.boundaryBefore));
+      }
+      expectSerialViews<2>(dist, serial, sp);
+      finalBoundary[balanced] = boundaryImbalance(sp);
+    }
+  }
+  if (comm.size() > 1) {
+    EXPECT_LE(finalBoundary[1], finalBoundary[0]);
   }
 }
 

@@ -43,6 +43,9 @@ struct RunOptions {
   /// when the owned leaves of the largest rank exceed the mean by more than the factor T (>= 1;
   /// `inf`: never; docs/architecture.md#load-balancing). Default: 1.1.
   std::optional<double> imbalanceTolerance = {};
+  /// `--balance-contact`: distributed adaptive runs balance the contact boundary's faces as well as
+  /// the leaves (METIS multi-constraint; docs/architecture.md#load-balancing). Default: the leaves.
+  bool balanceContact = false;
 };
 
 /// A run that stopped early (SIGINT/SIGTERM, RunOptions::stopAfterStep); the message says where it

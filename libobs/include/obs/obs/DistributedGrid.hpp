@@ -96,6 +96,9 @@ struct RebalanceReport {
   bool moved = false;   ///< the grid was rebuilt on new parts
   int replayedSteps = 0;
   long long movedLeaves = 0;  ///< leaves whose partition cell changed its part
+  /// With a balanced boundary (DistributedGrid::setBalancedBoundary): the faces with its id of the
+  /// owned leaves of the largest part over the mean, before and after (1 without)
+  double boundaryBefore = 1.0, boundaryAfter = 1.0;
 };
 
 class DistributedGrid {
@@ -146,6 +149,12 @@ public:
   /// view, at the vertices of every part's owned leaves (0 at the others). Throws obs::Error (on
   /// every rank) for a tolerance below 1 or values of the wrong size.
   RebalanceReport rebalance(double tolerance, std::vector<double>* leafValues = nullptr, int width = 1);
+  /// The boundary faces with this id (e.g. the contact boundary, whose nodes cost more work) as a
+  /// second weight of rebalance(): the partition cells are then split by METIS balancing the leaves
+  /// and these faces at once (multi-constraint), and the parts move if either imbalance exceeds the
+  /// tolerance and the split lowers the larger of the two. -1 (default): the leaves alone.
+  void setBalancedBoundary(int id) { balancedBoundary_ = id; }
+  int balancedBoundary() const { return balancedBoundary_; }
 
 private:
   /// The construction (see the file comment) on the parts `partition` gives (METIS if it has none).
@@ -169,6 +178,7 @@ private:
   Index replicated_ = 0;
   int maxLevel_ = 0;  ///< vertices of the replicated levels (keyed by index)
   long long globalLeaves_ = 0;
+  int balancedBoundary_ = -1;  ///< setBalancedBoundary
 };
 
 }  // namespace obs

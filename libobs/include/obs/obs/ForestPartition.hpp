@@ -67,8 +67,9 @@ struct ForestPartition {
 ForestPartition partitionForest(const mesh::Grid& grid, int parts, const ForestPartitionOptions& options = {});
 
 /// METIS' split of the face graph of the partition cells into partition.parts parts balanced in
-/// `weights` (one per partition cell); the same on every process for the same input. Throws
-/// obs::Error for a weight count other than the cell count or a grid without the partition cells.
+/// `weights` (one per partition cell, or ncon per cell, cell-major, to balance ncon kinds of work
+/// at once); the same on every process for the same input. Throws obs::Error for a weight count
+/// that is not a multiple of the cell count or a grid without the partition cells.
 std::vector<int> splitPartitionCells(const mesh::Grid& grid, const ForestPartition& partition,
                                      const std::vector<Index>& weights);
 

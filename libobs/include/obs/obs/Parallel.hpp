@@ -86,8 +86,10 @@ std::array<double, K> chunkedSums(Index n, F&& f) {
 }
 
 /// METIS' partition of the graph of a (symmetric) pattern into `parts` >= 2 parts (fixed seed; the
-/// diagonal is ignored): part[p] in [0, parts), balanced in the sum of `weights` (one per vertex) or
-/// in vertices if weights is empty. Empty if METIS fails.
+/// diagonal is ignored): part[p] in [0, parts), balanced in the sum of `weights` or in vertices if
+/// weights is empty. `weights` holds ncon >= 1 weights per vertex (vertex-major; ncon = its size
+/// over the vertex count): with ncon > 1 every kind of weight is balanced at once (METIS'
+/// multi-constraint partitioning). Empty if METIS fails.
 std::vector<int> partitionPattern(std::span<const Index> rowStart, std::span<const Index> columns, int parts,
                                   std::span<const Index> weights = {});
 
