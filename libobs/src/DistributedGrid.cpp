@@ -358,11 +358,14 @@ RebalanceReport DistributedGrid::rebalance(double tolerance, std::vector<double>
   if (second) report.boundaryBefore = report.boundaryAfter = imbalanceOf(partition_.cellPart, 1);
   const double worst = std::max(report.before, report.boundaryBefore);
   if (ranks == 1 || worst <= tolerance) return report;
+  // a boundary without faces in the grid is no constraint (METIS needs a positive total per kind)
+  const std::size_t kinds = second && std::any_of(weights.begin() + static_cast<std::ptrdiff_t>(nc), weights.end(),
+                                                  [](double w) { return w > 0; }) ? 2 : 1;
   std::vector<int> parts;
   comm_.collective([&] {  // the same input on every rank, hence the same split
-    std::vector<Index> w(weights.size());
+    std::vector<Index> w(kinds * nc);
     for (std::size_t c = 0; c < nc; ++c)  // cell-major: the leaves, then the boundary faces
-      for (std::size_t k = 0; k < weights.size() / nc; ++k) w[c * (weights.size() / nc) + k] = static_cast<Index>(weights[k * nc + c]);
+      for (std::size_t k = 0; k < kinds; ++k) w[c * kinds + k] = static_cast<Index>(weights[k * nc + c]);
     parts = splitPartitionCells(grid_, partition_, w);
   });
   const double after = imbalanceOf(parts, 0), boundaryAfter = second ? imbalanceOf(parts, 1) : 1.0;

@@ -16,7 +16,10 @@
 ///  6. marking with global thresholds (markOwned; ties by DistributedGrid::cellKey), then
 ///     DistributedGrid::adapt; Uniform mode: every owned leaf;
 ///  7. load balancing: DistributedGrid::rebalance when the owned leaves of the largest rank exceed
-///     the mean by more than the imbalance tolerance; the warm start moves with the vertices.
+///     the mean by more than the imbalance tolerance (and the grid's balanced boundary, if set);
+///     the warm start moves with the vertices;
+///  8. the state hook (checkpoints): the records, the marks by cell key and the warm start, from
+///     which restore() continues on any number of ranks.
 /// The records are AdaptiveStep's, with the figures over all ranks (every rank holds the same
 /// record). Every call is collective; an error on one rank reaches every rank.
 ///

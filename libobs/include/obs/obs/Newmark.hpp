@@ -365,7 +365,8 @@ public:
   /// away from the contact nodes; all zero after initialize()): the multiplier divided by c' tau^2.
   /// The force on the body is -F; StepRecord::contactForce is its sum over the vertices. Mortar
   /// pairs: F = (I - C') F~ with F~ the nodal multipliers at the slave nodes, i.e. the slave and the
-  /// master vertices carry equal and opposite totals (the force on the bodies is -F).
+  /// master vertices carry equal and opposite totals (the force on the bodies is -F). Distributed
+  /// bodies coupled by mortar: collective (the slave rows' parts summed at the masters' owners).
   Eigen::VectorXd contactForces() const;
   /// The same forces of the last step at the constrained nodes, before the mortar transformation:
   /// F~ = the multipliers of the bounds divided by c' tau^2, F~_p nu_p at the vertex of contact
