@@ -781,36 +781,65 @@ RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options) {
   return r;
 }
 
-RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid, const BoundaryConditions& bc,
-                                      int contactId, const RunOptions& options, RunResult r, Clock::time_point start) {
+RunResult runDistributedAdaptiveScene(const Scene& scene, const std::vector<DistributedGrid*>& grids,
+                                      const std::vector<BoundaryConditions>& bcs,
+                                      const std::vector<const mesh::Mesh*>& coarseMeshes, const RunOptions& options,
+                                      RunResult r, Clock::time_point start) {
   const AdaptivitySpec& spec = *scene.adaptivity;
-  const Communicator& comm = grid.communicator();
+  const Communicator& comm = grids.front()->communicator();
+  const std::size_t nb = grids.size();
   auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
   };
-  const int dim = grid.grid().dimension();
+  const int dim = grids.front()->grid().dimension();
+  const std::vector<const Scene*> specs = scene.bodyScenes();
   const est::AdaptiveLoopOptions o = adaptiveLoopOptions(scene, true);
   std::unique_ptr<Obstacle> obstacle;
+  std::optional<SceneCouplings> couplings;  // several bodies: the scene's pair (ids, label, options)
+  int contactId = -1;
+  std::vector<int> balancedIds(nb, -1);  // --balance-contact: each body's contact boundary
   std::optional<est::DistributedAdaptiveLoop> loop;
   const fs::path dir = options.outputDirectory.value_or(scene.output.directory);
   comm.collective([&] {
+    if (grids.size() != specs.size() || bcs.size() != nb || coarseMeshes.size() != nb)
+      throw Error(scene.where(0) + "internal: a distributed adaptive run with inconsistent body lists");
     if (options.stopAfterStep && (*options.stopAfterStep < 0 || *options.stopAfterStep > spec.steps - 2))
       throw Error(scene.fileName + ": --stop-after-step " + std::to_string(*options.stopAfterStep) +
                   (spec.steps < 2 ? " needs at least two adaptive steps (the run has " + std::to_string(spec.steps) + ")"
                                   : " must lie in [0, " + std::to_string(spec.steps - 2) + "] (the run has steps 0 to " +
                                         std::to_string(spec.steps - 1) + ")"));
-    obstacle = makeObstacle(scene, dim);
+    if (scene.multiBody()) {
+      couplings.emplace(sceneCouplings(scene, coarseMeshes, bcs));
+      if (couplings->spec.couplings.size() != 1 || !couplings->spec.couplings.front().mortar)
+        throw Error(scene.where(0) + "internal: a distributed adaptive run of several bodies needs one mortar pair");
+      const ContactModelSpec::Coupling& c = couplings->spec.couplings.front();
+      balancedIds[static_cast<std::size_t>(c.body)] = c.boundaryId;
+      balancedIds[static_cast<std::size_t>(c.master)] = c.masterId;
+    } else {
+      obstacle = makeObstacle(scene, dim);
+      contactId = balancedIds[0] = contactBoundaryId(scene, *coarseMeshes.front());
+    }
     std::error_code ec;
     fs::create_directories(dir, ec);
     if (ec) throw Error(dir.string() + ": cannot create the output directory (" + ec.message() + ")");
   });
-  loop.emplace(grid, scene.material, bc, *obstacle, contactId, o);
-  const std::optional<est::ContactReference> reference = makeReference(scene, dim);
+  if (couplings) {
+    std::vector<est::DistributedAdaptiveBody> bodies;
+    for (std::size_t b = 0; b < nb; ++b) bodies.push_back({specs[b]->name, grids[b], &specs[b]->material, &bcs[b]});
+    loop.emplace(std::move(bodies), o);
+    const ContactModelSpec::Coupling& c = couplings->spec.couplings.front();
+    loop->addMortarContact(c.body, c.boundaryId, c.master, c.masterId, c.label, c.options);
+  } else {
+    loop.emplace(*grids.front(), scene.material, bcs.front(), *obstacle, contactId, o);
+  }
+  const std::optional<est::ContactReference> reference = couplings ? std::nullopt : makeReference(scene, dim);
   if (reference) loop->setReference(*reference);
   loop->setImbalanceTolerance(options.imbalanceTolerance.value_or(est::DistributedAdaptiveLoop::kDefaultImbalanceTolerance));
-  if (options.balanceContact) grid.setBalancedBoundary(contactId);  // the contact faces a second weight
+  if (options.balanceContact)  // the contact faces a second weight
+    for (std::size_t b = 0; b < nb; ++b) grids[b]->setBalancedBoundary(balancedIds[b]);
   progress("adaptive loop on " + std::to_string(comm.size()) + " ranks: " +
-           std::string(spec.uniform ? "uniform" : "adaptive") + " refinement, estimator " + spec.estimator +
+           std::string(spec.uniform ? "uniform" : "adaptive") + " refinement" +
+           (nb > 1 ? " of " + std::to_string(nb) + " bodies" : std::string()) + ", estimator " + spec.estimator +
            (spec.uniform ? "" : ", marking " + spec.marking) + ", up to " + std::to_string(spec.steps) + " steps from " +
            std::to_string(r.vertices) + " vertices");
 
@@ -825,26 +854,36 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
           << "moved_leaves,rebalance_s,memory_mb_max,memory_mb_sum\n";
   int rebalances = 0;
   NodalErrors nodalErrors;
-  double maxU = 0, maxMises = 0;
+  std::vector<double> maxU(nb, 0.0), maxMises(nb, 0.0);
 
   // checkpoints (docs/checkpoint.md#distributed-adaptive-runs): after step k the loop's records, the
-  // marks by cell key, the start as rows keyed by vertex, the outputs so far; one file from all ranks
+  // marks by cell key, the starts as rows keyed by vertex, the outputs so far; one file from all ranks
   const InterruptGuard interrupts;  // SIGINT/SIGTERM: finish the step, checkpoint, stop
   const fs::path checkpointFile = dir / "checkpoint.h5";
   CheckpointSchedule schedule(scene.output.checkpoint);
-  const std::vector<std::string> names{layout.perBody() ? scene.name : std::string()};
-  const DistributedView initial = grid.view();  // the grid before any adaptive step
-  const auto keyedBody = [&](const DistributedView& view) {
-    RunBody b{names.front(), &view.local};
-    b.keyed = true;
-    b.comm = &comm;
-    b.ownedVertices = view.halo.numOwned();
-    b.ownedCells = static_cast<Index>(view.part.owned.size());
-    return std::vector<RunBody>{b};
+  std::vector<std::string> names;
+  for (std::size_t b = 0; b < nb; ++b) names.push_back(layout.perBody() ? specs[b]->name : std::string());
+  std::vector<DistributedView> initial;  // the grids before any adaptive step
+  for (DistributedGrid* g : grids) initial.push_back(g->view());
+  const auto keyedBodies = [&](const std::vector<DistributedView>& views) {
+    std::vector<RunBody> bodies;
+    for (std::size_t b = 0; b < nb; ++b) {
+      RunBody& body = bodies.emplace_back(RunBody{names[b], &views[b].local});
+      body.keyed = true;
+      body.index = b;
+      body.comm = &comm;
+      body.ownedVertices = views[b].halo.numOwned();
+      body.ownedCells = static_cast<Index>(views[b].part.owned.size());
+    }
+    return bodies;
   };
-  const auto vertexKeys = [&](const DistributedView& view, Index count) {
-    std::vector<std::uint64_t> keys(static_cast<std::size_t>(count));
-    for (Index v = 0; v < count; ++v) keys[v] = vertexKey(0, view.local.vertex(v));
+  // the keys of the bodies' vertices, body after body: the owned ones, or all the rank holds
+  const auto vertexKeys = [&](const std::vector<DistributedView>& views, bool ownedOnly) {
+    std::vector<std::uint64_t> keys;
+    for (std::size_t b = 0; b < nb; ++b) {
+      const Index count = ownedOnly ? views[b].halo.numOwned() : views[b].local.numVertices();
+      for (Index v = 0; v < count; ++v) keys.push_back(vertexKey(b, views[b].local.vertex(v)));
+    }
     return keys;
   };
   if (options.restart) {
@@ -856,7 +895,7 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
       if (!cp.has(kMarkedKeys))
         throw Error(file.string() + ": the checkpoint was written by one process: continue it without mpirun");
     });
-    checkInitialGrid(cp, file, keyedBody(initial));  // (collective)
+    checkInitialGrid(cp, file, keyedBodies(initial));  // (collective)
     est::DistributedAdaptiveLoopState state;
     comm.collective([&] {
       try {
@@ -864,24 +903,35 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
         state.nextStep = serial.nextStep;
         state.steps = serial.steps;
         state.transferSeconds = serial.transferSeconds;
+        // per step, per body: the count of the marked keys
         const std::vector<long long>& counts = cp.integers(kMarkedKeyCounts);
         const std::vector<long long>& keys = cp.integers(kMarkedKeys);
+        if (counts.size() % nb != 0)
+          throw Error(kMarkedKeyCounts + " has " + std::to_string(counts.size()) + " entries, not a multiple of " +
+                      std::to_string(nb) + " bodies");
         std::size_t at = 0;
-        for (long long c : counts) {
+        for (std::size_t i = 0; i < counts.size(); ++i) {
+          const long long c = counts[i];
           if (c < 0 || at + static_cast<std::size_t>(c) > keys.size()) throw Error(kMarkedKeys + " is shorter than its counts");
-          std::vector<std::uint64_t>& step = state.marked.emplace_back();
-          for (long long i = 0; i < c; ++i) step.push_back(static_cast<std::uint64_t>(keys[at++]));
+          if (i % nb == 0) state.marked.emplace_back(nb);
+          std::vector<std::uint64_t>& step = state.marked.back()[i % nb];
+          for (long long j = 0; j < c; ++j) step.push_back(static_cast<std::uint64_t>(keys[at++]));
         }
         std::istringstream files(cp.text("run/vtu_files"));
         const std::vector<long long>& vtuSteps = cp.integers("run/vtu_steps");
+        const std::vector<long long>& vtuBodies = cp.has("run/vtu_bodies") ? cp.integers("run/vtu_bodies") : vtuSteps;
         for (std::string f; std::getline(files, f);) {
           if (!fs::exists(dir / f))
             throw Error("the interrupted run's " + (dir / f).string() +
                         " is missing (restart into the output directory of the interrupted run)");
           vtkFiles.push_back(PvdEntry{0, 0, f});
         }
-        if (vtuSteps.size() != vtkFiles.size()) throw Error("run/vtu_files and run/vtu_steps differ in length");
-        for (std::size_t i = 0; i < vtuSteps.size(); ++i) vtkFiles[i].time = static_cast<double>(vtuSteps[i]);
+        if (vtuSteps.size() != vtkFiles.size() || vtuBodies.size() != vtkFiles.size())
+          throw Error("run/vtu_files, run/vtu_steps and run/vtu_bodies differ in length");
+        for (std::size_t i = 0; i < vtuSteps.size(); ++i) {
+          vtkFiles[i].time = static_cast<double>(vtuSteps[i]);
+          vtkFiles[i].part = cp.has("run/vtu_bodies") ? static_cast<int>(vtuBodies[i]) : 0;
+        }
         std::istringstream written(cp.text("run/pieces"));
         for (std::string f; std::getline(written, f);) pieces.push_back(dir / f);
         balance.str(cp.text("run/balance_csv"));
@@ -896,23 +946,30 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
       }
     });
     const int next = state.nextStep;
-    // the refinements replayed, then the start by vertex on the rebuilt leaf view
-    loop->restore(std::move(state), [&](const DistributedView& view) {
-      checkRunIdentity(cp, file, "adaptive", scene, keyedBody(view));  // the rebuilt grid (collective)
+    // the refinements replayed, then the starts by vertex on the rebuilt leaf views
+    loop->restore(std::move(state), [&](const std::vector<DistributedView>& views) {
+      checkRunIdentity(cp, file, "adaptive", scene, keyedBodies(views));  // the rebuilt grids (collective)
       long long absent = 0;
-      const CheckpointRecord rows = readCheckpoint(file, vertexKeys(view, view.local.numVertices()), comm, &absent);
-      Eigen::VectorXd start;
+      const CheckpointRecord rows = readCheckpoint(file, vertexKeys(views, false), comm, &absent);
+      std::vector<Eigen::VectorXd> starts(nb);
       comm.collective([&] {
         if (absent != 0)
           throw Error(file.string() + ": " + std::to_string(absent) + " vertices of the rebuilt grid are not in the checkpoint");
-        if (rows.has("run/start")) start = rows.vector("run/start");
+        if (!rows.has("run/start")) return;
+        const Eigen::VectorXd& all = rows.vector("run/start");
+        Eigen::Index at = 0;
+        for (std::size_t b = 0; b < nb; ++b) {
+          const Eigen::Index n = static_cast<Eigen::Index>(views[b].local.numVertices()) * dim;
+          starts[b] = all.segment(at, n);
+          at += n;
+        }
       });
-      return start;
+      return starts;
     });
     progress("restart from " + file.string() + " at step " + std::to_string(next));
   }
-  loop->setStateHook([&](const est::DistributedAdaptiveLoopState& state, const DistributedView& next,
-                         const Eigen::VectorXd& start) {
+  loop->setStateHook([&](const est::DistributedAdaptiveLoopState& state, const std::vector<DistributedView>& next,
+                         const std::vector<Eigen::VectorXd>& starts) {
     const int k = state.nextStep - 1;
     const bool signalled = comm.max(InterruptGuard::requested() ? 1.0 : 0.0) > 0;
     const bool stop = signalled || (options.stopAfterStep && k >= *options.stopAfterStep);
@@ -920,31 +977,35 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
     if (!stop && !due) return;
     CheckpointRecord cp;
     cp.kind = "adaptive";
-    storeRunIdentity(cp, scene, keyedBody(next));  // collective
-    storeInitialGrid(cp, keyedBody(initial));      // collective
+    storeRunIdentity(cp, scene, keyedBodies(next));  // collective
+    storeInitialGrid(cp, keyedBodies(initial));      // collective
     comm.collective([&] {
       est::AdaptiveLoopState serial;
       serial.nextStep = state.nextStep;
       serial.steps = state.steps;
-      serial.refinements.assign(state.steps.size(), std::vector<std::vector<Index>>(1));  // (by key below)
+      serial.refinements.assign(state.steps.size(), std::vector<std::vector<Index>>(nb));  // (by key below)
       serial.transferSeconds = state.transferSeconds;
       est::storeAdaptiveState(cp, serial);
       std::vector<long long> counts, keys;
-      for (const auto& step : state.marked) {
-        counts.push_back(static_cast<long long>(step.size()));
-        for (std::uint64_t key : step) keys.push_back(static_cast<long long>(key));
-      }
-      cp.set(kMarkedKeyCounts, counts, "the number of leaves marked after each step (all ranks)");
-      cp.set(kMarkedKeys, keys, "the cell keys (DistributedGrid::cellKey) of the leaves marked after each step, sorted");
+      for (const auto& step : state.marked)
+        for (const auto& body : step) {
+          counts.push_back(static_cast<long long>(body.size()));
+          for (std::uint64_t key : body) keys.push_back(static_cast<long long>(key));
+        }
+      cp.set(kMarkedKeyCounts, counts, "the number of leaves marked after each step (all ranks), per body");
+      cp.set(kMarkedKeys, keys,
+             "the cell keys (DistributedGrid::cellKey) of the leaves marked after each step, per body, sorted");
       std::string files, written;
-      std::vector<long long> steps;
+      std::vector<long long> steps, parts;
       for (const PvdEntry& e : vtkFiles) {
         files += e.file + "\n";
         steps.push_back(static_cast<long long>(e.time));
+        parts.push_back(e.part);
       }
       for (const fs::path& f : pieces) written += f.filename().string() + "\n";
       cp.set("run/vtu_files", files, "the .pvtu files written so far (one name per line)");
       cp.set("run/vtu_steps", steps, "the step of each .pvtu file");
+      cp.set("run/vtu_bodies", parts, "the body of each .pvtu file");
       cp.set("run/pieces", written, "the pieces of the .pvtu files written so far (one name per line)");
       cp.set("run/balance_csv", balance.str(), "balance.csv so far");
       cp.set("run/rebalances", static_cast<long long>(rebalances), "the rebalances so far");
@@ -955,19 +1016,24 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
              "the nodal pressure error of each step so far (with a reference; NaN: none)");
       cp.set("run/nodal_pressure_errors_fixed_load", vec(nodalErrors.fixedLoad),
              "the nodal pressure error for the fixed reference_load of each step so far (NaN: none)");
-      const Index owned = next.halo.numOwned();
-      if (start.size() > 0)
-        cp.setRows("run/start", Eigen::VectorXd(start.head(static_cast<Eigen::Index>(owned) * dim)), dim,
-                   "the start of step next_step (the last solution on the refined grid) at the owned vertices");
-      cp.setRowKeys(vertexKeys(next, owned));
+      if (std::all_of(starts.begin(), starts.end(), [](const Eigen::VectorXd& s) { return s.size() > 0; })) {
+        std::vector<double> owned;  // the bodies' owned rows, body after body
+        for (std::size_t b = 0; b < nb; ++b)
+          owned.insert(owned.end(), starts[b].data(), starts[b].data() + next[b].halo.numOwned() * dim);
+        cp.setRows("run/start", Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(owned.data(), static_cast<Eigen::Index>(owned.size()))), dim,
+                   "the start of step next_step (the last solution on the refined grids) at the owned vertices");
+      }
+      cp.setRowKeys(vertexKeys(next, true));
     });
     writeCheckpoint(checkpointFile, cp, comm);
     schedule.written();
     if (options.stepProgress) options.stepProgress("checkpoint: step " + std::to_string(k) + " -> " + checkpointFile.string());
     if (!stop) return;
+    Index vertices = 0;
+    for (const DistributedView& v : next) vertices += v.globalVertices();
     std::ostringstream os;
     os << (signalled ? "interrupted by " + InterruptGuard::signalName() : std::string("stopped (--stop-after-step)"))
-       << " after adaptive step " << k << " of " << spec.steps - 1 << " (refined to " << next.globalVertices()
+       << " after adaptive step " << k << " of " << spec.steps - 1 << " (refined to " << vertices
        << " vertices): checkpoint written to " << checkpointFile.string() << "; continue with: mpirun -np N obs run "
        << scene.fileName << " --restart " << checkpointFile.string()
        << " (any N >= 2; the same --output, --refine and --set options)";
@@ -975,76 +1041,92 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
   });
   loop->setCallback([&](const est::DistributedAdaptiveStepView& v) {
     const bool isLast = v.record.marked == 0;
-    const auto ownedCells = static_cast<Index>(v.leaf.part.owned.size());
-    const Index owned = v.leaf.halo.numOwned();
-    // the local work in collective() (an error reaches every rank), the reductions after it
-    ElasticitySolution e;
-    // max |u|, max von Mises; owned cells, contact nodes, held leaves, peak memory so far
-    std::vector<double> largest(6, 0.0);
-    std::vector<double> mine;             // the owned nodes' nodal pressure samples
-    comm.collective([&] {
-      e.dimension = dim;
-      e.displacement = v.displacement;
-      recoverStresses(v.leaf.local, scene.material, e);
-      for (Index p = 0; p < owned; ++p)
-        largest[0] = std::max(largest[0], v.displacement.segment(static_cast<Eigen::Index>(p) * dim, dim).norm());
-      for (Index c = 0; c < ownedCells; ++c) largest[1] = std::max(largest[1], vonMises(e.cellStress[c]));
-      largest[2] = static_cast<double>(ownedCells);
-      for (Index q = 0; q < v.contactSet.size(); ++q) largest[3] += v.contactSet.vertex(q) < owned ? 1 : 0;
-      largest[4] = static_cast<double>(v.grid.grid().numLeafElements());
-      largest[5] = peakMemoryMB();
-      if (reference && v.record.reference)
-        for (const est::NodalPressure& n : nodalPressures(v.contactSet, v.outputs, owned))
-          mine.insert(mine.end(), {n.x[0], n.x[1], n.x[2], n.weight, n.pressure});
-    });
-    {  // the work per rank of this step: owned cells, owned contact nodes, held leaves, memory
-      std::vector<double> total(largest.begin() + 2, largest.end());
+    const bool write = spec.vtk == AdaptivitySpec::Vtk::Every || (spec.vtk == AdaptivitySpec::Vtk::Last && isLast);
+    // the work per rank of this step, summed over the bodies: owned cells, owned contact nodes, held
+    // leaves; the peak memory so far
+    std::vector<double> work(4, 0.0);
+    RebalanceReport moved;  // the bodies' balancing together: the worst before, any move, the moved leaves
+    moved.before = 0;
+    for (std::size_t b = 0; b < nb; ++b) {
+      const est::DistributedAdaptiveBodyView& body = v.bodies[b];
+      const Scene& bodyScene = *specs[b];
+      const auto ownedCells = static_cast<Index>(body.leaf.part.owned.size());
+      const Index owned = body.leaf.halo.numOwned();
+      // the local work in collective() (an error reaches every rank), the reductions after it
+      ElasticitySolution e;
+      std::vector<double> largest(2, 0.0);  // max |u|, max von Mises
+      std::vector<double> mine;             // the owned nodes' nodal pressure samples
+      comm.collective([&] {
+        e.dimension = dim;
+        e.displacement = body.displacement;
+        recoverStresses(body.leaf.local, bodyScene.material, e);
+        for (Index p = 0; p < owned; ++p)
+          largest[0] = std::max(largest[0], body.displacement.segment(static_cast<Eigen::Index>(p) * dim, dim).norm());
+        for (Index c = 0; c < ownedCells; ++c) largest[1] = std::max(largest[1], vonMises(e.cellStress[c]));
+        work[0] += static_cast<double>(ownedCells);
+        if (body.contactSet)
+          for (Index q = 0; q < body.contactSet->size(); ++q) work[1] += body.contactSet->vertex(q) < owned ? 1 : 0;
+        work[2] += static_cast<double>(body.grid.grid().numLeafElements());
+        if (reference && v.record.reference && body.contactSet && body.outputs)
+          for (const est::NodalPressure& n : nodalPressures(*body.contactSet, *body.outputs, owned))
+            mine.insert(mine.end(), {n.x[0], n.x[1], n.x[2], n.weight, n.pressure});
+      });
       comm.max(largest);
-      maxU = largest[0];
-      maxMises = largest[1];
-      largest.erase(largest.begin(), largest.begin() + 2);
+      maxU[b] = largest[0];
+      maxMises[b] = largest[1];
+      moved.before = std::max(moved.before, body.balance.before);
+      moved.moved = moved.moved || body.balance.moved;
+      moved.movedLeaves += body.balance.movedLeaves;
+      if (write) {
+        std::vector<Field> points, cells;
+        comm.collective([&] {
+          points = pointFields(body.leaf.local, e);
+          cells = cellFields(body.leaf.local, e);
+          if (body.estimate) {
+            Field eta{"eta", 1, std::vector<double>(static_cast<std::size_t>(body.leaf.local.numCells()), 0.0)};
+            for (Index c = 0; c < ownedCells; ++c) eta.values[c] = body.estimate->indicators[c];
+            cells.push_back(std::move(eta));
+          }
+        });
+        const std::string base = fs::path(layout.adaptiveVtu(v.record.step, b)).stem().string();
+        for (auto& f : writePieces(dir, base, body.leaf.local, ownedCells, points, cells, comm)) pieces.push_back(f);
+        vtkFiles.push_back(PvdEntry{static_cast<double>(v.record.step), static_cast<int>(b), base + ".pvtu"});
+      }
+      if (reference && v.record.reference) {  // the owned nodes of every rank, on every rank
+        std::vector<est::NodalPressure> nodes;
+        for (const std::vector<double>& part : comm.allGather(mine))
+          for (std::size_t i = 0; i + 4 < part.size(); i += 5)
+            nodes.push_back(est::NodalPressure{Point(part[i], part[i + 1], part[i + 2]), part[i + 3], part[i + 4]});
+        const auto k = static_cast<std::size_t>(v.record.step);
+        nodalErrors.load.resize(k + 1, std::nan(""));
+        nodalErrors.load[k] = est::nodalPressureError(nodes, *reference, v.record.reference->load);
+        nodalErrors.fixedLoad.resize(k + 1, std::nan(""));
+        if (spec.referenceLoad) nodalErrors.fixedLoad[k] = est::nodalPressureError(nodes, *reference, *spec.referenceLoad);
+      }
+    }
+    {  // balance.csv: the largest rank's and the mean work
+      work[3] = peakMemoryMB();
+      std::vector<double> largest = work, total = work;
+      comm.max(largest);
       comm.sum(total);
       balance << v.record.step << "," << largest[0] << "," << total[0] / comm.size() << ","
               << largest[0] * comm.size() / std::max(total[0], 1.0) << "," << largest[1] << ","
               << total[1] / comm.size() << "," << (total[1] > 0 ? largest[1] * comm.size() / total[1] : 1.0) << ","
-              << largest[2] << "," << total[2] / comm.size() << "," << v.balance.before << ","
-              << (v.balance.moved ? 1 : 0) << "," << v.balance.movedLeaves << "," << v.balanceSeconds << ","
-              << largest[3] << "," << total[3] << "\n";
-      rebalances += v.balance.moved ? 1 : 0;
+              << largest[2] << "," << total[2] / comm.size() << "," << moved.before << "," << (moved.moved ? 1 : 0)
+              << "," << moved.movedLeaves << "," << v.balanceSeconds << "," << largest[3] << "," << total[3] << "\n";
+      rebalances += moved.moved ? 1 : 0;
     }
     if (isLast) {
       load = RankLoad{};
-      load.add("owned_vertices", static_cast<double>(owned));
-      load.add("ghost_vertices", static_cast<double>(v.leaf.halo.numLocal() - owned));
-      load.add("owned_cells", static_cast<double>(ownedCells));
-    }
-    if (spec.vtk == AdaptivitySpec::Vtk::Every || (spec.vtk == AdaptivitySpec::Vtk::Last && isLast)) {
-      std::vector<Field> points, cells;
-      comm.collective([&] {
-        points = pointFields(v.leaf.local, e);
-        cells = cellFields(v.leaf.local, e);
-        if (v.estimate) {
-          Field eta{"eta", 1, std::vector<double>(static_cast<std::size_t>(v.leaf.local.numCells()), 0.0)};
-          for (Index c = 0; c < ownedCells; ++c) eta.values[c] = v.estimate->indicators[c];
-          cells.push_back(std::move(eta));
-        }
-      });
-      const std::string base = fs::path(layout.adaptiveVtu(v.record.step, 0)).stem().string();
-      for (auto& f : writePieces(dir, base, v.leaf.local, ownedCells, points, cells, comm)) pieces.push_back(f);
-      vtkFiles.push_back(PvdEntry{static_cast<double>(v.record.step), 0, base + ".pvtu"});
-    }
-    if (reference && v.record.reference) {  // the owned nodes of every rank, on every rank
-      const std::vector<std::vector<double>> all =
-          comm.exchange(std::vector<std::vector<double>>(static_cast<std::size_t>(comm.size()), mine));
-      std::vector<est::NodalPressure> nodes;
-      for (const std::vector<double>& part : all)
-        for (std::size_t i = 0; i + 4 < part.size(); i += 5)
-          nodes.push_back(est::NodalPressure{Point(part[i], part[i + 1], part[i + 2]), part[i + 3], part[i + 4]});
-      const auto k = static_cast<std::size_t>(v.record.step);
-      nodalErrors.load.resize(k + 1, std::nan(""));
-      nodalErrors.load[k] = est::nodalPressureError(nodes, *reference, v.record.reference->load);
-      nodalErrors.fixedLoad.resize(k + 1, std::nan(""));
-      if (spec.referenceLoad) nodalErrors.fixedLoad[k] = est::nodalPressureError(nodes, *reference, *spec.referenceLoad);
+      double owned = 0, ghosts = 0, cells = 0;
+      for (const est::DistributedAdaptiveBodyView& body : v.bodies) {
+        owned += static_cast<double>(body.leaf.halo.numOwned());
+        ghosts += static_cast<double>(body.leaf.halo.numLocal() - body.leaf.halo.numOwned());
+        cells += static_cast<double>(body.leaf.part.owned.size());
+      }
+      load.add("owned_vertices", owned);
+      load.add("ghost_vertices", ghosts);
+      load.add("owned_cells", cells);
     }
     if (options.stepProgress) options.stepProgress(stepLine(v.record, spec.steps));
   });
@@ -1053,15 +1135,28 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid,
 
   // rank 0: the .pvd, steps.csv and summary.json (the figures are the same on every rank)
   recordFinalStep(steps, r);
-  r.maxDisplacement = maxU;
-  r.maxVonMises = maxMises;
+  r.maxDisplacement = *std::max_element(maxU.begin(), maxU.end());
+  r.maxVonMises = *std::max_element(maxMises.begin(), maxMises.end());
+  if (layout.perBody())
+    for (std::size_t b = 0; b < nb; ++b) {
+      BodyReport br;
+      br.name = specs[b]->name;
+      br.vertices = final.bodies[b].vertices;
+      br.cells = final.bodies[b].cells;
+      br.maxDisplacement = maxU[b];
+      br.maxVonMises = maxMises[b];
+      r.bodies.push_back(br);
+    }
+  if (couplings)
+    for (std::size_t k = 0; k < final.couplings.size(); ++k)
+      r.pairs.push_back(pairReport(final.couplings[k], couplings->sides[k].first, couplings->sides[k].second, dim));
   r.solver.type = "tnnmg";
   r.solver.iterations = final.solverIterations;
   r.solver.converged = final.converged;
   r.solver.seconds = final.solverSeconds;
   r.solver.tolerance = o.solver.tolerance;
   nlohmann::json extra;
-  addDistributedSummary(extra, comm, grid.partition().level, load);
+  addDistributedSummary(extra, comm, grids.front()->partition().level, load);
   extra["rebalances"] = rebalances;
   comm.collective([&] {
     if (comm.rank() != 0) return;

@@ -45,8 +45,11 @@ std::string notDistributedBodies(const Scene& scene);
 /// What of the scene is not distributed yet ("" if it can run).
 std::string notDistributed(const Scene& scene) {
   if (scene.adaptivity) {
-    if (scene.multiBody()) return "[adaptivity] with several bodies";
-    if (!scene.contact) return "[adaptivity] without [contact]";
+    if (scene.multiBody()) {
+      if (std::string what = notDistributedBodies(scene); !what.empty()) return what;
+    } else if (!scene.contact) {
+      return "[adaptivity] without [contact]";
+    }
     if (scene.frictional()) return "[adaptivity] with friction";
     if (scene.solverType() != "tnnmg") return "[adaptivity] with [solver] type = \"" + scene.solverType() + "\"";
     if (scene.adaptivity->inexact > 0) return "[adaptivity] inexact";
@@ -863,6 +866,19 @@ RunResult runDistributedBodies(const Scene& scene, const RunOptions& options, co
   progress("meshes built: " + std::to_string(bodies.size()) + " bodies, " + std::to_string(r.cells) + " cells / " +
            std::to_string(r.vertices) + " vertices (" + std::to_string(r.dimension) + "D) on " +
            std::to_string(comm.size()) + " ranks (" + std::to_string(r.meshSeconds) + " s)");
+  if (scene.adaptivity) {  // the bodies' conditions resolved on their coarse meshes
+    std::vector<DistributedGrid*> dgs;
+    std::vector<const mesh::Mesh*> meshes;
+    std::vector<BoundaryConditions> bcs;
+    comm.collective([&] {
+      for (std::size_t i = 0; i < bodies.size(); ++i) bcs.push_back(makeBoundaryConditions(*bodies[i], coarse->meshes[i], 0));
+    });
+    for (std::size_t i = 0; i < bodies.size(); ++i) {
+      dgs.push_back(grids[i].get());
+      meshes.push_back(&coarse->meshes[i]);
+    }
+    return runDistributedAdaptiveScene(scene, dgs, bcs, meshes, options, std::move(r), start);
+  }
   if (scene.dynamics) {  // the bodies' conditions resolved on their coarse meshes
     std::vector<const DistributedGrid*> dgs;
     std::vector<const DistributedView*> leaves;
@@ -907,7 +923,7 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
   if (const std::string what = notDistributed(scene); !what.empty())
     throw Error(scene.fileName + ": distributed runs (" + std::to_string(comm.size()) +
                 " MPI ranks) solve static scenes with TNNMG so far (one body, with an obstacle or without contact, or two bodies with "
-                "one mortar pair), adaptive scenes of one body against an obstacle and dynamic scenes of one body or two bodies with one frictionless mortar pair; this scene has " + what +
+                "one mortar pair), adaptive scenes of one body against an obstacle or of two bodies with one frictionless mortar pair, and dynamic scenes of one body or two bodies with one frictionless mortar pair; this scene has " + what +
                 " (run it without mpirun, and use --threads N for the cores of one machine)");
   const auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
@@ -955,7 +971,7 @@ RunResult runDistributedScene(const Scene& scene, const RunOptions& options, con
 
   if (scene.dynamics)
     return runDistributedDynamicScene(scene, {&dg}, {&leaf}, {&*coarseMesh}, {bcAt(0)}, options, std::move(r), start);
-  if (scene.adaptivity) return runDistributedAdaptiveScene(scene, dg, bcAt(0), contactId, options, std::move(r), start);
+  if (scene.adaptivity) return runDistributedAdaptiveScene(scene, {&dg}, {bcAt(0)}, {&*coarseMesh}, options, std::move(r), start);
 
   const std::filesystem::path dir = options.outputDirectory.value_or(scene.output.directory);
   comm.collective([&] {

@@ -8,6 +8,7 @@
 
 #include "obs/estimators/EstimatorRegistry.hpp"
 #include "obs/estimators/Marking.hpp"
+#include "MortarGap.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Prolongation.hpp"
 #include "obs/obs/ContactModel.hpp"
@@ -354,103 +355,6 @@ private:
   std::vector<const Obstacle*> parts_;
 };
 
-/// The boundary faces with id `id` of `m` as a surface mesh; meshVertex (if given) receives the
-/// mesh vertex of each surface vertex.
-mesh::SurfaceMesh boundarySurface(const mesh::Mesh& m, int id, const std::string& label,
-                                  std::vector<Index>* meshVertex = nullptr) {
-  mesh::SurfaceMesh s;
-  s.dimension = m.dimension();
-  s.source = label;
-  std::vector<Index> local(static_cast<std::size_t>(m.numVertices()), -1);
-  for (Index f = 0; f < m.numBoundaryFaces(); ++f) {
-    if (m.boundaryFaceId(f) != id) continue;
-    const auto fv = m.boundaryFaceVertices(f);
-    std::array<Index, 4> face{};
-    for (std::size_t i = 0; i < fv.size(); ++i) {
-      Index& l = local[static_cast<std::size_t>(fv[i])];
-      if (l < 0) {
-        l = static_cast<Index>(s.vertices.size());
-        s.vertices.push_back(m.vertex(fv[i]));
-        if (meshVertex) meshVertex->push_back(fv[i]);
-      }
-      face[i] = l;
-    }
-    s.types.push_back(mesh::faceTypeFromVertexCount(static_cast<int>(fv.size())));
-    s.faces.push_back(face);
-  }
-  return s;
-}
-
-/// int_{Gamma} phi_q over the boundary faces with id `id`, per vertex (0 elsewhere).
-std::vector<double> boundaryLumpedMass(const mesh::Mesh& m, int id) {
-  std::vector<double> mass(static_cast<std::size_t>(m.numVertices()), 0.0);
-  double shape[4], grad[8];
-  for (Index f = 0; f < m.numBoundaryFaces(); ++f) {
-    if (m.boundaryFaceId(f) != id) continue;
-    const auto fv = m.boundaryFaceVertices(f);
-    const mesh::CellType ft = mesh::faceTypeFromVertexCount(static_cast<int>(fv.size()));
-    const auto& ref = mesh::referenceElement(ft);
-    const auto& rule = mesh::quadratureRule(ft, 2);
-    for (std::size_t q = 0; q < rule.size(); ++q) {
-      ref.values(rule.points[q], std::span<double>(shape, fv.size()));
-      ref.gradients(rule.points[q], std::span<double>(grad, fv.size() * ref.dim));
-      Point ds = Point::Zero(), dt = Point::Zero();
-      for (std::size_t i = 0; i < fv.size(); ++i) {
-        ds += grad[i * ref.dim] * m.vertex(fv[i]);
-        if (ref.dim == 2) dt += grad[i * ref.dim + 1] * m.vertex(fv[i]);
-      }
-      const double w = rule.weights[q] * (ref.dim == 1 ? ds.norm() : ds.cross(dt).norm());
-      for (std::size_t i = 0; i < fv.size(); ++i) mass[static_cast<std::size_t>(fv[i])] += w * shape[i];
-    }
-  }
-  return mass;
-}
-
-/// The exact gap of the slave side of a mortar pair (docs/theory.md#two-body-estimator), in the
-/// linearisation of the mortar constraint: at a point x of the slave surface with the slave face
-/// normal n (of the face nearest to x; the mortar projection direction), the distance t along n to
-/// the undeformed, faceted master surface plus the master displacement there along n,
-/// g(x) = t + n . u_M(x + t n).
-class MortarGapObstacle : public Obstacle {
-public:
-  /// `probe`, `probeNormal`: a slave node and its mortar normal (orients the face normals); um: the
-  /// master body's displacement (vertex-major, d per vertex).
-  MortarGapObstacle(const mesh::Mesh& slave, int slaveId, const mesh::Mesh& master, int masterId,
-                    const Eigen::VectorXd& um, const Point& probe, const Point& probeNormal, const std::string& label)
-      : slave_(boundarySurface(slave, slaveId, "the slave surface of '" + label + "'"), SurfaceObstacle::ClosestPoint{}),
-        master_(boundarySurface(master, masterId, "the master surface of '" + label + "'", &masterVertex_), probeNormal),
-        d_(master.dimension()) {
-    flip_ = slave_.nearest(probe).normal.dot(probeNormal) < 0 ? -1.0 : 1.0;
-    for (Index v : masterVertex_) {
-      Point u = Point::Zero();
-      u.head(d_) = um.segment(static_cast<Eigen::Index>(v) * d_, d_);
-      displacement_.push_back(u);
-    }
-  }
-  double gap(const Point& x) const override {
-    const Point n = direction(x);
-    const auto hit = master_.hitAlong(x, n);
-    if (!hit) return std::numeric_limits<double>::infinity();
-    Point u = Point::Zero();
-    for (int i = 0; i < 3; ++i)
-      if (hit->vertices[static_cast<std::size_t>(i)] >= 0)
-        u += hit->weights[static_cast<std::size_t>(i)] * displacement_[static_cast<std::size_t>(hit->vertices[static_cast<std::size_t>(i)])];
-    return hit->t + n.dot(u);
-  }
-  Point direction(const Point& x) const override {
-    const Point n = slave_.nearest(x).normal;
-    return flip_ * n.normalized();
-  }
-  std::string name() const override { return "mortar"; }
-
-private:
-  std::vector<Index> masterVertex_;  // (declared before master_: filled by its initialiser)
-  SurfaceObstacle slave_, master_;
-  int d_ = 3;
-  double flip_ = 1;
-  std::vector<Point> displacement_;
-};
-
 /// What the loop keeps of one body in a step.
 struct BodyState {
   Index offset = 0;                     ///< first stacked vertex
@@ -523,8 +427,18 @@ void bodyContactData(const ContactModel<d>& model, const ContactProblem<d>& prob
         try {
           const ContactSet probe = c.coupling->contactSet();
           if (probe.size() == 0) throw Error("no constrained slave node");
+          std::vector<Index> masterVertex;
+          mesh::SurfaceMesh masterSurface =
+              boundarySurface(*master.mesh, c.masterId, "the master surface of '" + c.label + "'", &masterVertex);
+          std::vector<Point> masterDisplacement;
+          for (Index v : masterVertex) {
+            Point w = Point::Zero();
+            w.head<d>() = um.template segment<d>(static_cast<Eigen::Index>(v) * d);
+            masterDisplacement.push_back(w);
+          }
           b.ownObstacles.push_back(std::make_unique<MortarGapObstacle>(
-              m, c.slaveId, *master.mesh, c.masterId, um, probe.position(0), probe.direction(0), c.label));
+              boundarySurface(m, c.slaveId, "the slave surface of '" + c.label + "'"), masterSurface,
+              std::move(masterDisplacement), probe.position(0), probe.direction(0)));
         } catch (const Error& e) {
           throw Error("adaptive loop: the exact gap of mortar pair '" + c.label + "' (the distance along the "
                       "slave normals to the master surface) cannot be built: " + e.what());

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <climits>
 #include <exception>
+#include <limits>
+#include <type_traits>
 #include <vector>
 
 #include "obs/mesh/Error.hpp"
@@ -211,6 +213,44 @@ std::vector<long long> Communicator::allGather(long long x) const {
   if (size_ > 1) MPI_Allgather(&x, 1, MPI_LONG_LONG, all.data(), 1, MPI_LONG_LONG, MPI_COMM_WORLD);
 #endif
   return all;
+}
+
+namespace {
+
+/// MPI_Allgatherv of vectors of any length (the counts gathered first).
+template <typename T>
+std::vector<std::vector<T>> gatherAll(const Communicator& comm, const std::vector<T>& x) {
+  std::vector<std::vector<T>> all(static_cast<std::size_t>(comm.size()));
+  if (comm.size() == 1) {
+    all[0] = x;
+    return all;
+  }
+#ifdef OBS_HAVE_MPI
+  const std::vector<long long> counts = comm.allGather(static_cast<long long>(x.size()));
+  ++counters().otherCollectives;
+  std::vector<int> count(counts.size()), displacement(counts.size() + 1, 0);
+  for (std::size_t r = 0; r < counts.size(); ++r) {
+    if (displacement[r] + counts[r] > std::numeric_limits<int>::max())
+      throw Error("communicator: an all-gather of more than 2^31 values");
+    count[r] = static_cast<int>(counts[r]);
+    displacement[r + 1] = displacement[r] + count[r];
+  }
+  std::vector<T> flat(static_cast<std::size_t>(displacement.back()));
+  const MPI_Datatype type = std::is_same_v<T, double> ? MPI_DOUBLE : MPI_UINT64_T;
+  MPI_Allgatherv(x.data(), static_cast<int>(x.size()), type, flat.data(), count.data(), displacement.data(), type,
+                 MPI_COMM_WORLD);
+  for (std::size_t r = 0; r < all.size(); ++r)
+    all[r].assign(flat.begin() + displacement[r], flat.begin() + displacement[r + 1]);
+#endif
+  return all;
+}
+
+}  // namespace
+
+std::vector<std::vector<double>> Communicator::allGather(const std::vector<double>& x) const { return gatherAll(*this, x); }
+
+std::vector<std::vector<std::uint64_t>> Communicator::allGather(const std::vector<std::uint64_t>& x) const {
+  return gatherAll(*this, x);
 }
 
 void Communicator::exchange(const std::vector<int>& to, const std::vector<std::vector<double>>& send,

@@ -61,18 +61,20 @@ namespace obs::drivers {
 RunResult runAdaptiveScene(const Scene& scene, const RunOptions& options);
 
 /// The same on the ranks of a distributed run (`mpirun -np N obs run`,
-/// docs/architecture.md#distributed-adaptivity): one body against the scene's obstacle on `grid`
-/// (refined in place; `bc` its boundary conditions, `contactId` the contact boundary), by
-/// estimators::DistributedAdaptiveLoop. Every rank holds the same step records (the reference
-/// errors over all ranks); rank 0 writes steps.csv, balance.csv (per step the owned cells and
-/// contact nodes per rank: largest, mean, imbalance; the leaves each rank's grid holds: largest,
-/// mean), the .pvd of the .pvtu files and summary.json
-/// (with "ranks", the memory per rank and "balance" of the last step), every rank its piece of
-/// each written step. Collective; errors reach every rank.
-/// Refused (obs::Error): checkpoints and --restart.
-RunResult runDistributedAdaptiveScene(const Scene& scene, DistributedGrid& grid, const BoundaryConditions& bc,
-                                      int contactId, const RunOptions& options, RunResult result,
-                                      std::chrono::steady_clock::time_point start);
+/// docs/architecture.md#distributed-adaptivity): one body against the scene's obstacle, or two
+/// bodies with the scene's one mortar pair, by estimators::DistributedAdaptiveLoop; `grids` (refined
+/// in place), `bcs` and `coarseMeshes` (on which the boundaries were resolved) per body in the
+/// scene's order. Every rank holds the same step records (the reference errors over all ranks);
+/// rank 0 writes steps.csv, balance.csv (per step the owned cells and contact nodes per rank,
+/// summed over the bodies: largest, mean, imbalance; the leaves each rank's grids hold: largest,
+/// mean), the .pvd of the .pvtu files and summary.json (with "ranks", the memory per rank and
+/// "balance" of the last step; several bodies: "bodies" and "pairs"), every rank its piece of each
+/// written step of each body. Checkpoints and --restart as docs/checkpoint.md#distributed-adaptive-runs
+/// describes. Collective; errors reach every rank.
+RunResult runDistributedAdaptiveScene(const Scene& scene, const std::vector<DistributedGrid*>& grids,
+                                      const std::vector<BoundaryConditions>& bcs,
+                                      const std::vector<const mesh::Mesh*>& coarseMeshes, const RunOptions& options,
+                                      RunResult result, std::chrono::steady_clock::time_point start);
 
 /// The loop options of the scene's [adaptivity] and [solver] sections (the solver by solverConfig,
 /// as for a static and a dynamic run); `contact`: the scene has a contact coupling, whose solver

@@ -57,6 +57,10 @@ public:
   std::vector<std::vector<std::uint64_t>> exchange(const std::vector<std::vector<std::uint64_t>>& send) const;
   /// Every rank's x, in rank order (a collective call).
   std::vector<long long> allGather(long long x) const;
+  /// Every rank's vector (of any length), in rank order (received[r] from rank r; a collective call):
+  /// what every rank needs of every other, e.g. a surface or a few rows that each rank holds a part of.
+  std::vector<std::vector<double>> allGather(const std::vector<double>& x) const;
+  std::vector<std::vector<std::uint64_t>> allGather(const std::vector<std::uint64_t>& x) const;
   /// Point to point between neighbours: send[k] goes to rank to[k], and recv[k] (sized by the
   /// caller) is filled from rank from[k]. Every message must be matched by a receive of the same
   /// size on the other rank (as HaloExchange arranges). Self-messages are not allowed.

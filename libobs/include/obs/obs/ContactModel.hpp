@@ -179,7 +179,7 @@ struct CouplingRecord {
   double pressureMin = 0, pressureMax = 0;  ///< over the actual contact nodes (0 without contact)
   double area = 0;                  ///< measure of the faces with all nodes in contact
   double maxViolation = 0;          ///< max (nu_p'x_p - g_p)^+ of the problem unknowns x
-  Index segments = 0, uncovered = 0;  ///< mortar statistics (MortarCoupling::Statistics)
+  Index segments = 0, uncovered = 0;  ///< mortar statistics (MortarCoupling::Statistics; segments -1: not counted, as on ranks)
   double mortarSeconds = 0;
 };
 
