@@ -2,7 +2,8 @@
 # The adaptive examples with `obs run` on one process and under `mpirun -np 2`
 # (docs/architecture.md#distributed-adaptivity): Example 1A (flat punch, quadrilaterals), Example 3A
 # (ball, hexahedra) and Example 3B (ball, tetrahedra), both from their thesis grids refined once
-# (the coarse level is replicated on ranks). Prints per run: steps, the final cells and unknowns,
+# (the coarse level is replicated on ranks), and the adaptive two-body scenes (a half-cylinder on a
+# block in 2D, a half ball on a box in 3D; one mortar pair). Prints per run: steps, the final cells and unknowns,
 # the solve and total seconds (summary.json times), the peak memory of the largest rank, the
 # TNNMG iterations of the last step, the final eta, the largest deviation of eta from the one
 # process's over all steps (relative), the imbalance of the owned cells of the first and last steps
@@ -16,7 +17,8 @@ set -euo pipefail
 out=${1:-out/distributed_adaptive}
 obs=${OBS:-$PWD/build/drivers/obs}
 scenes=("example1a --set adaptivity.steps=16" "example3a --refine 1 --set adaptivity.steps=7"
-        "example3b --refine 1 --set adaptivity.steps=8")
+        "example3b --refine 1 --set adaptivity.steps=8" "twobody_cylinders_adaptive --set adaptivity.steps=10"
+        "twobody_hertz_adaptive --set adaptivity.steps=5")
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1 OMP_WAIT_POLICY=PASSIVE OPENBLAS_NUM_THREADS=1
 mkdir -p "$out"
 names=()

@@ -866,31 +866,23 @@ RunResult runDistributedBodies(const Scene& scene, const RunOptions& options, co
   progress("meshes built: " + std::to_string(bodies.size()) + " bodies, " + std::to_string(r.cells) + " cells / " +
            std::to_string(r.vertices) + " vertices (" + std::to_string(r.dimension) + "D) on " +
            std::to_string(comm.size()) + " ranks (" + std::to_string(r.meshSeconds) + " s)");
-  if (scene.adaptivity) {  // the bodies' conditions resolved on their coarse meshes
-    std::vector<DistributedGrid*> dgs;
+  if (scene.adaptivity || scene.dynamics) {  // the bodies' conditions resolved on their coarse meshes
     std::vector<const mesh::Mesh*> meshes;
     std::vector<BoundaryConditions> bcs;
     comm.collective([&] {
       for (std::size_t i = 0; i < bodies.size(); ++i) bcs.push_back(makeBoundaryConditions(*bodies[i], coarse->meshes[i], 0));
     });
-    for (std::size_t i = 0; i < bodies.size(); ++i) {
-      dgs.push_back(grids[i].get());
-      meshes.push_back(&coarse->meshes[i]);
+    for (const mesh::Mesh& m : coarse->meshes) meshes.push_back(&m);
+    if (scene.adaptivity) {
+      std::vector<DistributedGrid*> dgs;
+      for (const auto& g : grids) dgs.push_back(g.get());
+      return runDistributedAdaptiveScene(scene, dgs, bcs, meshes, options, std::move(r), start);
     }
-    return runDistributedAdaptiveScene(scene, dgs, bcs, meshes, options, std::move(r), start);
-  }
-  if (scene.dynamics) {  // the bodies' conditions resolved on their coarse meshes
     std::vector<const DistributedGrid*> dgs;
     std::vector<const DistributedView*> leaves;
-    std::vector<const mesh::Mesh*> meshes;
-    std::vector<BoundaryConditions> bcs;
-    comm.collective([&] {
-      for (std::size_t i = 0; i < bodies.size(); ++i) bcs.push_back(makeBoundaryConditions(*bodies[i], coarse->meshes[i], 0));
-    });
     for (std::size_t i = 0; i < bodies.size(); ++i) {
       dgs.push_back(grids[i].get());
       leaves.push_back(&views[i]);
-      meshes.push_back(&coarse->meshes[i]);
     }
     return runDistributedDynamicScene(scene, dgs, leaves, meshes, bcs, options, std::move(r), start);
   }

@@ -8,7 +8,7 @@
 
 #include "obs/estimators/EstimatorRegistry.hpp"
 #include "obs/estimators/Marking.hpp"
-#include "MortarGap.hpp"
+#include "BodyEstimation.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Prolongation.hpp"
 #include "obs/obs/ContactModel.hpp"
@@ -548,10 +548,8 @@ void contactFigures(const std::optional<ContactModel<d>>& model, const std::opti
 void estimateStep(Estimator& estimator, const std::vector<AdaptiveBody>& bodies, const std::vector<mesh::GridView>& views,
                   int k, const std::vector<AdaptiveStep>& steps, AdaptiveStep& rec, std::vector<BodyState>& body) {
   const auto t = Clock::now();
-  const std::size_t nb = body.size();
-  double eta2 = 0;
-  std::vector<Contribution> contributions;
-  for (std::size_t i = 0; i < nb; ++i) {
+  std::vector<const EstimatorResult*> estimates;
+  for (std::size_t i = 0; i < body.size(); ++i) {
     BodyState& b = body[i];
     EstimatorInput in(views[i].mesh, *bodies[i].material, *bodies[i].bc, b.u);
     in.meshRevision = static_cast<std::uint64_t>(k);
@@ -565,18 +563,12 @@ void estimateStep(Estimator& estimator, const std::vector<AdaptiveBody>& bodies,
     }
     b.estimate = estimator.estimate(in);
     rec.bodies[i].eta = b.estimate->total;
-    eta2 += b.estimate->total * b.estimate->total;
-    for (const Contribution& c : b.estimate->contributions) {
-      auto it = std::find_if(contributions.begin(), contributions.end(),
-                             [&](const Contribution& e) { return e.name == c.name; });
-      if (it == contributions.end()) it = contributions.insert(contributions.end(), Contribution{c.name, 0});
-      it->value += c.value * c.value;
-    }
+    estimates.push_back(&*b.estimate);
   }
-  for (Contribution& c : contributions) c.value = std::sqrt(c.value);
   rec.estimatorSeconds = since(t);
-  rec.eta = nb == 1 ? body[0].estimate->total : std::sqrt(eta2);
-  rec.contributions = nb == 1 ? body[0].estimate->contributions : contributions;
+  CombinedEstimate all = combineEstimates(estimates);
+  rec.eta = all.total;
+  rec.contributions = std::move(all.contributions);
   if (!steps.empty())
     rec.eoc = experimentalOrder(steps.back().eta, static_cast<double>(steps.back().vertices), rec.eta,
                                 static_cast<double>(rec.vertices));

@@ -17,7 +17,7 @@
 #include "obs/estimators/DistributedEstimation.hpp"
 #include "obs/estimators/EstimatorRegistry.hpp"
 #include "obs/estimators/Marking.hpp"
-#include "MortarGap.hpp"
+#include "BodyEstimation.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/Prolongation.hpp"
 #include "obs/obs/ContactProblem.hpp"
@@ -592,8 +592,7 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
     // estimate (not on an unconverged solution, as serially): every body's owned cells
     if (estimator && rec.converged) {
       t = Clock::now();
-      double eta2 = 0;
-      std::vector<Contribution> contributions;
+      std::vector<const EstimatorResult*> estimates;
       for (std::size_t b = 0; b < nb; ++b) {
         BodyStep& bs = body[b];
         EstimatorInput in(leaves[b].local, *bodies_[b].material, *bodies_[b].bc, bs.u);
@@ -607,18 +606,12 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
         }
         bs.estimate = estimateOwned(*estimator, in, static_cast<Index>(leaves[b].part.owned.size()), comm);
         rec.bodies[b].eta = bs.estimate->total;
-        eta2 += bs.estimate->total * bs.estimate->total;
-        for (const Contribution& c : bs.estimate->contributions) {
-          auto it = std::find_if(contributions.begin(), contributions.end(),
-                                 [&](const Contribution& e) { return e.name == c.name; });
-          if (it == contributions.end()) it = contributions.insert(contributions.end(), Contribution{c.name, 0});
-          it->value += c.value * c.value;
-        }
+        estimates.push_back(&*bs.estimate);
       }
-      for (Contribution& c : contributions) c.value = std::sqrt(c.value);
       rec.estimatorSeconds = comm.max(since(t));
-      rec.eta = nb == 1 ? body[0].estimate->total : std::sqrt(eta2);
-      rec.contributions = nb == 1 ? body[0].estimate->contributions : contributions;
+      CombinedEstimate all = combineEstimates(estimates);  // (over the bodies; each over the ranks)
+      rec.eta = all.total;
+      rec.contributions = std::move(all.contributions);
       if (!steps.empty())
         rec.eoc = experimentalOrder(steps.back().eta, static_cast<double>(steps.back().vertices), rec.eta,
                                     static_cast<double>(rec.vertices));
@@ -766,7 +759,6 @@ void DistributedAdaptiveLoop::restore(DistributedAdaptiveLoopState state, const 
   std::vector<RebalanceReport> balance(nb);
   double seconds = 0;
   for (auto& step : state.marked) {
-    const auto t = Clock::now();
     for (std::size_t b = 0; b < nb; ++b) {
       DistributedGrid& grid = *bodies_[b].grid;
       std::vector<std::uint64_t>& keys = step[b];
@@ -785,7 +777,6 @@ void DistributedAdaptiveLoop::restore(DistributedAdaptiveLoopState state, const 
       balance[b] = bodies_[b].grid->rebalance(imbalanceTolerance_);
       seconds += since(tb);
     }
-    (void)t;
     seconds = comm.max(seconds);
   }
   std::vector<DistributedView> next;

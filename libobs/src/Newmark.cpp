@@ -564,8 +564,7 @@ void NewmarkFamily<d>::setupConstraints() {
 template <int d>
 std::vector<double> NewmarkFamily<d>::gatherRows(const std::vector<double>& own, int width) const {
   if (!comm_) return own;
-  const std::vector<std::vector<double>> got =
-      comm_->exchange(std::vector<std::vector<double>>(static_cast<std::size_t>(comm_->size()), own));
+  const std::vector<std::vector<double>> got = comm_->allGather(own);
   std::vector<double> all;
   all.reserve(rows_ ? rows_->rows.size() * static_cast<std::size_t>(width) : own.size());
   for (const auto& part : got) all.insert(all.end(), part.begin(), part.end());
@@ -610,7 +609,7 @@ void NewmarkFamily<d>::setupPredictorRows() {
   });
   std::vector<std::vector<double>> all;
   if (comm_) {
-    all = comm_->exchange(std::vector<std::vector<double>>(static_cast<std::size_t>(comm_->size()), pack));
+    all = comm_->allGather(pack);
   } else {
     all.push_back(std::move(pack));
   }

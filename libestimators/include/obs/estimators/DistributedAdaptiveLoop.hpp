@@ -125,11 +125,11 @@ public:
   void addMortarContact(int slave, int slaveId, int master, int masterId, std::string label = {},
                         const MortarOptions& options = {});
 
-  /// An analytic reference (AnalyticContact.hpp): every step then records ReferenceErrors, over
-  /// all ranks (referenceErrors on ranks: each contact face counted by the owner of its vertex of
-  /// smallest global index).
+  /// An analytic reference (AnalyticContact.hpp) of one body against its obstacle (ignored for a
+  /// pair, as serially): every step then records ReferenceErrors, over all ranks (referenceErrors
+  /// on ranks: each contact face counted by the owner of its vertex of smallest global index).
   void setReference(ContactReference reference) { reference_ = std::move(reference); }
-  /// Load balancing after each refinement: the grid is repartitioned when the owned leaves of the
+  /// Load balancing after each refinement: each grid is repartitioned when the owned leaves of its
   /// largest rank exceed the mean by more than the factor `tolerance` (>= 1; infinity: never;
   /// default kDefaultImbalanceTolerance). Throws obs::Error for a tolerance below 1.
   void setImbalanceTolerance(double tolerance);
@@ -144,7 +144,8 @@ public:
   /// begins with step state.nextStep and returns every record. Throws obs::Error on every rank for
   /// an inconsistent state or a start of another size.
   void restore(DistributedAdaptiveLoopState state, const StartFunction& start);
-  /// Runs the loop; the records of the steps. Collective.
+  /// Runs the loop; the records of the steps. Collective. Throws obs::Error on every rank without a
+  /// coupling (an obstacle, or a pair of two bodies).
   std::vector<AdaptiveStep> run();
 
 private:

@@ -1,6 +1,8 @@
-#include "MortarGap.hpp"
+#include "BodyEstimation.hpp"
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <limits>
 #include <span>
 #include <utility>
@@ -79,6 +81,23 @@ double MortarGapObstacle::gap(const Point& x) const {
 Point MortarGapObstacle::direction(const Point& x) const {
   const Point n = slave_.nearest(x).normal;
   return flip_ * n.normalized();
+}
+
+CombinedEstimate combineEstimates(const std::vector<const EstimatorResult*>& results) {
+  if (results.size() == 1) return {results.front()->total, results.front()->contributions};
+  CombinedEstimate c;
+  for (const EstimatorResult* r : results) {
+    c.total += r->total * r->total;
+    for (const Contribution& part : r->contributions) {
+      auto it = std::find_if(c.contributions.begin(), c.contributions.end(),
+                             [&](const Contribution& e) { return e.name == part.name; });
+      if (it == c.contributions.end()) it = c.contributions.insert(c.contributions.end(), Contribution{part.name, 0});
+      it->value += part.value * part.value;
+    }
+  }
+  c.total = std::sqrt(c.total);
+  for (Contribution& part : c.contributions) part.value = std::sqrt(part.value);
+  return c;
 }
 
 }  // namespace obs::estimators

@@ -1,14 +1,15 @@
 #pragma once
-/// \file MortarGap.hpp
-/// What the adaptive loops (AdaptiveLoop, DistributedAdaptiveLoop) need of a mortar pair for the
-/// two-body estimator (docs/theory.md#two-body-estimator): the boundary surfaces, the lumped
-/// boundary mass that turns nodal master forces into a traction, and the exact gap of the slave
-/// side. Internal to libestimators.
+/// \file BodyEstimation.hpp
+/// What the adaptive loops (AdaptiveLoop, DistributedAdaptiveLoop) need to estimate several bodies
+/// (docs/theory.md#two-body-estimator): of a mortar pair the boundary surfaces, the lumped boundary
+/// mass that turns nodal master forces into a traction and the exact gap of the slave side; the
+/// bodies' estimates together. Internal to libestimators.
 #include <Eigen/Core>
 
 #include <string>
 #include <vector>
 
+#include "obs/estimators/Estimator.hpp"
 #include "obs/mesh/Mesh.hpp"
 #include "obs/mesh/SurfaceMesh.hpp"
 #include "obs/obs/Obstacle.hpp"
@@ -47,5 +48,14 @@ private:
   double flip_ = 1;
   std::vector<Point> displacement_;
 };
+
+/// The estimates of several bodies together: eta = (sum_b eta_b^2)^1/2 and each contribution
+/// eta_k = (sum_b eta_{k,b}^2)^1/2 (names in the order they first appear); one estimate: its own
+/// values. `results` must not be empty.
+struct CombinedEstimate {
+  double total = 0;
+  std::vector<Contribution> contributions;
+};
+CombinedEstimate combineEstimates(const std::vector<const EstimatorResult*>& results);
 
 }  // namespace obs::estimators
