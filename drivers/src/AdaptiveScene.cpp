@@ -412,6 +412,68 @@ std::string stepLine(const est::AdaptiveStep& s, int steps) {
 const std::string kMarkedKeys = "adaptivity/refinement/marked_keys";
 const std::string kMarkedKeyCounts = "adaptivity/refinement/marked_key_counts";
 
+/// --stop-after-step k of an adaptive run: 0 <= k <= steps - 2 (a checkpoint after the last step
+/// would have nothing to continue); obs::Error otherwise.
+void checkStopAfterStep(const Scene& scene, const RunOptions& options) {
+  const int steps = scene.adaptivity->steps;
+  if (options.stopAfterStep && (*options.stopAfterStep < 0 || *options.stopAfterStep > steps - 2))
+    throw Error(scene.fileName + ": --stop-after-step " + std::to_string(*options.stopAfterStep) +
+                (steps < 2 ? " needs at least two adaptive steps (the run has " + std::to_string(steps) + ")"
+                           : " must lie in [0, " + std::to_string(steps - 2) + "] (the run has steps 0 to " +
+                                 std::to_string(steps - 1) + ")"));
+}
+
+/// The outputs of an adaptive run so far in its checkpoint (docs/checkpoint.md#adaptive-runs): the
+/// VTK files (`kind`: ".vtu" or ".pvtu") with their steps and bodies, and the nodal pressure errors.
+void storeRunOutputs(CheckpointRecord& cp, const std::vector<PvdEntry>& vtu, const NodalErrors& nodalErrors,
+                     const std::string& kind) {
+  std::string files;
+  std::vector<long long> steps, parts;
+  for (const PvdEntry& e : vtu) {
+    files += e.file + "\n";
+    steps.push_back(static_cast<long long>(e.time));
+    parts.push_back(e.part);
+  }
+  cp.set("run/vtu_files", files, "the " + kind + " files written so far (one name per line)");
+  cp.set("run/vtu_steps", steps, "the step of each " + kind + " file");
+  cp.set("run/vtu_parts", parts, "the body of each " + kind + " file (its part in the .pvd)");
+  auto vec = [](const std::vector<double>& v) {
+    return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size())));
+  };
+  cp.set("run/nodal_pressure_errors", vec(nodalErrors.load),
+         "the nodal pressure error of each step so far (with a reference; NaN: none)");
+  cp.set("run/nodal_pressure_errors_fixed_load", vec(nodalErrors.fixedLoad),
+         "the nodal pressure error for the fixed reference_load of each step so far (NaN: none)");
+}
+
+/// The outputs storeRunOutputs stored, each VTK file checked to exist in `dir`; obs::Error naming
+/// what is missing or inconsistent.
+void loadRunOutputs(const CheckpointRecord& cp, const fs::path& dir, std::vector<PvdEntry>& vtu, NodalErrors& nodalErrors) {
+  std::istringstream files(cp.text("run/vtu_files"));
+  for (std::string f; std::getline(files, f);) {
+    if (!fs::exists(dir / f))
+      throw Error("the interrupted run's " + (dir / f).string() +
+                  " is missing (restart into the output directory of the interrupted run)");
+    vtu.push_back(PvdEntry{0, 0, f});
+  }
+  const std::vector<long long>& steps = cp.integers("run/vtu_steps");
+  // (run/vtu_parts is absent in distributed checkpoints of older versions: one body)
+  const std::vector<long long> parts =
+      cp.has("run/vtu_parts") ? cp.integers("run/vtu_parts") : std::vector<long long>(vtu.size(), 0);
+  if (steps.size() != vtu.size() || parts.size() != vtu.size())
+    throw Error("run/vtu_files, run/vtu_steps and run/vtu_parts differ in length");
+  for (std::size_t i = 0; i < steps.size(); ++i) {
+    vtu[i].time = static_cast<double>(steps[i]);
+    vtu[i].part = static_cast<int>(parts[i]);
+  }
+  const Eigen::VectorXd& e = cp.vector("run/nodal_pressure_errors");
+  nodalErrors.load.assign(e.data(), e.data() + e.size());
+  if (cp.has("run/nodal_pressure_errors_fixed_load")) {  // (absent in checkpoints of older versions)
+    const Eigen::VectorXd& f = cp.vector("run/nodal_pressure_errors_fixed_load");
+    nodalErrors.fixedLoad.assign(f.data(), f.data() + f.size());
+  }
+}
+
 /// Checkpoints of an adaptive run, one body or several (docs/checkpoint.md#adaptive-runs): a
 /// checkpoint after step k (on the [output] checkpoint schedule, at --stop-after-step and on
 /// SIGINT/SIGTERM) holds the loop's state (estimators AdaptiveLoopState: the step records, the
@@ -431,12 +493,7 @@ public:
                       std::vector<std::string> names)
       : scene_(scene), options_(options), dir_(std::move(dir)), grids_(std::move(grids)),
         names_(std::move(names)), schedule_(scene.output.checkpoint), file_(dir_ / "checkpoint.h5") {
-    const int steps = scene.adaptivity->steps;
-    if (options.stopAfterStep && (*options.stopAfterStep < 0 || *options.stopAfterStep > steps - 2))
-      throw Error(scene.fileName + ": --stop-after-step " + std::to_string(*options.stopAfterStep) +
-                  (steps < 2 ? " needs at least two adaptive steps (the run has " + std::to_string(steps) + ")"
-                             : " must lie in [0, " + std::to_string(steps - 2) + "] (the run has steps 0 to " +
-                                   std::to_string(steps - 1) + ")"));
+    checkStopAfterStep(scene, options);
     for (const mesh::Grid* g : grids_) initial_.push_back(g->leafView().mesh);
   }
 
@@ -455,28 +512,7 @@ public:
       est::AdaptiveLoopState state = est::loadAdaptiveState(cp);
       const int next = state.nextStep;
       loop.restore(std::move(state));
-      // the outputs of the interrupted run
-      std::istringstream files(cp.text("run/vtu_files"));
-      for (std::string f; std::getline(files, f);) {
-        if (!fs::exists(dir_ / f))
-          throw Error("the interrupted run's " + (dir_ / f).string() +
-                      " is missing (restart into the output directory of the interrupted run)");
-        outputs.vtu.push_back(PvdEntry{0, 0, f});
-      }
-      const std::vector<long long>& steps = cp.integers("run/vtu_steps");
-      const std::vector<long long>& parts = cp.integers("run/vtu_parts");
-      if (steps.size() != outputs.vtu.size() || parts.size() != outputs.vtu.size())
-        throw Error("run/vtu_files, run/vtu_steps and run/vtu_parts differ in length");
-      for (std::size_t i = 0; i < steps.size(); ++i) {
-        outputs.vtu[i].time = static_cast<double>(steps[i]);
-        outputs.vtu[i].part = static_cast<int>(parts[i]);
-      }
-      const Eigen::VectorXd& e = cp.vector("run/nodal_pressure_errors");
-      outputs.nodalErrors.load.assign(e.data(), e.data() + e.size());
-      if (cp.has("run/nodal_pressure_errors_fixed_load")) {  // (absent in checkpoints of older versions)
-        const Eigen::VectorXd& f = cp.vector("run/nodal_pressure_errors_fixed_load");
-        outputs.nodalErrors.fixedLoad.assign(f.data(), f.data() + f.size());
-      }
+      loadRunOutputs(cp, dir_, outputs.vtu, outputs.nodalErrors);  // the outputs of the interrupted run
       progress("restart from " + file.string() + " at step " + std::to_string(next));
     } catch (const Error& e) {
       throw Error(file.string() + ": " + e.what());
@@ -500,23 +536,7 @@ public:
       storeRunIdentity(cp, scene_, runBodies(refined));
       storeInitialGrid(cp, runBodies(initial_));
       est::storeAdaptiveState(cp, state);
-      std::string files;
-      std::vector<long long> steps, parts;
-      for (const PvdEntry& e : outputs.vtu) {
-        files += e.file + "\n";
-        steps.push_back(static_cast<long long>(e.time));
-        parts.push_back(e.part);
-      }
-      cp.set("run/vtu_files", files, "the .vtu files written so far (one name per line)");
-      cp.set("run/vtu_steps", steps, "the step of each .vtu file");
-      cp.set("run/vtu_parts", parts, "the body of each .vtu file (its part in the .pvd)");
-      auto vec = [](const std::vector<double>& v) {
-        return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size())));
-      };
-      cp.set("run/nodal_pressure_errors", vec(outputs.nodalErrors.load),
-             "the nodal pressure error of each step so far (with a reference; NaN: none)");
-      cp.set("run/nodal_pressure_errors_fixed_load", vec(outputs.nodalErrors.fixedLoad),
-             "the nodal pressure error for the fixed reference_load of each step so far (NaN: none)");
+      storeRunOutputs(cp, outputs.vtu, outputs.nodalErrors, ".vtu");
       writeCheckpoint(file_, cp);
       schedule_.written();
       if (options_.stepProgress)
@@ -803,11 +823,7 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, const std::vector<Dist
   comm.collective([&] {
     if (grids.size() != specs.size() || bcs.size() != nb || coarseMeshes.size() != nb)
       throw Error(scene.where(0) + "internal: a distributed adaptive run with inconsistent body lists");
-    if (options.stopAfterStep && (*options.stopAfterStep < 0 || *options.stopAfterStep > spec.steps - 2))
-      throw Error(scene.fileName + ": --stop-after-step " + std::to_string(*options.stopAfterStep) +
-                  (spec.steps < 2 ? " needs at least two adaptive steps (the run has " + std::to_string(spec.steps) + ")"
-                                  : " must lie in [0, " + std::to_string(spec.steps - 2) + "] (the run has steps 0 to " +
-                                        std::to_string(spec.steps - 1) + ")"));
+    checkStopAfterStep(scene, options);
     if (scene.multiBody()) {
       couplings.emplace(sceneCouplings(scene, coarseMeshes, bcs));
       if (couplings->spec.couplings.size() != 1 || !couplings->spec.couplings.front().mortar)
@@ -917,30 +933,12 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, const std::vector<Dist
           std::vector<std::uint64_t>& step = state.marked.back()[i % nb];
           for (long long j = 0; j < c; ++j) step.push_back(static_cast<std::uint64_t>(keys[at++]));
         }
-        std::istringstream files(cp.text("run/vtu_files"));
-        const std::vector<long long>& vtuSteps = cp.integers("run/vtu_steps");
-        const std::vector<long long>& vtuBodies = cp.has("run/vtu_bodies") ? cp.integers("run/vtu_bodies") : vtuSteps;
-        for (std::string f; std::getline(files, f);) {
-          if (!fs::exists(dir / f))
-            throw Error("the interrupted run's " + (dir / f).string() +
-                        " is missing (restart into the output directory of the interrupted run)");
-          vtkFiles.push_back(PvdEntry{0, 0, f});
-        }
-        if (vtuSteps.size() != vtkFiles.size() || vtuBodies.size() != vtkFiles.size())
-          throw Error("run/vtu_files, run/vtu_steps and run/vtu_bodies differ in length");
-        for (std::size_t i = 0; i < vtuSteps.size(); ++i) {
-          vtkFiles[i].time = static_cast<double>(vtuSteps[i]);
-          vtkFiles[i].part = cp.has("run/vtu_bodies") ? static_cast<int>(vtuBodies[i]) : 0;
-        }
+        loadRunOutputs(cp, dir, vtkFiles, nodalErrors);
         std::istringstream written(cp.text("run/pieces"));
         for (std::string f; std::getline(written, f);) pieces.push_back(dir / f);
         balance.str(cp.text("run/balance_csv"));
         balance.seekp(0, std::ios::end);
         rebalances = static_cast<int>(cp.integer("run/rebalances"));
-        const Eigen::VectorXd& e = cp.vector("run/nodal_pressure_errors");
-        const Eigen::VectorXd& f = cp.vector("run/nodal_pressure_errors_fixed_load");
-        nodalErrors.load.assign(e.data(), e.data() + e.size());
-        nodalErrors.fixedLoad.assign(f.data(), f.data() + f.size());
       } catch (const Error& e) {
         throw Error(file.string() + ": " + e.what());
       }
@@ -995,27 +993,12 @@ RunResult runDistributedAdaptiveScene(const Scene& scene, const std::vector<Dist
       cp.set(kMarkedKeyCounts, counts, "the number of leaves marked after each step (all ranks), per body");
       cp.set(kMarkedKeys, keys,
              "the cell keys (DistributedGrid::cellKey) of the leaves marked after each step, per body, sorted");
-      std::string files, written;
-      std::vector<long long> steps, parts;
-      for (const PvdEntry& e : vtkFiles) {
-        files += e.file + "\n";
-        steps.push_back(static_cast<long long>(e.time));
-        parts.push_back(e.part);
-      }
+      storeRunOutputs(cp, vtkFiles, nodalErrors, ".pvtu");
+      std::string written;
       for (const fs::path& f : pieces) written += f.filename().string() + "\n";
-      cp.set("run/vtu_files", files, "the .pvtu files written so far (one name per line)");
-      cp.set("run/vtu_steps", steps, "the step of each .pvtu file");
-      cp.set("run/vtu_bodies", parts, "the body of each .pvtu file");
       cp.set("run/pieces", written, "the pieces of the .pvtu files written so far (one name per line)");
       cp.set("run/balance_csv", balance.str(), "balance.csv so far");
       cp.set("run/rebalances", static_cast<long long>(rebalances), "the rebalances so far");
-      auto vec = [](const std::vector<double>& v) {
-        return Eigen::VectorXd(Eigen::Map<const Eigen::VectorXd>(v.data(), static_cast<Eigen::Index>(v.size())));
-      };
-      cp.set("run/nodal_pressure_errors", vec(nodalErrors.load),
-             "the nodal pressure error of each step so far (with a reference; NaN: none)");
-      cp.set("run/nodal_pressure_errors_fixed_load", vec(nodalErrors.fixedLoad),
-             "the nodal pressure error for the fixed reference_load of each step so far (NaN: none)");
       if (std::all_of(starts.begin(), starts.end(), [](const Eigen::VectorXd& s) { return s.size() > 0; })) {
         std::vector<double> owned;  // the bodies' owned rows, body after body
         for (std::size_t b = 0; b < nb; ++b)

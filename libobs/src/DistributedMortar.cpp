@@ -110,17 +110,13 @@ DistributedMortar::DistributedMortar(const DistributedMortarSurface& slave, cons
                                        : defaultMortarSearchDistance(wholeSlave.diagonal().norm(), ext[12]);
 
   // 3. the ranks' search boxes, then each owned master face (with its cell) to the ranks it meets
-  std::vector<std::vector<double>> send(static_cast<std::size_t>(comm.size()));
-  {
-    std::vector<double> mine;
-    if (!slaveBox.isEmpty())
-      for (int a = 0; a < 3; ++a) mine.push_back(slaveBox.min()[a] - search_);
-    if (!slaveBox.isEmpty())
-      for (int a = 0; a < 3; ++a) mine.push_back(slaveBox.max()[a] + search_);
-    for (auto& s : send) s = mine;
+  std::vector<double> mine;
+  if (!slaveBox.isEmpty()) {
+    for (int a = 0; a < 3; ++a) mine.push_back(slaveBox.min()[a] - search_);
+    for (int a = 0; a < 3; ++a) mine.push_back(slaveBox.max()[a] + search_);
   }
-  const std::vector<std::vector<double>> boxes = comm.exchange(send);
-  for (auto& s : send) s.clear();
+  const std::vector<std::vector<double>> boxes = comm.allGather(mine);
+  std::vector<std::vector<double>> send(static_cast<std::size_t>(comm.size()));
   for (std::size_t i = 0; i < masterFaces.size(); ++i) {
     const Index f = masterFaces[i], c = masterCells[i];
     const Box fb = faceBox(mm, f);

@@ -147,12 +147,22 @@ TEST(DistributedAdaptivity, BallHexahedraAsOneProcess) {
   expectSerialSteps(obs::mesh::boxMesh(CellType::Hexahedron, 4), 1, bc, ball, o);
 }
 
-/// Two bodies in mortar contact (the slave body 1 pressed by its top onto body 0), serially and on
-/// the ranks from the same coarse grids (with their boundary projections), refined uniformly
-/// `refinements` times first; both bodies are refined at the contact zone.
-void expectSerialTwoBodySteps(const obs::mesh::Grid& lower, const obs::mesh::Grid& upper, int refinements, int slaveId,
-                              const obs::BoundaryConditions& lowerBc, const obs::BoundaryConditions& upperBc,
-                              const est::AdaptiveLoopOptions& options, double imbalanceTolerance, int leastMoves) {
+/// Two bodies in mortar contact: a curved body (halfDiskMesh or halfBallMesh; the slave, its curved
+/// surface) pressed by the displacement `press` of its flat top onto `lower` (the master, its top;
+/// its bottom fixed), serially and on the ranks from the same coarse grids (with their boundary
+/// projections), refined uniformly `refinements` times first; both bodies are refined at the
+/// contact zone.
+void expectSerialTwoBodySteps(const obs::mesh::Grid& lower, const obs::mesh::CurvedMesh& curved, int refinements,
+                              const Point& press, const est::AdaptiveLoopOptions& options, double imbalanceTolerance,
+                              int leastMoves) {
+  obs::mesh::Grid upper(curved.mesh);
+  for (const auto& [id, projection] : curved.projections) upper.setBoundaryProjection(id, projection);
+  obs::BoundaryConditions lowerBc, upperBc;
+  lowerBc.dirichlet.push_back({obs::mesh::kBottom});
+  obs::DirichletCondition top{obs::mesh::kHalfDiskTop};
+  top.value = [press](const Point&) { return press; };
+  upperBc.dirichlet.push_back(top);
+  const int slaveId = obs::mesh::kCurvedSurface;
   const obs::Communicator comm = obs::Communicator::world();
   const obs::Material material{1.0, 0.3};
   obs::mesh::Grid serialLower(lower), serialUpper(upper);
@@ -197,36 +207,21 @@ void expectSerialTwoBodySteps(const obs::mesh::Grid& lower, const obs::mesh::Gri
 
 TEST(DistributedAdaptivity, TwoBodiesCylinderOnBlockAsOneProcess) {
   const obs::mesh::Grid block(obs::mesh::boxMesh(CellType::Quadrilateral, {8, 4}, Point(-2, -2, 0), Point(2, 0, 0)));
-  const obs::mesh::CurvedMesh curved = obs::mesh::halfDiskMesh(Point(0, 1, 0), 1.0, CellType::Triangle, 2);
-  obs::mesh::Grid cylinder(curved.mesh);
-  for (const auto& [id, projection] : curved.projections) cylinder.setBoundaryProjection(id, projection);
-  obs::BoundaryConditions blockBc, cylinderBc;
-  blockBc.dirichlet.push_back({obs::mesh::kBottom});
-  obs::DirichletCondition top{obs::mesh::kHalfDiskTop};
-  top.value = [](const Point&) { return Point(0, -0.05, 0); };
-  cylinderBc.dirichlet.push_back(top);
   est::AdaptiveLoopOptions o;
   o.maxSteps = 5;
   o.solver.tolerance = 1e-10;
-  expectSerialTwoBodySteps(block, cylinder, 2, obs::mesh::kCurvedSurface, blockBc, cylinderBc, o,
-                           est::DistributedAdaptiveLoop::kDefaultImbalanceTolerance, 0);
+  expectSerialTwoBodySteps(block, obs::mesh::halfDiskMesh(Point(0, 1, 0), 1.0, CellType::Triangle, 2), 2,
+                           Point(0, -0.05, 0), o, est::DistributedAdaptiveLoop::kDefaultImbalanceTolerance, 0);
 }
 
 TEST(DistributedAdaptivity, TwoBodiesHalfBallOnBoxAsOneProcess) {
   const obs::mesh::Grid box(obs::mesh::boxMesh(CellType::Tetrahedron, {4, 4, 2}, Point(-1, -1, -1), Point(1, 1, 0)));
-  const obs::mesh::CurvedMesh curved = obs::mesh::halfBallMesh(Point(0, 0, 1), 1.0, CellType::Hexahedron, 1);
-  obs::mesh::Grid ball(curved.mesh);
-  for (const auto& [id, projection] : curved.projections) ball.setBoundaryProjection(id, projection);
-  obs::BoundaryConditions boxBc, ballBc;
-  boxBc.dirichlet.push_back({obs::mesh::kBottom});
-  obs::DirichletCondition top{obs::mesh::kHalfDiskTop};
-  top.value = [](const Point&) { return Point(0, 0, -0.02); };
-  ballBc.dirichlet.push_back(top);
   est::AdaptiveLoopOptions o;
   o.maxSteps = 3;
   o.solver.tolerance = 1e-10;
   // balanced whenever the parts differ at all: the grids move on 2 and 3 ranks
-  expectSerialTwoBodySteps(box, ball, 1, obs::mesh::kCurvedSurface, boxBc, ballBc, o, 1.0, 1);
+  expectSerialTwoBodySteps(box, obs::mesh::halfBallMesh(Point(0, 0, 1), 1.0, CellType::Hexahedron, 1), 1,
+                           Point(0, 0, -0.02), o, 1.0, 1);
 }
 
 TEST(DistributedAdaptivity, RefusesWhatIsNotDistributed) {

@@ -15,7 +15,7 @@
 ///     rounding, MortarOptions::coordinateScale), so that every rank pairs and rounds as one
 ///     process would.
 ///  3. Bounding-box search across ranks. Every rank sends its slave surface's box (enlarged by the
-///     search distance) to every rank (one all-to-all of six numbers), and each master face goes,
+///     search distance) to every rank (one all-gather of six numbers), and each master face goes,
 ///     with its cell, from the rank owning the cell to every rank whose box it meets (one
 ///     all-to-all). A master face that one process pairs with a face of p meets that face's box
 ///     enlarged by the search distance, hence the box of the rank owning p.
