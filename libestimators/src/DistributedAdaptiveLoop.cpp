@@ -54,21 +54,23 @@ std::vector<double> contactScales(const ContactProblem<d>& problem, const Eigen:
   return scales;
 }
 
-/// Per boundary face of a view's local mesh: 1 if this rank counts it (it owns the face's vertex of
-/// smallest global index), so that sums over faces count each face on one rank.
-std::vector<char> countedFaces(const DistributedView& view) {
-  const Index owned = view.halo.numOwned();
+/// True if this rank counts the face with these local vertices of a view: it owns the face's vertex
+/// of smallest global index, so that sums over faces count each face on one rank.
+bool countsFace(const DistributedView& view, std::span<const Index> vertices) {
   const auto& held = view.halo.viewVertices();
+  Index first = -1, firstGlobal = std::numeric_limits<Index>::max();
+  for (Index v : vertices)
+    if (const Index g = view.numbering.global[held[v]]; g < firstGlobal) {
+      firstGlobal = g;
+      first = v;
+    }
+  return first >= 0 && first < view.halo.numOwned();
+}
+
+/// countsFace of every boundary face of a view's local mesh (1: counted here).
+std::vector<char> countedFaces(const DistributedView& view) {
   std::vector<char> counted(static_cast<std::size_t>(view.local.numBoundaryFaces()), 0);
-  for (Index f = 0; f < view.local.numBoundaryFaces(); ++f) {
-    Index first = -1, firstGlobal = std::numeric_limits<Index>::max();
-    for (Index v : view.local.boundaryFaceVertices(f))
-      if (const Index g = view.numbering.global[held[v]]; g < firstGlobal) {
-        firstGlobal = g;
-        first = v;
-      }
-    counted[f] = first >= 0 && first < owned;
-  }
+  for (Index f = 0; f < view.local.numBoundaryFaces(); ++f) counted[f] = countsFace(view, view.local.boundaryFaceVertices(f));
   return counted;
 }
 
@@ -471,16 +473,6 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
       std::vector<double> sums(11, 0.0), maxima(3, -std::numeric_limits<double>::infinity());
       comm.collective([&] {
         const Index sOwned = sv.halo.numOwned();
-        const auto& held = sv.halo.viewVertices();
-        const auto countsFace = [&](const auto& vertices) {  // the owner of its vertex of smallest global index
-          Index first = -1, firstGlobal = std::numeric_limits<Index>::max();
-          for (Index v : vertices)
-            if (const Index g = sv.numbering.global[held[v]]; g < firstGlobal) {
-              firstGlobal = g;
-              first = v;
-            }
-          return first >= 0 && first < sOwned;
-        };
         const auto inContact = [&](Index v) {
           const Index node = set.nodeOf(v);
           return node >= 0 && out.inContact[static_cast<std::size_t>(node)] != 0;
@@ -492,7 +484,7 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
             const auto fv = sv.local.boundaryFaceVertices(f);
             for (Index v : fv)
               if (v < sOwned) onBoundary[static_cast<std::size_t>(v)] = 1;
-            if (!countsFace(fv) || !std::all_of(fv.begin(), fv.end(), inContact)) continue;
+            if (!countsFace(sv, fv) || !std::all_of(fv.begin(), fv.end(), inContact)) continue;
             const auto x = [&](std::size_t i) { return sv.local.vertex(fv[i]); };
             sums[10] += d == 2 ? (x(1) - x(0)).norm()
                               : 0.5 * (fv.size() == 3 ? (x(1) - x(0)).cross(x(2) - x(0)) : (x(2) - x(0)).cross(x(3) - x(1))).norm();
@@ -503,7 +495,7 @@ std::vector<AdaptiveStep> DistributedAdaptiveLoop::runDim() {
           for (const ContactSet::Face& f : set.faces()) {
             std::vector<Index> fv;
             for (Index node : f.nodes) fv.push_back(set.vertex(node));
-            if (countsFace(fv) && std::all_of(fv.begin(), fv.end(), inContact)) sums[10] += f.measure;
+            if (countsFace(sv, fv) && std::all_of(fv.begin(), fv.end(), inContact)) sums[10] += f.measure;
           }
         }
         for (Index node = 0; node < cs.size(); ++node) {
