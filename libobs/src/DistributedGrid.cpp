@@ -8,6 +8,7 @@
 
 #include "obs/mesh/Error.hpp"
 #include "obs/mesh/MeshTopology.hpp"
+#include "obs/obs/Parallel.hpp"
 
 namespace obs {
 namespace {
@@ -71,10 +72,15 @@ void DistributedGrid::build(int refinements, const ForestPartitionOptions& optio
     grid_ = initial_;
     keys_.clear();
     if (refinements < 0) throw Error("distributed grid: " + std::to_string(refinements) + " refinements");
+    const int parts = comm.size();
+    if (parts == 1) {  // a communicator of one: the serial grid (docs/architecture.md#one-path)
+      buildSerial(refinements, options);
+      owned = grid_.numLeafElements();
+      return;
+    }
     for (Index e : grid_.leafElements())
       if (grid_.isGreen(e))
         throw Error("distributed grid: the coarse grid has green (locally refined) leaves; only uniformly refined grids are distributed");
-    const int parts = comm.size();
     // the replicated levels, up to the partition level
     int left = refinements;
     if (options.level >= 0) {
@@ -116,6 +122,31 @@ void DistributedGrid::build(int refinements, const ForestPartitionOptions& optio
   });
   globalLeaves_ = comm.sum(owned);
   maxLevel_ = grid_.maxLevel();  // the same on every rank after uniform rounds
+}
+
+void DistributedGrid::buildSerial(int refinements, const ForestPartitionOptions& options) {
+  // one part: the grid refined uniformly as one process refines it (any grid: green leaves and no
+  // refinement included), partitioned at the partition level ranks would choose for it
+  const int top = grid_.maxLevel() + refinements;
+  if (options.level >= 0 && (options.level < grid_.maxLevel() || options.level > top))
+    throw Error("distributed grid: partition level " + std::to_string(options.level) + ", the grid will have levels " +
+                std::to_string(grid_.maxLevel()) + ".." + std::to_string(top));
+  // the partition level ranks would choose: the coarsest level from 1 on with cellsPerPart leaves
+  // (or the finest), found while refining; the vertices up to it are keyed by index, as on ranks
+  ForestPartitionOptions po = options;
+  replicated_ = -1;
+  for (int k = 0;; ++k) {
+    if (po.level < 0 && (k == refinements || (grid_.maxLevel() >= 1 && grid_.numLeafElements() >= po.cellsPerPart)))
+      po.level = grid_.maxLevel();
+    if (replicated_ < 0 && po.level == grid_.maxLevel()) replicated_ = grid_.numVertices();
+    if (k == refinements) break;
+    grid_.refineUniformly(threads());
+  }
+  po.refinementsBelow = 0;
+  po.cellParts.clear();
+  partition_ = partitionForest(grid_, 1, po);
+  extendVertexKeys(grid_, replicated_, keys_);
+  maxLevel_ = grid_.maxLevel();
 }
 
 DistributedView DistributedGrid::view(int level) const {
@@ -171,7 +202,8 @@ DistributedView DistributedGrid::view(int level) const {
     }
   });
   HaloExchange halo(numbering, part, comm_);
-  mesh::Mesh local = localMesh(v, part, halo);
+  // (one rank: every cell owned, the numbering the view's own, so the local mesh is the view's mesh)
+  mesh::Mesh local = ranks == 1 ? v.mesh : localMesh(v, part, halo);
   return DistributedView{std::move(v), std::move(numbering), std::move(part), std::move(halo), std::move(local)};
 }
 

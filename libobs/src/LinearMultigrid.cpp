@@ -12,6 +12,21 @@
 
 namespace obs {
 
+namespace {
+
+/// The options' checks, the same for every hierarchy (distributed: the Gauss-Seidel smoother only).
+void checkOptions(const LinearMultigridOptions& options, bool distributed) {
+  if (options.preSmoothing < 0 || options.postSmoothing < 0 || options.cycles < 1 || options.cycleIndex < 1 || options.maxIterations < 0 ||
+      !(options.tolerance >= 0) || options.krylovSteps < 0 || (options.krylovSteps > 0 && options.cycles > 1))
+    throw Error("linear multigrid: invalid options (smoothing steps >= 0, cycles >= 1, maxIterations >= 0, "
+                "tolerance >= 0, krylovSteps >= 0 and cycles = 1 with krylovSteps > 0 required)");
+  if (distributed && options.smoother != LinearSmoother::GaussSeidel)
+    throw Error("linear multigrid: a distributed hierarchy runs the Gauss-Seidel smoother only "
+                "(the vertex-patch smoother is not distributed yet)");
+}
+
+}  // namespace
+
 template <int d>
 LinearMultigrid<d>::LinearMultigrid(const mesh::Grid& grid, const Options& options)
     : LinearMultigrid(std::vector<const mesh::Grid*>{&grid}, options) {}
@@ -19,10 +34,7 @@ LinearMultigrid<d>::LinearMultigrid(const mesh::Grid& grid, const Options& optio
 template <int d>
 LinearMultigrid<d>::LinearMultigrid(const std::vector<const mesh::Grid*>& grids, const Options& options)
     : options_(options), hierarchy_(grids) {
-  if (options.preSmoothing < 0 || options.postSmoothing < 0 || options.cycles < 1 || options.cycleIndex < 1 || options.maxIterations < 0 ||
-      !(options.tolerance >= 0) || options.krylovSteps < 0 || (options.krylovSteps > 0 && options.cycles > 1))
-    throw Error("linear multigrid: invalid options (smoothing steps >= 0, cycles >= 1, maxIterations >= 0, "
-                "tolerance >= 0, krylovSteps >= 0 and cycles = 1 with krylovSteps > 0 required)");
+  checkOptions(options, false);
 }
 
 template <int d>
@@ -33,13 +45,7 @@ template <int d>
 LinearMultigrid<d>::LinearMultigrid(const std::vector<const DistributedGrid*>& grids,
                                     const std::vector<Index>& fineExtras, const Options& options)
     : options_(options), hierarchy_(grids, fineExtras) {
-  if (options.preSmoothing < 0 || options.postSmoothing < 0 || options.cycles < 1 || options.cycleIndex < 1 || options.maxIterations < 0 ||
-      !(options.tolerance >= 0) || options.krylovSteps < 0)
-    throw Error("linear multigrid: invalid options (smoothing steps >= 0, cycles >= 1, maxIterations >= 0, "
-                "tolerance >= 0, krylovSteps >= 0 required)");
-  if (options.smoother != LinearSmoother::GaussSeidel)
-    throw Error("linear multigrid: a distributed hierarchy runs the Gauss-Seidel smoother only "
-                "(the vertex-patch smoother is not distributed yet)");
+  checkOptions(options, hierarchy_.distributed());
 }
 
 template <int d>

@@ -422,6 +422,11 @@ MultigridHierarchy<d>::MultigridHierarchy(const mesh::Grid& grid)
 
 template <int d>
 MultigridHierarchy<d>::MultigridHierarchy(const std::vector<const mesh::Grid*>& grids) {
+  buildSerial(grids);
+}
+
+template <int d>
+void MultigridHierarchy<d>::buildSerial(const std::vector<const mesh::Grid*>& grids) {
   if (grids.empty()) throw Error("multigrid hierarchy: no grid");
   int L = 0;
   for (const mesh::Grid* g : grids) {
@@ -498,6 +503,18 @@ template <int d>
 MultigridHierarchy<d>::MultigridHierarchy(const std::vector<const DistributedGrid*>& grids,
                                           const std::vector<Index>& fineExtras) {
   if (grids.empty() || !grids.front()) throw Error("multigrid hierarchy: no distributed grid");
+  if (grids.front()->communicator().size() == 1 && fineExtras.empty()) {
+    // a communicator of one: the serial hierarchy of the grids (docs/architecture.md#one-path)
+    std::vector<const mesh::Grid*> serial;
+    for (const DistributedGrid* dg : grids) {
+      if (!dg) throw Error("multigrid hierarchy: a distributed grid is null");
+      if (dg->communicator().size() != 1)
+        throw Error("multigrid hierarchy: the distributed grids are on different numbers of ranks");
+      serial.push_back(&dg->grid());
+    }
+    buildSerial(serial);
+    return;
+  }
   comm_.emplace(grids.front()->communicator());
   const Communicator& comm = *comm_;
   const int me = comm.rank(), ranks = comm.size();

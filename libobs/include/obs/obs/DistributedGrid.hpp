@@ -65,8 +65,15 @@
 /// since nothing migrates but the marks.
 ///
 /// Input: uniformly refined grids (scenes' `refine = k`) from any coarse mesh the serial grid
-/// accepts; the replicated grid must have no green leaves. Boundary projections set on the grid
-/// apply in every rank's refinement.
+/// accepts; on more than one rank the replicated grid must have no green leaves. Boundary
+/// projections set on the grid apply in every rank's refinement.
+///
+/// A communicator of one (docs/architecture.md#one-path) is the serial grid: the coarse grid is
+/// refined uniformly as one process refines it (Grid::refineUniformly; any grid, green leaves and
+/// no refinement included), one part owns every cell at the partition level ranks would choose,
+/// a view's numbering is the view's own (no ghosts) and its local mesh the view's mesh, so code
+/// written for the ranks computes on one process what the serial code computes. The solvers built
+/// on it (MultigridHierarchy, LinearMultigrid, TNNMG) are the serial ones on grid().
 #include <cstdint>
 #include <vector>
 
@@ -104,8 +111,9 @@ struct RebalanceReport {
 class DistributedGrid {
 public:
   /// Collective (see the file comment): `coarse` the same on every rank, refined `refinements`
-  /// times in all. Throws obs::Error (on every rank) for negative refinements, a coarse grid with
-  /// green leaves, or fewer partition cells than ranks after all refinements.
+  /// times in all. Throws obs::Error (on every rank) for negative refinements, a partition level
+  /// outside the grid's levels, and on more than one rank for a coarse grid with green leaves or
+  /// fewer partition cells than ranks after all refinements.
   DistributedGrid(mesh::Grid coarse, int refinements, const Communicator& comm,
                   const ForestPartitionOptions& options = {});
 
@@ -159,6 +167,8 @@ public:
 private:
   /// The construction (see the file comment) on the parts `partition` gives (METIS if it has none).
   void build(int refinements, const ForestPartitionOptions& partition);
+  /// build() on a communicator of one (see the file comment).
+  void buildSerial(int refinements, const ForestPartitionOptions& partition);
 
   /// The marks of one adapt() of this rank: the closure rule, and (partition cell, cell key) of
   /// each marked leaf.

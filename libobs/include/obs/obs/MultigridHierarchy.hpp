@@ -112,8 +112,10 @@ public:
   /// list is empty, holds a null grid or grids of another dimension than d.
   explicit MultigridHierarchy(const std::vector<const mesh::Grid*>& grids);
 
-  /// The distributed hierarchy of this rank (see the file comment). Collective. Throws obs::Error
-  /// if the grid dimension is not d, or if the partition level is 0 and the grid has no refinement.
+  /// The distributed hierarchy of this rank (see the file comment). Collective. On a communicator
+  /// of one (without fine extra ghosts) the serial hierarchy of grid.grid(), for any grid
+  /// (docs/architecture.md#one-path). Throws obs::Error if the grid dimension is not d, or, on more
+  /// than one rank, if the partition level is 0 and the grid has no refinement.
   /// With partition level 0 the coarsest level is distributed too (no level is replicated; its
   /// solvers use DistributedCoarseSolver).
   explicit MultigridHierarchy(const DistributedGrid& grid);
@@ -125,7 +127,7 @@ public:
   /// this rank owns or holds already.
   explicit MultigridHierarchy(const std::vector<const DistributedGrid*>& grids,
                               const std::vector<Index>& fineExtras = {});
-  /// Whether the hierarchy is distributed (built from a DistributedGrid, on any number of ranks).
+  /// Whether the hierarchy is distributed (built from a DistributedGrid on more than one rank).
   bool distributed() const { return !levels_.empty(); }
   /// Vertices of level l owned by this rank: the first ownedVertices(l) of the level's numbering
   /// (all of them in a serial hierarchy and on a replicated level).
@@ -221,6 +223,9 @@ public:
   std::size_t memoryBytes() const;
 
 private:
+  /// The serial (block-stacked) hierarchy of the grids (see the one- and several-grid constructors).
+  void buildSerial(const std::vector<const mesh::Grid*>& grids);
+
   /// A level of a distributed hierarchy: owned count, halo (null: replicated), local -> global
   /// index and owner, global -> local of the ghosts, local -> view vertex.
   struct Level {
