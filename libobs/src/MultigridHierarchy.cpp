@@ -503,8 +503,12 @@ template <int d>
 MultigridHierarchy<d>::MultigridHierarchy(const std::vector<const DistributedGrid*>& grids,
                                           const std::vector<Index>& fineExtras) {
   if (grids.empty() || !grids.front()) throw Error("multigrid hierarchy: no distributed grid");
-  if (grids.front()->communicator().size() == 1 && fineExtras.empty()) {
-    // a communicator of one: the serial hierarchy of the grids (docs/architecture.md#one-path)
+  if (grids.front()->communicator().size() == 1) {
+    // a communicator of one: the serial hierarchy of the grids (docs/architecture.md#one-path);
+    // one rank owns every vertex, so any extra ghost is one it owns
+    if (!fineExtras.empty())
+      throw Error("multigrid hierarchy: an extra ghost " + std::to_string(fineExtras.front()) +
+                  " out of range or owned here");
     std::vector<const mesh::Grid*> serial;
     for (const DistributedGrid* dg : grids) {
       if (!dg) throw Error("multigrid hierarchy: a distributed grid is null");

@@ -274,11 +274,13 @@ void expectSerialAdaptation(CellType type, int cells, int refinements, int steps
       ASSERT_EQ(values.size(), after.vertices.size() * d);
       std::vector<Index> at(static_cast<std::size_t>(dist.grid().numVertices()), -1);
       for (std::size_t i = 0; i < after.vertices.size(); ++i) at[after.vertices[i]] = static_cast<Index>(i);
-      for (Index e : after.elements)
-        if (dist.partition().partOf(e) == comm.rank())
-          for (Index v : dist.grid().vertices(e))
-            for (int c = 0; c < d; ++c)
-              ASSERT_EQ(values[static_cast<std::size_t>(at[v]) * d + c], field(dist.grid().vertex(v), c)) << "vertex " << v;
+      for (Index e : after.elements) {
+        if (dist.partition().partOf(e) != comm.rank()) continue;
+        for (Index v : dist.grid().vertices(e))
+          for (int c = 0; c < d; ++c) {
+            ASSERT_EQ(values[static_cast<std::size_t>(at[v]) * d + c], field(dist.grid().vertex(v), c)) << "vertex " << v;
+          }
+      }
     }
     expectSerialViews<d>(dist, serial, sp);
   }
