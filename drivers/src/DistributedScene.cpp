@@ -14,6 +14,7 @@
 #include <utility>
 
 #include "DistributedOutput.hpp"
+#include "ContactReports.hpp"
 #include "RunSupport.hpp"
 #include "obs/drivers/AdaptiveScene.hpp"
 #include "obs/drivers/DynamicScene.hpp"
@@ -82,19 +83,6 @@ void reportAssembly(const Communicator& comm, const DistributedView& leaf, int d
 
 /// The boundary conditions at the load parameter t of [loading] (resolved on the coarse mesh).
 using BoundaryConditionsAt = std::function<BoundaryConditions(double)>;
-
-/// The nodal friction of one law at every node of a contact set (Tresca: the bound law.value
-/// times the node's boundary mass; Coulomb: mu), as nodalFriction does serially.
-NodalFriction frictionOf(const FrictionLaw& law, const ContactSet& set) {
-  NodalFriction friction;
-  friction.bound.assign(static_cast<std::size_t>(set.size()), 0.0);
-  friction.mu.assign(friction.bound.size(), 0.0);
-  for (Index k = 0; k < set.size(); ++k) {
-    if (law.type == FrictionLaw::Type::Tresca) friction.bound[static_cast<std::size_t>(k)] = law.value * set.boundaryMass(k);
-    if (law.type == FrictionLaw::Type::Coulomb) friction.mu[static_cast<std::size_t>(k)] = law.value;
-  }
-  return friction;
-}
 
 /// One solve of a load increment `step` by distributed TNNMG: with friction (null: none) Tresca in
 /// one solve, Coulomb by the fixed point over Tresca solves, the slip measured from the previous
@@ -216,7 +204,7 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
   Eigen::VectorXd u = Eigen::VectorXd::Zero(problem->numDofs());
   ContactResult result;
   const std::optional<NodalFriction> friction =
-      scene.contact->friction ? std::optional(frictionOf(scene.contact->friction->law, *set)) : std::nullopt;
+      scene.contact->friction ? std::optional(nodalFriction(scene.contact->friction->law, *set)) : std::nullopt;
   for (int step = 1; step <= steps; ++step) {
     if (step > 1) {
       const auto ta = Clock::now();
@@ -236,93 +224,19 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
   r.solver.coarseSolver = dg.partition().level == 0 ? "hypre" : "cholmod";
   if (dg.partition().level == 0) r.solver.coarseIterations = solver.statistics().coarseIterations;
 
-  // the contact report from the owned contact vertices, reduced; in contact (and sticking) with the
-  // global scales of the KKT residuals, so that every rank uses the same thresholds
+  // the contact report from the owned contact nodes, reduced (ContactReports.hpp), with the contact
+  // decisions at the global scales of the KKT residuals, so that every rank uses the same thresholds
   const ContactOutputs out =
       computeContactOutputs(*problem, u, 1e-8, result.kkt.displacementScale, result.kkt.forceScale);
-  std::vector<char> stickSlip = out.state;
-  ContactReport c;
-  c.obstacle = scene.contact->obstacle;
-  c.boundary = scene.contact->boundary.name.empty() ? std::to_string(scene.contact->boundary.id)
-                                                    : scene.contact->boundary.name;
-  c.boundaryVertices = boundaryOwned;
-  std::vector<double> sums(3 + 3 + 3 + 1, 0.0);  // force, weighted centre, normal sum, weight
-  long long potential = 0, actual = 0;
-  for (Index k = 0; k < set->size(); ++k) {
-    const Index p = set->vertex(k);
-    const double g = set->gap(k);
-    if (!std::isfinite(g)) continue;
-    const Point nu = set->direction(k);
-    const double un = nu.head<d>().dot(u.template segment<d>(static_cast<Eigen::Index>(p) * d));
-    if (p >= owned) continue;
-    ++potential;
-    c.load += out.multiplier[k];
-    c.maxViolation = std::max(c.maxViolation, un - g);
-    for (int a = 0; a < 3; ++a) sums[a] += out.multiplier[k] * nu[a];
-    if (!stickSlip[k]) continue;
-    ++actual;
-    const double w = std::max(out.multiplier[k], 0.0);
-    for (int a = 0; a < 3; ++a) {
-      sums[3 + a] += w * set->position(k)[a];
-      sums[6 + a] += nu[a];
-    }
-    sums[9] += w;
-  }
-  comm.sum(sums);
-  c.potentialVertices = comm.sum(potential);
-  c.actualVertices = comm.sum(actual);
-  c.load = comm.sum(c.load);
-  c.maxViolation = std::max(0.0, comm.max(c.maxViolation));
-  for (int a = 0; a < 3; ++a) c.force[static_cast<std::size_t>(a)] = sums[a];
-  if (c.actualVertices > 0 && sums[9] > 0) {
-    const Point centre(sums[3] / sums[9], sums[4] / sums[9], sums[5] / sums[9]);
-    Point normal(sums[6], sums[7], sums[8]);
-    if (normal.norm() > 0) normal.normalize();
-    double radius = 0;
-    for (Index k = 0; k < set->size(); ++k)
-      if (set->vertex(k) < owned && stickSlip[k]) {
-        const Point x = set->position(k) - centre;
-        radius = std::max(radius, (x - x.dot(normal) * normal).norm());
-      }
-    c.radiusNodes = comm.max(radius);
-  }
-  // the stick and slip counts and the friction force of the owned nodes
-  long long stick = 0, slip = 0;
-  std::vector<double> tangential(3, 0.0);
-  for (Index k = 0; k < set->size(); ++k) {
-    if (set->vertex(k) >= owned) continue;
-    for (int a = 0; a < 3; ++a) tangential[static_cast<std::size_t>(a)] += out.tangential[k][a];
-    stick += stickSlip[k] == 1;
-    slip += stickSlip[k] == 2;
-  }
-  // the contact and stick areas: the faces all of whose nodes are in contact (stick), each counted
-  // by the owner of its vertex of smallest global index (all cells around that vertex are held, so
-  // the face is exact); the ghosts' states from their owners (a ghost's own row, hence its force,
-  // is incomplete)
-  Eigen::VectorXd state = Eigen::VectorXd::Zero(leaf.halo.numLocal());
-  for (Index k = 0; k < set->size(); ++k)
-    if (set->vertex(k) < owned) state[set->vertex(k)] = stickSlip[k];
-  leaf.halo.update(state);
-  for (Index k = 0; k < set->size(); ++k) stickSlip[k] = static_cast<char>(state[set->vertex(k)]);
-  double areas[2] = {0, 0};
-  for (const ContactSet::Face& f : set->faces()) {
-    Index first = -1, firstGlobal = std::numeric_limits<Index>::max();
-    bool contact = true, sticking = true;
-    for (Index k : f.nodes) {
-      contact = contact && stickSlip[k] != 0;
-      sticking = sticking && stickSlip[k] == 1;
-      const Index g = leaf.numbering.global[leaf.halo.viewVertices()[set->vertex(k)]];
-      if (g < firstGlobal) {
-        firstGlobal = g;
-        first = set->vertex(k);
-      }
-    }
-    if (first < 0 || first >= owned) continue;
-    if (contact) areas[0] += f.measure;
-    if (sticking) areas[1] += f.measure;
-  }
-  c.area = comm.sum(areas[0]);
-  c.radius = d == 3 ? std::sqrt(c.area / std::numbers::pi) : c.area / 2;
+  std::vector<char> stickSlip;  // the nodes' states as their owners decided them
+  OwnedPart part;
+  part.owned = owned;
+  part.comm = comm;
+  part.halo = &leaf.halo;
+  part.global.resize(static_cast<std::size_t>(leaf.halo.numLocal()));
+  for (Index v = 0; v < leaf.halo.numLocal(); ++v)
+    part.global[static_cast<std::size_t>(v)] = leaf.numbering.global[leaf.halo.viewVertices()[v]];
+  r.contact = obstacleContactReport<d>(scene, *problem, u, out, part, &stickSlip);
   // the point fields (SolutionFields.hpp: the obstacle layout of contactPointFields)
   {
     const auto n = static_cast<std::size_t>(leaf.local.numVertices());
@@ -351,20 +265,6 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
       fields[7].values[v] = stickSlip[k];
     }
   }
-  if (scene.contact->friction) {
-    const FrictionLaw& law = scene.contact->friction->law;
-    comm.sum(tangential);
-    FrictionReport fr;
-    fr.law = law.type == FrictionLaw::Type::Coulomb ? "coulomb" : "tresca";
-    fr.value = law.value;
-    for (int a = 0; a < 3; ++a) fr.tangentialForce[static_cast<std::size_t>(a)] = tangential[static_cast<std::size_t>(a)];
-    fr.stickVertices = comm.sum(stick);
-    fr.slipVertices = comm.sum(slip);
-    fr.stickArea = comm.sum(areas[1]);
-    fr.stickRadius = d == 3 ? std::sqrt(fr.stickArea / std::numbers::pi) : fr.stickArea / 2;
-    c.friction = fr;
-  }
-  r.contact = c;
   return u;
 }
 
@@ -606,7 +506,7 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
     solver.emplace(multi->halo(), o,
                    std::make_unique<LinearMultigrid<d>>(stacked, multi->extraGhostGlobals(), o.multigrid));
     const std::optional<NodalFriction> friction =
-        pair.friction ? std::optional(frictionOf(law, problem.contactSet())) : std::nullopt;
+        pair.friction ? std::optional(nodalFriction(law, problem.contactSet())) : std::nullopt;
     long long stepIterations = 0;
     std::tie(result, stepIterations) = solveIncrement<d>(problem, *solver, x, friction ? &*friction : nullptr,
                                                          config.tolerance, step, multi->halo(), progress, r);

@@ -12,6 +12,7 @@
 
 #include "obs/drivers/ObstacleFactory.hpp"
 #include "obs/drivers/SceneSetup.hpp"
+#include "ContactReports.hpp"
 #include "RunSupport.hpp"
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/ContactModel.hpp"
@@ -121,69 +122,6 @@ std::unique_ptr<ContactSolver<d>> sceneContactSolver(const Scene& scene, const s
   return makeContactSolver<d>(config, grids, iterationLines(type, progress));
 }
 
-/// The friction report of a coupling with friction law `law` (nullopt without friction).
-std::optional<FrictionReport> frictionReport(const FrictionLaw& law, const Eigen::Vector3d& tangential, Index stick,
-                                             Index slip, double stickArea, int dim) {
-  if (law.type == FrictionLaw::Type::None) return std::nullopt;
-  FrictionReport f;
-  f.law = law.type == FrictionLaw::Type::Coulomb ? "coulomb" : "tresca";
-  f.value = law.value;
-  for (int a = 0; a < 3; ++a) f.tangentialForce[static_cast<std::size_t>(a)] = tangential[a];
-  f.stickVertices = stick;
-  f.slipVertices = slip;
-  f.stickArea = stickArea;
-  f.stickRadius = dim == 3 ? std::sqrt(stickArea / std::numbers::pi) : stickArea / 2;
-  return f;
-}
-
-/// The report of a one-body scene's [contact] (summary.json "contact": the obstacle coupling's
-/// counts, force, load, area and radii) from the solution u of the problem.
-template <int d>
-void reportObstacleContact(const Scene& scene, const ContactProblem<d>& problem,
-                           const Eigen::VectorXd& u, const ContactOutputs& out, SceneSolution& s) {
-  const ContactSet& contactSet = problem.contactSet();
-  ContactReport c;
-  c.obstacle = scene.contact->obstacle;
-  c.boundary = scene.contact->boundary.name.empty() ? std::to_string(scene.contact->boundary.id)
-                                                    : scene.contact->boundary.name;
-  c.boundaryVertices = contactSet.size();
-  for (const auto& k : problem.constraints()) c.potentialVertices += k.bounded();
-  c.actualVertices = out.contactNodes;
-  for (int i = 0; i < 3; ++i) c.force[i] = out.force[i];
-  Point centre = Point::Zero(), normal = Point::Zero();
-  double weight = 0;
-  for (Index k = 0; k < contactSet.size(); ++k) {
-    c.load += out.multiplier[k];
-    if (!out.inContact[k]) continue;
-    const double w = std::max(out.multiplier[k], 0.0);
-    centre += w * contactSet.position(k);
-    weight += w;
-    normal += contactSet.direction(k);
-  }
-  if (c.actualVertices > 0) {
-    if (weight > 0) {
-      centre /= weight;
-    } else {  // no force: the plain mean of the contact vertices
-      centre.setZero();
-      for (Index k = 0; k < contactSet.size(); ++k)
-        if (out.inContact[k]) centre += contactSet.position(k) / static_cast<double>(c.actualVertices);
-    }
-    if (normal.norm() > 0) normal.normalize();
-    for (Index k = 0; k < contactSet.size(); ++k) {
-      if (!out.inContact[k]) continue;
-      const Point r = contactSet.position(k) - centre;
-      c.radiusNodes = std::max(c.radiusNodes, (r - r.dot(normal) * normal).norm());
-    }
-  }
-  c.area = out.contactArea;
-  c.radius = out.contactRadius;
-  c.maxViolation = problem.maxViolation(u);
-  if (scene.contact->friction)
-    c.friction = frictionReport(scene.contact->friction->law, out.tangentialForce, out.stickNodes, out.slipNodes,
-                                out.stickArea, d);
-  s.contact = c;
-}
-
 /// "body:boundary" (the boundary's name, or its id).
 std::string sideLabel(const std::string& body, const BoundaryRef& ref) {
   return body + ":" + (ref.name.empty() ? std::to_string(ref.id) : ref.name);
@@ -256,7 +194,7 @@ void contactPointFields(const ContactModel<d>& model, const ContactProblem<d>& p
 /// A contact scene, one body or several: the contact model of its bodies and couplings
 /// (sceneCouplings, makeContactModel), one solve by the [solver], the displacement and stresses of every body,
 /// then the report in the layout of the scene file: a one-body scene's [contact]
-/// (reportObstacleContact), or one report per coupling and the contact fields of every body.
+/// (obstacleContactReport), or one report per coupling and the contact fields of every body.
 template <int d>
 SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh::Grid*>& grids,
                                 const std::vector<const mesh::Mesh*>& meshes, const std::vector<BoundaryConditions>& bcs,
@@ -386,7 +324,10 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
   if (!OutputLayout(scene).perBody()) {
     for (std::vector<Field>& f : s.contactFields)  // no contact_force
       f.erase(std::find_if(f.begin(), f.end(), [](const Field& x) { return x.name == "contact_force"; }));
-    reportObstacleContact<d>(scene, *problem, u, out, s);
+    OwnedPart all;  // one process: every vertex owned
+    all.owned = problem->numVertices();
+    all.comm = Communicator::self();
+    s.contact = obstacleContactReport<d>(scene, *problem, x, out, all);
     return s;
   }
   const std::vector<CouplingRecord> records = couplingRecords(model, *problem, x, out);

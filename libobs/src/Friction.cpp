@@ -22,19 +22,40 @@ bool NodalFriction::coulomb() const {
   return std::any_of(mu.begin(), mu.end(), [](double m) { return m > 0; });
 }
 
+namespace {
+
+/// Node k of `contact` under `law` (f sized to the set): the one place the nodal values are made.
+void setNode(NodalFriction& f, const FrictionLaw& law, const ContactSet& contact, Index k) {
+  const auto i = static_cast<std::size_t>(k);
+  if (law.type == FrictionLaw::Type::Tresca) f.bound[i] = law.value * contact.boundaryMass(k);
+  if (law.type == FrictionLaw::Type::Coulomb) f.mu[i] = law.value;
+}
+
+NodalFriction sized(const ContactSet& contact) {
+  NodalFriction f;
+  f.bound.assign(static_cast<std::size_t>(contact.size()), 0.0);
+  f.mu.assign(f.bound.size(), 0.0);
+  return f;
+}
+
+}  // namespace
+
+NodalFriction nodalFriction(const FrictionLaw& law, const ContactSet& contact) {
+  if (law.type == FrictionLaw::Type::None) return {};
+  NodalFriction f = sized(contact);
+  for (Index k = 0; k < contact.size(); ++k) setNode(f, law, contact, k);
+  return f;
+}
+
 template <int d>
 NodalFriction nodalFriction(const ContactModel<d>& model, const ContactSet& contact) {
-  NodalFriction f;
-  if (!model.frictional()) return f;
-  const auto n = static_cast<std::size_t>(contact.size());
-  f.bound.assign(n, 0.0);
-  f.mu.assign(n, 0.0);
+  if (!model.frictional()) return {};
+  NodalFriction f = sized(contact);
   for (const auto& c : model.couplings())
     for (const Index k : c.nodes) {
-      const auto i = static_cast<std::size_t>(k);
-      if (i >= n) throw Error("friction: coupling '" + c.label + "' has a node outside the contact set");
-      if (c.friction.type == FrictionLaw::Type::Tresca) f.bound[i] = c.friction.value * contact.boundaryMass(k);
-      if (c.friction.type == FrictionLaw::Type::Coulomb) f.mu[i] = c.friction.value;
+      if (k < 0 || k >= contact.size())
+        throw Error("friction: coupling '" + c.label + "' has a node outside the contact set");
+      setNode(f, c.friction, contact, k);
     }
   return f;
 }

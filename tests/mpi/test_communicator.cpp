@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <string>
+#include <vector>
 
 #include "obs/mesh/Error.hpp"
 #include "obs/obs/Communicator.hpp"
@@ -29,6 +30,25 @@ TEST(Communicator, ReductionsAndBroadcast) {
   EXPECT_EQ(c.broadcast(r == 0 ? std::string() : std::string("x")), "");
   EXPECT_THROW(c.broadcast("x", n), obs::Error);
   c.barrier();
+}
+
+/// Communicator::self() is this process alone on any launch: its reductions return the rank's own
+/// value, its all-gather holds one entry, and an error in its collective is this rank's only.
+TEST(Communicator, SelfIsThisProcessAlone) {
+  const obs::Communicator self = obs::Communicator::self();
+  const int r = obs::Communicator::world().rank();
+  EXPECT_EQ(self.size(), 1);
+  EXPECT_EQ(self.rank(), 0);
+  EXPECT_EQ(self.sum(static_cast<long long>(r + 1)), r + 1);
+  EXPECT_EQ(self.max(0.5 * r), 0.5 * r);
+  std::vector<double> v{1.0 * r, 2.0};
+  self.sum(v);
+  EXPECT_EQ(v, (std::vector<double>{1.0 * r, 2.0}));
+  EXPECT_EQ(self.allGather(static_cast<long long>(r)), std::vector<long long>{r});
+  if (r == 0) {
+    EXPECT_THROW(self.collective([] { throw obs::Error("only here"); }), obs::Error);
+  }
+  obs::Communicator::world().barrier();
 }
 
 TEST(Communicator, AnErrorOnOneRankReachesEveryRank) {

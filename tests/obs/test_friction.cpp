@@ -405,6 +405,42 @@ TEST(Friction, SlaveRollerAgainstAFreeMasterIsRefused) {
   EXPECT_FALSE(problem.frictional());
 }
 
+/// The nodal friction of one law on a contact set is the one of a model whose only coupling has
+/// that law, node by node and bit for bit (one body (distributed runs) and a model share it):
+/// Tresca m_k g, Coulomb mu, none empty.
+TEST(Friction, OneLawOnAContactSetIsTheOneCouplingModels) {
+  mesh::Mesh lower = mesh::boxMesh(CellType::Quadrilateral, 3);
+  mesh::Mesh upper = mesh::boxMesh(CellType::Triangle, 4);
+  for (Index v = 0; v < upper.numVertices(); ++v) upper.vertex(v)[1] += 1;
+  BoundaryConditions bl, bu;
+  bl.dirichlet.push_back({mesh::kBottom, {true, true, true}, [](const Point&) { return Point::Zero(); }});
+  bu.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Point(0.0, -1e-3, 0.0); }});
+  for (const FrictionLaw law : {FrictionLaw{FrictionLaw::Type::Tresca, 2.5}, FrictionLaw{FrictionLaw::Type::Coulomb, 0.3},
+                                FrictionLaw{}}) {
+    ContactModel<2> model;
+    model.addBody("lower", lower, kMaterial, bl);
+    model.addBody("upper", upper, kMaterial, bu);
+    model.addMortarPair(1, mesh::kBottom, 0, mesh::kTop, "bottom / top");
+    model.setFriction(0, law);
+    const ContactProblem<2> problem = model.assemble();
+    const ContactSet& set = problem.contactSet();
+    const NodalFriction one = nodalFriction(law, set), all = nodalFriction(model, set);
+    EXPECT_EQ(one.bound, all.bound);
+    EXPECT_EQ(one.mu, all.mu);
+    if (law.type == FrictionLaw::Type::None) {
+      EXPECT_TRUE(one.bound.empty() && one.mu.empty());
+      continue;
+    }
+    ASSERT_EQ(one.bound.size(), static_cast<std::size_t>(set.size()));
+    for (Index k = 0; k < set.size(); ++k) {
+      const auto i = static_cast<std::size_t>(k);
+      EXPECT_EQ(one.bound[i], law.type == FrictionLaw::Type::Tresca ? 2.5 * set.boundaryMass(k) : 0.0);
+      EXPECT_EQ(one.mu[i], law.type == FrictionLaw::Type::Coulomb ? 0.3 : 0.0);
+    }
+    EXPECT_EQ(one.coulomb(), law.type == FrictionLaw::Type::Coulomb);
+  }
+}
+
 TEST(Friction, UniformSlipOnNonMatchingMeshes) {
   expectFrictionalMortarPatch<2>(CellType::Triangle, 3, CellType::Quadrilateral, 4);
   expectFrictionalMortarPatch<3>(CellType::Tetrahedron, 3, CellType::Hexahedron, 4);

@@ -32,6 +32,9 @@ public:
   /// The world communicator: all processes of an MPI launch, if obs is built with MPI and MPI is
   /// initialised (MpiSession), else this process alone.
   static Communicator world();
+  /// This process alone (rank 0 of 1, under mpirun too): for work that is this process's own, e.g.
+  /// a one-process solve inside an MPI launch. Its calls communicate nothing.
+  static Communicator self() { return Communicator(0, 1); }
   /// True if obs was built with MPI (OBS_WITH_MPI and MPI found).
   static bool built();
   /// This process's counters (MPI calls are made from one thread: MPI_THREAD_FUNNELED).

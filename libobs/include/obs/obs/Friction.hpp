@@ -41,6 +41,11 @@ struct NodalFriction {
   bool coulomb() const;
 };
 
+/// The NodalFriction of one law at every node of `contact` (Tresca: bound law.value m_k; Coulomb:
+/// mu_k = law.value; FrictionLaw::Type::None: empty, frictionless), e.g. of a contact set that is
+/// one coupling's.
+NodalFriction nodalFriction(const FrictionLaw& law, const ContactSet& contact);
+
 /// The NodalFriction of a model's couplings (ContactModel::Coupling::friction) on its merged
 /// contact set (after assemble()/assembleParts(); `contact` is that set).
 template <int d>
