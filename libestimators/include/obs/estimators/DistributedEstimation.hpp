@@ -11,16 +11,7 @@
 /// vertices, gives the owned cells' indicators of one process; estimateOwned() keeps those and
 /// sums the contributions eta_k^2 and eta^2 over the owned cells of all ranks.
 ///
-/// Marking. Every strategy of Marking.hpp orders the cells by decreasing indicator, equal
-/// indicators by a key per cell that is the same on every rank that holds the cell (serially: the
-/// cell number). markOwned() computes the strategy's thresholds by reductions: the mean and the
-/// maximum directly; for `fraction` and `doerfler` the indicator value at which the greedy selection
-/// stops, by bisection over the ordered bit patterns of the non-negative doubles (64 reductions of
-/// counts or sums), then the cells of that value it takes by bisection over the keys. The marked
-/// set is therefore the one-process set of the same indicators and keys, whatever the rank count,
-/// up to the rounding of sums over ranks (another order than one process's): a cell within
-/// rounding of the mean threshold, or a doerfler greedy sum within rounding of its goal, can be
-/// decided the other way.
+/// Marking: markOwned() (Marking.hpp), the one marking of one process and of ranks.
 #include <cstdint>
 #include <span>
 #include <vector>
@@ -38,12 +29,5 @@ namespace obs::estimators {
 /// an error on one rank reaches every rank (Communicator::collective).
 EstimatorResult estimateOwned(const Estimator& estimator, const EstimatorInput& input, Index ownedCells,
                               const Communicator& comm);
-
-/// The owned cells (indices into `indicators`, ascending) that `strategy` marks among the cells of
-/// all ranks, `indicators` and `keys` this rank's owned cells' (see the file comment: ties by
-/// increasing key). Collective. Throws obs::Error on every rank for sizes that differ or an
-/// indicator that is not finite and non-negative on any rank.
-std::vector<Index> markOwned(const MarkingStrategy& strategy, std::span<const double> indicators,
-                             std::span<const std::uint64_t> keys, const Communicator& comm);
 
 }  // namespace obs::estimators

@@ -14,12 +14,27 @@
 ///   fraction  the ceil(theta * N) cells with the largest indicators (ties as for doerfler),
 ///             theta in [0, 1], default 0.2 (ceil with a relative tolerance of 1e-12, so that
 ///             0.3 * 10 marks 3).
+///
+/// One implementation for one process and for ranks: markOwned() marks among the cells of all
+/// ranks of a communicator; MarkingStrategy::mark() and the functions below are markOwned() on
+/// Communicator::self() with the cell numbers as keys. Every strategy orders the cells by
+/// decreasing indicator, equal indicators by a key per cell that is the same on every rank that
+/// holds the cell (one process: the cell number). markOwned() computes the strategy's thresholds by reductions: the mean and the
+/// maximum directly; for `fraction` and `doerfler` the indicator value at which the greedy selection
+/// stops, by bisection over the ordered bit patterns of the non-negative doubles (64 reductions of
+/// counts or sums), then the cells of that value it takes by bisection over the keys. The marked
+/// set is therefore the one-process set of the same indicators and keys, whatever the rank count,
+/// up to the rounding of sums over ranks (another order than one process's): a cell within
+/// rounding of the mean threshold, or a doerfler greedy sum within rounding of its goal, can be
+/// decided the other way.
+#include <cstdint>
 #include <optional>
 #include <span>
 #include <string>
 #include <vector>
 
 #include "obs/mesh/Mesh.hpp"
+#include "obs/obs/Communicator.hpp"
 
 namespace obs::estimators {
 
@@ -65,7 +80,13 @@ public:
 private:
   std::string name_;
   double parameter_;
-  std::vector<Index> (*mark_)(std::span<const double>, double);
 };
+
+/// The owned cells (indices into `indicators`, ascending) that `strategy` marks among the cells of
+/// all ranks, `indicators` and `keys` this rank's owned cells' (see the file comment: ties by
+/// increasing key). Collective. Throws obs::Error on every rank for sizes that differ or an
+/// indicator that is not finite and non-negative on any rank.
+std::vector<Index> markOwned(const MarkingStrategy& strategy, std::span<const double> indicators,
+                             std::span<const std::uint64_t> keys, const Communicator& comm);
 
 }  // namespace obs::estimators
