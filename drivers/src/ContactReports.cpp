@@ -4,6 +4,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <sstream>
 
 namespace obs::drivers {
 
@@ -129,6 +130,44 @@ ContactReport obstacleContactReport(const Scene& scene, const ContactProblem<d>&
     for (std::size_t i = 0; i < states->size(); ++i) (*states)[i] = static_cast<char>(code[i] / 4);
   }
   return c;
+}
+
+IncrementReport incrementReport(const ContactSet& set, const ContactOutputs& out, const OwnedPart& part, int step,
+                                int steps, long long iterations, bool converged) {
+  IncrementReport inc;
+  inc.step = step;
+  inc.t = static_cast<double>(step) / steps;
+  inc.iterations = iterations;
+  inc.converged = converged;
+  std::vector<double> sums(9, 0.0);  // force, tangential force, contact / stick / slip vertices
+  for (Index k = 0; k < set.size(); ++k) {
+    if (set.vertex(k) >= part.owned) continue;
+    const auto i = static_cast<std::size_t>(k);
+    for (std::size_t a = 0; a < 3; ++a) {
+      sums[a] += out.multiplier[i] * set.direction(k)[static_cast<Eigen::Index>(a)];
+      sums[3 + a] += out.tangential[i][static_cast<Eigen::Index>(a)];
+    }
+    sums[6] += out.inContact[i] ? 1 : 0;
+    sums[7] += out.state[i] == 1 ? 1 : 0;
+    sums[8] += out.state[i] == 2 ? 1 : 0;
+  }
+  part.comm.sum(sums);
+  for (std::size_t a = 0; a < 3; ++a) {
+    inc.force[a] = sums[a];
+    inc.tangentialForce[a] = sums[3 + a];
+  }
+  inc.contactVertices = std::llround(sums[6]);
+  inc.stickVertices = std::llround(sums[7]);
+  inc.slipVertices = std::llround(sums[8]);
+  return inc;
+}
+
+std::string incrementLine(const IncrementReport& inc, int steps) {
+  std::ostringstream line;
+  line << "increment " << inc.step << " of " << steps << " (t = " << inc.t << "): " << inc.contactVertices
+       << " contact vertices (" << inc.stickVertices << " stick, " << inc.slipVertices << " slip), " << inc.iterations
+       << " iterations";
+  return line.str();
 }
 
 template ContactReport obstacleContactReport<2>(const Scene&, const ContactProblem<2>&, const Eigen::VectorXd&,

@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "obs/drivers/RunResult.hpp"
@@ -44,5 +45,14 @@ template <int d>
 ContactReport obstacleContactReport(const Scene& scene, const ContactProblem<d>& problem, const Eigen::VectorXd& x,
                                     const ContactOutputs& out, const OwnedPart& part,
                                     std::vector<char>* states = nullptr);
+
+/// A [loading] increment's figures (normal and tangential force, contact, stick and slip vertices)
+/// from the owned nodes of the contact set `set` and its ContactOutputs `out`, reduced over the
+/// communicator. Collective.
+IncrementReport incrementReport(const ContactSet& set, const ContactOutputs& out, const OwnedPart& part, int step,
+                                int steps, long long iterations, bool converged);
+
+/// The progress line of an increment ("increment i of N (t = ...): ... contact vertices ...").
+std::string incrementLine(const IncrementReport& increment, int steps);
 
 }  // namespace obs::drivers

@@ -84,67 +84,19 @@ void reportAssembly(const Communicator& comm, const DistributedView& leaf, int d
 /// The boundary conditions at the load parameter t of [loading] (resolved on the coarse mesh).
 using BoundaryConditionsAt = std::function<BoundaryConditions(double)>;
 
-/// One solve of a load increment `step` by distributed TNNMG: with friction (null: none) Tresca in
-/// one solve, Coulomb by the fixed point over Tresca solves, the slip measured from the previous
-/// increment's solution (u on entry); the friction report and its progress line in r. Returns the
-/// last solve and the TNNMG iterations of the increment. Collective.
-template <int d>
-std::pair<ContactResult, long long> solveIncrement(ContactProblem<d>& problem, TNNMG<d>& solver, Eigen::VectorXd& u,
-                                                   const NodalFriction* friction, double tolerance, int step,
-                                                   const HaloExchange& halo, const Progress& progress, RunResult& r) {
-  if (!friction) {
-    const ContactResult result = solver.solve(problem, u);
-    return {result, result.iterations};
-  }
-  CoulombOptions co;
-  co.tolerance = std::max(co.tolerance, 10 * tolerance);
-  const Eigen::VectorXd origin = step > 1 ? u : Eigen::VectorXd();
-  const CoulombResult fr = solveFriction(problem, solver, u, *friction, co, origin, &halo);
-  if (const std::string line = addFrictionSolve(r.solver.friction, fr); !line.empty()) progress(line);
-  return {fr.last, fr.innerIterations};
-}
-
-/// A [loading] increment's contact figures (force, friction force, contact, stick and slip
-/// vertices) from the owned contact nodes (vertex < owned), reduced over the ranks with the
+/// A [loading] increment's report from the owned contact nodes (ContactReports.hpp), with the
 /// contact decisions at the global scales of the KKT residuals; its progress line; appended to
 /// r.increments. Collective.
 template <int d>
 void reportIncrement(const ContactProblem<d>& problem, const Eigen::VectorXd& u, const ContactResult& result,
-                     Index owned, const Communicator& comm, int step, int steps, double t, long long iterations,
+                     Index owned, const Communicator& comm, int step, int steps, long long iterations,
                      const Progress& progress, RunResult& r) {
+  OwnedPart part;
+  part.owned = owned;
+  part.comm = comm;
   const ContactOutputs o = computeContactOutputs(problem, u, 1e-8, result.kkt.displacementScale, result.kkt.forceScale);
-  const ContactSet& set = problem.contactSet();
-  IncrementReport inc;
-  inc.step = step;
-  inc.t = t;
-  inc.iterations = iterations;
-  inc.converged = result.converged;
-  std::vector<double> sums(6, 0.0);
-  long long counts[3] = {0, 0, 0};
-  for (Index k = 0; k < set.size(); ++k) {
-    if (set.vertex(k) >= owned) continue;
-    for (int a = 0; a < 3; ++a) {
-      sums[static_cast<std::size_t>(a)] += o.multiplier[k] * set.direction(k)[a];
-      sums[static_cast<std::size_t>(3 + a)] += o.tangential[k][a];
-    }
-    counts[0] += o.state[k] != 0;
-    counts[1] += o.state[k] == 1;
-    counts[2] += o.state[k] == 2;
-  }
-  comm.sum(sums);
-  for (int a = 0; a < 3; ++a) {
-    inc.force[static_cast<std::size_t>(a)] = sums[static_cast<std::size_t>(a)];
-    inc.tangentialForce[static_cast<std::size_t>(a)] = sums[static_cast<std::size_t>(3 + a)];
-  }
-  inc.contactVertices = comm.sum(counts[0]);
-  inc.stickVertices = comm.sum(counts[1]);
-  inc.slipVertices = comm.sum(counts[2]);
-  std::ostringstream line;
-  line << "increment " << step << " of " << steps << " (t = " << inc.t << "): " << inc.contactVertices
-       << " contact vertices (" << inc.stickVertices << " stick, " << inc.slipVertices << " slip), " << iterations
-       << " iterations";
-  progress(line.str());
-  r.increments.push_back(inc);
+  r.increments.push_back(incrementReport(problem.contactSet(), o, part, step, steps, iterations, result.converged));
+  progress(incrementLine(r.increments.back(), steps));
 }
 
 /// The solver report of a distributed TNNMG run in r: the solve time (from t, without the assembly
@@ -216,9 +168,9 @@ Eigen::VectorXd solveContact(const Scene& scene, const Communicator& comm, const
       laterAssembly += secondsSince(ta);
     }
     long long stepIterations = 0;
-    std::tie(result, stepIterations) = solveIncrement<d>(*problem, solver, u, friction ? &*friction : nullptr,
-                                                         config.tolerance, step, leaf.halo, progress, r);
-    if (scene.loading) reportIncrement<d>(*problem, u, result, owned, comm, step, steps, loadAt(step), stepIterations, progress, r);
+    std::tie(result, stepIterations) = solveIncrement<d>(*problem, solver, u, friction ? &*friction : nullptr, config.tolerance,
+                                                         step, &leaf.halo, r.solver.friction, progress);
+    if (scene.loading) reportIncrement<d>(*problem, u, result, owned, comm, step, steps, stepIterations, progress, r);
   }
   reportTnnmg<d>(result, solver.statistics(), config.tolerance, laterAssembly, t, comm, r);
   r.solver.coarseSolver = dg.partition().level == 0 ? "hypre" : "cholmod";
@@ -508,10 +460,10 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
     const std::optional<NodalFriction> friction =
         pair.friction ? std::optional(nodalFriction(law, problem.contactSet())) : std::nullopt;
     long long stepIterations = 0;
-    std::tie(result, stepIterations) = solveIncrement<d>(problem, *solver, x, friction ? &*friction : nullptr,
-                                                         config.tolerance, step, multi->halo(), progress, r);
+    std::tie(result, stepIterations) = solveIncrement<d>(problem, *solver, x, friction ? &*friction : nullptr, config.tolerance,
+                                                         step, &multi->halo(), r.solver.friction, progress);
     if (scene.loading)
-      reportIncrement<d>(problem, x, result, multi->numOwned(), comm, step, steps, loadAt(step), stepIterations, progress, r);
+      reportIncrement<d>(problem, x, result, multi->numOwned(), comm, step, steps, stepIterations, progress, r);
   }
   const ContactProblem<d>& problem = multi->problem();
   reportTnnmg<d>(result, solver->statistics(), config.tolerance, laterAssembly, t, comm, r);

@@ -1,5 +1,6 @@
 #include "RunSupport.hpp"
 
+#include <algorithm>
 #include <cstdio>
 
 #include <sys/resource.h>
@@ -133,6 +134,33 @@ std::string addFrictionSolve(std::optional<FrictionIterationReport>& total, cons
        << (solve.converged ? "" : ", not converged") << (solve.contracting ? "" : " (the iteration did not contract)");
   return line.str();
 }
+
+template <int d>
+std::pair<ContactResult, long long> solveIncrement(ContactProblem<d>& problem, ContactSolver<d>& solver,
+                                                   Eigen::VectorXd& x, const NodalFriction* friction, double tolerance,
+                                                   int step, const HaloExchange* halo,
+                                                   std::optional<FrictionIterationReport>& frictionReport,
+                                                   const std::function<void(const std::string&)>& progress) {
+  if (!friction) {
+    const ContactResult result = solver.solve(problem, x);
+    return {result, result.iterations};
+  }
+  CoulombOptions options;
+  options.tolerance = std::max(options.tolerance, 10 * tolerance);
+  const Eigen::VectorXd origin = step > 1 ? x : Eigen::VectorXd();
+  const CoulombResult fr = solveFriction(problem, solver, x, *friction, options, origin, halo);
+  if (const std::string line = addFrictionSolve(frictionReport, fr); progress && !line.empty()) progress(line);
+  return {fr.last, fr.innerIterations};
+}
+
+template std::pair<ContactResult, long long> solveIncrement<2>(ContactProblem<2>&, ContactSolver<2>&, Eigen::VectorXd&,
+                                                               const NodalFriction*, double, int, const HaloExchange*,
+                                                               std::optional<FrictionIterationReport>&,
+                                                               const std::function<void(const std::string&)>&);
+template std::pair<ContactResult, long long> solveIncrement<3>(ContactProblem<3>&, ContactSolver<3>&, Eigen::VectorXd&,
+                                                               const NodalFriction*, double, int, const HaloExchange*,
+                                                               std::optional<FrictionIterationReport>&,
+                                                               const std::function<void(const std::string&)>&);
 
 void writeIncrementsCsv(const std::filesystem::path& dir, RunResult& r) {
   if (r.increments.empty()) return;

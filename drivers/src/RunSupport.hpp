@@ -4,7 +4,10 @@
 /// timing, peak memory and the final runs.csv row.
 #include <chrono>
 #include <filesystem>
+#include <functional>
 #include <optional>
+#include <string>
+#include <utility>
 #include <vector>
 
 #include "obs/mesh/Grid.hpp"
@@ -62,6 +65,20 @@ void finishRun(const Scene& scene, const RunOptions& options, const std::filesys
 /// contracting if every increment's was, the changes of the last. Returns the progress line of a
 /// fixed point ("" after a single Tresca solve).
 std::string addFrictionSolve(std::optional<FrictionIterationReport>& total, const CoulombResult& solve);
+
+/// One load increment's solve (step 1, 2, ...; x on entry: the previous increment's solution, the
+/// warm start): without `friction` (nullptr) one solve; with it Tresca in one solve, Coulomb by the
+/// fixed point over Tresca solves (its tolerance at least 10 times the solver's `tolerance`), the
+/// slip measured from the previous increment's solution. The friction solve is added to
+/// `frictionReport` (addFrictionSolve) and its line, if any, goes to `progress` (if set). `halo`:
+/// the ghosts of a distributed problem (nullptr on one process). Returns the last solve and the
+/// solver iterations of the increment.
+template <int d>
+std::pair<ContactResult, long long> solveIncrement(ContactProblem<d>& problem, ContactSolver<d>& solver,
+                                                   Eigen::VectorXd& x, const NodalFriction* friction, double tolerance,
+                                                   int step, const HaloExchange* halo,
+                                                   std::optional<FrictionIterationReport>& frictionReport,
+                                                   const std::function<void(const std::string&)>& progress);
 
 /// [loading] runs: increments.csv in dir, one row per r.increments entry (the path joins
 /// r.outputFiles). Nothing without increments.

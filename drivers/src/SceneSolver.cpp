@@ -9,6 +9,7 @@
 #include <numbers>
 #include <optional>
 #include <sstream>
+#include <tuple>
 
 #include "obs/drivers/ObstacleFactory.hpp"
 #include "obs/drivers/SceneSetup.hpp"
@@ -254,44 +255,18 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
     for (int step = 1; step <= steps; ++step) {
       if (step > 1) build(step);
       const ContactModel<d>& model = *modelOf;
+      const NodalFriction friction = nodalFriction(model, problem->contactSet());  // (empty: frictionless)
       long long stepIterations = 0;
-      if (model.frictional()) {  // Tresca: one solve; Coulomb: the fixed point over Tresca solves
-        CoulombOptions options;
-        options.tolerance = std::max(options.tolerance, 10 * tolerance);
-        // the slip of an increment is measured from the previous one (x: its solution, the warm start)
-        const Eigen::VectorXd origin = step > 1 ? x : Eigen::VectorXd();
-        const CoulombResult fr =
-            solveFriction(*problem, *solver, x, nodalFriction(model, problem->contactSet()), options, origin);
-        result = fr.last;
-        stepIterations = fr.innerIterations;
-        const std::string line = addFrictionSolve(s.solver.friction, fr);
-        if (progress && !line.empty()) progress(line);
-      } else {
-        result = solver->solve(*problem, x);
-        stepIterations = result.iterations;
-      }
+      std::tie(result, stepIterations) =
+          solveIncrement<d>(*problem, *solver, x, model.frictional() ? &friction : nullptr, tolerance, step, nullptr,
+                            s.solver.friction, progress);
       if (scene.loading) {
-        const ContactOutputs o = computeContactOutputs(*problem, x, kContactTolerance);
-        IncrementReport inc;
-        inc.step = step;
-        inc.t = static_cast<double>(step) / steps;
-        inc.iterations = stepIterations;
-        inc.converged = result.converged;
-        for (int a = 0; a < 3; ++a) {
-          inc.force[static_cast<std::size_t>(a)] = o.force[a];
-          inc.tangentialForce[static_cast<std::size_t>(a)] = o.tangentialForce[a];
-        }
-        inc.contactVertices = o.contactNodes;
-        inc.stickVertices = o.stickNodes;
-        inc.slipVertices = o.slipNodes;
-        s.increments.push_back(inc);
-        if (progress) {
-          std::ostringstream line;
-          line << "increment " << step << " of " << steps << " (t = " << inc.t << "): " << o.contactNodes
-               << " contact vertices (" << o.stickNodes << " stick, " << o.slipNodes << " slip), " << stepIterations
-               << " iterations";
-          progress(line.str());
-        }
+        OwnedPart all;  // one process: every vertex owned
+        all.owned = problem->numVertices();
+        all.comm = Communicator::self();
+        s.increments.push_back(incrementReport(problem->contactSet(), computeContactOutputs(*problem, x, kContactTolerance),
+                                               all, step, steps, stepIterations, result.converged));
+        if (progress) progress(incrementLine(s.increments.back(), steps));
       }
     }
     if (const auto* tnnmg = dynamic_cast<const TNNMG<d>*>(solver.get())) reportTnnmgPhases(tnnmg->statistics(), s.solver);
