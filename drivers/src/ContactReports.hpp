@@ -29,6 +29,8 @@ struct OwnedPart {
   Communicator comm = Communicator::world();
   const HaloExchange* halo = nullptr;
   std::vector<Index> global;
+  /// One process alone (Communicator::self()), owning all `vertices`.
+  static OwnedPart oneProcess(Index vertices) { return {vertices, Communicator::self(), nullptr, {}}; }
 };
 
 /// The friction report of a coupling with friction law `law` (nullopt without friction) from its

@@ -590,15 +590,7 @@ void solveBodies(const Scene& scene, const RunOptions& options, const Communicat
     for (int a = 0; a < 3; ++a) pr.tangentialSlave[a] = tangential[static_cast<std::size_t>(a)];
     pr.stickVertices = comm.sum(stick);
     pr.slipVertices = comm.sum(slip);
-    FrictionReport fr;
-    fr.law = law.type == FrictionLaw::Type::Coulomb ? "coulomb" : "tresca";
-    fr.value = law.value;
-    for (int a = 0; a < 3; ++a) fr.tangentialForce[static_cast<std::size_t>(a)] = pr.tangentialSlave[a];
-    fr.stickVertices = pr.stickVertices;
-    fr.slipVertices = pr.slipVertices;
-    fr.stickArea = pr.stickArea;
-    fr.stickRadius = d == 3 ? std::sqrt(fr.stickArea / std::numbers::pi) : fr.stickArea / 2;
-    pr.friction = fr;
+    pr.friction = frictionReport(law, pr.tangentialSlave, pr.stickVertices, pr.slipVertices, pr.stickArea, d);
   }
   pr.slaveVertices = comm.sum(slaveOwned);
   pr.uncovered = pr.slaveVertices - mortar->globalSize();

@@ -261,11 +261,9 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
           solveIncrement<d>(*problem, *solver, x, model.frictional() ? &friction : nullptr, tolerance, step, nullptr,
                             s.solver.friction, progress);
       if (scene.loading) {
-        OwnedPart all;  // one process: every vertex owned
-        all.owned = problem->numVertices();
-        all.comm = Communicator::self();
         s.increments.push_back(incrementReport(problem->contactSet(), computeContactOutputs(*problem, x, kContactTolerance),
-                                               all, step, steps, stepIterations, result.converged));
+                                               OwnedPart::oneProcess(problem->numVertices()), step, steps,
+                                               stepIterations, result.converged));
         if (progress) progress(incrementLine(s.increments.back(), steps));
       }
     }
@@ -299,10 +297,7 @@ SceneSolution solveContactModel(const Scene& scene, const std::vector<const mesh
   if (!OutputLayout(scene).perBody()) {
     for (std::vector<Field>& f : s.contactFields)  // no contact_force
       f.erase(std::find_if(f.begin(), f.end(), [](const Field& x) { return x.name == "contact_force"; }));
-    OwnedPart all;  // one process: every vertex owned
-    all.owned = problem->numVertices();
-    all.comm = Communicator::self();
-    s.contact = obstacleContactReport<d>(scene, *problem, x, out, all);
+    s.contact = obstacleContactReport<d>(scene, *problem, x, out, OwnedPart::oneProcess(problem->numVertices()));
     return s;
   }
   const std::vector<CouplingRecord> records = couplingRecords(model, *problem, x, out);
