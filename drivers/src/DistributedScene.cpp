@@ -756,6 +756,12 @@ RunResult runDistributedBodies(const Scene& scene, const RunOptions& options, co
 
 RunResult runDistributedScene(const Scene& scene, const RunOptions& options, const Communicator& comm) {
   const auto start = Clock::now();
+  // the one-process baselines (docs/architecture.md#one-path): one line naming the distributed solver
+  if (const std::string type = scene.contact || scene.multiBody() ? scene.solverType() : scene.solver.type;
+      type == "pgs" || type == "pdas" || type == "direct")
+    throw Error(scene.fileName + ": [solver] type = \"" + type + "\" is a one-process baseline; on " +
+                std::to_string(comm.size()) + " MPI ranks use type = \"" +
+                (scene.contact || scene.multiBody() ? "tnnmg" : "multigrid") + "\" (or run without mpirun)");
   if (const std::string what = notDistributed(scene); !what.empty())
     throw Error(scene.fileName + ": distributed runs (" + std::to_string(comm.size()) +
                 " MPI ranks) solve static scenes with TNNMG so far (one body, with an obstacle or without contact, or two bodies with "

@@ -297,11 +297,13 @@ TEST_F(Cli, MpirunRunsStaticScenesDistributed) {
   const double exact = std::sqrt(0.01 * 0.01 + 2 * 0.003 * 0.003);
   EXPECT_NEAR(jb["max_displacement"].get<double>(), exact, 1e-9 * exact);
   EXPECT_NEAR(jb["max_von_mises"].get<double>(), 10.0, 1e-8 * 10.0);
-  // a [solver] type without a distributed implementation, and a single-level grid, are refused
+  // a one-process baseline solver (naming the distributed one: multigrid without contact), and a
+  // single-level grid, are refused
   const Output direct = runObs("run '" + block + "' --refine 1 --set 'solver.type=\"direct\"' --output out_block_direct",
                                "block_direct", mpirun);
   EXPECT_EQ(direct.code, 1);
-  EXPECT_NE(direct.err.find("[solver] type = \"direct\""), std::string::npos) << direct.err;
+  EXPECT_NE(direct.err.find("[solver] type = \"direct\" is a one-process baseline"), std::string::npos) << direct.err;
+  EXPECT_NE(direct.err.find("use type = \"multigrid\""), std::string::npos) << direct.err;
   const Output level = runObs("run '" + block + "' --output out_block_level", "block_level", mpirun);
   EXPECT_EQ(level.code, 1);
   EXPECT_NE(level.err.find("needs refine >= 1"), std::string::npos) << level.err;
@@ -384,7 +386,7 @@ TEST_F(Cli, MpirunRunsStaticScenesDistributed) {
   EXPECT_NEAR(pf2["tangential_force"][0].get<double>(), tf, 1e-8 * std::abs(tf));
   EXPECT_NEAR(pf2["stick_width"].get<double>(), pf1["stick_width"].get<double>(), 1e-12);
 
-  // what is not distributed yet stops every rank with one line
+  // what is not distributed yet (here: a one-process baseline solver) stops every rank with one line
   const std::string adaptive = (fs::path(OBS_DATA_DIR) / "scenes" / "twobody_hertz_adaptive.toml").string();
   const Output e = runObs("run '" + adaptive + "' --refine 1 --set 'solver.type=\"pdas\"' --output out_mpi_refused",
                           "mpirun_refused", mpirun);
@@ -392,7 +394,8 @@ TEST_F(Cli, MpirunRunsStaticScenesDistributed) {
   std::size_t errors = 0;  // obs' own lines (mpirun adds its report of the exit code)
   for (std::size_t at = e.err.find("obs: error:"); at != std::string::npos; at = e.err.find("obs: error:", at + 1)) ++errors;
   EXPECT_EQ(errors, 1u) << e.err;
-  EXPECT_NE(e.err.find("[solver] type = \"pdas\""), std::string::npos) << e.err;
+  EXPECT_NE(e.err.find("[solver] type = \"pdas\" is a one-process baseline"), std::string::npos) << e.err;
+  EXPECT_NE(e.err.find("use type = \"tnnmg\""), std::string::npos) << e.err;
 }
 
 /// A table (timeseries.csv, steps.csv): the header's columns and the rows' values (empty cells and
