@@ -22,15 +22,19 @@ namespace obs::drivers {
 /// The part of a problem on a rank's local mesh that this rank reports: its vertices are numbered
 /// owned first (the first `owned`), then the ghosts, whose values `halo` brings from their owners;
 /// `global` is each local vertex's global index (a contact face is counted once, by the owner of its
-/// vertex of smallest global index). One process: every vertex owned, no halo, `global` empty (the
-/// local numbering is the global one).
+/// vertex of smallest global index). One process (the defaults but `owned`): every vertex owned,
+/// Communicator::self(), no halo, `global` empty (the local numbering is the global one).
 struct OwnedPart {
   Index owned = 0;
-  Communicator comm = Communicator::world();
+  Communicator comm = Communicator::self();
   const HaloExchange* halo = nullptr;
   std::vector<Index> global;
   /// One process alone (Communicator::self()), owning all `vertices`.
-  static OwnedPart oneProcess(Index vertices) { return {vertices, Communicator::self(), nullptr, {}}; }
+  static OwnedPart oneProcess(Index vertices) {
+    OwnedPart part;
+    part.owned = vertices;
+    return part;
+  }
 };
 
 /// The friction report of a coupling with friction law `law` (nullopt without friction) from its

@@ -43,7 +43,7 @@ using Progress = std::function<void(const std::string&)>;
 
 std::string notDistributedBodies(const Scene& scene);
 
-/// What of the scene is not distributed yet ("" if it can run).
+/// What of the scene is not distributed yet ("" if it can run), the solver aside (baselineSolver).
 std::string notDistributed(const Scene& scene) {
   if (scene.adaptivity) {
     if (scene.multiBody()) {
@@ -52,7 +52,6 @@ std::string notDistributed(const Scene& scene) {
       return "[adaptivity] without [contact]";
     }
     if (scene.frictional()) return "[adaptivity] with friction";
-    if (scene.solverType() != "tnnmg") return "[adaptivity] with [solver] type = \"" + scene.solverType() + "\"";
     if (scene.adaptivity->inexact > 0) return "[adaptivity] inexact";
     return "";
   }
@@ -60,14 +59,19 @@ std::string notDistributed(const Scene& scene) {
     if (std::string what = notDistributedBodies(scene); !what.empty()) return what;
     return scene.frictional() ? "[dynamics] with friction on a mortar pair" : "";
   }
-  if (scene.dynamics) return scene.solverType() != "tnnmg" ? "[solver] type = \"" + scene.solverType() + "\"" : "";
+  if (scene.dynamics) return scene.contact ? "" : "[dynamics] without [contact]";
   if (scene.multiBody()) return notDistributedBodies(scene);
-  if (scene.contact) {
-    if (scene.solverType() != "tnnmg") return "[solver] type = \"" + scene.solverType() + "\"";
-  } else if (!scene.solver.type.empty() && scene.solver.type != "multigrid") {
-    return "[solver] type = \"" + scene.solver.type + "\" (scenes without contact are solved by multigrid on ranks)";
-  }
   return "";
+}
+
+/// The one-process baseline solver a scene asks for (docs/architecture.md#one-path), as one line
+/// naming the distributed solver to use instead ("" for tnnmg, multigrid and the defaults).
+std::string baselineSolver(const Scene& scene, const Communicator& comm) {
+  const std::string& type = scene.solver.type;
+  if (type != "pgs" && type != "pdas" && type != "direct") return "";
+  return scene.fileName + ": [solver] type = \"" + type + "\" is a one-process baseline; on " +
+         std::to_string(comm.size()) + " MPI ranks use type = \"" + (type == "direct" ? "multigrid" : "tnnmg") +
+         "\" (or run without mpirun)";
 }
 
 /// The sizes and assembly time of a distributed problem in r (freeOwned: this rank's free owned
@@ -348,7 +352,6 @@ std::string notDistributedBodies(const Scene& scene) {
            " mortar [[contact]] pairs (distributed: two bodies and one pair)";
   for (const Scene& b : scene.bodies)
     if (b.contact) return "an obstacle [[contact]] of body '" + b.name + "'";
-  if (scene.solverType() != "tnnmg") return "[solver] type = \"" + scene.solverType() + "\"";
   return "";
 }
 
@@ -756,17 +759,12 @@ RunResult runDistributedBodies(const Scene& scene, const RunOptions& options, co
 
 RunResult runDistributedScene(const Scene& scene, const RunOptions& options, const Communicator& comm) {
   const auto start = Clock::now();
-  // the one-process baselines (docs/architecture.md#one-path): one line naming the distributed solver
-  if (const std::string type = scene.contact || scene.multiBody() ? scene.solverType() : scene.solver.type;
-      type == "pgs" || type == "pdas" || type == "direct")
-    throw Error(scene.fileName + ": [solver] type = \"" + type + "\" is a one-process baseline; on " +
-                std::to_string(comm.size()) + " MPI ranks use type = \"" +
-                (scene.contact || scene.multiBody() ? "tnnmg" : "multigrid") + "\" (or run without mpirun)");
   if (const std::string what = notDistributed(scene); !what.empty())
     throw Error(scene.fileName + ": distributed runs (" + std::to_string(comm.size()) +
                 " MPI ranks) solve static scenes with TNNMG so far (one body, with an obstacle or without contact, or two bodies with "
                 "one mortar pair), adaptive scenes of one body against an obstacle or of two bodies with one frictionless mortar pair, and dynamic scenes of one body or two bodies with one frictionless mortar pair; this scene has " + what +
                 " (run it without mpirun, and use --threads N for the cores of one machine)");
+  if (const std::string baseline = baselineSolver(scene, comm); !baseline.empty()) throw Error(baseline);
   const auto progress = [&](const std::string& line) {
     if (options.progress) options.progress(line);
   };

@@ -385,13 +385,23 @@ void expectFrictionalMortarPatch(CellType lowerType, int nLower, CellType upperT
 /// A roller on the slave side of a mortar interface whose master side is free: the prescribed
 /// component is left out of the mortar transformation, so friction could not see the relative slip
 /// along it. The problem refuses the friction term there instead of solving something else.
-TEST(Friction, SlaveRollerAgainstAFreeMasterIsRefused) {
+/// Two unit squares stacked in 2D (quadrilaterals below, triangles above), the lower one clamped at
+/// its bottom, the upper one's top moved down by 1e-3.
+struct StackedSquares {
   mesh::Mesh lower = mesh::boxMesh(CellType::Quadrilateral, 3);
   mesh::Mesh upper = mesh::boxMesh(CellType::Triangle, 4);
-  for (Index v = 0; v < upper.numVertices(); ++v) upper.vertex(v)[1] += 1;
   BoundaryConditions bl, bu;
-  bl.dirichlet.push_back({mesh::kBottom, {true, true, true}, [](const Point&) { return Point::Zero(); }});
-  bu.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Point(0.0, -1e-3, 0.0); }});
+  StackedSquares() {
+    for (Index v = 0; v < upper.numVertices(); ++v) upper.vertex(v)[1] += 1;
+    bl.dirichlet.push_back({mesh::kBottom, {true, true, true}, [](const Point&) { return Point::Zero(); }});
+    bu.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Point(0.0, -1e-3, 0.0); }});
+  }
+};
+
+TEST(Friction, SlaveRollerAgainstAFreeMasterIsRefused) {
+  StackedSquares sq;
+  const mesh::Mesh &lower = sq.lower, &upper = sq.upper;
+  BoundaryConditions &bl = sq.bl, &bu = sq.bu;
   for (int side : {mesh::kLeft, mesh::kRight})  // rollers on the slave's sides, reaching the interface
     bu.dirichlet.push_back({side, {true, false, false}, [](const Point&) { return Point::Zero(); }});
   ContactModel<2> model;
@@ -409,12 +419,9 @@ TEST(Friction, SlaveRollerAgainstAFreeMasterIsRefused) {
 /// that law, node by node and bit for bit (one body (distributed runs) and a model share it):
 /// Tresca m_k g, Coulomb mu, none empty.
 TEST(Friction, OneLawOnAContactSetIsTheOneCouplingModels) {
-  mesh::Mesh lower = mesh::boxMesh(CellType::Quadrilateral, 3);
-  mesh::Mesh upper = mesh::boxMesh(CellType::Triangle, 4);
-  for (Index v = 0; v < upper.numVertices(); ++v) upper.vertex(v)[1] += 1;
-  BoundaryConditions bl, bu;
-  bl.dirichlet.push_back({mesh::kBottom, {true, true, true}, [](const Point&) { return Point::Zero(); }});
-  bu.dirichlet.push_back({mesh::kTop, {true, true, true}, [](const Point&) { return Point(0.0, -1e-3, 0.0); }});
+  const StackedSquares sq;
+  const mesh::Mesh &lower = sq.lower, &upper = sq.upper;
+  const BoundaryConditions &bl = sq.bl, &bu = sq.bu;
   for (const FrictionLaw law : {FrictionLaw{FrictionLaw::Type::Tresca, 2.5}, FrictionLaw{FrictionLaw::Type::Coulomb, 0.3},
                                 FrictionLaw{}}) {
     ContactModel<2> model;
